@@ -1,0 +1,55 @@
+// Internal contract between the instance (sdk/src/instance.c) and the GL compute path (sdk/src/gl/).
+// The instance runs the MLPs on the CPU (or ONNX Runtime) and hands the GL deformer the D blend weights and the J
+// skinning matrices; the deformer runs blend_shapes.comp, skinning.comp and normals.comp (shaders/), the same math as
+// blend_shapes.c, skinning.c and normals.c. Built only with PLEAT_GL; otherwise gl_deformer_stub.c returns
+// PLEAT_RESULT_GL_UNAVAILABLE from Create.
+#ifndef PLEAT_GL_DEFORMER_H
+#define PLEAT_GL_DEFORMER_H
+#include "allocator.h"
+#include "pleat/pleat.h"
+#include <stdint.h>
+
+typedef struct plGlDeformer plGlDeformer;
+
+typedef enum plGlDeformerMode
+{
+	// The engine's GL 4.3+ context is current on the calling thread for Create, Run and Destroy. The SDK saves and
+	// restores every piece of GL state it touches and never makes a context current.
+	PLEAT_GL_DEFORMER_HOST_CONTEXT = 1,
+	// The SDK creates its own headless context (EGL surfaceless, OSMesa as fallback) and makes it current only inside
+	// its own calls, restoring the previously current EGL context afterwards.
+	PLEAT_GL_DEFORMER_HEADLESS = 2,
+} plGlDeformerMode;
+
+typedef struct plGlDeformerDesc
+{
+	plGlDeformerMode mode;
+	uint32_t vertex_count;    // N
+	uint32_t face_count;      // F
+	uint32_t blend_count;     // D
+	uint32_t influence_count; // K
+	uint32_t joint_count;     // J
+	const float* shaped_template;       // [N][3] T + G_S(β), metres
+	const void* blend_shapes;           // [D][N][3], fp32 or fp16 (blend_shapes_fp16)
+	int blend_shapes_fp16;
+	const uint16_t* skin_indices;       // [N][K]
+	const float* skin_weights;          // [N][K]
+	const uint32_t* faces;              // [F][3]
+	const uint32_t* adjacency_offsets;  // [N + 1] CSR into adjacency_faces
+	const uint32_t* adjacency_faces;    // [3F]
+	// Host-context mode only, optional (0 = the deformer owns its output buffers): GL buffer names the engine renders
+	// from; the deformer writes one vec4 per vertex (xyz, w = 1 for positions, 0 for normals).
+	uint32_t host_position_buffer;
+	uint32_t host_normal_buffer;
+} plGlDeformerDesc;
+
+plResult plGlDeformer_Create( const plGlDeformerDesc* desc, const plAllocator* allocator, plGlDeformer** out );
+// Called when β changes (the shaped template is recomputed on the CPU once, then uploaded).
+plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template );
+// blend_weights: [D]; skin_matrices: [J][3][4] row-major (rest space → output space).
+// positions / normals: optional [N][3] read-backs (NULL = leave the result on the GPU only).
+plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, const float* skin_matrices,
+						   float* positions, float* normals );
+void plGlDeformer_Destroy( plGlDeformer* deformer );
+
+#endif
