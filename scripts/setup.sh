@@ -27,3 +27,5 @@ if [ ! -f "$stamp" ]; then
   .venv/bin/pip install -q -e "tools[$extras]"
   touch "$stamp"
 fi
+
+scripts/fetch-ort-header.sh || echo "setup: note: ONNX Runtime C API header not fetched; the ONNX Runtime backend builds as a stub (BACKEND_UNAVAILABLE)"
