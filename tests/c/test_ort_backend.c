@@ -1,0 +1,483 @@
+// The ONNX Runtime backend (sdk/src/ort_backend.c) against the real libonnxruntime from the onnxruntime wheel.
+//
+// usage: test_ort_backend PYTHON DATA_SCRIPT DATA_DIR
+// Runs `PYTHON DATA_SCRIPT DATA_DIR` (tests/c/test_ort_data.py: small MLPs built with the `onnx` package, numpy
+// float64 outputs, the wheel's library path); tests that need the data skip with a reason when it cannot be made.
+// Built without the ORT header (PLEAT_HAVE_ORT_HEADER=0), only the stub behaviour is checked.
+//
+// Tolerance: fp32 inference vs a float64 reference on the same fp32 weights; |ort − ref| ≤ 1e-4 · (1 + |ref|).
+// Rounding over these depths and widths gives ~1e-6; a wrong weight, bias, transpose or activation gives ≥ 1e-2.
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "allocator.h"
+#include "ort_backend.h"
+
+#ifndef PLEAT_HAVE_ORT_HEADER
+#define PLEAT_HAVE_ORT_HEADER 0
+#endif
+
+#define ORT_TOLERANCE 1e-4
+
+// ---- counting allocator: every byte the backend takes through plAllocator must come back ----
+
+typedef struct CountingAllocator
+{
+	size_t live_bytes;
+	size_t live_blocks;
+	size_t fail_after; // 0 = never fail; n = the n-th allocation from now fails
+} CountingAllocator;
+
+static void* CountingAlloc( size_t size, size_t align, void* user )
+{
+	CountingAllocator* counter = (CountingAllocator*)user;
+	if ( counter->fail_after != 0 )
+	{
+		if ( --counter->fail_after == 0 )
+		{
+			return NULL;
+		}
+	}
+	if ( align < sizeof( void* ) )
+	{
+		align = sizeof( void* );
+	}
+	void* ptr = NULL;
+	if ( posix_memalign( &ptr, align, size ) != 0 )
+	{
+		return NULL;
+	}
+	counter->live_bytes += size;
+	counter->live_blocks += 1;
+	return ptr;
+}
+
+static void CountingFree( void* ptr, size_t size, void* user )
+{
+	CountingAllocator* counter = (CountingAllocator*)user;
+	if ( ptr == NULL )
+	{
+		return;
+	}
+	counter->live_bytes -= size;
+	counter->live_blocks -= 1;
+	free( ptr );
+}
+
+static plAllocator MakeAllocator( CountingAllocator* counter )
+{
+	memset( counter, 0, sizeof( *counter ) );
+	plAllocator allocator = { CountingAlloc, CountingFree, counter };
+	return allocator;
+}
+
+// ---- test data ----
+
+typedef struct OrtCase
+{
+	void* model;
+	size_t model_size;
+	uint32_t input_count;
+	uint32_t output_count;
+	uint32_t case_count;
+	float* inputs;     // [case_count][input_count]
+	double* expected;  // [case_count][output_count]
+} OrtCase;
+
+static char g_data_dir[1024];
+static char g_library[1024];
+static int g_have_data;
+static const char* g_no_data_reason = "no test data";
+static OrtCase g_lp;
+static OrtCase g_dec;
+
+static void* ReadFile( const char* path, size_t* size )
+{
+	FILE* file = fopen( path, "rb" );
+	if ( file == NULL )
+	{
+		return NULL;
+	}
+	fseek( file, 0, SEEK_END );
+	long length = ftell( file );
+	fseek( file, 0, SEEK_SET );
+	void* bytes = length > 0 ? malloc( (size_t)length + 1 ) : NULL;
+	if ( bytes != NULL && fread( bytes, 1, (size_t)length, file ) != (size_t)length )
+	{
+		free( bytes );
+		bytes = NULL;
+	}
+	fclose( file );
+	if ( bytes != NULL )
+	{
+		( (char*)bytes )[length] = '\0';
+		*size = (size_t)length;
+	}
+	return bytes;
+}
+
+static uint32_t ReadU32( const unsigned char* p )
+{
+	return (uint32_t)p[0] | ( (uint32_t)p[1] << 8 ) | ( (uint32_t)p[2] << 16 ) | ( (uint32_t)p[3] << 24 );
+}
+
+static int LoadCase( const char* name, OrtCase* out )
+{
+	char path[1200];
+	snprintf( path, sizeof( path ), "%s/%s.onnx", g_data_dir, name );
+	out->model = ReadFile( path, &out->model_size );
+	snprintf( path, sizeof( path ), "%s/%s.cases", g_data_dir, name );
+	size_t size = 0;
+	unsigned char* bytes = (unsigned char*)ReadFile( path, &size );
+	if ( out->model == NULL || bytes == NULL || size < 28 || memcmp( bytes, "PLORTC01", 8 ) != 0 )
+	{
+		free( bytes );
+		return 0;
+	}
+	out->input_count = ReadU32( bytes + 8 );
+	out->output_count = ReadU32( bytes + 12 );
+	out->case_count = ReadU32( bytes + 24 );
+	size_t per_case = 4 * (size_t)out->input_count + 8 * (size_t)out->output_count;
+	if ( size != 28 + per_case * out->case_count )
+	{
+		free( bytes );
+		return 0;
+	}
+	out->inputs = (float*)malloc( 4 * (size_t)out->input_count * out->case_count );
+	out->expected = (double*)malloc( 8 * (size_t)out->output_count * out->case_count );
+	for ( uint32_t c = 0; c < out->case_count; ++c )
+	{
+		const unsigned char* p = bytes + 28 + per_case * c;
+		memcpy( out->inputs + (size_t)c * out->input_count, p, 4 * (size_t)out->input_count ); // little-endian host
+		memcpy( out->expected + (size_t)c * out->output_count, p + 4 * (size_t)out->input_count,
+				8 * (size_t)out->output_count );
+	}
+	free( bytes );
+	return 1;
+}
+
+static void FreeCase( OrtCase* c )
+{
+	free( c->model );
+	free( c->inputs );
+	free( c->expected );
+	memset( c, 0, sizeof( *c ) );
+}
+
+static void PrepareData( const char* python, const char* script, const char* data_dir )
+{
+	snprintf( g_data_dir, sizeof( g_data_dir ), "%s", data_dir );
+	if ( python == NULL || python[0] == '\0' )
+	{
+		g_no_data_reason = "PLEAT_PYTHON not configured";
+		return;
+	}
+	char command[4096];
+	snprintf( command, sizeof( command ), "\"%s\" \"%s\" \"%s\"", python, script, data_dir );
+	int status = system( command );
+	if ( status != 0 )
+	{
+		g_no_data_reason = "test_ort_data.py failed (onnx/onnxruntime not installed in PLEAT_PYTHON?)";
+		return;
+	}
+	char path[1200];
+	snprintf( path, sizeof( path ), "%s/library.txt", data_dir );
+	size_t size = 0;
+	char* library = (char*)ReadFile( path, &size );
+	if ( library == NULL || size >= sizeof( g_library ) )
+	{
+		free( library );
+		g_no_data_reason = "library.txt missing";
+		return;
+	}
+	memcpy( g_library, library, size + 1 );
+	free( library );
+	// plOrtMlp_Create( NULL, ... ) searches this variable first.
+	setenv( "PLEAT_ONNXRUNTIME_LIBRARY", g_library, 1 );
+	if ( !LoadCase( "lp", &g_lp ) || !LoadCase( "dec", &g_dec ) )
+	{
+		g_no_data_reason = "test data unreadable";
+		return;
+	}
+	g_have_data = 1;
+}
+
+#define REQUIRE_DATA()                                                                                                \
+	do                                                                                                                \
+	{                                                                                                                 \
+		if ( !g_have_data )                                                                                           \
+		{                                                                                                             \
+			print_message( "skipped: %s\n", g_no_data_reason );                                                       \
+			skip();                                                                                                   \
+		}                                                                                                             \
+	} while ( 0 )
+
+#if PLEAT_HAVE_ORT_HEADER
+
+static void CheckMatchesReference( const OrtCase* c )
+{
+	CountingAllocator counter;
+	plAllocator allocator = MakeAllocator( &counter );
+	plOrtMlp* mlp = NULL;
+	assert_int_equal( plOrtMlp_Create( g_library, c->model, c->model_size, c->input_count, c->output_count,
+									   &allocator, &mlp ),
+					  PLEAT_RESULT_OK );
+	assert_non_null( mlp );
+	float* output = (float*)malloc( 4 * (size_t)c->output_count );
+	double worst = 0.0;
+	double largest = 0.0;
+	for ( uint32_t k = 0; k < c->case_count; ++k )
+	{
+		assert_int_equal( plOrtMlp_Run( mlp, c->inputs + (size_t)k * c->input_count, output ), PLEAT_RESULT_OK );
+		for ( uint32_t o = 0; o < c->output_count; ++o )
+		{
+			double reference = c->expected[(size_t)k * c->output_count + o];
+			double error = fabs( (double)output[o] - reference ) / ( 1.0 + fabs( reference ) );
+			worst = error > worst ? error : worst;
+			largest = fabs( reference ) > largest ? fabs( reference ) : largest;
+			assert_true( isfinite( output[o] ) );
+		}
+	}
+	print_message( "max relative error %.3g over %u cases (|ref| up to %.3g)\n", worst, c->case_count, largest );
+	assert_true( worst <= ORT_TOLERANCE );
+	assert_true( largest > 0.1 ); // the reference is not trivially zero
+	free( output );
+	plOrtMlp_Destroy( mlp );
+	assert_int_equal( counter.live_bytes, 0 );
+	assert_int_equal( counter.live_blocks, 0 );
+}
+
+static void relu_mlp_matches_numpy_reference( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	CheckMatchesReference( &g_lp );
+}
+
+static void silu_mlp_matches_numpy_reference( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	CheckMatchesReference( &g_dec );
+}
+
+static void wrong_library_path_is_backend_unavailable( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	CountingAllocator counter;
+	plAllocator allocator = MakeAllocator( &counter );
+	const char* wrong_paths[] = {
+		"/nonexistent/libonnxruntime.so", // no such file
+		"libm.so.6",                      // a real library that is not ONNX Runtime
+		"",                               // dlopen("") is the main program: no OrtGetApiBase in it
+	};
+	for ( size_t i = 0; i < sizeof( wrong_paths ) / sizeof( wrong_paths[0] ); ++i )
+	{
+		plOrtMlp* mlp = (plOrtMlp*)&counter; // must be overwritten with NULL
+		assert_int_equal( plOrtMlp_Create( wrong_paths[i], g_lp.model, g_lp.model_size, g_lp.input_count,
+										   g_lp.output_count, &allocator, &mlp ),
+						  PLEAT_RESULT_BACKEND_UNAVAILABLE );
+		assert_null( mlp );
+	}
+	assert_int_equal( counter.live_bytes, 0 );
+}
+
+static void corrupt_model_is_invalid_asset_data( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	CountingAllocator counter;
+	plAllocator allocator = MakeAllocator( &counter );
+	plOrtMlp* mlp = NULL;
+
+	unsigned char garbage[512];
+	uint32_t seed = 12345u;
+	for ( size_t i = 0; i < sizeof( garbage ); ++i )
+	{
+		seed = seed * 1664525u + 1013904223u;
+		garbage[i] = (unsigned char)( seed >> 24 );
+	}
+	assert_int_equal( plOrtMlp_Create( g_library, garbage, sizeof( garbage ), g_lp.input_count, g_lp.output_count,
+									   &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ASSET_DATA );
+	assert_null( mlp );
+
+	// Cut inside the weights: the protobuf is incomplete.
+	assert_int_equal( plOrtMlp_Create( g_library, g_lp.model, g_lp.model_size / 2, g_lp.input_count,
+									   g_lp.output_count, &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ASSET_DATA );
+	assert_null( mlp );
+	assert_int_equal( counter.live_bytes, 0 );
+}
+
+static void model_with_other_tensor_sizes_is_invalid_asset_data( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	CountingAllocator counter;
+	plAllocator allocator = MakeAllocator( &counter );
+	plOrtMlp* mlp = NULL;
+	assert_int_equal( plOrtMlp_Create( g_library, g_lp.model, g_lp.model_size, g_lp.input_count + 1,
+									   g_lp.output_count, &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ASSET_DATA );
+	assert_null( mlp );
+	assert_int_equal( plOrtMlp_Create( g_library, g_lp.model, g_lp.model_size, g_lp.input_count,
+									   g_lp.output_count - 1, &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ASSET_DATA );
+	assert_null( mlp );
+	// The decoder model given the latent predictor's sizes.
+	assert_int_equal( plOrtMlp_Create( g_library, g_dec.model, g_dec.model_size, g_lp.input_count,
+									   g_lp.output_count, &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ASSET_DATA );
+	assert_null( mlp );
+	assert_int_equal( counter.live_bytes, 0 );
+}
+
+static void invalid_arguments_are_rejected( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	CountingAllocator counter;
+	plAllocator allocator = MakeAllocator( &counter );
+	plOrtMlp* mlp = NULL;
+	const void* model = g_lp.model;
+	size_t size = g_lp.model_size;
+	uint32_t in = g_lp.input_count;
+	uint32_t out = g_lp.output_count;
+	assert_int_equal( plOrtMlp_Create( g_library, model, size, in, out, &allocator, NULL ),
+					  PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plOrtMlp_Create( g_library, NULL, size, in, out, &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plOrtMlp_Create( g_library, model, 0, in, out, &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plOrtMlp_Create( g_library, model, size, 0, out, &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plOrtMlp_Create( g_library, model, size, in, 0, &allocator, &mlp ),
+					  PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plOrtMlp_Create( g_library, model, size, in, out, NULL, &mlp ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_null( mlp );
+
+	assert_int_equal( plOrtMlp_Create( g_library, model, size, in, out, &allocator, &mlp ), PLEAT_RESULT_OK );
+	float* output = (float*)calloc( out, sizeof( float ) );
+	assert_int_equal( plOrtMlp_Run( NULL, g_lp.inputs, output ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plOrtMlp_Run( mlp, NULL, output ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plOrtMlp_Run( mlp, g_lp.inputs, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	free( output );
+	plOrtMlp_Destroy( mlp );
+	plOrtMlp_Destroy( NULL );
+	assert_int_equal( counter.live_bytes, 0 );
+}
+
+static void out_of_memory_is_reported_and_nothing_leaks( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	// Fail the 1st, 2nd and 3rd allocation in turn: each must give OUT_OF_MEMORY and return everything taken.
+	for ( size_t fail_at = 1; fail_at <= 3; ++fail_at )
+	{
+		CountingAllocator counter;
+		plAllocator allocator = MakeAllocator( &counter );
+		counter.fail_after = fail_at;
+		plOrtMlp* mlp = NULL;
+		assert_int_equal( plOrtMlp_Create( g_library, g_lp.model, g_lp.model_size, g_lp.input_count,
+										   g_lp.output_count, &allocator, &mlp ),
+						  PLEAT_RESULT_OUT_OF_MEMORY );
+		assert_null( mlp );
+		assert_int_equal( counter.live_bytes, 0 );
+	}
+}
+
+static void sessions_coexist_and_outlive_env_cycles( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	CountingAllocator counter;
+	plAllocator allocator = MakeAllocator( &counter );
+	float* first = (float*)malloc( 4 * (size_t)g_lp.output_count );
+	float* again = (float*)malloc( 4 * (size_t)g_lp.output_count );
+	float* dec_out = (float*)malloc( 4 * (size_t)g_dec.output_count );
+	for ( int cycle = 0; cycle < 3; ++cycle ) // each cycle releases the shared env and makes a new one
+	{
+		plOrtMlp* lp = NULL;
+		plOrtMlp* dec = NULL;
+		assert_int_equal( plOrtMlp_Create( NULL, g_lp.model, g_lp.model_size, g_lp.input_count, g_lp.output_count,
+										   &allocator, &lp ),
+						  PLEAT_RESULT_OK ); // NULL path: the library is already loaded (or found via the env var)
+		assert_int_equal( plOrtMlp_Create( g_library, g_dec.model, g_dec.model_size, g_dec.input_count,
+										   g_dec.output_count, &allocator, &dec ),
+						  PLEAT_RESULT_OK );
+		assert_int_equal( plOrtMlp_Run( lp, g_lp.inputs, first ), PLEAT_RESULT_OK );
+		assert_int_equal( plOrtMlp_Run( dec, g_dec.inputs, dec_out ), PLEAT_RESULT_OK );
+		assert_int_equal( plOrtMlp_Run( lp, g_lp.inputs, again ), PLEAT_RESULT_OK );
+		// Same input, same session: bit-identical (the decoder run between them shares nothing).
+		assert_memory_equal( first, again, 4 * (size_t)g_lp.output_count );
+		plOrtMlp_Destroy( lp );
+		assert_int_equal( plOrtMlp_Run( dec, g_dec.inputs + g_dec.input_count, dec_out ), PLEAT_RESULT_OK );
+		for ( uint32_t o = 0; o < g_dec.output_count; ++o )
+		{
+			double reference = g_dec.expected[g_dec.output_count + o];
+			assert_true( fabs( dec_out[o] - reference ) <= ORT_TOLERANCE * ( 1.0 + fabs( reference ) ) );
+		}
+		plOrtMlp_Destroy( dec );
+		assert_int_equal( counter.live_bytes, 0 );
+	}
+	free( first );
+	free( again );
+	free( dec_out );
+}
+
+#endif // PLEAT_HAVE_ORT_HEADER
+
+// Holds in both builds: with the header, a missing library; without it, always.
+static void missing_backend_is_backend_unavailable( void** state )
+{
+	(void)state;
+	static const unsigned char not_a_model[16] = { 1, 2, 3 };
+	CountingAllocator counter;
+	plAllocator allocator = MakeAllocator( &counter );
+	plOrtMlp* mlp = (plOrtMlp*)&counter;
+	assert_int_equal( plOrtMlp_Create( "/nonexistent/dir/libonnxruntime.so.1", not_a_model, sizeof( not_a_model ), 4,
+									   4, &allocator, &mlp ),
+					  PLEAT_RESULT_BACKEND_UNAVAILABLE );
+	assert_null( mlp );
+	assert_int_equal( counter.live_bytes, 0 );
+#if !PLEAT_HAVE_ORT_HEADER
+	float x[4] = { 0 };
+	assert_int_equal( plOrtMlp_Run( NULL, x, x ), PLEAT_RESULT_BACKEND_UNAVAILABLE );
+	plOrtMlp_Destroy( NULL );
+#endif
+}
+
+int main( int argc, char** argv )
+{
+	if ( argc >= 4 )
+	{
+		PrepareData( argv[1], argv[2], argv[3] );
+	}
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test( missing_backend_is_backend_unavailable ),
+#if PLEAT_HAVE_ORT_HEADER
+		cmocka_unit_test( wrong_library_path_is_backend_unavailable ),
+		cmocka_unit_test( invalid_arguments_are_rejected ),
+		cmocka_unit_test( relu_mlp_matches_numpy_reference ),
+		cmocka_unit_test( silu_mlp_matches_numpy_reference ),
+		cmocka_unit_test( corrupt_model_is_invalid_asset_data ),
+		cmocka_unit_test( model_with_other_tensor_sizes_is_invalid_asset_data ),
+		cmocka_unit_test( out_of_memory_is_reported_and_nothing_leaks ),
+		cmocka_unit_test( sessions_coexist_and_outlive_env_cycles ),
+#endif
+	};
+	int failed = cmocka_run_group_tests( tests, NULL, NULL );
+	FreeCase( &g_lp );
+	FreeCase( &g_dec );
+	return failed;
+}
