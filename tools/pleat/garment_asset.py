@@ -1,0 +1,181 @@
+"""Assemble the asset weights dict (docs/asset-format.md, "The weights file") from a garment and the body.
+
+`weights_from_garment(garment, body, network=None)` fills everything that does not come from training: the skeleton
+(names, parents, J(β) = J_template + Σ β_b J_shapedirs[b] through the body's J_regressor), the input joints, the
+garment (template, shape blend shapes G_S, faces, skin), the clamp ranges and the material defaults. `network` adds the
+trained part (the two MLPs, the normalisation statistics, the latent range and the blend shapes D_j).
+
+With `network=None` it makes the LBS-only model: the smallest valid networks whose output is exactly zero (L = 1,
+D = 1, one zero layer each, a zero blend shape, x_mean 0, x_std 1, latent range [0, 0]). The runtime then returns the
+shaped template skinned by LBS — the demo placeholder and the LBS-only baseline of the evaluation.
+
+    python -m pleat.garment_asset --garment tshirt --out assets/tshirt.pleat
+"""
+import argparse
+import json
+import sys
+
+import numpy as np
+
+# Joints left out of X_c (docs/inputs.md): the pelvis (its motion is the root velocity and tilt), wrists and hands
+# (the paper: minimal impact on the garment).
+EXCLUDED_INPUT_JOINTS = ("pelvis", "left_wrist", "right_wrist", "left_hand", "right_hand")
+
+# Material (m kg per vertex, μ Pa, λ Pa, bending k): the paper's training ranges (section 4.1). The default is HOOD's
+# default cotton-like material, which lies inside those ranges.
+MATERIAL_MIN = (4.34e-2, 15909.0, 3535.41, 6.37e-8)
+MATERIAL_MAX = (7.0e-1, 63636.0, 93333.73, 1.31e-3)
+MATERIAL_DEFAULT = (0.20022, 23600.0, 44400.0, 3.9625e-5)
+BETA_RANGE = (-4.0, 4.0)
+DT_RANGE_S = (1.0 / 240.0, 1.0 / 15.0)
+LBS_ONLY_MODEL = "lbs-only placeholder, untrained"
+
+
+def _field(obj, name, default=None):
+    if isinstance(obj, dict) or hasattr(obj, "files"):  # dict or np.load(...) of an npz
+        return obj[name] if name in obj else default
+    return getattr(obj, name, default)
+
+
+def input_joint_indices(joint_names):
+    """Indices of the input joints (all but pelvis, wrists, hands), ascending."""
+    names = [str(n) for n in joint_names]
+    missing = [n for n in EXCLUDED_INPUT_JOINTS if n not in names]
+    if missing:
+        raise ValueError(f"body has no joint(s) {missing}; expected SMPL joint names")
+    return np.array([k for k, n in enumerate(names) if n not in EXCLUDED_INPUT_JOINTS], dtype=np.int64)
+
+
+def skeleton_from_body(body):
+    """(joint_names, parents, joint_template [J,3], joint_shapedirs [B,J,3]) from the body's J_regressor."""
+    regressor = _field(body, "J_regressor")
+    v_template = np.asarray(_field(body, "v_template"), dtype=np.float64)
+    shapedirs = np.asarray(_field(body, "shapedirs"), dtype=np.float64)  # [V, 3, B]
+    joint_template = np.asarray(regressor @ v_template, dtype=np.float64)
+    # J is linear in β, so its shape directions are the regressor applied to each body shape direction.
+    joint_shapedirs = np.stack([np.asarray(regressor @ shapedirs[:, :, b]) for b in range(shapedirs.shape[2])])
+    names = [str(n) for n in _field(body, "joint_names")]
+    parents = np.asarray(_field(body, "parents"), dtype=np.int64).copy()
+    parents[0] = -1
+    return names, parents, joint_template, joint_shapedirs
+
+
+def lbs_only_network(vertex_count, input_count_without_latent):
+    """The smallest valid networks whose output is exactly zero (L = 1, D = 1)."""
+    latent_count, blend_count = 1, 1
+    input_count = latent_count + input_count_without_latent
+    return {
+        "x_mean": np.zeros(input_count, np.float32),
+        "x_std": np.ones(input_count, np.float32),
+        "z_mean": np.zeros(latent_count, np.float32),
+        "z_std": np.ones(latent_count, np.float32),
+        "z_min": np.zeros(latent_count, np.float32),
+        "z_max": np.zeros(latent_count, np.float32),
+        "lp.0.weight": np.zeros((latent_count, input_count), np.float32),
+        "lp.0.bias": np.zeros(latent_count, np.float32),
+        "dec.0.weight": np.zeros((blend_count, latent_count), np.float32),
+        "dec.0.bias": np.zeros(blend_count, np.float32),
+        "blend_shapes": np.zeros((blend_count, vertex_count, 3), np.float32),
+        "lp_activation": "relu",
+        "dec_activation": "relu",
+    }
+
+
+def input_count_without_latent(input_joint_count, beta_count):
+    """I − L of docs/inputs.md: root velocity 8, rotations 3·(6·Jin + 6), positions 9·Jin, β, material 4."""
+    return 8 + 3 * (6 * input_joint_count + 6) + 9 * input_joint_count + beta_count + 4
+
+
+def weights_from_garment(garment, body, network=None, metadata=None, name=None):
+    """The weights dict pleat-pack / pleat.asset.write_asset reads (docs/asset-format.md key names).
+
+    garment: a pleat.garment Garment, a dict or an npz with template, faces, skin_indices, skin_weights, shape_blend
+    [B,N,3] and optionally pinned, name. body: pleat.body.BodyModel (or anything with v_template, shapedirs [V,3,B],
+    J_regressor, parents, joint_names). network: None for the LBS-only model, else a dict with the trained keys
+    (x_mean, x_std, z_*, lp.i.*, dec.i.*, blend_shapes, lp_activation, dec_activation, optionally train_fps and any
+    range override). metadata: extra META JSON fields.
+    """
+    names, parents, joint_template, joint_shapedirs = skeleton_from_body(body)
+    input_joints = input_joint_indices(names)
+    template = np.asarray(_field(garment, "template"), dtype=np.float32)
+    shape_blend = np.asarray(_field(garment, "shape_blend"), dtype=np.float32)
+    beta_count = joint_shapedirs.shape[0]
+    if shape_blend.shape != (beta_count,) + template.shape:
+        raise ValueError(f"garment shape_blend is {shape_blend.shape}, expected {(beta_count,) + template.shape}")
+    garment_name = name or _field(garment, "name", None)
+    garment_name = str(np.asarray(garment_name)) if garment_name is not None else "garment"
+
+    weights = {
+        "garment_name": garment_name,
+        "joint_names": names,
+        "joint_parents": parents,
+        "joint_template": joint_template.astype(np.float32),
+        "joint_shapedirs": joint_shapedirs.astype(np.float32),
+        "input_joints": input_joints,
+        "template": template,
+        "shape_blend": shape_blend,
+        "faces": np.asarray(_field(garment, "faces"), dtype=np.int64),
+        "skin_indices": np.asarray(_field(garment, "skin_indices"), dtype=np.int64),
+        "skin_weights": np.asarray(_field(garment, "skin_weights"), dtype=np.float32),
+        "dt_range_s": np.array(DT_RANGE_S, np.float32),
+        "beta_range": np.array(BETA_RANGE, np.float32),
+        "material_min": np.array(MATERIAL_MIN, np.float32),
+        "material_max": np.array(MATERIAL_MAX, np.float32),
+        "material_default": np.array(MATERIAL_DEFAULT, np.float32),
+        "train_fps": np.float32(30.0),
+    }
+    pinned = _field(garment, "pinned", None)
+    if pinned is not None and len(pinned) > 0:
+        weights["pinned"] = np.asarray(pinned, dtype=np.int64)
+
+    meta = {"garment": garment_name, "vertices": int(template.shape[0]), "faces": int(weights["faces"].shape[0])}
+    body_source = _field(body, "source", None)
+    if body_source is not None:
+        meta["body"] = str(np.asarray(body_source))
+    if network is None:
+        weights.update(lbs_only_network(template.shape[0], input_count_without_latent(len(input_joints), beta_count)))
+        meta["model"] = LBS_ONLY_MODEL
+        meta["note"] = ("Networks output exactly zero: the garment is the shaped template skinned by linear blend "
+                        "skinning. Replace with a trained asset (pleat-train pack).")
+    else:
+        weights.update(network)
+    if metadata:
+        meta.update(metadata)
+    weights["metadata_json"] = json.dumps(meta, sort_keys=True)
+    return weights
+
+
+def _load_garment(spec, vertices):
+    """A garment from an npz path, or generated by pleat.garment from a garment name."""
+    if spec.endswith(".npz"):
+        with np.load(spec, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    import pleat.garment as garment_module
+    for loader in ("make_garment", "generate", "build_garment"):
+        fn = getattr(garment_module, loader, None)
+        if fn is not None:
+            return fn(spec, vertices=vertices) if vertices else fn(spec)
+    raise SystemExit(f"pleat.garment has no generator I know; pass an npz made by pleat-garment instead of {spec!r}")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m pleat.garment_asset", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--garment", required=True, help="garment npz (pleat-garment output) or garment name")
+    parser.add_argument("--vertices", type=int, default=0, help="vertex count when generating by name")
+    parser.add_argument("--body", default="assets/body.npz")
+    parser.add_argument("--out", required=True, help="output .pleat")
+    parser.add_argument("--name", default=None, help="garment name in the asset (default: the garment's)")
+    args = parser.parse_args(argv)
+
+    from pleat.asset import write_asset
+    from pleat.body import BodyModel
+    body = BodyModel.load(args.body)
+    garment = _load_garment(args.garment, args.vertices)
+    weights = weights_from_garment(garment, body, None, name=args.name)
+    write_asset(args.out, weights)
+    print(f"wrote {args.out}: {weights['template'].shape[0]} vertices, LBS-only ({LBS_ONLY_MODEL})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
