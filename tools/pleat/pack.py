@@ -1,0 +1,101 @@
+"""pleat-pack: weights file (.npz / .safetensors) → Pleat asset (.pleat), and asset inspection. No PyTorch.
+
+    pleat-pack WEIGHTS.npz -o OUT.pleat [--fp16] [--onnx] [--name NAME] [--metadata JSON] [--export-onnx DIR]
+    pleat-pack --info FILE.pleat
+"""
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from pleat import asset as pa
+
+DTYPE_NAMES = {pa.DTYPE_F32: "f32", pa.DTYPE_F16: "f16", pa.DTYPE_U32: "u32", pa.DTYPE_U16: "u16",
+               pa.DTYPE_I32: "i32", pa.DTYPE_U8: "u8"}
+
+
+def info(path, out=sys.stdout):
+    """Prints header, section table, counts and META of an asset. Returns 0, or 1 if it does not validate."""
+    data = Path(path).read_bytes()
+    header, sections = pa.inspect_asset(data, verify_checksum=False)
+    crc_ok = pa.checksum(data) == header["checksum"]
+    p = lambda *a: print(*a, file=out)
+    p(f"{path}: Pleat asset {header['version'][0]}.{header['version'][1]}, {header['file_size']} bytes, "
+      f"{header['section_count']} sections, flags 0x{header['flags']:x}"
+      f"{' (fp16 weights)' if header['flags'] & pa.FLAG_FP16 else ''}, CRC-32 {header['checksum']:08x} "
+      f"({'ok' if crc_ok else 'MISMATCH'})")
+    p(f"  {'fourcc':6} {'dtype':5} {'offset':>10} {'size':>10}  dims")
+    for s in sections:
+        p(f"  {s['fourcc']:6} {DTYPE_NAMES[s['dtype']]:5} {s['offset']:>10} {s['size']:>10}  "
+          f"[{', '.join(map(str, s['dims']))}]")
+    by = {s["fourcc"]: s for s in sections}
+    if "CONF" in by and by["CONF"]["size"] == pa.CONF_SIZE:
+        off = by["CONF"]["offset"]
+        conf = pa.read_conf(data[off:off + pa.CONF_SIZE])
+        p("  counts: " + ", ".join(f"{k}={conf[k]}" for k in pa._CONF_U32_FIELDS if not k.endswith("activation")))
+        p(f"  activations: lp={pa.ACTIVATION_NAMES.get(conf['lp_activation'], '?')} "
+          f"dec={pa.ACTIVATION_NAMES.get(conf['dec_activation'], '?')}")
+        fmt = lambda v: "[" + ", ".join(f"{x:.6g}" for x in v) + "]"
+        p(f"  dt_range_s={fmt(conf['dt_range_s'])} beta_range={fmt(conf['beta_range'])} "
+          f"train_fps={conf['train_fps']:.6g}")
+        p(f"  material_min={fmt(conf['material_min'])} material_max={fmt(conf['material_max'])} "
+          f"material_default={fmt(conf['material_default'])}")
+    for tag, label in (("NAME", "name"), ("META", "META")):
+        if tag in by:
+            s = by[tag]
+            p(f"  {label}: {data[s['offset']:s['offset'] + s['size']].decode('utf-8', 'replace')}")
+    try:
+        pa.read_asset(data)
+        p("  validation: ok")
+        return 0
+    except pa.AssetError as e:
+        p(f"  validation: FAILED ({e.code}: {e})")
+        return 1
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="pleat-pack", description="Pack a Pleat weights file into a .pleat asset.")
+    p.add_argument("weights", nargs="?", help="weights file (.npz or .safetensors), keys per docs/asset-format.md")
+    p.add_argument("-o", "--output", help="output asset path (.pleat)")
+    p.add_argument("--fp16", action="store_true", help="store LP/decoder weight matrices and BLND as fp16")
+    p.add_argument("--onnx", action="store_true", help="embed the MLPs as ONNX models (OXLP, OXDC)")
+    p.add_argument("--name", help="garment name (overrides garment_name)")
+    p.add_argument("--metadata", help="META JSON: inline JSON text or a path to a .json file (overrides metadata_json)")
+    p.add_argument("--export-onnx", metavar="DIR", help="also write latent_predictor.onnx and decoder.onnx to DIR")
+    p.add_argument("--info", metavar="FILE", help="print header, sections, counts and META of an asset and exit")
+    a = p.parse_args(argv)
+    if a.info:
+        try:
+            return info(a.info)
+        except (OSError, pa.AssetError) as e:
+            print(f"pleat-pack: {a.info}: {e}", file=sys.stderr)
+            return 1
+    if not a.weights or not (a.output or a.export_onnx):
+        p.error("need WEIGHTS and -o OUT.pleat (or --export-onnx DIR), or --info FILE")
+    try:
+        weights = pa.load_weights(a.weights)
+        if a.name is not None:
+            weights["garment_name"] = a.name
+        if a.metadata is not None:
+            text = Path(a.metadata).read_text() if a.metadata.endswith(".json") and Path(a.metadata).is_file() \
+                else a.metadata
+            json.loads(text)
+            weights["metadata_json"] = text
+        if a.output:
+            data = pa.write_asset(a.output, weights, fp16=a.fp16, onnx=a.onnx)
+            print(f"wrote {a.output}: {len(data)} bytes", file=sys.stderr)
+        if a.export_onnx:
+            from pleat import onnx_export
+            w = pa.validate_weights(weights, fp16=a.fp16)
+            for path in onnx_export.export(w, a.export_onnx):
+                print(f"wrote {path}", file=sys.stderr)
+    except (OSError, ValueError, KeyError) as e:
+        print(f"pleat-pack: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
