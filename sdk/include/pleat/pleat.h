@@ -1,0 +1,501 @@
+// pleat.h — Pleat runtime SDK: real-time neural cloth for game engines (C11, also compiles as C++).
+//
+// ==================================================================================================================
+// OVERVIEW
+// ==================================================================================================================
+// Pleat dresses a character with a garment whose deformation (wrinkles, swing, lag) is predicted by two small MLPs
+// and a set of learned blend shapes, following "neural cloth with a compact latent" (see docs/ and the paper):
+//
+//     X_c   = assembled inputs (previous latent, root velocities, 3 frames of rotations and joint positions, β, material)
+//     Z_t+1 = clamp(f_LP(normalised X_c))           latent predictor, the latent guard clamps to the training range
+//     w     = f_dec(Z_t+1)                          decoder → D blend weights
+//     T_def = T + G_S(β) + Σ_j w_j D_j              shaped template (cached per β) + learned blend shapes
+//     x'    = Σ_k skin_weight · M_k · T_def         linear blend skinning with the body's joints
+//     n     = normalize(Σ area-weighted face normals)
+//
+// Objects: a context (allocator, task system, log, CPU kernel choice) owns assets (one loaded .pleat file each) and
+// instances (one dressed character each: pose history, latent, output buffers). Many instances may share an asset.
+//
+// ==================================================================================================================
+// STEP BY STEP
+// ==================================================================================================================
+//     plContextDef cdef = plDefaultContextDef();          // change fields in place; zero fields mean "default"
+//     plContext context;
+//     if ( plCreateContext( &cdef, &context ) != PLEAT_RESULT_OK ) ...
+//
+//     plAssetDef adef = plDefaultAssetDef();
+//     adef.path = "tshirt.pleat";                         // or adef.data / adef.size for a block in memory
+//     plAsset asset;
+//     plResult r = plLoadAsset( context, &adef, &asset ); // plResultString( r ) names any failure
+//
+//     plInstanceDef idef = plDefaultInstanceDef();
+//     idef.asset = asset;
+//     idef.joint_map = my_map;                            // my_map[asset joint] = engine joint index, -1 = identity
+//     idef.joint_map_count = info.joint_count;            // (build it with plAsset_FindJoint)
+//     idef.engine_joint_count = my_skeleton_joint_count;
+//     plInstance instance;
+//     plCreateInstance( context, &idef, &instance );
+//
+//     each frame:
+//         plFrameInput in = { 0 };                        // local rotations (x, y, z, w) in engine joint order
+//         in.joint_rotations = pose; in.joint_count = my_skeleton_joint_count; in.joint_stride_bytes = 16;
+//         in.root_translation = ...; in.root_rotation = ...; in.dt_s = 1.0f / 60.0f;
+//         plStepOutput out = { 0 };                       // optional: strided destination spans
+//         out.positions = vbo_ptr; out.position_stride_bytes = 32; out.normals = vbo_ptr + 3; ...
+//         r = plInstance_Step( instance, &in, &out );     // r >= 0: success (maybe with a note), r < 0: nothing changed
+//
+//     plDestroyInstance( instance ); plDestroyAsset( asset ); plDestroyContext( context );
+//
+// ==================================================================================================================
+// FRAME CONVENTION (docs/inputs.md is the single definition)
+// ==================================================================================================================
+// Metres, seconds, kilograms; right-handed, +Y up; quaternions (x, y, z, w), unit length (inputs whose length is within
+// 1e-3 of one are renormalised, others are rejected with PLEAT_RESULT_INVALID_QUATERNION).
+// The pose passed to plInstance_Step is frame t+1: the garment returned by that call is dressed on that pose. dt_s is
+// the time from the previous pose to this one. The instance keeps the two previous poses and the previous latent; the
+// first step after creation or plInstance_Reset treats the history as standing still with a zero latent.
+// Outputs are in the space of the root motion (world space when the engine passes world root motion).
+//
+// ==================================================================================================================
+// MEMORY
+// ==================================================================================================================
+// Every allocation goes through the context's allocator hooks (alloc/free, both or neither; default: the C runtime).
+// The context counts live bytes (plContext_GetLiveBytes) so leak tests can check that everything comes back.
+// An asset is one 64-byte aligned block: with PLEAT_ASSET_FLAG_USE_IN_PLACE and a 64-byte aligned caller buffer the
+// caller's memory is used directly (it must outlive the asset), otherwise the data is copied. An instance allocates
+// everything when it is created; plInstance_Step allocates nothing.
+//
+// ==================================================================================================================
+// THREADING
+// ==================================================================================================================
+// The SDK never creates threads. Give it your task system through the context def (enqueue_task / finish_task, as in
+// Box2D v3): the SDK splits the MLP rows, blend shapes, skinning and normals into index ranges. enqueue_task may run
+// the task inline and return NULL. Without hooks everything runs serially on the calling thread. Results are
+// bit-identical for any worker count (fixed summation order, no atomics).
+// Rules: create/destroy/load calls on a context must not overlap with any other call on the same context. After that,
+// different instances may be stepped concurrently from different threads; calls on one instance must be serialised.
+// Contexts themselves are created and destroyed from one thread at a time (a small process-wide table).
+//
+// ==================================================================================================================
+// ERRORS
+// ==================================================================================================================
+// Every entry point validates its arguments and returns a plResult: 0 = OK, positive = success with a note
+// (PLEAT_RESULT_CLAMPED, PLEAT_RESULT_NUMERIC_RESET), negative = error. An error leaves every object exactly as it was
+// before the call (the next output is bit-identical to that of an instance that never saw the failed call). Handles are
+// written through out parameters and are zero (null) on failure. Nothing aborts, prints or exits; details go to the
+// optional log callback with stable item ids (PLEAT_LOG_ITEMS).
+//
+// ==================================================================================================================
+// ASSET FORMAT
+// ==================================================================================================================
+// docs/asset-format.md (version 1.0): header with magic "PLEATAST", section table, 64-byte aligned sections, CRC-32.
+// Written by the offline tool pleat-pack. Older major versions → PLEAT_RESULT_LEGACY_VERSION, newer →
+// PLEAT_RESULT_UNSUPPORTED_VERSION.
+#ifndef PLEAT_H
+#define PLEAT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined( _WIN32 ) && defined( PLEAT_SHARED )
+#if defined( PLEAT_BUILDING )
+#define PLEAT_API __declspec( dllexport )
+#else
+#define PLEAT_API __declspec( dllimport )
+#endif
+#elif defined( __GNUC__ ) && defined( PLEAT_SHARED ) && defined( PLEAT_BUILDING )
+#define PLEAT_API __attribute__( ( visibility( "default" ) ) )
+#else
+#define PLEAT_API
+#endif
+
+/// Version of this header (major.minor.patch).
+#define PLEAT_VERSION_MAJOR 0
+#define PLEAT_VERSION_MINOR 1
+#define PLEAT_VERSION_PATCH 0
+/// Asset format major version this runtime reads.
+#define PLEAT_ASSET_VERSION_MAJOR 1
+
+/// Hard limits of asset format 1.0.
+#define PLEAT_MAX_JOINTS 64
+#define PLEAT_MAX_BETAS 16
+#define PLEAT_MAX_INFLUENCES 8
+#define PLEAT_MAX_LAYERS 10
+#define PLEAT_JOINT_NAME_SIZE 32
+#define PLEAT_MATERIAL_COUNT 4
+
+// ------------------------------------------------------------------------------------------------------------------
+// Results
+// ------------------------------------------------------------------------------------------------------------------
+
+/// Result of every entry point. 0 = OK, > 0 = success with a note, < 0 = error (nothing changed).
+typedef enum plResult
+{
+	PLEAT_RESULT_OK = 0,
+	/// Success: an input was clamped to its documented range (β, material, dt).
+	PLEAT_RESULT_CLAMPED = 1,
+	/// Success: a non-finite value appeared inside the step; history and latent were reset and the output recomputed.
+	PLEAT_RESULT_NUMERIC_RESET = 2,
+
+	/// A pointer is NULL, a count is zero or a value is outside what the function accepts.
+	PLEAT_RESULT_INVALID_ARGUMENT = -1,
+	/// A def was not made by plDefault...Def() (cookie missing) or has an inconsistent field.
+	PLEAT_RESULT_INVALID_DEF = -2,
+	/// A handle is null, stale (destroyed) or from another context.
+	PLEAT_RESULT_INVALID_HANDLE = -3,
+	/// An allocation failed.
+	PLEAT_RESULT_OUT_OF_MEMORY = -4,
+	/// A pose, root or dt value is NaN or infinite.
+	PLEAT_RESULT_NON_FINITE_INPUT = -5,
+	/// dt_s <= 0 or dt_s > 1 s.
+	PLEAT_RESULT_INVALID_DT = -6,
+	/// A quaternion's length is not within 1e-3 of one.
+	PLEAT_RESULT_INVALID_QUATERNION = -7,
+	/// The frame's joint count differs from the instance's engine_joint_count (or a joint map entry is out of range).
+	PLEAT_RESULT_JOINT_COUNT_MISMATCH = -8,
+	/// An output buffer or span is smaller than required.
+	PLEAT_RESULT_BUFFER_TOO_SMALL = -9,
+	/// The asset file could not be opened or read.
+	PLEAT_RESULT_IO_ERROR = -10,
+	/// The asset data is shorter than its header says.
+	PLEAT_RESULT_TRUNCATED = -11,
+	/// The asset data does not start with "PLEATAST".
+	PLEAT_RESULT_BAD_MAGIC = -12,
+	/// The asset's major version is older than this runtime reads.
+	PLEAT_RESULT_LEGACY_VERSION = -13,
+	/// The asset's major version is newer than this runtime reads.
+	PLEAT_RESULT_UNSUPPORTED_VERSION = -14,
+	/// The asset's CRC-32 does not match its contents.
+	PLEAT_RESULT_CHECKSUM_MISMATCH = -15,
+	/// The asset's structure is broken (header fields, section table, bounds, alignment, sizes, overlap).
+	PLEAT_RESULT_MALFORMED_ASSET = -16,
+	/// The asset's structure is sound but its content is not (missing section, wrong dims, index out of range,
+	/// non-finite float, non-positive std, skin weights not summing to one, parent order).
+	PLEAT_RESULT_INVALID_ASSET_DATA = -17,
+	/// The requested MLP backend (ONNX Runtime) or the asset's ONNX sections are not available.
+	PLEAT_RESULT_BACKEND_UNAVAILABLE = -18,
+	/// The GPU path was requested but no GL 4.3 context could be used (or the SDK was built without PLEAT_GL).
+	PLEAT_RESULT_GL_UNAVAILABLE = -19,
+	/// A GL call failed.
+	PLEAT_RESULT_GL_ERROR = -20,
+	/// plDestroyAsset was called while instances still use the asset.
+	PLEAT_RESULT_ASSET_IN_USE = -21,
+	/// A lookup (joint name) found nothing.
+	PLEAT_RESULT_NOT_FOUND = -22,
+	/// The context's object table is full (too many contexts, assets or instances).
+	PLEAT_RESULT_CAPACITY_EXCEEDED = -23,
+} plResult;
+
+/// Stable name of a result code, e.g. "PLEAT_RESULT_CLAMPED"; "PLEAT_RESULT_UNKNOWN" for values not listed.
+PLEAT_API const char* plResultString( plResult result );
+
+// ------------------------------------------------------------------------------------------------------------------
+// Log
+// ------------------------------------------------------------------------------------------------------------------
+
+/// The one list of log items: X( name, stable id, message ). Ids never change meaning; new items get new ids.
+#define PLEAT_LOG_ITEMS( X )                                                                                         \
+	X( NONE, 0, "no item" )                                                                                           \
+	X( CONTEXT_CREATED, 1, "context created" )                                                                        \
+	X( CONTEXT_DESTROYED_WITH_LIVE_OBJECTS, 2, "context destroyed while assets or instances were alive" )             \
+	X( KERNELS_SCALAR, 3, "CPU kernels: scalar" )                                                                     \
+	X( KERNELS_AVX2, 4, "CPU kernels: AVX2 + FMA + F16C" )                                                            \
+	X( ASSET_LOADED, 10, "asset loaded" )                                                                             \
+	X( ASSET_COPIED, 11, "asset data copied to an aligned block (not used in place)" )                               \
+	X( ASSET_IO_ERROR, 12, "asset file could not be read" )                                                           \
+	X( ASSET_BAD_HEADER, 13, "asset header rejected" )                                                                \
+	X( ASSET_CHECKSUM_MISMATCH, 14, "asset CRC-32 mismatch" )                                                         \
+	X( ASSET_BAD_SECTION_TABLE, 15, "asset section table rejected" )                                                  \
+	X( ASSET_BAD_CONTENT, 16, "asset content rejected" )                                                              \
+	X( ASSET_IN_USE, 17, "asset destroyed while instances use it" )                                                   \
+	X( INSTANCE_CREATED, 20, "instance created" )                                                                     \
+	X( INSTANCE_NUMERIC_RESET, 21, "non-finite value inside a step: history and latent reset" )                       \
+	X( INSTANCE_INPUT_CLAMPED, 22, "an input was clamped to its range" )                                              \
+	X( INSTANCE_BAD_INPUT, 23, "a step input was rejected" )                                                          \
+	X( BACKEND_UNAVAILABLE, 30, "ONNX Runtime backend unavailable" )                                                  \
+	X( GL_UNAVAILABLE, 31, "GL deformer unavailable" )                                                                \
+	X( OUT_OF_MEMORY, 40, "allocation failed" )
+
+/// Log item ids (PLEAT_LOG_ + name in PLEAT_LOG_ITEMS).
+typedef enum plLogItem
+{
+#define PLEAT_LOG_ITEM_ENUM_( name, id, message ) PLEAT_LOG_##name = id,
+	PLEAT_LOG_ITEMS( PLEAT_LOG_ITEM_ENUM_ )
+#undef PLEAT_LOG_ITEM_ENUM_
+} plLogItem;
+
+/// Severity of a log message.
+typedef enum plLogLevel
+{
+	PLEAT_LOG_LEVEL_ERROR = 1,
+	PLEAT_LOG_LEVEL_WARNING = 2,
+	PLEAT_LOG_LEVEL_INFO = 3,
+} plLogLevel;
+
+/// The fixed message of a log item ("unknown item" for ids not listed).
+PLEAT_API const char* plLogItemString( plLogItem item );
+
+/// Log callback: item is stable, message is the item's text plus detail (valid only during the call).
+typedef void plLogFn( plLogLevel level, plLogItem item, const char* message, void* user_context );
+
+// ------------------------------------------------------------------------------------------------------------------
+// Host hooks
+// ------------------------------------------------------------------------------------------------------------------
+
+/// Allocate size bytes aligned to align (a power of two, >= 16); return NULL on failure.
+typedef void* plAllocFn( size_t size, size_t align, void* user_context );
+/// Free a block from plAllocFn; size is the size that was requested.
+typedef void plFreeFn( void* ptr, size_t size, void* user_context );
+
+/// A task body: process items [start_index, end_index) as worker worker_index (< worker_count).
+typedef void plTaskFn( uint32_t start_index, uint32_t end_index, uint32_t worker_index, void* task_context );
+/// Split item_count items into ranges of at least min_range items and run task on them (possibly in parallel).
+/// Return a handle passed to plFinishTaskFn, or NULL if the task already ran to completion inline.
+typedef void* plEnqueueTaskFn( plTaskFn* task, uint32_t item_count, uint32_t min_range, void* task_context,
+							   void* user_context );
+/// Wait until the enqueued task has finished.
+typedef void plFinishTaskFn( void* user_task, void* user_context );
+
+// ------------------------------------------------------------------------------------------------------------------
+// Handles: small value ids (index + generation); all zero = null. Copy them freely.
+// ------------------------------------------------------------------------------------------------------------------
+
+/// A context handle.
+typedef struct plContext
+{
+	uint16_t index1;     ///< slot index + 1 (0 = null)
+	uint16_t generation; ///< slot generation, bumped on destroy
+} plContext;
+
+/// An asset handle.
+typedef struct plAsset
+{
+	uint32_t index1;     ///< slot index + 1 in the context (0 = null)
+	uint16_t context1;   ///< context slot index + 1
+	uint16_t generation; ///< slot generation
+} plAsset;
+
+/// An instance handle.
+typedef struct plInstance
+{
+	uint32_t index1;     ///< slot index + 1 in the context (0 = null)
+	uint16_t context1;   ///< context slot index + 1
+	uint16_t generation; ///< slot generation
+} plInstance;
+
+// ------------------------------------------------------------------------------------------------------------------
+// Context
+// ------------------------------------------------------------------------------------------------------------------
+
+/// Context definition: get one from plDefaultContextDef(), change fields, pass to plCreateContext.
+typedef struct plContextDef
+{
+	plAllocFn* alloc;              ///< allocator (NULL together with free = C runtime aligned_alloc/free)
+	plFreeFn* free;                ///< deallocator (both or neither)
+	void* allocator_context;       ///< passed to alloc/free
+	plEnqueueTaskFn* enqueue_task; ///< task system (NULL together with finish_task = serial)
+	plFinishTaskFn* finish_task;   ///< task completion (both or neither)
+	void* task_context;            ///< passed to enqueue_task/finish_task
+	uint32_t worker_count;         ///< number of workers the task system may use (1..64; default 1)
+	plLogFn* log;                  ///< optional log callback (NULL = silent)
+	void* log_context;             ///< passed to log
+	int force_scalar;              ///< non-zero: use the scalar CPU kernels even if AVX2 is available (flag)
+	int32_t internal_cookie;       ///< set by plDefaultContextDef; do not touch
+} plContextDef;
+
+/// A context def with defaults and the validity cookie.
+PLEAT_API plContextDef plDefaultContextDef( void );
+/// Create a context. out_context is written (null on failure).
+PLEAT_API plResult plCreateContext( const plContextDef* def, plContext* out_context );
+/// Destroy a context and every asset and instance still alive in it.
+PLEAT_API plResult plDestroyContext( plContext context );
+/// Non-zero if the handle names a live context.
+PLEAT_API int plContext_IsValid( plContext context );
+/// Bytes currently allocated through the context's allocator by this context (not counting the context's own
+/// block); 0 after every asset and instance was destroyed.
+PLEAT_API plResult plContext_GetLiveBytes( plContext context, uint64_t* out_bytes );
+/// Non-zero in *out_avx2 if the context uses the AVX2 + FMA + F16C kernels, zero for scalar.
+PLEAT_API plResult plContext_UsesAvx2( plContext context, int* out_avx2 );
+
+// ------------------------------------------------------------------------------------------------------------------
+// Asset
+// ------------------------------------------------------------------------------------------------------------------
+
+/// Asset def flag: the caller's buffer may be used in place (if it is 64-byte aligned); it must outlive the asset.
+#define PLEAT_ASSET_FLAG_USE_IN_PLACE 0x1u
+/// Asset def flag: skip the CRC-32 check (structure and content are still validated).
+#define PLEAT_ASSET_FLAG_SKIP_CHECKSUM 0x2u
+
+/// Asset definition: either data + size (a block in memory) or path (a file), not both.
+typedef struct plAssetDef
+{
+	const void* data;        ///< asset bytes in memory (or NULL)
+	size_t size;             ///< size of data in bytes
+	const char* path;        ///< file path (or NULL), read into an aligned block
+	uint32_t flags;          ///< PLEAT_ASSET_FLAG_* bits
+	int32_t internal_cookie; ///< set by plDefaultAssetDef; do not touch
+} plAssetDef;
+
+/// Counts and names of a loaded asset (pointers valid while the asset lives).
+typedef struct plAssetInfo
+{
+	uint32_t vertex_count;      ///< N (count)
+	uint32_t face_count;        ///< F (count)
+	uint32_t joint_count;       ///< J (count)
+	uint32_t input_joint_count; ///< Jin (count)
+	uint32_t influence_count;   ///< K (count)
+	uint32_t beta_count;        ///< B (count)
+	uint32_t latent_count;      ///< L (count)
+	uint32_t blend_count;       ///< D (count)
+	uint32_t input_count;       ///< I = size of X_c (count)
+	uint32_t lp_layer_count;    ///< latent predictor layers (count)
+	uint32_t dec_layer_count;   ///< decoder layers (count)
+	int weights_fp16;           ///< non-zero if some weights are stored as fp16
+	float dt_min_s;             ///< dt is clamped up to this (seconds)
+	float dt_max_s;             ///< dt is clamped down to this (seconds)
+	float beta_min;             ///< β lower clamp (unitless shape coefficient)
+	float beta_max;             ///< β upper clamp (unitless)
+	float material_min[4];      ///< (mass kg, μ Pa, λ Pa, bending k) lower clamp
+	float material_max[4];      ///< upper clamp, same units
+	float material_default[4];  ///< default material, same units
+	float train_fps;            ///< frame rate of the training data (frames per second, information)
+	char name[65];              ///< garment name, utf-8, NUL-terminated
+	const char* meta_json;      ///< META section (utf-8 JSON, NOT NUL-terminated) or NULL
+	size_t meta_json_size;      ///< META size in bytes (0 if absent)
+	int has_onnx_lp;            ///< non-zero if the OXLP section (ONNX latent predictor) exists
+	int has_onnx_decoder;       ///< non-zero if the OXDC section (ONNX decoder) exists
+	uint32_t pinned_count;      ///< number of pinned vertices (PINS, information), 0 if absent
+} plAssetInfo;
+
+/// An asset def with defaults and the validity cookie.
+PLEAT_API plAssetDef plDefaultAssetDef( void );
+/// Load and validate an asset (structure, then content, then CRC-32 unless skipped).
+PLEAT_API plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_asset );
+/// Destroy an asset; PLEAT_RESULT_ASSET_IN_USE (and nothing happens) while instances use it.
+PLEAT_API plResult plDestroyAsset( plAsset asset );
+/// Non-zero if the handle names a live asset.
+PLEAT_API int plAsset_IsValid( plAsset asset );
+/// Counts, ranges, name and META of the asset.
+PLEAT_API plResult plAsset_GetInfo( plAsset asset, plAssetInfo* out_info );
+/// Name of asset joint joint_index (NUL-terminated, valid while the asset lives).
+PLEAT_API plResult plAsset_GetJointName( plAsset asset, uint32_t joint_index, const char** out_name );
+/// Index of the asset joint called name (exact match), PLEAT_RESULT_NOT_FOUND if none.
+PLEAT_API plResult plAsset_FindJoint( plAsset asset, const char* name, int32_t* out_joint_index );
+
+// ------------------------------------------------------------------------------------------------------------------
+// Instance
+// ------------------------------------------------------------------------------------------------------------------
+
+/// Which code evaluates the two MLPs.
+typedef enum plMlpBackend
+{
+	PLEAT_MLP_BACKEND_PLEAT = 0,       ///< the SDK's own CPU kernels (default)
+	PLEAT_MLP_BACKEND_ONNXRUNTIME = 1, ///< ONNX Runtime (loaded at run time), needs the asset's OXLP/OXDC sections
+} plMlpBackend;
+
+/// Where blend shapes, skinning and normals run.
+typedef enum plGpuMode
+{
+	PLEAT_GPU_NONE = 0,         ///< CPU (default)
+	PLEAT_GPU_HOST_CONTEXT = 1, ///< GL 4.3 compute in the engine's context, current on the calling thread
+	PLEAT_GPU_HEADLESS = 2,     ///< GL 4.3 compute in a headless context the SDK creates (EGL, OSMesa fallback)
+} plGpuMode;
+
+/// Instance definition: get one from plDefaultInstanceDef(), change fields, pass to plCreateInstance.
+typedef struct plInstanceDef
+{
+	plAsset asset;                     ///< the garment asset (required)
+	const int32_t* joint_map;          ///< [joint_map_count]: engine joint index per asset joint, -1 = identity;
+	                                   ///< NULL = the engine uses the asset's joint order
+	uint32_t joint_map_count;          ///< must equal the asset's joint count when joint_map is set (count)
+	uint32_t engine_joint_count;       ///< joints per plFrameInput (count); 0 = the asset's joint count
+	const float* beta;                 ///< [beta_count] initial body shape β (unitless), NULL = zeros
+	uint32_t beta_count;               ///< entries in beta, <= the asset's B; missing entries are 0 (count)
+	const float* material;             ///< [4] initial (mass kg, μ Pa, λ Pa, bending k), NULL = asset default
+	plMlpBackend mlp_backend;          ///< PLEAT_MLP_BACKEND_PLEAT (default) or _ONNXRUNTIME
+	const char* onnxruntime_library;   ///< path of libonnxruntime (NULL = search, see ort_backend)
+	plGpuMode gpu_mode;                ///< PLEAT_GPU_NONE (default), _HOST_CONTEXT or _HEADLESS
+	uint32_t host_position_buffer;     ///< host-context mode: GL buffer name for positions (vec4 per vertex), 0 = own
+	uint32_t host_normal_buffer;       ///< host-context mode: GL buffer name for normals (vec4 per vertex), 0 = own
+	void* user_data;                   ///< yours, returned by plInstance_GetUserData
+	int32_t internal_cookie;           ///< set by plDefaultInstanceDef; do not touch
+} plInstanceDef;
+
+/// A quaternion (x, y, z, w), unit length.
+typedef struct plQuat
+{
+	float x, y, z, w;
+} plQuat;
+
+/// A 3-vector (metres where it is a position).
+typedef struct plVec3
+{
+	float x, y, z;
+} plVec3;
+
+/// One frame of pose, as an engine has it. This pose is frame t+1 (see FRAME CONVENTION).
+typedef struct plFrameInput
+{
+	const float* joint_rotations; ///< local joint rotations (x, y, z, w) in engine joint order (unit quaternions)
+	uint32_t joint_count;         ///< engine joints in joint_rotations (count), must equal engine_joint_count
+	uint32_t joint_stride_bytes;  ///< bytes from one joint's quaternion to the next (0 = 16)
+	plVec3 root_translation;      ///< root translation t_root (metres)
+	plQuat root_rotation;         ///< root rotation Q_root (unit quaternion); all zero is taken as identity
+	float dt_s;                   ///< time since the previous pose (seconds), (0, 1], clamped to the asset's range
+} plFrameInput;
+
+/// Optional destinations for plInstance_Step: strided spans (interleaved or planar) of 3 floats per vertex.
+typedef struct plStepOutput
+{
+	float* positions;               ///< [vertex_capacity] x, y, z (metres) or NULL
+	uint32_t position_stride_bytes; ///< bytes between vertices (0 = 12), multiple of 4
+	float* normals;                 ///< [vertex_capacity] unit normals or NULL
+	uint32_t normal_stride_bytes;   ///< bytes between vertices (0 = 12), multiple of 4
+	uint32_t vertex_capacity;       ///< vertices the spans hold (count), must be >= N
+} plStepOutput;
+
+/// An instance def with defaults and the validity cookie.
+PLEAT_API plInstanceDef plDefaultInstanceDef( void );
+/// Create an instance of an asset (allocates everything it will need).
+PLEAT_API plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstance* out_instance );
+/// Destroy an instance.
+PLEAT_API plResult plDestroyInstance( plInstance instance );
+/// Non-zero if the handle names a live instance.
+PLEAT_API int plInstance_IsValid( plInstance instance );
+/// Advance one frame: the pose is frame t+1. Writes positions/normals to output (may be NULL) and to the instance's
+/// own buffers. Returns OK, CLAMPED (dt clamped) or NUMERIC_RESET; an error changes nothing.
+PLEAT_API plResult plInstance_Step( plInstance instance, const plFrameInput* input, const plStepOutput* output );
+/// Forget the pose history and latent: the next step is a first frame.
+PLEAT_API plResult plInstance_Reset( plInstance instance );
+/// Set the body shape β ([beta_count] unitless, missing entries 0); recomputes the shaped template and J(β) once.
+/// Values outside [beta_min, beta_max] are clamped (PLEAT_RESULT_CLAMPED).
+PLEAT_API plResult plInstance_SetShape( plInstance instance, const float* beta, uint32_t beta_count );
+/// Set the material (mass kg, μ Pa, λ Pa, bending k); values outside the asset's ranges are clamped (CLAMPED).
+PLEAT_API plResult plInstance_SetMaterial( plInstance instance, const float material[4] );
+/// The last step's positions [N][3] (metres), owned by the instance, valid until the next step or destroy.
+PLEAT_API plResult plInstance_GetPositions( plInstance instance, const float** out_positions, uint32_t* out_count );
+/// The last step's normals [N][3] (unit), owned by the instance, valid until the next step or destroy.
+PLEAT_API plResult plInstance_GetNormals( plInstance instance, const float** out_normals, uint32_t* out_count );
+/// Copy the last step's skinning matrices, [J][3][4] row-major (rest space → output space, metres).
+/// joint_count must be the asset's J (PLEAT_RESULT_BUFFER_TOO_SMALL if smaller).
+PLEAT_API plResult plInstance_GetSkinMatrices( plInstance instance, float* out, uint32_t joint_count );
+/// Copy the current latent Z_t [L] (after the latent guard); latent_count must be >= L.
+PLEAT_API plResult plInstance_GetLatent( plInstance instance, float* out, uint32_t latent_count );
+/// Copy the last step's blend weights w [D]; blend_count must be >= D.
+PLEAT_API plResult plInstance_GetBlendWeights( plInstance instance, float* out, uint32_t blend_count );
+/// Copy the current (clamped) β [B] and material [4].
+PLEAT_API plResult plInstance_GetShape( plInstance instance, float* out_beta, uint32_t beta_count, float out_material[4] );
+/// The asset the instance was created from.
+PLEAT_API plResult plInstance_GetAsset( plInstance instance, plAsset* out_asset );
+/// The def's user_data.
+PLEAT_API void* plInstance_GetUserData( plInstance instance );
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif // PLEAT_H

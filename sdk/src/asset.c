@@ -1,0 +1,942 @@
+// The asset loader (docs/asset-format.md v1.0): structure and overflow checks before any pointer into the buffer is
+// made, then the CRC-32, then meaning (dims, index ranges, finite values). Loads from memory (in place or copied to an
+// aligned block) or from a file.
+#include "asset.h"
+#include "core.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#if defined( __BYTE_ORDER__ ) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "Pleat assets are little-endian and read in place; a big-endian port needs a byte-swapping loader"
+#endif
+
+#define PLEAT_HEADER_SIZE 128u
+#define PLEAT_SECTION_ENTRY_SIZE 48u
+#define PLEAT_MAX_SECTIONS 256u
+#define PLEAT_CONF_SIZE 256u
+
+enum
+{
+	PLEAT_DTYPE_F32 = 1,
+	PLEAT_DTYPE_F16 = 2,
+	PLEAT_DTYPE_U32 = 3,
+	PLEAT_DTYPE_U16 = 4,
+	PLEAT_DTYPE_I32 = 5,
+	PLEAT_DTYPE_U8 = 6,
+};
+
+typedef struct plSection
+{
+	uint32_t fourcc;
+	uint32_t dtype;
+	uint32_t rank;
+	uint64_t offset;
+	uint64_t size;
+	uint32_t dims[4];
+} plSection;
+
+typedef struct plSectionTable
+{
+	plSection sections[PLEAT_MAX_SECTIONS];
+	uint32_t count;
+} plSectionTable;
+
+static uint16_t plReadU16( const uint8_t* p )
+{
+	return (uint16_t)( p[0] | ( p[1] << 8 ) );
+}
+
+static uint32_t plReadU32( const uint8_t* p )
+{
+	return (uint32_t)p[0] | ( (uint32_t)p[1] << 8 ) | ( (uint32_t)p[2] << 16 ) | ( (uint32_t)p[3] << 24 );
+}
+
+static uint64_t plReadU64( const uint8_t* p )
+{
+	return (uint64_t)plReadU32( p ) | ( (uint64_t)plReadU32( p + 4 ) << 32 );
+}
+
+static float plReadF32( const uint8_t* p )
+{
+	uint32_t u = plReadU32( p );
+	float f;
+	memcpy( &f, &u, sizeof( f ) );
+	return f;
+}
+
+static uint32_t plFourcc( const char* s )
+{
+	return (uint32_t)(uint8_t)s[0] | ( (uint32_t)(uint8_t)s[1] << 8 ) | ( (uint32_t)(uint8_t)s[2] << 16 ) |
+		   ( (uint32_t)(uint8_t)s[3] << 24 );
+}
+
+uint32_t plCrc32( uint32_t crc, const uint8_t* data, size_t size )
+{
+	// Reflected IEEE 802.3 polynomial, as zlib.crc32. The table is rebuilt per call (1 KiB, negligible next to a
+	// load) so there is no lazily initialised global.
+	uint32_t table[256];
+	for ( uint32_t i = 0; i < 256; ++i )
+	{
+		uint32_t c = i;
+		for ( int k = 0; k < 8; ++k )
+		{
+			c = ( c & 1u ) ? 0xEDB88320u ^ ( c >> 1 ) : c >> 1;
+		}
+		table[i] = c;
+	}
+	crc = ~crc;
+	for ( size_t i = 0; i < size; ++i )
+	{
+		crc = table[( crc ^ data[i] ) & 0xFFu] ^ ( crc >> 8 );
+	}
+	return ~crc;
+}
+
+uint64_t plInputCountFormula( uint64_t latent_count, uint64_t input_joint_count, uint64_t beta_count )
+{
+	return latent_count + 8u + 3u * ( 6u * input_joint_count + 6u ) + 9u * input_joint_count + beta_count + 4u;
+}
+
+static uint32_t plDtypeSize( uint32_t dtype )
+{
+	switch ( dtype )
+	{
+		case PLEAT_DTYPE_F32:
+		case PLEAT_DTYPE_U32:
+		case PLEAT_DTYPE_I32:
+			return 4;
+		case PLEAT_DTYPE_F16:
+		case PLEAT_DTYPE_U16:
+			return 2;
+		case PLEAT_DTYPE_U8:
+			return 1;
+		default:
+			return 0;
+	}
+}
+
+// ---- structure ----
+
+static plResult plParseHeader( const uint8_t* data, size_t size, int skip_checksum, plSectionTable* table,
+							   uint32_t* out_flags )
+{
+	if ( size < 8 )
+	{
+		return PLEAT_RESULT_TRUNCATED;
+	}
+	if ( memcmp( data, "PLEATAST", 8 ) != 0 )
+	{
+		return PLEAT_RESULT_BAD_MAGIC;
+	}
+	if ( size < 12 )
+	{
+		return PLEAT_RESULT_TRUNCATED;
+	}
+	uint16_t major = plReadU16( data + 8 );
+	if ( major < PLEAT_ASSET_VERSION_MAJOR )
+	{
+		return PLEAT_RESULT_LEGACY_VERSION;
+	}
+	if ( major > PLEAT_ASSET_VERSION_MAJOR )
+	{
+		return PLEAT_RESULT_UNSUPPORTED_VERSION;
+	}
+	if ( size < PLEAT_HEADER_SIZE )
+	{
+		return PLEAT_RESULT_TRUNCATED;
+	}
+	uint32_t header_size = plReadU32( data + 12 );
+	uint64_t file_size = plReadU64( data + 16 );
+	uint32_t section_count = plReadU32( data + 24 );
+	uint32_t flags = plReadU32( data + 28 );
+	uint64_t table_offset = plReadU64( data + 32 );
+	uint32_t checksum = plReadU32( data + 40 );
+	if ( file_size > (uint64_t)size )
+	{
+		return PLEAT_RESULT_TRUNCATED;
+	}
+	if ( file_size != (uint64_t)size || header_size < PLEAT_HEADER_SIZE || header_size > size ||
+		 section_count < 1 || section_count > PLEAT_MAX_SECTIONS || ( flags & ~1u ) != 0 || table_offset < header_size ||
+		 table_offset > size || (uint64_t)section_count * PLEAT_SECTION_ENTRY_SIZE > size - table_offset )
+	{
+		return PLEAT_RESULT_MALFORMED_ASSET;
+	}
+	if ( !skip_checksum )
+	{
+		static const uint8_t zeros[4] = { 0, 0, 0, 0 };
+		uint32_t crc = plCrc32( 0, data, 40 );
+		crc = plCrc32( crc, zeros, 4 );
+		crc = plCrc32( crc, data + 44, size - 44 );
+		if ( crc != checksum )
+		{
+			return PLEAT_RESULT_CHECKSUM_MISMATCH;
+		}
+	}
+	uint64_t table_end = table_offset + (uint64_t)section_count * PLEAT_SECTION_ENTRY_SIZE;
+	table->count = section_count;
+	for ( uint32_t i = 0; i < section_count; ++i )
+	{
+		const uint8_t* e = data + table_offset + (uint64_t)i * PLEAT_SECTION_ENTRY_SIZE;
+		plSection* s = &table->sections[i];
+		s->fourcc = plReadU32( e );
+		s->dtype = plReadU32( e + 4 );
+		s->rank = plReadU32( e + 8 );
+		uint32_t reserved = plReadU32( e + 12 );
+		s->offset = plReadU64( e + 16 );
+		s->size = plReadU64( e + 24 );
+		uint32_t dtype_size = plDtypeSize( s->dtype );
+		if ( dtype_size == 0 || s->rank < 1 || s->rank > 4 || reserved != 0 || ( s->offset % 64u ) != 0 ||
+			 s->offset < table_end || s->offset > size || s->size > size - s->offset )
+		{
+			return PLEAT_RESULT_MALFORMED_ASSET;
+		}
+		uint64_t elements = 1;
+		for ( uint32_t d = 0; d < 4; ++d )
+		{
+			s->dims[d] = plReadU32( e + 32 + 4 * d );
+			if ( d >= s->rank && s->dims[d] != 1 )
+			{
+				return PLEAT_RESULT_MALFORMED_ASSET;
+			}
+			// The product stays below 2^64 because each factor is checked against the file size first.
+			if ( s->dims[d] != 0 && elements > (uint64_t)size / s->dims[d] )
+			{
+				return PLEAT_RESULT_MALFORMED_ASSET;
+			}
+			elements *= s->dims[d];
+		}
+		if ( elements * dtype_size != s->size )
+		{
+			return PLEAT_RESULT_MALFORMED_ASSET;
+		}
+		for ( uint32_t j = 0; j < i; ++j )
+		{
+			const plSection* o = &table->sections[j];
+			if ( o->fourcc == s->fourcc )
+			{
+				return PLEAT_RESULT_MALFORMED_ASSET;
+			}
+			if ( s->size != 0 && o->size != 0 && s->offset < o->offset + o->size && o->offset < s->offset + s->size )
+			{
+				return PLEAT_RESULT_MALFORMED_ASSET;
+			}
+		}
+	}
+	*out_flags = flags;
+	return PLEAT_RESULT_OK;
+}
+
+// ---- meaning ----
+
+static const plSection* plFindSection( const plSectionTable* table, const char* fourcc )
+{
+	uint32_t code = plFourcc( fourcc );
+	for ( uint32_t i = 0; i < table->count; ++i )
+	{
+		if ( table->sections[i].fourcc == code )
+		{
+			return &table->sections[i];
+		}
+	}
+	return NULL;
+}
+
+// Finds a required section with the given dtype and dims (rank = dim_count); NULL if missing or different.
+static const void* plRequire( const uint8_t* data, const plSectionTable* table, const char* fourcc, uint32_t dtype,
+							  uint32_t dim_count, uint32_t d0, uint32_t d1, uint32_t d2 )
+{
+	const plSection* s = plFindSection( table, fourcc );
+	if ( s == NULL || s->dtype != dtype || s->rank != dim_count )
+	{
+		return NULL;
+	}
+	uint32_t expected[3] = { d0, d1, d2 };
+	for ( uint32_t d = 0; d < dim_count; ++d )
+	{
+		if ( s->dims[d] != expected[d] )
+		{
+			return NULL;
+		}
+	}
+	// A zero-sized section still needs a valid pointer; offset is inside the file.
+	return data + s->offset;
+}
+
+static int plAllFinite( const float* v, uint64_t count )
+{
+	for ( uint64_t i = 0; i < count; ++i )
+	{
+		if ( !isfinite( v[i] ) )
+		{
+			return 0;
+		}
+	}
+	return 1;
+}
+
+static int plAllFiniteHalf( const uint16_t* v, uint64_t count )
+{
+	for ( uint64_t i = 0; i < count; ++i )
+	{
+		if ( ( v[i] & 0x7C00u ) == 0x7C00u )
+		{
+			return 0;
+		}
+	}
+	return 1;
+}
+
+// A weight tensor [d0][d1] (or [d0][d1][d2]) that may be fp32 or fp16; returns NULL if missing, wrong, or non-finite.
+static const void* plRequireWeights( const uint8_t* data, const plSectionTable* table, const char* fourcc,
+									 uint32_t flags, uint32_t dim_count, uint32_t d0, uint32_t d1, uint32_t d2,
+									 int* out_fp16 )
+{
+	const plSection* s = plFindSection( table, fourcc );
+	if ( s == NULL )
+	{
+		return NULL;
+	}
+	int fp16 = s->dtype == PLEAT_DTYPE_F16;
+	if ( fp16 && ( flags & 1u ) == 0 )
+	{
+		return NULL;
+	}
+	const void* p = plRequire( data, table, fourcc, fp16 ? PLEAT_DTYPE_F16 : PLEAT_DTYPE_F32, dim_count, d0, d1, d2 );
+	if ( p == NULL )
+	{
+		return NULL;
+	}
+	uint64_t count = (uint64_t)d0 * d1 * ( dim_count == 3 ? d2 : 1u );
+	if ( fp16 ? !plAllFiniteHalf( (const uint16_t*)p, count ) : !plAllFinite( (const float*)p, count ) )
+	{
+		return NULL;
+	}
+	*out_fp16 = fp16;
+	return p;
+}
+
+static plResult plParseLayers( const uint8_t* data, const plSectionTable* table, uint32_t flags, char prefix_w0,
+							   char prefix_w1, char prefix_b1, uint32_t count, uint32_t first_in, uint32_t last_out,
+							   plLayer* layers )
+{
+	uint32_t in_count = first_in;
+	for ( uint32_t i = 0; i < count; ++i )
+	{
+		char wname[5] = { prefix_w0, prefix_w1, 'W', (char)( '0' + i ), 0 };
+		char bname[5] = { prefix_w0, prefix_b1, 'B', (char)( '0' + i ), 0 };
+		if ( prefix_b1 == 'C' )
+		{
+			// Decoder sections are DCWi / DCBi, latent predictor LPWi / LPBi.
+			bname[1] = 'C';
+		}
+		const plSection* ws = plFindSection( table, wname );
+		if ( ws == NULL || ws->rank != 2 || ws->dims[1] != in_count || ws->dims[0] == 0 )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		uint32_t out_count = ws->dims[0];
+		if ( i + 1 == count && out_count != last_out )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		int fp16 = 0;
+		const void* w = plRequireWeights( data, table, wname, flags, 2, out_count, in_count, 1, &fp16 );
+		const float* b = (const float*)plRequire( data, table, bname, PLEAT_DTYPE_F32, 1, out_count, 1, 1 );
+		if ( w == NULL || b == NULL || !plAllFinite( b, out_count ) )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		layers[i].weight = w;
+		layers[i].weight_fp16 = fp16;
+		layers[i].bias = b;
+		layers[i].in_count = in_count;
+		layers[i].out_count = out_count;
+		in_count = out_count;
+	}
+	return PLEAT_RESULT_OK;
+}
+
+static plResult plParseContent( const uint8_t* data, const plSectionTable* table, uint32_t flags, plAssetData* a )
+{
+	const uint8_t* conf = (const uint8_t*)plRequire( data, table, "CONF", PLEAT_DTYPE_U8, 1, PLEAT_CONF_SIZE, 1, 1 );
+	if ( conf == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	a->vertex_count = plReadU32( conf + 0 );
+	a->face_count = plReadU32( conf + 4 );
+	a->joint_count = plReadU32( conf + 8 );
+	a->input_joint_count = plReadU32( conf + 12 );
+	a->influence_count = plReadU32( conf + 16 );
+	a->beta_count = plReadU32( conf + 20 );
+	a->latent_count = plReadU32( conf + 24 );
+	a->blend_count = plReadU32( conf + 28 );
+	a->lp_layer_count = plReadU32( conf + 32 );
+	a->dec_layer_count = plReadU32( conf + 36 );
+	a->lp_activation = plReadU32( conf + 40 );
+	a->dec_activation = plReadU32( conf + 44 );
+	a->input_count = plReadU32( conf + 48 );
+	a->dt_min_s = plReadF32( conf + 52 );
+	a->dt_max_s = plReadF32( conf + 56 );
+	a->beta_min = plReadF32( conf + 60 );
+	a->beta_max = plReadF32( conf + 64 );
+	for ( int i = 0; i < 4; ++i )
+	{
+		a->material_min[i] = plReadF32( conf + 68 + 4 * i );
+		a->material_max[i] = plReadF32( conf + 84 + 4 * i );
+		a->material_default[i] = plReadF32( conf + 100 + 4 * i );
+	}
+	a->train_fps = plReadF32( conf + 116 );
+	a->weights_fp16 = ( flags & 1u ) != 0;
+
+	uint32_t N = a->vertex_count, F = a->face_count, J = a->joint_count, Jin = a->input_joint_count;
+	uint32_t K = a->influence_count, B = a->beta_count, L = a->latent_count, D = a->blend_count;
+	if ( N == 0 || N > ( 1u << 24 ) || F == 0 || F > ( 1u << 25 ) || J == 0 || J > PLEAT_MAX_JOINTS || Jin >= J ||
+		 K < 1 || K > PLEAT_MAX_INFLUENCES || B > PLEAT_MAX_BETAS || L == 0 || L > 65536 || D == 0 || D > 65536 ||
+		 a->lp_layer_count < 1 || a->lp_layer_count > PLEAT_MAX_LAYERS || a->dec_layer_count < 1 ||
+		 a->dec_layer_count > PLEAT_MAX_LAYERS || a->lp_activation < 1 || a->lp_activation > 2 ||
+		 a->dec_activation < 1 || a->dec_activation > 2 ||
+		 (uint64_t)a->input_count != plInputCountFormula( L, Jin, B ) )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	// Written this way so NaN fails every comparison.
+	if ( !( a->dt_min_s > 0.0f && a->dt_min_s <= a->dt_max_s && a->dt_max_s <= 1.0f ) ||
+		 !( a->beta_min <= a->beta_max ) || !isfinite( a->beta_min ) || !isfinite( a->beta_max ) ||
+		 !isfinite( a->train_fps ) )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	for ( int i = 0; i < 4; ++i )
+	{
+		if ( !isfinite( a->material_min[i] ) || !isfinite( a->material_max[i] ) ||
+			 !( a->material_min[i] < a->material_max[i] ) || !( a->material_default[i] >= a->material_min[i] ) ||
+			 !( a->material_default[i] <= a->material_max[i] ) )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
+
+	const plSection* name = plFindSection( table, "NAME" );
+	if ( name == NULL || name->dtype != PLEAT_DTYPE_U8 || name->rank != 1 || name->dims[0] > 64 )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	memcpy( a->name, data + name->offset, name->dims[0] );
+	a->name[name->dims[0]] = 0;
+	if ( memchr( a->name, 0, name->dims[0] ) != NULL )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	const plSection* meta = plFindSection( table, "META" );
+	if ( meta != NULL )
+	{
+		if ( meta->dtype != PLEAT_DTYPE_U8 || meta->rank != 1 )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		a->meta = (const char*)( data + meta->offset );
+		a->meta_size = meta->size;
+	}
+
+	a->joint_names = (const char*)plRequire( data, table, "JNAM", PLEAT_DTYPE_U8, 2, J, PLEAT_JOINT_NAME_SIZE, 1 );
+	a->parents = (const int32_t*)plRequire( data, table, "JPAR", PLEAT_DTYPE_I32, 1, J, 1, 1 );
+	a->joint_template = (const float*)plRequire( data, table, "JTPL", PLEAT_DTYPE_F32, 2, J, 3, 1 );
+	a->joint_shapedirs = (const float*)plRequire( data, table, "JSHP", PLEAT_DTYPE_F32, 3, B, J, 3 );
+	a->input_joints = (const uint32_t*)plRequire( data, table, "JINP", PLEAT_DTYPE_U32, 1, Jin, 1, 1 );
+	a->template_positions = (const float*)plRequire( data, table, "TMPL", PLEAT_DTYPE_F32, 2, N, 3, 1 );
+	a->shape_blend = (const float*)plRequire( data, table, "SHPB", PLEAT_DTYPE_F32, 3, B, N, 3 );
+	a->faces = (const uint32_t*)plRequire( data, table, "FACE", PLEAT_DTYPE_U32, 2, F, 3, 1 );
+	a->adjacency_offsets = (const uint32_t*)plRequire( data, table, "NADO", PLEAT_DTYPE_U32, 1, N + 1, 1, 1 );
+	a->adjacency_faces = (const uint32_t*)plRequire( data, table, "NADF", PLEAT_DTYPE_U32, 1, 3 * F, 1, 1 );
+	a->skin_indices = (const uint16_t*)plRequire( data, table, "SKNI", PLEAT_DTYPE_U16, 2, N, K, 1 );
+	a->skin_weights = (const float*)plRequire( data, table, "SKNW", PLEAT_DTYPE_F32, 2, N, K, 1 );
+	a->x_mean = (const float*)plRequire( data, table, "XMEA", PLEAT_DTYPE_F32, 1, a->input_count, 1, 1 );
+	a->x_std = (const float*)plRequire( data, table, "XSTD", PLEAT_DTYPE_F32, 1, a->input_count, 1, 1 );
+	a->z_mean = (const float*)plRequire( data, table, "ZMEA", PLEAT_DTYPE_F32, 1, L, 1, 1 );
+	a->z_std = (const float*)plRequire( data, table, "ZSTD", PLEAT_DTYPE_F32, 1, L, 1, 1 );
+	a->z_min = (const float*)plRequire( data, table, "ZMIN", PLEAT_DTYPE_F32, 1, L, 1, 1 );
+	a->z_max = (const float*)plRequire( data, table, "ZMAX", PLEAT_DTYPE_F32, 1, L, 1, 1 );
+	// JSHP and SHPB have B = 0 rows for a shape-less asset: a 0-dim section is allowed and optional then.
+	if ( B == 0 )
+	{
+		static const float no_floats[1] = { 0.0f };
+		if ( a->joint_shapedirs == NULL )
+		{
+			a->joint_shapedirs = no_floats;
+		}
+		if ( a->shape_blend == NULL )
+		{
+			a->shape_blend = no_floats;
+		}
+	}
+	if ( a->joint_names == NULL || a->parents == NULL || a->joint_template == NULL || a->joint_shapedirs == NULL ||
+		 a->input_joints == NULL || a->template_positions == NULL || a->shape_blend == NULL || a->faces == NULL ||
+		 a->adjacency_offsets == NULL || a->adjacency_faces == NULL || a->skin_indices == NULL ||
+		 a->skin_weights == NULL || a->x_mean == NULL || a->x_std == NULL || a->z_mean == NULL || a->z_std == NULL ||
+		 a->z_min == NULL || a->z_max == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+
+	// Joints: names NUL-terminated, parents before children, root only at 0.
+	for ( uint32_t j = 0; j < J; ++j )
+	{
+		if ( memchr( a->joint_names + (size_t)j * PLEAT_JOINT_NAME_SIZE, 0, PLEAT_JOINT_NAME_SIZE ) == NULL )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		int32_t p = a->parents[j];
+		if ( j == 0 ? p != -1 : ( p < 0 || p >= (int32_t)j ) )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
+	for ( uint32_t i = 0; i < Jin; ++i )
+	{
+		uint32_t k = a->input_joints[i];
+		if ( k == 0 || k >= J || ( i > 0 && k <= a->input_joints[i - 1] ) )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
+	if ( !plAllFinite( a->joint_template, (uint64_t)J * 3 ) ||
+		 !plAllFinite( a->joint_shapedirs, (uint64_t)B * J * 3 ) ||
+		 !plAllFinite( a->template_positions, (uint64_t)N * 3 ) ||
+		 !plAllFinite( a->shape_blend, (uint64_t)B * N * 3 ) || !plAllFinite( a->x_mean, a->input_count ) ||
+		 !plAllFinite( a->x_std, a->input_count ) || !plAllFinite( a->z_mean, L ) || !plAllFinite( a->z_std, L ) ||
+		 !plAllFinite( a->z_min, L ) || !plAllFinite( a->z_max, L ) )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	for ( uint32_t i = 0; i < a->input_count; ++i )
+	{
+		if ( !( a->x_std[i] > 0.0f ) )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
+	for ( uint32_t i = 0; i < L; ++i )
+	{
+		if ( !( a->z_std[i] > 0.0f ) || !( a->z_min[i] <= a->z_max[i] ) )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
+	// Mesh: face indices in range; CSR adjacency consistent; skinning.
+	for ( uint64_t i = 0; i < (uint64_t)F * 3; ++i )
+	{
+		if ( a->faces[i] >= N )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
+	if ( a->adjacency_offsets[0] != 0 || a->adjacency_offsets[N] != 3 * F )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	for ( uint32_t v = 0; v < N; ++v )
+	{
+		uint32_t begin = a->adjacency_offsets[v], end = a->adjacency_offsets[v + 1];
+		if ( end < begin || end > 3 * F )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		for ( uint32_t e = begin; e < end; ++e )
+		{
+			uint32_t f = a->adjacency_faces[e];
+			if ( f >= F || ( e > begin && f <= a->adjacency_faces[e - 1] ) )
+			{
+				return PLEAT_RESULT_INVALID_ASSET_DATA;
+			}
+			const uint32_t* tri = a->faces + (size_t)f * 3;
+			if ( tri[0] != v && tri[1] != v && tri[2] != v )
+			{
+				return PLEAT_RESULT_INVALID_ASSET_DATA;
+			}
+		}
+	}
+	for ( uint32_t v = 0; v < N; ++v )
+	{
+		double sum = 0.0;
+		for ( uint32_t k = 0; k < K; ++k )
+		{
+			float w = a->skin_weights[(size_t)v * K + k];
+			if ( !isfinite( w ) || w < 0.0f || a->skin_indices[(size_t)v * K + k] >= J )
+			{
+				return PLEAT_RESULT_INVALID_ASSET_DATA;
+			}
+			sum += w;
+		}
+		if ( fabs( sum - 1.0 ) > 1e-3 )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
+	// Networks and blend shapes.
+	plResult r = plParseLayers( data, table, flags, 'L', 'P', 'P', a->lp_layer_count, a->input_count, L, a->lp );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
+	}
+	r = plParseLayers( data, table, flags, 'D', 'C', 'C', a->dec_layer_count, L, D, a->dec );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
+	}
+	a->blend_shapes = plRequireWeights( data, table, "BLND", flags, 3, D, N, 3, &a->blend_shapes_fp16 );
+	if ( a->blend_shapes == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	const plSection* pins = plFindSection( table, "PINS" );
+	if ( pins != NULL )
+	{
+		if ( pins->dtype != PLEAT_DTYPE_U32 || pins->rank != 1 )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		a->pinned = (const uint32_t*)( data + pins->offset );
+		a->pinned_count = pins->dims[0];
+		for ( uint32_t i = 0; i < a->pinned_count; ++i )
+		{
+			if ( a->pinned[i] >= N )
+			{
+				return PLEAT_RESULT_INVALID_ASSET_DATA;
+			}
+		}
+	}
+	const plSection* oxlp = plFindSection( table, "OXLP" );
+	const plSection* oxdc = plFindSection( table, "OXDC" );
+	if ( ( oxlp != NULL && ( oxlp->dtype != PLEAT_DTYPE_U8 || oxlp->size == 0 ) ) ||
+		 ( oxdc != NULL && ( oxdc->dtype != PLEAT_DTYPE_U8 || oxdc->size == 0 ) ) )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	if ( oxlp != NULL )
+	{
+		a->onnx_lp = data + oxlp->offset;
+		a->onnx_lp_size = oxlp->size;
+	}
+	if ( oxdc != NULL )
+	{
+		a->onnx_dec = data + oxdc->offset;
+		a->onnx_dec_size = oxdc->size;
+	}
+	return PLEAT_RESULT_OK;
+}
+
+plResult plAssetData_Parse( const uint8_t* data, size_t size, int skip_checksum, plAssetData* out )
+{
+	if ( data == NULL || out == NULL || ( (uintptr_t)data & 63u ) != 0 )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	memset( out, 0, sizeof( *out ) );
+	// The section table is 12 KiB at most; it lives on the stack only for the parse.
+	plSectionTable table;
+	uint32_t flags = 0;
+	plResult r = plParseHeader( data, size, skip_checksum, &table, &flags );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
+	}
+	r = plParseContent( data, &table, flags, out );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
+	}
+	out->block = data;
+	out->size = size;
+	return PLEAT_RESULT_OK;
+}
+
+// ---- public API ----
+
+plAssetDef plDefaultAssetDef( void )
+{
+	plAssetDef def;
+	memset( &def, 0, sizeof( def ) );
+	def.internal_cookie = PLEAT_DEF_COOKIE;
+	return def;
+}
+
+static plResult plReadFile( plContextData* ctx, const char* path, void** out_block, size_t* out_size )
+{
+	FILE* file = fopen( path, "rb" );
+	if ( file == NULL )
+	{
+		return PLEAT_RESULT_IO_ERROR;
+	}
+	plResult r = PLEAT_RESULT_IO_ERROR;
+	void* block = NULL;
+	long length = -1;
+	if ( fseek( file, 0, SEEK_END ) == 0 )
+	{
+		length = ftell( file );
+	}
+	if ( length > 0 && fseek( file, 0, SEEK_SET ) == 0 )
+	{
+		block = plAlloc( &ctx->allocator, (size_t)length, 64 );
+		if ( block == NULL )
+		{
+			r = PLEAT_RESULT_OUT_OF_MEMORY;
+		}
+		else if ( fread( block, 1, (size_t)length, file ) == (size_t)length )
+		{
+			r = PLEAT_RESULT_OK;
+		}
+	}
+	else if ( length == 0 )
+	{
+		r = PLEAT_RESULT_TRUNCATED;
+	}
+	fclose( file );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		plFree( &ctx->allocator, block, length > 0 ? (size_t)length : 0 );
+		return r;
+	}
+	*out_block = block;
+	*out_size = (size_t)length;
+	return PLEAT_RESULT_OK;
+}
+
+static plLogItem plLogItemForLoadResult( plResult r )
+{
+	switch ( r )
+	{
+		case PLEAT_RESULT_IO_ERROR:
+			return PLEAT_LOG_ASSET_IO_ERROR;
+		case PLEAT_RESULT_CHECKSUM_MISMATCH:
+			return PLEAT_LOG_ASSET_CHECKSUM_MISMATCH;
+		case PLEAT_RESULT_MALFORMED_ASSET:
+			return PLEAT_LOG_ASSET_BAD_SECTION_TABLE;
+		case PLEAT_RESULT_INVALID_ASSET_DATA:
+			return PLEAT_LOG_ASSET_BAD_CONTENT;
+		case PLEAT_RESULT_OUT_OF_MEMORY:
+			return PLEAT_LOG_OUT_OF_MEMORY;
+		default:
+			return PLEAT_LOG_ASSET_BAD_HEADER;
+	}
+}
+
+plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_asset )
+{
+	if ( out_asset != NULL )
+	{
+		memset( out_asset, 0, sizeof( *out_asset ) );
+	}
+	plContextData* ctx = plGetContext( context );
+	if ( def == NULL || out_asset == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	if ( ctx == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	if ( def->internal_cookie != PLEAT_DEF_COOKIE || ( def->path == NULL ) == ( def->data == NULL ) ||
+		 ( def->data != NULL && def->size == 0 ) ||
+		 ( def->flags & ~( PLEAT_ASSET_FLAG_USE_IN_PLACE | PLEAT_ASSET_FLAG_SKIP_CHECKSUM ) ) != 0 )
+	{
+		return PLEAT_RESULT_INVALID_DEF;
+	}
+	plAssetData* asset = (plAssetData*)plAllocZeroed( &ctx->allocator, sizeof( plAssetData ), 64 );
+	if ( asset == NULL )
+	{
+		return PLEAT_RESULT_OUT_OF_MEMORY;
+	}
+	void* owned = NULL;
+	size_t owned_size = 0;
+	const uint8_t* block = NULL;
+	size_t size = 0;
+	plResult r = PLEAT_RESULT_OK;
+	if ( def->path != NULL )
+	{
+		r = plReadFile( ctx, def->path, &owned, &owned_size );
+		block = (const uint8_t*)owned;
+		size = owned_size;
+	}
+	else if ( ( def->flags & PLEAT_ASSET_FLAG_USE_IN_PLACE ) != 0 && ( (uintptr_t)def->data & 63u ) == 0 )
+	{
+		block = (const uint8_t*)def->data;
+		size = def->size;
+	}
+	else
+	{
+		owned = plAlloc( &ctx->allocator, def->size, 64 );
+		if ( owned == NULL )
+		{
+			r = PLEAT_RESULT_OUT_OF_MEMORY;
+		}
+		else
+		{
+			memcpy( owned, def->data, def->size );
+			owned_size = def->size;
+			block = (const uint8_t*)owned;
+			size = def->size;
+			if ( ( def->flags & PLEAT_ASSET_FLAG_USE_IN_PLACE ) != 0 )
+			{
+				plLog( ctx, PLEAT_LOG_LEVEL_WARNING, PLEAT_LOG_ASSET_COPIED, "buffer not 64-byte aligned" );
+			}
+		}
+	}
+	if ( r == PLEAT_RESULT_OK )
+	{
+		r = plAssetData_Parse( block, size, ( def->flags & PLEAT_ASSET_FLAG_SKIP_CHECKSUM ) != 0, asset );
+	}
+	uint32_t slot = UINT32_MAX;
+	if ( r == PLEAT_RESULT_OK )
+	{
+		slot = plSlotTable_Insert( ctx, &ctx->assets, asset );
+		if ( slot == UINT32_MAX )
+		{
+			r = PLEAT_RESULT_OUT_OF_MEMORY;
+		}
+	}
+	if ( r != PLEAT_RESULT_OK )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, plLogItemForLoadResult( r ), "%s (%s)", plResultString( r ),
+			   def->path != NULL ? def->path : "memory" );
+		plFree( &ctx->allocator, owned, owned_size );
+		plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
+		return r;
+	}
+	asset->owned_block = owned;
+	asset->owned_size = owned_size;
+	asset->context1 = ctx->index1;
+	out_asset->index1 = slot + 1;
+	out_asset->context1 = ctx->index1;
+	out_asset->generation = ctx->assets.slots[slot].generation;
+	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_ASSET_LOADED, "'%s': N=%u F=%u J=%u L=%u D=%u", asset->name,
+		   asset->vertex_count, asset->face_count, asset->joint_count, asset->latent_count, asset->blend_count );
+	return PLEAT_RESULT_OK;
+}
+
+plAssetData* plGetAssetData( plAsset asset )
+{
+	plContextData* ctx = plGetContextByIndex1( asset.context1 );
+	if ( ctx == NULL )
+	{
+		return NULL;
+	}
+	return (plAssetData*)plSlotTable_Get( &ctx->assets, asset.index1, asset.generation );
+}
+
+void plAssetData_Destroy( plContextData* ctx, void* object )
+{
+	plAssetData* asset = (plAssetData*)object;
+	plFree( &ctx->allocator, asset->owned_block, asset->owned_size );
+	plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
+}
+
+plResult plDestroyAsset( plAsset handle )
+{
+	plAssetData* asset = plGetAssetData( handle );
+	if ( asset == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	plContextData* ctx = plGetContextByIndex1( handle.context1 );
+	if ( asset->instance_count != 0 )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_ASSET_IN_USE, "%u instances", asset->instance_count );
+		return PLEAT_RESULT_ASSET_IN_USE;
+	}
+	plAssetData_Destroy( ctx, asset );
+	plSlotTable_Remove( &ctx->assets, handle.index1 );
+	return PLEAT_RESULT_OK;
+}
+
+int plAsset_IsValid( plAsset asset )
+{
+	return plGetAssetData( asset ) != NULL;
+}
+
+plResult plAsset_GetInfo( plAsset handle, plAssetInfo* out_info )
+{
+	if ( out_info == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	const plAssetData* a = plGetAssetData( handle );
+	if ( a == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	memset( out_info, 0, sizeof( *out_info ) );
+	out_info->vertex_count = a->vertex_count;
+	out_info->face_count = a->face_count;
+	out_info->joint_count = a->joint_count;
+	out_info->input_joint_count = a->input_joint_count;
+	out_info->influence_count = a->influence_count;
+	out_info->beta_count = a->beta_count;
+	out_info->latent_count = a->latent_count;
+	out_info->blend_count = a->blend_count;
+	out_info->input_count = a->input_count;
+	out_info->lp_layer_count = a->lp_layer_count;
+	out_info->dec_layer_count = a->dec_layer_count;
+	out_info->weights_fp16 = a->weights_fp16;
+	out_info->dt_min_s = a->dt_min_s;
+	out_info->dt_max_s = a->dt_max_s;
+	out_info->beta_min = a->beta_min;
+	out_info->beta_max = a->beta_max;
+	memcpy( out_info->material_min, a->material_min, sizeof( a->material_min ) );
+	memcpy( out_info->material_max, a->material_max, sizeof( a->material_max ) );
+	memcpy( out_info->material_default, a->material_default, sizeof( a->material_default ) );
+	out_info->train_fps = a->train_fps;
+	memcpy( out_info->name, a->name, sizeof( a->name ) );
+	out_info->meta_json = a->meta;
+	out_info->meta_json_size = a->meta_size;
+	out_info->has_onnx_lp = a->onnx_lp != NULL;
+	out_info->has_onnx_decoder = a->onnx_dec != NULL;
+	out_info->pinned_count = a->pinned_count;
+	return PLEAT_RESULT_OK;
+}
+
+plResult plAsset_GetJointName( plAsset handle, uint32_t joint_index, const char** out_name )
+{
+	if ( out_name == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	*out_name = NULL;
+	const plAssetData* a = plGetAssetData( handle );
+	if ( a == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	if ( joint_index >= a->joint_count )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	*out_name = a->joint_names + (size_t)joint_index * PLEAT_JOINT_NAME_SIZE;
+	return PLEAT_RESULT_OK;
+}
+
+plResult plAsset_FindJoint( plAsset handle, const char* name, int32_t* out_joint_index )
+{
+	if ( name == NULL || out_joint_index == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	*out_joint_index = -1;
+	const plAssetData* a = plGetAssetData( handle );
+	if ( a == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	for ( uint32_t j = 0; j < a->joint_count; ++j )
+	{
+		if ( strncmp( a->joint_names + (size_t)j * PLEAT_JOINT_NAME_SIZE, name, PLEAT_JOINT_NAME_SIZE ) == 0 &&
+			 strlen( name ) < PLEAT_JOINT_NAME_SIZE )
+		{
+			*out_joint_index = (int32_t)j;
+			return PLEAT_RESULT_OK;
+		}
+	}
+	return PLEAT_RESULT_NOT_FOUND;
+}

@@ -1,0 +1,82 @@
+// Internal: a loaded, validated asset (docs/asset-format.md). Every pointer points into the one 64-byte aligned block.
+#ifndef PLEAT_ASSET_H
+#define PLEAT_ASSET_H
+#include "pleat/pleat.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define PLEAT_ACTIVATION_RELU 1
+#define PLEAT_ACTIVATION_SILU 2
+
+typedef struct plLayer
+{
+	const void* weight; // [out][in] row-major (torch Linear.weight), fp32 or fp16
+	int weight_fp16;
+	const float* bias;  // [out]
+	uint32_t in_count;
+	uint32_t out_count;
+} plLayer;
+
+typedef struct plAssetData
+{
+	const uint8_t* block; // the whole file, 64-byte aligned
+	size_t size;
+	void* owned_block;    // non-NULL if the SDK allocated (and must free) the block
+	size_t owned_size;
+	uint32_t instance_count; // live instances using this asset
+	uint16_t context1;
+
+	// CONF
+	uint32_t vertex_count, face_count, joint_count, input_joint_count, influence_count, beta_count, latent_count,
+		blend_count, lp_layer_count, dec_layer_count, lp_activation, dec_activation, input_count;
+	float dt_min_s, dt_max_s, beta_min, beta_max, train_fps;
+	float material_min[4], material_max[4], material_default[4];
+	int weights_fp16;
+
+	char name[65];
+	const char* meta;          // [meta_size] utf-8 JSON, or NULL
+	size_t meta_size;
+	const char* joint_names;   // [J][32] NUL-padded, each has a NUL
+	const int32_t* parents;    // [J]
+	const float* joint_template;  // [J][3] metres
+	const float* joint_shapedirs; // [B][J][3] metres per unit β
+	const uint32_t* input_joints; // [Jin]
+	const float* template_positions; // [N][3] metres, rest space
+	const float* shape_blend;        // [B][N][3]
+	const uint32_t* faces;           // [F][3]
+	const uint32_t* adjacency_offsets; // [N + 1]
+	const uint32_t* adjacency_faces;   // [3F]
+	const uint16_t* skin_indices;      // [N][K]
+	const float* skin_weights;         // [N][K]
+	const float* x_mean;  // [I]
+	const float* x_std;   // [I]
+	const float* z_mean;  // [L]
+	const float* z_std;   // [L]
+	const float* z_min;   // [L]
+	const float* z_max;   // [L]
+	plLayer lp[PLEAT_MAX_LAYERS];
+	plLayer dec[PLEAT_MAX_LAYERS];
+	const void* blend_shapes; // [D][N][3] fp32 or fp16
+	int blend_shapes_fp16;
+	const uint32_t* pinned; // [P] or NULL
+	uint32_t pinned_count;
+	const void* onnx_lp;    // OXLP or NULL
+	size_t onnx_lp_size;
+	const void* onnx_dec;   // OXDC or NULL
+	size_t onnx_dec_size;
+} plAssetData;
+
+// Validates data (structure, checksum unless skip_checksum, then content) and fills out; pointers point into data,
+// which must be 64-byte aligned. Never reads outside [data, data + size). Exposed for tests and the fuzzer.
+plResult plAssetData_Parse( const uint8_t* data, size_t size, int skip_checksum, plAssetData* out );
+
+// Looks up an asset handle (NULL if stale).
+plAssetData* plGetAssetData( plAsset asset );
+
+uint32_t plCrc32( uint32_t crc, const uint8_t* data, size_t size );
+
+// I = L + 8 + 3·(6·Jin + 6) + 9·Jin + B + 4 (docs/inputs.md)
+uint64_t plInputCountFormula( uint64_t latent_count, uint64_t input_joint_count, uint64_t beta_count );
+
+#endif

@@ -1,0 +1,385 @@
+// The context: host hooks (allocator, task system, log), the process-wide context table and the per-context object
+// tables that give assets and instances their index + generation handles.
+#include "core.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static plContextData* s_contexts[PLEAT_MAX_CONTEXTS];
+static uint16_t s_context_generations[PLEAT_MAX_CONTEXTS];
+
+const char* plResultString( plResult result )
+{
+	switch ( result )
+	{
+#define PLEAT_CASE_( name )                                                                                            \
+	case name:                                                                                                         \
+		return #name;
+		PLEAT_CASE_( PLEAT_RESULT_OK )
+		PLEAT_CASE_( PLEAT_RESULT_CLAMPED )
+		PLEAT_CASE_( PLEAT_RESULT_NUMERIC_RESET )
+		PLEAT_CASE_( PLEAT_RESULT_INVALID_ARGUMENT )
+		PLEAT_CASE_( PLEAT_RESULT_INVALID_DEF )
+		PLEAT_CASE_( PLEAT_RESULT_INVALID_HANDLE )
+		PLEAT_CASE_( PLEAT_RESULT_OUT_OF_MEMORY )
+		PLEAT_CASE_( PLEAT_RESULT_NON_FINITE_INPUT )
+		PLEAT_CASE_( PLEAT_RESULT_INVALID_DT )
+		PLEAT_CASE_( PLEAT_RESULT_INVALID_QUATERNION )
+		PLEAT_CASE_( PLEAT_RESULT_JOINT_COUNT_MISMATCH )
+		PLEAT_CASE_( PLEAT_RESULT_BUFFER_TOO_SMALL )
+		PLEAT_CASE_( PLEAT_RESULT_IO_ERROR )
+		PLEAT_CASE_( PLEAT_RESULT_TRUNCATED )
+		PLEAT_CASE_( PLEAT_RESULT_BAD_MAGIC )
+		PLEAT_CASE_( PLEAT_RESULT_LEGACY_VERSION )
+		PLEAT_CASE_( PLEAT_RESULT_UNSUPPORTED_VERSION )
+		PLEAT_CASE_( PLEAT_RESULT_CHECKSUM_MISMATCH )
+		PLEAT_CASE_( PLEAT_RESULT_MALFORMED_ASSET )
+		PLEAT_CASE_( PLEAT_RESULT_INVALID_ASSET_DATA )
+		PLEAT_CASE_( PLEAT_RESULT_BACKEND_UNAVAILABLE )
+		PLEAT_CASE_( PLEAT_RESULT_GL_UNAVAILABLE )
+		PLEAT_CASE_( PLEAT_RESULT_GL_ERROR )
+		PLEAT_CASE_( PLEAT_RESULT_ASSET_IN_USE )
+		PLEAT_CASE_( PLEAT_RESULT_NOT_FOUND )
+		PLEAT_CASE_( PLEAT_RESULT_CAPACITY_EXCEEDED )
+#undef PLEAT_CASE_
+	}
+	return "PLEAT_RESULT_UNKNOWN";
+}
+
+const char* plLogItemString( plLogItem item )
+{
+	switch ( item )
+	{
+#define PLEAT_LOG_CASE_( name, id, message )                                                                           \
+	case PLEAT_LOG_##name:                                                                                             \
+		return message;
+		PLEAT_LOG_ITEMS( PLEAT_LOG_CASE_ )
+#undef PLEAT_LOG_CASE_
+	}
+	return "unknown item";
+}
+
+void plLog( const plContextData* ctx, plLogLevel level, plLogItem item, const char* format, ... )
+{
+	if ( ctx == NULL || ctx->log == NULL )
+	{
+		return;
+	}
+	char message[512];
+	int n = snprintf( message, sizeof( message ), "%s", plLogItemString( item ) );
+	if ( format != NULL && n > 0 && (size_t)n < sizeof( message ) - 2 )
+	{
+		message[n++] = ':';
+		message[n++] = ' ';
+		va_list args;
+		va_start( args, format );
+		vsnprintf( message + n, sizeof( message ) - (size_t)n, format, args );
+		va_end( args );
+	}
+	ctx->log( level, item, message, ctx->log_context );
+}
+
+// Default allocator: C11 aligned_alloc (size rounded up to the alignment as C11 requires).
+static void* plDefaultAlloc( size_t size, size_t align, void* user )
+{
+	(void)user;
+	size_t rounded = ( size + align - 1 ) & ~( align - 1 );
+	if ( rounded < size )
+	{
+		return NULL;
+	}
+	return aligned_alloc( align, rounded );
+}
+
+static void plDefaultFree( void* ptr, size_t size, void* user )
+{
+	(void)size;
+	(void)user;
+	free( ptr );
+}
+
+static void* plCountingAlloc( size_t size, size_t align, void* user )
+{
+	plContextData* ctx = (plContextData*)user;
+	void* p = ctx->host_alloc( size, align, ctx->host_allocator_context );
+	if ( p != NULL )
+	{
+		atomic_fetch_add( &ctx->live_bytes, (uint64_t)size );
+	}
+	return p;
+}
+
+static void plCountingFree( void* ptr, size_t size, void* user )
+{
+	plContextData* ctx = (plContextData*)user;
+	atomic_fetch_sub( &ctx->live_bytes, (uint64_t)size );
+	ctx->host_free( ptr, size, ctx->host_allocator_context );
+}
+
+void plRunTask( const plTaskRunner* runner, plTaskFn* task, uint32_t item_count, uint32_t min_range, void* context )
+{
+	if ( item_count == 0 )
+	{
+		return;
+	}
+	if ( runner == NULL || runner->enqueue_task == NULL || runner->worker_count <= 1 )
+	{
+		task( 0, item_count, 0, context );
+		return;
+	}
+	void* handle = runner->enqueue_task( task, item_count, min_range == 0 ? 1 : min_range, context,
+										 runner->task_context );
+	if ( handle != NULL )
+	{
+		runner->finish_task( handle, runner->task_context );
+	}
+}
+
+plContextDef plDefaultContextDef( void )
+{
+	plContextDef def;
+	memset( &def, 0, sizeof( def ) );
+	def.worker_count = 1;
+	def.internal_cookie = PLEAT_DEF_COOKIE;
+	return def;
+}
+
+plResult plCreateContext( const plContextDef* def, plContext* out_context )
+{
+	if ( out_context != NULL )
+	{
+		memset( out_context, 0, sizeof( *out_context ) );
+	}
+	if ( def == NULL || out_context == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	if ( def->internal_cookie != PLEAT_DEF_COOKIE || ( def->alloc == NULL ) != ( def->free == NULL ) ||
+		 ( def->enqueue_task == NULL ) != ( def->finish_task == NULL ) || def->worker_count > 64 )
+	{
+		return PLEAT_RESULT_INVALID_DEF;
+	}
+	uint32_t slot = UINT32_MAX;
+	for ( uint32_t i = 0; i < PLEAT_MAX_CONTEXTS; ++i )
+	{
+		if ( s_contexts[i] == NULL )
+		{
+			slot = i;
+			break;
+		}
+	}
+	if ( slot == UINT32_MAX )
+	{
+		return PLEAT_RESULT_CAPACITY_EXCEEDED;
+	}
+	plAllocFn* host_alloc = def->alloc != NULL ? def->alloc : plDefaultAlloc;
+	plFreeFn* host_free = def->free != NULL ? def->free : plDefaultFree;
+	plContextData* ctx = (plContextData*)host_alloc( sizeof( plContextData ), 64, def->allocator_context );
+	if ( ctx == NULL )
+	{
+		return PLEAT_RESULT_OUT_OF_MEMORY;
+	}
+	memset( ctx, 0, sizeof( *ctx ) );
+	ctx->host_alloc = host_alloc;
+	ctx->host_free = host_free;
+	ctx->host_allocator_context = def->allocator_context;
+	atomic_init( &ctx->live_bytes, 0 );
+	ctx->allocator.alloc = plCountingAlloc;
+	ctx->allocator.free = plCountingFree;
+	ctx->allocator.user = ctx;
+	ctx->enqueue_task = def->enqueue_task;
+	ctx->finish_task = def->finish_task;
+	ctx->task_context = def->task_context;
+	ctx->worker_count = def->enqueue_task != NULL ? ( def->worker_count == 0 ? 1 : def->worker_count ) : 1;
+	ctx->log = def->log;
+	ctx->log_context = def->log_context;
+	ctx->uses_avx2 = plSelectKernels( &ctx->kernels, def->force_scalar );
+	ctx->index1 = (uint16_t)( slot + 1 );
+
+	if ( s_context_generations[slot] == 0 )
+	{
+		s_context_generations[slot] = 1;
+	}
+	s_contexts[slot] = ctx;
+	out_context->index1 = (uint16_t)( slot + 1 );
+	out_context->generation = s_context_generations[slot];
+	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_CONTEXT_CREATED, "%u workers", ctx->worker_count );
+	plLog( ctx, PLEAT_LOG_LEVEL_INFO, ctx->uses_avx2 ? PLEAT_LOG_KERNELS_AVX2 : PLEAT_LOG_KERNELS_SCALAR, NULL );
+	return PLEAT_RESULT_OK;
+}
+
+plContextData* plGetContext( plContext context )
+{
+	if ( context.index1 == 0 || context.index1 > PLEAT_MAX_CONTEXTS )
+	{
+		return NULL;
+	}
+	uint32_t slot = context.index1 - 1u;
+	if ( s_contexts[slot] == NULL || s_context_generations[slot] != context.generation )
+	{
+		return NULL;
+	}
+	return s_contexts[slot];
+}
+
+plContextData* plGetContextByIndex1( uint16_t index1 )
+{
+	if ( index1 == 0 || index1 > PLEAT_MAX_CONTEXTS )
+	{
+		return NULL;
+	}
+	return s_contexts[index1 - 1u];
+}
+
+int plContext_IsValid( plContext context )
+{
+	return plGetContext( context ) != NULL;
+}
+
+plResult plDestroyContext( plContext context )
+{
+	plContextData* ctx = plGetContext( context );
+	if ( ctx == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	if ( ctx->assets.live_count != 0 || ctx->instances.live_count != 0 )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_WARNING, PLEAT_LOG_CONTEXT_DESTROYED_WITH_LIVE_OBJECTS, "%u assets, %u instances",
+			   ctx->assets.live_count, ctx->instances.live_count );
+	}
+	// Instances first: they hold references to assets.
+	for ( uint32_t i = 0; i < ctx->instances.capacity; ++i )
+	{
+		if ( ctx->instances.slots[i].object != NULL )
+		{
+			plInstanceData_Destroy( ctx, ctx->instances.slots[i].object );
+			plSlotTable_Remove( &ctx->instances, i + 1 );
+		}
+	}
+	for ( uint32_t i = 0; i < ctx->assets.capacity; ++i )
+	{
+		if ( ctx->assets.slots[i].object != NULL )
+		{
+			plAssetData_Destroy( ctx, ctx->assets.slots[i].object );
+			plSlotTable_Remove( &ctx->assets, i + 1 );
+		}
+	}
+	plSlotTable_Free( ctx, &ctx->instances );
+	plSlotTable_Free( ctx, &ctx->assets );
+	uint32_t slot = context.index1 - 1u;
+	s_contexts[slot] = NULL;
+	s_context_generations[slot] = (uint16_t)( s_context_generations[slot] + 1 );
+	if ( s_context_generations[slot] == 0 )
+	{
+		s_context_generations[slot] = 1;
+	}
+	plFreeFn* host_free = ctx->host_free;
+	void* user = ctx->host_allocator_context;
+	host_free( ctx, sizeof( plContextData ), user );
+	return PLEAT_RESULT_OK;
+}
+
+plResult plContext_GetLiveBytes( plContext context, uint64_t* out_bytes )
+{
+	plContextData* ctx = plGetContext( context );
+	if ( out_bytes == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	if ( ctx == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	*out_bytes = atomic_load( &ctx->live_bytes );
+	return PLEAT_RESULT_OK;
+}
+
+plResult plContext_UsesAvx2( plContext context, int* out_avx2 )
+{
+	plContextData* ctx = plGetContext( context );
+	if ( out_avx2 == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	if ( ctx == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	*out_avx2 = ctx->uses_avx2;
+	return PLEAT_RESULT_OK;
+}
+
+uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object )
+{
+	for ( uint32_t i = 0; i < table->capacity; ++i )
+	{
+		if ( table->slots[i].object == NULL )
+		{
+			table->slots[i].object = object;
+			table->live_count += 1;
+			return i;
+		}
+	}
+	uint32_t new_capacity = table->capacity == 0 ? 16 : table->capacity * 2;
+	if ( new_capacity > 0x1000000u )
+	{
+		return UINT32_MAX;
+	}
+	plSlot* slots = (plSlot*)plAllocZeroed( &ctx->allocator, new_capacity * sizeof( plSlot ), 16 );
+	if ( slots == NULL )
+	{
+		return UINT32_MAX;
+	}
+	if ( table->slots != NULL )
+	{
+		memcpy( slots, table->slots, table->capacity * sizeof( plSlot ) );
+		plFree( &ctx->allocator, table->slots, table->capacity * sizeof( plSlot ) );
+	}
+	for ( uint32_t i = table->capacity; i < new_capacity; ++i )
+	{
+		slots[i].generation = 1;
+	}
+	uint32_t index = table->capacity;
+	table->slots = slots;
+	table->capacity = new_capacity;
+	table->slots[index].object = object;
+	table->live_count += 1;
+	return index;
+}
+
+void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint16_t generation )
+{
+	if ( index1 == 0 || index1 > table->capacity )
+	{
+		return NULL;
+	}
+	const plSlot* slot = &table->slots[index1 - 1u];
+	if ( slot->object == NULL || slot->generation != generation )
+	{
+		return NULL;
+	}
+	return slot->object;
+}
+
+void plSlotTable_Remove( plSlotTable* table, uint32_t index1 )
+{
+	plSlot* slot = &table->slots[index1 - 1u];
+	slot->object = NULL;
+	slot->generation = (uint16_t)( slot->generation + 1 );
+	if ( slot->generation == 0 )
+	{
+		slot->generation = 1;
+	}
+	table->live_count -= 1;
+}
+
+void plSlotTable_Free( plContextData* ctx, plSlotTable* table )
+{
+	plFree( &ctx->allocator, table->slots, table->capacity * sizeof( plSlot ) );
+	table->slots = NULL;
+	table->capacity = 0;
+	table->live_count = 0;
+}

@@ -1,0 +1,40 @@
+// Internal: the CPU kernels and their dispatch table. The scalar kernels (mlp.c, blend_shapes.c, skinning.c, normals.c)
+// are the specification; the AVX2 + FMA + F16C variants (*_avx2.c, compiled with per-file flags) have the same names
+// with an _Avx2 suffix and are chosen once at context creation (plSelectKernels).
+#ifndef PLEAT_KERNELS_H
+#define PLEAT_KERNELS_H
+#include <stdint.h>
+
+// out[r] = bias[r] + Σ_c W[r][c] · x[c] for rows [row_begin, row_end); W is [rows][in] row-major, fp32 or fp16.
+typedef void plMatVecFn( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
+						 uint32_t in_count, uint32_t row_begin, uint32_t row_end );
+// out[v] = base[v] + Σ_j w[j] · shapes[j][v] for vertices [v_begin, v_end); shapes is [D][N][3], fp32 or fp16.
+typedef void plBlendShapesFn( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
+							  uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
+
+typedef struct plKernels
+{
+	plMatVecFn* mat_vec;
+	plBlendShapesFn* blend_shapes;
+} plKernels;
+
+void plMatVec_Scalar( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
+					  uint32_t in_count, uint32_t row_begin, uint32_t row_end );
+void plBlendShapes_Scalar( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
+						   uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
+#if defined( PLEAT_HAVE_AVX2 )
+void plMatVec_Avx2( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
+					uint32_t in_count, uint32_t row_begin, uint32_t row_end );
+void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
+						 uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
+#endif
+
+// Scalar kernels always; AVX2 ones if built, not forced off, and the CPU has AVX2, FMA and F16C. Returns 1 for AVX2.
+int plSelectKernels( plKernels* kernels, int force_scalar );
+
+// IEEE half → float (exact, handles subnormals, inf, NaN).
+float plHalfToFloat( uint16_t h );
+// float → IEEE half, round to nearest even (used by tests and tools).
+uint16_t plFloatToHalf( float f );
+
+#endif
