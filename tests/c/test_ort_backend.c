@@ -7,6 +7,7 @@
 //
 // Tolerance: fp32 inference vs a float64 reference on the same fp32 weights; |ort − ref| ≤ 1e-4 · (1 + |ref|).
 // Rounding over these depths and widths gives ~1e-6; a wrong weight, bias, transpose or activation gives ≥ 1e-2.
+#define _POSIX_C_SOURCE 200809L // setenv, posix_memalign
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>

@@ -1,0 +1,506 @@
+// Step and MLP timings for docs/benchmarks.md (run through scripts/bench.sh; not a test).
+//
+// usage: pleat_bench_step --asset FP32.pleat --case case.bin [--asset-fp16 FP16.pleat] [--iterations N]
+//                         [--warmup N] [--scalar-iterations N] [--onnxruntime LIB] [--out step.json]
+//
+// FP32.pleat needs the OXLP/OXDC sections (pleat-pack --onnx) for the ONNX Runtime numbers; case.bin is the golden
+// motion of `python -m pleat.reference.golden` (only its poses are used). Every number is a median over N timed
+// iterations after a warm-up, on the calling thread only:
+//   pleat_mlp_us   latent predictor + decoder with Pleat's CPU kernels (the context's dispatch: AVX2 or scalar)
+//   ort_mlp_us     the same two networks, same fp32 weights, through ONNX Runtime (1 intra-op thread), measured
+//                  alternately with pleat_mlp_us in one loop (even iterations Pleat first, odd ones ORT first)
+//   pleat_step_us  plInstance_Step on the fp32 asset, the asset's motion looped (reset at each wrap)
+//   pleat_step_fp16_us, scalar_step_us (a context with force_scalar), ort_step_us (instance with the ORT backend)
+#define _POSIX_C_SOURCE 200809L
+#include "pleat/pleat.h"
+
+#include "asset.h"
+#include "kernels.h"
+#include "ort_backend.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+// ---- small helpers ----
+
+static double NowUs( void )
+{
+	struct timespec ts;
+	clock_gettime( CLOCK_MONOTONIC, &ts );
+	return (double)ts.tv_sec * 1e6 + (double)ts.tv_nsec * 1e-3;
+}
+
+static int CompareDoubles( const void* a, const void* b )
+{
+	double x = *(const double*)a;
+	double y = *(const double*)b;
+	return ( x > y ) - ( x < y );
+}
+
+static double Median( double* values, size_t count )
+{
+	if ( count == 0 )
+	{
+		return NAN;
+	}
+	qsort( values, count, sizeof( double ), CompareDoubles );
+	return count % 2 ? values[count / 2] : 0.5 * ( values[count / 2 - 1] + values[count / 2] );
+}
+
+// The file in one 64-byte aligned block (plAssetData_Parse reads in place).
+static uint8_t* ReadAligned( const char* path, size_t* out_size )
+{
+	FILE* file = fopen( path, "rb" );
+	if ( file == NULL )
+	{
+		return NULL;
+	}
+	fseek( file, 0, SEEK_END );
+	long length = ftell( file );
+	fseek( file, 0, SEEK_SET );
+	uint8_t* bytes = NULL;
+	if ( length > 0 )
+	{
+		bytes = (uint8_t*)aligned_alloc( 64, ( (size_t)length + 63 ) / 64 * 64 );
+	}
+	if ( bytes != NULL && fread( bytes, 1, (size_t)length, file ) != (size_t)length )
+	{
+		free( bytes );
+		bytes = NULL;
+	}
+	fclose( file );
+	*out_size = (size_t)length;
+	return bytes;
+}
+
+static int Fail( const char* what, plResult result )
+{
+	fprintf( stderr, "pleat_bench_step: %s: %s\n", what, plResultString( result ) );
+	return 1;
+}
+
+// ---- motion from case.bin (docs in tools/pleat/reference/golden.py) ----
+
+typedef struct Motion
+{
+	uint32_t frame_count;
+	uint32_t joint_count;
+	float* rotations; // [frame][J][4]
+	float* root;      // [frame][3 translation + 4 rotation + dt]
+	float beta[PLEAT_MAX_BETAS];
+	uint32_t beta_count;
+	float material[4];
+} Motion;
+
+static int ReadMotion( const char* path, Motion* motion )
+{
+	size_t size = 0;
+	uint8_t* bytes = ReadAligned( path, &size );
+	if ( bytes == NULL || size < 32 || memcmp( bytes, "PLGOLDEN", 8 ) != 0 )
+	{
+		free( bytes );
+		return 0;
+	}
+	uint32_t header[6];
+	memcpy( header, bytes + 8, sizeof( header ) ); // version, frames, J, N, B, L (little-endian host)
+	uint32_t frames = header[1], joints = header[2], vertices = header[3], betas = header[4], latents = header[5];
+	size_t per_frame = 4 * ( (size_t)joints * 4 + 3 + 4 + 1 + latents + (size_t)vertices * 6 );
+	size_t offset = 32 + 4 * ( (size_t)betas + 4 );
+	if ( betas > PLEAT_MAX_BETAS || frames == 0 || size < offset + per_frame * frames )
+	{
+		free( bytes );
+		return 0;
+	}
+	motion->frame_count = frames;
+	motion->joint_count = joints;
+	motion->beta_count = betas;
+	memcpy( motion->beta, bytes + 32, 4 * (size_t)betas );
+	memcpy( motion->material, bytes + 32 + 4 * (size_t)betas, 16 );
+	motion->rotations = (float*)malloc( 16 * (size_t)joints * frames );
+	motion->root = (float*)malloc( 32 * (size_t)frames );
+	for ( uint32_t f = 0; f < frames; ++f )
+	{
+		const uint8_t* p = bytes + offset + per_frame * f;
+		memcpy( motion->rotations + (size_t)f * joints * 4, p, 16 * (size_t)joints );
+		memcpy( motion->root + (size_t)f * 8, p + 16 * (size_t)joints, 32 );
+	}
+	free( bytes );
+	return 1;
+}
+
+// ---- Pleat's MLP, as the instance evaluates it: mat-vec per layer, activation between layers ----
+
+static void PleatMlp( const plKernels* kernels, const plLayer* layers, uint32_t layer_count, uint32_t activation,
+					  const float* input, float* scratch_a, float* scratch_b, float* output )
+{
+	const float* x = input;
+	for ( uint32_t i = 0; i < layer_count; ++i )
+	{
+		const plLayer* layer = &layers[i];
+		float* out = i + 1 == layer_count ? output : ( i % 2 ? scratch_b : scratch_a );
+		kernels->mat_vec( out, x, layer->weight, layer->weight_fp16, layer->bias, layer->in_count, 0,
+						  layer->out_count );
+		if ( i + 1 < layer_count )
+		{
+			for ( uint32_t r = 0; r < layer->out_count; ++r )
+			{
+				float v = out[r];
+				out[r] = activation == PLEAT_ACTIVATION_RELU ? ( v > 0.0f ? v : 0.0f ) : v / ( 1.0f + expf( -v ) );
+			}
+		}
+		x = out;
+	}
+}
+
+static void* BenchAlloc( size_t size, size_t align, void* user )
+{
+	(void)user;
+	return aligned_alloc( align, ( size + align - 1 ) / align * align );
+}
+
+static void BenchFree( void* ptr, size_t size, void* user )
+{
+	(void)size;
+	(void)user;
+	free( ptr );
+}
+
+typedef struct MlpTimes
+{
+	double pleat_us;
+	double ort_us;
+	double max_abs_diff; // |Pleat − ORT| over the decoder output of the last iteration
+	int have_ort;
+	plResult ort_result;
+} MlpTimes;
+
+static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_t warmup, uint32_t iterations,
+					  MlpTimes* times )
+{
+	plKernels kernels;
+	plSelectKernels( &kernels, 0 );
+	uint32_t width = asset->input_count;
+	for ( uint32_t i = 0; i < asset->lp_layer_count; ++i )
+		width = asset->lp[i].out_count > width ? asset->lp[i].out_count : width;
+	for ( uint32_t i = 0; i < asset->dec_layer_count; ++i )
+		width = asset->dec[i].out_count > width ? asset->dec[i].out_count : width;
+	float* x = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
+	float* a = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
+	float* b = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
+	float* latent_pleat = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
+	float* latent_ort = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
+	float* weights_pleat = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
+	float* weights_ort = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
+	uint32_t seed = 7u;
+	for ( uint32_t i = 0; i < asset->input_count; ++i ) // a normalised input: roughly unit scale
+	{
+		seed = seed * 1664525u + 1013904223u;
+		x[i] = (float)( (int32_t)( seed >> 8 ) - ( 1 << 23 ) ) / (float)( 1 << 23 );
+	}
+
+	plAllocator allocator = { BenchAlloc, BenchFree, NULL };
+	plOrtMlp* ort_lp = NULL;
+	plOrtMlp* ort_dec = NULL;
+	times->have_ort = 0;
+	times->ort_result = PLEAT_RESULT_BACKEND_UNAVAILABLE;
+	if ( asset->onnx_lp != NULL && asset->onnx_dec != NULL )
+	{
+		times->ort_result = plOrtMlp_Create( ort_library, asset->onnx_lp, asset->onnx_lp_size, asset->input_count,
+											 asset->latent_count, &allocator, &ort_lp );
+		if ( times->ort_result == PLEAT_RESULT_OK )
+		{
+			times->ort_result = plOrtMlp_Create( ort_library, asset->onnx_dec, asset->onnx_dec_size,
+												 asset->latent_count, asset->blend_count, &allocator, &ort_dec );
+		}
+		times->have_ort = times->ort_result == PLEAT_RESULT_OK;
+	}
+
+	double* pleat_us = (double*)malloc( sizeof( double ) * iterations );
+	double* ort_us = (double*)malloc( sizeof( double ) * iterations );
+	for ( uint32_t it = 0; it < warmup + iterations; ++it )
+	{
+		double t_pleat = 0.0;
+		double t_ort = 0.0;
+		for ( int turn = 0; turn < 2; ++turn )
+		{
+			int pleat_turn = ( turn == 0 ) == ( it % 2 == 0 );
+			if ( pleat_turn )
+			{
+				double t0 = NowUs();
+				PleatMlp( &kernels, asset->lp, asset->lp_layer_count, asset->lp_activation, x, a, b, latent_pleat );
+				PleatMlp( &kernels, asset->dec, asset->dec_layer_count, asset->dec_activation, latent_pleat, a, b,
+						  weights_pleat );
+				t_pleat = NowUs() - t0;
+			}
+			else if ( times->have_ort )
+			{
+				// Same latent into both decoders, so the outputs are comparable.
+				double t0 = NowUs();
+				plOrtMlp_Run( ort_lp, x, latent_ort );
+				plOrtMlp_Run( ort_dec, latent_ort, weights_ort );
+				t_ort = NowUs() - t0;
+			}
+		}
+		if ( it >= warmup )
+		{
+			pleat_us[it - warmup] = t_pleat;
+			ort_us[it - warmup] = t_ort;
+		}
+	}
+	times->max_abs_diff = 0.0;
+	if ( times->have_ort )
+	{
+		for ( uint32_t i = 0; i < asset->blend_count; ++i )
+		{
+			double d = fabs( (double)weights_pleat[i] - (double)weights_ort[i] );
+			times->max_abs_diff = d > times->max_abs_diff ? d : times->max_abs_diff;
+		}
+	}
+	times->pleat_us = Median( pleat_us, iterations );
+	times->ort_us = times->have_ort ? Median( ort_us, iterations ) : NAN;
+	plOrtMlp_Destroy( ort_lp );
+	plOrtMlp_Destroy( ort_dec );
+	free( pleat_us );
+	free( ort_us );
+	free( x );
+	free( a );
+	free( b );
+	free( latent_pleat );
+	free( latent_ort );
+	free( weights_pleat );
+	free( weights_ort );
+}
+
+// ---- full step through the public API ----
+
+typedef struct StepConfig
+{
+	const uint8_t* asset_bytes;
+	size_t asset_size;
+	int force_scalar;
+	plMlpBackend backend;
+	const char* ort_library;
+} StepConfig;
+
+static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint32_t warmup, uint32_t iterations,
+						   double* out_median_us, int* out_avx2 )
+{
+	plContextDef cdef = plDefaultContextDef();
+	cdef.force_scalar = config->force_scalar;
+	plContext context;
+	plResult result = plCreateContext( &cdef, &context );
+	if ( result != PLEAT_RESULT_OK )
+	{
+		return result;
+	}
+	if ( out_avx2 != NULL )
+	{
+		plContext_UsesAvx2( context, out_avx2 );
+	}
+	plAssetDef adef = plDefaultAssetDef();
+	adef.data = config->asset_bytes;
+	adef.size = config->asset_size;
+	adef.flags = PLEAT_ASSET_FLAG_USE_IN_PLACE;
+	plAsset asset;
+	result = plLoadAsset( context, &adef, &asset );
+	plInstance instance = { 0 };
+	if ( result == PLEAT_RESULT_OK )
+	{
+		plInstanceDef idef = plDefaultInstanceDef();
+		idef.asset = asset;
+		idef.beta = motion->beta;
+		idef.beta_count = motion->beta_count;
+		idef.material = motion->material;
+		idef.mlp_backend = config->backend;
+		idef.onnxruntime_library = config->ort_library;
+		result = plCreateInstance( context, &idef, &instance );
+	}
+	double* step_us = (double*)malloc( sizeof( double ) * iterations );
+	for ( uint32_t it = 0; result >= 0 && it < warmup + iterations; ++it )
+	{
+		uint32_t f = it % motion->frame_count;
+		if ( f == 0 )
+		{
+			plInstance_Reset( instance );
+		}
+		const float* root = motion->root + (size_t)f * 8;
+		plFrameInput in;
+		memset( &in, 0, sizeof( in ) );
+		in.joint_rotations = motion->rotations + (size_t)f * motion->joint_count * 4;
+		in.joint_count = motion->joint_count;
+		in.joint_stride_bytes = 16;
+		in.root_translation = ( plVec3 ){ root[0], root[1], root[2] };
+		in.root_rotation = ( plQuat ){ root[3], root[4], root[5], root[6] };
+		in.dt_s = root[7];
+		double t0 = NowUs();
+		plResult step = plInstance_Step( instance, &in, NULL );
+		double t1 = NowUs();
+		if ( step < 0 )
+		{
+			result = step;
+		}
+		else if ( it >= warmup )
+		{
+			step_us[it - warmup] = t1 - t0;
+		}
+	}
+	if ( result >= 0 )
+	{
+		*out_median_us = Median( step_us, iterations );
+		result = PLEAT_RESULT_OK;
+	}
+	free( step_us );
+	plDestroyContext( context );
+	return result;
+}
+
+// ---- main ----
+
+static void PrintJsonNumber( FILE* out, const char* key, double value, int last )
+{
+	if ( isfinite( value ) )
+		fprintf( out, "  \"%s\": %.2f%s\n", key, value, last ? "" : "," );
+	else
+		fprintf( out, "  \"%s\": null%s\n", key, last ? "" : "," );
+}
+
+int main( int argc, char** argv )
+{
+	const char* asset_path = NULL;
+	const char* fp16_path = NULL;
+	const char* case_path = NULL;
+	const char* ort_library = NULL;
+	const char* out_path = NULL;
+	uint32_t iterations = 2000, warmup = 200, scalar_iterations = 300;
+	for ( int i = 1; i + 1 < argc; i += 2 )
+	{
+		if ( strcmp( argv[i], "--asset" ) == 0 )
+			asset_path = argv[i + 1];
+		else if ( strcmp( argv[i], "--asset-fp16" ) == 0 )
+			fp16_path = argv[i + 1];
+		else if ( strcmp( argv[i], "--case" ) == 0 )
+			case_path = argv[i + 1];
+		else if ( strcmp( argv[i], "--onnxruntime" ) == 0 )
+			ort_library = argv[i + 1];
+		else if ( strcmp( argv[i], "--out" ) == 0 )
+			out_path = argv[i + 1];
+		else if ( strcmp( argv[i], "--iterations" ) == 0 )
+			iterations = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
+		else if ( strcmp( argv[i], "--warmup" ) == 0 )
+			warmup = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
+		else if ( strcmp( argv[i], "--scalar-iterations" ) == 0 )
+			scalar_iterations = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
+		else
+		{
+			fprintf( stderr, "pleat_bench_step: unknown option %s\n", argv[i] );
+			return 2;
+		}
+	}
+	if ( asset_path == NULL || case_path == NULL || iterations == 0 )
+	{
+		fprintf( stderr, "usage: pleat_bench_step --asset FP32.pleat --case case.bin [--asset-fp16 FP16.pleat] "
+						 "[--iterations N] [--warmup N] [--scalar-iterations N] [--onnxruntime LIB] [--out JSON]\n" );
+		return 2;
+	}
+
+	size_t asset_size = 0;
+	uint8_t* asset_bytes = ReadAligned( asset_path, &asset_size );
+	if ( asset_bytes == NULL )
+	{
+		fprintf( stderr, "pleat_bench_step: cannot read %s\n", asset_path );
+		return 1;
+	}
+	plAssetData asset;
+	plResult result = plAssetData_Parse( asset_bytes, asset_size, 0, &asset );
+	if ( result != PLEAT_RESULT_OK )
+	{
+		return Fail( asset_path, result );
+	}
+	Motion motion;
+	memset( &motion, 0, sizeof( motion ) );
+	if ( !ReadMotion( case_path, &motion ) || motion.joint_count != asset.joint_count )
+	{
+		fprintf( stderr, "pleat_bench_step: %s is not a golden case for this asset\n", case_path );
+		return 1;
+	}
+
+	MlpTimes mlp;
+	TimeMlps( &asset, ort_library, warmup, iterations, &mlp );
+	fprintf( stderr, "mlp: pleat %.1f us, ort %.1f us (%s), max |w_pleat - w_ort| = %.3g\n", mlp.pleat_us, mlp.ort_us,
+			 plResultString( mlp.ort_result ), mlp.max_abs_diff );
+
+	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library };
+	double step_us = NAN, step_fp16_us = NAN, scalar_us = NAN, ort_step_us = NAN;
+	int avx2 = 0;
+	result = TimeSteps( &config, &motion, warmup, iterations, &step_us, &avx2 );
+	if ( result != PLEAT_RESULT_OK )
+	{
+		return Fail( "step (fp32)", result );
+	}
+	config.force_scalar = 1;
+	if ( scalar_iterations > 0 )
+	{
+		result = TimeSteps( &config, &motion, scalar_iterations / 10, scalar_iterations, &scalar_us, NULL );
+		if ( result != PLEAT_RESULT_OK )
+			fprintf( stderr, "scalar step: %s\n", plResultString( result ) );
+	}
+	config.force_scalar = 0;
+	if ( mlp.have_ort )
+	{
+		config.backend = PLEAT_MLP_BACKEND_ONNXRUNTIME;
+		result = TimeSteps( &config, &motion, warmup, iterations, &ort_step_us, NULL );
+		if ( result != PLEAT_RESULT_OK )
+			fprintf( stderr, "ort step: %s\n", plResultString( result ) );
+		config.backend = PLEAT_MLP_BACKEND_PLEAT;
+	}
+	uint8_t* fp16_bytes = NULL;
+	if ( fp16_path != NULL )
+	{
+		size_t fp16_size = 0;
+		fp16_bytes = ReadAligned( fp16_path, &fp16_size );
+		if ( fp16_bytes != NULL )
+		{
+			config.asset_bytes = fp16_bytes;
+			config.asset_size = fp16_size;
+			result = TimeSteps( &config, &motion, warmup, iterations, &step_fp16_us, NULL );
+			if ( result != PLEAT_RESULT_OK )
+				fprintf( stderr, "fp16 step: %s\n", plResultString( result ) );
+		}
+	}
+
+	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
+	if ( out == NULL )
+	{
+		fprintf( stderr, "pleat_bench_step: cannot write %s\n", out_path );
+		return 1;
+	}
+	fprintf( out, "{\n" );
+	fprintf( out, "  \"vertices\": %u,\n", asset.vertex_count );
+	fprintf( out, "  \"network\": \"I=%u LP %u layers, L=%u, decoder %u layers, D=%u, K=%u, Jin=%u\",\n",
+			 asset.input_count, asset.lp_layer_count, asset.latent_count, asset.dec_layer_count, asset.blend_count,
+			 asset.influence_count, asset.input_joint_count );
+	fprintf( out, "  \"isa\": \"%s\",\n", avx2 ? "avx2+fma+f16c" : "scalar" );
+	fprintf( out, "  \"iterations\": %u,\n", iterations );
+	fprintf( out, "  \"warmup\": %u,\n", warmup );
+	PrintJsonNumber( out, "pleat_mlp_us", mlp.pleat_us, 0 );
+	PrintJsonNumber( out, "ort_mlp_us", mlp.ort_us, 0 );
+	PrintJsonNumber( out, "mlp_speedup", mlp.have_ort ? mlp.ort_us / mlp.pleat_us : NAN, 0 );
+	if ( mlp.have_ort )
+		fprintf( out, "  \"mlp_max_abs_diff\": %.3g,\n", mlp.max_abs_diff );
+	PrintJsonNumber( out, "pleat_step_us", step_us, 0 );
+	PrintJsonNumber( out, "pleat_step_fp16_us", step_fp16_us, 0 );
+	PrintJsonNumber( out, "ort_step_us", ort_step_us, 0 );
+	fprintf( out, "  \"scalar_iterations\": %u,\n", scalar_iterations );
+	PrintJsonNumber( out, "scalar_step_us", scalar_us, 1 );
+	fprintf( out, "}\n" );
+	if ( out != stdout )
+		fclose( out );
+	free( motion.rotations );
+	free( motion.root );
+	free( asset_bytes );
+	free( fp16_bytes );
+	return 0;
+}

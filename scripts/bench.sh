@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Benchmark (not a test): builds Pleat in Release, makes the 4,424-vertex reference-size assets (bench/make_assets.py)
+# and runs bench/bench_step.c; writes out/bench/step.json and prints it. See docs/benchmarks.md.
+# Environment: BUILD_DIR (default build/bench), ITERATIONS (default 2000), WARMUP (200), SCALAR_ITERATIONS (300),
+# PLEAT_ONNXRUNTIME_LIBRARY (default: libonnxruntime.so* of the onnxruntime wheel in .venv).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh >/dev/null
+BUILD_DIR=${BUILD_DIR:-build/bench}
+OUT=out/bench
+PY="$PWD/.venv/bin/python"
+
+cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPLEAT_BUILD_TESTS=OFF -DPLEAT_PYTHON="$PY" >/dev/null
+cmake --build "$BUILD_DIR" --target pleat_bench_step >/dev/null
+
+mkdir -p "$OUT"
+if [ ! -f "$OUT/asset_fp32.pleat" ] || [ ! -f "$OUT/asset_fp16.pleat" ] || [ ! -f "$OUT/case.bin" ] \
+   || [ bench/make_assets.py -nt "$OUT/case.bin" ]; then
+  "$PY" bench/make_assets.py "$OUT" --vertices 4424 --frames 300
+fi
+
+ORT_LIB=${PLEAT_ONNXRUNTIME_LIBRARY:-$("$PY" - <<'PY' 2>/dev/null || true
+import glob, os, onnxruntime
+print(sorted(glob.glob(os.path.join(os.path.dirname(onnxruntime.__file__), "capi", "libonnxruntime.so*")))[0])
+PY
+)}
+ort_args=()
+[ -n "$ORT_LIB" ] && ort_args=(--onnxruntime "$ORT_LIB")
+
+"$BUILD_DIR/bench/pleat_bench_step" --asset "$OUT/asset_fp32.pleat" --asset-fp16 "$OUT/asset_fp16.pleat" \
+  --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" \
+  --scalar-iterations "${SCALAR_ITERATIONS:-300}" "${ort_args[@]}" --out "$OUT/step.json"
+cat "$OUT/step.json"
