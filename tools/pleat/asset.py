@@ -293,7 +293,8 @@ def validate_weights(weights, fp16=False):
 
 
 def _to_fp16(a, key):
-    h = a.astype(np.float16)
+    with np.errstate(over="ignore"):
+        h = a.astype(np.float16)
     if not np.all(np.isfinite(h)):
         raise AssetError(f"{key}: values overflow fp16")
     return h

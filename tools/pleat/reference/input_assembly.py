@@ -19,9 +19,11 @@ QUATERNION_TOLERANCE = 1e-3
 def clamp_beta(asset, beta):
     """β clamped to [beta_min, beta_max] → (β [B] float64, clamped?)."""
     B = np.asarray(asset["shape_blend"]).shape[0]
-    beta = np.zeros(B) if beta is None else np.asarray(beta, np.float64).reshape(-1)
-    if beta.shape != (B,):
-        raise ValueError(f"beta: expected {B} values, got {beta.shape[0]}")
+    given = np.zeros(0) if beta is None else np.asarray(beta, np.float64).reshape(-1)
+    if given.shape[0] > B:
+        raise ValueError(f"beta: at most {B} values, got {given.shape[0]}")
+    beta = np.zeros(B)
+    beta[:given.shape[0]] = given          # missing entries are 0, as in plInstanceDef
     if not np.all(np.isfinite(beta)):
         raise ValueError("beta: non-finite")
     lo, hi = np.asarray(asset.get("beta_range", (-4.0, 4.0)), np.float64)
@@ -54,11 +56,14 @@ def clamp_dt(asset, dt_s):
     return np.clip(dt, lo, hi)
 
 
-def normalize_quaternions(q):
-    """Renormalises quaternions within QUATERNION_TOLERANCE of unit length; raises on the rest or non-finite."""
+def normalize_quaternions(q, zero_is_identity=False):
+    """Renormalises quaternions within QUATERNION_TOLERANCE of unit length; raises on the rest or non-finite.
+    zero_is_identity: an all-zero quaternion means identity (plFrameInput.root_rotation)."""
     q = np.asarray(q, np.float64)
     if not np.all(np.isfinite(q)):
         raise ValueError("quaternion: non-finite")
+    if zero_is_identity:
+        q = np.where(np.all(q == 0, axis=-1, keepdims=True), np.array([0.0, 0.0, 0.0, 1.0]), q)
     n = np.linalg.norm(q, axis=-1, keepdims=True)
     if np.any(np.abs(n - 1.0) > QUATERNION_TOLERANCE):
         raise ValueError("quaternion: length differs from 1 by more than 1e-3")
@@ -129,7 +134,7 @@ def assemble_inputs(asset, rotations, root_translation, root_rotation, dt_s, bet
     beta, _ = clamp_beta(asset, beta)
     _, material_n, _ = clamp_material(asset, material)
     rotations = normalize_quaternions(rotations)
-    root_rotation = normalize_quaternions(root_rotation)
+    root_rotation = normalize_quaternions(root_rotation, zero_is_identity=True)
     T = rotations.shape[0]
     dt = clamp_dt(asset, np.asarray(dt_s, np.float64).reshape(T))
     joints = shaped_joints(asset["joint_template"], asset["joint_shapedirs"], beta)

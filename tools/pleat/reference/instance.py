@@ -79,7 +79,7 @@ class Instance:
             raise StepError("non-finite input", "NON_FINITE_INPUT")
         try:
             rotations = normalize_quaternions(rotations)
-            root_rotation = normalize_quaternions(root_rotation)
+            root_rotation = normalize_quaternions(root_rotation, zero_is_identity=True)
         except ValueError as e:
             raise StepError(str(e), "INVALID_QUATERNION") from None
         try:
