@@ -1,0 +1,304 @@
+"""Writes the two small binary files the headless renderer (samples/render, `pleat-render`) reads.
+
+    python -m pleat.render_export body   --out out/demo/body.bin   [--body assets/body.npz] [--beta b0,b1,..]
+                                         [--asset A.pleat] [--influences 4]
+    python -m pleat.render_export motion --out out/demo/walk.bin   --clip humanoid3d_walk [--fps 30]
+                                         [--frames N] [--asset A.pleat]
+
+Formats (little-endian, documented in docs/demo.md):
+  PLBODY01: magic, u32 version = 1, u32 vertex_count V, face_count F, joint_count J, influence_count K, beta_count B,
+            f32 beta[B], char joint_names[J][32], f32 joints[J][3] (J(β)), f32 vertices[V][3] (shaped for β),
+            u32 faces[F][3], u32 skin_indices[V][K], f32 skin_weights[V][K].
+  PLMOTION: magic, u32 version = 1, u32 frame_count T, u32 joint_count J, f32 fps, char joint_names[J][32],
+            then per frame f32 rotations[J][4] (x,y,z,w), f32 root_translation[3], f32 root_rotation[4] (x,y,z,w).
+With --asset, joints are written in the asset's joint order (the renderer also matches them by name).
+"""
+import argparse
+import struct
+import sys
+
+import numpy as np
+
+from pleat.rotations import quat_normalize
+
+NAME_BYTES = 32
+BODY_MAGIC = b"PLBODY01"
+MOTION_MAGIC = b"PLMOTION"
+VERSION = 1
+
+
+def _names_block(names):
+    out = bytearray()
+    for name in names:
+        raw = str(name).encode("utf-8")
+        if len(raw) >= NAME_BYTES:
+            raise ValueError(f"joint name {name!r} is longer than {NAME_BYTES - 1} bytes")
+        out += raw + b"\0" * (NAME_BYTES - len(raw))
+    return bytes(out)
+
+
+def sparse_skin(weights, influences):
+    """Dense [V, J] skin weights → the K largest per vertex, renormalised: (indices [V, K] u32, weights [V, K])."""
+    weights = np.asarray(weights, dtype=np.float64)
+    k = min(influences, weights.shape[1])
+    order = np.argsort(-weights, axis=1, kind="stable")[:, :k]
+    top = np.take_along_axis(weights, order, axis=1)
+    top = np.maximum(top, 0.0)
+    sums = top.sum(axis=1, keepdims=True)
+    if np.any(sums <= 0):
+        raise ValueError("a body vertex has no positive skin weight")
+    return order.astype(np.uint32), (top / sums).astype(np.float32)
+
+
+def write_body_file(path, joint_names, joints, vertices, faces, skin_indices, skin_weights, beta):
+    """Writes PLBODY01. joints [J, 3], vertices [V, 3], faces [F, 3], skin_indices/weights [V, K], beta [B]."""
+    joints = np.ascontiguousarray(joints, dtype="<f4")
+    vertices = np.ascontiguousarray(vertices, dtype="<f4")
+    faces = np.ascontiguousarray(faces, dtype="<u4")
+    skin_indices = np.ascontiguousarray(skin_indices, dtype="<u4")
+    skin_weights = np.ascontiguousarray(skin_weights, dtype="<f4")
+    beta = np.ascontiguousarray(beta, dtype="<f4").reshape(-1)
+    J, V, F, K = len(joint_names), vertices.shape[0], faces.shape[0], skin_indices.shape[1]
+    if joints.shape != (J, 3) or vertices.shape != (V, 3) or faces.shape != (F, 3):
+        raise ValueError("body arrays have inconsistent shapes")
+    if skin_indices.shape != (V, K) or skin_weights.shape != (V, K) or np.any(skin_indices >= J):
+        raise ValueError("body skin arrays are inconsistent")
+    if np.any(faces >= V):
+        raise ValueError("body face index out of range")
+    with open(path, "wb") as f:
+        f.write(BODY_MAGIC + struct.pack("<6I", VERSION, V, F, J, K, beta.size))
+        f.write(beta.tobytes())
+        f.write(_names_block(joint_names))
+        for a in (joints, vertices, faces, skin_indices, skin_weights):
+            f.write(a.tobytes())
+
+
+def write_motion_file(path, joint_names, fps, rotations, root_translation, root_rotation):
+    """Writes PLMOTION. rotations [T, J, 4] (x,y,z,w), root_translation [T, 3], root_rotation [T, 4]."""
+    rotations = quat_normalize(np.asarray(rotations, dtype=np.float64))
+    root_rotation = quat_normalize(np.asarray(root_rotation, dtype=np.float64))
+    root_translation = np.asarray(root_translation, dtype=np.float64)
+    T, J = rotations.shape[:2]
+    if rotations.shape != (T, J, 4) or root_translation.shape != (T, 3) or root_rotation.shape != (T, 4):
+        raise ValueError("motion arrays have inconsistent shapes")
+    if len(joint_names) != J:
+        raise ValueError(f"{len(joint_names)} joint names for {J} joints")
+    frames = np.concatenate([rotations.reshape(T, J * 4), root_translation, root_rotation], axis=1)
+    if not np.all(np.isfinite(frames)):
+        raise ValueError("motion has non-finite values")
+    with open(path, "wb") as f:
+        f.write(MOTION_MAGIC + struct.pack("<3If", VERSION, T, J, float(fps)))
+        f.write(_names_block(joint_names))
+        f.write(np.ascontiguousarray(frames, dtype="<f4").tobytes())
+
+
+def read_body_file(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:8] != BODY_MAGIC:
+        raise ValueError(f"{path} is not a PLBODY01 file")
+    version, V, F, J, K, B = struct.unpack_from("<6I", data, 8)
+    offset = 32
+    out = {"version": version}
+
+    def take(dtype, count):
+        nonlocal offset
+        a = np.frombuffer(data, dtype=dtype, count=count, offset=offset)
+        offset += a.nbytes
+        return a
+    out["beta"] = take("<f4", B)
+    names = take("u1", J * NAME_BYTES).reshape(J, NAME_BYTES)
+    out["joint_names"] = [bytes(n).split(b"\0")[0].decode() for n in names]
+    out["joints"] = take("<f4", J * 3).reshape(J, 3)
+    out["vertices"] = take("<f4", V * 3).reshape(V, 3)
+    out["faces"] = take("<u4", F * 3).reshape(F, 3)
+    out["skin_indices"] = take("<u4", V * K).reshape(V, K)
+    out["skin_weights"] = take("<f4", V * K).reshape(V, K)
+    if offset != len(data):
+        raise ValueError(f"{path}: {len(data) - offset} trailing bytes")
+    return out
+
+
+def read_motion_file(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:8] != MOTION_MAGIC:
+        raise ValueError(f"{path} is not a PLMOTION file")
+    version, T, J, fps = struct.unpack_from("<3If", data, 8)
+    offset = 24
+    names = np.frombuffer(data, "u1", J * NAME_BYTES, offset).reshape(J, NAME_BYTES)
+    offset += J * NAME_BYTES
+    frames = np.frombuffer(data, "<f4", T * (4 * J + 7), offset).reshape(T, 4 * J + 7)
+    if offset + frames.nbytes != len(data):
+        raise ValueError(f"{path}: size does not match its counts")
+    return {"version": version, "fps": fps, "joint_names": [bytes(n).split(b"\0")[0].decode() for n in names],
+            "rotations": frames[:, :4 * J].reshape(T, J, 4), "root_translation": frames[:, 4 * J:4 * J + 3],
+            "root_rotation": frames[:, 4 * J + 3:]}
+
+
+def _asset_joint_order(asset_path, names):
+    """Permutation putting `names` in the asset's joint order (the asset must have every name)."""
+    from pleat.asset import read_asset
+    with open(asset_path, "rb") as f:
+        asset_names = [str(n) for n in read_asset(f.read())["joint_names"]]
+    missing = [n for n in asset_names if n not in names]
+    if missing or len(asset_names) != len(names):
+        raise SystemExit(f"{asset_path}: joints {missing or asset_names} do not match the body/clip joints {names}")
+    return [list(names).index(n) for n in asset_names]
+
+
+def export_body(body, out, beta=None, influences=4, asset_path=None):
+    """PLBODY01 for pleat.body.BodyModel `body` shaped by β."""
+    beta = np.zeros(body.shapedirs.shape[2]) if beta is None else np.asarray(beta, dtype=np.float64)
+    beta = np.pad(beta, (0, body.shapedirs.shape[2] - beta.size))
+    names = [str(n) for n in body.joint_names]
+    vertices = body.v_template + body.shapedirs @ beta
+    joints = np.asarray(body.J_regressor @ vertices)
+    skin_indices, skin_weights = sparse_skin(body.weights, influences)
+    if asset_path:
+        order = _asset_joint_order(asset_path, names)  # new index i ← old index order[i]
+        old_to_new = np.argsort(order)
+        names, joints, skin_indices = [names[i] for i in order], joints[order], old_to_new[skin_indices]
+    write_body_file(out, names, joints, vertices, body.faces, skin_indices, skin_weights, beta)
+    return vertices.shape[0]
+
+
+def _clip_arrays(clip):
+    """(fps, rotations [T,J,4], root_translation [T,3], root_rotation [T,4]) of a pleat.motion Clip."""
+    def first(*keys):
+        for k in keys:
+            v = getattr(clip, k, None)
+            if v is not None:
+                return v
+        raise SystemExit(f"the clip has none of {keys}")
+    return (float(first("fps")), np.asarray(first("rotations", "local_rotations", "quaternions")),
+            np.asarray(first("root_translation", "root_translations")),
+            np.asarray(first("root_rotation", "root_rotations")))
+
+
+def load_clip(spec, fps):
+    """A clip by file path or by name on the motion loaders' search path, resampled to `fps`."""
+    import pleat.motion as motion
+    clip = motion.load(spec) if hasattr(motion, "load") else motion.load_clip(spec)
+    if abs(float(clip.fps) - fps) > 1e-6:
+        clip = motion.resample(clip, fps)
+    return clip
+
+
+def export_motion(clip, out, joint_names, frames=0, asset_path=None):
+    fps, rotations, root_translation, root_rotation = _clip_arrays(clip)
+    names = [str(n) for n in joint_names]
+    if frames:
+        rotations, root_translation, root_rotation = rotations[:frames], root_translation[:frames], root_rotation[:frames]
+    if asset_path:
+        order = _asset_joint_order(asset_path, names)
+        names, rotations = [names[i] for i in order], rotations[:, order]
+    write_motion_file(out, names, fps, rotations, root_translation, root_rotation)
+    return rotations.shape[0], fps
+
+
+def stick_body(joint_names, parents, joints, radius=0.025, sides=8):
+    """A stand-in body of thin tubes along the bones, each rigidly skinned to its parent joint: for assets (e.g. the
+    random golden ones) without a matching body mesh. Returns (vertices, faces, skin_indices [V,1], skin_weights)."""
+    vertices, faces, indices = [], [], []
+    angle = 2 * np.pi * np.arange(sides) / sides
+    for k in range(1, len(joint_names)):
+        a, b = joints[parents[k]], joints[k]
+        axis = b - a
+        length = np.linalg.norm(axis)
+        if length < 1e-6:
+            continue
+        axis = axis / length
+        helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        u = np.cross(axis, helper)
+        u /= np.linalg.norm(u)
+        v = np.cross(axis, u)
+        ring = radius * (np.cos(angle)[:, None] * u + np.sin(angle)[:, None] * v)
+        base = sum(len(x) for x in vertices)
+        vertices.append(np.concatenate([a + ring, b + ring]))
+        for i in range(sides):
+            j = (i + 1) % sides
+            faces += [[base + i, base + j, base + sides + j], [base + i, base + sides + j, base + sides + i]]
+        indices += [parents[k]] * (2 * sides)
+    vertices = np.concatenate(vertices)
+    return vertices, np.array(faces), np.array(indices)[:, None], np.ones((len(indices), 1))
+
+
+def export_stick_body(asset_path, out, beta=None):
+    """PLBODY01 from an asset's own skeleton (stick_body), shaped by β, in the asset's joint order."""
+    from pleat.asset import read_asset
+    with open(asset_path, "rb") as f:
+        asset = read_asset(f.read())
+    shapedirs = np.asarray(asset["joint_shapedirs"], np.float64)
+    beta = np.zeros(shapedirs.shape[0]) if beta is None else np.pad(np.asarray(beta, np.float64),
+                                                                    (0, shapedirs.shape[0] - len(beta)))
+    joints = asset["joint_template"] + np.einsum("b,bjc->jc", beta, shapedirs)
+    names = [str(n) for n in asset["joint_names"]]
+    vertices, faces, skin_indices, skin_weights = stick_body(names, asset["joint_parents"], joints)
+    write_body_file(out, names, joints, vertices, faces, skin_indices, skin_weights, beta)
+    return vertices.shape[0]
+
+
+def export_random_motion(asset_path, out, frames, fps=30.0, seed=0):
+    """PLMOTION of pleat.reference.golden's smooth random clip, in the asset's joint order (for tests)."""
+    from pleat.asset import read_asset
+    from pleat.reference.golden import random_motion
+    with open(asset_path, "rb") as f:
+        names = [str(n) for n in read_asset(f.read())["joint_names"]]
+    rotations, root_translation, root_rotation, _ = random_motion(frames, len(names), seed=seed, fps=fps)
+    write_motion_file(out, names, fps, rotations, root_translation, root_rotation)
+    return frames, fps
+
+
+def _floats(text):
+    return [float(x) for x in text.split(",") if x.strip()] if text else None
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m pleat.render_export", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="what", required=True)
+    b = sub.add_parser("body", help="write a PLBODY01 body file")
+    b.add_argument("--body", default="assets/body.npz")
+    b.add_argument("--beta", default="", help="comma-separated β (missing entries 0)")
+    b.add_argument("--influences", type=int, default=4)
+    b.add_argument("--asset", default=None, help="write joints in this asset's joint order")
+    b.add_argument("--stick", action="store_true", help="a stick body from --asset's skeleton instead of --body")
+    b.add_argument("--out", required=True)
+    m = sub.add_parser("motion", help="write a PLMOTION clip file")
+    m.add_argument("--clip", default=None, help="clip file or name on the motion search path (e.g. humanoid3d_walk)")
+    m.add_argument("--random", type=int, default=0, help="instead: N frames of a smooth random clip (needs --asset)")
+    m.add_argument("--fps", type=float, default=30.0)
+    m.add_argument("--frames", type=int, default=0, help="keep the first N frames (0 = all)")
+    m.add_argument("--body", default="assets/body.npz", help="body whose joint names the clip uses")
+    m.add_argument("--asset", default=None, help="write joints in this asset's joint order")
+    m.add_argument("--out", required=True)
+    args = parser.parse_args(argv)
+
+    if args.what == "body" and args.stick:
+        if not args.asset:
+            parser.error("--stick needs --asset")
+        count = export_stick_body(args.asset, args.out, _floats(args.beta))
+        print(f"wrote {args.out}: stick body with {count} vertices from {args.asset}")
+        return 0
+    if args.what == "motion" and args.random:
+        if not args.asset:
+            parser.error("--random needs --asset")
+        frames, fps = export_random_motion(args.asset, args.out, args.random, args.fps)
+        print(f"wrote {args.out}: {frames} frames of random motion at {fps:g} fps")
+        return 0
+    if args.what == "motion" and not args.clip:
+        parser.error("motion needs --clip or --random")
+    from pleat.body import BodyModel
+    body = BodyModel.load(args.body)
+    if args.what == "body":
+        count = export_body(body, args.out, _floats(args.beta), args.influences, args.asset)
+        print(f"wrote {args.out}: body with {count} vertices")
+    else:
+        clip = load_clip(args.clip, args.fps)
+        frames, fps = export_motion(clip, args.out, body.joint_names, args.frames, args.asset)
+        print(f"wrote {args.out}: {frames} frames at {fps:g} fps from {args.clip}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
