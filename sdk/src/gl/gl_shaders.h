@@ -1,0 +1,9 @@
+// The GLSL sources of shaders/*.comp, embedded at build time by embed_shaders.cmake (NUL-terminated).
+#ifndef PLEAT_GL_SHADERS_H
+#define PLEAT_GL_SHADERS_H
+
+extern const char plGlShaderSource_blend_shapes[];
+extern const char plGlShaderSource_skinning[];
+extern const char plGlShaderSource_normals[];
+
+#endif

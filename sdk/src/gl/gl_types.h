@@ -1,0 +1,55 @@
+// C twins of the GLSL interface blocks and buffer elements in shaders/*.comp, and the binding points they use.
+// The layouts must match byte for byte: every struct has explicit padding and a _Static_assert on its size.
+#ifndef PLEAT_GL_TYPES_H
+#define PLEAT_GL_TYPES_H
+#include <stdint.h>
+
+// std140 uniform block plGlDeformParams (uniform buffer binding 0), shared by all three shaders.
+typedef struct plGlDeformParams
+{
+	uint32_t vertex_count;    // N
+	uint32_t blend_count;     // D
+	uint32_t influence_count; // K
+	uint32_t joint_count;     // J
+} plGlDeformParams;
+_Static_assert( sizeof( plGlDeformParams ) == 16, "std140 plGlDeformParams is 16 bytes" );
+
+// std430 vec4 element: positions/normals/templates (xyz + w) and one row of a 3×4 skin matrix.
+typedef struct plGlVec4
+{
+	float x, y, z, w;
+} plGlVec4;
+_Static_assert( sizeof( plGlVec4 ) == 16, "std430 vec4 is 16 bytes" );
+
+// One fp16 blend-shape displacement: x, y, z and a zero pad, read by the shader as two uints (unpackHalf2x16).
+typedef struct plGlHalf4
+{
+	uint16_t x, y, z, pad;
+} plGlHalf4;
+_Static_assert( sizeof( plGlHalf4 ) == 8, "two std430 uints" );
+
+// Uniform buffer binding of plGlDeformParams.
+#define PLEAT_GL_PARAMS_BINDING 0
+
+// Shader storage buffer bindings (the `binding = n` of each buffer block in shaders/*.comp).
+typedef enum plGlBinding
+{
+	PLEAT_GL_BINDING_SHAPED_TEMPLATE = 0,   // vec4 [N]            blend_shapes.comp
+	PLEAT_GL_BINDING_BLEND_SHAPES = 1,      // vec4 or plGlHalf4 [D][N]
+	PLEAT_GL_BINDING_BLEND_WEIGHTS = 2,     // float [D]
+	PLEAT_GL_BINDING_DEFORMED = 3,          // vec4 [N] T_def      blend_shapes.comp → skinning.comp
+	PLEAT_GL_BINDING_SKIN_INDICES = 4,      // uint [N][K]         skinning.comp
+	PLEAT_GL_BINDING_SKIN_WEIGHTS = 5,      // float [N][K]
+	PLEAT_GL_BINDING_SKIN_MATRICES = 6,     // vec4 [J][3]
+	PLEAT_GL_BINDING_POSITIONS = 7,         // vec4 [N]            skinning.comp → normals.comp
+	PLEAT_GL_BINDING_FACES = 8,             // uint [F][3]         normals.comp
+	PLEAT_GL_BINDING_ADJACENCY_OFFSETS = 9, // uint [N + 1]
+	PLEAT_GL_BINDING_ADJACENCY_FACES = 10,  // uint [3F]
+	PLEAT_GL_BINDING_NORMALS = 11,          // vec4 [N]
+	PLEAT_GL_BINDING_COUNT = 12,
+} plGlBinding;
+
+// Workgroup size of every shader (layout(local_size_x = 64)); dispatch ceil(N / 64) groups.
+#define PLEAT_GL_WORKGROUP_SIZE 64u
+
+#endif
