@@ -1,0 +1,725 @@
+"""The two training stages, the ablation and packing (paper sections 3.2, 3.3, 4.1, 4.3).
+
+Stage 1 trains Φ (Encode–Process–Convolve–Decode + blend shapes) on the physics losses of equation 4 with no ground
+truth: each iteration samples a clip window, β ~ U(−β_max, β_max) and a material in the paper's ranges, starts the
+garment from the LBS of the shaped template on the first three frames, and rolls Φ autoregressively for 1 → 5 steps
+(one more every `rollout_every` of the run), back-propagating through the whole rollout.
+Stage 2 freezes Φ, records its latents on rollouts, and fits f_LP on X_c (built by the same function the runtime
+reference uses) with MSE, feeding f_LP its own previous predictions inside a window (Z_0 = 0 at sequence starts).
+The ablation trains f_LP → f_dec → D directly on the stage-1 losses.
+"""
+import json
+import math
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from scipy.spatial import cKDTree
+from tqdm import tqdm
+
+from pleat import REPO_ROOT
+from pleat import garment_asset as ga
+from pleat import reference
+from pleat import rotations as rot
+from pleat.train import graph as graph_mod
+from pleat.train import sources
+from pleat.train.model import InferenceBlock, Phi, mlp_to_weights, skin
+
+LOSS_TERMS = ("bending", "stretching", "inertia", "gravity", "friction", "collision")
+
+
+# ---- configuration -----------------------------------------------------------------------------------------------
+def load_config(preset=None, path=None, overrides=None):
+    src = Path(path) if path else REPO_ROOT / "configs" / f"{preset}.json"
+    cfg = json.loads(src.read_text())
+    for key, value in (overrides or {}).items():
+        node = cfg
+        parts = key.split(".")
+        for p in parts[:-1]:
+            node = node[p]
+        node[parts[-1]] = value
+    return cfg
+
+
+def lerp(a, b, s):
+    return a + (b - a) * min(max(s, 0.0), 1.0)
+
+
+def loss_weights(cfg1, it):
+    n = cfg1["iterations"]
+    s = it / max(n - 1, 1)
+    c0, c1 = cfg1["collision_ramp"]
+    w_c = cfg1["w_collision"][0] + (cfg1["w_collision"][1] - cfg1["w_collision"][0]) * \
+        min(max((s - c0) / max(c1 - c0, 1e-9), 0.0), 1.0)
+    return {"bending": cfg1["w_bending"], "stretching": cfg1["w_stretching"],
+            "inertia": lerp(*cfg1["w_inertia"], s), "gravity": lerp(*cfg1["w_gravity"], s),
+            "friction": cfg1["w_friction"], "collision": w_c}
+
+
+def rollout_steps(cfg1, it):
+    every = max(1, int(round(cfg1["rollout_every"] * cfg1["iterations"])))
+    return min(cfg1["rollout_max"], 1 + it // every)
+
+
+# ---- distributed ---------------------------------------------------------------------------------------------------
+def dist_info():
+    world = int(os.environ.get("WORLD_SIZE", "1"))
+    rank = int(os.environ.get("RANK", "0"))
+    if world > 1 and not torch.distributed.is_initialized():
+        backend = "nccl" if torch.cuda.is_available() else "gloo"
+        torch.distributed.init_process_group(backend)
+        if torch.cuda.is_available():
+            torch.cuda.set_device(int(os.environ.get("LOCAL_RANK", "0")))
+    return rank, world
+
+
+def wrap_ddp(module, world, device):
+    if world > 1:
+        return torch.nn.parallel.DistributedDataParallel(
+            module, device_ids=[device.index] if device.type == "cuda" else None)
+    return module
+
+
+def unwrap(module):
+    return module.module if hasattr(module, "module") else module
+
+
+# ---- static garment/body setup -----------------------------------------------------------------------------------
+class Setup:
+    """Everything that depends only on the garment and the body."""
+
+    def __init__(self, cfg, garment_spec, device="cpu"):
+        self.cfg, self.device = cfg, torch.device(device)
+        m = cfg["model"]
+        self.body = sources.body(cfg["body"])
+        self.garment = sources.garment(garment_spec, self.body, cfg["garment_vertices"])
+        g = self.garment
+        names, parents, jt, js = ga.skeleton_from_body(self.body)
+        self.joint_names, self.parents = names, parents
+        self.joint_template, self.joint_shapedirs = jt, js
+        self.input_joints = ga.input_joint_indices(names)
+        self.template = np.asarray(sources.field(g, "template"), np.float64)
+        self.faces = np.asarray(sources.field(g, "faces"), np.int64)
+        self.skin_indices = np.asarray(sources.field(g, "skin_indices"), np.int64)
+        self.skin_weights = np.asarray(sources.field(g, "skin_weights"), np.float64)
+        self.shape_blend = np.asarray(sources.field(g, "shape_blend"), np.float64)
+        pinned = sources.field(g, "pinned", None)
+        self.pinned = np.zeros(0, np.int64) if pinned is None else np.asarray(pinned, np.int64).ravel()
+        self.name = str(np.asarray(sources.field(g, "name", "garment")))
+        self.N, self.B = len(self.template), self.shape_blend.shape[0]
+        self.L = m["latent"]
+        self.input_count = ga.input_count_without_latent(len(self.input_joints), self.B) + self.L
+        # the skeleton, ranges and clamps exactly as the asset will carry them (X_c is assembled from this)
+        self.asset_stub = ga.weights_from_garment(g, self.body, None)
+        self.asset_stub["z_mean"] = np.zeros(self.L, np.float32)
+        self.material_min = np.array(ga.MATERIAL_MIN)
+        self.material_max = np.array(ga.MATERIAL_MAX)
+        # body surface used for proximity edges, collision and friction
+        vc = getattr(self.body, "collision_vertex_count", None) or len(self.body.v_template)
+        self.body_v = np.asarray(self.body.v_template[:vc], np.float64)
+        self.body_dirs = np.asarray(self.body.shapedirs[:vc], np.float64)
+        self.body_w = np.asarray(self.body.weights[:vc], np.float64)
+        bf = np.asarray(getattr(self.body, "faces", np.zeros((0, 3))), np.int64)
+        self.body_faces = bf if len(bf) and bf.max() < vc else None
+        if self.body_faces is not None:
+            from pleat.asset import normal_adjacency
+            self.body_adjacency = normal_adjacency(self.body_faces, vc)
+        self.body_rest_normals = getattr(self.body, "vertex_normals_rest", None)
+        # graphs
+        levels, self.vertex_level = graph_mod.build_hierarchy(self.faces, self.N, m["mp_levels"], cfg["seed"])
+        self.levels = []
+        for verts, edges in levels:
+            e = torch.as_tensor(edges, device=self.device)
+            s = torch.cat([e[:, 0], e[:, 1]])
+            r = torch.cat([e[:, 1], e[:, 0]])
+            mask = torch.zeros(self.N, 1, device=self.device)
+            mask[torch.as_tensor(verts, device=self.device)] = 1.0
+            self.levels.append((s, r, mask))
+        self.chain, final = graph_mod.compressor_hierarchy(self.template, self.faces, m["conv_steps"],
+                                                           m["conv_neighbours"], cfg["seed"])
+        self.final_vertices = len(final)
+        self.free_mask = np.ones(self.N, np.float32)
+        self.free_mask[self.pinned] = 0.0
+        self.energies = sources.energies(self.template, self.faces, torch)
+        lvl = np.eye(m["mp_levels"])[self.vertex_level]
+        pin = np.zeros((self.N, 1))
+        pin[self.pinned] = 1.0
+        self.static_node = torch.as_tensor(np.concatenate([pin, lvl], 1), dtype=torch.float32, device=self.device)
+        self.node_features = 3 + 3 + 3 + 3 + 4 + 1 + self.static_node.shape[1]
+        self.edge_features = 13
+        self.body_features = 9
+
+    # -- sampling --
+    def sample_beta(self, rng):
+        return rng.uniform(-self.cfg["stage1"]["beta_max"], self.cfg["stage1"]["beta_max"], self.B)
+
+    def sample_material(self, rng):
+        u = rng.uniform(0.0, 1.0, 4)
+        return self.material_min + u * (self.material_max - self.material_min), u
+
+    # -- per-window kinematics (numpy, float64) --
+    def pose_window(self, clip, start, length, beta, prepend_first=0):
+        """Frames start..start+length-1 of the clip (with `prepend_first` copies of the first frame before them,
+        the runtime's first-frame convention)."""
+        q = np.asarray(clip.rotations[start:start + length], np.float64)
+        tr = np.asarray(clip.root_translation[start:start + length], np.float64)
+        rq = np.asarray(clip.root_rotation[start:start + length], np.float64)
+        dt = np.full(len(q), 1.0 / float(clip.fps))
+        if prepend_first:
+            q = np.concatenate([np.repeat(q[:1], prepend_first, 0), q])
+            tr = np.concatenate([np.repeat(tr[:1], prepend_first, 0), tr])
+            rq = np.concatenate([np.repeat(rq[:1], prepend_first, 0), rq])
+            dt = np.concatenate([np.full(prepend_first, dt[0]), dt])
+        feats = reference.pose_features(self.parents, self.joints_of(beta), self.input_joints, q, tr, rq)
+        M = feats["skin_matrices"]                                     # [W, J, 3, 4] rest → world
+        A = np.einsum("nk,wnkab->wnab", self.skin_weights, M[:, self.skin_indices])
+        shaped_body = self.body_v + self.body_dirs @ beta
+        Ab = np.einsum("vk,wkab->wvab", self.body_w, M)
+        body = np.einsum("wvab,vb->wva", Ab[..., :3], shaped_body) + Ab[..., 3]
+        if self.body_faces is not None:
+            n = np.stack([reference.normals(b, self.body_faces, *self.body_adjacency) for b in body])
+        else:
+            n = np.einsum("wvab,vb->wva", Ab[..., :3], self.body_rest_normals[:len(self.body_v)])
+            n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+        Hinv = np.swapaxes(rot.yaw_matrix(feats["yaw"]), -1, -2)
+        return {"A": A, "body": body, "body_normals": n, "dt": dt, "Hinv": Hinv, "p0": feats["pelvis"],
+                "quats": q, "root_translation": tr, "root_rotation": rq}
+
+    def joints_of(self, beta):
+        return reference.shaped_joints(self.joint_template, self.joint_shapedirs, beta)
+
+    def static_inputs(self, win, beta, material):
+        """X_c (latent block zero) for every frame of the window, by the reference's own assembly: row f is the
+        input that predicts frame f (rows 0 and 1 use the first-frame history rule and are not used in windows)."""
+        return reference.assemble_inputs(self.asset_stub, win["quats"], win["root_translation"],
+                                         win["root_rotation"], win["dt"], beta, material)
+
+    def shaped(self, beta):
+        return self.template + np.einsum("b,bnc->nc", beta, self.shape_blend)
+
+
+def to_t(a, device):
+    return torch.as_tensor(np.ascontiguousarray(a), dtype=torch.float32, device=device)
+
+
+def vertex_normals(x, faces):
+    fn = torch.cross(x[faces[:, 1]] - x[faces[:, 0]], x[faces[:, 2]] - x[faces[:, 0]], dim=-1)
+    n = torch.zeros_like(x)
+    for c in range(3):
+        n = n.index_add(0, faces[:, c], fn)
+    return n / n.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+
+
+class Window:
+    """Torch view of one sampled window plus the garment's rollout state."""
+
+    def __init__(self, setup, win, beta, material, material01):
+        d = setup.device
+        self.setup, self.win = setup, win
+        self.A = to_t(win["A"], d)
+        self.body = win["body"]
+        self.body_t = to_t(win["body"], d)
+        self.body_n = to_t(win["body_normals"], d)
+        self.Hinv, self.p0 = to_t(win["Hinv"], d), to_t(win["p0"], d)
+        self.dt = win["dt"]
+        self.shaped = to_t(setup.shaped(beta), d)
+        self.material = to_t(material, d)
+        self.material01 = to_t(material01, d)
+        self.trees = {}
+        lbs = skin(self.A[:3], self.shaped)
+        self.states = [lbs[0], lbs[1], lbs[2]]  # x_{t-2}, x_{t-1}, x_t
+
+    def tree(self, f):
+        if f not in self.trees:
+            self.trees[f] = cKDTree(self.body[f])
+        return self.trees[f]
+
+    def features(self, f):
+        """X_H+ for predicting frame f from the last three states, canonicalised in the heading frame of f."""
+        s = self.setup
+        x2, x1, x0 = self.states[-3], self.states[-2], self.states[-1]
+        dt = float(self.dt[f])
+        Hinv, p0 = self.Hinv[f], self.p0[f]
+        vel = (x0 - x1) / dt
+        acc = (x0 - 2 * x1 + x2) / dt ** 2
+        pos = x0 - p0
+        nrm = vertex_normals(x0, s.energies.faces)
+        N = s.N
+        node = torch.cat([pos @ Hinv.T, vel @ Hinv.T, 0.1 * acc @ Hinv.T, nrm @ Hinv.T,
+                          self.material01.expand(N, 4), torch.full((N, 1), dt * 30.0), s.static_node], -1)
+        edges = []
+        for snd, rcv, _ in s.levels:
+            rel = (x0[snd] - x0[rcv]) @ Hinv.T
+            rest = self.shaped[snd] - self.shaped[rcv]
+            edges.append(torch.cat([rel, rel.norm(dim=-1, keepdim=True), rest, rest.norm(dim=-1, keepdim=True),
+                                    self.material01.expand(len(snd), 4), torch.full((len(snd), 1), dt * 30.0)], -1))
+        dist, idx = self.tree(f - 1).query(x0.detach().cpu().numpy())
+        keep = np.nonzero(dist < s.cfg["model"]["body_radius_m"])[0]
+        recv = torch.as_tensor(keep, device=s.device)
+        bi = torch.as_tensor(idx[keep], device=s.device)
+        b_t = (self.body_t[f - 1][bi] - x0[recv]) @ Hinv.T
+        b_n = (self.body_t[f][bi] - x0[recv]) @ Hinv.T
+        body = torch.cat([b_t, b_n, b_t.norm(dim=-1, keepdim=True), b_n.norm(dim=-1, keepdim=True),
+                          torch.full((len(keep), 1), dt * 30.0)], -1)
+        return node, edges, body, recv
+
+    def advance(self, f, displacement):
+        x = skin(self.A[f], self.shaped + displacement)
+        self.states.append(x)
+        return x
+
+    def losses(self, f):
+        s = self.setup
+        x, x_t, x_tm1 = self.states[-1], self.states[-2], self.states[-3]
+        _, idx = self.tree(f).query(x.detach().cpu().numpy())
+        idx = torch.as_tensor(idx, device=s.device)
+        return s.energies.terms(x, x_t, x_tm1, self.material, float(self.dt[f]), self.body_t[f][idx],
+                                self.body_n[f][idx], self.body_t[f - 1][idx])
+
+
+class Stage1Model(torch.nn.Module):
+    def __init__(self, setup):
+        super().__init__()
+        m = setup.cfg["model"]
+        self.phi = Phi(m, setup.node_features, setup.edge_features, setup.body_features, m["mp_levels"],
+                       setup.chain, setup.final_vertices)
+        self.block = InferenceBlock(m, setup.N, free_mask=setup.free_mask)
+
+    def forward(self, node, edges, body, recv, graph):
+        z = self.phi.encode_process_convolve(node, edges, graph, body, recv)
+        return z, self.block.displacement(z)
+
+
+def sample_window(setup, clips, rng, length, beta=None, material=None):
+    while True:
+        clip = clips[rng.integers(len(clips))]
+        if len(clip.rotations) >= length:
+            break
+    start = rng.integers(0, len(clip.rotations) - length + 1)
+    beta = setup.sample_beta(rng) if beta is None else beta
+    mat, mat01 = setup.sample_material(rng) if material is None else material
+    win = setup.pose_window(clip, start, length, beta)
+    return win, beta, mat, mat01
+
+
+def weighted(terms, w):
+    return sum(w[k] * terms[k] for k in LOSS_TERMS)
+
+
+# ---- bookkeeping -------------------------------------------------------------------------------------------------
+class Run:
+    def __init__(self, out, stage, cfg, rank):
+        self.out, self.stage, self.rank = Path(out), stage, rank
+        self.t0 = time.time()
+        if rank == 0:
+            self.out.mkdir(parents=True, exist_ok=True)
+            (self.out / f"config_{stage}.json").write_text(json.dumps(
+                {"config": cfg, "sources": sources.used, "hardware": hardware()}, indent=2, default=str))
+            self.metrics = open(self.out / f"metrics_{stage}.jsonl", "a")
+
+    def log(self, record):
+        if self.rank == 0:
+            record = {"stage": self.stage, "time_s": round(time.time() - self.t0, 3), **record}
+            self.metrics.write(json.dumps(record) + "\n")
+            self.metrics.flush()
+
+    def checkpoint(self, state):
+        if self.rank == 0:
+            tmp = self.out / f"{self.stage}.pt.tmp"
+            torch.save(state, tmp)
+            os.replace(tmp, self.out / f"{self.stage}.pt")
+
+    def resume(self):
+        p = self.out / f"{self.stage}.pt"
+        return torch.load(p, weights_only=False) if p.exists() else None
+
+
+def hardware():
+    info = {"machine": platform.machine(), "processor": platform.processor() or platform.machine(),
+            "cpu_count": os.cpu_count(), "torch": torch.__version__, "threads": torch.get_num_threads()}
+    if torch.cuda.is_available():
+        info["gpu"] = torch.cuda.get_device_name(0)
+    return info
+
+
+def _rng_state():
+    return {"torch": torch.get_rng_state()}
+
+
+def device_for(name, rank):
+    if name == "auto":
+        name = "cuda" if torch.cuda.is_available() else "cpu"
+    if name == "cuda":
+        return torch.device("cuda", int(os.environ.get("LOCAL_RANK", rank)))
+    return torch.device("cpu")
+
+
+# ---- stage 1 -----------------------------------------------------------------------------------------------------
+def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True):
+    rank, world = dist_info()
+    dev = device_for(device, rank)
+    torch.manual_seed(cfg["seed"])
+    setup = Setup(cfg, garment, dev)
+    clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None, cfg["clips"]["frames_limit"] or None)
+    model = Stage1Model(setup).to(dev)
+    c1 = cfg["stage1"]
+    opt = torch.optim.Adam(model.parameters(), lr=c1["lr"])
+    run = Run(out, "stage1", cfg, rank)
+    start = 0
+    if resume and (state := run.resume()) is not None:
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optimizer"])
+        start = state["iteration"]
+    ddp = wrap_ddp(model, world, dev)
+    rng = np.random.default_rng([cfg["seed"], rank, start])
+    bar = tqdm(range(start, c1["iterations"]), disable=not progress or rank != 0, desc="stage1")
+    for it in bar:
+        steps = rollout_steps(c1, it)
+        w = loss_weights(c1, it)
+        win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
+        loss, terms = rollout_loss(setup, ddp, Window(setup, win, beta, mat, mat01), steps, w)
+        opt.zero_grad()
+        loss.backward()
+        gn = torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
+        opt.step()
+        rec = {"iteration": it + 1, "loss": loss.item(), "steps": steps, "grad_norm": float(gn),
+               **{k: v for k, v in terms.items()}, **{f"w_{k}": v for k, v in w.items()}}
+        run.log(rec)
+        bar.set_postfix(loss=f"{loss.item():.4g}", steps=steps)
+        if (it + 1) % c1["checkpoint_every"] == 0 or it + 1 == c1["iterations"]:
+            run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
+                            "config": cfg, "garment": garment, "rng": _rng_state()})
+    val = validate_stage1(setup, model, cfg)
+    run.log({"iteration": c1["iterations"], "validation": val})
+    return model, setup, val
+
+
+def rollout_loss(setup, model, window, steps, w, predictor=None):
+    setup.energies.collision_weight = w["collision"]
+    total, acc = 0.0, {k: 0.0 for k in LOSS_TERMS}
+    for i in range(steps):
+        f = 3 + i
+        if predictor is None:
+            node, edges, body, recv = window.features(f)
+            _, disp = model(node, edges, body, recv, setup.levels)
+        else:
+            disp = predictor(f)
+        window.advance(f, disp)
+        terms = window.losses(f)
+        total = total + weighted(terms, w)
+        for k in LOSS_TERMS:
+            acc[k] += float(terms[k].detach()) / steps
+    return total / steps, acc
+
+
+@torch.no_grad()
+def validate_stage1(setup, model, cfg):
+    clips = sources.clips("validation", cfg["fps"], cfg["clips"]["validation_limit"] or None,
+                          cfg["clips"]["frames_limit"] or None)
+    rng = np.random.default_rng(12345)
+    c1 = cfg["stage1"]
+    w = loss_weights(c1, c1["iterations"] - 1)
+    losses = []
+    for _ in range(c1["validation_windows"]):
+        win, beta, mat, mat01 = sample_window(setup, clips, rng, c1["rollout_max"] + 3)
+        loss, _ = rollout_loss(setup, model, Window(setup, win, beta, mat, mat01), c1["rollout_max"], w)
+        losses.append(float(loss))
+    return {"loss": float(np.mean(losses)), "windows": len(losses)}
+
+
+def load_stage1(out, device="cpu"):
+    state = torch.load(Path(out) / "stage1.pt", weights_only=False)
+    cfg = state["config"]
+    setup = Setup(cfg, state["garment"], device)
+    model = Stage1Model(setup).to(device)
+    model.load_state_dict(state["model"])
+    model.eval()
+    return model, setup, cfg, state
+
+
+# ---- stage 2 -----------------------------------------------------------------------------------------------------
+@torch.no_grad()
+def record_latents(setup, model, clips, count, frames, rng):
+    """Frozen-Φ rollouts: per sequence the X_c rows (latent block zero) and Φ's latent for each predicted frame."""
+    seqs = []
+    for _ in range(count):
+        length = frames + 3
+        win, beta, mat, mat01 = sample_window(setup, [c for c in clips if len(c.rotations) >= 4] or clips, rng,
+                                              min(length, min(len(c.rotations) for c in clips)))
+        window = Window(setup, win, beta, mat, mat01)
+        zs = []
+        for f in range(3, len(win["dt"])):
+            node, edges, body, recv = window.features(f)
+            z, disp = model(node, edges, body, recv, setup.levels)
+            window.advance(f, disp)
+            zs.append(z.cpu().numpy())
+        static = setup.static_inputs(win, beta, mat)[3:]  # row i ↔ frame i + 3
+        seqs.append({"static": static.astype(np.float64), "z": np.array(zs, np.float64)})
+    return seqs
+
+
+def normalisation(setup, seqs):
+    L = setup.L
+    z = np.concatenate([s["z"] for s in seqs])
+    z_mean, z_std = z.mean(0), z.std(0)
+    z_std = np.where(z_std > 1e-6, z_std, 1.0)
+    x = np.concatenate([s["static"] for s in seqs])
+    prev = np.concatenate([np.concatenate([np.zeros((1, L)), s["z"][:-1]]) for s in seqs])
+    x[:, :L] = prev
+    x_mean, x_std = x.mean(0), x.std(0)
+    x_std = np.where(x_std > 1e-6, x_std, 1.0)
+    # material: already mapped to [0, 1] by X_c assembly; the paper keeps it there (no mean/std)
+    x_mean[-4:], x_std[-4:] = 0.0, 1.0
+    return {"x_mean": x_mean, "x_std": x_std, "z_mean": z_mean, "z_std": z_std,
+            "z_min": z.min(0), "z_max": z.max(0)}
+
+
+class LatentPredictor(torch.nn.Module):
+    """f_LP with the asset's normalisation and latent guard baked in, so training runs exactly what ships."""
+
+    def __init__(self, setup, norms):
+        super().__init__()
+        m = setup.cfg["model"]
+        from pleat.train.model import mlp
+        self.lp = mlp([setup.input_count] + list(m["lp_hidden"]) + [setup.L], m["activation"])
+        for k, v in norms.items():
+            self.register_buffer(k, torch.as_tensor(np.asarray(v), dtype=torch.float32))
+
+    def forward(self, z_prev, static):
+        x = torch.cat([z_prev, static[..., z_prev.shape[-1]:]], -1)
+        y = self.lp((x - self.x_mean) / self.x_std)
+        z = torch.minimum(torch.maximum(y * self.z_std + self.z_mean, self.z_min), self.z_max)
+        return y, z
+
+
+def train_stage2(cfg, out, resume=False, device="auto", progress=True):
+    rank, world = dist_info()
+    dev = device_for(device, rank)
+    phi, setup, cfg, _ = load_stage1(out, dev)
+    c2 = cfg["stage2"]
+    run = Run(out, "stage2", cfg, rank)
+    rng = np.random.default_rng([cfg["seed"], 2, rank])
+    data_path = Path(out) / "stage2_latents.npz"
+    train_clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None,
+                                cfg["clips"]["frames_limit"] or None)
+    val_clips = sources.clips("validation", cfg["fps"], cfg["clips"]["validation_limit"] or None,
+                              cfg["clips"]["frames_limit"] or None)
+    if resume and data_path.exists():
+        with np.load(data_path, allow_pickle=True) as d:
+            seqs, val = list(d["train"]), list(d["validation"])
+    else:
+        seqs = record_latents(setup, phi, train_clips, c2["sequences"], c2["sequence_frames"], rng)
+        val = record_latents(setup, phi, val_clips, max(1, c2["sequences"] // 4), c2["sequence_frames"], rng)
+        if rank == 0:
+            np.savez(data_path, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
+    norms = normalisation(setup, seqs)
+    model = LatentPredictor(setup, norms).to(dev)
+    opt = torch.optim.Adam(model.parameters(), lr=c2["lr"])
+    start = 0
+    if resume and (state := run.resume()) is not None:
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optimizer"])
+        start = state["iteration"]
+    ddp = wrap_ddp(model, world, dev)
+    static = [to_t(s["static"], dev) for s in seqs]
+    target = [to_t(s["z"], dev) for s in seqs]
+    W = c2["window"]
+    bar = tqdm(range(start, c2["iterations"]), disable=not progress or rank != 0, desc="stage2")
+    for it in bar:
+        idx = rng.integers(len(seqs), size=c2["batch"])
+        starts = [rng.integers(0, max(len(seqs[i]["z"]) - W, 0) + 1) for i in idx]
+        z_prev = torch.stack([target[i][j - 1] if j > 0 else torch.zeros(setup.L, device=dev)
+                              for i, j in zip(idx, starts)])
+        loss = 0.0
+        for k in range(W):
+            rows = torch.stack([static[i][min(j + k, len(static[i]) - 1)] for i, j in zip(idx, starts)])
+            gt = torch.stack([target[i][min(j + k, len(target[i]) - 1)] for i, j in zip(idx, starts)])
+            y, z_prev = ddp(z_prev, rows)
+            loss = loss + ((y - (gt - model.z_mean) / model.z_std) ** 2).mean()
+        loss = loss / W
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        run.log({"iteration": it + 1, "loss": loss.item()})
+        bar.set_postfix(loss=f"{loss.item():.4g}")
+        if (it + 1) % c2["checkpoint_every"] == 0 or it + 1 == c2["iterations"]:
+            run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
+                            "norms": norms, "config": cfg})
+    val_metrics = validate_stage2(model, val, dev)
+    run.log({"iteration": c2["iterations"], "validation": val_metrics})
+    return model, val_metrics
+
+
+@torch.no_grad()
+def validate_stage2(model, seqs, dev):
+    """Free-running rollouts from Z_0 = 0 on held-out clips: MSE of the normalised latent, and the same for the
+    constant predictor z_mean (what 'no information' scores) as a yardstick."""
+    err, base = [], []
+    for s in seqs:
+        z = torch.zeros(model.z_mean.shape, device=dev)
+        gt = to_t(s["z"], dev)
+        for k, row in enumerate(to_t(s["static"], dev)):
+            y, z = model(z, row)
+            g = (gt[k] - model.z_mean) / model.z_std
+            err.append(float(((y - g) ** 2).mean()))
+            base.append(float((g ** 2).mean()))
+    return {"mse_normalised": float(np.mean(err)), "mse_constant_mean": float(np.mean(base)), "frames": len(err)}
+
+
+# ---- ablation (paper 4.3) ------------------------------------------------------------------------------------------
+def pose_statistics(setup, clips, rng, samples=8):
+    rows = []
+    for _ in range(samples):
+        clip = clips[rng.integers(len(clips))]
+        beta = setup.sample_beta(rng)
+        mat, _ = setup.sample_material(rng)
+        win = setup.pose_window(clip, 0, len(clip.rotations), beta)
+        rows.append(setup.static_inputs(win, beta, mat)[2:])
+    x = np.concatenate(rows)
+    mean, std = x.mean(0), x.std(0)
+    std = np.where(std > 1e-6, std, 1.0)
+    mean[:setup.L], std[:setup.L] = 0.0, 1.0
+    mean[-4:], std[-4:] = 0.0, 1.0
+    L = setup.L
+    return {"x_mean": mean, "x_std": std, "z_mean": np.zeros(L), "z_std": np.ones(L),
+            "z_min": np.full(L, -1e3), "z_max": np.full(L, 1e3)}
+
+
+class AblationModel(torch.nn.Module):
+    def __init__(self, setup, norms):
+        super().__init__()
+        self.lp = LatentPredictor(setup, norms)
+        self.block = InferenceBlock(setup.cfg["model"], setup.N, free_mask=setup.free_mask)
+
+    def forward(self, z_prev, row):
+        _, z = self.lp(z_prev, row)
+        return z, self.block.displacement(z)
+
+
+def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True):
+    rank, world = dist_info()
+    dev = device_for(device, rank)
+    torch.manual_seed(cfg["seed"])
+    setup = Setup(cfg, garment, dev)
+    clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None, cfg["clips"]["frames_limit"] or None)
+    rng = np.random.default_rng([cfg["seed"], 3, rank])
+    norms = pose_statistics(setup, clips, rng)
+    model = AblationModel(setup, norms).to(dev)
+    ca, c1 = cfg["ablation"], cfg["stage1"]
+    opt = torch.optim.Adam(model.parameters(), lr=ca["lr"])
+    run = Run(out, "ablation", cfg, rank)
+    start = 0
+    if resume and (state := run.resume()) is not None:
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optimizer"])
+        start = state["iteration"]
+    ddp = wrap_ddp(model, world, dev)
+    z_lo = np.full(setup.L, np.inf)
+    z_hi = np.full(setup.L, -np.inf)
+    sched = dict(c1, iterations=ca["iterations"])
+    bar = tqdm(range(start, ca["iterations"]), disable=not progress or rank != 0, desc="ablation")
+    for it in bar:
+        steps = rollout_steps(sched, it)
+        w = loss_weights(sched, it)
+        loss = 0.0
+        acc = {k: 0.0 for k in LOSS_TERMS}
+        for _ in range(ca["batch"]):
+            win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
+            window = Window(setup, win, beta, mat, mat01)
+            static = to_t(setup.static_inputs(win, beta, mat), dev)
+            zbox = [torch.zeros(setup.L, device=dev)]
+
+            def predictor(f, static=static, zbox=zbox):
+                z, disp = ddp(zbox[0], static[f])
+                zbox[0] = z
+                with torch.no_grad():
+                    zn = z.detach().cpu().numpy()
+                    np.minimum(z_lo, zn, out=z_lo)
+                    np.maximum(z_hi, zn, out=z_hi)
+                return disp
+
+            l, terms = rollout_loss(setup, None, window, steps, w, predictor)
+            loss = loss + l / ca["batch"]
+            for k in LOSS_TERMS:
+                acc[k] += terms[k] / ca["batch"]
+        opt.zero_grad()
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
+        opt.step()
+        run.log({"iteration": it + 1, "loss": float(loss), "steps": steps, **acc})
+        bar.set_postfix(loss=f"{float(loss):.4g}")
+        if (it + 1) % ca["checkpoint_every"] == 0 or it + 1 == ca["iterations"]:
+            run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
+                            "config": cfg, "garment": garment, "z_min": z_lo, "z_max": z_hi})
+    return model, setup
+
+
+# ---- packing -------------------------------------------------------------------------------------------------------
+def network_weights(setup, lp_seq, block, norms, fps):
+    act = setup.cfg["model"]["activation"]
+    net = {k: np.asarray(v, np.float32) for k, v in norms.items()}
+    net.update(mlp_to_weights(lp_seq, "lp"))
+    net.update(mlp_to_weights(block.decoder, "dec"))
+    net["blend_shapes"] = block.exported_blend_shapes().cpu().numpy().astype(np.float32)
+    net["lp_activation"] = act
+    net["dec_activation"] = act
+    net["train_fps"] = np.float32(fps)
+    return net
+
+
+def final_losses(out, stage):
+    p = Path(out) / f"metrics_{stage}.jsonl"
+    if not p.exists():
+        return None
+    recs = [json.loads(line) for line in p.read_text().splitlines() if line.strip()]
+    train = [r for r in recs if "loss" in r]
+    val = [r["validation"] for r in recs if "validation" in r]
+    tail = train[-10:]
+    return {"first_loss": train[0]["loss"] if train else None,
+            "final_loss_mean_last10": float(np.mean([r["loss"] for r in tail])) if tail else None,
+            "iterations": train[-1]["iteration"] if train else 0,
+            "wall_time_s": train[-1]["time_s"] if train else None,
+            "validation": val[-1] if val else None}
+
+
+def pack(out, model_kind="two-stage", path=None, fp16=False, onnx=False):
+    from pleat.asset import write_asset
+    out = Path(out)
+    if model_kind == "two-stage":
+        s1 = torch.load(out / "stage1.pt", weights_only=False)
+        s2 = torch.load(out / "stage2.pt", weights_only=False)
+        cfg = s1["config"]
+        setup = Setup(cfg, s1["garment"], "cpu")
+        stage1 = Stage1Model(setup)
+        stage1.load_state_dict(s1["model"])
+        lp = LatentPredictor(setup, s2["norms"])
+        lp.load_state_dict(s2["model"])
+        net = network_weights(setup, lp.lp, stage1.block, s2["norms"], cfg["fps"])
+        stages = ("stage1", "stage2")
+    else:
+        sa = torch.load(out / "ablation.pt", weights_only=False)
+        cfg = sa["config"]
+        setup = Setup(cfg, sa["garment"], "cpu")
+        norms = pose_statistics(setup, sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None,
+                                                     cfg["clips"]["frames_limit"] or None),
+                                np.random.default_rng([cfg["seed"], 3, 0]))
+        model = AblationModel(setup, norms)
+        model.load_state_dict(sa["model"])
+        norms = {k: getattr(model.lp, k).numpy() for k in ("x_mean", "x_std", "z_mean", "z_std")}
+        norms["z_min"], norms["z_max"] = sa["z_min"], sa["z_max"]
+        net = network_weights(setup, model.lp.lp, model.block, norms, cfg["fps"])
+        stages = ("ablation",)
+    meta = {"model": f"pleat {model_kind} (paper sections 3.2-3.3)" if model_kind == "two-stage"
+            else "ablation: inference block trained alone on the physics losses (paper 4.3)",
+            "training": {"preset": cfg["preset"], "config": cfg, "sources": sources.used,
+                         "hardware": hardware(), "losses": {s: final_losses(out, s) for s in stages}}}
+    meta["training"]["wall_time_s"] = sum((meta["training"]["losses"][s] or {}).get("wall_time_s") or 0.0
+                                          for s in stages)
+    weights = ga.weights_from_garment(setup.garment, setup.body, net, metadata=meta, name=setup.name)
+    target = Path(path) if path else out / f"{setup.name}{'' if model_kind == 'two-stage' else '_ablation'}.pleat"
+    write_asset(str(target), weights, fp16=fp16, onnx=onnx)
+    np.savez(out / f"{target.stem}_weights.npz", **{k: np.asarray(v) for k, v in weights.items()})
+    return target, weights

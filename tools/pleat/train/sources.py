@@ -1,0 +1,137 @@
+"""Where training gets the body, garment, motion, energies, forward kinematics and X_c from.
+
+The real modules (pleat.body, pleat.garment, pleat.motion, pleat.physics, pleat.reference) are used whenever they
+import; `pleat.train.standins` fills in only for missing ones. `used` records which was taken; it is written into the
+run config and the asset's META, so a stand-in never goes unnoticed.
+"""
+import importlib
+from pathlib import Path
+
+import numpy as np
+
+from pleat import REPO_ROOT
+from pleat.train import standins
+
+used = {}
+
+
+def _try(module):
+    try:
+        return importlib.import_module(module)
+    except Exception:
+        return None
+
+
+def body(path="assets/body.npz"):
+    p = Path(path)
+    if not p.is_absolute():
+        p = REPO_ROOT / p
+    mod = _try("pleat.body")
+    if mod is not None and hasattr(mod, "BodyModel") and p.exists():
+        used["body"] = str(p)
+        return mod.BodyModel.load(str(p))
+    used["body"] = "standin"
+    return standins.StandinBody()
+
+
+def garment(spec, body_model, vertices):
+    """An npz path (pleat-garment output) or a garment name generated at `vertices` vertices."""
+    if str(spec).endswith(".npz"):
+        with np.load(spec, allow_pickle=False) as data:
+            used["garment"] = str(spec)
+            return {k: data[k] for k in data.files}
+    mod = _try("pleat.garment")
+    if mod is not None and spec != "standin":
+        for name in ("make_garment", "generate", "build_garment"):
+            fn = getattr(mod, name, None)
+            if fn is not None:
+                used["garment"] = f"pleat.garment.{name}({spec!r}, vertices={vertices})"
+                g = fn(spec, vertices=vertices)
+                return g
+    used["garment"] = "standin"
+    return standins.StandinGarment(body_model, vertices)
+
+
+def field(obj, name, default=None):
+    if isinstance(obj, dict):
+        return obj.get(name, default)
+    return getattr(obj, name, default)
+
+
+def clips(split, fps, count_limit=None, frames_limit=None):
+    """Training or validation clips resampled to `fps`: objects with fps, rotations [T,J,4] (x,y,z,w),
+    root_translation [T,3], root_rotation [T,4]."""
+    mod = _try("pleat.motion")
+    out = None
+    if mod is not None:
+        try:
+            out = _motion_clips(mod, split, fps)
+            used[f"motion_{split}"] = "pleat.motion"
+        except Exception as exc:  # noqa: BLE001 - any loader failure falls back, and is recorded
+            used[f"motion_{split}"] = f"standin ({type(exc).__name__}: {exc})"
+            out = None
+    if out is None:
+        used.setdefault(f"motion_{split}", "standin")
+        out = standins.standin_clips(fps=fps, frames=150, count=4 if split == "train" else 2,
+                                     seed=0 if split == "train" else 1)
+    if count_limit:
+        out = out[:count_limit]
+    if frames_limit:
+        for c in out:
+            c.rotations = c.rotations[:frames_limit]
+            c.root_translation = c.root_translation[:frames_limit]
+            c.root_rotation = c.root_rotation[:frames_limit]
+    return out
+
+
+def _motion_clips(mod, split, fps):
+    split_mod = importlib.import_module("pleat.motion.split")
+    names = getattr(split_mod, "TRAIN" if split == "train" else "VALIDATION")
+    result = []
+    for name in names:
+        clip = mod.load_clip(name)
+        if hasattr(mod, "resample"):
+            clip = mod.resample(clip, fps)
+        result.append(clip)
+    return result
+
+
+class Energies:
+    """Equation 4 terms for one garment from pleat.physics (torch path). material = (m kg/m², μ, λ, k)."""
+
+    def __init__(self, template, faces, torch, friction_mu=0.5, friction_eps_m=1e-3, collision_eps_m=4e-3):
+        import pleat.physics as ph
+        used["energies"] = "pleat.physics"
+        self.ph, self.torch = ph, torch
+        self.rest = ph.cloth_rest(template, faces)
+        self._rest_t = None
+        self.faces = torch.as_tensor(self.rest.faces)
+        self.friction_mu, self.friction_eps, self.eps = friction_mu, friction_eps_m, collision_eps_m
+
+    def terms(self, x, x_t, x_tm1, material, dt, body_points, body_normals, body_points_t):
+        ph, torch = self.ph, self.torch
+        if self._rest_t is None or self._rest_t.face_area.device != x.device:
+            self._rest_t = self.rest.to(x)
+        rest = self._rest_t
+        m, mu, lam, k = material[0], material[1], material[2], material[3]
+        mass = m * rest.vertex_area
+        collision = ph.collision_energy(x, body_points, body_normals, self.eps, 1.0)
+        with torch.no_grad():  # lagged normal force of the collision penalty (held fixed in the step)
+            gap = torch.relu(self.eps - ((x - body_points) * body_normals).sum(-1))
+            normal_force = 3.0 * gap * gap * float(self.collision_weight)
+        return {
+            "stretching": ph.stretching_energy(x, rest, mu, lam),
+            "bending": ph.bending_energy(x, rest, k),
+            "inertia": ph.inertia_energy(x, 2 * x_t - x_tm1, mass, dt),
+            # relative to the previous state: same gradient, a value that reads as work done in the step
+            "gravity": ph.gravity_energy(x, mass) - ph.gravity_energy(x_t, mass).detach(),
+            "friction": ph.friction_energy(x, x_t, body_points - body_points_t, body_normals, normal_force,
+                                           self.friction_mu, self.friction_eps),
+            "collision": collision,
+        }
+
+    collision_weight = 1.0
+
+
+def energies(template, faces, torch):
+    return Energies(template, faces, torch)
