@@ -1,9 +1,8 @@
 #version 430 core
 // Skinning job, linear blend skinning with K sparse influences (docs/inputs.md "Network evaluation"):
-//     positions[i] = sum_k skin_weights[i][k] * M_{skin_indices[i][k]} * (deformed[i], 1)
-// Same loop as sdk/src/skinning.c and tools/pleat/reference/skinning.py: for each influence k in order, transform
-// the vertex by that joint's 3x4 matrix and accumulate weighted. One invocation per vertex.
-
+//     positions[i] = (sum_k skin_weights[i][k] * M_{skin_indices[i][k]}) * (deformed[i], 1)
+// Same loop as sdk/src/skinning.c and tools/pleat/reference/skinning.py: blend the K joints' 3x4 matrices with the
+// skin weights in order k = 0 .. K-1, then transform the vertex once. One invocation per vertex.
 layout(local_size_x = 64) in;
 
 // C twin: plGlDeformParams (sdk/src/gl/gl_types.h).
@@ -27,14 +26,17 @@ void main()
 	uint i = gl_GlobalInvocationID.x;
 	if (i >= vertex_count)
 		return;
-	vec4 p = vec4(deformed[i].xyz, 1.0);
-	vec3 x = vec3(0.0);
+	vec4 m0 = vec4(0.0), m1 = vec4(0.0), m2 = vec4(0.0); // the blended matrix, row by row
 	for (uint k = 0u; k < influence_count; ++k)
 	{
 		uint e = i * influence_count + k;
 		float w = skin_weights[e];
-		uint m = 3u * skin_indices[e];
-		x += w * vec3(dot(skin_matrices[m], p), dot(skin_matrices[m + 1u], p), dot(skin_matrices[m + 2u], p));
+		uint joint = 3u * skin_indices[e];
+		m0 += w * skin_matrices[joint];
+		m1 += w * skin_matrices[joint + 1u];
+		m2 += w * skin_matrices[joint + 2u];
 	}
+	vec4 p = vec4(deformed[i].xyz, 1.0);
+	vec3 x = vec3(dot(m0, p), dot(m1, p), dot(m2, p));
 	positions[i] = vec4(x, 1.0);
 }

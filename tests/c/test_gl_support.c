@@ -224,14 +224,17 @@ void plTestReference_Deform( const plTestMesh* mesh, const float* blend_shapes, 
 			for ( uint32_t j = 0; j < mesh->blend_count; ++j )
 				x[c] += (double)blend_weights[j] * blend_shapes[( (size_t)j * n + i ) * 3 + c];
 		}
-		double p[3] = { 0.0, 0.0, 0.0 };
+		double m[12] = { 0.0 }; // Σ_k w_k M_k, then one transform (as skinning.c and the numpy reference)
 		for ( uint32_t k = 0; k < k_count; ++k )
 		{
-			const float* m = skin_matrices + 12 * mesh->skin_indices[k_count * i + k];
+			const float* joint = skin_matrices + 12 * mesh->skin_indices[k_count * i + k];
 			double w = mesh->skin_weights[k_count * i + k];
-			for ( int r = 0; r < 3; ++r )
-				p[r] += w * ( m[4 * r] * x[0] + m[4 * r + 1] * x[1] + m[4 * r + 2] * x[2] + m[4 * r + 3] );
+			for ( int e = 0; e < 12; ++e )
+				m[e] += w * joint[e];
 		}
+		double p[3];
+		for ( int r = 0; r < 3; ++r )
+			p[r] = m[4 * r] * x[0] + m[4 * r + 1] * x[1] + m[4 * r + 2] * x[2] + m[4 * r + 3];
 		memcpy( positions + 3 * i, p, sizeof( p ) );
 	}
 	for ( uint32_t i = 0; i < n; ++i )
