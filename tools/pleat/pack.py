@@ -16,12 +16,12 @@ DTYPE_NAMES = {pa.DTYPE_F32: "f32", pa.DTYPE_F16: "f16", pa.DTYPE_U32: "u32", pa
                pa.DTYPE_I32: "i32", pa.DTYPE_U8: "u8"}
 
 
-def info(path, out=sys.stdout):
+def info(path, out=None):
     """Prints header, section table, counts and META of an asset. Returns 0, or 1 if it does not validate."""
     data = Path(path).read_bytes()
     header, sections = pa.inspect_asset(data, verify_checksum=False)
     crc_ok = pa.checksum(data) == header["checksum"]
-    p = lambda *a: print(*a, file=out)
+    p = lambda *a: print(*a, file=out or sys.stdout)
     p(f"{path}: Pleat asset {header['version'][0]}.{header['version'][1]}, {header['file_size']} bytes, "
       f"{header['section_count']} sections, flags 0x{header['flags']:x}"
       f"{' (fp16 weights)' if header['flags'] & pa.FLAG_FP16 else ''}, CRC-32 {header['checksum']:08x} "

@@ -1,0 +1,95 @@
+"""pleat-pack CLI and the ONNX export (run with onnxruntime against the numpy reference)."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from pleat import asset as pa
+from pleat import pack
+from pleat.reference.golden import random_weights
+from pleat.reference.mlp import layers, mlp
+
+
+@pytest.fixture(scope="module")
+def weights():
+    return random_weights(vertices=100, latent=8, blend=6, lp_hidden=(24, 16), dec_hidden=(12,), seed=11)
+
+
+@pytest.fixture()
+def weights_file(tmp_path, weights):
+    path = tmp_path / "w.npz"
+    pa.save_weights(path, weights)
+    return path
+
+
+def test_pack_writes_what_write_asset_writes(tmp_path, weights, weights_file):
+    out = tmp_path / "a.pleat"
+    assert pack.main([str(weights_file), "-o", str(out), "--fp16"]) == 0
+    assert out.read_bytes() == pa.write_asset(None, weights, fp16=True)
+
+
+def test_pack_name_and_metadata_override(tmp_path, weights_file):
+    out = tmp_path / "a.pleat"
+    assert pack.main([str(weights_file), "-o", str(out), "--name", "shirt", "--metadata", '{"loss": 0.5}']) == 0
+    back = pa.read_asset(out.read_bytes())
+    assert back["garment_name"] == "shirt" and json.loads(back["metadata_json"]) == {"loss": 0.5}
+    assert pack.main([str(weights_file), "-o", str(out), "--metadata", "{bad"]) == 1
+
+
+def test_info_prints_header_sections_counts_and_meta(tmp_path, weights_file, capsys):
+    out = tmp_path / "a.pleat"
+    pack.main([str(weights_file), "-o", str(out), "--onnx", "--name", "tee"])
+    capsys.readouterr()
+    assert pack.main(["--info", str(out)]) == 0
+    text = capsys.readouterr().out
+    for needle in ("Pleat asset 1.0", "CRC-32", "(ok)", "TMPL", "OXLP", "OXDC", "vertex_count=100", "latent_count=8",
+                   "name: tee", "META:", "validation: ok"):
+        assert needle in text, needle
+    data = bytearray(out.read_bytes())
+    data[-5] ^= 1
+    out.write_bytes(bytes(data))
+    assert pack.main(["--info", str(out)]) == 1
+    assert "MISMATCH" in capsys.readouterr().out
+
+
+def test_pack_path_does_not_import_torch(tmp_path, weights_file):
+    code = ("import sys; from pleat import pack; "
+            f"rc = pack.main([{str(weights_file)!r}, '-o', {str(tmp_path / 'a.pleat')!r}, '--onnx']); "
+            "sys.exit(10 if 'torch' in sys.modules else rc)")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def run_onnx(model_bytes, feed):
+    ort = pytest.importorskip("onnxruntime")
+    session = ort.InferenceSession(model_bytes, providers=["CPUExecutionProvider"])
+    return session.run(None, feed)[0]
+
+
+@pytest.mark.parametrize("activation", ["relu", "silu"])
+@pytest.mark.parametrize("fp16", [False, True])
+def test_embedded_onnx_matches_the_numpy_reference(weights, activation, fp16):
+    w = dict(weights, lp_activation=activation, dec_activation=activation)
+    back = pa.read_asset(pa.write_asset(None, w, fp16=fp16, onnx=True))
+    rng = np.random.default_rng(0)
+    x = rng.standard_normal((1, len(back["x_mean"]))).astype(np.float32)
+    z = rng.standard_normal((1, 8)).astype(np.float32)
+    y = run_onnx(back["onnx_latent_predictor"], {"x": x})
+    wts = run_onnx(back["onnx_decoder"], {"z": z})
+    assert y.shape == (1, 8) and wts.shape == (1, 6)
+    # the reference uses the weights as stored (fp16-rounded when fp16): ONNX must compute the same function
+    np.testing.assert_allclose(y, mlp(x, *layers(back, "lp"), activation), rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(wts, mlp(z, *layers(back, "dec"), activation), rtol=1e-4, atol=1e-5)
+
+
+def test_export_onnx_writes_standalone_models(tmp_path, weights, weights_file):
+    onnx = pytest.importorskip("onnx")
+    assert pack.main([str(weights_file), "--export-onnx", str(tmp_path / "ox")]) == 0
+    lp = onnx.load(str(tmp_path / "ox" / "latent_predictor.onnx"))
+    dec = onnx.load(str(tmp_path / "ox" / "decoder.onnx"))
+    assert [i.name for i in lp.graph.input] == ["x"] and [o.name for o in lp.graph.output] == ["y"]
+    assert [i.name for i in dec.graph.input] == ["z"] and [o.name for o in dec.graph.output] == ["w"]
+    dims = lambda v: [d.dim_value for d in v.type.tensor_type.shape.dim]
+    assert dims(lp.graph.input[0]) == [1, len(weights["x_mean"])] and dims(dec.graph.output[0]) == [1, 6]
+    assert {n.op_type for n in lp.graph.node} == {"Gemm", "Relu"}
