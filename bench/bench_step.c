@@ -15,6 +15,7 @@
 #include "pleat/pleat.h"
 
 #include "asset.h"
+#include "jobs.h"
 #include "kernels.h"
 #include "ort_backend.h"
 
@@ -131,28 +132,22 @@ static int ReadMotion( const char* path, Motion* motion )
 	return 1;
 }
 
-// ---- Pleat's MLP, as the instance evaluates it: mat-vec per layer, activation between layers ----
+// ---- Pleat's MLP: the instance's own job (mlp.c), serial, with the context's kernel choice ----
 
-static void PleatMlp( const plKernels* kernels, const plLayer* layers, uint32_t layer_count, uint32_t activation,
-					  const float* input, float* scratch_a, float* scratch_b, float* output )
+static plResult PleatMlp( const plKernels* kernels, const plLayer* layers, uint32_t layer_count, uint32_t activation,
+						  const float* input, float* scratch, uint32_t scratch_count, float* output )
 {
-	const float* x = input;
-	for ( uint32_t i = 0; i < layer_count; ++i )
-	{
-		const plLayer* layer = &layers[i];
-		float* out = i + 1 == layer_count ? output : ( i % 2 ? scratch_b : scratch_a );
-		kernels->mat_vec( out, x, layer->weight, layer->weight_fp16, layer->bias, layer->in_count, 0,
-						  layer->out_count );
-		if ( i + 1 < layer_count )
-		{
-			for ( uint32_t r = 0; r < layer->out_count; ++r )
-			{
-				float v = out[r];
-				out[r] = activation == PLEAT_ACTIVATION_RELU ? ( v > 0.0f ? v : 0.0f ) : v / ( 1.0f + expf( -v ) );
-			}
-		}
-		x = out;
-	}
+	plMlpJob job;
+	memset( &job, 0, sizeof( job ) );
+	job.layers = layers;
+	job.layer_count = layer_count;
+	job.activation = activation;
+	job.input = plMakeConstSpan( input, layers[0].in_count, 4 );
+	job.output = plMakeSpan( output, layers[layer_count - 1].out_count, 4 );
+	job.scratch = plMakeSpan( scratch, scratch_count, 4 );
+	job.kernels = kernels;
+	job.runner = NULL;
+	return plMlpJob_Run( &job );
 }
 
 static void* BenchAlloc( size_t size, size_t align, void* user )
@@ -172,9 +167,10 @@ typedef struct MlpTimes
 {
 	double pleat_us;
 	double ort_us;
-	double max_abs_diff; // |Pleat − ORT| over the decoder output of the last iteration
+	double max_abs_diff; // |w_Pleat − w_ORT| after the last iteration (each chains its own LP → decoder)
 	int have_ort;
 	plResult ort_result;
+	plResult pleat_result;
 } MlpTimes;
 
 static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_t warmup, uint32_t iterations,
@@ -188,8 +184,8 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 	for ( uint32_t i = 0; i < asset->dec_layer_count; ++i )
 		width = asset->dec[i].out_count > width ? asset->dec[i].out_count : width;
 	float* x = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
-	float* a = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
-	float* b = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
+	uint32_t scratch_count = 2 * width;
+	float* scratch = (float*)aligned_alloc( 64, 4 * (size_t)scratch_count );
 	float* latent_pleat = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
 	float* latent_ort = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
 	float* weights_pleat = (float*)aligned_alloc( 64, 4 * (size_t)( width + 16 ) );
@@ -206,6 +202,7 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 	plOrtMlp* ort_dec = NULL;
 	times->have_ort = 0;
 	times->ort_result = PLEAT_RESULT_BACKEND_UNAVAILABLE;
+	times->pleat_result = PLEAT_RESULT_OK;
 	if ( asset->onnx_lp != NULL && asset->onnx_dec != NULL )
 	{
 		times->ort_result = plOrtMlp_Create( ort_library, asset->onnx_lp, asset->onnx_lp_size, asset->input_count,
@@ -230,14 +227,17 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 			if ( pleat_turn )
 			{
 				double t0 = NowUs();
-				PleatMlp( &kernels, asset->lp, asset->lp_layer_count, asset->lp_activation, x, a, b, latent_pleat );
-				PleatMlp( &kernels, asset->dec, asset->dec_layer_count, asset->dec_activation, latent_pleat, a, b,
-						  weights_pleat );
+				plResult r = PleatMlp( &kernels, asset->lp, asset->lp_layer_count, asset->lp_activation, x, scratch,
+									   scratch_count, latent_pleat );
+				if ( r == PLEAT_RESULT_OK )
+					r = PleatMlp( &kernels, asset->dec, asset->dec_layer_count, asset->dec_activation, latent_pleat,
+								  scratch, scratch_count, weights_pleat );
+				if ( r != PLEAT_RESULT_OK )
+					times->pleat_result = r;
 				t_pleat = NowUs() - t0;
 			}
 			else if ( times->have_ort )
 			{
-				// Same latent into both decoders, so the outputs are comparable.
 				double t0 = NowUs();
 				plOrtMlp_Run( ort_lp, x, latent_ort );
 				plOrtMlp_Run( ort_dec, latent_ort, weights_ort );
@@ -266,8 +266,7 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 	free( pleat_us );
 	free( ort_us );
 	free( x );
-	free( a );
-	free( b );
+	free( scratch );
 	free( latent_pleat );
 	free( latent_ort );
 	free( weights_pleat );
@@ -429,6 +428,10 @@ int main( int argc, char** argv )
 
 	MlpTimes mlp;
 	TimeMlps( &asset, ort_library, warmup, iterations, &mlp );
+	if ( mlp.pleat_result != PLEAT_RESULT_OK )
+	{
+		return Fail( "Pleat MLP", mlp.pleat_result );
+	}
 	fprintf( stderr, "mlp: pleat %.1f us, ort %.1f us (%s), max |w_pleat - w_ort| = %.3g\n", mlp.pleat_us, mlp.ort_us,
 			 plResultString( mlp.ort_result ), mlp.max_abs_diff );
 
