@@ -6,7 +6,8 @@
 //                  [--path cpu|gl] [--sheet N]
 //
 // The body file (PLBODY01) and the clip file (PLMOTION) are written by `python -m pleat.render_export`; their
-// formats are in docs/demo.md. Every clip frame from A to B is stepped (the garment's dynamics need each one); every
+// formats are in docs/demo.md. Exit status: 0 = done, 1 = failed, 2 = bad options, 77 = no usable GL (no EGL
+// surfaceless context, or the SDK's GL path is unavailable with --path gl), so tests can skip. Every clip frame from A to B is stepped (the garment's dynamics need each one); every
 // step-th frame is rendered. The body is skinned here with the instance's own skinning matrices
 // (plInstance_GetSkinMatrices), so body and garment always share one skeleton.
 #define _POSIX_C_SOURCE 200809L
@@ -245,12 +246,12 @@ int main( int argc, char** argv )
 		fprintf( stderr, "render: --frames selects nothing (clip has %u frames)\n", motion.frame_count );
 		return 2;
 	}
-	mkdir( o.out_dir, 0777 );
+	mkdir( o.out_dir, 0777 ); // may exist already; a later write fails loudly if it cannot be made
 
 	// The GL context first: in --path gl the SDK runs its compute shaders inside it (host-context mode).
 	RenderGl* gl = renderGl_Create( o.width, o.height );
 	if ( gl == NULL )
-		return 1;
+		return 77;
 
 	plContextDef cdef = plDefaultContextDef();
 	plContext context;
@@ -320,7 +321,10 @@ int main( int argc, char** argv )
 	}
 	plInstance instance;
 	if ( ( r = plCreateInstance( context, &idef, &instance ) ) != PLEAT_RESULT_OK )
-		return fail( "plCreateInstance", r );
+	{
+		fail( "plCreateInstance", r );
+		return r == PLEAT_RESULT_GL_UNAVAILABLE ? 77 : 1;
+	}
 
 	RenderMesh* garment_mesh = renderMesh_Create( gl, info.vertex_count, garment_faces, garment_face_count,
 												  garment_position_buffer, garment_normal_buffer );
