@@ -1,0 +1,36 @@
+// Stand-in for the GL compute path (sdk/src/gl/) when it is absent or PLEAT_GL is off.
+#include "gl_deformer.h"
+
+plResult plGlDeformer_Create( const plGlDeformerDesc* desc, const plAllocator* allocator, plGlDeformer** out )
+{
+	(void)desc;
+	(void)allocator;
+	if ( out != NULL )
+	{
+		*out = NULL;
+	}
+	return PLEAT_RESULT_GL_UNAVAILABLE;
+}
+
+plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template )
+{
+	(void)deformer;
+	(void)shaped_template;
+	return PLEAT_RESULT_GL_UNAVAILABLE;
+}
+
+plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, const float* skin_matrices,
+						   float* positions, float* normals )
+{
+	(void)deformer;
+	(void)blend_weights;
+	(void)skin_matrices;
+	(void)positions;
+	(void)normals;
+	return PLEAT_RESULT_GL_UNAVAILABLE;
+}
+
+void plGlDeformer_Destroy( plGlDeformer* deformer )
+{
+	(void)deformer;
+}

@@ -1,0 +1,152 @@
+// Internal: the runtime's jobs, one file each, mirroring the paper (docs/inputs.md "Network evaluation"). A job is a
+// struct of input and output spans with _Validate (non-zero = valid) and _Run (validates, never allocates).
+#ifndef PLEAT_JOBS_H
+#define PLEAT_JOBS_H
+#include "asset.h"
+#include "core.h"
+#include "kernels.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+// A strided array: count elements, stride_bytes apart, inside [ptr, ptr + bytes).
+typedef struct plSpan
+{
+	void* ptr;
+	size_t bytes;
+	uint32_t count;
+	uint32_t stride_bytes;
+} plSpan;
+
+typedef struct plConstSpan
+{
+	const void* ptr;
+	size_t bytes;
+	uint32_t count;
+	uint32_t stride_bytes;
+} plConstSpan;
+
+// Non-zero if the span holds at least required_count elements of element_bytes (4-byte aligned floats).
+int plSpan_Holds( const void* ptr, size_t bytes, uint32_t count, uint32_t stride_bytes, uint32_t element_bytes,
+				  uint32_t required_count );
+#define PLEAT_SPAN_HOLDS( span, element_bytes, required )                                                             \
+	plSpan_Holds( ( span ).ptr, ( span ).bytes, ( span ).count, ( span ).stride_bytes, element_bytes, required )
+plSpan plMakeSpan( void* ptr, uint32_t count, uint32_t stride_bytes );
+plConstSpan plMakeConstSpan( const void* ptr, uint32_t count, uint32_t stride_bytes );
+
+// ---- forward_kinematics.c: one frame of pose → joint transforms, heading yaw and skinning matrices ----
+
+// One frame of the pose history, in double precision (small; X_c is assembled from it).
+typedef struct plPoseFrame
+{
+	double local_rotations[PLEAT_MAX_JOINTS][9]; // R_k, row-major 3×3
+	double joint_positions[PLEAT_MAX_JOINTS][3]; // p_k = translation of G_k (metres)
+	double pelvis_rotation[9];                   // P = Q_root · R_0
+	double yaw;                                  // heading yaw about +Y (radians)
+	double dt_s;                                 // time from the previous pose (seconds, clamped)
+} plPoseFrame;
+
+typedef struct plForwardKinematicsJob
+{
+	const int32_t* parents;           // [J]
+	uint32_t joint_count;             // J
+	const double* rest_joints;        // [J][3] J(β), metres
+	const double* root_translation;   // [3] metres
+	const double* root_rotation;      // [9] row-major
+	double previous_yaw;              // used when the pelvis forward axis is vertical
+	double dt_s;
+	plPoseFrame* frame;               // in: local_rotations; out: joint_positions, pelvis_rotation, yaw, dt_s
+	float* skin_matrices;             // out, optional: [J][3][4] row-major M_k = G_k · T(−J_k)
+} plForwardKinematicsJob;
+
+int plForwardKinematicsJob_Validate( const plForwardKinematicsJob* job );
+plResult plForwardKinematicsJob_Run( const plForwardKinematicsJob* job );
+
+// Quaternion (x, y, z, w), unit length → row-major 3×3 (rotations.py quat_to_matrix).
+void plQuatToMatrix( const double q[4], double m[9] );
+
+// ---- input_assembly.c: X_c exactly per docs/inputs.md ----
+
+typedef struct plInputAssemblyJob
+{
+	const plPoseFrame* frames[3];      // t+1, t, t−1
+	const float* latent;               // [latent_count] Z_t
+	uint32_t latent_count;
+	const uint32_t* input_joints;      // [input_joint_count]
+	uint32_t input_joint_count;
+	const float* beta;                 // [beta_count], clamped
+	uint32_t beta_count;
+	const float* material_normalized;  // [4] in [0, 1]
+	plSpan output;                     // [I] floats, packed
+} plInputAssemblyJob;
+
+int plInputAssemblyJob_Validate( const plInputAssemblyJob* job );
+plResult plInputAssemblyJob_Run( const plInputAssemblyJob* job );
+
+// ---- mlp.c: a chain of Linear layers, activation on hidden layers, last layer linear ----
+
+typedef struct plMlpJob
+{
+	const plLayer* layers;
+	uint32_t layer_count;
+	uint32_t activation;        // PLEAT_ACTIVATION_RELU or _SILU
+	plConstSpan input;          // [layers[0].in_count] floats, packed
+	plSpan output;              // [layers[last].out_count] floats, packed
+	plSpan scratch;             // [2 · widest hidden layer] floats, packed, 32-byte aligned
+	const plKernels* kernels;
+	const plTaskRunner* runner; // optional: rows are split over workers
+} plMlpJob;
+
+int plMlpJob_Validate( const plMlpJob* job );
+plResult plMlpJob_Run( const plMlpJob* job );
+
+// ---- blend_shapes.c: T_def = shaped template + Σ_j w_j D_j over a vertex range ----
+
+typedef struct plBlendShapesJob
+{
+	plConstSpan shaped_template; // [N] xyz, packed (stride 12), metres
+	const void* blend_shapes;    // [D][N][3] fp32 or fp16
+	int blend_shapes_fp16;
+	plConstSpan weights;         // [D] floats, packed
+	plSpan output;               // [N] xyz, packed (stride 12)
+	uint32_t vertex_begin, vertex_end;
+	const plKernels* kernels;
+} plBlendShapesJob;
+
+int plBlendShapesJob_Validate( const plBlendShapesJob* job );
+plResult plBlendShapesJob_Run( const plBlendShapesJob* job );
+
+// ---- skinning.c: x' = Σ_k w_k M_{j_k} x over a vertex range (strided spans) ----
+
+typedef struct plSkinningJob
+{
+	plConstSpan positions;     // [N] xyz, any stride
+	const uint16_t* skin_indices; // [N][K]
+	const float* skin_weights;    // [N][K]
+	uint32_t influence_count;     // K
+	const float* skin_matrices;   // [J][3][4]
+	uint32_t joint_count;         // J
+	plSpan output;             // [N] xyz, any stride (may not alias positions)
+	uint32_t vertex_begin, vertex_end;
+} plSkinningJob;
+
+int plSkinningJob_Validate( const plSkinningJob* job );
+plResult plSkinningJob_Run( const plSkinningJob* job );
+
+// ---- normals.c: area-weighted vertex normals gathered over the CSR adjacency, fixed order ----
+
+typedef struct plNormalsJob
+{
+	plConstSpan positions;           // [N] xyz, any stride
+	const uint32_t* faces;           // [F][3]
+	uint32_t face_count;
+	const uint32_t* adjacency_offsets; // [N + 1]
+	const uint32_t* adjacency_faces;   // [3F]
+	plSpan output;                   // [N] xyz unit normals (zero for a vertex whose faces have no area)
+	uint32_t vertex_begin, vertex_end;
+} plNormalsJob;
+
+int plNormalsJob_Validate( const plNormalsJob* job );
+plResult plNormalsJob_Run( const plNormalsJob* job );
+
+#endif

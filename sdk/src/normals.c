@@ -1,0 +1,64 @@
+// The normals job: n_v = normalize(Σ_{faces f ∋ v} cross(x_b − x_a, x_c − x_a)), area weighted, gathered through the
+// asset's CSR adjacency (NADO/NADF) in ascending face order: deterministic for any split of the vertex range, no
+// atomics. A vertex whose faces all have zero area gets a zero normal (not NaN).
+#include "jobs.h"
+
+#include <math.h>
+
+int plNormalsJob_Validate( const plNormalsJob* job )
+{
+	if ( job == NULL || job->faces == NULL || job->adjacency_offsets == NULL || job->adjacency_faces == NULL ||
+		 job->face_count == 0 )
+	{
+		return 0;
+	}
+	uint32_t n = job->positions.count;
+	return job->vertex_begin <= job->vertex_end && job->vertex_end <= n && PLEAT_SPAN_HOLDS( job->positions, 12, n ) &&
+		   PLEAT_SPAN_HOLDS( job->output, 12, n );
+}
+
+plResult plNormalsJob_Run( const plNormalsJob* job )
+{
+	if ( !plNormalsJob_Validate( job ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	const uint8_t* in = (const uint8_t*)job->positions.ptr;
+	uint32_t stride = job->positions.stride_bytes;
+	uint32_t n = job->positions.count;
+	uint32_t limit = 3u * job->face_count;
+	for ( uint32_t v = job->vertex_begin; v < job->vertex_end; ++v )
+	{
+		float nx = 0.0f, ny = 0.0f, nz = 0.0f;
+		uint32_t begin = job->adjacency_offsets[v], end = job->adjacency_offsets[v + 1];
+		end = end > limit ? limit : end;
+		for ( uint32_t e = begin; e < end; ++e )
+		{
+			uint32_t f = job->adjacency_faces[e];
+			if ( f >= job->face_count )
+			{
+				continue;
+			}
+			const uint32_t* tri = job->faces + (size_t)f * 3;
+			if ( tri[0] >= n || tri[1] >= n || tri[2] >= n )
+			{
+				continue;
+			}
+			const float* a = (const float*)( in + (size_t)tri[0] * stride );
+			const float* b = (const float*)( in + (size_t)tri[1] * stride );
+			const float* c = (const float*)( in + (size_t)tri[2] * stride );
+			float e1x = b[0] - a[0], e1y = b[1] - a[1], e1z = b[2] - a[2];
+			float e2x = c[0] - a[0], e2y = c[1] - a[1], e2z = c[2] - a[2];
+			nx += e1y * e2z - e1z * e2y;
+			ny += e1z * e2x - e1x * e2z;
+			nz += e1x * e2y - e1y * e2x;
+		}
+		float length = sqrtf( nx * nx + ny * ny + nz * nz );
+		float scale = length > 0.0f ? 1.0f / length : 0.0f;
+		float* out = (float*)( (uint8_t*)job->output.ptr + (size_t)v * job->output.stride_bytes );
+		out[0] = nx * scale;
+		out[1] = ny * scale;
+		out[2] = nz * scale;
+	}
+	return PLEAT_RESULT_OK;
+}

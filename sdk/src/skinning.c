@@ -1,0 +1,52 @@
+// The skinning job (linear blend skinning): x'_v = (Σ_k w_vk M_{j_vk}) · (x_v, 1), M = [J][3][4] row-major rest → output
+// space, the same matrices the GL path (skinning.comp) takes. Strided spans so interleaved vertex buffers work.
+#include "jobs.h"
+
+int plSkinningJob_Validate( const plSkinningJob* job )
+{
+	if ( job == NULL || job->skin_indices == NULL || job->skin_weights == NULL || job->skin_matrices == NULL ||
+		 job->influence_count < 1 || job->influence_count > PLEAT_MAX_INFLUENCES || job->joint_count == 0 )
+	{
+		return 0;
+	}
+	uint32_t n = job->positions.count;
+	return job->vertex_begin <= job->vertex_end && job->vertex_end <= n && PLEAT_SPAN_HOLDS( job->positions, 12, n ) &&
+		   PLEAT_SPAN_HOLDS( job->output, 12, n ) && job->positions.ptr != job->output.ptr;
+}
+
+plResult plSkinningJob_Run( const plSkinningJob* job )
+{
+	if ( !plSkinningJob_Validate( job ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	const uint8_t* in = (const uint8_t*)job->positions.ptr;
+	uint8_t* out = (uint8_t*)job->output.ptr;
+	uint32_t K = job->influence_count;
+	for ( uint32_t v = job->vertex_begin; v < job->vertex_end; ++v )
+	{
+		float m[12] = { 0 };
+		for ( uint32_t k = 0; k < K; ++k )
+		{
+			uint32_t joint = job->skin_indices[(size_t)v * K + k];
+			float w = job->skin_weights[(size_t)v * K + k];
+			if ( joint >= job->joint_count )
+			{
+				joint = 0; // the asset loader rejects this; never read out of bounds even so
+				w = 0.0f;
+			}
+			const float* mj = job->skin_matrices + (size_t)joint * 12;
+			for ( int e = 0; e < 12; ++e )
+			{
+				m[e] += w * mj[e];
+			}
+		}
+		const float* p = (const float*)( in + (size_t)v * job->positions.stride_bytes );
+		float* q = (float*)( out + (size_t)v * job->output.stride_bytes );
+		float x = p[0], y = p[1], z = p[2];
+		q[0] = m[0] * x + m[1] * y + m[2] * z + m[3];
+		q[1] = m[4] * x + m[5] * y + m[6] * z + m[7];
+		q[2] = m[8] * x + m[9] * y + m[10] * z + m[11];
+	}
+	return PLEAT_RESULT_OK;
+}
