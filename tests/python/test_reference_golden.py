@@ -5,6 +5,7 @@ import struct
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -95,25 +96,55 @@ def test_full_size_generation_is_fast(tmp_path):
     assert time.perf_counter() - start < 20
 
 
-def test_c_runtime_matches_the_reference(small):
+def run_c(runtime, ctx, small, case, **instance_kw):
+    asset = ctx.load_asset((small / "asset.pleat").read_bytes())
+    inst = ctx.create_instance(asset, beta=case["beta"], material=case["material"], **instance_kw)
+    for k in range(len(case["dt_s"])):
+        pos, nrm = inst.step(case["rotations"][k], case["root_translation"][k], case["root_rotation"][k],
+                             case["dt_s"][k])
+        assert inst.last_result == 0, f"frame {k}: result {inst.last_result}"
+        # float32 C vs float64 reference through a 681→512³→128 MLP and a 128-shape blend: absolute 1e-3 on latents
+        # (|Z| ≲ 4, fp32 dot products of length 681/512 carry ~1e-5 relative error, amplified < 10× by the
+        # contractive recurrence), 0.1 mm on positions (metres), 1e-3 on unit normals
+        np.testing.assert_allclose(inst.latent, case["latents"][k], atol=1e-3, err_msg=f"frame {k}")
+        np.testing.assert_allclose(pos, case["positions"][k], atol=1e-4, err_msg=f"frame {k}")
+        np.testing.assert_allclose(nrm, case["normals"][k], atol=1e-3, err_msg=f"frame {k}")
+    inst.close()
+    asset.close()
+
+
+def c_runtime():
     runtime = pytest.importorskip("pleat.runtime")
     if runtime.find_library() is None:
         pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
+    return runtime
+
+
+@pytest.mark.parametrize("force_scalar", [False, True])
+def test_c_runtime_matches_the_reference(small, force_scalar):
+    runtime = c_runtime()
     case = golden.read_case(small / "case.bin")
+    with runtime.Context(force_scalar=force_scalar) as ctx:
+        run_c(runtime, ctx, small, case)
+        after_first = ctx.live_bytes
+        run_c(runtime, ctx, small, case)
+        assert ctx.live_bytes == after_first          # a second asset + instance cycle leaks nothing
+
+
+def test_c_runtime_with_onnxruntime_backend_matches_the_reference(small, tmp_path):
+    runtime = c_runtime()
+    ort = pytest.importorskip("onnxruntime")
+    libs = sorted((Path(ort.__file__).parent / "capi").glob("libonnxruntime.so*"))
+    if not libs:
+        pytest.skip("no libonnxruntime.so in the onnxruntime wheel")
+    case = golden.read_case(small / "case.bin")
+    asset = pa.read_asset((small / "asset.pleat").read_bytes())
+    with_onnx = dict(asset, onnx_latent_predictor=None, onnx_decoder=None)
+    (tmp_path / "asset.pleat").write_bytes(pa.write_asset(None, with_onnx, onnx=True))
     with runtime.Context() as ctx:
         try:
-            asset = ctx.load_asset((small / "asset.pleat").read_bytes())
-            inst = ctx.create_instance(asset, beta=case["beta"], material=case["material"])
-        except (runtime.PleatError, AttributeError, OSError) as e:
-            pytest.skip(f"C runtime cannot run instances yet: {e}")
-        for k in range(len(case["dt_s"])):
-            pos, nrm = inst.step(case["rotations"][k], case["root_translation"][k], case["root_rotation"][k],
-                                 case["dt_s"][k])
-            # float32 C vs float64 reference through a 681→512³→128 MLP and 13k-float blend: absolute 1e-3 on
-            # latents (|Z| ≲ 4), 0.1 mm on positions, 1e-3 on unit normals
-            np.testing.assert_allclose(inst.latent, case["latents"][k], atol=1e-3, err_msg=f"frame {k}")
-            np.testing.assert_allclose(pos, case["positions"][k], atol=1e-4, err_msg=f"frame {k}")
-            np.testing.assert_allclose(nrm, case["normals"][k], atol=1e-3, err_msg=f"frame {k}")
-        inst.close()
-        asset.close()
-        assert ctx.live_bytes == 0
+            run_c(runtime, ctx, tmp_path, case, backend="onnxruntime", onnxruntime_library=libs[0])
+        except runtime.PleatError as e:
+            if e.name != "PLEAT_RESULT_BACKEND_UNAVAILABLE":
+                raise
+            pytest.skip(f"ONNX Runtime backend unavailable: {e}")
