@@ -97,6 +97,10 @@ def test_full_size_generation_is_fast(tmp_path):
 
 
 def run_c(runtime, ctx, small, case, **instance_kw):
+    from pleat.reference.normals import normals
+    stored = pa.read_asset((small / "asset.pleat").read_bytes())
+    faces = stored["faces"]
+    offsets, adjacency = pa.normal_adjacency(faces, len(stored["template"]))
     asset = ctx.load_asset((small / "asset.pleat").read_bytes())
     inst = ctx.create_instance(asset, beta=case["beta"], material=case["material"], **instance_kw)
     for k in range(len(case["dt_s"])):
@@ -105,10 +109,14 @@ def run_c(runtime, ctx, small, case, **instance_kw):
         assert inst.last_result == 0, f"frame {k}: result {inst.last_result}"
         # float32 C vs float64 reference through a 681→512³→128 MLP and a 128-shape blend: absolute 1e-3 on latents
         # (|Z| ≲ 4, fp32 dot products of length 681/512 carry ~1e-5 relative error, amplified < 10× by the
-        # contractive recurrence), 0.1 mm on positions (metres), 1e-3 on unit normals
+        # contractive recurrence), 0.1 mm on positions (metres). Normals: where LBS folds the tube the face normals
+        # around a vertex nearly cancel, so float32 rounding of positions metres from the origin moves the normal by
+        # up to ~5e-3 (measured at 4,424 vertices); hence 1e-2 against the golden normals, and 1e-4 against float64
+        # normals of the C positions (the normals job itself).
         np.testing.assert_allclose(inst.latent, case["latents"][k], atol=1e-3, err_msg=f"frame {k}")
         np.testing.assert_allclose(pos, case["positions"][k], atol=1e-4, err_msg=f"frame {k}")
-        np.testing.assert_allclose(nrm, case["normals"][k], atol=1e-3, err_msg=f"frame {k}")
+        np.testing.assert_allclose(nrm, case["normals"][k], atol=1e-2, err_msg=f"frame {k}")
+        np.testing.assert_allclose(nrm, normals(pos, faces, offsets, adjacency), atol=1e-4, err_msg=f"frame {k}")
     inst.close()
     asset.close()
 
