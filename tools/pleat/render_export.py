@@ -14,6 +14,7 @@ Formats (little-endian, documented in docs/demo.md):
 With --asset, joints are written in the asset's joint order (the renderer also matches them by name).
 """
 import argparse
+import os
 import struct
 import sys
 
@@ -25,6 +26,12 @@ NAME_BYTES = 32
 BODY_MAGIC = b"PLBODY01"
 MOTION_MAGIC = b"PLMOTION"
 VERSION = 1
+
+
+def _open_for_writing(path):
+    folder = os.path.dirname(os.path.abspath(path))
+    os.makedirs(folder, exist_ok=True)
+    return open(path, "wb")
 
 
 def _names_block(names):
@@ -65,7 +72,7 @@ def write_body_file(path, joint_names, joints, vertices, faces, skin_indices, sk
         raise ValueError("body skin arrays are inconsistent")
     if np.any(faces >= V):
         raise ValueError("body face index out of range")
-    with open(path, "wb") as f:
+    with _open_for_writing(path) as f:
         f.write(BODY_MAGIC + struct.pack("<6I", VERSION, V, F, J, K, beta.size))
         f.write(beta.tobytes())
         f.write(_names_block(joint_names))
@@ -86,7 +93,7 @@ def write_motion_file(path, joint_names, fps, rotations, root_translation, root_
     frames = np.concatenate([rotations.reshape(T, J * 4), root_translation, root_rotation], axis=1)
     if not np.all(np.isfinite(frames)):
         raise ValueError("motion has non-finite values")
-    with open(path, "wb") as f:
+    with _open_for_writing(path) as f:
         f.write(MOTION_MAGIC + struct.pack("<3If", VERSION, T, J, float(fps)))
         f.write(_names_block(joint_names))
         f.write(np.ascontiguousarray(frames, dtype="<f4").tobytes())
@@ -163,38 +170,29 @@ def export_body(body, out, beta=None, influences=4, asset_path=None):
     return vertices.shape[0]
 
 
-def _clip_arrays(clip):
-    """(fps, rotations [T,J,4], root_translation [T,3], root_rotation [T,4]) of a pleat.motion Clip."""
-    def first(*keys):
-        for k in keys:
-            v = getattr(clip, k, None)
-            if v is not None:
-                return v
-        raise SystemExit(f"the clip has none of {keys}")
-    return (float(first("fps")), np.asarray(first("rotations", "local_rotations", "quaternions")),
-            np.asarray(first("root_translation", "root_translations")),
-            np.asarray(first("root_rotation", "root_rotations")))
-
-
 def load_clip(spec, fps):
-    """A clip by file path or by name on the motion loaders' search path, resampled to `fps`."""
+    """A pleat.motion Clip by file path or by name on the motion loaders' search path, resampled to `fps`."""
     import pleat.motion as motion
-    clip = motion.load(spec) if hasattr(motion, "load") else motion.load_clip(spec)
+    loader = next((getattr(motion, name) for name in ("load_clip", "load") if hasattr(motion, name)), None)
+    if loader is None:
+        raise SystemExit("pleat.motion has no load_clip/load function")
+    clip = loader(spec)
     if abs(float(clip.fps) - fps) > 1e-6:
-        clip = motion.resample(clip, fps)
+        clip = clip.resample(fps)
     return clip
 
 
-def export_motion(clip, out, joint_names, frames=0, asset_path=None):
-    fps, rotations, root_translation, root_rotation = _clip_arrays(clip)
-    names = [str(n) for n in joint_names]
+def export_motion(clip, out, joint_names=None, frames=0, asset_path=None):
+    """PLMOTION from a pleat.motion Clip (fps, local_rotations [T,J,4], root_translation, root_rotation)."""
+    names = [str(n) for n in (getattr(clip, "joint_names", None) or joint_names)]
+    rotations, root_translation, root_rotation = clip.local_rotations, clip.root_translation, clip.root_rotation
     if frames:
         rotations, root_translation, root_rotation = rotations[:frames], root_translation[:frames], root_rotation[:frames]
     if asset_path:
         order = _asset_joint_order(asset_path, names)
         names, rotations = [names[i] for i in order], rotations[:, order]
-    write_motion_file(out, names, fps, rotations, root_translation, root_rotation)
-    return rotations.shape[0], fps
+    write_motion_file(out, names, clip.fps, rotations, root_translation, root_rotation)
+    return rotations.shape[0], clip.fps
 
 
 def stick_body(joint_names, parents, joints, radius=0.025, sides=8):
@@ -269,7 +267,6 @@ def main(argv=None):
     m.add_argument("--random", type=int, default=0, help="instead: N frames of a smooth random clip (needs --asset)")
     m.add_argument("--fps", type=float, default=30.0)
     m.add_argument("--frames", type=int, default=0, help="keep the first N frames (0 = all)")
-    m.add_argument("--body", default="assets/body.npz", help="body whose joint names the clip uses")
     m.add_argument("--asset", default=None, help="write joints in this asset's joint order")
     m.add_argument("--out", required=True)
     args = parser.parse_args(argv)
@@ -288,14 +285,14 @@ def main(argv=None):
         return 0
     if args.what == "motion" and not args.clip:
         parser.error("motion needs --clip or --random")
-    from pleat.body import BodyModel
-    body = BodyModel.load(args.body)
     if args.what == "body":
+        from pleat.body import BodyModel
+        body = BodyModel.load(args.body)
         count = export_body(body, args.out, _floats(args.beta), args.influences, args.asset)
         print(f"wrote {args.out}: body with {count} vertices")
     else:
         clip = load_clip(args.clip, args.fps)
-        frames, fps = export_motion(clip, args.out, body.joint_names, args.frames, args.asset)
+        frames, fps = export_motion(clip, args.out, None, args.frames, args.asset)
         print(f"wrote {args.out}: {frames} frames at {fps:g} fps from {args.clip}")
     return 0
 
