@@ -1,0 +1,210 @@
+"""`Clip`: a motion on the Pleat body's 24 joints, and the operations on it (resampling, mirroring, time scaling,
+concatenation with blended transitions, root-path variation). Quaternions are (x, y, z, w); +Y up (docs/inputs.md).
+
+A clip holds, per frame t: local joint rotations R_k (quaternions, [T, 24, 4], body joint order, the pelvis's own
+R_0 included), the root translation t_root [T, 3] and root rotation Q_root [T, 4] of docs/inputs.md's forward
+kinematics. Frames are uniformly spaced at `fps`; the duration is (T − 1) / fps.
+"""
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from pleat.body.model import SMPL_JOINT_NAMES
+from pleat.rotations import quat_multiply, quat_normalize, quat_slerp, quat_to_matrix, yaw_of, yaw_matrix, \
+    matrix_to_quat
+
+
+def _mirror_index(names):
+    out = []
+    for n in names:
+        if n.startswith("left_"):
+            out.append(names.index("right_" + n[5:]))
+        elif n.startswith("right_"):
+            out.append(names.index("left_" + n[6:]))
+        else:
+            out.append(names.index(n))
+    return np.array(out)
+
+
+def _yaw_quat(yaw):
+    yaw = np.asarray(yaw, dtype=np.float64)
+    return np.stack([np.zeros_like(yaw), np.sin(yaw / 2), np.zeros_like(yaw), np.cos(yaw / 2)], axis=-1)
+
+
+def _canonical(q):
+    """Quaternions with w >= 0 (q and −q are the same rotation)."""
+    return np.where(q[..., 3:4] < 0, -q, q)
+
+
+@dataclass
+class Clip:
+    name: str
+    fps: float
+    local_rotations: np.ndarray          # [T, J, 4] (x, y, z, w)
+    root_translation: np.ndarray         # [T, 3] metres
+    root_rotation: np.ndarray            # [T, 4] (x, y, z, w)
+    source: str = ""
+    joint_names: tuple = field(default=SMPL_JOINT_NAMES)
+
+    def __post_init__(self):
+        self.local_rotations = np.asarray(self.local_rotations, dtype=np.float64)
+        self.root_translation = np.asarray(self.root_translation, dtype=np.float64)
+        self.root_rotation = np.asarray(self.root_rotation, dtype=np.float64)
+        self.joint_names = tuple(self.joint_names)
+        T = self.local_rotations.shape[0]
+        if self.local_rotations.shape != (T, len(self.joint_names), 4):
+            raise ValueError(f"local_rotations must be [T, {len(self.joint_names)}, 4], got "
+                             f"{self.local_rotations.shape}")
+        if self.root_translation.shape != (T, 3) or self.root_rotation.shape != (T, 4):
+            raise ValueError("root_translation must be [T, 3] and root_rotation [T, 4]")
+        if not self.fps > 0:
+            raise ValueError("fps must be positive")
+
+    @property
+    def num_frames(self):
+        return self.local_rotations.shape[0]
+
+    @property
+    def duration(self):
+        return (self.num_frames - 1) / self.fps
+
+    @property
+    def times(self):
+        return np.arange(self.num_frames) / self.fps
+
+    def local_matrices(self):
+        return quat_to_matrix(self.local_rotations)
+
+    def root_matrices(self):
+        return quat_to_matrix(self.root_rotation)
+
+    def pelvis_positions(self, body=None, beta=None):
+        """World pelvis position per frame: t_root + Q_root · J_0(β)."""
+        if body is None:
+            return self.root_translation.copy()
+        j0 = body.joints(beta)[..., 0, :]
+        return self.root_translation + np.einsum("tij,...j->t...i", self.root_matrices(), j0)
+
+    def skin(self, body, beta=None, frames=None):
+        sel = slice(None) if frames is None else frames
+        return body.skin(self.local_matrices()[sel], self.root_translation[sel], self.root_matrices()[sel], beta)
+
+    def joint_positions(self, body, beta=None):
+        G = body.forward_kinematics(self.local_matrices(), self.root_translation, self.root_matrices(), beta)
+        return G[..., :3, 3]
+
+    # ---- storage ------------------------------------------------------------------------------------------------
+    def save(self, path):
+        np.savez_compressed(path, name=np.array(self.name), source=np.array(self.source),
+                            fps=np.float64(self.fps), joint_names=np.array(self.joint_names),
+                            local_rotations=self.local_rotations.astype(np.float32),
+                            root_translation=self.root_translation.astype(np.float32),
+                            root_rotation=self.root_rotation.astype(np.float32))
+
+    @classmethod
+    def load(cls, path):
+        with np.load(path, allow_pickle=False) as z:
+            return cls(name=str(z["name"]), fps=float(z["fps"]), local_rotations=quat_normalize(z["local_rotations"]),
+                       root_translation=z["root_translation"], root_rotation=quat_normalize(z["root_rotation"]),
+                       source=str(z["source"]), joint_names=[str(n) for n in z["joint_names"]])
+
+    # ---- operations ---------------------------------------------------------------------------------------------
+    def sample(self, t):
+        """Rotations slerped and translations lerped at times t [N] (seconds, clamped to the clip)."""
+        t = np.clip(np.asarray(t, dtype=np.float64), 0.0, self.duration)
+        x = t * self.fps
+        i0 = np.minimum(np.floor(x).astype(np.int64), self.num_frames - 1)
+        i1 = np.minimum(i0 + 1, self.num_frames - 1)
+        a = x - i0
+        rot = quat_slerp(self.local_rotations[i0], self.local_rotations[i1], np.broadcast_to(a[:, None], i0.shape + (
+            len(self.joint_names),)))
+        root_rot = quat_slerp(self.root_rotation[i0], self.root_rotation[i1], a)
+        trans = self.root_translation[i0] * (1 - a[:, None]) + self.root_translation[i1] * a[:, None]
+        return rot, trans, root_rot
+
+    def resample(self, fps):
+        """Same motion at `fps` (slerp); the duration is kept to within half a frame of the new rate."""
+        n = int(round(self.duration * fps)) + 1
+        rot, trans, root_rot = self.sample(np.arange(n) / fps)
+        return replace(self, fps=float(fps), local_rotations=rot, root_translation=trans, root_rotation=root_rot)
+
+    def time_scaled(self, factor):
+        """Played `factor` times faster (factor < 1: slower), same fps; the path is the same."""
+        if not factor > 0:
+            raise ValueError("factor must be positive")
+        n = int(round(self.duration / factor * self.fps)) + 1
+        rot, trans, root_rot = self.sample(np.arange(n) / self.fps * factor)
+        return replace(self, name=f"{self.name}@x{factor:g}", local_rotations=rot, root_translation=trans,
+                       root_rotation=root_rot)
+
+    def mirrored(self):
+        """Left-right mirror through the body's sagittal plane x = 0: x ↦ −x for positions, a rotation
+        (x, y, z, w) ↦ (x, −y, −z, w), and left/right joints swapped. Mirroring twice gives the clip back."""
+        flip = np.array([1.0, -1.0, -1.0, 1.0])
+        idx = _mirror_index(list(self.joint_names))
+        name = self.name[:-7] if self.name.endswith("@mirror") else self.name + "@mirror"
+        return replace(self, name=name, local_rotations=self.local_rotations[:, idx] * flip,
+                       root_translation=self.root_translation * np.array([-1.0, 1.0, 1.0]),
+                       root_rotation=self.root_rotation * flip)
+
+    def heading(self):
+        """Yaw (rad) of the pelvis's global rotation Q_root · R_0 per frame (docs/inputs.md)."""
+        P = self.root_matrices() @ quat_to_matrix(self.local_rotations[:, 0])
+        yaw, _ = yaw_of(P)
+        return yaw
+
+    def with_root_path(self, yaw_offset=0.0, turn_rate=0.0, origin=None):
+        """Root-path variation: the clip turned by `yaw_offset` (rad) about +Y and bent by a constant extra turn
+        rate (rad/s): the horizontal root velocity and the root rotation are rotated by yaw_offset + turn_rate·t.
+        The path starts at `origin` (xz; default: where it started)."""
+        t = self.times
+        theta = yaw_offset + turn_rate * t
+        start = self.root_translation[0].copy()
+        vel = np.diff(self.root_translation, axis=0)
+        mid = 0.5 * (theta[1:] + theta[:-1])
+        vel_r = np.einsum("tij,tj->ti", yaw_matrix(mid), vel)
+        trans = np.concatenate([start[None], start + np.cumsum(vel_r, axis=0)], axis=0)
+        if origin is not None:
+            trans[:, [0, 2]] += np.asarray(origin, dtype=np.float64) - trans[0, [0, 2]]
+        trans[:, 1] = self.root_translation[:, 1]
+        root_rot = _canonical(quat_multiply(_yaw_quat(theta), self.root_rotation))
+        return replace(self, name=f"{self.name}@path({yaw_offset:.2f},{turn_rate:.2f})", root_translation=trans,
+                       root_rotation=root_rot)
+
+
+def concatenate(a, b, blend_s=0.25):
+    """a then b, b turned and moved so that it starts where and facing where a ends, with a `blend_s` cross-fade
+    (smoothstep slerp over the overlapping frames). b is resampled to a's fps if needed."""
+    if abs(a.fps - b.fps) > 1e-9:
+        b = b.resample(a.fps)
+    n = int(round(blend_s * a.fps))
+    n = max(1, min(n, a.num_frames - 1, b.num_frames - 1))
+    # b's first frame is laid over a's frame −n: align heading and horizontal position there
+    ya, yb = a.heading()[-n], b.heading()[0]
+    b = b.with_root_path(yaw_offset=ya - yb)
+    shift = a.root_translation[-n, [0, 2]] - b.root_translation[0, [0, 2]]
+    b_trans = b.root_translation.copy()
+    b_trans[:, [0, 2]] += shift
+    b = replace(b, root_translation=b_trans)
+    s = (np.arange(n) + 1) / (n + 1)
+    w = s * s * (3 - 2 * s)
+    rot = quat_slerp(a.local_rotations[-n:], b.local_rotations[:n], np.broadcast_to(w[:, None], (n, len(a.joint_names))))
+    root_rot = quat_slerp(a.root_rotation[-n:], b.root_rotation[:n], w)
+    trans = a.root_translation[-n:] * (1 - w[:, None]) + b.root_translation[:n] * w[:, None]
+    return Clip(name=f"{a.name}+{b.name}", fps=a.fps,
+                local_rotations=np.concatenate([a.local_rotations[:-n], rot, b.local_rotations[n:]]),
+                root_translation=np.concatenate([a.root_translation[:-n], trans, b.root_translation[n:]]),
+                root_rotation=np.concatenate([a.root_rotation[:-n], root_rot, b.root_rotation[n:]]),
+                source=f"concatenation of [{a.source}] and [{b.source}]", joint_names=a.joint_names)
+
+
+def identity_clip(num_frames, fps=30.0, name="rest", joint_names=SMPL_JOINT_NAMES):
+    q = np.zeros((num_frames, len(joint_names), 4))
+    q[..., 3] = 1
+    r = np.zeros((num_frames, 4))
+    r[:, 3] = 1
+    return Clip(name=name, fps=fps, local_rotations=q, root_translation=np.zeros((num_frames, 3)), root_rotation=r,
+                joint_names=joint_names)
+
+
+__all__ = ["Clip", "concatenate", "identity_clip", "matrix_to_quat"]
