@@ -1,1 +1,247 @@
-int main( void ) { return 0; }
+// Timing program (not a test): GL compute path vs CPU path on the shipped garment size, on whatever GL the machine
+// has (Mesa llvmpipe here). Prints medians; docs/gpu.md records the numbers.
+//
+//   pleat_gl_step_timing [--frames N] [ASSET.pleat]
+//
+// 1. Deformation only, on the 4,424-vertex test mesh (tests/c/test_gl_support.c) with D = 128 blend shapes, K = 4,
+//    J = 24: the CPU jobs (blend_shapes.c, skinning.c, normals.c through the context's kernel choice, one thread) vs
+//    plGlDeformer_Run in headless mode with positions and normals read back (the read-back makes the GL time include
+//    the GPU work; without it Run only queues commands).
+// 2. With an asset: plInstance_Step with gpu_mode PLEAT_GPU_NONE vs PLEAT_GPU_HEADLESS over the same motion, stepped
+//    alternately, plus the largest CPU/GL output difference.
+#include "../jobs.h"
+#include "gl_internal.h"
+#include "test_gl_support.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int plCompareDoubles( const void* a, const void* b )
+{
+	double x = *(const double*)a, y = *(const double*)b;
+	return ( x > y ) - ( x < y );
+}
+
+static double plMedian( double* values, uint32_t count )
+{
+	qsort( values, count, sizeof( double ), plCompareDoubles );
+	return count % 2 ? values[count / 2] : 0.5 * ( values[count / 2 - 1] + values[count / 2] );
+}
+
+static void plCpuDeform( const plTestMesh* mesh, const plKernels* kernels, const float* weights, const float* matrices,
+						 float* deformed, float* positions, float* normals )
+{
+	uint32_t n = mesh->vertex_count;
+	plBlendShapesJob blend = {
+		plMakeConstSpan( mesh->shaped_template, n, 12 ), mesh->blend_shapes, 0,
+		plMakeConstSpan( weights, mesh->blend_count, 4 ), plMakeSpan( deformed, n, 12 ), 0, n, kernels,
+	};
+	plSkinningJob skin = {
+		plMakeConstSpan( deformed, n, 12 ), mesh->skin_indices, mesh->skin_weights, mesh->influence_count, matrices,
+		mesh->joint_count, plMakeSpan( positions, n, 12 ), 0, n,
+	};
+	plNormalsJob normal = {
+		plMakeConstSpan( positions, n, 12 ), mesh->faces, mesh->face_count, mesh->adjacency_offsets,
+		mesh->adjacency_faces, plMakeSpan( normals, n, 12 ), 0, n,
+	};
+	if ( plBlendShapesJob_Run( &blend ) != PLEAT_RESULT_OK || plSkinningJob_Run( &skin ) != PLEAT_RESULT_OK ||
+		 plNormalsJob_Run( &normal ) != PLEAT_RESULT_OK )
+	{
+		fprintf( stderr, "CPU job failed\n" );
+		exit( 1 );
+	}
+}
+
+static double plMaxDiff( const float* a, const float* b, size_t count )
+{
+	double worst = 0.0;
+	for ( size_t i = 0; i < count; ++i )
+		worst = fmax( worst, fabs( (double)a[i] - (double)b[i] ) );
+	return worst;
+}
+
+static int plTimeDeformation( uint32_t frames )
+{
+	plTestMesh mesh;
+	plTestMesh_Build( &mesh, 79, 56, 128, 3 );
+	uint32_t n = mesh.vertex_count;
+	plTestAllocatorState allocator_state;
+	plAllocator allocator = plTestAllocator( &allocator_state );
+	plGlDeformerDesc desc;
+	memset( &desc, 0, sizeof( desc ) );
+	desc.mode = PLEAT_GL_DEFORMER_HEADLESS;
+	desc.vertex_count = n;
+	desc.face_count = mesh.face_count;
+	desc.blend_count = mesh.blend_count;
+	desc.influence_count = mesh.influence_count;
+	desc.joint_count = mesh.joint_count;
+	desc.shaped_template = mesh.shaped_template;
+	desc.blend_shapes = mesh.blend_shapes;
+	desc.skin_indices = mesh.skin_indices;
+	desc.skin_weights = mesh.skin_weights;
+	desc.faces = mesh.faces;
+	desc.adjacency_offsets = mesh.adjacency_offsets;
+	desc.adjacency_faces = mesh.adjacency_faces;
+	plGlDeformer* deformer = NULL;
+	plResult result = plGlDeformer_Create( &desc, &allocator, &deformer );
+	if ( result != PLEAT_RESULT_OK )
+	{
+		printf( "deformation: GL deformer unavailable (plResult %d)\n", (int)result );
+		plTestMesh_Free( &mesh );
+		return 1;
+	}
+	plKernels kernels;
+	int avx2 = plSelectKernels( &kernels, 0 );
+	float* weights = malloc( sizeof( float ) * mesh.blend_count );
+	float* matrices = malloc( sizeof( float ) * 12 * mesh.joint_count );
+	float* buffers = malloc( sizeof( float ) * 3 * n * 5 );
+	float *deformed = buffers, *cpu_positions = buffers + 3 * n, *cpu_normals = buffers + 6 * n;
+	float *gl_positions = buffers + 9 * n, *gl_normals = buffers + 12 * n;
+	double* cpu_s = malloc( sizeof( double ) * frames );
+	double* gl_s = malloc( sizeof( double ) * frames );
+	double worst_position = 0.0, worst_normal = 0.0;
+	for ( uint32_t warm = 0; warm < 10; ++warm )
+		plGlDeformer_Run( deformer, weights, matrices, gl_positions, gl_normals );
+	for ( uint32_t frame = 0; frame < frames; ++frame )
+	{
+		plTestMotion_Frame( &mesh, frame, weights, matrices );
+		double t0 = plTestNowSeconds();
+		plCpuDeform( &mesh, &kernels, weights, matrices, deformed, cpu_positions, cpu_normals );
+		double t1 = plTestNowSeconds();
+		if ( plGlDeformer_Run( deformer, weights, matrices, gl_positions, gl_normals ) != PLEAT_RESULT_OK )
+		{
+			fprintf( stderr, "plGlDeformer_Run failed\n" );
+			return 1;
+		}
+		double t2 = plTestNowSeconds();
+		cpu_s[frame] = t1 - t0;
+		gl_s[frame] = t2 - t1;
+		worst_position = fmax( worst_position, plMaxDiff( cpu_positions, gl_positions, 3 * (size_t)n ) );
+		worst_normal = fmax( worst_normal, plMaxDiff( cpu_normals, gl_normals, 3 * (size_t)n ) );
+	}
+	printf( "deformation only (N = %u, D = %u, K = %u, J = %u, %u frames, median):\n", n, mesh.blend_count,
+			mesh.influence_count, mesh.joint_count, frames );
+	printf( "  cpu_deform_us %.1f (%s kernels, 1 thread)\n", 1e6 * plMedian( cpu_s, frames ),
+			avx2 ? "AVX2" : "scalar" );
+	printf( "  gl_deform_us  %.1f (headless, read-back of positions + normals)\n", 1e6 * plMedian( gl_s, frames ) );
+	printf( "  max |cpu - gl| position %.3g m, normal %.3g\n", worst_position, worst_normal );
+	plGlDeformer_Destroy( deformer );
+	free( weights );
+	free( matrices );
+	free( buffers );
+	free( cpu_s );
+	free( gl_s );
+	plTestMesh_Free( &mesh );
+	return 0;
+}
+
+#ifndef PLEAT_GL_TIMING_NO_INSTANCE // (set only by scratch builds without instance.c)
+static int plTimeInstances( const char* path, uint32_t frames )
+{
+	plContextDef context_def = plDefaultContextDef();
+	plContext context;
+	plAssetDef asset_def = plDefaultAssetDef();
+	asset_def.path = path;
+	plAsset asset;
+	plAssetInfo info;
+	if ( plCreateContext( &context_def, &context ) != PLEAT_RESULT_OK ||
+		 plLoadAsset( context, &asset_def, &asset ) != PLEAT_RESULT_OK || plAsset_GetInfo( asset, &info ) != PLEAT_RESULT_OK )
+	{
+		fprintf( stderr, "cannot load %s\n", path );
+		return 1;
+	}
+	plInstance instances[2];
+	for ( int i = 0; i < 2; ++i )
+	{
+		plInstanceDef def = plDefaultInstanceDef();
+		def.asset = asset;
+		def.gpu_mode = i == 0 ? PLEAT_GPU_NONE : PLEAT_GPU_HEADLESS;
+		plResult result = plCreateInstance( context, &def, &instances[i] );
+		if ( result != PLEAT_RESULT_OK )
+		{
+			printf( "instance (%s): %s\n", i == 0 ? "cpu" : "gl", plResultString( result ) );
+			return 1;
+		}
+	}
+	uint32_t n = info.vertex_count, j = info.joint_count;
+	float* rotations = malloc( sizeof( float ) * 4 * j );
+	float* outputs = malloc( sizeof( float ) * 12 * n );
+	double* step_s[2] = { malloc( sizeof( double ) * frames ), malloc( sizeof( double ) * frames ) };
+	double worst_position = 0.0, worst_normal = 0.0;
+	for ( uint32_t frame = 0; frame < frames; ++frame )
+	{
+		// A smooth swing of every joint about a per-joint axis, ±0.4 rad, and a walking root.
+		double t = frame / 30.0;
+		for ( uint32_t k = 0; k < j; ++k )
+		{
+			double angle = 0.4 * sin( 2.0 * t + 0.5 * k ), ax = cos( 0.7 * k ), az = sin( 0.7 * k );
+			double s = sin( 0.5 * angle );
+			rotations[4 * k] = (float)( s * ax );
+			rotations[4 * k + 1] = 0.0f;
+			rotations[4 * k + 2] = (float)( s * az );
+			rotations[4 * k + 3] = (float)cos( 0.5 * angle );
+		}
+		plFrameInput input;
+		memset( &input, 0, sizeof( input ) );
+		input.joint_rotations = rotations;
+		input.joint_count = j;
+		input.root_translation = ( plVec3 ){ 0.0f, 0.0f, (float)( 1.2 * t ) };
+		input.root_rotation = ( plQuat ){ 0.0f, 0.0f, 0.0f, 1.0f };
+		input.dt_s = 1.0f / 30.0f;
+		for ( int i = 0; i < 2; ++i )
+		{
+			plStepOutput output = { outputs + 6 * n * i, 0, outputs + 6 * n * i + 3 * n, 0, n };
+			double t0 = plTestNowSeconds();
+			plResult result = plInstance_Step( instances[i], &input, &output );
+			step_s[i][frame] = plTestNowSeconds() - t0;
+			if ( result < 0 )
+			{
+				printf( "step (%s): %s\n", i == 0 ? "cpu" : "gl", plResultString( result ) );
+				return 1;
+			}
+		}
+		worst_position = fmax( worst_position, plMaxDiff( outputs, outputs + 6 * n, 3 * (size_t)n ) );
+		worst_normal = fmax( worst_normal, plMaxDiff( outputs + 3 * n, outputs + 9 * n, 3 * (size_t)n ) );
+	}
+	printf( "plInstance_Step on %s (N = %u, D = %u, L = %u, %u frames, median):\n", path, n, info.blend_count,
+			info.latent_count, frames );
+	printf( "  cpu_step_us %.1f\n", 1e6 * plMedian( step_s[0], frames ) );
+	printf( "  gl_step_us  %.1f (headless, outputs read back)\n", 1e6 * plMedian( step_s[1], frames ) );
+	printf( "  max |cpu - gl| position %.3g m, normal %.3g\n", worst_position, worst_normal );
+	plDestroyInstance( instances[0] );
+	plDestroyInstance( instances[1] );
+	plDestroyAsset( asset );
+	plDestroyContext( context );
+	free( rotations );
+	free( outputs );
+	free( step_s[0] );
+	free( step_s[1] );
+	return 0;
+}
+#else
+static int plTimeInstances( const char* path, uint32_t frames )
+{
+	printf( "instance timing not built (%s, %u frames)\n", path, frames );
+	return 1;
+}
+#endif
+
+int main( int argc, char** argv )
+{
+	uint32_t frames = 300;
+	const char* asset = NULL;
+	for ( int i = 1; i < argc; ++i )
+	{
+		if ( strcmp( argv[i], "--frames" ) == 0 && i + 1 < argc )
+			frames = (uint32_t)strtoul( argv[++i], NULL, 10 );
+		else
+			asset = argv[i];
+	}
+	if ( frames == 0 )
+		frames = 1;
+	int status = plTimeDeformation( frames );
+	if ( asset != NULL )
+		status |= plTimeInstances( asset, frames );
+	return status;
+}
