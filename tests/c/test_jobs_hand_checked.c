@@ -1,0 +1,395 @@
+// Hand-checkable cases for each job and the pipeline: every expected value below is derived on paper in the comment
+// next to it, not taken from the code's own output.
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include "jobs.h"
+#include "test_common.h"
+
+#define PI_F 3.14159265358979f
+
+// Zero network weights and zero blend shapes, identity pose: the output is the template (+ root translation),
+// exactly: every skinning matrix is [I | t] and the skin weights of a vertex sum to 1 (1 − f/2 + f/2, exact for
+// these dyadic fractions up to one rounding, hence the 1e-6 tolerance).
+static void test_identity_pose_and_zero_weights_give_template( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	p.weight_scale = 0.0f;
+	p.blend_scale = 0.0f;
+	p.beta_count = 0;
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plInstance inst;
+	assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
+	float quats[64 * 4] = { 0 };
+	for ( uint32_t j = 0; j < model->J; ++j )
+	{
+		quats[j * 4 + 3] = 1.0f;
+	}
+	plFrameInput in;
+	memset( &in, 0, sizeof( in ) );
+	in.joint_rotations = quats;
+	in.joint_count = model->J;
+	in.root_translation = ( plVec3 ){ 1.0f, 2.0f, 3.0f };
+	in.dt_s = 1.0f / 30.0f;
+	for ( int step = 0; step < 3; ++step )
+	{
+		assert_int_equal( plInstance_Step( inst, &in, NULL ), PLEAT_RESULT_OK );
+	}
+	const float *positions, *normals;
+	uint32_t count;
+	assert_int_equal( plInstance_GetPositions( inst, &positions, &count ), PLEAT_RESULT_OK );
+	assert_int_equal( count, model->N );
+	assert_int_equal( plInstance_GetNormals( inst, &normals, NULL ), PLEAT_RESULT_OK );
+	for ( uint32_t v = 0; v < model->N; ++v )
+	{
+		assert_float_equal( positions[v * 3 + 0], model->template_positions[v * 3 + 0] + 1.0f, 1e-6 );
+		assert_float_equal( positions[v * 3 + 1], model->template_positions[v * 3 + 1] + 2.0f, 1e-6 );
+		assert_float_equal( positions[v * 3 + 2], model->template_positions[v * 3 + 2] + 3.0f, 1e-6 );
+		// The sheet lies in z = 0.1 with counter-clockwise triangles seen from +Z: normal +Z.
+		assert_float_equal( normals[v * 3 + 0], 0.0f, 1e-6 );
+		assert_float_equal( normals[v * 3 + 1], 0.0f, 1e-6 );
+		assert_float_equal( normals[v * 3 + 2], 1.0f, 1e-6 );
+	}
+	float latent[64];
+	assert_int_equal( plInstance_GetLatent( inst, latent, 64 ), PLEAT_RESULT_OK );
+	for ( uint32_t i = 0; i < model->L; ++i )
+	{
+		assert_float_equal( latent[i], 0.0f, 0.0 );
+	}
+	plTestRig_Free( &rig );
+	plTestAsset_Destroy( model );
+}
+
+// One influence per vertex; joint 2 (rest position (0, 0.5, 0)) rotated 90° about +Z. Vertices bound to joints 0 and 1
+// stay; vertices bound to joints 2.. turn about (0, 0.5, 0): (x, y, z) → (−(y − 0.5), x + 0.5, z).
+static void test_rotating_one_joint_90_degrees_moves_its_vertices( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	p.weight_scale = 0.0f;
+	p.blend_scale = 0.0f;
+	p.beta_count = 0;
+	p.influence_count = 1;
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plInstance inst;
+	assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
+	float quats[64 * 4] = { 0 };
+	for ( uint32_t j = 0; j < model->J; ++j )
+	{
+		quats[j * 4 + 3] = 1.0f;
+	}
+	quats[2 * 4 + 2] = sinf( PI_F / 4.0f );
+	quats[2 * 4 + 3] = cosf( PI_F / 4.0f );
+	plFrameInput in;
+	memset( &in, 0, sizeof( in ) );
+	in.joint_rotations = quats;
+	in.joint_count = model->J;
+	in.dt_s = 1.0f / 30.0f;
+	assert_int_equal( plInstance_Step( inst, &in, NULL ), PLEAT_RESULT_OK );
+	const float* positions;
+	assert_int_equal( plInstance_GetPositions( inst, &positions, NULL ), PLEAT_RESULT_OK );
+	int moved = 0, stayed = 0;
+	for ( uint32_t v = 0; v < model->N; ++v )
+	{
+		const float* x = model->template_positions + v * 3;
+		float ex = x[0], ey = x[1], ez = x[2];
+		if ( model->skin_indices[v] >= 2 )
+		{
+			ex = -( x[1] - 0.5f );
+			ey = x[0] + 0.5f;
+			moved++;
+		}
+		else
+		{
+			stayed++;
+		}
+		assert_float_equal( positions[v * 3 + 0], ex, 1e-5 );
+		assert_float_equal( positions[v * 3 + 1], ey, 1e-5 );
+		assert_float_equal( positions[v * 3 + 2], ez, 1e-5 );
+	}
+	assert_true( moved > 0 && stayed > 0 );
+	float m[64 * 12];
+	assert_int_equal( plInstance_GetSkinMatrices( inst, m, model->J ), PLEAT_RESULT_OK );
+	// M_2 = T(J_2) · Rz(90°) · T(−J_2): rotation rows (0 −1 0), (1 0 0), (0 0 1); translation Rz·(−J_2) + J_2 = (0.5, 0.5, 0).
+	const float expected[12] = { 0, -1, 0, 0.5f, 1, 0, 0, 0.5f, 0, 0, 1, 0 };
+	for ( int e = 0; e < 12; ++e )
+	{
+		assert_float_equal( m[2 * 12 + e], expected[e], 1e-6 );
+	}
+	assert_int_equal( plInstance_GetSkinMatrices( inst, m, model->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
+	plTestRig_Free( &rig );
+	plTestAsset_Destroy( model );
+}
+
+// Normals of a flat quad (two CCW triangles in the XY plane) are +Z; on a "roof" the shared vertices get the
+// area-weighted average: face A in the plane z = 0 with area 1/2 (normal +Z, cross length 1), face B tilted with cross
+// (0, −1, 1)·... see below.
+static void test_normals_of_flat_quad_and_area_weighting( void** state )
+{
+	(void)state;
+	// Quad: v0 (0,0,0) v1 (1,0,0) v2 (1,1,0) v3 (0,1,0); faces (0,1,2) and (0,2,3).
+	float positions[4 * 3] = { 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0 };
+	uint32_t faces[6] = { 0, 1, 2, 0, 2, 3 };
+	uint32_t offsets[5] = { 0, 2, 3, 5, 6 };
+	uint32_t adjacency[6] = { 0, 1, 0, 0, 1, 1 };
+	float normals[4 * 3];
+	plNormalsJob job = { plMakeConstSpan( positions, 4, 12 ), faces, 2, offsets, adjacency,
+						 plMakeSpan( normals, 4, 12 ), 0, 4 };
+	assert_int_equal( plNormalsJob_Run( &job ), PLEAT_RESULT_OK );
+	for ( int v = 0; v < 4; ++v )
+	{
+		assert_float_equal( normals[v * 3 + 0], 0.0f, 0.0 );
+		assert_float_equal( normals[v * 3 + 1], 0.0f, 0.0 );
+		assert_float_equal( normals[v * 3 + 2], 1.0f, 0.0 );
+	}
+	// Roof: lift v3 to (0, 1, 1). Face 0 cross = (1,0,0)×(1,1,0) = (0,0,1). Face 1 cross = (1,1,0)×(0,1,1) = (1,−1,1).
+	// v0 and v2 touch both: sum (1,−1,2), normalised (1,−1,2)/√6. v1: (0,0,1). v3: (1,−1,1)/√3.
+	positions[3 * 3 + 2] = 1.0f;
+	assert_int_equal( plNormalsJob_Run( &job ), PLEAT_RESULT_OK );
+	float s6 = 1.0f / sqrtf( 6.0f ), s3 = 1.0f / sqrtf( 3.0f );
+	const float expected[12] = { s6, -s6, 2 * s6, 0, 0, 1, s6, -s6, 2 * s6, s3, -s3, s3 };
+	for ( int i = 0; i < 12; ++i )
+	{
+		assert_float_equal( normals[i], expected[i], 1e-6 );
+	}
+	// A degenerate vertex (all faces zero area) gets a zero normal, not NaN.
+	float flat_line[4 * 3] = { 0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0 };
+	job.positions = plMakeConstSpan( flat_line, 4, 12 );
+	assert_int_equal( plNormalsJob_Run( &job ), PLEAT_RESULT_OK );
+	for ( int i = 0; i < 12; ++i )
+	{
+		assert_float_equal( normals[i], 0.0f, 0.0 );
+	}
+}
+
+// Skinning writes through a strided (interleaved) output span and leaves the bytes between vertices alone.
+static void test_skinning_writes_interleaved_span( void** state )
+{
+	(void)state;
+	float rest[2 * 3] = { 1, 2, 3, -1, 0, 2 };
+	uint16_t idx[2 * 2] = { 0, 1, 1, 0 };
+	float w[2 * 2] = { 0.25f, 0.75f, 1.0f, 0.0f };
+	// M_0 = identity + translation (1, 0, 0); M_1 = 2 · identity (scale), no translation.
+	float m[2 * 12] = { 1, 0, 0, 1, 0, 1, 0, 0, 0, 0, 1, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0 };
+	float out[2 * 8];
+	for ( int i = 0; i < 16; ++i )
+	{
+		out[i] = -7.0f;
+	}
+	plSkinningJob job = { plMakeConstSpan( rest, 2, 12 ), idx, w, 2, m, 2, plMakeSpan( out, 2, 32 ), 0, 2 };
+	assert_int_equal( plSkinningJob_Run( &job ), PLEAT_RESULT_OK );
+	// v0: 0.25 · ((1,2,3) + (1,0,0)) + 0.75 · (2,4,6) = (0.5,0.5,0.75) + (1.5,3,4.5) = (2, 3.5, 5.25).
+	assert_float_equal( out[0], 2.0f, 1e-6 );
+	assert_float_equal( out[1], 3.5f, 1e-6 );
+	assert_float_equal( out[2], 5.25f, 1e-6 );
+	// v1: 1.0 · M_1 · (−1, 0, 2) = (−2, 0, 4).
+	assert_float_equal( out[8], -2.0f, 1e-6 );
+	assert_float_equal( out[9], 0.0f, 1e-6 );
+	assert_float_equal( out[10], 4.0f, 1e-6 );
+	for ( int i = 3; i < 8; ++i )
+	{
+		assert_float_equal( out[i], -7.0f, 0.0 );
+		assert_float_equal( out[8 + i], -7.0f, 0.0 );
+	}
+}
+
+// A table of invalid job inputs: each is rejected by _Validate and _Run returns INVALID_ARGUMENT.
+static void test_jobs_reject_invalid_spans( void** state )
+{
+	(void)state;
+	float rest[2 * 3] = { 0 };
+	uint16_t idx[2] = { 0, 0 };
+	float w[2] = { 1, 1 };
+	float m[12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0 };
+	float out[2 * 3];
+	plSkinningJob good = { plMakeConstSpan( rest, 2, 12 ), idx, w, 1, m, 1, plMakeSpan( out, 2, 12 ), 0, 2 };
+	assert_true( plSkinningJob_Validate( &good ) );
+	plSkinningJob bad[7];
+	for ( int i = 0; i < 7; ++i )
+	{
+		bad[i] = good;
+	}
+	bad[0].positions.ptr = NULL;                    // null input
+	bad[1].output.stride_bytes = 8;                 // stride smaller than a vertex
+	bad[2].output.bytes = 12;                       // span too short for 2 vertices
+	bad[3].vertex_end = 3;                          // range beyond the span
+	bad[4].influence_count = 0;                     // no influences
+	bad[5].output.ptr = (void*)( (uint8_t*)out + 1 ); // misaligned floats
+	bad[6].output.ptr = (void*)rest;                // aliases the input
+	for ( int i = 0; i < 7; ++i )
+	{
+		assert_false( plSkinningJob_Validate( &bad[i] ) );
+		assert_int_equal( plSkinningJob_Run( &bad[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+	}
+	assert_int_equal( plNormalsJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plMlpJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plBlendShapesJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plInputAssemblyJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plForwardKinematicsJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+}
+
+// A 2 → 2 → 1 MLP with hand weights. Hidden = act(W0 x + b0), out = W1 h + b1 (linear).
+static void test_mlp_small_network_by_hand( void** state )
+{
+	(void)state;
+	float w0[4] = { 1, -1, 2, 0.5f }, b0[2] = { 0.5f, -3 };
+	float w1[2] = { 2, -1 }, b1[1] = { 0.25f };
+	plLayer layers[2] = { { w0, 0, b0, 2, 2 }, { w1, 0, b1, 2, 1 } };
+	float x[2] = { 1, 2 }, y[1], scratch[4];
+	plKernels kernels;
+	plSelectKernels( &kernels, 1 );
+	plMlpJob job = { layers, 2, PLEAT_ACTIVATION_RELU, plMakeConstSpan( x, 2, 4 ), plMakeSpan( y, 1, 4 ),
+					 plMakeSpan( scratch, 4, 4 ), &kernels, NULL };
+	assert_int_equal( plMlpJob_Run( &job ), PLEAT_RESULT_OK );
+	// pre = (1 − 2 + 0.5, 2 + 1 − 3) = (−0.5, 0); ReLU → (0, 0); out = 0.25.
+	assert_float_equal( y[0], 0.25f, 1e-7 );
+	x[0] = 3;
+	// pre = (3 − 2 + 0.5, 6 + 1 − 3) = (1.5, 4); out = 3 − 4 + 0.25 = −0.75.
+	assert_int_equal( plMlpJob_Run( &job ), PLEAT_RESULT_OK );
+	assert_float_equal( y[0], -0.75f, 1e-6 );
+	job.activation = PLEAT_ACTIVATION_SILU;
+	// SiLU(1.5) = 1.5 / (1 + e^−1.5), SiLU(4) = 4 / (1 + e^−4).
+	double h0 = 1.5 / ( 1.0 + exp( -1.5 ) ), h1 = 4.0 / ( 1.0 + exp( -4.0 ) );
+	assert_int_equal( plMlpJob_Run( &job ), PLEAT_RESULT_OK );
+	assert_float_equal( y[0], (float)( 2 * h0 - h1 + 0.25 ), 1e-5 );
+}
+
+// X_c from hand-built frames (docs/inputs.md): L = 1, Jin = 1 (joint 1), B = 1.
+// Frame t+1: pelvis at (1, 0, 0), yaw 90° (heading +X), joint 1 at (1, 1, 0), dt 0.1.
+// Frame t and t−1: pelvis at (0, 0, 0), yaw 0, joint 1 at (0, 1, 0) and (0, 1, 0), dt 0.2.
+static void test_input_assembly_against_hand_values( void** state )
+{
+	(void)state;
+	plPoseFrame f[3];
+	memset( f, 0, sizeof( f ) );
+	for ( int i = 0; i < 3; ++i )
+	{
+		for ( int j = 0; j < 2; ++j )
+		{
+			f[i].local_rotations[j][0] = f[i].local_rotations[j][4] = f[i].local_rotations[j][8] = 1.0;
+		}
+		f[i].joint_positions[1][1] = 1.0;
+		f[i].dt_s = 0.2;
+	}
+	// t+1: pelvis rotation = Ry(90°) = [[0,0,1],[0,1,0],[−1,0,0]], joint 1's local rotation = Rx(90°).
+	double ry[9] = { 0, 0, 1, 0, 1, 0, -1, 0, 0 };
+	memcpy( f[0].pelvis_rotation, ry, sizeof( ry ) );
+	f[0].yaw = PI_F / 2.0;
+	f[0].dt_s = 0.1;
+	f[0].joint_positions[0][0] = 1.0;
+	f[0].joint_positions[1][0] = 1.0;
+	double rx[9] = { 1, 0, 0, 0, 0, -1, 0, 1, 0 };
+	memcpy( f[0].local_rotations[1], rx, sizeof( rx ) );
+	for ( int i = 1; i < 3; ++i )
+	{
+		f[i].pelvis_rotation[0] = f[i].pelvis_rotation[4] = f[i].pelvis_rotation[8] = 1.0;
+	}
+	float latent[1] = { 0.5f }, beta[1] = { -1.5f }, material[4] = { 0.1f, 0.2f, 0.3f, 0.4f };
+	uint32_t input_joints[1] = { 1 };
+	uint32_t I = (uint32_t)plInputCountFormula( 1, 1, 1 ); // 1 + 8 + 3·12 + 9 + 1 + 4 = 59
+	assert_int_equal( I, 59 );
+	float x[59];
+	plInputAssemblyJob job = { { &f[0], &f[1], &f[2] }, latent, 1, input_joints, 1, beta, 1, material,
+							   plMakeSpan( x, 59, 4 ) };
+	assert_int_equal( plInputAssemblyJob_Run( &job ), PLEAT_RESULT_OK );
+	const float tol = 1e-5f;
+	assert_float_equal( x[0], 0.5f, 0 );
+	// v_t: (1,0,0)/0.1 = (10,0,0) world; in heading +X that is forward = local +Z → (0, 0, 10); ω = (π/2)/0.1.
+	assert_float_equal( x[1], 0.0f, tol );
+	assert_float_equal( x[2], 0.0f, tol );
+	assert_float_equal( x[3], 10.0f, tol );
+	assert_float_equal( x[4], 15.707963f, 1e-4 );
+	// v_{t−1}: no motion, no turn.
+	for ( int i = 5; i < 9; ++i )
+	{
+		assert_float_equal( x[i], 0.0f, tol );
+	}
+	// Rotations of t+1: joint 1 Rx(90°) 6D = (R00, R10, R20, R01, R11, R21) = (1, 0, 0, 0, 0, 1).
+	const float rx6[6] = { 1, 0, 0, 0, 0, 1 };
+	for ( int i = 0; i < 6; ++i )
+	{
+		assert_float_equal( x[9 + i], rx6[i], tol );
+	}
+	// Pelvis tilt of t+1: yaw⁻¹ · P = identity → (1, 0, 0, 0, 1, 0). Frames t and t−1 are identity too.
+	const float id6[6] = { 1, 0, 0, 0, 1, 0 };
+	for ( int fi = 0; fi < 3; ++fi )
+	{
+		for ( int i = 0; i < 6; ++i )
+		{
+			assert_float_equal( x[9 + fi * 12 + 6 + i], id6[i], tol );
+			if ( fi > 0 )
+			{
+				assert_float_equal( x[9 + fi * 12 + i], id6[i], tol );
+			}
+		}
+	}
+	// Positions: joint 1 is 1 m above the pelvis in every frame → (0, 1, 0) in any heading frame.
+	for ( int fi = 0; fi < 3; ++fi )
+	{
+		assert_float_equal( x[45 + fi * 3 + 0], 0.0f, tol );
+		assert_float_equal( x[45 + fi * 3 + 1], 1.0f, tol );
+		assert_float_equal( x[45 + fi * 3 + 2], 0.0f, tol );
+	}
+	assert_float_equal( x[54], -1.5f, 0 );
+	for ( int i = 0; i < 4; ++i )
+	{
+		assert_float_equal( x[55 + i], material[i], 0 );
+	}
+	// A span one float short is rejected.
+	job.output = plMakeSpan( x, 58, 4 );
+	assert_int_equal( plInputAssemblyJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+}
+
+// Forward kinematics of a 3-joint chain along +Y (joints at y = 0, 1, 2) with joint 1 turned 90° about +Z and the
+// root moved to (5, 0, 0): joint 2 ends at (5 − 1, 1, 0); pelvis yaw of an identity root is 0.
+static void test_forward_kinematics_chain( void** state )
+{
+	(void)state;
+	int32_t parents[3] = { -1, 0, 1 };
+	double rest[9] = { 0, 0, 0, 0, 1, 0, 0, 2, 0 };
+	double root_t[3] = { 5, 0, 0 };
+	double root_r[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+	plPoseFrame frame;
+	memset( &frame, 0, sizeof( frame ) );
+	double q_id[4] = { 0, 0, 0, 1 };
+	double q_z90[4] = { 0, 0, sin( PI_F / 4 ), cos( PI_F / 4 ) };
+	plQuatToMatrix( q_id, frame.local_rotations[0] );
+	plQuatToMatrix( q_z90, frame.local_rotations[1] );
+	plQuatToMatrix( q_id, frame.local_rotations[2] );
+	float skin[3 * 12];
+	plForwardKinematicsJob job = { parents, 3, rest, root_t, root_r, 0.0, 0.1, &frame, skin };
+	assert_int_equal( plForwardKinematicsJob_Run( &job ), PLEAT_RESULT_OK );
+	assert_float_equal( frame.joint_positions[1][0], 5.0, 1e-9 );
+	assert_float_equal( frame.joint_positions[1][1], 1.0, 1e-9 );
+	assert_float_equal( frame.joint_positions[2][0], 4.0, 1e-6 );
+	assert_float_equal( frame.joint_positions[2][1], 1.0, 1e-6 );
+	assert_float_equal( frame.yaw, 0.0, 1e-12 );
+	// Skin matrix of joint 0: identity rotation, translation (5, 0, 0).
+	assert_float_equal( skin[3], 5.0f, 1e-6 );
+	// A parent after its child is rejected.
+	parents[2] = 2;
+	assert_int_equal( plForwardKinematicsJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+}
+
+int main( void )
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test( test_identity_pose_and_zero_weights_give_template ),
+		cmocka_unit_test( test_rotating_one_joint_90_degrees_moves_its_vertices ),
+		cmocka_unit_test( test_normals_of_flat_quad_and_area_weighting ),
+		cmocka_unit_test( test_skinning_writes_interleaved_span ),
+		cmocka_unit_test( test_jobs_reject_invalid_spans ),
+		cmocka_unit_test( test_mlp_small_network_by_hand ),
+		cmocka_unit_test( test_input_assembly_against_hand_values ),
+		cmocka_unit_test( test_forward_kinematics_chain ),
+	};
+	return cmocka_run_group_tests( tests, NULL, NULL );
+}
