@@ -2,11 +2,14 @@
 //
 // usage: test_ort_backend PYTHON DATA_SCRIPT DATA_DIR
 // Runs `PYTHON DATA_SCRIPT DATA_DIR` (tests/c/test_ort_data.py: small MLPs built with the `onnx` package, numpy
-// float64 outputs, the wheel's library path); tests that need the data skip with a reason when it cannot be made.
-// Built without the ORT header (PLEAT_HAVE_ORT_HEADER=0), only the stub behaviour is checked.
+// float64 outputs, the wheel's library path, a small asset with OXLP/OXDC and a motion); tests that need the data
+// skip with a reason when it cannot be made. Built without the ORT header (PLEAT_HAVE_ORT_HEADER=0), only the stub
+// behaviour is checked.
 //
-// Tolerance: fp32 inference vs a float64 reference on the same fp32 weights; |ort − ref| ≤ 1e-4 · (1 + |ref|).
+// Tolerances: MLP outputs (ORT fp32 vs float64 numpy, and vs Pleat's own fp32 kernels): |a − b| ≤ 1e-4 · (1 + |b|).
 // Rounding over these depths and widths gives ~1e-6; a wrong weight, bias, transpose or activation gives ≥ 1e-2.
+// Instance level (ORT backend vs Pleat backend, 60 frames, autoregressive latent): positions within 1e-4 m and
+// latents within 1e-4 · (1 + |z|); the two differ only by fp32 summation order (observed ~1e-6).
 #define _POSIX_C_SOURCE 200809L // setenv, posix_memalign
 #include <setjmp.h>
 #include <stdarg.h>
@@ -20,7 +23,10 @@
 #include <string.h>
 
 #include "allocator.h"
+#include "jobs.h"
+#include "kernels.h"
 #include "ort_backend.h"
+#include "pleat/pleat.h"
 
 #ifndef PLEAT_HAVE_ORT_HEADER
 #define PLEAT_HAVE_ORT_HEADER 0
@@ -93,12 +99,35 @@ typedef struct OrtCase
 	double* expected;  // [case_count][output_count]
 } OrtCase;
 
+typedef struct MlpWeights
+{
+	plLayer layers[8];
+	uint32_t layer_count;
+	uint32_t activation;
+	float* storage;
+} MlpWeights;
+
+typedef struct InstanceCase
+{
+	void* asset;
+	size_t asset_size;
+	uint32_t frame_count;
+	uint32_t joint_count;
+	float beta[10];
+	float material[4];
+	float* frames; // [frame][J·4 + 3 + 4 + 1]
+} InstanceCase;
+
 static char g_data_dir[1024];
 static char g_library[1024];
 static int g_have_data;
 static const char* g_no_data_reason = "no test data";
 static OrtCase g_lp;
 static OrtCase g_dec;
+static MlpWeights g_lp_weights;
+static MlpWeights g_dec_weights;
+static InstanceCase g_instance;
+static int g_have_instance;
 
 static void* ReadFile( const char* path, size_t* size )
 {
@@ -165,6 +194,75 @@ static int LoadCase( const char* name, OrtCase* out )
 	return 1;
 }
 
+static int LoadWeights( const char* name, const OrtCase* c, uint32_t activation, MlpWeights* out )
+{
+	char path[1200];
+	snprintf( path, sizeof( path ), "%s/%s.weights", g_data_dir, name );
+	size_t size = 0;
+	unsigned char* bytes = (unsigned char*)ReadFile( path, &size );
+	if ( bytes == NULL )
+	{
+		return 0;
+	}
+	out->storage = (float*)malloc( size );
+	out->activation = activation;
+	size_t offset = 0;
+	size_t float_offset = 0;
+	out->layer_count = 0;
+	while ( offset + 8 <= size && out->layer_count < 8 )
+	{
+		uint32_t rows = ReadU32( bytes + offset );
+		uint32_t cols = ReadU32( bytes + offset + 4 );
+		offset += 8;
+		size_t floats = (size_t)rows * cols + rows;
+		if ( offset + 4 * floats > size )
+		{
+			break;
+		}
+		memcpy( out->storage + float_offset, bytes + offset, 4 * floats );
+		plLayer* layer = &out->layers[out->layer_count++];
+		layer->weight = out->storage + float_offset;
+		layer->weight_fp16 = 0;
+		layer->bias = out->storage + float_offset + (size_t)rows * cols;
+		layer->in_count = cols;
+		layer->out_count = rows;
+		offset += 4 * floats;
+		float_offset += floats;
+	}
+	free( bytes );
+	return offset == size && out->layer_count > 0 && out->layers[0].in_count == c->input_count &&
+		   out->layers[out->layer_count - 1].out_count == c->output_count;
+}
+
+static int LoadInstanceCase( InstanceCase* out )
+{
+	char path[1200];
+	snprintf( path, sizeof( path ), "%s/instance.pleat", g_data_dir );
+	out->asset = ReadFile( path, &out->asset_size );
+	snprintf( path, sizeof( path ), "%s/instance.motion", g_data_dir );
+	size_t size = 0;
+	unsigned char* bytes = (unsigned char*)ReadFile( path, &size );
+	if ( out->asset == NULL || bytes == NULL || size < 16 + 56 || memcmp( bytes, "PLORTM01", 8 ) != 0 )
+	{
+		free( bytes );
+		return 0;
+	}
+	out->frame_count = ReadU32( bytes + 8 );
+	out->joint_count = ReadU32( bytes + 12 );
+	memcpy( out->beta, bytes + 16, 40 );
+	memcpy( out->material, bytes + 56, 16 );
+	size_t per_frame = 4 * ( (size_t)out->joint_count * 4 + 8 );
+	if ( size != 72 + per_frame * out->frame_count )
+	{
+		free( bytes );
+		return 0;
+	}
+	out->frames = (float*)malloc( per_frame * out->frame_count );
+	memcpy( out->frames, bytes + 72, per_frame * out->frame_count );
+	free( bytes );
+	return 1;
+}
+
 static void FreeCase( OrtCase* c )
 {
 	free( c->model );
@@ -203,12 +301,15 @@ static void PrepareData( const char* python, const char* script, const char* dat
 	free( library );
 	// plOrtMlp_Create( NULL, ... ) searches this variable first.
 	setenv( "PLEAT_ONNXRUNTIME_LIBRARY", g_library, 1 );
-	if ( !LoadCase( "lp", &g_lp ) || !LoadCase( "dec", &g_dec ) )
+	if ( !LoadCase( "lp", &g_lp ) || !LoadCase( "dec", &g_dec ) ||
+		 !LoadWeights( "lp", &g_lp, PLEAT_ACTIVATION_RELU, &g_lp_weights ) ||
+		 !LoadWeights( "dec", &g_dec, PLEAT_ACTIVATION_SILU, &g_dec_weights ) )
 	{
 		g_no_data_reason = "test data unreadable";
 		return;
 	}
 	g_have_data = 1;
+	g_have_instance = LoadInstanceCase( &g_instance );
 }
 
 #define REQUIRE_DATA()                                                                                                \
@@ -436,6 +537,211 @@ static void sessions_coexist_and_outlive_env_cycles( void** state )
 	free( dec_out );
 }
 
+static void ort_matches_pleat_mlp_kernels( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	const OrtCase* cases[2] = { &g_lp, &g_dec };
+	const MlpWeights* weights[2] = { &g_lp_weights, &g_dec_weights };
+	for ( int force_scalar = 0; force_scalar < 2; ++force_scalar )
+	{
+		plKernels kernels;
+		int avx2 = plSelectKernels( &kernels, force_scalar );
+		print_message( "Pleat kernels: %s\n", avx2 ? "AVX2" : "scalar" );
+		for ( int m = 0; m < 2; ++m )
+		{
+			const OrtCase* c = cases[m];
+			CountingAllocator counter;
+			plAllocator allocator = MakeAllocator( &counter );
+			plOrtMlp* mlp = NULL;
+			assert_int_equal( plOrtMlp_Create( g_library, c->model, c->model_size, c->input_count, c->output_count,
+											   &allocator, &mlp ),
+							  PLEAT_RESULT_OK );
+			float* ort_out = (float*)malloc( 4 * (size_t)c->output_count );
+			float* pleat_out = (float*)malloc( 4 * (size_t)c->output_count );
+			float* scratch = (float*)aligned_alloc( 32, 4 * 256 );
+			double worst = 0.0;
+			for ( uint32_t k = 0; k < c->case_count; ++k )
+			{
+				const float* x = c->inputs + (size_t)k * c->input_count;
+				plMlpJob job;
+				memset( &job, 0, sizeof( job ) );
+				job.layers = weights[m]->layers;
+				job.layer_count = weights[m]->layer_count;
+				job.activation = weights[m]->activation;
+				job.input = plMakeConstSpan( x, c->input_count, 4 );
+				job.output = plMakeSpan( pleat_out, c->output_count, 4 );
+				job.scratch = plMakeSpan( scratch, 256, 4 );
+				job.kernels = &kernels;
+				assert_int_equal( plMlpJob_Run( &job ), PLEAT_RESULT_OK );
+				assert_int_equal( plOrtMlp_Run( mlp, x, ort_out ), PLEAT_RESULT_OK );
+				for ( uint32_t o = 0; o < c->output_count; ++o )
+				{
+					double error = fabs( (double)ort_out[o] - (double)pleat_out[o] ) / ( 1.0 + fabs( pleat_out[o] ) );
+					worst = error > worst ? error : worst;
+				}
+			}
+			print_message( "%s: max relative |ORT - Pleat| %.3g\n", m == 0 ? "relu MLP" : "silu MLP", worst );
+			assert_true( worst <= ORT_TOLERANCE );
+			free( ort_out );
+			free( pleat_out );
+			free( scratch );
+			plOrtMlp_Destroy( mlp );
+			assert_int_equal( counter.live_bytes, 0 );
+		}
+	}
+}
+
+static plResult CreateInstanceWithBackend( plContext context, plAsset asset, plMlpBackend backend,
+										   plInstance* out )
+{
+	plInstanceDef def = plDefaultInstanceDef();
+	def.asset = asset;
+	def.beta = g_instance.beta;
+	def.beta_count = 10;
+	def.material = g_instance.material;
+	def.mlp_backend = backend;
+	def.onnxruntime_library = g_library;
+	return plCreateInstance( context, &def, out );
+}
+
+static void ort_backend_instance_matches_pleat_backend_over_motion( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	if ( !g_have_instance )
+	{
+		print_message( "skipped: no instance.pleat (pleat tools not importable by PLEAT_PYTHON?)\n" );
+		skip();
+	}
+	CountingAllocator counter;
+	MakeAllocator( &counter );
+	plContextDef cdef = plDefaultContextDef();
+	cdef.alloc = CountingAlloc;
+	cdef.free = CountingFree;
+	cdef.allocator_context = &counter;
+	plContext context;
+	assert_int_equal( plCreateContext( &cdef, &context ), PLEAT_RESULT_OK );
+	plAssetDef adef = plDefaultAssetDef();
+	adef.data = g_instance.asset;
+	adef.size = g_instance.asset_size;
+	plAsset asset;
+	assert_int_equal( plLoadAsset( context, &adef, &asset ), PLEAT_RESULT_OK );
+	plAssetInfo info;
+	assert_int_equal( plAsset_GetInfo( asset, &info ), PLEAT_RESULT_OK );
+	assert_true( info.has_onnx_lp && info.has_onnx_decoder );
+	assert_int_equal( info.joint_count, g_instance.joint_count );
+
+	plInstance pleat_instance;
+	plInstance ort_instance;
+	assert_true( CreateInstanceWithBackend( context, asset, PLEAT_MLP_BACKEND_PLEAT, &pleat_instance ) >= 0 );
+	assert_true( CreateInstanceWithBackend( context, asset, PLEAT_MLP_BACKEND_ONNXRUNTIME, &ort_instance ) >= 0 );
+
+	float latent_pleat[64];
+	float latent_ort[64];
+	assert_true( info.latent_count <= 64 );
+	double worst_position_m = 0.0;
+	double worst_latent = 0.0;
+	double largest_latent = 0.0;
+	double largest_motion_m = 0.0;
+	const float* first_positions = NULL;
+	float* reference_start = (float*)malloc( 12 * (size_t)info.vertex_count );
+	size_t per_frame = (size_t)g_instance.joint_count * 4 + 8;
+	for ( uint32_t f = 0; f < g_instance.frame_count; ++f )
+	{
+		const float* frame = g_instance.frames + per_frame * f;
+		const float* root = frame + (size_t)g_instance.joint_count * 4;
+		plFrameInput in;
+		memset( &in, 0, sizeof( in ) );
+		in.joint_rotations = frame;
+		in.joint_count = g_instance.joint_count;
+		in.joint_stride_bytes = 16;
+		in.root_translation = ( plVec3 ){ root[0], root[1], root[2] };
+		in.root_rotation = ( plQuat ){ root[3], root[4], root[5], root[6] };
+		in.dt_s = root[7];
+		plResult a = plInstance_Step( pleat_instance, &in, NULL );
+		plResult b = plInstance_Step( ort_instance, &in, NULL );
+		assert_true( a >= 0 );
+		assert_int_equal( a, b ); // same notes (e.g. CLAMPED dt) from both
+		assert_int_not_equal( a, PLEAT_RESULT_NUMERIC_RESET );
+		const float* p_pleat = NULL;
+		const float* p_ort = NULL;
+		uint32_t n_pleat = 0, n_ort = 0;
+		assert_int_equal( plInstance_GetPositions( pleat_instance, &p_pleat, &n_pleat ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_GetPositions( ort_instance, &p_ort, &n_ort ), PLEAT_RESULT_OK );
+		assert_int_equal( n_pleat, info.vertex_count );
+		assert_int_equal( n_ort, info.vertex_count );
+		if ( f == 0 )
+		{
+			memcpy( reference_start, p_pleat, 12 * (size_t)info.vertex_count );
+			first_positions = reference_start;
+		}
+		for ( uint32_t i = 0; i < 3 * info.vertex_count; ++i )
+		{
+			assert_true( isfinite( p_ort[i] ) );
+			double d = fabs( (double)p_pleat[i] - (double)p_ort[i] );
+			worst_position_m = d > worst_position_m ? d : worst_position_m;
+			double moved = fabs( (double)p_pleat[i] - (double)first_positions[i] );
+			largest_motion_m = moved > largest_motion_m ? moved : largest_motion_m;
+		}
+		assert_int_equal( plInstance_GetLatent( pleat_instance, latent_pleat, 64 ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_GetLatent( ort_instance, latent_ort, 64 ), PLEAT_RESULT_OK );
+		for ( uint32_t l = 0; l < info.latent_count; ++l )
+		{
+			double d = fabs( (double)latent_pleat[l] - (double)latent_ort[l] ) / ( 1.0 + fabs( latent_pleat[l] ) );
+			worst_latent = d > worst_latent ? d : worst_latent;
+			largest_latent = fabs( latent_pleat[l] ) > largest_latent ? fabs( latent_pleat[l] ) : largest_latent;
+		}
+	}
+	print_message( "%u frames: max |x_ORT - x_Pleat| = %.3g m, max latent difference %.3g (|z| up to %.3g), "
+				   "garment moved up to %.3g m\n",
+				   g_instance.frame_count, worst_position_m, worst_latent, largest_latent, largest_motion_m );
+	assert_true( worst_position_m <= 1e-4 );
+	assert_true( worst_latent <= ORT_TOLERANCE );
+	assert_true( largest_latent > 0.1 );   // the networks are doing something
+	assert_true( largest_motion_m > 0.1 ); // and the motion moves the garment
+	free( reference_start );
+	assert_int_equal( plDestroyInstance( ort_instance ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyInstance( pleat_instance ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyAsset( asset ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyContext( context ), PLEAT_RESULT_OK );
+	assert_int_equal( counter.live_bytes, 0 ); // everything, ORT sessions included, came back to the host
+}
+
+static void ort_backend_instance_with_wrong_library_is_backend_unavailable( void** state )
+{
+	(void)state;
+	REQUIRE_DATA();
+	if ( !g_have_instance )
+	{
+		print_message( "skipped: no instance.pleat\n" );
+		skip();
+	}
+	CountingAllocator counter;
+	MakeAllocator( &counter );
+	plContextDef cdef = plDefaultContextDef();
+	cdef.alloc = CountingAlloc;
+	cdef.free = CountingFree;
+	cdef.allocator_context = &counter;
+	plContext context;
+	assert_int_equal( plCreateContext( &cdef, &context ), PLEAT_RESULT_OK );
+	plAssetDef adef = plDefaultAssetDef();
+	adef.data = g_instance.asset;
+	adef.size = g_instance.asset_size;
+	plAsset asset;
+	assert_int_equal( plLoadAsset( context, &adef, &asset ), PLEAT_RESULT_OK );
+	plInstanceDef def = plDefaultInstanceDef();
+	def.asset = asset;
+	def.mlp_backend = PLEAT_MLP_BACKEND_ONNXRUNTIME;
+	def.onnxruntime_library = "/nonexistent/libonnxruntime.so";
+	plInstance instance;
+	assert_int_equal( plCreateInstance( context, &def, &instance ), PLEAT_RESULT_BACKEND_UNAVAILABLE );
+	assert_false( plInstance_IsValid( instance ) );
+	assert_int_equal( plDestroyAsset( asset ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyContext( context ), PLEAT_RESULT_OK );
+	assert_int_equal( counter.live_bytes, 0 ); // everything, ORT sessions included, came back to the host
+}
+
 #endif // PLEAT_HAVE_ORT_HEADER
 
 // Holds in both builds: with the header, a missing library; without it, always.
@@ -475,10 +781,17 @@ int main( int argc, char** argv )
 		cmocka_unit_test( model_with_other_tensor_sizes_is_invalid_asset_data ),
 		cmocka_unit_test( out_of_memory_is_reported_and_nothing_leaks ),
 		cmocka_unit_test( sessions_coexist_and_outlive_env_cycles ),
+		cmocka_unit_test( ort_matches_pleat_mlp_kernels ),
+		cmocka_unit_test( ort_backend_instance_with_wrong_library_is_backend_unavailable ),
+		cmocka_unit_test( ort_backend_instance_matches_pleat_backend_over_motion ),
 #endif
 	};
 	int failed = cmocka_run_group_tests( tests, NULL, NULL );
 	FreeCase( &g_lp );
 	FreeCase( &g_dec );
+	free( g_lp_weights.storage );
+	free( g_dec_weights.storage );
+	free( g_instance.asset );
+	free( g_instance.frames );
 	return failed;
 }

@@ -9,7 +9,11 @@ writes, per model NAME in (lp, dec):
                 (1 = ReLU, 2 = SiLU), u32 case_count, then per case f32 input[I] and f64 expected[O] (numpy, float64
                 arithmetic on the same fp32 weights)
   NAME.weights  little-endian: per layer u32 out, u32 in, f32 weight[out][in], f32 bias[out] (for Pleat's own kernel)
-and `library.txt`: the path of libonnxruntime.so* inside the onnxruntime wheel of this Python.
+and `library.txt`: the path of libonnxruntime.so* inside the onnxruntime wheel of this Python. For the instance-level
+test it also writes `instance.pleat` (pleat.reference.golden.random_weights at small sizes, SiLU, with the OXLP/OXDC
+sections of `pleat-pack --onnx`) and `instance.motion`: "PLORTM01", u32 frame_count, u32 joint_count, f32 beta[B]
+(B = 10), f32 material[4], then per frame f32 rotations[J][4] (x, y, z, w), f32 root_translation[3],
+f32 root_rotation[4], f32 dt_s. Without the pleat tools package those two files are skipped (exit status stays 0).
 Exit status 3 when onnx or onnxruntime is not importable (the C test then skips).
 """
 import glob
@@ -94,6 +98,27 @@ def write_model(out_dir, name, sizes, activation, input_name, output_name, rng, 
             f.write(bias.astype("<f4").tobytes())
 
 
+def write_instance_case(out_dir, frames=60):
+    try:
+        from pleat.asset import write_asset
+        from pleat.reference.golden import random_motion, random_weights
+    except ImportError as error:
+        print(f"test_ort_data: no instance case ({error})", file=sys.stderr)
+        return
+    weights = random_weights(vertices=600, latent=24, blend=16, lp_hidden=(64, 64, 64), dec_hidden=(48, 48),
+                             seed=5, activation="silu")
+    write_asset(os.path.join(out_dir, "instance.pleat"), weights, onnx=True)
+    rotations, root_translation, root_rotation, dt_s = random_motion(frames, len(weights["joint_parents"]), seed=5)
+    beta = np.linspace(-1.5, 1.5, len(weights["shape_blend"]))
+    material = np.asarray(weights["material_min"]) * 0.3 + np.asarray(weights["material_max"]) * 0.7
+    with open(os.path.join(out_dir, "instance.motion"), "wb") as f:
+        f.write(b"PLORTM01" + struct.pack("<2I", frames, rotations.shape[1]))
+        f.write(np.asarray(beta, "<f4").tobytes() + np.asarray(material, "<f4").tobytes())
+        for k in range(frames):
+            f.write(np.concatenate([np.ravel(rotations[k]), root_translation[k], root_rotation[k], [dt_s[k]]])
+                    .astype("<f4").tobytes())
+
+
 def main(argv):
     if len(argv) != 2:
         print(__doc__, file=sys.stderr)
@@ -111,6 +136,7 @@ def main(argv):
     # input width that is not a multiple of 8 and a decoder-like SiLU MLP.
     write_model(out_dir, "lp", [131, 96, 96, 96, 24], "relu", "x", "y", rng)
     write_model(out_dir, "dec", [24, 64, 64, 40], "silu", "z", "w", rng)
+    write_instance_case(out_dir)
     capi = os.path.join(os.path.dirname(onnxruntime.__file__), "capi")
     candidates = sorted(glob.glob(os.path.join(capi, "libonnxruntime.so*")))
     if not candidates:
