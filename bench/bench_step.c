@@ -273,6 +273,41 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 	free( weights_ort );
 }
 
+// Pleat's MLPs alone (e.g. on the fp16 asset, which has no ONNX twin).
+static double TimePleatMlpOnly( const plAssetData* asset, uint32_t warmup, uint32_t iterations )
+{
+	for ( uint32_t i = 0; i < asset->lp_layer_count; ++i )
+		if ( asset->lp[i].out_count > 1024 )
+			return NAN;
+	for ( uint32_t i = 0; i < asset->dec_layer_count; ++i )
+		if ( asset->dec[i].out_count > 1024 )
+			return NAN;
+	plKernels kernels;
+	plSelectKernels( &kernels, 0 );
+	float* buffers = (float*)aligned_alloc( 64, 4 * 4096 );
+	float* x = buffers;
+	float* latent = buffers + 1024;
+	float* scratch = buffers + 2048; // 2048 floats: up to 1024-wide hidden layers
+	float* weights = buffers + 1536;
+	for ( uint32_t i = 0; i < asset->input_count && i < 1024; ++i )
+	{
+		x[i] = (float)( ( i * 37u ) % 100u ) / 50.0f - 1.0f;
+	}
+	double* us = (double*)malloc( sizeof( double ) * iterations );
+	for ( uint32_t it = 0; it < warmup + iterations; ++it )
+	{
+		double t0 = NowUs();
+		PleatMlp( &kernels, asset->lp, asset->lp_layer_count, asset->lp_activation, x, scratch, 2048, latent );
+		PleatMlp( &kernels, asset->dec, asset->dec_layer_count, asset->dec_activation, latent, scratch, 2048, weights );
+		if ( it >= warmup )
+			us[it - warmup] = NowUs() - t0;
+	}
+	double median = Median( us, iterations );
+	free( us );
+	free( buffers );
+	return median;
+}
+
 // ---- full step through the public API ----
 
 typedef struct StepConfig
@@ -436,7 +471,7 @@ int main( int argc, char** argv )
 			 plResultString( mlp.ort_result ), mlp.max_abs_diff );
 
 	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library };
-	double step_us = NAN, step_fp16_us = NAN, scalar_us = NAN, ort_step_us = NAN;
+	double step_us = NAN, step_fp16_us = NAN, scalar_us = NAN, ort_step_us = NAN, mlp_fp16_us = NAN;
 	int avx2 = 0;
 	result = TimeSteps( &config, &motion, warmup, iterations, &step_us, &avx2 );
 	if ( result != PLEAT_RESULT_OK )
@@ -471,6 +506,12 @@ int main( int argc, char** argv )
 			result = TimeSteps( &config, &motion, warmup, iterations, &step_fp16_us, NULL );
 			if ( result != PLEAT_RESULT_OK )
 				fprintf( stderr, "fp16 step: %s\n", plResultString( result ) );
+			plAssetData fp16_asset;
+			if ( plAssetData_Parse( fp16_bytes, fp16_size, 0, &fp16_asset ) == PLEAT_RESULT_OK &&
+				 fp16_asset.input_count <= 1024 && fp16_asset.latent_count <= 512 && fp16_asset.blend_count <= 512 )
+			{
+				mlp_fp16_us = TimePleatMlpOnly( &fp16_asset, warmup, iterations );
+			}
 		}
 	}
 
@@ -491,6 +532,7 @@ int main( int argc, char** argv )
 	PrintJsonNumber( out, "pleat_mlp_us", mlp.pleat_us, 0 );
 	PrintJsonNumber( out, "ort_mlp_us", mlp.ort_us, 0 );
 	PrintJsonNumber( out, "mlp_speedup", mlp.have_ort ? mlp.ort_us / mlp.pleat_us : NAN, 0 );
+	PrintJsonNumber( out, "pleat_mlp_fp16_us", mlp_fp16_us, 0 );
 	if ( mlp.have_ort )
 		fprintf( out, "  \"mlp_max_abs_diff\": %.3g,\n", mlp.max_abs_diff );
 	PrintJsonNumber( out, "pleat_step_us", step_us, 0 );

@@ -5,7 +5,7 @@
 # PLEAT_ONNXRUNTIME_LIBRARY (default: libonnxruntime.so* of the onnxruntime wheel in .venv).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh >/dev/null
+if ! setup_log=$(scripts/setup.sh 2>&1); then echo "$setup_log" >&2; exit 1; fi
 BUILD_DIR=${BUILD_DIR:-build/bench}
 OUT=out/bench
 PY="$PWD/.venv/bin/python"
