@@ -119,7 +119,7 @@ int main( int argc, char** argv )
 			lo[i % 3] = fminf( lo[i % 3], positions[i] );
 			hi[i % 3] = fmaxf( hi[i % 3], positions[i] );
 		}
-		if ( frame % 30 == 0 || frame == frame_count - 1 )
+		if ( frame % 20 == 0 || frame == frame_count - 1 )
 			printf( "frame %3d: garment bounds (%.3f %.3f %.3f) .. (%.3f %.3f %.3f) m, normal[0] (%.3f %.3f %.3f)\n",
 					frame, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], normals[0], normals[1], normals[2] );
 	}

@@ -172,10 +172,10 @@ def export_body(body, out, beta=None, influences=4, asset_path=None):
 
 def load_clip(spec, fps):
     """A pleat.motion Clip by file path or by name on the motion loaders' search path, resampled to `fps`."""
-    import pleat.motion as motion
-    loader = next((getattr(motion, name) for name in ("load_clip", "load") if hasattr(motion, name)), None)
-    if loader is None:
-        raise SystemExit("pleat.motion has no load_clip/load function")
+    try:
+        from pleat.motion import load_clip as loader
+    except ImportError:
+        from pleat.motion.loaders import load_clip as loader
     clip = loader(spec)
     if abs(float(clip.fps) - fps) > 1e-6:
         clip = clip.resample(fps)
