@@ -3,6 +3,7 @@
 #include "kernels.h"
 
 #include <immintrin.h>
+#include <math.h>
 
 #define PLEAT_BLEND_CHUNK 768 // floats (256 vertices), multiple of 8
 
@@ -49,8 +50,10 @@ void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int 
 			}
 			for ( size_t i = vec_count; i < count; ++i )
 			{
-				acc[i] += weights[j] * plLoad1( shapes, shapes_fp16, o0 + i );
-				acc[i] += weights[j + 1] * plLoad1( shapes, shapes_fp16, o1 + i );
+				// fmaf: the same single rounding as the vector lanes, so a vertex's result does not depend on where
+				// the range split put it.
+				acc[i] = fmaf( weights[j], plLoad1( shapes, shapes_fp16, o0 + i ), acc[i] );
+				acc[i] = fmaf( weights[j + 1], plLoad1( shapes, shapes_fp16, o1 + i ), acc[i] );
 			}
 		}
 		for ( ; j < blend_count; ++j )
@@ -64,7 +67,7 @@ void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int 
 			}
 			for ( size_t i = vec_count; i < count; ++i )
 			{
-				acc[i] += weights[j] * plLoad1( shapes, shapes_fp16, o0 + i );
+				acc[i] = fmaf( weights[j], plLoad1( shapes, shapes_fp16, o0 + i ), acc[i] );
 			}
 		}
 	}

@@ -1,0 +1,194 @@
+// Lifetimes: 1,000 instances created, stepped and destroyed with a counting host allocator; every byte comes back
+// (the context's live-bytes counter and the host's own counter both return to their baselines). Allocation failures
+// at every point of creation are reported as OUT_OF_MEMORY without leaking. Run under PLEAT_SANITIZE for ASan/UBSan.
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include "test_common.h"
+
+typedef struct plCountingHost
+{
+	int64_t live_bytes;
+	int64_t live_blocks;
+	int64_t allocations;
+	int64_t fail_after; // < 0: never fail
+} plCountingHost;
+
+static void* plHostAlloc( size_t size, size_t align, void* user )
+{
+	plCountingHost* h = (plCountingHost*)user;
+	if ( h->fail_after >= 0 && h->allocations >= h->fail_after )
+	{
+		return NULL;
+	}
+	h->allocations++;
+	assert_true( align >= 16 && ( align & ( align - 1 ) ) == 0 );
+	void* p = aligned_alloc( align, ( size + align - 1 ) & ~( align - 1 ) );
+	if ( p != NULL )
+	{
+		h->live_bytes += (int64_t)size;
+		h->live_blocks++;
+	}
+	return p;
+}
+
+static void plHostFree( void* ptr, size_t size, void* user )
+{
+	plCountingHost* h = (plCountingHost*)user;
+	h->live_bytes -= (int64_t)size;
+	h->live_blocks--;
+	free( ptr );
+}
+
+static void test_thousand_instances_leave_no_leak( void** state )
+{
+	(void)state;
+	plCountingHost host = { 0, 0, 0, -1 };
+	plContextDef def = plDefaultContextDef();
+	def.alloc = plHostAlloc;
+	def.free = plHostFree;
+	def.allocator_context = &host;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	uint64_t with_asset = 0;
+	assert_int_equal( plContext_GetLiveBytes( rig.context, &with_asset ), PLEAT_RESULT_OK );
+	assert_true( with_asset >= rig.size ); // the asset was copied (not in place): at least its bytes are live
+	float q[64 * 4];
+	plInstance alive[10];
+	for ( int i = 0; i < 1000; ++i )
+	{
+		plInstance* inst = &alive[i % 10];
+		if ( i >= 10 )
+		{
+			assert_int_equal( plDestroyInstance( *inst ), PLEAT_RESULT_OK );
+			assert_false( plInstance_IsValid( *inst ) );
+		}
+		assert_int_equal( plTestRig_Instance( &rig, inst ), PLEAT_RESULT_OK );
+		for ( uint32_t t = 0; t < 3; ++t )
+		{
+			plFrameInput in = plTestMotion( t + (uint32_t)i, model->J, q );
+			assert_int_equal( plInstance_Step( *inst, &in, NULL ), PLEAT_RESULT_OK );
+		}
+	}
+	// A destroyed handle stays invalid even after its slot is reused (generation).
+	plInstance stale = alive[0];
+	assert_int_equal( plDestroyInstance( stale ), PLEAT_RESULT_OK );
+	plInstance reused;
+	assert_int_equal( plTestRig_Instance( &rig, &reused ), PLEAT_RESULT_OK );
+	assert_int_equal( reused.index1, stale.index1 );
+	assert_false( plInstance_IsValid( stale ) );
+	assert_int_equal( plDestroyInstance( stale ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plDestroyInstance( reused ), PLEAT_RESULT_OK );
+	for ( int i = 1; i < 10; ++i )
+	{
+		assert_int_equal( plDestroyInstance( alive[i] ), PLEAT_RESULT_OK );
+	}
+	assert_int_equal( plDestroyAsset( rig.asset ), PLEAT_RESULT_OK );
+	uint64_t live = 1;
+	assert_int_equal( plContext_GetLiveBytes( rig.context, &live ), PLEAT_RESULT_OK );
+	// Only the (grown) object tables remain; they are freed with the context.
+	assert_true( live < 4096 );
+	assert_int_equal( plDestroyContext( rig.context ), PLEAT_RESULT_OK );
+	assert_int_equal( host.live_bytes, 0 );
+	assert_int_equal( host.live_blocks, 0 );
+	plTestAsset_FreeBytes( rig.bytes );
+	plTestAsset_Destroy( model );
+}
+
+// Destroying a context with live assets and instances frees them all.
+static void test_destroying_context_frees_everything( void** state )
+{
+	(void)state;
+	plCountingHost host = { 0, 0, 0, -1 };
+	plContextDef def = plDefaultContextDef();
+	def.alloc = plHostAlloc;
+	def.free = plHostFree;
+	def.allocator_context = &host;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	plInstance inst;
+	for ( int i = 0; i < 20; ++i )
+	{
+		assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
+	}
+	assert_int_equal( plDestroyAsset( rig.asset ), PLEAT_RESULT_ASSET_IN_USE );
+	assert_true( plAsset_IsValid( rig.asset ) );
+	assert_int_equal( plDestroyContext( rig.context ), PLEAT_RESULT_OK );
+	assert_false( plInstance_IsValid( inst ) );
+	assert_false( plAsset_IsValid( rig.asset ) );
+	assert_int_equal( host.live_bytes, 0 );
+	plTestAsset_FreeBytes( rig.bytes );
+	plTestAsset_Destroy( model );
+}
+
+// Allocation failure at the k-th allocation, for every k that creation reaches: OUT_OF_MEMORY, null handle, no leak.
+static void test_allocation_failures_are_reported_without_leaks( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	size_t size = 0;
+	uint8_t* bytes = plTestAsset_Write( model, &size );
+	int succeeded = 0;
+	for ( int64_t k = 0; k < 64 && !succeeded; ++k )
+	{
+		plCountingHost host = { 0, 0, 0, k };
+		plContextDef def = plDefaultContextDef();
+		def.alloc = plHostAlloc;
+		def.free = plHostFree;
+		def.allocator_context = &host;
+		plContext ctx;
+		plResult r = plCreateContext( &def, &ctx );
+		if ( r == PLEAT_RESULT_OK )
+		{
+			plAssetDef adef = plDefaultAssetDef();
+			adef.data = bytes;
+			adef.size = size;
+			plAsset asset;
+			r = plLoadAsset( ctx, &adef, &asset );
+			if ( r == PLEAT_RESULT_OK )
+			{
+				plInstance inst;
+				r = plTestRig_Instance( &( plTestRig ){ ctx, asset, NULL, 0, { 0 } }, &inst );
+				if ( r == PLEAT_RESULT_OK )
+				{
+					succeeded = 1;
+				}
+				else
+				{
+					assert_false( plInstance_IsValid( inst ) );
+				}
+			}
+			else
+			{
+				assert_false( plAsset_IsValid( asset ) );
+			}
+			plDestroyContext( ctx );
+		}
+		if ( !succeeded )
+		{
+			assert_int_equal( r, PLEAT_RESULT_OUT_OF_MEMORY );
+		}
+		assert_int_equal( host.live_bytes, 0 );
+	}
+	assert_true( succeeded );
+	plTestAsset_FreeBytes( bytes );
+	plTestAsset_Destroy( model );
+}
+
+int main( void )
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test( test_thousand_instances_leave_no_leak ),
+		cmocka_unit_test( test_destroying_context_frees_everything ),
+		cmocka_unit_test( test_allocation_failures_are_reported_without_leaks ),
+	};
+	return cmocka_run_group_tests( tests, NULL, NULL );
+}
