@@ -1,0 +1,261 @@
+// Every SIMD kernel against its scalar specification, on shapes that exercise the vector body, the 16/8-wide steps,
+// the scalar tails and the leftover rows, with fp32 and fp16 weights; then the whole pipeline (AVX2 context vs
+// force_scalar context) on one motion.
+//
+// Tolerance: both compute the same fp32 sums in a different order (and FMA vs separate rounding). The rounding error
+// of a sum is bounded by ~n · 2^-24 · Σ|terms|, so we assert |simd − scalar| ≤ 4 · n · 6e-8 · Σ|w·x| + 1e-30 per output
+// — a wrong index or a skipped tail gives errors of the size of one term, far above this bound.
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include "jobs.h"
+#include "test_common.h"
+
+static uint32_t s_rng = 777;
+
+static float plRand( void )
+{
+	s_rng ^= s_rng << 13;
+	s_rng ^= s_rng >> 17;
+	s_rng ^= s_rng << 5;
+	return (float)( s_rng >> 8 ) / 8388608.0f - 1.0f;
+}
+
+static int plHaveAvx2( void )
+{
+	plKernels k;
+	return plSelectKernels( &k, 0 );
+}
+
+static void test_mat_vec_avx2_matches_scalar( void** state )
+{
+	(void)state;
+	if ( !plHaveAvx2() )
+	{
+		skip();
+	}
+	plKernels simd, scalar;
+	plSelectKernels( &simd, 0 );
+	plSelectKernels( &scalar, 1 );
+	const uint32_t ins[] = { 1, 7, 8, 9, 15, 16, 17, 31, 33, 681 };
+	const uint32_t outs[] = { 1, 2, 3, 4, 5, 7, 13, 512 };
+	for ( int fp16 = 0; fp16 < 2; ++fp16 )
+	{
+		for ( size_t a = 0; a < sizeof( ins ) / sizeof( ins[0] ); ++a )
+		{
+			for ( size_t b = 0; b < sizeof( outs ) / sizeof( outs[0] ); ++b )
+			{
+				uint32_t in = ins[a], out = outs[b];
+				float* w = (float*)malloc( (size_t)in * out * sizeof( float ) );
+				uint16_t* w16 = (uint16_t*)malloc( (size_t)in * out * sizeof( uint16_t ) );
+				float* x = (float*)malloc( in * sizeof( float ) );
+				float* bias = (float*)malloc( out * sizeof( float ) );
+				float* ys = (float*)malloc( out * sizeof( float ) );
+				float* yv = (float*)malloc( out * sizeof( float ) );
+				for ( size_t i = 0; i < (size_t)in * out; ++i )
+				{
+					w[i] = plRand();
+					w16[i] = plFloatToHalf( w[i] );
+					if ( fp16 )
+					{
+						w[i] = plHalfToFloat( w16[i] );
+					}
+				}
+				for ( uint32_t i = 0; i < in; ++i )
+				{
+					x[i] = plRand() * 3.0f;
+				}
+				for ( uint32_t i = 0; i < out; ++i )
+				{
+					bias[i] = plRand();
+				}
+				const void* weights = fp16 ? (const void*)w16 : (const void*)w;
+				// Also a sub-range of rows starting at an odd row, as a worker would get.
+				uint32_t begin = out > 3 ? 1 : 0;
+				scalar.mat_vec( ys, x, weights, fp16, bias, in, begin, out );
+				simd.mat_vec( yv, x, weights, fp16, bias, in, begin, out );
+				for ( uint32_t r = begin; r < out; ++r )
+				{
+					double magnitude = fabs( bias[r] );
+					for ( uint32_t c = 0; c < in; ++c )
+					{
+						magnitude += fabs( (double)w[(size_t)r * in + c] * x[c] );
+					}
+					double bound = 4.0 * ( in + 1 ) * 6e-8 * magnitude + 1e-30;
+					if ( fabs( (double)ys[r] - yv[r] ) > bound )
+					{
+						fail_msg( "fp16=%d in=%u out=%u row %u: scalar %.9g simd %.9g", fp16, in, out, r, ys[r], yv[r] );
+					}
+				}
+				free( w );
+				free( w16 );
+				free( x );
+				free( bias );
+				free( ys );
+				free( yv );
+			}
+		}
+	}
+}
+
+static void test_blend_shapes_avx2_matches_scalar( void** state )
+{
+	(void)state;
+	if ( !plHaveAvx2() )
+	{
+		skip();
+	}
+	plKernels simd, scalar;
+	plSelectKernels( &simd, 0 );
+	plSelectKernels( &scalar, 1 );
+	const uint32_t ns[] = { 1, 3, 5, 256, 257, 1000 };
+	const uint32_t ds[] = { 1, 2, 3, 128 };
+	for ( int fp16 = 0; fp16 < 2; ++fp16 )
+	{
+		for ( size_t a = 0; a < sizeof( ns ) / sizeof( ns[0] ); ++a )
+		{
+			for ( size_t b = 0; b < sizeof( ds ) / sizeof( ds[0] ); ++b )
+			{
+				uint32_t n = ns[a], d = ds[b];
+				size_t plane = (size_t)n * 3;
+				float* shapes = (float*)malloc( plane * d * sizeof( float ) );
+				uint16_t* shapes16 = (uint16_t*)malloc( plane * d * sizeof( uint16_t ) );
+				float* base = (float*)malloc( plane * sizeof( float ) );
+				float* w = (float*)malloc( d * sizeof( float ) );
+				float* os = (float*)calloc( plane, sizeof( float ) );
+				float* ov = (float*)calloc( plane, sizeof( float ) );
+				for ( size_t i = 0; i < plane * d; ++i )
+				{
+					shapes[i] = 0.01f * plRand();
+					shapes16[i] = plFloatToHalf( shapes[i] );
+					if ( fp16 )
+					{
+						shapes[i] = plHalfToFloat( shapes16[i] );
+					}
+				}
+				for ( size_t i = 0; i < plane; ++i )
+				{
+					base[i] = plRand();
+				}
+				for ( uint32_t j = 0; j < d; ++j )
+				{
+					w[j] = 2.0f * plRand();
+				}
+				const void* data = fp16 ? (const void*)shapes16 : (const void*)shapes;
+				uint32_t begin = n > 2 ? 1 : 0, end = n > 2 ? n - 1 : n;
+				scalar.blend_shapes( os, base, data, fp16, w, d, n, begin, end );
+				simd.blend_shapes( ov, base, data, fp16, w, d, n, begin, end );
+				for ( size_t i = 0; i < plane; ++i )
+				{
+					if ( i < (size_t)begin * 3 || i >= (size_t)end * 3 )
+					{
+						assert_true( ov[i] == 0.0f ); // outside the range: untouched
+						continue;
+					}
+					double magnitude = fabs( base[i] );
+					for ( uint32_t j = 0; j < d; ++j )
+					{
+						magnitude += fabs( (double)w[j] * shapes[j * plane + i] );
+					}
+					double bound = 4.0 * ( d + 1 ) * 6e-8 * magnitude + 1e-30;
+					if ( fabs( (double)os[i] - ov[i] ) > bound )
+					{
+						fail_msg( "fp16=%d n=%u d=%u float %zu: scalar %.9g simd %.9g", fp16, n, d, i, os[i], ov[i] );
+					}
+				}
+				free( shapes );
+				free( shapes16 );
+				free( base );
+				free( w );
+				free( os );
+				free( ov );
+			}
+		}
+	}
+}
+
+// fp16 conversion: exact on every half value (round trip), round-to-nearest-even on floats.
+static void test_half_conversion_round_trips( void** state )
+{
+	(void)state;
+	for ( uint32_t h = 0; h < 0x10000u; ++h )
+	{
+		if ( ( h & 0x7C00u ) == 0x7C00u && ( h & 0x3FFu ) != 0 )
+		{
+			continue; // NaN payloads need not round-trip
+		}
+		assert_int_equal( plFloatToHalf( plHalfToFloat( (uint16_t)h ) ), h );
+	}
+	assert_float_equal( plHalfToFloat( 0x3C00 ), 1.0f, 0 );
+	assert_float_equal( plHalfToFloat( 0xC000 ), -2.0f, 0 );
+	assert_float_equal( plHalfToFloat( 0x0001 ), 5.9604645e-8f, 0 ); // smallest subnormal 2^-24
+	assert_int_equal( plFloatToHalf( 1.0f + 1.0f / 2048.0f ), 0x3C00 ); // tie → even
+	assert_int_equal( plFloatToHalf( 1e6f ), 0x7C00 );                // overflow → inf
+}
+
+// The whole step, AVX2 context vs force_scalar context, fp32 and fp16 assets: positions within 1e-5 m.
+static void test_pipeline_avx2_matches_scalar( void** state )
+{
+	(void)state;
+	if ( !plHaveAvx2() )
+	{
+		skip();
+	}
+	for ( int fp16 = 0; fp16 < 2; ++fp16 )
+	{
+		plTestAssetParams p = plTestAsset_DefaultParams();
+		p.grid_x = 20;
+		p.grid_y = 21;
+		p.lp_hidden[0] = 67;
+		p.dec_hidden[0] = 45;
+		p.latent_count = 13;
+		p.blend_count = 11;
+		p.fp16 = fp16;
+		plTestAsset* model = plTestAsset_Create( &p );
+		plContextDef scalar_def = plDefaultContextDef();
+		scalar_def.force_scalar = 1;
+		plTestRig fast, slow;
+		assert_int_equal( plTestRig_Init( &fast, model, NULL ), PLEAT_RESULT_OK );
+		assert_int_equal( plTestRig_Init( &slow, model, &scalar_def ), PLEAT_RESULT_OK );
+		int uses = -1;
+		assert_int_equal( plContext_UsesAvx2( fast.context, &uses ), PLEAT_RESULT_OK );
+		assert_int_equal( uses, 1 );
+		assert_int_equal( plContext_UsesAvx2( slow.context, &uses ), PLEAT_RESULT_OK );
+		assert_int_equal( uses, 0 );
+		assert_int_equal( fast.info.weights_fp16, fp16 );
+		plInstance a, b;
+		assert_int_equal( plTestRig_Instance( &fast, &a ), PLEAT_RESULT_OK );
+		assert_int_equal( plTestRig_Instance( &slow, &b ), PLEAT_RESULT_OK );
+		float q[64 * 4];
+		for ( uint32_t t = 0; t < 20; ++t )
+		{
+			plFrameInput in = plTestMotion( t, model->J, q );
+			assert_int_equal( plInstance_Step( a, &in, NULL ), PLEAT_RESULT_OK );
+			assert_int_equal( plInstance_Step( b, &in, NULL ), PLEAT_RESULT_OK );
+			const float *pa, *pb;
+			plInstance_GetPositions( a, &pa, NULL );
+			plInstance_GetPositions( b, &pb, NULL );
+			for ( uint32_t i = 0; i < model->N * 3; ++i )
+			{
+				assert_float_equal( pa[i], pb[i], 1e-5 );
+			}
+		}
+		plTestRig_Free( &fast );
+		plTestRig_Free( &slow );
+		plTestAsset_Destroy( model );
+	}
+}
+
+int main( void )
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test( test_mat_vec_avx2_matches_scalar ),
+		cmocka_unit_test( test_blend_shapes_avx2_matches_scalar ),
+		cmocka_unit_test( test_half_conversion_round_trips ),
+		cmocka_unit_test( test_pipeline_avx2_matches_scalar ),
+	};
+	return cmocka_run_group_tests( tests, NULL, NULL );
+}
