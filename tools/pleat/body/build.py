@@ -106,7 +106,7 @@ def sample_shapes(model, n, rng, local_change_prob, age_range=(0.0, 1.0)):
     return pheno, local
 
 
-def fit_joint_regressor(verts, targets, mean_verts, mean_targets, per_direction=8, radius=0.3, ridge=1e-3):
+def fit_joint_regressor(verts, targets, mean_verts, mean_targets, per_direction=8, radius=0.3, ridge=1e-6):
     """Per joint, non-negative vertex weights summing to one that best reproduce the target joint over all given
     shapes (NNLS with a heavy sum-to-one row). Candidates surround the joint: the `per_direction` vertices of the
     mean body nearest to it in each of 26 direction bins (within `radius` m); a ridge that grows with the distance
