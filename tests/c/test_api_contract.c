@@ -1,0 +1,300 @@
+// The public API's contract: defs must come from plDefault...Def, handles are index + generation, every entry point
+// validates its arguments, result and log-item names are stable, joint lookup and the joint map work.
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include "test_common.h"
+
+static void test_result_and_log_item_names_are_stable( void** state )
+{
+	(void)state;
+	assert_string_equal( plResultString( PLEAT_RESULT_OK ), "PLEAT_RESULT_OK" );
+	assert_string_equal( plResultString( PLEAT_RESULT_CLAMPED ), "PLEAT_RESULT_CLAMPED" );
+	assert_string_equal( plResultString( PLEAT_RESULT_NUMERIC_RESET ), "PLEAT_RESULT_NUMERIC_RESET" );
+	assert_string_equal( plResultString( PLEAT_RESULT_CHECKSUM_MISMATCH ), "PLEAT_RESULT_CHECKSUM_MISMATCH" );
+	assert_string_equal( plResultString( PLEAT_RESULT_ASSET_IN_USE ), "PLEAT_RESULT_ASSET_IN_USE" );
+	assert_string_equal( plResultString( (plResult)12345 ), "PLEAT_RESULT_UNKNOWN" );
+	// Every code from −23 to 2 has its own name.
+	for ( int a = -23; a <= 2; ++a )
+	{
+		assert_string_not_equal( plResultString( (plResult)a ), "PLEAT_RESULT_UNKNOWN" );
+		for ( int b = a + 1; b <= 2; ++b )
+		{
+			assert_string_not_equal( plResultString( (plResult)a ), plResultString( (plResult)b ) );
+		}
+	}
+	assert_true( PLEAT_RESULT_CLAMPED > 0 && PLEAT_RESULT_NUMERIC_RESET > 0 );
+	assert_true( PLEAT_RESULT_INVALID_ARGUMENT < 0 && PLEAT_RESULT_ASSET_IN_USE < 0 );
+	assert_int_equal( PLEAT_LOG_ASSET_LOADED, 10 );
+	assert_string_equal( plLogItemString( PLEAT_LOG_ASSET_LOADED ), "asset loaded" );
+	assert_string_equal( plLogItemString( (plLogItem)9999 ), "unknown item" );
+}
+
+static void test_defs_not_from_default_are_rejected( void** state )
+{
+	(void)state;
+	plContextDef cdef;
+	memset( &cdef, 0, sizeof( cdef ) );
+	plContext ctx = { 7, 7 };
+	assert_int_equal( plCreateContext( &cdef, &ctx ), PLEAT_RESULT_INVALID_DEF );
+	assert_int_equal( ctx.index1, 0 ); // zeroed on failure
+	assert_int_equal( plCreateContext( NULL, &ctx ), PLEAT_RESULT_INVALID_ARGUMENT );
+	cdef = plDefaultContextDef();
+	assert_int_equal( plCreateContext( &cdef, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	cdef.free = NULL;
+	cdef.alloc = (plAllocFn*)1; // alloc without free
+	assert_int_equal( plCreateContext( &cdef, &ctx ), PLEAT_RESULT_INVALID_DEF );
+	cdef = plDefaultContextDef();
+	assert_int_equal( plCreateContext( &cdef, &ctx ), PLEAT_RESULT_OK );
+	assert_true( plContext_IsValid( ctx ) );
+
+	plAssetDef adef;
+	memset( &adef, 0, sizeof( adef ) );
+	adef.path = "x.pleat";
+	plAsset asset;
+	assert_int_equal( plLoadAsset( ctx, &adef, &asset ), PLEAT_RESULT_INVALID_DEF );
+	adef = plDefaultAssetDef();
+	assert_int_equal( plLoadAsset( ctx, &adef, &asset ), PLEAT_RESULT_INVALID_DEF ); // neither data nor path
+	adef.path = "nonexistent-file.pleat";
+	assert_int_equal( plLoadAsset( ctx, &adef, &asset ), PLEAT_RESULT_IO_ERROR );
+	assert_false( plAsset_IsValid( asset ) );
+
+	plInstanceDef idef;
+	memset( &idef, 0, sizeof( idef ) );
+	plInstance inst;
+	assert_int_equal( plCreateInstance( ctx, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
+	idef = plDefaultInstanceDef();
+	assert_int_equal( plCreateInstance( ctx, &idef, &inst ), PLEAT_RESULT_INVALID_HANDLE ); // null asset
+	assert_int_equal( plDestroyContext( ctx ), PLEAT_RESULT_OK );
+	assert_false( plContext_IsValid( ctx ) );
+	assert_int_equal( plDestroyContext( ctx ), PLEAT_RESULT_INVALID_HANDLE );
+}
+
+static void test_null_and_stale_handles_are_rejected( void** state )
+{
+	(void)state;
+	plContext no_ctx = { 0, 0 };
+	plAsset no_asset = { 0, 0, 0 };
+	plInstance no_inst = { 0, 0, 0 };
+	assert_false( plContext_IsValid( no_ctx ) );
+	assert_false( plAsset_IsValid( no_asset ) );
+	assert_false( plInstance_IsValid( no_inst ) );
+	uint64_t bytes;
+	assert_int_equal( plContext_GetLiveBytes( no_ctx, &bytes ), PLEAT_RESULT_INVALID_HANDLE );
+	plAssetInfo info;
+	assert_int_equal( plAsset_GetInfo( no_asset, &info ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plDestroyAsset( no_asset ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plDestroyInstance( no_inst ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plInstance_Reset( no_inst ), PLEAT_RESULT_INVALID_HANDLE );
+	float f[16];
+	assert_int_equal( plInstance_SetShape( no_inst, f, 1 ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plInstance_SetMaterial( no_inst, f ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plInstance_GetSkinMatrices( no_inst, f, 1 ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plInstance_GetLatent( no_inst, f, 16 ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plInstance_GetBlendWeights( no_inst, f, 16 ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_null( plInstance_GetUserData( no_inst ) );
+
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plInstanceDef idef = plDefaultInstanceDef();
+	idef.asset = rig.asset;
+	int user = 42;
+	idef.user_data = &user;
+	plInstance inst;
+	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_OK );
+	assert_ptr_equal( plInstance_GetUserData( inst ), &user );
+	plAsset back;
+	assert_int_equal( plInstance_GetAsset( inst, &back ), PLEAT_RESULT_OK );
+	assert_memory_equal( &back, &rig.asset, sizeof( back ) );
+	// An instance handle from another context is not valid there; a handle with a wrong generation is stale.
+	plInstance forged = inst;
+	forged.generation++;
+	assert_false( plInstance_IsValid( forged ) );
+	assert_int_equal( plDestroyInstance( inst ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_Reset( inst ), PLEAT_RESULT_INVALID_HANDLE );
+	plTestRig_Free( &rig );
+	assert_false( plAsset_IsValid( rig.asset ) );
+	plTestAsset_Destroy( model );
+}
+
+static void test_find_joint_and_info( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	model->meta = "{\"trained\": false}";
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	int32_t index = 99;
+	assert_int_equal( plAsset_FindJoint( rig.asset, "joint_03", &index ), PLEAT_RESULT_OK );
+	assert_int_equal( index, 3 );
+	assert_int_equal( plAsset_FindJoint( rig.asset, "joint_3", &index ), PLEAT_RESULT_NOT_FOUND );
+	assert_int_equal( index, -1 );
+	assert_int_equal( plAsset_FindJoint( rig.asset, NULL, &index ), PLEAT_RESULT_INVALID_ARGUMENT );
+	const char* name;
+	assert_int_equal( plAsset_GetJointName( rig.asset, 4, &name ), PLEAT_RESULT_OK );
+	assert_string_equal( name, "joint_04" );
+	assert_int_equal( plAsset_GetJointName( rig.asset, 5, &name ), PLEAT_RESULT_INVALID_ARGUMENT );
+	plAssetInfo* info = &rig.info;
+	assert_int_equal( info->vertex_count, 48 );
+	assert_int_equal( info->face_count, 70 );
+	assert_int_equal( info->joint_count, 5 );
+	assert_int_equal( info->input_joint_count, 3 );
+	assert_int_equal( info->latent_count, 8 );
+	assert_int_equal( info->blend_count, 6 );
+	assert_int_equal( info->input_count, 8 + 8 + 3 * ( 6 * 3 + 6 ) + 9 * 3 + 2 + 4 );
+	assert_int_equal( info->lp_layer_count, 3 );
+	assert_int_equal( info->dec_layer_count, 2 );
+	assert_string_equal( info->name, "test-sheet" );
+	assert_int_equal( info->meta_json_size, strlen( model->meta ) );
+	assert_memory_equal( info->meta_json, model->meta, info->meta_json_size );
+	assert_false( info->has_onnx_lp );
+	assert_false( info->weights_fp16 );
+	plTestRig_Free( &rig );
+	plTestAsset_Destroy( model );
+}
+
+// An engine skeleton in a different order (reversed, plus two joints the asset does not have) through the joint map
+// gives exactly the output of the asset-order instance.
+static void test_joint_map_reorders_engine_joints( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	uint32_t J = model->J, E = J + 2;
+	int32_t map[64];
+	for ( uint32_t j = 0; j < J; ++j )
+	{
+		map[j] = (int32_t)( E - 1 - j );
+	}
+	plInstanceDef idef = plDefaultInstanceDef();
+	idef.asset = rig.asset;
+	idef.joint_map = map;
+	idef.joint_map_count = J;
+	idef.engine_joint_count = E;
+	plInstance mapped, plain;
+	assert_int_equal( plCreateInstance( rig.context, &idef, &mapped ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( &rig, &plain ), PLEAT_RESULT_OK );
+	float q[64 * 4], engine[66 * 8];
+	for ( uint32_t t = 0; t < 5; ++t )
+	{
+		plFrameInput in = plTestMotion( t, J, q );
+		// Engine layout: 32-byte stride (quaternion + 4 floats of something else), reversed order, junk in extras.
+		for ( uint32_t e = 0; e < E; ++e )
+		{
+			for ( int c = 0; c < 8; ++c )
+			{
+				engine[e * 8 + c] = 1e9f;
+			}
+		}
+		for ( uint32_t j = 0; j < J; ++j )
+		{
+			memcpy( &engine[map[j] * 8], &q[j * 4], 16 );
+		}
+		plFrameInput ein = in;
+		ein.joint_rotations = engine;
+		ein.joint_count = E;
+		ein.joint_stride_bytes = 32;
+		for ( uint32_t e = 0; e < 2; ++e ) // engine joints 0 and 1 are not mapped: their junk must be ignored
+		{
+			engine[e * 8 + 0] = engine[e * 8 + 1] = engine[e * 8 + 2] = 0.0f;
+			engine[e * 8 + 3] = 1.0f;
+		}
+		assert_int_equal( plInstance_Step( mapped, &ein, NULL ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( plain, &in, NULL ), PLEAT_RESULT_OK );
+		const float *pa, *pb;
+		plInstance_GetPositions( mapped, &pa, NULL );
+		plInstance_GetPositions( plain, &pb, NULL );
+		assert_memory_equal( pa, pb, model->N * 3 * sizeof( float ) );
+	}
+	plTestRig_Free( &rig );
+	plTestAsset_Destroy( model );
+}
+
+typedef struct plLogRecord
+{
+	int count;
+	plLogItem last_item;
+	int saw_loaded;
+} plLogRecord;
+
+static void plRecordLog( plLogLevel level, plLogItem item, const char* message, void* user )
+{
+	(void)level;
+	plLogRecord* r = (plLogRecord*)user;
+	r->count++;
+	r->last_item = item;
+	r->saw_loaded |= item == PLEAT_LOG_ASSET_LOADED && strstr( message, "asset loaded" ) != NULL;
+}
+
+static void test_log_callback_receives_stable_items( void** state )
+{
+	(void)state;
+	plLogRecord record = { 0, PLEAT_LOG_NONE, 0 };
+	plContextDef def = plDefaultContextDef();
+	def.log = plRecordLog;
+	def.log_context = &record;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	assert_true( record.saw_loaded );
+	plInstance inst;
+	assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
+	float q[64 * 4];
+	plFrameInput in = plTestMotion( 0, model->J, q );
+	in.dt_s = -1.0f;
+	assert_int_equal( plInstance_Step( inst, &in, NULL ), PLEAT_RESULT_INVALID_DT );
+	assert_int_equal( record.last_item, PLEAT_LOG_INSTANCE_BAD_INPUT );
+	plTestRig_Free( &rig );
+	plTestAsset_Destroy( model );
+}
+
+// Backends not built or not available: the instance is refused with the documented code, nothing leaks.
+static void test_unavailable_backends_are_reported( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	uint64_t before = 0, after = 1;
+	plContext_GetLiveBytes( rig.context, &before );
+	plInstanceDef idef = plDefaultInstanceDef();
+	idef.asset = rig.asset;
+	idef.mlp_backend = PLEAT_MLP_BACKEND_ONNXRUNTIME; // the test asset has no OXLP/OXDC sections
+	plInstance inst;
+	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_BACKEND_UNAVAILABLE );
+	idef.mlp_backend = (plMlpBackend)7;
+	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
+	idef.mlp_backend = PLEAT_MLP_BACKEND_PLEAT;
+	idef.gpu_mode = PLEAT_GPU_HOST_CONTEXT; // no GL context is current in this test
+	plResult r = plCreateInstance( rig.context, &idef, &inst );
+	assert_true( r == PLEAT_RESULT_GL_UNAVAILABLE || r == PLEAT_RESULT_GL_ERROR );
+	plContext_GetLiveBytes( rig.context, &after );
+	assert_int_equal( before, after );
+	assert_int_equal( plDestroyAsset( rig.asset ), PLEAT_RESULT_OK ); // no instance kept a reference
+	plTestRig_Free( &rig );
+	plTestAsset_Destroy( model );
+}
+
+int main( void )
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test( test_result_and_log_item_names_are_stable ),
+		cmocka_unit_test( test_defs_not_from_default_are_rejected ),
+		cmocka_unit_test( test_null_and_stale_handles_are_rejected ),
+		cmocka_unit_test( test_find_joint_and_info ),
+		cmocka_unit_test( test_joint_map_reorders_engine_joints ),
+		cmocka_unit_test( test_log_callback_receives_stable_items ),
+		cmocka_unit_test( test_unavailable_backends_are_reported ),
+	};
+	return cmocka_run_group_tests( tests, NULL, NULL );
+}
