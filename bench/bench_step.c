@@ -1,7 +1,8 @@
 // Step and MLP timings for docs/benchmarks.md (run through scripts/bench.sh; not a test).
 //
 // usage: pleat_bench_step --asset FP32.pleat --case case.bin [--asset-fp16 FP16.pleat] [--iterations N]
-//                         [--warmup N] [--scalar-iterations N] [--onnxruntime LIB] [--out step.json]
+//                         [--warmup N] [--scalar-iterations N] [--onnxruntime LIB] [--clock wall|cpu]
+//                         [--out step.json]
 //
 // FP32.pleat needs the OXLP/OXDC sections (pleat-pack --onnx) for the ONNX Runtime numbers; case.bin is the golden
 // motion of `python -m pleat.reference.golden` (only its poses are used). Every number is a median over N timed
@@ -9,6 +10,8 @@
 //   pleat_mlp_us   latent predictor + decoder with Pleat's CPU kernels (the context's dispatch: AVX2 or scalar)
 //   ort_mlp_us     the same two networks, same fp32 weights, through ONNX Runtime (1 intra-op thread), measured
 //                  alternately with pleat_mlp_us in one loop (even iterations Pleat first, odd ones ORT first)
+//   pleat_mlp_fp16_us, pleat_blend_us, pleat_blend_fp16_us  the MLPs on fp16 weights and the blend-shape
+//                  accumulation alone (fp32 / fp16 BLND), to split a step into its memory-bound parts
 //   pleat_step_us  plInstance_Step on the fp32 asset, the asset's motion looped (reset at each wrap)
 //   pleat_step_fp16_us, scalar_step_us (a context with force_scalar), ort_step_us (instance with the ORT backend)
 #define _POSIX_C_SOURCE 200809L
@@ -27,10 +30,14 @@
 
 // ---- small helpers ----
 
+// CLOCK_MONOTONIC (wall time, default) or CLOCK_THREAD_CPUTIME_ID (--clock cpu: this thread's CPU time, which leaves
+// out the time the shared machine's scheduler gives to other jobs; cache pollution by them still counts).
+static clockid_t g_clock = CLOCK_MONOTONIC;
+
 static double NowUs( void )
 {
 	struct timespec ts;
-	clock_gettime( CLOCK_MONOTONIC, &ts );
+	clock_gettime( g_clock, &ts );
 	return (double)ts.tv_sec * 1e6 + (double)ts.tv_nsec * 1e-3;
 }
 
@@ -308,6 +315,34 @@ static double TimePleatMlpOnly( const plAssetData* asset, uint32_t warmup, uint3
 	return median;
 }
 
+// The blend-shape accumulation alone over all vertices (the other memory-bound stage of a step).
+static double TimeBlendOnly( const plAssetData* asset, uint32_t warmup, uint32_t iterations )
+{
+	plKernels kernels;
+	plSelectKernels( &kernels, 0 );
+	size_t floats = (size_t)asset->vertex_count * 3;
+	float* out = (float*)aligned_alloc( 64, ( 4 * floats + 63 ) / 64 * 64 );
+	float* weights = (float*)aligned_alloc( 64, ( 4 * (size_t)asset->blend_count + 63 ) / 64 * 64 );
+	for ( uint32_t j = 0; j < asset->blend_count; ++j )
+	{
+		weights[j] = 0.05f * (float)( (int)( j % 7 ) - 3 );
+	}
+	double* us = (double*)malloc( sizeof( double ) * iterations );
+	for ( uint32_t it = 0; it < warmup + iterations; ++it )
+	{
+		double t0 = NowUs();
+		kernels.blend_shapes( out, asset->template_positions, asset->blend_shapes, asset->blend_shapes_fp16, weights,
+							  asset->blend_count, asset->vertex_count, 0, asset->vertex_count );
+		if ( it >= warmup )
+			us[it - warmup] = NowUs() - t0;
+	}
+	double median = Median( us, iterations );
+	free( us );
+	free( out );
+	free( weights );
+	return median;
+}
+
 // ---- full step through the public API ----
 
 typedef struct StepConfig
@@ -419,6 +454,8 @@ int main( int argc, char** argv )
 			case_path = argv[i + 1];
 		else if ( strcmp( argv[i], "--onnxruntime" ) == 0 )
 			ort_library = argv[i + 1];
+		else if ( strcmp( argv[i], "--clock" ) == 0 )
+			g_clock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
 		else if ( strcmp( argv[i], "--out" ) == 0 )
 			out_path = argv[i + 1];
 		else if ( strcmp( argv[i], "--iterations" ) == 0 )
@@ -436,7 +473,8 @@ int main( int argc, char** argv )
 	if ( asset_path == NULL || case_path == NULL || iterations == 0 )
 	{
 		fprintf( stderr, "usage: pleat_bench_step --asset FP32.pleat --case case.bin [--asset-fp16 FP16.pleat] "
-						 "[--iterations N] [--warmup N] [--scalar-iterations N] [--onnxruntime LIB] [--out JSON]\n" );
+						 "[--iterations N] [--warmup N] [--scalar-iterations N] [--onnxruntime LIB] [--clock wall|cpu] "
+						 "[--out JSON]\n" );
 		return 2;
 	}
 
@@ -470,6 +508,8 @@ int main( int argc, char** argv )
 	fprintf( stderr, "mlp: pleat %.1f us, ort %.1f us (%s), max |w_pleat - w_ort| = %.3g\n", mlp.pleat_us, mlp.ort_us,
 			 plResultString( mlp.ort_result ), mlp.max_abs_diff );
 
+	double blend_us = TimeBlendOnly( &asset, warmup, iterations );
+	double blend_fp16_us = NAN;
 	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library };
 	double step_us = NAN, step_fp16_us = NAN, scalar_us = NAN, ort_step_us = NAN, mlp_fp16_us = NAN;
 	int avx2 = 0;
@@ -511,6 +551,7 @@ int main( int argc, char** argv )
 				 fp16_asset.input_count <= 1024 && fp16_asset.latent_count <= 512 && fp16_asset.blend_count <= 512 )
 			{
 				mlp_fp16_us = TimePleatMlpOnly( &fp16_asset, warmup, iterations );
+				blend_fp16_us = TimeBlendOnly( &fp16_asset, warmup, iterations );
 			}
 		}
 	}
@@ -527,6 +568,7 @@ int main( int argc, char** argv )
 			 asset.input_count, asset.lp_layer_count, asset.latent_count, asset.dec_layer_count, asset.blend_count,
 			 asset.influence_count, asset.input_joint_count );
 	fprintf( out, "  \"isa\": \"%s\",\n", avx2 ? "avx2+fma+f16c" : "scalar" );
+	fprintf( out, "  \"clock\": \"%s\",\n", g_clock == CLOCK_MONOTONIC ? "wall" : "thread-cpu" );
 	fprintf( out, "  \"iterations\": %u,\n", iterations );
 	fprintf( out, "  \"warmup\": %u,\n", warmup );
 	PrintJsonNumber( out, "pleat_mlp_us", mlp.pleat_us, 0 );
@@ -535,6 +577,8 @@ int main( int argc, char** argv )
 	PrintJsonNumber( out, "pleat_mlp_fp16_us", mlp_fp16_us, 0 );
 	if ( mlp.have_ort )
 		fprintf( out, "  \"mlp_max_abs_diff\": %.3g,\n", mlp.max_abs_diff );
+	PrintJsonNumber( out, "pleat_blend_us", blend_us, 0 );
+	PrintJsonNumber( out, "pleat_blend_fp16_us", blend_fp16_us, 0 );
 	PrintJsonNumber( out, "pleat_step_us", step_us, 0 );
 	PrintJsonNumber( out, "pleat_step_fp16_us", step_fp16_us, 0 );
 	PrintJsonNumber( out, "ort_step_us", ort_step_us, 0 );

@@ -2,7 +2,8 @@
 # Benchmark (not a test): builds Pleat in Release, makes the 4,424-vertex reference-size assets (bench/make_assets.py)
 # and runs bench/bench_step.c; writes out/bench/step.json and prints it. See docs/benchmarks.md.
 # Environment: BUILD_DIR (default build/bench), ITERATIONS (default 2000), WARMUP (200), SCALAR_ITERATIONS (300),
-# PLEAT_ONNXRUNTIME_LIBRARY (default: libonnxruntime.so* of the onnxruntime wheel in .venv).
+# CLOCK (wall, default, or cpu = the thread's CPU time, for a busy shared machine), PLEAT_ONNXRUNTIME_LIBRARY (default:
+# libonnxruntime.so* of the onnxruntime wheel in .venv). OUT_JSON (default out/bench/step.json).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if ! setup_log=$(scripts/setup.sh 2>&1); then echo "$setup_log" >&2; exit 1; fi
@@ -29,5 +30,6 @@ ort_args=()
 
 "$BUILD_DIR/bench/pleat_bench_step" --asset "$OUT/asset_fp32.pleat" --asset-fp16 "$OUT/asset_fp16.pleat" \
   --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" \
-  --scalar-iterations "${SCALAR_ITERATIONS:-300}" "${ort_args[@]}" --out "$OUT/step.json"
-cat "$OUT/step.json"
+  --scalar-iterations "${SCALAR_ITERATIONS:-300}" --clock "${CLOCK:-wall}" "${ort_args[@]}" \
+  --out "${OUT_JSON:-$OUT/step.json}"
+cat "${OUT_JSON:-$OUT/step.json}"
