@@ -363,7 +363,8 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True):
     dev = device_for(device, rank)
     torch.manual_seed(cfg["seed"])
     setup = Setup(cfg, garment, dev)
-    clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None, cfg["clips"]["frames_limit"] or None)
+    clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None,
+                          cfg["clips"]["frames_limit"] or None, setup.body)
     model = Stage1Model(setup).to(dev)
     c1 = cfg["stage1"]
     opt = torch.optim.Adam(model.parameters(), lr=c1["lr"])
@@ -373,6 +374,8 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True):
         model.load_state_dict(state["model"])
         opt.load_state_dict(state["optimizer"])
         start = state["iteration"]
+    if start == 0:
+        run.log({"iteration": 0, "validation": validate_stage1(setup, model, cfg)})
     ddp = wrap_ddp(model, world, dev)
     rng = np.random.default_rng([cfg["seed"], rank, start])
     bar = tqdm(range(start, c1["iterations"]), disable=not progress or rank != 0, desc="stage1")
@@ -418,7 +421,7 @@ def rollout_loss(setup, model, window, steps, w, predictor=None):
 @torch.no_grad()
 def validate_stage1(setup, model, cfg):
     clips = sources.clips("validation", cfg["fps"], cfg["clips"]["validation_limit"] or None,
-                          cfg["clips"]["frames_limit"] or None)
+                          cfg["clips"]["frames_limit"] or None, setup.body)
     rng = np.random.default_rng(12345)
     c1 = cfg["stage1"]
     w = loss_weights(c1, c1["iterations"] - 1)
@@ -504,9 +507,9 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True):
     rng = np.random.default_rng([cfg["seed"], 2, rank])
     data_path = Path(out) / "stage2_latents.npz"
     train_clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None,
-                                cfg["clips"]["frames_limit"] or None)
+                                cfg["clips"]["frames_limit"] or None, setup.body)
     val_clips = sources.clips("validation", cfg["fps"], cfg["clips"]["validation_limit"] or None,
-                              cfg["clips"]["frames_limit"] or None)
+                              cfg["clips"]["frames_limit"] or None, setup.body)
     if resume and data_path.exists():
         with np.load(data_path, allow_pickle=True) as d:
             seqs, val = list(d["train"]), list(d["validation"])
@@ -604,7 +607,8 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
     dev = device_for(device, rank)
     torch.manual_seed(cfg["seed"])
     setup = Setup(cfg, garment, dev)
-    clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None, cfg["clips"]["frames_limit"] or None)
+    clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None,
+                          cfg["clips"]["frames_limit"] or None, setup.body)
     rng = np.random.default_rng([cfg["seed"], 3, rank])
     norms = pose_statistics(setup, clips, rng)
     model = AblationModel(setup, norms).to(dev)
@@ -704,7 +708,7 @@ def pack(out, model_kind="two-stage", path=None, fp16=False, onnx=False):
         cfg = sa["config"]
         setup = Setup(cfg, sa["garment"], "cpu")
         norms = pose_statistics(setup, sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None,
-                                                     cfg["clips"]["frames_limit"] or None),
+                                                     cfg["clips"]["frames_limit"] or None, setup.body),
                                 np.random.default_rng([cfg["seed"], 3, 0]))
         model = AblationModel(setup, norms)
         model.load_state_dict(sa["model"])

@@ -46,7 +46,7 @@ def garment(spec, body_model, vertices):
             fn = getattr(mod, name, None)
             if fn is not None:
                 used["garment"] = f"pleat.garment.{name}({spec!r}, vertices={vertices})"
-                g = fn(spec, vertices=vertices)
+                g = fn(spec, vertices=vertices, body=body_model)
                 return g
     used["garment"] = "standin"
     return standins.StandinGarment(body_model, vertices)
@@ -58,14 +58,14 @@ def field(obj, name, default=None):
     return getattr(obj, name, default)
 
 
-def clips(split, fps, count_limit=None, frames_limit=None):
+def clips(split, fps, count_limit=None, frames_limit=None, body_model=None):
     """Training or validation clips resampled to `fps`: objects with fps, rotations [T,J,4] (x,y,z,w),
     root_translation [T,3], root_rotation [T,4]."""
     mod = _try("pleat.motion")
     out = None
     if mod is not None:
         try:
-            out = _motion_clips(mod, split, fps)
+            out = _motion_clips(mod, split, fps, body_model)
             used[f"motion_{split}"] = "pleat.motion"
         except Exception as exc:  # noqa: BLE001 - any loader failure falls back, and is recorded
             used[f"motion_{split}"] = f"standin ({type(exc).__name__}: {exc})"
@@ -84,15 +84,19 @@ def clips(split, fps, count_limit=None, frames_limit=None):
     return out
 
 
-def _motion_clips(mod, split, fps):
+class _Clip:
+    def __init__(self, name, fps, rotations, root_translation, root_rotation):
+        self.name, self.fps = name, fps
+        self.rotations, self.root_translation, self.root_rotation = rotations, root_translation, root_rotation
+
+
+def _motion_clips(mod, split, fps, body_model=None):
     split_mod = importlib.import_module("pleat.motion.split")
-    names = getattr(split_mod, "TRAIN" if split == "train" else "VALIDATION")
+    names = split_mod.TRAINING if split == "train" else split_mod.VALIDATION
     result = []
     for name in names:
-        clip = mod.load_clip(name)
-        if hasattr(mod, "resample"):
-            clip = mod.resample(clip, fps)
-        result.append(clip)
+        clip = mod.load_clip(name, body=body_model).resample(fps)
+        result.append(_Clip(clip.name, clip.fps, clip.local_rotations, clip.root_translation, clip.root_rotation))
     return result
 
 
