@@ -4,7 +4,7 @@
 # out/demo/frame_*.png and out/demo/contact_sheet.png. See docs/demo.md.
 #
 # Environment overrides: PLEAT_DEMO_ASSET (default assets/tshirt.pleat), PLEAT_DEMO_CLIP (a clip name or file the
-# motion loaders accept; default: humanoid3d_walk), PLEAT_DEMO_FRAMES (clip frames at 30 fps, default 120),
+# motion loaders accept; default: humanoid3d_long_walk3, a long walk held out of training), PLEAT_DEMO_FRAMES (clip frames at 30 fps, default 120),
 # PLEAT_DEMO_PATH (cpu|gl, default cpu), PLEAT_DEMO_SIZE (default 640x480), BUILD_DIR, OUT_DIR.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,7 +14,7 @@ scripts/setup.sh
 BUILD_DIR=${BUILD_DIR:-build/release}
 OUT_DIR=${OUT_DIR:-out/demo}
 ASSET=${PLEAT_DEMO_ASSET:-assets/tshirt.pleat}
-CLIP=${PLEAT_DEMO_CLIP:-humanoid3d_walk}
+CLIP=${PLEAT_DEMO_CLIP:-humanoid3d_long_walk3}
 FRAMES=${PLEAT_DEMO_FRAMES:-120}
 RENDER_PATH=${PLEAT_DEMO_PATH:-cpu}
 SIZE=${PLEAT_DEMO_SIZE:-640x480}
@@ -27,6 +27,11 @@ cmake --build "$BUILD_DIR" --target pleat-render minimal
 if [ ! -f "$ASSET" ]; then
   echo "demo: $ASSET is missing; building the LBS-only placeholder from the procedural t-shirt"
   "$PY" -m pleat.garment_asset --garment tshirt --out "$ASSET"
+fi
+
+if ! "$PY" -c "from pleat.motion.loaders import resolve_clip; resolve_clip('$CLIP')" >/dev/null 2>&1; then
+  echo "demo: clip '$CLIP' not found on the motion search path; fetching the mocap clips (scripts/fetch-motion.sh)"
+  scripts/fetch-motion.sh
 fi
 
 mkdir -p "$OUT_DIR"

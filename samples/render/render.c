@@ -375,10 +375,32 @@ int main( int argc, char** argv )
 			break;
 		}
 		step_ms[step_count++] = ( t1 - t0 ) * 1e3;
+
+		// The camera follows the pelvis p_0 = G_0 · 0 = M_0 · J_0 over the ground and turns after the character's
+		// heading (the yaw of R·(0,0,1), R the rotation of M_0) with a 1 s time constant, staying 35° off the
+		// facing direction, so a turning walk is still seen from the front-side. Updated on every stepped frame so
+		// the motion does not depend on which frames are rendered.
+		plInstance_GetSkinMatrices( instance, skin, info.joint_count );
+		const float* m0 = skin;
+		const float* j0 = body.joints + ( pelvis_body >= 0 ? pelvis_body : 0 ) * 3;
+		float pelvis[3];
+		for ( int i = 0; i < 3; ++i )
+			pelvis[i] = m0[i * 4] * j0[0] + m0[i * 4 + 1] * j0[1] + m0[i * 4 + 2] * j0[2] + m0[i * 4 + 3];
+		const float camera_offset = 35.0f * 3.14159265f / 180.0f;
+		float wanted_yaw = atan2f( m0[2], m0[10] ) + camera_offset;
+		if ( step_count == 1 )
+		{
+			camera_yaw = wanted_yaw;
+			camera_height = pelvis[1] > 0.3f ? pelvis[1] * 0.92f : 0.9f;
+		}
+		else
+		{
+			float delta = remainderf( wanted_yaw - camera_yaw, 2.0f * 3.14159265f );
+			camera_yaw += delta * ( 1.0f - expf( -dt_s / 1.0f ) );
+		}
 		if ( ( f - o.frame_begin ) % o.frame_step != 0 )
 			continue;
 
-		plInstance_GetSkinMatrices( instance, skin, info.joint_count );
 		skinBody( &body, body_to_asset, skin, body_positions );
 		vertexNormals( body_positions, body.vertex_count, body.faces, body.face_count, body_normals );
 		renderMesh_Update( body_mesh, body_positions, body_normals );
@@ -393,18 +415,6 @@ int main( int argc, char** argv )
 			renderMesh_Update( garment_mesh, positions, normals );
 		}
 
-		// The camera follows the pelvis p_0 = G_0 · 0 = M_0 · J_0 over the ground, from a fixed direction chosen on
-		// the first rendered frame: 35° off the character's facing, slightly above.
-		const float* m0 = skin;
-		const float* j0 = body.joints + ( pelvis_body >= 0 ? pelvis_body : 0 ) * 3;
-		float pelvis[3];
-		for ( int i = 0; i < 3; ++i )
-			pelvis[i] = m0[i * 4] * j0[0] + m0[i * 4 + 1] * j0[1] + m0[i * 4 + 2] * j0[2] + m0[i * 4 + 3];
-		if ( rendered == 0 )
-		{
-			camera_yaw = atan2f( m0[2], m0[10] ) + 35.0f * 3.14159265f / 180.0f; // heading of R·(0,0,1)
-			camera_height = pelvis[1] > 0.3f ? pelvis[1] * 0.92f : 0.9f;
-		}
 		const float distance = 4.2f, pitch = 0.12f;
 		RenderCamera camera = { { 0 }, { pelvis[0], camera_height, pelvis[2] }, 30.0f };
 		camera.eye[0] = pelvis[0] + distance * sinf( camera_yaw ) * cosf( pitch );
