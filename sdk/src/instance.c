@@ -46,6 +46,7 @@ typedef struct plInstanceData
 	float* deformed;        // [N][3] T_def
 	float* positions;       // [N][3]
 	float* normals;         // [N][3]
+	float* face_normals;    // [F][3] scratch: unnormalised face normals
 
 	plOrtMlp* ort_lp;
 	plOrtMlp* ort_dec;
@@ -193,10 +194,21 @@ static void plNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* 
 	(void)worker;
 	const plDeformTask* t = (const plDeformTask*)context;
 	const plAssetData* a = t->inst->asset;
-	plNormalsJob job = { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
-						 a->adjacency_offsets, a->adjacency_faces, plMakeSpan( t->inst->normals, a->vertex_count, 12 ),
-						 begin, end };
-	plNormalsJob_Run( &job );
+	plNormalsGatherJob job = { { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
+								 a->adjacency_offsets, a->adjacency_faces,
+								 plMakeSpan( t->inst->normals, a->vertex_count, 12 ), begin, end },
+							   t->inst->face_normals };
+	plNormalsGatherJob_Run( &job );
+}
+
+static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	const plDeformTask* t = (const plDeformTask*)context;
+	const plAssetData* a = t->inst->asset;
+	plFaceNormalsJob job = { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
+							 t->inst->face_normals, begin, end };
+	plFaceNormalsJob_Run( &job );
 }
 
 static void plDeformCpu( plInstanceData* inst, const float* weights, const float* skin_matrices )
@@ -204,6 +216,7 @@ static void plDeformCpu( plInstanceData* inst, const float* weights, const float
 	plTaskRunner runner = plRunnerOf( inst->ctx );
 	plDeformTask task = { inst, weights, skin_matrices };
 	plRunTask( &runner, plBlendAndSkinTask, inst->asset->vertex_count, 256, &task );
+	plRunTask( &runner, plFaceNormalsTask, inst->asset->face_count, 512, &task );
 	plRunTask( &runner, plNormalsTask, inst->asset->vertex_count, 256, &task );
 }
 
@@ -379,7 +392,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	}
 	inst->mlp_scratch_count = 2 * ( widest > 0 ? widest : 1 );
 	size_t n3 = (size_t)a->vertex_count * 3 * sizeof( float );
-	size_t sizes[12] = { n3,
+	size_t sizes[13] = { n3,
 						 a->latent_count * sizeof( float ),
 						 a->latent_count * sizeof( float ),
 						 a->input_count * sizeof( float ),
@@ -390,9 +403,10 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 						 n3,
 						 n3,
 						 n3,
+						 (size_t)a->face_count * 3 * sizeof( float ),
 						 0 };
 	size_t total = 0;
-	for ( int i = 0; i < 11; ++i )
+	for ( int i = 0; i < 12; ++i )
 	{
 		total += plAlign64( sizes[i] );
 	}
@@ -403,11 +417,11 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
 	inst->block_size = total;
-	float** targets[11] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
+	float** targets[12] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
 							&inst->y,               &inst->blend_weights, &inst->next_weights, &inst->mlp_scratch,
-							&inst->deformed,        &inst->positions,     &inst->normals };
+							&inst->deformed,        &inst->positions,     &inst->normals,     &inst->face_normals };
 	uint8_t* cursor = (uint8_t*)inst->block;
-	for ( int i = 0; i < 11; ++i )
+	for ( int i = 0; i < 12; ++i )
 	{
 		*targets[i] = (float*)cursor;
 		cursor += plAlign64( sizes[i] );
@@ -425,6 +439,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	memcpy( inst->positions, inst->shaped_template, n3 );
 	memcpy( inst->deformed, inst->shaped_template, n3 );
 	plDeformTask task = { inst, inst->blend_weights, inst->skin_matrices };
+	plFaceNormalsTask( 0, a->face_count, 0, &task );
 	plNormalsTask( 0, a->vertex_count, 0, &task );
 
 	plResult r = plCreateBackends( inst, def );

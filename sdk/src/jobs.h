@@ -146,6 +146,31 @@ typedef struct plNormalsJob
 	uint32_t vertex_begin, vertex_end;
 } plNormalsJob;
 
+// The same gather reading precomputed face normals (plFaceNormalsJob) instead of recomputing each face's cross
+// product for each of its three vertices: same arithmetic in the same order, bit-identical results.
+typedef struct plNormalsGatherJob
+{
+	plNormalsJob normals;      // positions may be a zero span here: only the face normals are read
+	const float* face_normals; // [F][3] unnormalised
+} plNormalsGatherJob;
+
+int plNormalsGatherJob_Validate( const plNormalsGatherJob* job );
+plResult plNormalsGatherJob_Run( const plNormalsGatherJob* job );
+
+// Unnormalised face normals cross(x_b − x_a, x_c − x_a) for faces [face_begin, face_end), so the gather above reads
+// each face once instead of recomputing it for each of its three vertices. Same arithmetic, same results.
+typedef struct plFaceNormalsJob
+{
+	plConstSpan positions;   // [N] xyz, any stride
+	const uint32_t* faces;   // [F][3]
+	uint32_t face_count;
+	float* output;           // [F][3]
+	uint32_t face_begin, face_end;
+} plFaceNormalsJob;
+
+int plFaceNormalsJob_Validate( const plFaceNormalsJob* job );
+plResult plFaceNormalsJob_Run( const plFaceNormalsJob* job );
+
 int plNormalsJob_Validate( const plNormalsJob* job );
 plResult plNormalsJob_Run( const plNormalsJob* job );
 

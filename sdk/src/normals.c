@@ -17,12 +17,35 @@ int plNormalsJob_Validate( const plNormalsJob* job )
 		   PLEAT_SPAN_HOLDS( job->output, 12, n );
 }
 
+static void plNormalsGather( const plNormalsJob* job, const float* face_normals );
+
 plResult plNormalsJob_Run( const plNormalsJob* job )
 {
 	if ( !plNormalsJob_Validate( job ) )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
+	plNormalsGather( job, NULL );
+	return PLEAT_RESULT_OK;
+}
+
+int plNormalsGatherJob_Validate( const plNormalsGatherJob* job )
+{
+	return job != NULL && job->face_normals != NULL && plNormalsJob_Validate( &job->normals );
+}
+
+plResult plNormalsGatherJob_Run( const plNormalsGatherJob* job )
+{
+	if ( !plNormalsGatherJob_Validate( job ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plNormalsGather( &job->normals, job->face_normals );
+	return PLEAT_RESULT_OK;
+}
+
+static void plNormalsGather( const plNormalsJob* job, const float* face_normals )
+{
 	const uint8_t* in = (const uint8_t*)job->positions.ptr;
 	uint32_t stride = job->positions.stride_bytes;
 	uint32_t n = job->positions.count;
@@ -32,6 +55,20 @@ plResult plNormalsJob_Run( const plNormalsJob* job )
 		float nx = 0.0f, ny = 0.0f, nz = 0.0f;
 		uint32_t begin = job->adjacency_offsets[v], end = job->adjacency_offsets[v + 1];
 		end = end > limit ? limit : end;
+		if ( face_normals != NULL )
+		{
+			for ( uint32_t e = begin; e < end; ++e )
+			{
+				uint32_t f = job->adjacency_faces[e];
+				if ( f < job->face_count )
+				{
+					nx += face_normals[(size_t)f * 3 + 0];
+					ny += face_normals[(size_t)f * 3 + 1];
+					nz += face_normals[(size_t)f * 3 + 2];
+				}
+			}
+			begin = end; // gathered; skip the on-the-fly loop
+		}
 		for ( uint32_t e = begin; e < end; ++e )
 		{
 			uint32_t f = job->adjacency_faces[e];
@@ -59,6 +96,41 @@ plResult plNormalsJob_Run( const plNormalsJob* job )
 		out[0] = nx * scale;
 		out[1] = ny * scale;
 		out[2] = nz * scale;
+	}
+}
+
+int plFaceNormalsJob_Validate( const plFaceNormalsJob* job )
+{
+	return job != NULL && job->faces != NULL && job->output != NULL && job->face_begin <= job->face_end &&
+		   job->face_end <= job->face_count && PLEAT_SPAN_HOLDS( job->positions, 12, job->positions.count );
+}
+
+plResult plFaceNormalsJob_Run( const plFaceNormalsJob* job )
+{
+	if ( !plFaceNormalsJob_Validate( job ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	const uint8_t* in = (const uint8_t*)job->positions.ptr;
+	uint32_t stride = job->positions.stride_bytes;
+	uint32_t n = job->positions.count;
+	for ( uint32_t f = job->face_begin; f < job->face_end; ++f )
+	{
+		const uint32_t* tri = job->faces + (size_t)f * 3;
+		float* out = job->output + (size_t)f * 3;
+		if ( tri[0] >= n || tri[1] >= n || tri[2] >= n )
+		{
+			out[0] = out[1] = out[2] = 0.0f;
+			continue;
+		}
+		const float* a = (const float*)( in + (size_t)tri[0] * stride );
+		const float* b = (const float*)( in + (size_t)tri[1] * stride );
+		const float* c = (const float*)( in + (size_t)tri[2] * stride );
+		float e1x = b[0] - a[0], e1y = b[1] - a[1], e1z = b[2] - a[2];
+		float e2x = c[0] - a[0], e2y = c[1] - a[1], e2z = c[2] - a[2];
+		out[0] = e1y * e2z - e1z * e2y;
+		out[1] = e1z * e2x - e1x * e2z;
+		out[2] = e1x * e2y - e1y * e2x;
 	}
 	return PLEAT_RESULT_OK;
 }

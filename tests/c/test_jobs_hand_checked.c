@@ -160,6 +160,18 @@ static void test_normals_of_flat_quad_and_area_weighting( void** state )
 	{
 		assert_float_equal( normals[i], expected[i], 1e-6 );
 	}
+	// Gathering precomputed face normals (plFaceNormalsJob) gives bit-identical results.
+	float face_normals[2 * 3], gathered[4 * 3];
+	plFaceNormalsJob faces_job = { plMakeConstSpan( positions, 4, 12 ), faces, 2, face_normals, 0, 2 };
+	assert_int_equal( plFaceNormalsJob_Run( &faces_job ), PLEAT_RESULT_OK );
+	assert_float_equal( face_normals[3], 1.0f, 0 ); // face 1: (1, −1, 1)
+	assert_float_equal( face_normals[4], -1.0f, 0 );
+	plNormalsGatherJob gather = { job, face_normals };
+	gather.normals.output = plMakeSpan( gathered, 4, 12 );
+	assert_int_equal( plNormalsGatherJob_Run( &gather ), PLEAT_RESULT_OK );
+	assert_memory_equal( gathered, normals, sizeof( normals ) );
+	faces_job.face_end = 3;
+	assert_int_equal( plFaceNormalsJob_Run( &faces_job ), PLEAT_RESULT_INVALID_ARGUMENT );
 	// A degenerate vertex (all faces zero area) gets a zero normal, not NaN.
 	float flat_line[4 * 3] = { 0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0 };
 	job.positions = plMakeConstSpan( flat_line, 4, 12 );
