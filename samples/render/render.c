@@ -377,7 +377,7 @@ int main( int argc, char** argv )
 		step_ms[step_count++] = ( t1 - t0 ) * 1e3;
 
 		// The camera follows the pelvis p_0 = G_0 · 0 = M_0 · J_0 over the ground and turns after the character's
-		// heading (the yaw of R·(0,0,1), R the rotation of M_0) with a 1 s time constant, staying 35° off the
+		// heading (the yaw of R·(0,0,1), R the rotation of M_0) with a 0.6 s time constant, staying 35° off the
 		// facing direction, so a turning walk is still seen from the front-side. Updated on every stepped frame so
 		// the motion does not depend on which frames are rendered.
 		plInstance_GetSkinMatrices( instance, skin, info.joint_count );
@@ -396,7 +396,7 @@ int main( int argc, char** argv )
 		else
 		{
 			float delta = remainderf( wanted_yaw - camera_yaw, 2.0f * 3.14159265f );
-			camera_yaw += delta * ( 1.0f - expf( -dt_s / 1.0f ) );
+			camera_yaw += delta * ( 1.0f - expf( -dt_s / 0.6f ) );
 		}
 		if ( ( f - o.frame_begin ) % o.frame_step != 0 )
 			continue;

@@ -143,11 +143,15 @@ def read_motion_file(path):
             "root_rotation": frames[:, 4 * J + 3:]}
 
 
-def _asset_joint_order(asset_path, names):
-    """Permutation putting `names` in the asset's joint order (the asset must have every name)."""
+def _read_asset(asset_path):
     from pleat.asset import read_asset
     with open(asset_path, "rb") as f:
-        asset_names = [str(n) for n in read_asset(f.read())["joint_names"]]
+        return read_asset(f.read())
+
+
+def _asset_joint_order(asset_path, names):
+    """Permutation putting `names` in the asset's joint order (the asset must have every name)."""
+    asset_names = [str(n) for n in _read_asset(asset_path)["joint_names"]]
     missing = [n for n in asset_names if n not in names]
     if missing or len(asset_names) != len(names):
         raise SystemExit(f"{asset_path}: joints {missing or asset_names} do not match the body/clip joints {names}")
@@ -163,6 +167,17 @@ def export_body(body, out, beta=None, influences=4, asset_path=None):
     joints = np.asarray(body.J_regressor @ vertices)
     skin_indices, skin_weights = sparse_skin(body.weights, influences)
     if asset_path:
+        # The renderer skins this body with the asset's joints J(β): if the asset was built from another body (or an
+        # older body.npz), the body and the garment drift apart. Say so rather than render it silently.
+        asset = _read_asset(asset_path)
+        asset_joints = asset["joint_template"] + np.einsum("b,bjc->jc", beta[:asset["joint_shapedirs"].shape[0]],
+                                                           asset["joint_shapedirs"])
+        by_name = {str(n): k for k, n in enumerate(asset["joint_names"])}
+        gap = max(np.linalg.norm(joints[i] - asset_joints[by_name[n]]) for i, n in enumerate(names) if n in by_name)
+        if gap > 0.005:
+            print(f"warning: {asset_path} has joints up to {gap * 1000:.0f} mm away from this body's; rebuild the "
+                  f"asset from this body (python -m pleat.garment_asset) or use the body it was built from",
+                  file=sys.stderr)
         order = _asset_joint_order(asset_path, names)  # new index i ← old index order[i]
         old_to_new = np.argsort(order)
         names, joints, skin_indices = [names[i] for i in order], joints[order], old_to_new[skin_indices]
