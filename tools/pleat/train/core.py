@@ -226,6 +226,7 @@ class Window:
         self.Hinv, self.p0 = to_t(win["Hinv"], d), to_t(win["p0"], d)
         self.dt = win["dt"]
         self.shaped = to_t(setup.shaped(beta), d)
+        self.rest = setup.energies.rest_for(setup.shaped(beta), self.shaped)
         self.material = to_t(material, d)
         self.material01 = to_t(material01, d)
         self.trees = {}
@@ -277,7 +278,7 @@ class Window:
         _, idx = self.tree(f).query(x.detach().cpu().numpy())
         idx = torch.as_tensor(idx, device=s.device)
         return s.energies.terms(x, x_t, x_tm1, self.material, float(self.dt[f]), self.body_t[f][idx],
-                                self.body_n[f][idx], self.body_t[f - 1][idx])
+                                self.body_n[f][idx], self.body_t[f - 1][idx], self.rest)
 
 
 class Stage1Model(torch.nn.Module):
@@ -727,3 +728,27 @@ def pack(out, model_kind="two-stage", path=None, fp16=False, onnx=False):
     write_asset(str(target), weights, fp16=fp16, onnx=onnx)
     np.savez(out / f"{target.stem}_weights.npz", **{k: np.asarray(v) for k, v in weights.items()})
     return target, weights
+
+
+# ---- the inference block in torch (the proof that training, reference and runtime agree) --------------------------
+@torch.no_grad()
+def torch_inference(setup, lp, block, rotations, root_translation, root_rotation, dt_s, beta, material):
+    """Ψ in torch over a clip stepped from a reset: X_c by the reference's assembly (latent block filled with the
+    model's own previous latent, Z_0 = 0), f_LP with normalisation and latent clamp, f_dec, blend shapes, LBS.
+    Returns positions [T, N, 3] (float64) and latents [T, L]."""
+    win = {"quats": np.asarray(rotations, np.float64), "root_translation": np.asarray(root_translation, np.float64),
+           "root_rotation": np.asarray(root_rotation, np.float64), "dt": np.asarray(dt_s, np.float64)}
+    rows = torch.as_tensor(setup.static_inputs(win, beta, material), dtype=torch.float64)
+    feats = reference.pose_features(setup.parents, setup.joints_of(beta), setup.input_joints, win["quats"],
+                                    win["root_translation"], win["root_rotation"])
+    A = torch.as_tensor(np.einsum("nk,wnkab->wnab", setup.skin_weights, feats["skin_matrices"][:, setup.skin_indices]))
+    lp, block = lp.double(), block.double()
+    shaped = torch.as_tensor(setup.shaped(beta))
+    z = torch.zeros(setup.L, dtype=torch.float64)
+    out, zs = [], []
+    for f in range(len(rows)):
+        _, z = lp(z, rows[f])
+        out.append(skin(A[f], shaped + block.displacement(z)))
+        zs.append(z)
+    lp.float(), block.float()
+    return torch.stack(out).numpy(), torch.stack(zs).numpy()

@@ -112,11 +112,17 @@ class Energies:
         self.faces = torch.as_tensor(self.rest.faces)
         self.friction_mu, self.friction_eps, self.eps = friction_mu, friction_eps_m, collision_eps_m
 
-    def terms(self, x, x_t, x_tm1, material, dt, body_points, body_normals, body_points_t):
+    def rest_for(self, shaped, like):
+        """Rest geometry of the garment shaped for β (T + G_S(β)), as HOOD takes the garment's rest state: the
+        β = 0 template would count the shape blend itself as stretching."""
+        return self.ph.cloth_rest(shaped, self.rest.faces).to(like)
+
+    def terms(self, x, x_t, x_tm1, material, dt, body_points, body_normals, body_points_t, rest=None):
         ph, torch = self.ph, self.torch
-        if self._rest_t is None or self._rest_t.face_area.device != x.device:
-            self._rest_t = self.rest.to(x)
-        rest = self._rest_t
+        if rest is None:
+            if self._rest_t is None or self._rest_t.face_area.device != x.device:
+                self._rest_t = self.rest.to(x)
+            rest = self._rest_t
         m, mu, lam, k = material[0], material[1], material[2], material[3]
         mass = m * rest.vertex_area
         collision = ph.collision_energy(x, body_points, body_normals, self.eps, 1.0)
