@@ -468,6 +468,14 @@ PLEAT_API plResult plDestroyInstance( plInstance instance );
 PLEAT_API int plInstance_IsValid( plInstance instance );
 /// Advance one frame: the pose is frame t+1. Writes positions/normals to output (may be NULL) and to the instance's
 /// own buffers. Returns OK, CLAMPED (dt clamped) or NUMERIC_RESET; an error changes nothing.
+/// Checks, in this order: handle, pointers and spans (INVALID_ARGUMENT, BUFFER_TOO_SMALL), joint count
+/// (JOINT_COUNT_MISMATCH), NaN/Inf anywhere in the used pose, root or dt (NON_FINITE_INPUT), quaternion lengths
+/// (INVALID_QUATERNION), dt range (INVALID_DT). Engine joints the joint map does not reference are not read.
+/// NUMERIC_RESET: a non-finite value appeared in f_LP's output, the blend weights or the outputs; the history and
+/// latent were reset and the step recomputed as a first frame. If even that is non-finite, the step dresses the body
+/// without learned deformation (zero latent and blend weights) and still returns NUMERIC_RESET.
+/// GPU modes: positions/normals are read back from the GPU only when output asks for them; otherwise they stay on
+/// the GPU (in the host buffers, if given) and plInstance_GetPositions/GetNormals keep the last read-back.
 PLEAT_API plResult plInstance_Step( plInstance instance, const plFrameInput* input, const plStepOutput* output );
 /// Forget the pose history and latent: the next step is a first frame.
 PLEAT_API plResult plInstance_Reset( plInstance instance );
