@@ -1,0 +1,209 @@
+"""pleat-eval: accuracy of a Pleat asset against the reference simulator on one clip (docs/accuracy.md).
+
+    pleat-eval --asset A.pleat --motion CLIP --json OUT.json [--plots DIR] [--beta b0,b1,..] [--material m,mu,lam,k]
+               [--max-frames 300] [--teacher RUN_DIR_OR_stage1.pt]
+
+Runs, on the same body, β, material and motion (resampled to 30 fps, cut at --max-frames):
+  pleat    the asset through the C runtime (pleat.runtime → libpleat.so); `step_us` is the median plInstance_Step time
+  lbs      the same garment with the zero network (LBS of the β-shaped template), through the C runtime the same way
+  teacher  the stage-1 network Φ rolled out in torch, if --teacher is given and torch imports (else null + reason)
+  reference  pleat.sim's implicit-Euler solve, cached in out/cache/sim/ (the slow part)
+and scores each with pleat.eval.metrics: mean / p95 vertex error (mm), edge-strain error, jitter (m/s²), penetration
+(share of vertices inside the posed body, %, and the deepest, mm).
+"""
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pleat.eval import metrics
+from pleat.eval import scene as S
+
+METHODS = ("pleat", "lbs", "teacher")
+
+
+def parse_floats(text, count=None, what="value"):
+    if text is None:
+        return None
+    parts = [float(p) for p in str(text).replace(" ", ",").split(",") if p != ""]
+    if count is not None and len(parts) != count:
+        raise ValueError(f"{what} needs {count} comma-separated numbers, got {text!r}")
+    return np.array(parts, np.float64)
+
+
+def _clamped_material(weights, material):
+    lo, hi = np.asarray(weights["material_min"], np.float64), np.asarray(weights["material_max"], np.float64)
+    if material is None:
+        return np.asarray(weights["material_default"], np.float64)
+    return np.clip(material, lo, hi)
+
+
+def _clamped_beta(weights, beta):
+    B = len(weights["shape_blend"])
+    b = np.zeros(B)
+    if beta is not None:
+        b[:len(beta)] = beta[:B]
+    lo, hi = weights.get("beta_range", (-4.0, 4.0))
+    return np.clip(b, float(lo), float(hi))
+
+
+def teacher_rollout(checkpoint, clip, beta, material, weights):
+    """Φ's garment along the clip [T, N, 3], or raises with the reason it cannot be produced."""
+    from types import SimpleNamespace
+
+    import torch
+    from pleat.train import core
+    path = Path(checkpoint)
+    run_dir = path.parent if path.is_file() else path
+    model, setup, cfg, _ = core.load_stage1(run_dir)
+    if setup.N != len(weights["template"]):
+        raise ValueError(f"teacher garment has {setup.N} vertices, the asset {len(weights['template'])}")
+    c = SimpleNamespace(rotations=S.clip_rotations_for(clip, setup.joint_names), fps=clip.fps,
+                        root_translation=clip.root_translation, root_rotation=clip.root_rotation)
+    T = clip.num_frames
+    win = setup.pose_window(c, 0, T, beta, prepend_first=2)        # frames 0, 1 copy the first pose
+    lo, hi = setup.material_min, setup.material_max
+    window = core.Window(setup, win, beta, material, (material - lo) / (hi - lo))
+    out = [window.states[2].detach().cpu().numpy()]
+    with torch.no_grad():
+        for f in range(3, len(win["dt"])):
+            node, edges, body, recv = window.features(f)
+            _, disp = model(node, edges, body, recv, setup.levels)
+            out.append(window.advance(f, disp).detach().cpu().numpy())
+    return np.asarray(out, np.float32)
+
+
+def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teacher=None, body_path=None,
+             settle_frames=10, cache_dir=None, progress=True, context=None):
+    """The report dict of one asset on one clip (what --json writes), plus per-frame arrays under 'per_frame'."""
+    from pleat import runtime
+    from pleat.body import BodyModel
+    from pleat.eval.reference import cached_simulate
+
+    data, weights = S.read_weights(asset_path)
+    body = BodyModel.load(body_path)
+    mismatch = S.skeleton_mismatch_mm(weights, body)
+    if not mismatch < 1.0:
+        raise SystemExit(f"pleat-eval: the asset's skeleton differs from the body's by {mismatch:.1f} mm; "
+                         "evaluate it against the body it was built on (--body)")
+    clip = S.load_motion(motion, body, S.EVAL_FPS, max_frames)
+    T, dt = clip.num_frames, 1.0 / clip.fps
+    beta = _clamped_beta(weights, beta)
+    material = _clamped_material(weights, material)
+    garment = S.garment_from_asset(weights)
+
+    own_context = context is None
+    ctx = context or runtime.Context()
+    try:
+        runs = {"pleat": S.clip_rollout(ctx, data, weights, clip, beta, material),
+                "lbs": S.clip_rollout(ctx, S.lbs_only_bytes(weights), weights, clip, beta, material)}
+    finally:
+        if own_context:
+            ctx.close()
+    t0 = time.perf_counter()
+    ref, ref_info = cached_simulate(garment, body, clip, beta, material, T, settle_frames, cache_dir=cache_dir,
+                                    progress=progress)
+    ref_info["wall_s"] = time.perf_counter() - t0
+
+    preds = {k: r.positions for k, r in runs.items()}
+    teacher_reason = None
+    if teacher is None:
+        teacher_reason = "no --teacher checkpoint given"
+    else:
+        try:
+            preds["teacher"] = teacher_rollout(teacher, clip, beta, material, weights)
+        except Exception as exc:   # noqa: BLE001 - the report says why the teacher is missing
+            teacher_reason = f"{type(exc).__name__}: {exc}"
+
+    body_v, _ = S.posed_body(body, clip, beta)
+    report = dict(asset=str(asset_path), garment=str(weights.get("garment_name")),
+                  model="lbs-only" if S.is_lbs_only(weights) else "network",
+                  clip=clip.name, frames=int(T), fps=float(clip.fps), beta=beta.tolist(), material=material.tolist(),
+                  vertices=int(len(weights["template"])), skeleton_mismatch_mm=mismatch,
+                  reference=dict(ref_info, settle_frames=settle_frames,
+                                 penetration=_penetration_summary(body_v, body.faces, ref)))
+    per_frame = {}
+    for k in METHODS:
+        if k not in preds:
+            report[k] = None
+            continue
+        sd = S.signed_distances(body_v, body.faces, preds[k])
+        s = metrics.score(preds[k], ref, weights["faces"], garment.shaped(beta), dt, sd)
+        per_frame[k] = dict(error_mm=s.pop("per_frame_mean_mm"), penetration_pct=s.pop("per_frame_pct"))
+        report[k] = s
+    report["teacher_reason"] = teacher_reason
+    for k, r in runs.items():
+        report[k]["step_us"] = float(np.median(r.step_us))
+        report[k]["numeric_resets"] = r.resets
+        report[k]["finite"] = bool(np.isfinite(r.positions).all())
+    report["per_frame"] = per_frame
+    return report
+
+
+def _penetration_summary(body_v, faces, positions):
+    p = metrics.penetration(S.signed_distances(body_v, faces, positions))
+    return dict(penetration_pct=p["penetration_pct"], max_depth_mm=p["max_depth_mm"])
+
+
+def write_plots(report, out_dir):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = Path(report["asset"]).stem + "_" + Path(report["clip"]).name.replace("/", "_")
+    fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    t = np.arange(report["frames"]) / report["fps"]
+    for k, series in report["per_frame"].items():
+        axes[0].plot(t, series["error_mm"], label=k)
+        axes[1].plot(t, series["penetration_pct"], label=k)
+    axes[0].set_ylabel("mean vertex error (mm)")
+    axes[1].set_ylabel("vertices inside body (%)")
+    axes[1].set_xlabel("time (s)")
+    axes[0].legend()
+    axes[0].set_title(f"{report['garment']} ({report['model']}) on {report['clip']}")
+    fig.tight_layout()
+    path = out_dir / f"{stem}.png"
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return path
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="pleat-eval", description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap.add_argument("--asset", required=True)
+    ap.add_argument("--motion", required=True, help="clip file or name (DeepMimic .txt, .bvh, .amc, AMASS .npz)")
+    ap.add_argument("--beta", default=None, help="comma-separated β (missing components are 0; default all 0)")
+    ap.add_argument("--material", default=None, help="m,mu,lambda,k (default: the asset's default material)")
+    ap.add_argument("--json", required=True, help="output report")
+    ap.add_argument("--plots", default=None, help="folder for the per-frame error / penetration plot")
+    ap.add_argument("--max-frames", type=int, default=300)
+    ap.add_argument("--teacher", default=None, help="stage-1 checkpoint (stage1.pt or its run folder)")
+    ap.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
+    ap.add_argument("--settle-frames", type=int, default=10, help="reference steps on the first pose before frame 0")
+    ap.add_argument("--cache-dir", default=None, help="reference cache (default out/cache/sim)")
+    ap.add_argument("--per-frame", action="store_true", help="keep the per-frame series in the JSON")
+    ap.add_argument("--no-progress", action="store_true")
+    args = ap.parse_args(argv)
+    report = evaluate(args.asset, args.motion, parse_floats(args.beta, what="--beta"),
+                      parse_floats(args.material, 4, "--material"), args.max_frames, args.teacher, args.body,
+                      args.settle_frames, args.cache_dir, not args.no_progress)
+    if args.plots:
+        report["plot"] = str(write_plots(report, args.plots))
+    if not args.per_frame:
+        report.pop("per_frame")
+    Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.json).write_text(json.dumps(report, indent=1))
+    summary = {k: (None if report[k] is None else {m: round(report[k][m], 3) for m in
+                                                   ("mean_mm", "p95_mm", "penetration_pct", "max_depth_mm")})
+               for k in METHODS}
+    print(json.dumps(dict(frames=report["frames"], step_us=round(report["pleat"]["step_us"], 1), **summary)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

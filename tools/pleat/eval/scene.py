@@ -1,0 +1,196 @@
+"""What every evaluation needs: an asset and its LBS-only twin, the garment and body the simulator sees, a clip at
+30 fps, and rollouts of the C runtime (through `pleat.runtime`, never torch) with per-step timings.
+
+The asset holds everything the runtime needs but not the body mesh; the body comes from assets/body.npz (the one the
+asset was built on). `skeleton_mismatch_mm` says how far the asset's skeleton is from that body's, so a report can
+refuse to compare a garment against a body it was not made for.
+"""
+import ctypes as C
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pleat.asset import read_asset, write_asset
+from pleat.garment_asset import input_count_without_latent, lbs_only_network
+
+EVAL_FPS = 30.0
+NETWORK_KEYS = ("x_mean", "x_std", "z_mean", "z_std", "z_min", "z_max", "blend_shapes", "lp_activation",
+                "dec_activation")
+
+
+def read_weights(source):
+    """An asset (path or bytes) → (bytes, weights dict as stored)."""
+    data = source if isinstance(source, (bytes, bytearray)) else open(source, "rb").read()
+    return bytes(data), read_asset(data)
+
+
+def lbs_only_weights(weights):
+    """The same garment, skeleton and ranges with the zero network: the LBS-only baseline, run through the same
+    runtime path as the trained model."""
+    w = {k: v for k, v in weights.items()
+         if k not in NETWORK_KEYS and not k.startswith(("lp.", "dec.", "onnx_"))}
+    N = len(w["template"])
+    B = len(w["shape_blend"])
+    Jin = len(w["input_joints"])
+    w.update(lbs_only_network(N, input_count_without_latent(Jin, B)))
+    return w
+
+
+def lbs_only_bytes(weights):
+    return write_asset(None, lbs_only_weights(weights))
+
+
+def is_lbs_only(weights):
+    """True when the network cannot move the garment: every learned blend shape D_j is zero."""
+    return bool(np.all(np.asarray(weights["blend_shapes"], np.float64) == 0.0))
+
+
+def garment_from_asset(weights):
+    """The simulator's Garment made from the asset's own mesh, skin, shape blend shapes and pins (so the reference
+    and the runtime see the same vertices)."""
+    from pleat.garment import Garment
+    pinned = weights.get("pinned")
+    return Garment.build(name=str(weights.get("garment_name", "garment")), template=weights["template"],
+                         faces=weights["faces"], skin_indices=weights["skin_indices"],
+                         skin_weights=weights["skin_weights"], shape_blend=weights["shape_blend"],
+                         pinned=np.zeros(0, np.int32) if pinned is None else pinned)
+
+
+def skeleton_mismatch_mm(weights, body):
+    """Largest distance between the asset's rest joints and the body's J(0), mm (inf if the joints differ)."""
+    names = [str(n) for n in weights["joint_names"]]
+    if names != [str(n) for n in body.joint_names]:
+        return float("inf")
+    return float(np.abs(np.asarray(weights["joint_template"], np.float64) - body.joints()).max() * 1000.0)
+
+
+def load_motion(spec, body=None, fps=EVAL_FPS, max_frames=None):
+    """A clip file or name (DeepMimic, BVH, ASF/AMC, AMASS npz, or a Clip .npz saved by pleat.motion) at `fps`,
+    cut to `max_frames`."""
+    from dataclasses import replace
+
+    from pleat.motion import Clip, load_clip
+    if str(spec).endswith(".npz") and "local_rotations" in np.load(spec, allow_pickle=False).files:
+        clip = Clip.load(spec)            # a Clip saved by pleat.motion (already on the body)
+    else:
+        clip = load_clip(spec, body)
+    if abs(clip.fps - fps) > 1e-9:
+        clip = clip.resample(fps)
+    if max_frames and clip.num_frames > max_frames:
+        clip = replace(clip, local_rotations=clip.local_rotations[:max_frames],
+                       root_translation=clip.root_translation[:max_frames],
+                       root_rotation=clip.root_rotation[:max_frames])
+    return clip
+
+
+def clip_rotations_for(clip, joint_names):
+    """Local quaternions [T, J_asset, 4] in the asset's joint order (by name)."""
+    order = [list(clip.joint_names).index(str(n)) for n in joint_names]
+    return clip.local_rotations[:, order]
+
+
+@dataclass
+class Rollout:
+    positions: np.ndarray                    # [T, N, 3] f32, m
+    latent_norm: np.ndarray                  # [T], ‖Z‖ after each step
+    step_us: np.ndarray                      # [T], wall time of plInstance_Step alone
+    results: list = field(default_factory=list)   # plResult of each step (0 OK, 1 CLAMPED, 2 NUMERIC_RESET)
+    latent_min: np.ndarray = None            # [L] elementwise min / max of Z over the run
+    latent_max: np.ndarray = None
+
+    @property
+    def resets(self):
+        return int(sum(r == 2 for r in self.results))
+
+
+def rollout(context, asset_bytes, rotations, root_translation, root_rotation, dt_s, beta=None, material=None,
+            keep_positions=True):
+    """Steps one C instance through a motion. rotations [T, J, 4] (asset joint order), root_translation [T, 3],
+    root_rotation [T, 4], dt_s scalar or [T]. The time of each step is that of the plInstance_Step call alone
+    (ctypes structures are prepared outside the timed region)."""
+    from pleat import runtime as rt
+    asset = context.load_asset(asset_bytes)
+    inst = context.create_instance(asset, beta=beta, material=material)
+    try:
+        T = len(rotations)
+        N = inst.vertex_count
+        L = asset.info["latent_count"]
+        dt = np.broadcast_to(np.asarray(dt_s, np.float64), (T,))
+        rot = np.ascontiguousarray(np.asarray(rotations, np.float32))
+        tr = np.asarray(root_translation, np.float32)
+        rr = np.asarray(root_rotation, np.float32)
+        out_p = np.empty((N, 3), np.float32)
+        out_n = np.empty((N, 3), np.float32)
+        out = rt._StepOutput(out_p.ctypes.data, 12, out_n.ctypes.data, 12, N)
+        latent = np.empty(L, np.float32)
+        positions = np.empty((T, N, 3), np.float32) if keep_positions else None
+        norms = np.empty(T)
+        times = np.empty(T)
+        results = []
+        zmin = np.full(L, np.inf)
+        zmax = np.full(L, -np.inf)
+        lib = context.lib
+        step = lib.plInstance_Step
+        out_ref = C.byref(out)
+        for t in range(T):
+            frame = rt._FrameInput(rot[t].ctypes.data, rot.shape[1], 16, rt._Vec3(*map(float, tr[t])),
+                                   rt._Quat(*map(float, rr[t])), float(dt[t]))
+            frame_ref = C.byref(frame)
+            t0 = time.perf_counter()
+            r = step(inst.handle, frame_ref, out_ref)
+            times[t] = (time.perf_counter() - t0) * 1e6
+            rt._check(lib, r, "plInstance_Step")
+            results.append(int(r))
+            lib.plInstance_GetLatent(inst.handle, latent.ctypes.data, L)
+            norms[t] = float(np.linalg.norm(latent))
+            np.minimum(zmin, latent, out=zmin)
+            np.maximum(zmax, latent, out=zmax)
+            if keep_positions:
+                positions[t] = out_p
+        return Rollout(positions=positions, latent_norm=norms, step_us=times, results=results, latent_min=zmin,
+                       latent_max=zmax)
+    finally:
+        inst.close()
+        asset.close()
+
+
+def clip_rollout(context, asset_bytes, weights, clip, beta=None, material=None, dt_s=None, keep_positions=True):
+    rot = clip_rotations_for(clip, weights["joint_names"])
+    dt = 1.0 / clip.fps if dt_s is None else dt_s
+    return rollout(context, asset_bytes, rot, clip.root_translation, clip.root_rotation, dt, beta, material,
+                   keep_positions)
+
+
+def median_step_us(context, asset_bytes, rotations, root_translation, root_rotation, dt_s, warmup=30, repeats=3):
+    """Median plInstance_Step time over `repeats` passes of the motion after `warmup` steps (µs)."""
+    n = len(rotations)
+    w = min(warmup, n)
+    rollout(context, asset_bytes, rotations[:w], root_translation[:w], root_rotation[:w],
+            np.broadcast_to(dt_s, (n,))[:w], keep_positions=False)
+    times = [rollout(context, asset_bytes, rotations, root_translation, root_rotation, dt_s,
+                     keep_positions=False).step_us[w:] for _ in range(repeats)]
+    return float(np.median(np.concatenate(times)))
+
+
+def posed_body(body, clip, beta=None):
+    """Body vertices [T, V, 3] and skinning matrices [T, J, 4, 4] along the clip."""
+    R = clip.local_matrices()
+    Q = clip.root_matrices()
+    G = body.forward_kinematics(R, clip.root_translation, Q, beta)
+    M = body.skinning_matrices(G, beta)
+    v = body.shaped_vertices(beta)
+    A = np.einsum("vk,tkij->tvij", body.weights, M[..., :3, :])
+    verts = np.einsum("tvij,vj->tvi", A[..., :3], v) + A[..., 3]
+    return verts, M
+
+
+def signed_distances(body_vertices, body_faces, garment_positions):
+    """[T, N] signed distance of each garment vertex to the posed body at the same frame (negative inside), from the
+    simulator's own collider (nearest body vertex and its normal), so penetration means what the simulator means."""
+    from pleat.sim import BodyCollider
+    out = np.empty(garment_positions.shape[:2])
+    for t in range(len(garment_positions)):
+        out[t] = BodyCollider(body_vertices[t], body_faces).signed_distance(
+            np.asarray(garment_positions[t], np.float64))
+    return out
