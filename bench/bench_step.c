@@ -2,7 +2,7 @@
 //
 // usage: pleat_bench_step --asset FP32.pleat --case case.bin [--asset-fp16 FP16.pleat] [--iterations N]
 //                         [--warmup N] [--scalar-iterations N] [--onnxruntime LIB] [--clock wall|cpu]
-//                         [--out step.json]
+//                         [--out step.json] [--step-only]
 //
 // FP32.pleat needs the OXLP/OXDC sections (pleat-pack --onnx) for the ONNX Runtime numbers; case.bin is the golden
 // motion of `python -m pleat.reference.golden` (only its poses are used). Every number is a median over N timed
@@ -444,8 +444,20 @@ int main( int argc, char** argv )
 	const char* ort_library = NULL;
 	const char* out_path = NULL;
 	uint32_t iterations = 2000, warmup = 200, scalar_iterations = 300;
-	for ( int i = 1; i + 1 < argc; i += 2 )
+	int step_only = 0;
+	for ( int i = 1; i < argc; i += 2 )
 	{
+		if ( strcmp( argv[i], "--step-only" ) == 0 )
+		{
+			step_only = 1;
+			i -= 1;
+			continue;
+		}
+		if ( i + 1 >= argc )
+		{
+			fprintf( stderr, "pleat_bench_step: %s needs a value\n", argv[i] );
+			return 2;
+		}
 		if ( strcmp( argv[i], "--asset" ) == 0 )
 			asset_path = argv[i + 1];
 		else if ( strcmp( argv[i], "--asset-fp16" ) == 0 )
@@ -497,6 +509,15 @@ int main( int argc, char** argv )
 	{
 		fprintf( stderr, "pleat_bench_step: %s is not a golden case for this asset\n", case_path );
 		return 1;
+	}
+
+	if ( step_only ) // for profilers: nothing but fp32 plInstance_Step
+	{
+		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL };
+		double only_us = NAN;
+		result = TimeSteps( &only, &motion, warmup, iterations, &only_us, NULL );
+		printf( "{ \"pleat_step_us\": %.2f }\n", only_us );
+		return result == PLEAT_RESULT_OK ? 0 : 1;
 	}
 
 	MlpTimes mlp;
