@@ -29,9 +29,14 @@ if [ ! -f "$ASSET" ]; then
   "$PY" -m pleat.garment_asset --garment tshirt --out "$ASSET"
 fi
 
-if ! "$PY" -c "from pleat.motion.loaders import resolve_clip; resolve_clip('$CLIP')" >/dev/null 2>&1; then
+have_clip() { "$PY" -c "from pleat.motion.loaders import resolve_clip; resolve_clip('$1')" >/dev/null 2>&1; }
+if ! have_clip "$CLIP"; then
   echo "demo: clip '$CLIP' not found on the motion search path; fetching the mocap clips (scripts/fetch-motion.sh)"
-  scripts/fetch-motion.sh
+  scripts/fetch-motion.sh || echo "demo: fetch-motion.sh did not fetch everything (no network to one source?)"
+  if ! have_clip "$CLIP" && [ -z "${PLEAT_DEMO_CLIP:-}" ] && have_clip humanoid3d_walk; then
+    echo "demo: using humanoid3d_walk (from the pybullet wheel) instead"
+    CLIP=humanoid3d_walk
+  fi
 fi
 
 mkdir -p "$OUT_DIR"
