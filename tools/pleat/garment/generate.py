@@ -150,18 +150,36 @@ def _push_out(x, collider, clearance, iterations=6, faces=None):
     return x
 
 
-def diffuse_from_body(x, faces, body, query_points=None, smooth_iterations=10, k_influences=4):
-    """(skin_indices [N,K], skin_weights [N,K], shape_blend [B,N,3]) from the nearest body vertices, smoothed."""
+def diffuse_from_body(x, faces, body, query_points=None, smooth_iterations=10, shape_smooth_iterations=3,
+                      k_influences=4, beta_check=3.0):
+    """(skin_indices [N,K], skin_weights [N,K], shape_blend [B,N,3]) from the nearest body vertices, smoothed over
+    the garment graph. Shape blend shapes are smoothed less (they must keep up with local changes such as the
+    crotch and armpits) and, where the smoothed one would put a vertex inside the body at β_b = ±beta_check, the
+    vertex takes its nearest body vertex's unsmoothed shape direction instead."""
     tree = cKDTree(body.v_template)
     _, nearest = tree.query(x if query_points is None else query_points)
     w = body.weights[nearest].copy()                               # [N, J]
-    sd = np.moveaxis(body.shapedirs[nearest], 2, 0).copy()         # [B, N, 3]
+    raw = np.moveaxis(body.shapedirs[nearest], 2, 0).copy()        # [B, N, 3]
+    sd = raw.copy()
     A = M.adjacency(faces, len(x))
     deg = np.asarray(A.sum(1)).ravel()
     P = (A.multiply(1.0 / np.maximum(deg, 1)[:, None])).tocsr()   # row-stochastic neighbour average
     for _ in range(smooth_iterations):
         w = 0.5 * w + 0.5 * (P @ w)
+    for _ in range(shape_smooth_iterations):
         sd = 0.5 * sd + 0.5 * np.stack([P @ s for s in sd])
+    if beta_check:
+        from ..body.model import BodyCollider
+        for b in range(sd.shape[0]):
+            if not np.any(body.shapedirs[:, :, b]):
+                continue
+            for sign in (-1.0, 1.0):
+                beta = np.zeros(sd.shape[0])
+                beta[b] = sign * beta_check
+                collider = BodyCollider(body.shaped_vertices(beta), body.faces)
+                dist, _, _ = collider.signed_distance(x + beta[b] * sd[b], k=8)
+                bad = dist < 0.5 * MIN_CLEARANCE_M
+                sd[b, bad] = raw[b, bad]
     order = np.argsort(-w, axis=1)[:, :k_influences]
     top = np.take_along_axis(w, order, axis=1)
     top = np.maximum(top, 0.0)

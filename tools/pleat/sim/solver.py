@@ -5,7 +5,8 @@ Each step solves   x_{t+1} = argmin_x  inertia + gravity + stretching + bending 
 (the garment skinned onto the body by LBS). Element Hessians are PSD (StVK projected per face in F-space, bending
 Gauss-Newton, collision and friction PSD by construction), so each Newton direction is a descent direction; a
 backtracking (Armijo) line search keeps the energy monotone. Converged when the largest residual force on a free
-vertex is below `force_tol` times the heaviest vertex weight (default 1e-3: a thousandth of a vertex's weight).
+vertex is below `force_tol` times the heaviest vertex weight (default 1e-3: a thousandth of a vertex's weight) or
+when a full Newton update moves no vertex more than `step_tol_m` (1e-5 m).
 Collisions use the posed body at t+1 from the step's start positions, re-queried after the solve (up to
 `contact_rounds` times) if a vertex ended closer than the margin to a body point it was not tested against; a final
 projection puts any vertex still below the body surface (d < 0) back onto it.
@@ -26,9 +27,10 @@ class SolverSettings:
     collision_stiffness: float = 1e6      # κ in κ·max(ε−d,0)³, J/m³
     friction: float = 0.3                 # μ_f
     friction_eps_m: float = 1e-3          # ε_u: Huber smoothing of the tangential slip per step
-    force_tol: float = 1e-3               # residual ‖∇E‖∞ ≤ force_tol · max_i(m_i g)
-    max_newton: int = 40
-    contact_rounds: int = 2
+    force_tol: float = 1e-3               # converged: residual ‖∇E‖∞ ≤ force_tol · max_i(m_i g), or
+    step_tol_m: float = 1e-5              # the Newton step moves no vertex more than this (0.01 mm)
+    max_newton: int = 25
+    contact_rounds: int = 1
     penetration_tol_m: float = 1e-3       # stated tolerance: no free vertex deeper than this after a step
 
 
@@ -191,6 +193,11 @@ class ClothSolver:
             x, energy = trial, e_trial
             stats.newton_iterations += 1
             stats.energies.append(energy)
+            if alpha * np.abs(full).max() < s.step_tol_m:
+                g, _ = self._grad_hess(x, c)
+                stats.gradient_norm = float(np.abs(g.ravel()[self.free_dof]).max())
+                stats.converged = True
+                return x
         g, _ = self._grad_hess(x, c)
         stats.gradient_norm = float(np.abs(g.ravel()[self.free_dof]).max())
         stats.converged = stats.gradient_norm <= tol

@@ -1,0 +1,121 @@
+"""A garment on a body playing a clip: what pleat-sim simulates and pleat-show draws."""
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..physics import Material, cloth_rest
+from .collider import BodyCollider
+from .solver import ClothSolver, SolverSettings
+
+
+def load_body(path=None):
+    """The shipped body (assets/body.npz); the capsule stand-in, with a note on stderr, while it is missing."""
+    from ..body import BodyModel, default_body_path
+    p = Path(path) if path else default_body_path()
+    if p.exists():
+        return BodyModel.load(p)
+    if path:
+        raise FileNotFoundError(p)
+    from ..garment.standin import standin_body
+    print(f"note: {p} not found, using the capsule stand-in body", file=sys.stderr)
+    return standin_body()
+
+
+def load_garment_spec(spec, body):
+    """A garment npz path, or a garment name (data/garments/NAME.npz if present, else generated now)."""
+    from ..garment import Garment, make_garment
+    if str(spec).endswith(".npz"):
+        return Garment.load(spec)
+    cached = Path(__file__).resolve().parents[3] / "data" / "garments" / f"{spec}.npz"
+    if cached.exists():
+        return Garment.load(cached)
+    return make_garment(spec, body=body)
+
+
+def load_motion(spec, body, fps=30.0, frames=None):
+    from ..motion import identity_clip, load_clip
+    if spec is None:
+        return identity_clip(frames or 1, fps=fps)
+    clip = load_clip(spec, body=body)
+    if abs(clip.fps - fps) > 1e-6:
+        clip = clip.resample(fps)
+    return clip
+
+
+def skinning_matrices(body, clip, beta=None, frames=None):
+    sel = slice(None) if frames is None else frames
+    G = body.forward_kinematics(clip.local_matrices()[sel], clip.root_translation[sel], clip.root_matrices()[sel],
+                                beta)
+    return body.skinning_matrices(G, beta)
+
+
+def posed_sequence(body, garment, motion, frames, beta=None):
+    """(body vertices [T,V,3], garment by LBS [T,N,3]) at `frames` of `motion` (None: rest pose)."""
+    frames = list(frames)
+    clip = load_motion(motion, body, frames=max(frames) + 1)
+    M = skinning_matrices(body, clip, beta, frames)
+    G = body.forward_kinematics(clip.local_matrices()[frames], clip.root_translation[frames],
+                                clip.root_matrices()[frames], beta)
+    A = np.einsum("vk,tkij->tvij", body.weights, M[:, :, :3, :])
+    v = body.shaped_vertices(beta)
+    body_v = np.einsum("tvij,vj->tvi", A[..., :3], v) + A[..., 3]
+    del G
+    return body_v, garment.skin(M, beta)
+
+
+def simulate(garment, body, clip, beta=None, material=None, frames=None, settings=None, progress=True,
+             keep_body=True):
+    """Run the reference simulator over the clip. Returns (positions [T,N,3] f32, body [T,V,3] f32 or None,
+    summary dict)."""
+    material = material or Material()
+    settings = settings or SolverSettings(dt_s=1.0 / clip.fps)
+    n_frames = clip.num_frames if frames is None else min(int(frames), clip.num_frames)
+    M = skinning_matrices(body, clip, beta, slice(0, n_frames))
+    A = np.einsum("vk,tkij->tvij", body.weights, M[:, :, :3, :])
+    shaped_body = body.shaped_vertices(beta)
+    body_v = np.einsum("tvij,vj->tvi", A[..., :3], shaped_body) + A[..., 3]
+    pins = garment.skin(M, beta)                                     # LBS garment: pinned targets, first frame
+    rest = cloth_rest(garment.shaped(beta), garment.faces)
+    solver = ClothSolver(rest, material, pinned=garment.pinned, settings=settings)
+    colliders = [BodyCollider(body_v[0], body.faces)]
+    x = pins[0].copy()
+    _, _, n, d = colliders[0].query(x)
+    low = (d < settings.collision_margin_m) & ~solver.pinned
+    x[low] += (settings.collision_margin_m - d[low])[:, None] * n[low]
+    out = np.empty((n_frames, len(x), 3), np.float32)
+    out[0] = x
+    x_prev = x.copy()
+    iterations, grad_norms, penetration, not_converged = [], [], [], 0
+    iterator = range(1, n_frames)
+    if progress:
+        from tqdm import tqdm
+        iterator = tqdm(iterator, desc=f"pleat-sim {garment.name}", unit="frame")
+    t0 = time.perf_counter()
+    for t in iterator:
+        colliders.append(BodyCollider(body_v[t], body.faces))
+        x_new, stats = solver.step(x, x_prev, pin_targets=pins[t], body_t=colliders[t - 1], body_next=colliders[t])
+        colliders[t - 1] = None
+        x_prev, x = x, x_new
+        out[t] = x
+        iterations.append(stats.newton_iterations)
+        grad_norms.append(stats.gradient_norm)
+        penetration.append(stats.penetration_before_projection_m)
+        not_converged += int(not stats.converged)
+    elapsed = time.perf_counter() - t0
+    final_pen = 0.0
+    if n_frames > 1:
+        _, _, _, d = BodyCollider(body_v[n_frames - 1], body.faces).query(x)
+        final_pen = float(max(0.0, -d[~solver.pinned].min()))
+    summary = dict(frames=int(n_frames), garment=garment.name, vertices=int(len(x)), dt_s=settings.dt_s,
+                   seconds_per_frame=elapsed / max(1, n_frames - 1),
+                   max_penetration_mm=1000.0 * max(penetration + [final_pen]),
+                   max_penetration_after_projection_mm=1000.0 * final_pen,
+                   final_gradient_norm=float(grad_norms[-1]) if grad_norms else 0.0,
+                   gradient_tolerance=float(settings.force_tol * solver.weight_scale),
+                   mean_newton_iterations=float(np.mean(iterations)) if iterations else 0.0,
+                   steps_not_converged=int(not_converged),
+                   material=dict(zip(("m", "mu", "lambda", "k"), material.as_tuple())),
+                   beta=[] if beta is None else [float(b) for b in np.atleast_1d(beta)])
+    return out, (body_v.astype(np.float32) if keep_body else None), summary
