@@ -29,6 +29,11 @@ def test_schedules_follow_the_paper_scaled_to_the_run():
     assert (w0["inertia"], w1["inertia"], w0["gravity"], w1["gravity"]) == pytest.approx((3, 5, 2, 3))
 
 
+# The tiny run takes far longer than planned on the shared machine (docs/training.md, "Status"), so the tests that
+# train stay out of the default suite until the per-iteration cost is cut.
+slow = pytest.mark.slow
+
+
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
     from pleat.train.cli import main
@@ -41,6 +46,7 @@ def _records(out, stage):
     return [json.loads(line) for line in (out / f"metrics_{stage}.jsonl").read_text().splitlines()]
 
 
+@slow
 def test_tiny_stage1_validation_loss_falls(tiny_run):
     # same validation windows, seeds and (final) loss weights before and after training
     vals = [r for r in _records(tiny_run, "stage1") if "validation" in r]
@@ -48,6 +54,7 @@ def test_tiny_stage1_validation_loss_falls(tiny_run):
     assert vals[0]["iteration"] == 0 and after < before
 
 
+@slow
 def test_tiny_stage2_loss_falls_and_latent_range_recorded(tiny_run):
     train = [r["loss"] for r in _records(tiny_run, "stage2") if "loss" in r]
     assert np.mean(train[-20:]) < 0.5 * np.mean(train[:20])
@@ -56,6 +63,7 @@ def test_tiny_stage2_loss_falls_and_latent_range_recorded(tiny_run):
     assert np.all(state["norms"]["x_std"] > 0)
 
 
+@slow
 def test_tiny_asset_matches_reference_and_runtime(tiny_run):
     from pleat import reference
     from pleat.asset import read_asset
