@@ -77,7 +77,7 @@ def teacher_rollout(checkpoint, clip, beta, material, weights):
 
 
 def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teacher=None, body_path=None,
-             settle_frames=10, cache_dir=None, progress=True, context=None):
+             cache_dir=None, progress=True, context=None):
     """The report dict of one asset on one clip (what --json writes), plus per-frame arrays under 'per_frame'."""
     from pleat import runtime
     from pleat.body import BodyModel
@@ -104,8 +104,7 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
         if own_context:
             ctx.close()
     t0 = time.perf_counter()
-    ref, ref_info = cached_simulate(garment, body, clip, beta, material, T, settle_frames, cache_dir=cache_dir,
-                                    progress=progress)
+    ref, ref_info = cached_simulate(garment, body, clip, beta, material, T, cache_dir=cache_dir, progress=progress)
     ref_info["wall_s"] = time.perf_counter() - t0
 
     preds = {k: r.positions for k, r in runs.items()}
@@ -123,7 +122,7 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
                   model="lbs-only" if S.is_lbs_only(weights) else "network",
                   clip=clip.name, frames=int(T), fps=float(clip.fps), beta=beta.tolist(), material=material.tolist(),
                   vertices=int(len(weights["template"])), skeleton_mismatch_mm=mismatch,
-                  reference=dict(ref_info, settle_frames=settle_frames,
+                  reference=dict(ref_info,
                                  penetration=_penetration_summary(body_v, body.faces, ref)))
     per_frame = {}
     for k in METHODS:
@@ -184,14 +183,13 @@ def main(argv=None):
     ap.add_argument("--max-frames", type=int, default=300)
     ap.add_argument("--teacher", default=None, help="stage-1 checkpoint (stage1.pt or its run folder)")
     ap.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
-    ap.add_argument("--settle-frames", type=int, default=10, help="reference steps on the first pose before frame 0")
     ap.add_argument("--cache-dir", default=None, help="reference cache (default out/cache/sim)")
     ap.add_argument("--per-frame", action="store_true", help="keep the per-frame series in the JSON")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
     report = evaluate(args.asset, args.motion, parse_floats(args.beta, what="--beta"),
                       parse_floats(args.material, 4, "--material"), args.max_frames, args.teacher, args.body,
-                      args.settle_frames, args.cache_dir, not args.no_progress)
+                      args.cache_dir, not args.no_progress)
     if args.plots:
         report["plot"] = str(write_plots(report, args.plots))
     if not args.per_frame:

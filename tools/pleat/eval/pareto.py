@@ -1,0 +1,222 @@
+"""Error against time per frame for garment assets and quality tiers, with the Pareto front (docs/pareto.md).
+
+    PLEAT_LIBRARY=build/eval/libpleat.so python -m pleat.eval.pareto --assets A1.pleat A2.pleat ... \
+        --motion CLIP [CLIP ...] --out docs/ [--max-frames 30] [--no-tiers] [--no-error]
+
+For each asset: the median CPU step time (plInstance_Step through pleat.runtime, timed around the C call alone,
+single thread) and the mean / p95 vertex error against the reference simulator on the clips (pleat-eval's
+`evaluate`, reference cached in out/cache/sim/), plus the LBS-only twin of each asset's garment. For each tier of
+`pleat.eval.tiers`: the step time of that configuration with random weights (golden.random_weights) — the speed half
+of the chart, real before any tier is trained. Writes OUT/pareto.png and OUT/pareto.md (table + this command).
+"""
+import argparse
+import json
+import os
+import shlex
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from pleat.eval import scene as S
+from pleat.eval import tiers as tiers_mod
+
+
+def pareto_front(points):
+    """Indices of the points (time, error) that no other point beats on both (ties count as beaten)."""
+    order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
+    front, best = [], float("inf")
+    for i in order:
+        if points[i][1] < best:
+            front.append(i)
+            best = points[i][1]
+    return front
+
+
+def _motion_arrays(clip, joint_names):
+    return (S.clip_rotations_for(clip, joint_names), clip.root_translation, clip.root_rotation, 1.0 / clip.fps)
+
+
+def _timing_clip(clip, frames=300):
+    """The clip looped (forwards then backwards) to at least `frames` poses, for timing only."""
+    from dataclasses import replace
+    idx = np.arange(frames) % (2 * clip.num_frames - 2 if clip.num_frames > 1 else 1)
+    idx = np.where(idx >= clip.num_frames, 2 * clip.num_frames - 2 - idx, idx)
+    return replace(clip, local_rotations=clip.local_rotations[idx], root_translation=clip.root_translation[idx],
+                   root_rotation=clip.root_rotation[idx])
+
+
+def describe_asset(weights):
+    meta = {}
+    try:
+        meta = json.loads(weights.get("metadata_json") or "{}")
+    except ValueError:
+        pass
+    lp = sorted(k for k in weights if k.startswith("lp.") and k.endswith(".weight"))
+    dec = sorted(k for k in weights if k.startswith("dec.") and k.endswith(".weight"))
+    return dict(vertices=int(len(weights["template"])), latent=int(len(weights["z_min"])),
+                blend=int(len(weights["blend_shapes"])),
+                lp_hidden=[int(weights[k].shape[0]) for k in lp[:-1]],
+                dec_hidden=[int(weights[k].shape[0]) for k in dec[:-1]],
+                model=meta.get("model") or ("lbs-only" if S.is_lbs_only(weights) else "network"),
+                preset=meta.get("preset"))
+
+
+def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, timing_frames=300, progress=True):
+    from pleat import runtime
+    from pleat.body import BodyModel
+    from pleat.eval.cli import evaluate
+    body = BodyModel.load()
+    clips = [S.load_motion(m, body, S.EVAL_FPS, None) for m in motions]
+    timing = _timing_clip(clips[0], timing_frames)
+    rows = []
+    with runtime.Context() as ctx:
+        for path in assets:
+            data, w = S.read_weights(path)
+            desc = describe_asset(w)
+            base = dict(name=Path(path).stem, asset=str(path), **desc)
+            variants = [("lbs" if S.is_lbs_only(w) else "asset", data)]
+            if not S.is_lbs_only(w):
+                variants.append(("lbs", S.lbs_only_bytes(w)))
+            for kind, blob in variants:
+                row = dict(base, kind=kind, garment=str(w.get("garment_name")))
+                if kind == "lbs":
+                    if any(r["kind"] == "lbs" and r["garment"] == row["garment"]
+                           and r["vertices"] == row["vertices"] for r in rows):
+                        continue
+                    row.update(name=f"LBS-only ({row['garment']}, N={desc['vertices']})", latent=1, blend=1,
+                               lp_hidden=[], dec_hidden=[], model="lbs-only")
+                row["step_us"] = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]))
+                if with_error:
+                    reps = [evaluate(blob, m, max_frames=max_frames, progress=progress, context=ctx)
+                            for m in motions]
+                    row["mean_mm"] = float(np.mean([r["pleat"]["mean_mm"] for r in reps]))
+                    row["p95_mm"] = float(np.mean([r["pleat"]["p95_mm"] for r in reps]))
+                    row["frames"] = int(sum(r["frames"] for r in reps))
+                rows.append(row)
+        if with_tiers:
+            for t in tiers_mod.TIERS:
+                from pleat.asset import write_asset
+                w = tiers_mod.random_tier_weights(t.name)
+                blob = write_asset(None, w)
+                us = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]))
+                rows.append(dict(tiers_mod.as_dict(t), name=f"tier {t.name}", kind="tier-random", step_us=us,
+                                 macs=t.macs(), model="random weights (untrained): speed only"))
+    return rows, [c.name for c in clips]
+
+
+def plot(rows, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7.5, 4.6))
+    scored = [r for r in rows if r.get("mean_mm") is not None]
+    front = set(pareto_front([(r["step_us"], r["mean_mm"]) for r in scored]))
+    for i, r in enumerate(scored):
+        marker = "s" if r["kind"] == "lbs" else "o"
+        ax.scatter(r["step_us"], r["mean_mm"], marker=marker, s=60, zorder=3,
+                   edgecolors="k" if i in front else "none", linewidths=1.5)
+        ax.annotate(r["name"], (r["step_us"], r["mean_mm"]), textcoords="offset points", xytext=(6, 4), fontsize=7)
+    if front:
+        pts = sorted((scored[i]["step_us"], scored[i]["mean_mm"]) for i in front)
+        ax.step([p[0] for p in pts], [p[1] for p in pts], where="post", color="k", lw=1, ls="--",
+                label="Pareto front (measured error)")
+    tier_rows = [r for r in rows if r["kind"] == "tier-random"]
+    for r in tier_rows:
+        ax.axvline(r["step_us"], color="tab:gray", lw=0.8, ls=":")
+        ax.annotate(f"{r['name']}\n(speed only)", (r["step_us"], 0.02), xycoords=("data", "axes fraction"),
+                    fontsize=7, rotation=90, va="bottom", ha="right", color="tab:gray")
+    ax.set_xscale("log")
+    ax.set_xlabel("median CPU step time per frame (µs, log)")
+    ax.set_ylabel("mean vertex error vs reference (mm)")
+    ax.set_title("Pleat: error vs time per frame")
+    if scored:
+        ax.set_ylim(0, 1.25 * max(r["mean_mm"] for r in scored))
+    ax.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def _fmt(v, digits=1):
+    return "—" if v is None else f"{v:.{digits}f}"
+
+
+def write_markdown(rows, clips, command, library, path, max_frames):
+    scored = [r for r in rows if r.get("mean_mm") is not None]
+    front = {id(scored[i]) for i in pareto_front([(r["step_us"], r["mean_mm"]) for r in scored])}
+    lines = [
+        "# Pareto chart: error against time per frame",
+        "",
+        "![error vs step time](pareto.png)",
+        "",
+        "Made by `python -m pleat.eval.pareto` (tools/pleat/eval/pareto.py). Step time: median of "
+        "`plInstance_Step` alone (timed around the C call through `pleat.runtime`, one thread, the first 30 steps "
+        f"of each pass dropped) over 3 passes of 300 poses; library `{library}`. Error: mean and 95th-percentile "
+        f"per-vertex distance to the reference simulation (`pleat.sim`, cached in out/cache/sim/) over the first "
+        f"{max_frames} frames of {', '.join(f'`{c}`' for c in clips)} at 30 fps, β = 0, the asset's default "
+        "material (pleat-eval's numbers, docs/accuracy.md).",
+        "",
+        "| row | kind | N | L | D | LP hidden | decoder hidden | step (µs) | mean error (mm) | p95 (mm) | front |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append("| {name} | {kind} | {N} | {L} | {D} | {lp} | {dec} | {us} | {mean} | {p95} | {front} |".format(
+            name=r["name"], kind=r["model"] if r["kind"] != "tier-random" else "random weights, untrained",
+            N=r["vertices"], L=r["latent"], D=r["blend"], lp="×".join(map(str, r["lp_hidden"])) or "—",
+            dec="×".join(map(str, r["dec_hidden"])) or "—", us=_fmt(r["step_us"]), mean=_fmt(r.get("mean_mm")),
+            p95=_fmt(r.get("p95_mm")), front="★" if id(r) in front else ""))
+    tiers = [r for r in rows if r["kind"] == "tier-random"]
+    if tiers:
+        ratio = max(r["step_us"] for r in tiers) / min(r["step_us"] for r in tiers)
+        lines += ["", f"The four tiers span **{ratio:.1f}×** in measured step time (random weights at the tier's "
+                  "sizes; `pleat.eval.tiers.TIERS`)."]
+    lines += ["", "## What is real and what is a placeholder", ""]
+    lines += ["- Step times are measured, for every row.",
+              "- Rows of kind `lbs-only` are the garment skinned by LBS with a zero network: a real baseline.",
+              "- Rows `tier …` have random weights: their speed is what a trained tier of that size costs, but they "
+              "have **no error**, because no tier has been trained yet (the trained default t-shirt does not exist "
+              "in this checkout). Train them with `pleat-train all --preset default --set KEY=JSON ...` using "
+              "`pleat.eval.tiers.training_overrides(name)`, pack, and pass the assets with `--assets` to put them "
+              "on the chart.",
+              "- Any asset whose model says `tiny` is a smoke-test network trained for minutes on a 300-vertex "
+              "garment: its error is not representative of the method."]
+    lines += ["", "## Remake", "", "```", command, "```", ""]
+    Path(path).write_text("\n".join(lines))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m pleat.eval.pareto", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--assets", nargs="*", default=[], help=".pleat assets (trained tiers, LBS-only, tiny)")
+    ap.add_argument("--motion", nargs="+", default=["deepmimic_pybullet/humanoid3d_punch"],
+                    help="validation clips (pleat.motion.split.VALIDATION)")
+    ap.add_argument("--out", default="docs", help="folder for pareto.png and pareto.md")
+    ap.add_argument("--max-frames", type=int, default=30, help="frames per clip scored against the reference")
+    ap.add_argument("--no-tiers", action="store_true", help="skip the random-weight tier timings")
+    ap.add_argument("--no-error", action="store_true", help="times only (no reference simulation)")
+    ap.add_argument("--json", default=None, help="also write the rows as JSON")
+    ap.add_argument("--no-progress", action="store_true")
+    args = ap.parse_args(argv)
+    from pleat import runtime
+    from pleat.motion.split import VALIDATION
+    for m in args.motion:
+        if m not in VALIDATION:
+            print(f"note: {m} is not a validation clip (pleat.motion.split.VALIDATION)", file=sys.stderr)
+    rows, clips = measure(args.assets, args.motion, args.max_frames, not args.no_tiers, not args.no_error,
+                          progress=not args.no_progress)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    plot(rows, out / "pareto.png")
+    lib = str(runtime.find_library())
+    env = f"PLEAT_LIBRARY={os.environ['PLEAT_LIBRARY']} " if os.environ.get("PLEAT_LIBRARY") else ""
+    command = env + "python -m pleat.eval.pareto " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
+    write_markdown(rows, clips, command, lib, out / "pareto.md", args.max_frames)
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+    for r in rows:
+        print(f"{r['name']:40s} {r['step_us']:9.1f} us  {_fmt(r.get('mean_mm'), 2):>7s} mm")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

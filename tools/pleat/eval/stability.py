@@ -1,0 +1,366 @@
+"""pleat-stability: where learned cloth fails — long runs, fast motion, unusual bodies, frame-time jitter,
+interpenetration (docs/stability.md).
+
+    pleat-stability --asset A.pleat [--quick] --out DIR [--motion CLIP ...] [--ref-window-s S]
+
+Every case runs the asset and its LBS-only twin (same garment, zero network) through the C runtime. What is measured:
+  deviation   mean per-vertex distance between Pleat and the LBS-only twin (mm) — the network's own displacement, which
+              the runtime can compute for any length of run. Drift shows up as this (and the latent norm) growing.
+  bound       pleat.eval.bounds.displacement_bound_m: the largest displacement the asset's decoder can ever produce
+              (interval arithmetic over the guarded latent box); every vertex must stay within it.
+  error       distance to the reference simulator (mm) — only in short windows, because the reference costs
+              seconds per frame here (a 10-minute reference would take days on this machine).
+  penetration share of garment vertices inside the posed body (%) and the deepest (mm), per frame.
+
+(a) long: 10 minutes at 30 fps (18,000 frames; --quick: 5,000) of chained clips (pleat.motion.concatenate, 0.25 s
+    blends). The chain is a loop of clips repeated, cut so that its last `window` frames replay its first `window`
+    frames' motion; drift ratio = deviation over the last window / deviation over the first (same motion, so any
+    difference is accumulated state), drift slope = least-squares slope of the per-second deviation (mm/min).
+(b) fast: each clip at 1×, 2× and 3× speed.
+(c) bodies: β = ±3 on each of the first components, and ±4 (the clamp range; beyond training's ±3).
+(d) dt jitter: dt drawn uniformly from [1/120, 1/15] s, the poses sampled at the jittered times.
+(e) interpenetration: per-frame penetration of Pleat, LBS and (in the reference windows) the reference.
+"""
+import argparse
+import json
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from pleat.eval import bounds
+from pleat.eval import metrics
+from pleat.eval import scene as S
+
+LONG_SECONDS = 600.0
+DRIFT_WINDOW = 500
+DEFAULT_CLIPS = ("deepmimic_pybullet/humanoid3d_walk", "deepmimic_pybullet/humanoid3d_run",
+                 "deepmimic_pybullet/humanoid3d_jump", "deepmimic_pybullet/humanoid3d_punch",
+                 "deepmimic_github/humanoid3d_jog", "deepmimic_pybullet/humanoid3d_kick")
+
+
+# ---- motions ------------------------------------------------------------------------------------------------------
+def chained_clip(clips, frames, window=DRIFT_WINDOW, blend_s=0.25):
+    """clips chained in a loop to `frames` frames, the loop cut so the last `window` frames replay the first
+    `window` frames' motion (the chain ends one loop-start + window into a repetition)."""
+    from pleat.motion import concatenate
+    loop = clips[0]
+    for c in clips[1:]:
+        loop = concatenate(loop, c, blend_s)
+    unit = loop
+    while loop.num_frames <= window + int(round(blend_s * loop.fps)) + 2:   # short clips: the loop is repeated
+        loop = concatenate(loop, unit, blend_s)
+    chain = loop
+    while chain.num_frames < frames - window:
+        chain = concatenate(chain, loop, blend_s)
+    # end: the start of one more repetition, long enough for the window (blend frames are shared)
+    head = _cut(loop, window + int(round(blend_s * loop.fps)) + 1)
+    chain = concatenate(chain, head, blend_s)
+    return replace(chain, name=f"chain[{len(clips)} clips]x{chain.num_frames}")
+
+
+def _cut(clip, n, start=0):
+    return replace(clip, local_rotations=clip.local_rotations[start:start + n],
+                   root_translation=clip.root_translation[start:start + n],
+                   root_rotation=clip.root_rotation[start:start + n])
+
+
+def jittered_motion(clip, seed=0, dt_range=(1 / 120, 1 / 15)):
+    """Poses of `clip` at times advanced by dt ~ U(dt_range); returns (rotations, root_translation, root_rotation,
+    dt [T]); the first dt is the first step's (the runtime's first-frame rule)."""
+    rng = np.random.default_rng(seed)
+    dts = rng.uniform(*dt_range, size=int(clip.duration / np.mean(dt_range)) + 2)
+    times = np.concatenate([[0.0], np.cumsum(dts)])
+    keep = times <= clip.duration
+    times, dts = times[keep], np.concatenate([[dts[0]], dts])[keep]
+    rot, tr, rr = clip.sample(times)
+    return rot, tr, rr, dts
+
+
+# ---- runs ---------------------------------------------------------------------------------------------------------
+def deviation_mm(pleat_positions, lbs_positions):
+    return np.linalg.norm(np.asarray(pleat_positions, np.float64) - lbs_positions, axis=-1) * 1000.0
+
+
+def paired_run(ctx, data, lbs_data, weights, rotations, root_translation, root_rotation, dt_s, beta=None,
+               material=None):
+    """Pleat and LBS-only through the runtime on the same motion; per-frame deviation and guard statistics."""
+    p = S.rollout(ctx, data, rotations, root_translation, root_rotation, dt_s, beta, material)
+    q = S.rollout(ctx, lbs_data, rotations, root_translation, root_rotation, dt_s, beta, material)
+    dev = deviation_mm(p.positions, q.positions)                    # [T, N]
+    bound_mm = bounds.displacement_bound_m(weights) * 1000.0
+    return dict(pleat=p, lbs=q, deviation_mm=dev.mean(1), deviation_max_mm=float(dev.max()),
+                bound_excess_mm=float((dev - bound_mm[None]).max()), finite=bool(np.isfinite(p.positions).all()),
+                resets=p.resets, latent_in_range=bool(
+                    np.all(p.latent_min >= np.asarray(weights["z_min"], np.float32) - 1e-6)
+                    and np.all(p.latent_max <= np.asarray(weights["z_max"], np.float32) + 1e-6)))
+
+
+def drift(deviation_per_frame, fps, window=DRIFT_WINDOW):
+    d = np.asarray(deviation_per_frame, np.float64)
+    first, last = d[:window].mean(), d[-window:].mean()
+    per_s = d[: len(d) // int(fps) * int(fps)].reshape(-1, int(fps)).mean(1)
+    slope = np.polyfit(np.arange(len(per_s)) / 60.0, per_s, 1)[0] if len(per_s) > 1 else 0.0
+    return dict(first_window_mm=float(first), last_window_mm=float(last),
+                ratio=float(last / first) if first > 0 else (1.0 if last == 0 else float("inf")),
+                slope_mm_per_min=float(slope))
+
+
+def _summary(run):
+    return dict(deviation_mean_mm=float(np.mean(run["deviation_mm"])), deviation_max_mm=run["deviation_max_mm"],
+                bound_excess_mm=run["bound_excess_mm"], finite=run["finite"], numeric_resets=run["resets"],
+                latent_in_range=run["latent_in_range"], latent_norm_max=float(run["pleat"].latent_norm.max()))
+
+
+def _penetration(body, clip, beta, positions, frames):
+    bv, _ = S.posed_body(body, _select(clip, frames), beta)
+    return metrics.penetration(S.signed_distances(bv, body.faces, positions[frames]))
+
+
+def _select(clip, frames):
+    return replace(clip, local_rotations=clip.local_rotations[frames], root_translation=clip.root_translation[frames],
+                   root_rotation=clip.root_rotation[frames])
+
+
+def _motion(clip, weights):
+    return S.clip_rotations_for(clip, weights["joint_names"]), clip.root_translation, clip.root_rotation
+
+
+def _reference_window(body, weights, clip, start, frames, beta, material, progress):
+    """Error of Pleat and LBS against the reference on clip[start:start+frames], all three started fresh there
+    (the runtime restarted at the window's first pose too, so this checks accuracy, not carried state)."""
+    from pleat.eval.reference import cached_simulate
+    from pleat import runtime
+    sub = _cut(clip, frames, start)
+    garment = S.garment_from_asset(weights)
+    ref, info = cached_simulate(garment, body, sub, beta, material, frames, progress=progress)
+    return ref, sub, info
+
+
+# ---- the suite ----------------------------------------------------------------------------------------------------
+def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_window_s=None, progress=True,
+              log=print):
+    from pleat import runtime
+    from pleat.body import BodyModel
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data, weights = S.read_weights(asset_path)
+    lbs_data = S.lbs_only_bytes(weights)
+    body = BodyModel.load()
+    matches_body = S.skeleton_mismatch_mm(weights, body) < 1.0
+    clips = [S.load_motion(m, body) for m in motions]
+    fps = S.EVAL_FPS
+    B = len(weights["shape_blend"])
+    beta0 = np.zeros(B)
+    material = np.asarray(weights["material_default"], np.float64)
+    ref_window_s = (1.0 if quick else 10.0) if ref_window_s is None else ref_window_s
+    ref_frames = int(round(ref_window_s * fps))
+    report = dict(asset=str(asset_path), garment=str(weights.get("garment_name")),
+                  model="lbs-only" if S.is_lbs_only(weights) else "network", quick=quick,
+                  vertices=int(len(weights["template"])), clips=[c.name for c in clips],
+                  displacement_bound_max_mm=float(bounds.displacement_bound_m(weights).max() * 1000.0),
+                  reference_window_frames=ref_frames if matches_body else 0)
+    series = {}
+    t_start = time.perf_counter()
+    with runtime.Context() as ctx:
+        # (a) long run
+        frames = 5000 if quick else int(LONG_SECONDS * fps)
+        chain = chained_clip(clips, frames)
+        run = paired_run(ctx, data, lbs_data, weights, *_motion(chain, weights), 1.0 / fps, beta0, material)
+        long = dict(frames=chain.num_frames, seconds=chain.num_frames / fps, **_summary(run),
+                    drift=drift(run["deviation_mm"], fps))
+        series["long"] = dict(deviation_mm=run["deviation_mm"], latent_norm=run["pleat"].latent_norm)
+        # (e) penetration along the long run, every 10th frame of the first and last minute (quick: 20 s)
+        if matches_body:
+            span = int((20 if quick else 60) * fps)
+            idx = np.concatenate([np.arange(0, span, 10), np.arange(chain.num_frames - span, chain.num_frames, 10)])
+            pen = {k: _penetration(body, chain, beta0, run[k].positions, idx) for k in ("pleat", "lbs")}
+            series["penetration"] = dict(frames=idx, **{k: np.asarray(v["per_frame_pct"]) for k, v in pen.items()})
+            long["penetration"] = {k: dict(penetration_pct=v["penetration_pct"], max_depth_mm=v["max_depth_mm"])
+                                   for k, v in pen.items()}
+        # reference windows: the first and last `ref_frames` of the chain
+        if matches_body and ref_frames > 1:
+            windows = {}
+            for name, start in (("first", 0), ("last", chain.num_frames - ref_frames)):
+                ref, sub, info = _reference_window(body, weights, chain, start, ref_frames, beta0, material,
+                                                   progress)
+                fresh = paired_run(ctx, data, lbs_data, weights, *_motion(sub, weights), 1.0 / fps, beta0,
+                                   material)
+                carried = {k: run[k].positions[start:start + ref_frames] for k in ("pleat", "lbs")}
+                ref_pen = _penetration(body, sub, beta0, ref, np.arange(ref_frames))
+                windows[name] = dict(
+                    start_frame=int(start), frames=ref_frames,
+                    pleat_error_mm=float(metrics.vertex_error_mm(carried["pleat"], ref).mean()),
+                    pleat_fresh_error_mm=float(metrics.vertex_error_mm(fresh["pleat"].positions, ref).mean()),
+                    lbs_error_mm=float(metrics.vertex_error_mm(carried["lbs"], ref).mean()),
+                    reference_penetration_pct=ref_pen["penetration_pct"],
+                    reference_max_depth_mm=ref_pen["max_depth_mm"],
+                    reference_seconds_per_frame=info["summary"].get("seconds_per_frame"))
+            long["reference_windows"] = windows
+        report["long"] = long
+        log(f"(a) long run: {long['frames']} frames, drift ratio {long['drift']['ratio']:.3f}")
+
+        # (b) fast motion
+        fast = {}
+        series["fast"] = {}
+        for c in clips[: (2 if quick else len(clips))]:
+            for f in (1.0, 2.0, 3.0):
+                cc = c.time_scaled(f) if f != 1.0 else c
+                r = paired_run(ctx, data, lbs_data, weights, *_motion(cc, weights), 1.0 / fps, beta0, material)
+                fast[cc.name] = dict(speed=f, frames=cc.num_frames, **_summary(r))
+                series["fast"][cc.name] = r["deviation_mm"]
+        report["fast"] = fast
+        log(f"(b) fast motion: {len(fast)} runs")
+
+        # (c) unusual bodies
+        bodies = {}
+        c = clips[0]
+        comps = range(2 if quick else min(B, 4))
+        cases = [(k, v) for k in comps for v in (-3.0, 3.0, -4.0, 4.0)]
+        pen_idx = np.arange(0, c.num_frames, max(1, c.num_frames // 15))
+        for k, v in cases:
+            beta = beta0.copy()
+            beta[k] = v
+            r = paired_run(ctx, data, lbs_data, weights, *_motion(c, weights), 1.0 / fps, beta, material)
+            entry = dict(component=k, value=v, **_summary(r))
+            if matches_body:
+                for m in ("pleat", "lbs"):
+                    p = _penetration(body, c, beta, r[m].positions, pen_idx)
+                    entry[f"{m}_penetration_pct"] = p["penetration_pct"]
+                    entry[f"{m}_max_depth_mm"] = p["max_depth_mm"]
+            bodies[f"beta{k}={v:+g}"] = entry
+        report["bodies"] = bodies
+        log(f"(c) unusual bodies: {len(bodies)} runs")
+
+        # (d) dt jitter
+        jit = {}
+        series["dt"] = {}
+        for c in clips[: (2 if quick else 3)]:
+            rot, tr, rr, dts = jittered_motion(c, seed=1)
+            r = paired_run(ctx, data, lbs_data, weights, S.clip_rotations_for(
+                replace(c, local_rotations=rot, root_translation=tr, root_rotation=rr),
+                weights["joint_names"]), tr, rr, dts, beta0, material)
+            clamped = int(sum(x == 1 for x in r["pleat"].results))
+            jit[c.name] = dict(frames=len(dts), dt_min_s=float(dts.min()), dt_max_s=float(dts.max()),
+                               clamped_steps=clamped, **_summary(r))
+            series["dt"][c.name] = dict(dt=dts, deviation_mm=r["deviation_mm"])
+        report["dt_jitter"] = jit
+        log(f"(d) dt jitter: {len(jit)} runs")
+    report["wall_s"] = time.perf_counter() - t_start
+    report["plots"] = [str(p) for p in plot_suite(report, series, out_dir)]
+    (out_dir / "stability.json").write_text(json.dumps(report, indent=1))
+    return report
+
+
+def plot_suite(report, series, out_dir):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    tag = f"{report['garment']} ({report['model']})"
+    paths = []
+    fps = S.EVAL_FPS
+    fig, ax = plt.subplots(2, 1, figsize=(7, 4.5), sharex=True)
+    t = np.arange(len(series["long"]["deviation_mm"])) / fps / 60.0
+    ax[0].plot(t, series["long"]["deviation_mm"], lw=0.5)
+    ax[0].set_ylabel("Pleat − LBS (mm)")
+    ax[1].plot(t, series["long"]["latent_norm"], lw=0.5, color="tab:orange")
+    ax[1].set_ylabel("‖latent‖")
+    ax[1].set_xlabel("time (min)")
+    d = report["long"]["drift"]
+    ax[0].set_title(f"(a) long run, {tag}: drift ratio {d['ratio']:.3f}, slope {d['slope_mm_per_min']:.4f} mm/min",
+                    fontsize=9)
+    fig.tight_layout()
+    paths.append(out_dir / "stability_long.png")
+    fig.savefig(paths[-1], dpi=80)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 3.2))
+    for name, dev in series["fast"].items():
+        ax.plot(np.arange(len(dev)) / fps, dev, lw=0.8, label=name)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("Pleat − LBS (mm)")
+    ax.set_title(f"(b) fast motion, {tag}", fontsize=9)
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    paths.append(out_dir / "stability_fast.png")
+    fig.savefig(paths[-1], dpi=80)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 3.2))
+    names = list(report["bodies"])
+    x = np.arange(len(names))
+    if "pleat_penetration_pct" in next(iter(report["bodies"].values())):
+        ax.bar(x - 0.2, [report["bodies"][n]["pleat_penetration_pct"] for n in names], 0.4, label="Pleat")
+        ax.bar(x + 0.2, [report["bodies"][n]["lbs_penetration_pct"] for n in names], 0.4, label="LBS-only")
+        ax.set_ylabel("vertices inside body (%)")
+    else:
+        ax.bar(x, [report["bodies"][n]["deviation_max_mm"] for n in names], 0.6, label="Pleat − LBS max")
+        ax.set_ylabel("max deviation (mm)")
+    ax.set_xticks(x, names, rotation=60, fontsize=6)
+    ax.set_title(f"(c) unusual bodies, {tag}", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    paths.append(out_dir / "stability_bodies.png")
+    fig.savefig(paths[-1], dpi=80)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(2, 1, figsize=(7, 4), sharex=True)
+    for name, s in series["dt"].items():
+        tt = np.cumsum(s["dt"])
+        ax[0].plot(tt, s["dt"] * 1000, lw=0.5, label=name)
+        ax[1].plot(tt, s["deviation_mm"], lw=0.8)
+    ax[0].set_ylabel("dt (ms)")
+    ax[1].set_ylabel("Pleat − LBS (mm)")
+    ax[1].set_xlabel("time (s)")
+    ax[0].set_title(f"(d) frame-time jitter, {tag}", fontsize=9)
+    ax[0].legend(fontsize=6)
+    fig.tight_layout()
+    paths.append(out_dir / "stability_dt.png")
+    fig.savefig(paths[-1], dpi=80)
+    plt.close(fig)
+
+    if "penetration" not in series:
+        return paths
+    fig, ax = plt.subplots(figsize=(7, 3))
+    p = series["penetration"]
+    half = len(p["frames"]) // 2
+    for k in ("pleat", "lbs"):
+        ax.plot(np.arange(len(p["frames"])), p[k], ".-", lw=0.6, ms=2, label=k)
+    ax.axvline(half - 0.5, color="k", lw=0.5)
+    ax.set_xlabel("sampled frame (every 10th; left: start of the long run, right: its end)")
+    ax.set_ylabel("inside body (%)")
+    ax.set_title(f"(e) interpenetration along the long run, {tag}", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    paths.append(out_dir / "stability_penetration.png")
+    fig.savefig(paths[-1], dpi=80)
+    plt.close(fig)
+    return paths
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="pleat-stability", description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap.add_argument("--asset", required=True)
+    ap.add_argument("--out", required=True, help="folder for stability.json and the stability_*.png plots")
+    ap.add_argument("--quick", action="store_true", help="5,000-frame long run, fewer cases, 1 s reference windows")
+    ap.add_argument("--motion", nargs="+", default=list(DEFAULT_CLIPS))
+    ap.add_argument("--ref-window-s", type=float, default=None,
+                    help="reference window length at the start and end of the long run (0: none)")
+    ap.add_argument("--no-progress", action="store_true")
+    args = ap.parse_args(argv)
+    report = run_suite(args.asset, args.out, args.quick, args.motion, args.ref_window_s, not args.no_progress,
+                       log=lambda m: print(m, file=sys.stderr))
+    short = dict(drift=report["long"]["drift"], long_finite=report["long"]["finite"],
+                 worst_bound_excess_mm=max([report["long"]["bound_excess_mm"]] +
+                                           [v["bound_excess_mm"] for part in ("fast", "bodies", "dt_jitter")
+                                            for v in report[part].values()]),
+                 wall_s=round(report["wall_s"], 1))
+    print(json.dumps(short))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

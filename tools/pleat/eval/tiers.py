@@ -1,0 +1,70 @@
+"""The four quality tiers of a garment model, as data (docs/pareto.md).
+
+Each tier fixes what sets the runtime's step cost: mesh resolution N, latent size L, blend-shape count D and the two
+MLPs' hidden widths. `large` is the paper's configuration (4,424-vertex t-shirt, L = D = 128, LP 3×512, decoder
+2×512); the smaller tiers cut the mesh (a coarser remesh of the same garment), L, D and widths so that the four span
+more than 10× in step time. Training presets can take their sizes from here: `training_overrides(name)` gives the
+`--set` overrides for pleat-train's config (`garment_vertices`, `model.latent`, ...).
+"""
+from dataclasses import asdict, dataclass
+
+
+@dataclass(frozen=True)
+class Tier:
+    name: str
+    vertices: int            # garment mesh resolution N (the t-shirt's remesh target)
+    latent: int              # L
+    blend: int               # D
+    lp_hidden: tuple         # latent-predictor hidden widths
+    dec_hidden: tuple        # decoder hidden widths
+    activation: str = "relu"
+
+    def macs(self, input_joints=19, betas=10, influences=4):
+        """Multiply-accumulates per step: MLPs + blend shapes (D·3N) + skinning (12·K·N); a cost model only."""
+        from pleat.garment_asset import input_count_without_latent
+        I = self.latent + input_count_without_latent(input_joints, betas)
+        lp = [I, *self.lp_hidden, self.latent]
+        dec = [self.latent, *self.dec_hidden, self.blend]
+        mlp = sum(a * b for a, b in zip(lp[:-1], lp[1:])) + sum(a * b for a, b in zip(dec[:-1], dec[1:]))
+        return mlp + self.blend * 3 * self.vertices + 12 * influences * self.vertices
+
+
+TIERS = (
+    Tier("xsmall", vertices=1000, latent=32, blend=16, lp_hidden=(128, 128), dec_hidden=(64,)),
+    Tier("small", vertices=2000, latent=64, blend=32, lp_hidden=(256, 256), dec_hidden=(128,)),
+    Tier("medium", vertices=4424, latent=64, blend=64, lp_hidden=(256, 256, 256), dec_hidden=(256, 256)),
+    Tier("large", vertices=4424, latent=128, blend=128, lp_hidden=(512, 512, 512), dec_hidden=(512, 512)),
+)
+BY_NAME = {t.name: t for t in TIERS}
+
+
+def tier(name):
+    try:
+        return BY_NAME[name]
+    except KeyError:
+        raise ValueError(f"unknown tier {name!r}; known: {', '.join(BY_NAME)}") from None
+
+
+def training_overrides(name):
+    """pleat-train `--set KEY=JSON` overrides that give a run this tier's sizes."""
+    t = tier(name)
+    return {"garment_vertices": t.vertices, "model.latent": t.latent, "model.blend": t.blend,
+            "model.lp_hidden": list(t.lp_hidden), "model.dec_hidden": list(t.dec_hidden),
+            "model.activation": t.activation}
+
+
+def random_tier_weights(name, seed=0):
+    """A weights dict with this tier's sizes and random, well-behaved weights (pleat.reference.golden.random_weights):
+    what the step costs, before any training."""
+    from pleat.reference.golden import random_weights
+    t = tier(name)
+    w = random_weights(vertices=t.vertices, latent=t.latent, blend=t.blend, lp_hidden=t.lp_hidden,
+                       dec_hidden=t.dec_hidden, seed=seed, activation=t.activation,
+                       garment_name=f"tier-{t.name}-random")
+    return w
+
+
+def as_dict(t):
+    d = asdict(t)
+    d["lp_hidden"], d["dec_hidden"] = list(t.lp_hidden), list(t.dec_hidden)
+    return d
