@@ -36,28 +36,35 @@ from pleat.eval import scene as S
 
 LONG_SECONDS = 600.0
 DRIFT_WINDOW = 500
+BLEND_S = 0.25
 DEFAULT_CLIPS = ("deepmimic_pybullet/humanoid3d_walk", "deepmimic_pybullet/humanoid3d_run",
                  "deepmimic_pybullet/humanoid3d_jump", "deepmimic_pybullet/humanoid3d_punch",
                  "deepmimic_github/humanoid3d_jog", "deepmimic_pybullet/humanoid3d_kick")
 
 
 # ---- motions ------------------------------------------------------------------------------------------------------
-def chained_clip(clips, frames, window=DRIFT_WINDOW, blend_s=0.25):
-    """clips chained in a loop to `frames` frames, the loop cut so the last `window` frames replay the first
-    `window` frames' motion (the chain ends one loop-start + window into a repetition)."""
+def replay_offset(fps, blend_s=BLEND_S):
+    """First frame of the drift's first window: the frames before it have no blended twin at the chain's end."""
+    return max(1, int(round(blend_s * fps)))
+
+
+def chained_clip(clips, frames, window=DRIFT_WINDOW, blend_s=BLEND_S):
+    """clips chained in a loop to at least `frames` frames, cut so that its last `window` frames replay frames
+    [replay_offset, replay_offset + window) of the chain (same local rotations; the root path differs, which the
+    network never sees since X_c is expressed in the heading frame)."""
     from pleat.motion import concatenate
     loop = clips[0]
     for c in clips[1:]:
         loop = concatenate(loop, c, blend_s)
+    n = replay_offset(loop.fps, blend_s)
     unit = loop
-    while loop.num_frames <= window + int(round(blend_s * loop.fps)) + 2:   # short clips: the loop is repeated
+    while loop.num_frames <= window + 2 * n + 2:            # short clips: the loop is repeated
         loop = concatenate(loop, unit, blend_s)
     chain = loop
     while chain.num_frames < frames - window:
         chain = concatenate(chain, loop, blend_s)
-    # end: the start of one more repetition, long enough for the window (blend frames are shared)
-    head = _cut(loop, window + int(round(blend_s * loop.fps)) + 1)
-    chain = concatenate(chain, head, blend_s)
+    # concatenate(a, b) ends with b[n:], so a head of window + n frames ends the chain with loop[n : n + window]
+    chain = concatenate(chain, _cut(loop, window + n), blend_s)
     return replace(chain, name=f"chain[{len(clips)} clips]x{chain.num_frames}")
 
 
@@ -98,14 +105,17 @@ def paired_run(ctx, data, lbs_data, weights, rotations, root_translation, root_r
                     and np.all(p.latent_max <= np.asarray(weights["z_max"], np.float32) + 1e-6)))
 
 
-def drift(deviation_per_frame, fps, window=DRIFT_WINDOW):
+def drift(deviation_per_frame, fps, window=DRIFT_WINDOW, first_start=None):
+    """Drift of the deviation over a chained_clip run: the last `window` frames against the frames they replay
+    (starting at replay_offset), and the least-squares slope of the per-second mean (mm per minute)."""
     d = np.asarray(deviation_per_frame, np.float64)
-    first, last = d[:window].mean(), d[-window:].mean()
+    s = replay_offset(fps) if first_start is None else first_start
+    first, last = d[s:s + window].mean(), d[-window:].mean()
     per_s = d[: len(d) // int(fps) * int(fps)].reshape(-1, int(fps)).mean(1)
     slope = np.polyfit(np.arange(len(per_s)) / 60.0, per_s, 1)[0] if len(per_s) > 1 else 0.0
     return dict(first_window_mm=float(first), last_window_mm=float(last),
                 ratio=float(last / first) if first > 0 else (1.0 if last == 0 else float("inf")),
-                slope_mm_per_min=float(slope))
+                slope_mm_per_min=float(slope), window=window, first_start=int(s))
 
 
 def _summary(run):

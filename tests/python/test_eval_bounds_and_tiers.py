@@ -1,0 +1,66 @@
+"""The displacement bound (interval arithmetic through the decoder), the Pareto front and the tier table."""
+import json
+
+import numpy as np
+import pytest
+
+from pleat import REPO_ROOT
+from pleat.eval import bounds, pareto, tiers
+from pleat.reference.golden import random_weights
+from pleat.reference.mlp import mlp
+
+
+@pytest.mark.parametrize("activation", ["relu", "silu"])
+def test_interval_contains_every_sampled_decoder_output(activation):
+    w = random_weights(vertices=60, latent=8, blend=6, lp_hidden=(16,), dec_hidden=(24, 24), seed=4,
+                       activation=activation)
+    lo, hi = bounds.blend_weight_interval(w)
+    rng = np.random.default_rng(0)
+    zmin, zmax = np.asarray(w["z_min"]), np.asarray(w["z_max"])
+    z = zmin + rng.uniform(0, 1, (4000, len(zmin))) * (zmax - zmin)
+    z[:8] = np.where(rng.uniform(size=(8, len(zmin))) < 0.5, zmin, zmax)        # corners of the box too
+    layers = bounds.decoder_layers(w)
+    out = mlp(z, [a for a, _ in layers], [b for _, b in layers], activation)
+    assert np.all(out >= lo - 1e-9) and np.all(out <= hi + 1e-9)
+    # and the interval is not vacuous: sampled outputs reach a fair part of it
+    assert np.all(hi - lo < 1e3)
+
+
+def test_displacement_bound_holds_for_sampled_latents():
+    w = random_weights(vertices=80, latent=6, blend=5, lp_hidden=(16,), dec_hidden=(12,), seed=2)
+    bound = bounds.displacement_bound_m(w)
+    layers = bounds.decoder_layers(w)
+    rng = np.random.default_rng(1)
+    z = w["z_min"] + rng.uniform(0, 1, (500, 6)) * (w["z_max"] - w["z_min"])
+    bw = mlp(z, [a for a, _ in layers], [b for _, b in layers], "relu")
+    disp = np.linalg.norm(np.einsum("sd,dnc->snc", bw, w["blend_shapes"]), axis=-1)
+    assert np.all(disp <= bound[None] + 1e-12)
+
+
+def test_zero_network_has_zero_bound():
+    from pleat.eval.scene import lbs_only_weights
+    w = lbs_only_weights(random_weights(vertices=40, latent=4, blend=4, lp_hidden=(8,), dec_hidden=(8,)))
+    assert np.all(bounds.displacement_bound_m(w) == 0.0)
+
+
+def test_pareto_front_keeps_only_undominated_points():
+    pts = [(10, 5.0), (20, 3.0), (15, 6.0), (40, 3.0), (50, 1.0), (5, 9.0)]
+    assert sorted(pareto.pareto_front(pts)) == [0, 1, 4, 5]
+
+
+def test_tiers_span_ten_times_in_step_cost_and_grow_monotonically():
+    macs = [t.macs() for t in tiers.TIERS]
+    assert len(tiers.TIERS) == 4
+    assert macs == sorted(macs)
+    assert macs[-1] / macs[0] >= 10.0
+
+
+def test_large_tier_is_the_papers_configuration_and_overrides_name_real_config_keys():
+    large = tiers.tier("large")
+    assert (large.latent, large.blend, large.lp_hidden, large.dec_hidden) == (128, 128, (512,) * 3, (512, 512))
+    cfg = json.loads((REPO_ROOT / "configs" / "default.json").read_text())
+    for key in tiers.training_overrides("small"):
+        node = cfg
+        for part in key.split("."):
+            assert part in node, f"{key} is not a key of configs/default.json"
+            node = node[part]
