@@ -153,10 +153,16 @@ class ClothSolver:
             # re-test against the body points nearest to where the vertices ended (normal force from there too)
             c.update(self._contacts(x, x_t, body_t, body_next))
         if body_next is not None:
-            _, _, n, d = body_next.query(x)
-            inside = (d < 0.0) & ~self.pinned
-            stats.penetration_before_projection_m = float(max(0.0, -d[inside].min())) if inside.any() else 0.0
-            x[inside] -= d[inside, None] * n[inside]
+            # project onto the tangent plane of the nearest body vertex; repeat, since a projected vertex can get a
+            # new nearest vertex (concave regions: armpits, crotch)
+            for k in range(5):
+                _, _, n, d = body_next.query(x)
+                inside = (d < 0.0) & ~self.pinned
+                if k == 0:
+                    stats.penetration_before_projection_m = float(-d[inside].min()) if inside.any() else 0.0
+                if not inside.any():
+                    break
+                x[inside] -= d[inside, None] * n[inside]
         return x, stats
 
     def _newton(self, x, c, stats):
