@@ -13,7 +13,8 @@
 //   pleat_mlp_fp16_us, pleat_blend_us, pleat_blend_fp16_us  the MLPs on fp16 weights and the blend-shape
 //                  accumulation alone (fp32 / fp16 BLND), to split a step into its memory-bound parts
 //   pleat_step_us  plInstance_Step on the fp32 asset, the asset's motion looped (reset at each wrap)
-//   pleat_step_fp16_us, scalar_step_us (a context with force_scalar), ort_step_us (instance with the ORT backend)
+//   pleat_step_fp16_us, scalar_step_us (a context with force_scalar), ort_step_us (instance with the ORT backend),
+//   pleat_step_2workers_us (fp32, the context given a two-worker task system: this thread + one helper thread)
 #define _POSIX_C_SOURCE 200809L
 #include "pleat/pleat.h"
 
@@ -23,6 +24,9 @@
 #include "ort_backend.h"
 
 #include <math.h>
+#include <pthread.h>
+#include <sched.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -343,6 +347,76 @@ static double TimeBlendOnly( const plAssetData* asset, uint32_t warmup, uint32_t
 	return median;
 }
 
+// ---- a two-worker task system (the host's side of plContextDef.enqueue_task/finish_task) ----
+// One persistent helper thread takes the upper half of each task's range while the calling thread runs the lower
+// half. The helper spins briefly (a step posts ~10 short tasks back to back), then yields. One task in flight at a
+// time, which is how the SDK uses it (enqueue, then finish at once); a second concurrent enqueue runs inline.
+
+typedef struct TwoWorkers
+{
+	pthread_t thread;
+	atomic_uint posted;   // generation of the last task handed to the helper
+	atomic_uint finished; // generation the helper has completed
+	atomic_int quit;
+	plTaskFn* task;
+	void* task_context;
+	uint32_t begin, end;
+} TwoWorkers;
+
+static void* TwoWorkersMain( void* arg )
+{
+	TwoWorkers* pool = (TwoWorkers*)arg;
+	unsigned seen = 0;
+	for ( ;; )
+	{
+		unsigned spins = 0;
+		unsigned now;
+		while ( ( now = atomic_load_explicit( &pool->posted, memory_order_acquire ) ) == seen )
+		{
+			if ( atomic_load_explicit( &pool->quit, memory_order_relaxed ) )
+				return NULL;
+			if ( ++spins > 200000 )
+				sched_yield();
+		}
+		seen = now;
+		pool->task( pool->begin, pool->end, 1, pool->task_context );
+		atomic_store_explicit( &pool->finished, seen, memory_order_release );
+	}
+}
+
+static void* TwoWorkersEnqueue( plTaskFn* task, uint32_t item_count, uint32_t min_range, void* task_context,
+								void* user_context )
+{
+	TwoWorkers* pool = (TwoWorkers*)user_context;
+	int busy = atomic_load( &pool->finished ) != atomic_load( &pool->posted );
+	if ( busy || item_count < 2 * min_range )
+	{
+		task( 0, item_count, 0, task_context );
+		return NULL;
+	}
+	uint32_t half = item_count / 2;
+	pool->task = task;
+	pool->task_context = task_context;
+	pool->begin = half;
+	pool->end = item_count;
+	atomic_fetch_add_explicit( &pool->posted, 1u, memory_order_release );
+	task( 0, half, 0, task_context );
+	return pool;
+}
+
+static void TwoWorkersFinish( void* user_task, void* user_context )
+{
+	(void)user_context;
+	TwoWorkers* pool = (TwoWorkers*)user_task;
+	unsigned target = atomic_load_explicit( &pool->posted, memory_order_relaxed );
+	unsigned spins = 0;
+	while ( atomic_load_explicit( &pool->finished, memory_order_acquire ) != target )
+	{
+		if ( ++spins > 200000 )
+			sched_yield();
+	}
+}
+
 // ---- full step through the public API ----
 
 typedef struct StepConfig
@@ -352,6 +426,7 @@ typedef struct StepConfig
 	int force_scalar;
 	plMlpBackend backend;
 	const char* ort_library;
+	TwoWorkers* workers; // NULL = serial
 } StepConfig;
 
 static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint32_t warmup, uint32_t iterations,
@@ -359,6 +434,13 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 {
 	plContextDef cdef = plDefaultContextDef();
 	cdef.force_scalar = config->force_scalar;
+	if ( config->workers != NULL )
+	{
+		cdef.enqueue_task = TwoWorkersEnqueue;
+		cdef.finish_task = TwoWorkersFinish;
+		cdef.task_context = config->workers;
+		cdef.worker_count = 2;
+	}
 	plContext context;
 	plResult result = plCreateContext( &cdef, &context );
 	if ( result != PLEAT_RESULT_OK )
@@ -513,7 +595,7 @@ int main( int argc, char** argv )
 
 	if ( step_only ) // for profilers: nothing but fp32 plInstance_Step
 	{
-		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL };
+		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL };
 		double only_us = NAN;
 		result = TimeSteps( &only, &motion, warmup, iterations, &only_us, NULL );
 		printf( "{ \"pleat_step_us\": %.2f }\n", only_us );
@@ -531,13 +613,28 @@ int main( int argc, char** argv )
 
 	double blend_us = TimeBlendOnly( &asset, warmup, iterations );
 	double blend_fp16_us = NAN;
-	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library };
+	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library, NULL };
 	double step_us = NAN, step_fp16_us = NAN, scalar_us = NAN, ort_step_us = NAN, mlp_fp16_us = NAN;
 	int avx2 = 0;
 	result = TimeSteps( &config, &motion, warmup, iterations, &step_us, &avx2 );
 	if ( result != PLEAT_RESULT_OK )
 	{
 		return Fail( "step (fp32)", result );
+	}
+	double step_2w_us = NAN;
+	{
+		TwoWorkers pool;
+		memset( &pool, 0, sizeof( pool ) );
+		if ( pthread_create( &pool.thread, NULL, TwoWorkersMain, &pool ) == 0 )
+		{
+			config.workers = &pool;
+			result = TimeSteps( &config, &motion, warmup, iterations, &step_2w_us, NULL );
+			if ( result != PLEAT_RESULT_OK )
+				fprintf( stderr, "2-worker step: %s\n", plResultString( result ) );
+			config.workers = NULL;
+			atomic_store( &pool.quit, 1 );
+			pthread_join( pool.thread, NULL );
+		}
 	}
 	config.force_scalar = 1;
 	if ( scalar_iterations > 0 )
@@ -602,6 +699,7 @@ int main( int argc, char** argv )
 	PrintJsonNumber( out, "pleat_blend_fp16_us", blend_fp16_us, 0 );
 	PrintJsonNumber( out, "pleat_step_us", step_us, 0 );
 	PrintJsonNumber( out, "pleat_step_fp16_us", step_fp16_us, 0 );
+	PrintJsonNumber( out, "pleat_step_2workers_us", step_2w_us, 0 );
 	PrintJsonNumber( out, "ort_step_us", ort_step_us, 0 );
 	fprintf( out, "  \"scalar_iterations\": %u,\n", scalar_iterations );
 	PrintJsonNumber( out, "scalar_step_us", scalar_us, 1 );
