@@ -21,7 +21,7 @@ import numpy as np
 # (the paper: minimal impact on the garment).
 EXCLUDED_INPUT_JOINTS = ("pelvis", "left_wrist", "right_wrist", "left_hand", "right_hand")
 
-# Material (m kg per vertex, μ Pa, λ Pa, bending k): the paper's training ranges (section 4.1). The default is HOOD's
+# Material (m areal density kg/m², μ N/m, λ N/m, bending k J): the paper's training ranges (section 4.1). The default is HOOD's
 # default cotton-like material, which lies inside those ranges.
 MATERIAL_MIN = (4.34e-2, 15909.0, 3535.41, 6.37e-8)
 MATERIAL_MAX = (7.0e-1, 63636.0, 93333.73, 1.31e-3)

@@ -359,7 +359,7 @@ typedef struct plAssetInfo
 	float dt_max_s;             ///< dt is clamped down to this (seconds)
 	float beta_min;             ///< β lower clamp (unitless shape coefficient)
 	float beta_max;             ///< β upper clamp (unitless)
-	float material_min[4];      ///< (mass kg, μ Pa, λ Pa, bending k) lower clamp
+	float material_min[4];      ///< (areal density m kg/m², μ N/m, λ N/m, bending k J) lower clamp
 	float material_max[4];      ///< upper clamp, same units
 	float material_default[4];  ///< default material, same units
 	float train_fps;            ///< frame rate of the training data (frames per second, information)
@@ -415,7 +415,7 @@ typedef struct plInstanceDef
 	uint32_t engine_joint_count;       ///< joints per plFrameInput (count); 0 = the asset's joint count
 	const float* beta;                 ///< [beta_count] initial body shape β (unitless), NULL = zeros
 	uint32_t beta_count;               ///< entries in beta, <= the asset's B; missing entries are 0 (count)
-	const float* material;             ///< [4] initial (mass kg, μ Pa, λ Pa, bending k), NULL = asset default
+	const float* material;             ///< [4] initial (areal density m kg/m², μ N/m, λ N/m, bending k J), NULL = asset default
 	plMlpBackend mlp_backend;          ///< PLEAT_MLP_BACKEND_PLEAT (default) or _ONNXRUNTIME
 	const char* onnxruntime_library;   ///< path of libonnxruntime (NULL = search, see ort_backend)
 	plGpuMode gpu_mode;                ///< PLEAT_GPU_NONE (default), _HOST_CONTEXT or _HEADLESS
@@ -482,7 +482,7 @@ PLEAT_API plResult plInstance_Reset( plInstance instance );
 /// Set the body shape β ([beta_count] unitless, missing entries 0); recomputes the shaped template and J(β) once.
 /// Values outside [beta_min, beta_max] are clamped (PLEAT_RESULT_CLAMPED).
 PLEAT_API plResult plInstance_SetShape( plInstance instance, const float* beta, uint32_t beta_count );
-/// Set the material (mass kg, μ Pa, λ Pa, bending k); values outside the asset's ranges are clamped (CLAMPED).
+/// Set the material (areal density m kg/m², μ N/m, λ N/m, bending k J); values outside the asset's ranges are clamped (CLAMPED).
 PLEAT_API plResult plInstance_SetMaterial( plInstance instance, const float material[4] );
 /// The last step's positions [N][3] (metres), owned by the instance, valid until the next step or destroy.
 PLEAT_API plResult plInstance_GetPositions( plInstance instance, const float** out_positions, uint32_t* out_count );
