@@ -178,6 +178,11 @@ def friction_energy(x, x_t, body_displacement, contact_normal, normal_force, mu_
 # ---------------------------------------------------------------------------------------------------------------
 # Gradients and Hessian blocks (numpy, for Newton)
 
+def _scatter_add(n, index, values):
+    """Σ of `values` rows [M, 3] into [n, 3] at `index` [M] (bincount per component: ~10× np.add.at)."""
+    return np.stack([np.bincount(index, weights=values[:, k], minlength=n) for k in range(3)], axis=1)
+
+
 def _project_psd(h):
     w, v = np.linalg.eigh(h)
     return np.einsum("...ij,...j,...kj->...ik", v, np.maximum(w, 0.0), v)
@@ -237,9 +242,9 @@ def bending_grad_hess(x, rest, k):
     theta = np.arctan2(dot(np.cross(n1, n2), e) / elen, dot(n1, n2))
     c = k * rest.hinge_weight
     gh = (c * (theta - rest.hinge_angle))[:, None] * J
-    grad = np.zeros_like(x)
-    np.add.at(grad, h.ravel(), gh.reshape(-1, 3))
-    H = c[:, None, None] * np.einsum("hi,hj->hij", J, J)
+    grad = _scatter_add(len(x), h.ravel(), gh.reshape(-1, 3))
+    cJ = c[:, None] * J
+    H = cJ[:, :, None] * J[:, None, :]
     return grad, H
 
 
@@ -266,3 +271,59 @@ def friction_grad_hess(x, x_t, body_displacement, contact_normal, normal_force, 
     slide = T - np.einsum("ni,nj->nij", uhat, uhat)        # Hessian of y in the sliding regime, times y
     H = (c * scale)[:, None, None] * np.where(inside[:, None, None], T, slide)
     return grad, H
+
+
+def stretching_grad_hess_gn(x, rest, mu, lam):
+    """StVK gradient [N,3] (the same as `stretching_grad_hess`) and cheaper PSD Hessian blocks [F,9,9].
+
+    The exact Hessian is Jᵀ C J + (stress term) with J = ∂E/∂x, C = ∂²ψ/∂E² (PSD for μ > 0, λ ≥ 0) and the stress
+    term A (B S Bᵀ) ⊗ I₃ (S = 2μE + λ tr(E) I, the second Piola-Kirchhoff stress). Clamping the 2×2 S to its
+    non-negative eigenvalues (closed form) makes the sum PSD without a 6×6 eigen-decomposition per face; in tension
+    (S PSD) it is the exact Hessian.
+    """
+    f0, f1 = _deformation_columns(x, rest)
+    n_f = len(rest.faces)
+    mu = np.broadcast_to(np.asarray(mu, np.float64), (n_f,))
+    lam = np.broadcast_to(np.asarray(lam, np.float64), (n_f,))
+    A = rest.face_area
+    e00 = 0.5 * (dot(f0, f0) - 1.0)
+    e11 = 0.5 * (dot(f1, f1) - 1.0)
+    e01 = 0.5 * dot(f0, f1)
+    tr = e00 + e11
+    s00 = 2.0 * mu * e00 + lam * tr
+    s11 = 2.0 * mu * e11 + lam * tr
+    s01 = 2.0 * mu * e01
+    B = np.empty((n_f, 3, 2))                                # dF = Σ_i x_i ⊗ B_i
+    B[:, 1] = rest.dm_inv[:, 0, :]
+    B[:, 2] = rest.dm_inv[:, 1, :]
+    B[:, 0] = -(B[:, 1] + B[:, 2])
+    p0 = f0 * s00[:, None] + f1 * s01[:, None]               # columns of P = F S
+    p1 = f0 * s01[:, None] + f1 * s11[:, None]
+    gface = A[:, None, None] * (B[:, :, 0, None] * p0[:, None, :] + B[:, :, 1, None] * p1[:, None, :])
+    grad = _scatter_add(len(x), rest.faces.ravel(), gface.reshape(-1, 3))
+    # J_p = ∂E_p/∂x for E_p ∈ (e00, e11, e01), each [F, 3 vertices × 3]
+    j0 = B[:, :, 0, None] * f0[:, None, :]
+    j1 = B[:, :, 1, None] * f1[:, None, :]
+    j2 = 0.5 * (B[:, :, 0, None] * f1[:, None, :] + B[:, :, 1, None] * f0[:, None, :])
+    J = np.stack([j0.reshape(n_f, 9), j1.reshape(n_f, 9), j2.reshape(n_f, 9)], axis=1)     # [F, 3, 9]
+    C = np.zeros((n_f, 3, 3))                                # ∂²ψ/∂E_p∂E_q times the rest area
+    C[:, 0, 0] = C[:, 1, 1] = A * (2.0 * mu + lam)
+    C[:, 0, 1] = C[:, 1, 0] = A * lam
+    C[:, 2, 2] = A * 4.0 * mu
+    H = np.matmul(J.transpose(0, 2, 1), np.matmul(C, J))
+    # S = w_hi P + w_lo (I − P), P the projector on the top eigenvector; clamp both eigenvalues at 0
+    mean = 0.5 * (s00 + s11)
+    rad = np.sqrt(0.25 * (s00 - s11) ** 2 + s01 * s01)
+    safe = np.where(rad > 0, rad, 1.0)
+    c2 = np.where(rad > 0, 0.5 * (s00 - s11) / safe, 1.0)   # cos 2φ
+    s2 = np.where(rad > 0, s01 / safe, 0.0)                  # sin 2φ
+    hi, lo = np.maximum(mean + rad, 0.0), np.maximum(mean - rad, 0.0)
+    S_psd = np.empty((n_f, 2, 2))
+    S_psd[:, 0, 0] = lo + (hi - lo) * 0.5 * (1.0 + c2)
+    S_psd[:, 1, 1] = lo + (hi - lo) * 0.5 * (1.0 - c2)
+    S_psd[:, 0, 1] = S_psd[:, 1, 0] = (hi - lo) * 0.5 * s2
+    K = A[:, None, None] * np.matmul(np.matmul(B, S_psd), B.transpose(0, 2, 1))   # [F, 3, 3] vertex × vertex
+    H = H.reshape(n_f, 3, 3, 3, 3)
+    for a in range(3):
+        H[:, :, a, :, a] += K
+    return grad, H.reshape(n_f, 9, 9)
