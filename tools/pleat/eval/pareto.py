@@ -132,7 +132,8 @@ def plot(rows, path):
     ax.set_title("Pleat: error vs time per frame")
     if scored:
         ax.set_ylim(0, 1.25 * max(r["mean_mm"] for r in scored))
-    ax.legend(fontsize=7, loc="upper right")
+    if front:
+        ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
