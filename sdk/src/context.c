@@ -328,15 +328,20 @@ uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* objec
 	{
 		return UINT32_MAX;
 	}
-	plSlot* slots = (plSlot*)plAllocZeroed( &ctx->allocator, new_capacity * sizeof( plSlot ), 16 );
+	// The table is the context's own bookkeeping, like the context block: allocated through the host hooks but not
+	// counted in live_bytes, so plContext_GetLiveBytes is exactly 0 whenever no asset or instance is alive. It is
+	// never shrunk, because the slot generations must outlive the objects (stale handles stay stale).
+	size_t bytes = (size_t)new_capacity * sizeof( plSlot );
+	plSlot* slots = (plSlot*)ctx->host_alloc( bytes, 16, ctx->host_allocator_context );
 	if ( slots == NULL )
 	{
 		return UINT32_MAX;
 	}
+	memset( slots, 0, bytes );
 	if ( table->slots != NULL )
 	{
 		memcpy( slots, table->slots, table->capacity * sizeof( plSlot ) );
-		plFree( &ctx->allocator, table->slots, table->capacity * sizeof( plSlot ) );
+		ctx->host_free( table->slots, table->capacity * sizeof( plSlot ), ctx->host_allocator_context );
 	}
 	for ( uint32_t i = table->capacity; i < new_capacity; ++i )
 	{
@@ -378,7 +383,10 @@ void plSlotTable_Remove( plSlotTable* table, uint32_t index1 )
 
 void plSlotTable_Free( plContextData* ctx, plSlotTable* table )
 {
-	plFree( &ctx->allocator, table->slots, table->capacity * sizeof( plSlot ) );
+	if ( table->slots != NULL )
+	{
+		ctx->host_free( table->slots, table->capacity * sizeof( plSlot ), ctx->host_allocator_context );
+	}
 	table->slots = NULL;
 	table->capacity = 0;
 	table->live_count = 0;

@@ -60,7 +60,8 @@
 // MEMORY
 // ==================================================================================================================
 // Every allocation goes through the context's allocator hooks (alloc/free, both or neither; default: the C runtime).
-// The context counts live bytes (plContext_GetLiveBytes) so leak tests can check that everything comes back.
+// The context counts the live bytes of its assets and instances (plContext_GetLiveBytes): 0 whenever none is alive,
+// so leak tests can check that everything comes back (the host's own counter reaches 0 after plDestroyContext).
 // An asset is one 64-byte aligned block: with PLEAT_ASSET_FLAG_USE_IN_PLACE and a 64-byte aligned caller buffer the
 // caller's memory is used directly (it must outlive the asset), otherwise the data is copied. An instance allocates
 // everything when it is created; plInstance_Step allocates nothing.
@@ -315,8 +316,11 @@ PLEAT_API plResult plCreateContext( const plContextDef* def, plContext* out_cont
 PLEAT_API plResult plDestroyContext( plContext context );
 /// Non-zero if the handle names a live context.
 PLEAT_API int plContext_IsValid( plContext context );
-/// Bytes currently allocated through the context's allocator by this context (not counting the context's own
-/// block); 0 after every asset and instance was destroyed.
+/// Bytes currently allocated through the context's allocator for assets and instances (copied asset blocks, instance
+/// buffers, GPU and ONNX Runtime backend objects). The context's own bookkeeping — its block and its handle tables,
+/// which grow with the most objects ever alive at once and are freed with the context — goes through the same
+/// allocator hooks but is not counted: the value is exactly 0 right after plCreateContext and again whenever no asset
+/// or instance is alive, so a leak test compares it with 0.
 PLEAT_API plResult plContext_GetLiveBytes( plContext context, uint64_t* out_bytes );
 /// Non-zero in *out_avx2 if the context uses the AVX2 + FMA + F16C kernels, zero for scalar.
 PLEAT_API plResult plContext_UsesAvx2( plContext context, int* out_avx2 );
