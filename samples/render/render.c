@@ -266,9 +266,9 @@ int main( int argc, char** argv )
 	plAssetInfo info;
 	plAsset_GetInfo( asset, &info );
 	uint32_t garment_face_count = 0;
-	uint32_t* garment_faces = renderAsset_ReadFaces( o.asset_path, &garment_face_count );
-	if ( garment_faces == NULL || garment_face_count != info.face_count )
-		return 1;
+	const uint32_t* garment_faces = NULL; // the asset's own FACE section, valid while the asset lives
+	if ( ( r = plAsset_GetFaces( asset, &garment_faces, &garment_face_count ) ) != PLEAT_RESULT_OK )
+		return fail( "plAsset_GetFaces", r );
 
 	// Joint maps by name: clip joints → asset joints (for the SDK), body joints → asset joints (for body skinning).
 	int32_t joint_map[PLEAT_MAX_JOINTS], body_to_asset[RENDER_MAX_JOINTS];
@@ -479,7 +479,6 @@ int main( int argc, char** argv )
 	renderImage_Free( &frame_image );
 	free( body_positions );
 	free( body_normals );
-	free( garment_faces );
 	plDestroyInstance( instance ); // before the GL objects it writes into
 	renderMesh_Destroy( garment_mesh );
 	renderMesh_Destroy( body_mesh );

@@ -46,9 +46,4 @@ void renderBody_Free( RenderBody* body );
 int renderMotion_Load( RenderMotion* motion, const char* path );
 void renderMotion_Free( RenderMotion* motion );
 
-
-
-// The FACE section ([F][3] u32) of a .pleat file (docs/asset-format.md): the SDK does not hand out the garment's
-// triangles, and a renderer needs them. Returns a malloc'd array (caller frees) or NULL after printing why.
-uint32_t* renderAsset_ReadFaces( const char* path, uint32_t* out_face_count );
 #endif

@@ -917,6 +917,42 @@ plResult plAsset_GetJointName( plAsset handle, uint32_t joint_index, const char*
 	return PLEAT_RESULT_OK;
 }
 
+plResult plAsset_GetFaces( plAsset handle, const uint32_t** out_faces, uint32_t* out_face_count )
+{
+	if ( out_faces == NULL || out_face_count == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	*out_faces = NULL;
+	*out_face_count = 0;
+	const plAssetData* a = plGetAssetData( handle );
+	if ( a == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	*out_faces = a->faces;
+	*out_face_count = a->face_count;
+	return PLEAT_RESULT_OK;
+}
+
+plResult plAsset_GetTemplatePositions( plAsset handle, const float** out_positions, uint32_t* out_vertex_count )
+{
+	if ( out_positions == NULL || out_vertex_count == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	*out_positions = NULL;
+	*out_vertex_count = 0;
+	const plAssetData* a = plGetAssetData( handle );
+	if ( a == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	*out_positions = a->template_positions;
+	*out_vertex_count = a->vertex_count;
+	return PLEAT_RESULT_OK;
+}
+
 plResult plAsset_FindJoint( plAsset handle, const char* name, int32_t* out_joint_index )
 {
 	if ( name == NULL || out_joint_index == NULL )

@@ -159,6 +159,64 @@ static void test_find_joint_and_info( void** state )
 	plTestAsset_Destroy( model );
 }
 
+// The garment's triangles and template come back exactly as the asset was written (the builder's own arrays), from
+// the asset's block in place; bad arguments and stale handles are rejected with zeroed outputs.
+static void test_faces_and_template_come_from_the_asset( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	const uint32_t* faces = NULL;
+	uint32_t face_count = 0;
+	assert_int_equal( plAsset_GetFaces( rig.asset, &faces, &face_count ), PLEAT_RESULT_OK );
+	assert_int_equal( face_count, model->F );
+	assert_memory_equal( faces, model->faces, (size_t)model->F * 3 * sizeof( uint32_t ) );
+	const float* rest = NULL;
+	uint32_t vertex_count = 0;
+	assert_int_equal( plAsset_GetTemplatePositions( rig.asset, &rest, &vertex_count ), PLEAT_RESULT_OK );
+	assert_int_equal( vertex_count, model->N );
+	assert_memory_equal( rest, model->template_positions, (size_t)model->N * 3 * sizeof( float ) );
+	// Before its first step a β = 0 instance's positions are the template.
+	plInstance inst;
+	assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
+	const float* positions = NULL;
+	assert_int_equal( plInstance_GetPositions( inst, &positions, NULL ), PLEAT_RESULT_OK );
+	assert_memory_equal( positions, model->template_positions, (size_t)model->N * 3 * sizeof( float ) );
+	assert_int_equal( plDestroyInstance( inst ), PLEAT_RESULT_OK );
+
+	// Loaded in place: the pointers are inside the caller's buffer.
+	plAssetDef adef = plDefaultAssetDef();
+	adef.data = rig.bytes;
+	adef.size = rig.size;
+	adef.flags = PLEAT_ASSET_FLAG_USE_IN_PLACE;
+	plAsset in_place;
+	assert_int_equal( plLoadAsset( rig.context, &adef, &in_place ), PLEAT_RESULT_OK );
+	assert_int_equal( plAsset_GetFaces( in_place, &faces, &face_count ), PLEAT_RESULT_OK );
+	assert_ptr_equal( (const uint8_t*)faces, rig.bytes + plTestAsset_SectionOffset( rig.bytes, "FACE" ) );
+	assert_int_equal( plAsset_GetTemplatePositions( in_place, &rest, &vertex_count ), PLEAT_RESULT_OK );
+	assert_ptr_equal( (const uint8_t*)rest, rig.bytes + plTestAsset_SectionOffset( rig.bytes, "TMPL" ) );
+	assert_int_equal( plDestroyAsset( in_place ), PLEAT_RESULT_OK );
+
+	// Bad arguments, stale and null handles.
+	assert_int_equal( plAsset_GetFaces( rig.asset, NULL, &face_count ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plAsset_GetFaces( rig.asset, &faces, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plAsset_GetTemplatePositions( rig.asset, NULL, &vertex_count ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plAsset_GetTemplatePositions( rig.asset, &rest, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	plAsset null_asset = { 0, 0, 0 };
+	assert_int_equal( plAsset_GetFaces( null_asset, &faces, &face_count ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_null( faces );
+	assert_int_equal( face_count, 0 );
+	assert_int_equal( plAsset_GetFaces( in_place, &faces, &face_count ), PLEAT_RESULT_INVALID_HANDLE ); // destroyed
+	assert_null( faces );
+	assert_int_equal( plAsset_GetTemplatePositions( in_place, &rest, &vertex_count ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_null( rest );
+	assert_int_equal( vertex_count, 0 );
+	plTestRig_Free( &rig );
+	plTestAsset_Destroy( model );
+}
+
 // An engine skeleton in a different order (reversed, plus two joints the asset does not have) through the joint map
 // gives exactly the output of the asset-order instance.
 static void test_joint_map_reorders_engine_joints( void** state )
@@ -292,6 +350,7 @@ int main( void )
 		cmocka_unit_test( test_defs_not_from_default_are_rejected ),
 		cmocka_unit_test( test_null_and_stale_handles_are_rejected ),
 		cmocka_unit_test( test_find_joint_and_info ),
+		cmocka_unit_test( test_faces_and_template_come_from_the_asset ),
 		cmocka_unit_test( test_joint_map_reorders_engine_joints ),
 		cmocka_unit_test( test_log_callback_receives_stable_items ),
 		cmocka_unit_test( test_unavailable_backends_are_reported ),

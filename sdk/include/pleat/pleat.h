@@ -387,6 +387,16 @@ PLEAT_API int plAsset_IsValid( plAsset asset );
 PLEAT_API plResult plAsset_GetInfo( plAsset asset, plAssetInfo* out_info );
 /// Name of asset joint joint_index (NUL-terminated, valid while the asset lives).
 PLEAT_API plResult plAsset_GetJointName( plAsset asset, uint32_t joint_index, const char** out_name );
+/// The garment's triangles, [face_count][3] vertex indices (each < vertex_count), counter-clockwise seen from outside:
+/// what an engine needs for its index buffer (the vertices are the N positions/normals plInstance_Step writes).
+/// Points into the asset's block (read in place; valid while the asset lives). out_faces and out_face_count are
+/// required; both are zeroed on failure.
+PLEAT_API plResult plAsset_GetFaces( plAsset asset, const uint32_t** out_faces, uint32_t* out_face_count );
+/// The garment template T, [vertex_count][3] in rest space (metres): the mean body's undeformed garment, without the
+/// shape term G_S(β) or any pose (for bounds, UV baking or a static fallback mesh; an instance's own rest shape
+/// T + G_S(β) is what plInstance_GetPositions returns before its first step). Points into the asset's block (valid
+/// while the asset lives). Both out parameters are required and zeroed on failure.
+PLEAT_API plResult plAsset_GetTemplatePositions( plAsset asset, const float** out_positions, uint32_t* out_vertex_count );
 /// Index of the asset joint called name (exact match), PLEAT_RESULT_NOT_FOUND if none.
 PLEAT_API plResult plAsset_FindJoint( plAsset asset, const char* name, int32_t* out_joint_index );
 
@@ -488,7 +498,8 @@ PLEAT_API plResult plInstance_Reset( plInstance instance );
 PLEAT_API plResult plInstance_SetShape( plInstance instance, const float* beta, uint32_t beta_count );
 /// Set the material (areal density m kg/m², μ N/m, λ N/m, bending k J); values outside the asset's ranges are clamped (CLAMPED).
 PLEAT_API plResult plInstance_SetMaterial( plInstance instance, const float material[4] );
-/// The last step's positions [N][3] (metres), owned by the instance, valid until the next step or destroy.
+/// The last step's positions [N][3] (metres), owned by the instance, valid until the next step or destroy. Before the
+/// first step: the shaped rest template T + G_S(β) (no pose, no learned deformation).
 PLEAT_API plResult plInstance_GetPositions( plInstance instance, const float** out_positions, uint32_t* out_count );
 /// The last step's normals [N][3] (unit), owned by the instance, valid until the next step or destroy.
 PLEAT_API plResult plInstance_GetNormals( plInstance instance, const float** out_normals, uint32_t* out_count );
