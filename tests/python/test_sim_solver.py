@@ -25,8 +25,9 @@ def test_free_fall_matches_half_g_t_squared_and_error_shrinks_with_dt():
     for dt in (1 / 30, 1 / 60, 1 / 120):
         drop, x, v = _fall(dt, duration)
         errors.append(abs(drop - exact))
-        # a falling sheet does not deform
-        assert np.allclose(x[:, [0, 2]], v[:, [0, 2]], atol=1e-9)
+        # a falling sheet does not deform (to within the solver's tolerance: a residual force of at most
+        # force_tol·m·g moves a vertex at most force_tol·g·dt² ≈ 1e-5 m per step against inertia alone)
+        assert np.allclose(x[:, [0, 2]], v[:, [0, 2]], atol=1e-6)
     assert errors[0] < 0.1 * exact                          # implicit Euler: O(dt) error, 6 % at dt = 1/30
     assert errors[1] < 0.6 * errors[0] and errors[2] < 0.6 * errors[1]
 
@@ -49,7 +50,7 @@ def test_hanging_sheet_reaches_static_equilibrium_with_monotone_energy():
     v, f = grid_sheet(7, 7, 0.3, 0.3, height_m=1.0)
     pins = np.where(np.isclose(v[:, 2], v[:, 2].min()))[0]
     # a large time step: each step is close to a static solve, so equilibrium comes in a few steps
-    settings = SolverSettings(dt_s=0.5, max_newton=60, step_tol_m=1e-9)
+    settings = SolverSettings(dt_s=0.5, max_newton=60)
     solver = ClothSolver(cloth_rest(v, f), Material(), pinned=pins, settings=settings)
     x, x_prev = v.copy(), v.copy()
     for _ in range(30):

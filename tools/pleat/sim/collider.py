@@ -12,9 +12,9 @@ def vertex_normals(vertices, faces):
     v = np.asarray(vertices, np.float64)
     f = np.asarray(faces, np.int64)
     fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    n = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(n, f[:, k], fn)
+    idx = f.ravel()
+    rep = np.repeat(fn, 3, axis=0)
+    n = np.stack([np.bincount(idx, weights=rep[:, k], minlength=len(v)) for k in range(3)], axis=1)
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
 
 
@@ -27,12 +27,21 @@ class BodyCollider:
         self.normals = vertex_normals(self.vertices, self.faces)
         self.tree = cKDTree(self.vertices)
 
+    @classmethod
+    def lerp(cls, a, b, s):
+        """The body a fraction s of the way from collider a to collider b (vertices interpolated linearly)."""
+        return cls((1.0 - s) * a.vertices + s * b.vertices, a.faces)
+
     def query(self, x):
         _, idx = self.tree.query(np.asarray(x, np.float64))
         p = self.vertices[idx]
         n = self.normals[idx]
         d = np.einsum("ij,ij->i", x - p, n)
         return idx, p, n, d
+
+    def distance_to(self, x, idx):
+        """Signed distance of x to the tangent planes of the given body vertices (one per point)."""
+        return np.einsum("ij,ij->i", x - self.vertices[idx], self.normals[idx])
 
     def signed_distance(self, x):
         return self.query(x)[3]

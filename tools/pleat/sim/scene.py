@@ -1,6 +1,7 @@
 """A garment on a body playing a clip: what pleat-sim simulates and pleat-show draws."""
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -87,35 +88,49 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
     out = np.empty((n_frames, len(x), 3), np.float32)
     out[0] = x
     x_prev = x.copy()
-    iterations, grad_norms, penetration, not_converged = [], [], [], 0
+    per_frame = dict(substeps=[], newton_iterations=[], cg_iterations=[], gradient_ratio=[], converged=[],
+                     penetration_before_projection_mm=[], penetration_after_projection_mm=[], seconds=[])
     iterator = range(1, n_frames)
     if progress:
         from tqdm import tqdm
         iterator = tqdm(iterator, desc=f"pleat-sim {garment.name}", unit="frame")
     t0 = time.perf_counter()
     for t in iterator:
+        t_frame = time.perf_counter()
         colliders.append(BodyCollider(body_v[t], body.faces))
-        x_new, stats = solver.step(x, x_prev, pin_targets=pins[t], body_t=colliders[t - 1], body_next=colliders[t])
+        x_new, stats = solver.step(x, x_prev, pin_targets=pins[t], body_t=colliders[t - 1], body_next=colliders[t],
+                                   pins_t=pins[t - 1])
         colliders[t - 1] = None
-        x_prev, x = x, x_new
+        x = x_new
+        x_prev = x - settings.dt_s * stats.velocity      # the next step's x_{t−1}: carries the last substep's velocity
         out[t] = x
-        iterations.append(stats.newton_iterations)
-        grad_norms.append(stats.gradient_norm)
-        penetration.append(stats.penetration_before_projection_m)
-        not_converged += int(not stats.converged)
+        per_frame["seconds"].append(round(time.perf_counter() - t_frame, 4))
+        per_frame["substeps"].append(stats.substeps)
+        per_frame["newton_iterations"].append(stats.newton_iterations)
+        per_frame["cg_iterations"].append(stats.cg_iterations)
+        per_frame["gradient_ratio"].append(float(stats.worst_gradient_ratio))
+        per_frame["converged"].append(bool(stats.converged))
+        per_frame["penetration_before_projection_mm"].append(1000.0 * stats.penetration_before_projection_m)
+        per_frame["penetration_after_projection_mm"].append(1000.0 * stats.penetration_after_projection_m)
+        if progress:
+            iterator.set_postfix(K=stats.substeps, newton=stats.newton_iterations,
+                                 pen_mm=round(1000.0 * stats.penetration_before_projection_m, 2))
     elapsed = time.perf_counter() - t0
-    final_pen = 0.0
-    if n_frames > 1:
-        _, _, _, d = BodyCollider(body_v[n_frames - 1], body.faces).query(x)
-        final_pen = float(max(0.0, -d[~solver.pinned].min()))
+    pen_before = per_frame["penetration_before_projection_mm"]
+    pen_after = per_frame["penetration_after_projection_mm"]
     summary = dict(frames=int(n_frames), garment=garment.name, vertices=int(len(x)), dt_s=settings.dt_s,
                    seconds_per_frame=elapsed / max(1, n_frames - 1),
-                   max_penetration_mm=1000.0 * max(penetration + [final_pen]),
-                   max_penetration_after_projection_mm=1000.0 * final_pen,
-                   final_gradient_norm=float(grad_norms[-1]) if grad_norms else 0.0,
+                   max_penetration_mm=max(pen_after, default=0.0),
+                   max_penetration_before_projection_mm=max(pen_before, default=0.0),
+                   penetration_tolerance_mm=1000.0 * settings.penetration_tol_m,
+                   final_gradient_norm=float(stats.gradient_norm) if n_frames > 1 else 0.0,
                    gradient_tolerance=float(settings.force_tol * solver.weight_scale),
-                   mean_newton_iterations=float(np.mean(iterations)) if iterations else 0.0,
-                   steps_not_converged=int(not_converged),
+                   worst_gradient_ratio=max(per_frame["gradient_ratio"], default=0.0),
+                   mean_substeps=float(np.mean(per_frame["substeps"])) if n_frames > 1 else 0.0,
+                   mean_newton_iterations_per_substep=(float(np.sum(per_frame["newton_iterations"])
+                                                             / max(1, np.sum(per_frame["substeps"])))),
+                   steps_not_converged=int(sum(not c for c in per_frame["converged"])),
                    material=dict(zip(("m", "mu", "lambda", "k"), material.as_tuple())),
-                   beta=[] if beta is None else [float(b) for b in np.atleast_1d(beta)])
+                   beta=[] if beta is None else [float(b) for b in np.atleast_1d(beta)],
+                   settings=asdict(settings), per_frame=per_frame)
     return out, (body_v.astype(np.float32) if keep_body else None), summary
