@@ -22,6 +22,10 @@ def main(argv=None):
     p.add_argument("--fp16", action="store_true")
     p.add_argument("--onnx", action="store_true")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--max-minutes", type=float, default=None,
+                   help="wall-clock budget per training stage: stops cleanly, checkpoints and records it; the "
+                        "rollout and loss-weight schedules follow the budget when it ends the run first")
+    p.add_argument("--threads", type=int, default=None, help="torch CPU threads (default 1: faster than 2 on the shared 2-core machine)")
     args = p.parse_args(argv)
     try:
         import torch  # noqa: F401
@@ -38,15 +42,17 @@ def main(argv=None):
         overrides["seed"] = args.seed
     cfg = core.load_config(args.preset, args.config, overrides)
     progress = not args.no_progress
+    core.set_threads(args.threads)
     t0 = time.time()
     if args.command in ("stage1", "all"):
-        _, _, val = core.train_stage1(cfg, args.garment, args.out, args.resume, args.device, progress)
+        _, _, val = core.train_stage1(cfg, args.garment, args.out, args.resume, args.device, progress,
+                                        args.max_minutes)
         print(f"stage1 done: validation {val}")
     if args.command in ("stage2", "all"):
-        _, val = core.train_stage2(cfg, args.out, args.resume, args.device, progress)
+        _, val = core.train_stage2(cfg, args.out, args.resume, args.device, progress, args.max_minutes)
         print(f"stage2 done: validation {val}")
     if args.command == "ablation":
-        core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress)
+        core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)
         print("ablation done")
     if args.command in ("pack", "all"):
         rank = 0

@@ -48,9 +48,18 @@ def lerp(a, b, s):
     return a + (b - a) * min(max(s, 0.0), 1.0)
 
 
-def loss_weights(cfg1, it):
-    n = cfg1["iterations"]
-    s = it / max(n - 1, 1)
+def run_fraction(cfg1, it, elapsed_s=None, budget_s=None):
+    """How far through the run iteration `it` is, in [0, 1]: by iteration count, or by wall clock when a time
+    budget (--max-minutes) would end the run first, so that a budget-stopped run still goes through the whole
+    rollout and collision-weight schedule."""
+    s = it / max(cfg1["iterations"] - 1, 1)
+    if budget_s and elapsed_s is not None:
+        s = max(s, elapsed_s / budget_s)
+    return min(max(s, 0.0), 1.0)
+
+
+def loss_weights(cfg1, it, s=None):
+    s = run_fraction(cfg1, it) if s is None else s
     c0, c1 = cfg1["collision_ramp"]
     w_c = cfg1["w_collision"][0] + (cfg1["w_collision"][1] - cfg1["w_collision"][0]) * \
         min(max((s - c0) / max(c1 - c0, 1e-9), 0.0), 1.0)
@@ -59,9 +68,33 @@ def loss_weights(cfg1, it):
             "friction": cfg1["w_friction"], "collision": w_c}
 
 
-def rollout_steps(cfg1, it):
-    every = max(1, int(round(cfg1["rollout_every"] * cfg1["iterations"])))
-    return min(cfg1["rollout_max"], 1 + it // every)
+def rollout_steps(cfg1, it, s=None):
+    """1 step at first, one more every `rollout_every` of the run (the paper: every 5,000 of 120,000), at most
+    `rollout_max`."""
+    s = run_fraction(cfg1, it) if s is None else s
+    return int(min(cfg1["rollout_max"], 1 + math.floor(s / cfg1["rollout_every"] + 1e-9)))
+
+
+def set_threads(threads=None):
+    """Torch intra-op threads; default 1. The graphs here are small (hundreds to a few thousand vertices, widths
+    32-64), so extra threads mostly synchronise: on the shared 2-core machine (load ≈ 5) one tiny stage-1
+    iteration took 0.48 s with 1 thread and 1.98 s with 2 (docs/training.md). Give more with --threads on an
+    idle many-core machine."""
+    torch.set_num_threads(max(1, int(threads or 1)))
+
+
+class Budget:
+    """Wall-clock budget of one stage (--max-minutes), counted across resumes."""
+
+    def __init__(self, minutes, elapsed_s=0.0):
+        self.budget_s = None if not minutes else 60.0 * float(minutes)
+        self.t0 = time.time() - float(elapsed_s or 0.0)
+
+    def elapsed(self):
+        return time.time() - self.t0
+
+    def spent(self):
+        return self.budget_s is not None and self.elapsed() >= self.budget_s
 
 
 # ---- distributed ---------------------------------------------------------------------------------------------------
@@ -117,17 +150,38 @@ class Setup:
         self.asset_stub["z_mean"] = np.zeros(self.L, np.float32)
         self.material_min = np.array(ga.MATERIAL_MIN)
         self.material_max = np.array(ga.MATERIAL_MAX)
-        # body surface used for proximity edges, collision and friction
+        # Body surface for proximity edges, collision and friction: the body vertices within `body_subset_m` of the
+        # garment template (posing all 13.7k body vertices per frame was most of an iteration's cost), plus every
+        # face touching one of them so that their normals are the full mesh's. Body parts that are far from the
+        # garment at rest (hands, head, legs) are left out: a hand pressed against the shirt is not collided.
         vc = getattr(self.body, "collision_vertex_count", None) or len(self.body.v_template)
-        self.body_v = np.asarray(self.body.v_template[:vc], np.float64)
-        self.body_dirs = np.asarray(self.body.shapedirs[:vc], np.float64)
-        self.body_w = np.asarray(self.body.weights[:vc], np.float64)
         bf = np.asarray(getattr(self.body, "faces", np.zeros((0, 3))), np.int64)
-        self.body_faces = bf if len(bf) and bf.max() < vc else None
-        if self.body_faces is not None:
+        bf = bf if len(bf) and bf.max() < vc else None
+        body_v = np.asarray(self.body.v_template[:vc], np.float64)
+        radius = float(m.get("body_subset_m") or 0.0)
+        if radius > 0:
+            near = cKDTree(self.template).query(body_v)[0] < radius
+            if bf is not None:
+                near_faces = bf[near[bf].any(1)]
+                keep = np.union1d(np.nonzero(near)[0], near_faces.ravel())
+            else:
+                keep = np.nonzero(near)[0]
+        else:
+            keep = np.arange(vc)
+        self.body_index = keep
+        remap = np.full(vc, -1, np.int64)
+        remap[keep] = np.arange(len(keep))
+        self.body_v = body_v[keep]
+        self.body_dirs = np.asarray(self.body.shapedirs[:vc], np.float64)[keep]
+        self.body_w = np.asarray(self.body.weights[:vc], np.float64)[keep]
+        self.body_faces = None
+        if bf is not None:
+            sub = remap[bf]
+            self.body_faces = sub[(sub >= 0).all(1)]
             from pleat.asset import normal_adjacency
-            self.body_adjacency = normal_adjacency(self.body_faces, vc)
-        self.body_rest_normals = getattr(self.body, "vertex_normals_rest", None)
+            self.body_adjacency = normal_adjacency(self.body_faces, len(keep))
+        rest_n = getattr(self.body, "vertex_normals_rest", None)
+        self.body_rest_normals = None if rest_n is None else np.asarray(rest_n)[:vc][keep]
         # graphs
         levels, self.vertex_level = graph_mod.build_hierarchy(self.faces, self.N, m["mp_levels"], cfg["seed"])
         self.levels = []
@@ -175,14 +229,15 @@ class Setup:
             dt = np.concatenate([np.full(prepend_first, dt[0]), dt])
         feats = reference.pose_features(self.parents, self.joints_of(beta), self.input_joints, q, tr, rq)
         M = feats["skin_matrices"]                                     # [W, J, 3, 4] rest → world
+        W, J = M.shape[:2]
         A = np.einsum("nk,wnkab->wnab", self.skin_weights, M[:, self.skin_indices])
         shaped_body = self.body_v + self.body_dirs @ beta
-        Ab = np.einsum("vk,wkab->wvab", self.body_w, M)
-        body = np.einsum("wvab,vb->wva", Ab[..., :3], shaped_body) + Ab[..., 3]
+        Ab = np.matmul(self.body_w, M.reshape(W, J, 12)).reshape(W, -1, 3, 4)   # [W, V, 3, 4] (BLAS, not einsum)
+        body = np.matmul(Ab[..., :3], shaped_body[:, :, None])[..., 0] + Ab[..., 3]
         if self.body_faces is not None:
             n = np.stack([reference.normals(b, self.body_faces, *self.body_adjacency) for b in body])
         else:
-            n = np.einsum("wvab,vb->wva", Ab[..., :3], self.body_rest_normals[:len(self.body_v)])
+            n = np.matmul(Ab[..., :3], self.body_rest_normals[:, :, None])[..., 0]
             n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
         Hinv = np.swapaxes(rot.yaw_matrix(feats["yaw"]), -1, -2)
         return {"A": A, "body": body, "body_normals": n, "dt": dt, "Hinv": Hinv, "p0": feats["pelvis"],
@@ -359,7 +414,7 @@ def device_for(name, rank):
 
 
 # ---- stage 1 -----------------------------------------------------------------------------------------------------
-def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True):
+def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, max_minutes=None):
     rank, world = dist_info()
     dev = device_for(device, rank)
     torch.manual_seed(cfg["seed"])
@@ -370,35 +425,52 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True):
     c1 = cfg["stage1"]
     opt = torch.optim.Adam(model.parameters(), lr=c1["lr"])
     run = Run(out, "stage1", cfg, rank)
-    start = 0
+    start, elapsed = 0, 0.0
     if resume and (state := run.resume()) is not None:
         model.load_state_dict(state["model"])
         opt.load_state_dict(state["optimizer"])
-        start = state["iteration"]
+        start, elapsed = state["iteration"], state.get("elapsed_s", 0.0)
     if start == 0:
         run.log({"iteration": 0, "validation": validate_stage1(setup, model, cfg)})
+    budget = Budget(max_minutes, elapsed)
     ddp = wrap_ddp(model, world, dev)
     rng = np.random.default_rng([cfg["seed"], rank, start])
     bar = tqdm(range(start, c1["iterations"]), disable=not progress or rank != 0, desc="stage1")
+    it = start - 1
     for it in bar:
-        steps = rollout_steps(c1, it)
-        w = loss_weights(c1, it)
+        s = run_fraction(c1, it, budget.elapsed(), budget.budget_s)
+        steps = rollout_steps(c1, it, s)
+        w = loss_weights(c1, it, s)
         win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
         loss, terms = rollout_loss(setup, ddp, Window(setup, win, beta, mat, mat01), steps, w)
         opt.zero_grad()
         loss.backward()
         gn = torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
         opt.step()
-        rec = {"iteration": it + 1, "loss": loss.item(), "steps": steps, "grad_norm": float(gn),
+        rec = {"iteration": it + 1, "loss": loss.item(), "steps": steps, "grad_norm": float(gn), "fraction": s,
                **{k: v for k, v in terms.items()}, **{f"w_{k}": v for k, v in w.items()}}
         run.log(rec)
         bar.set_postfix(loss=f"{loss.item():.4g}", steps=steps)
-        if (it + 1) % c1["checkpoint_every"] == 0 or it + 1 == c1["iterations"]:
+        stop = stop_everywhere(world, budget.spent(), dev)
+        if (it + 1) % c1["checkpoint_every"] == 0 or it + 1 == c1["iterations"] or stop:
             run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
-                            "config": cfg, "garment": garment, "rng": _rng_state()})
+                            "config": cfg, "garment": garment, "rng": _rng_state(), "elapsed_s": budget.elapsed()})
+        if stop:
+            run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
+                     "elapsed_s": budget.elapsed()})
+            break
     val = validate_stage1(setup, model, cfg)
-    run.log({"iteration": c1["iterations"], "validation": val})
+    run.log({"iteration": it + 1, "validation": val})
     return model, setup, val
+
+
+def stop_everywhere(world, stop, device):
+    """Under DDP every rank must stop at the same iteration: rank 0's clock decides."""
+    if world <= 1:
+        return stop
+    flag = torch.tensor([1.0 if stop else 0.0], device=device)
+    torch.distributed.broadcast(flag, 0)
+    return bool(flag.item())
 
 
 def rollout_loss(setup, model, window, steps, w, predictor=None):
@@ -499,7 +571,7 @@ class LatentPredictor(torch.nn.Module):
         return y, z
 
 
-def train_stage2(cfg, out, resume=False, device="auto", progress=True):
+def train_stage2(cfg, out, resume=False, device="auto", progress=True, max_minutes=None):
     rank, world = dist_info()
     dev = device_for(device, rank)
     phi, setup, cfg, _ = load_stage1(out, dev)
@@ -511,6 +583,7 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True):
                                 cfg["clips"]["frames_limit"] or None, setup.body)
     val_clips = sources.clips("validation", cfg["fps"], cfg["clips"]["validation_limit"] or None,
                               cfg["clips"]["frames_limit"] or None, setup.body)
+    t_rec = time.time()
     if resume and data_path.exists():
         with np.load(data_path, allow_pickle=True) as d:
             seqs, val = list(d["train"]), list(d["validation"])
@@ -519,41 +592,56 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True):
         val = record_latents(setup, phi, val_clips, max(1, c2["sequences"] // 4), c2["sequence_frames"], rng)
         if rank == 0:
             np.savez(data_path, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
+    run.log({"iteration": 0, "recorded_sequences": len(seqs), "recorded_frames": sum(len(q["z"]) for q in seqs),
+             "record_time_s": time.time() - t_rec})
     norms = normalisation(setup, seqs)
     model = LatentPredictor(setup, norms).to(dev)
     opt = torch.optim.Adam(model.parameters(), lr=c2["lr"])
-    start = 0
+    start, elapsed = 0, time.time() - t_rec
     if resume and (state := run.resume()) is not None:
         model.load_state_dict(state["model"])
         opt.load_state_dict(state["optimizer"])
-        start = state["iteration"]
+        start, elapsed = state["iteration"], state.get("elapsed_s", elapsed)
+    budget = Budget(max_minutes, elapsed)
     ddp = wrap_ddp(model, world, dev)
-    static = [to_t(s["static"], dev) for s in seqs]
-    target = [to_t(s["z"], dev) for s in seqs]
+    # sequences padded into one tensor so a batch is gathered with two index tensors, not a Python loop
+    lengths = torch.as_tensor([len(q["z"]) for q in seqs], device=dev)
+    T = int(lengths.max())
+    static = torch.zeros(len(seqs), T, seqs[0]["static"].shape[1], device=dev)
+    target = torch.zeros(len(seqs), T + 1, setup.L, device=dev)   # target[:, 0] = Z_0 = 0; target[:, j+1] = Z_j
+    for i, q in enumerate(seqs):
+        static[i, :len(q["z"])] = to_t(q["static"], dev)
+        target[i, 1:len(q["z"]) + 1] = to_t(q["z"], dev)
     W = c2["window"]
+    gen = torch.Generator(device="cpu").manual_seed(int(cfg["seed"]) * 1000 + 2 + rank)
     bar = tqdm(range(start, c2["iterations"]), disable=not progress or rank != 0, desc="stage2")
+    it = start - 1
     for it in bar:
-        idx = rng.integers(len(seqs), size=c2["batch"])
-        starts = [rng.integers(0, max(len(seqs[i]["z"]) - W, 0) + 1) for i in idx]
-        z_prev = torch.stack([target[i][j - 1] if j > 0 else torch.zeros(setup.L, device=dev)
-                              for i, j in zip(idx, starts)])
+        idx = torch.randint(len(seqs), (c2["batch"],), generator=gen).to(dev)
+        n = lengths[idx]
+        starts = (torch.rand(c2["batch"], generator=gen).to(dev) * (n - W).clamp_min(0).add(1)).long()
+        z_prev = target[idx, starts]                                   # Z_{j-1} (zero at a sequence start)
         loss = 0.0
         for k in range(W):
-            rows = torch.stack([static[i][min(j + k, len(static[i]) - 1)] for i, j in zip(idx, starts)])
-            gt = torch.stack([target[i][min(j + k, len(target[i]) - 1)] for i, j in zip(idx, starts)])
-            y, z_prev = ddp(z_prev, rows)
-            loss = loss + ((y - (gt - model.z_mean) / model.z_std) ** 2).mean()
+            j = torch.minimum(starts + k, n - 1)
+            y, z_prev = ddp(z_prev, static[idx, j])
+            loss = loss + ((y - (target[idx, j + 1] - model.z_mean) / model.z_std) ** 2).mean()
         loss = loss / W
         opt.zero_grad()
         loss.backward()
         opt.step()
         run.log({"iteration": it + 1, "loss": loss.item()})
         bar.set_postfix(loss=f"{loss.item():.4g}")
-        if (it + 1) % c2["checkpoint_every"] == 0 or it + 1 == c2["iterations"]:
+        stop = stop_everywhere(world, budget.spent(), dev)
+        if (it + 1) % c2["checkpoint_every"] == 0 or it + 1 == c2["iterations"] or stop:
             run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
-                            "norms": norms, "config": cfg})
+                            "norms": norms, "config": cfg, "elapsed_s": budget.elapsed()})
+        if stop:
+            run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
+                     "elapsed_s": budget.elapsed()})
+            break
     val_metrics = validate_stage2(model, val, dev)
-    run.log({"iteration": c2["iterations"], "validation": val_metrics})
+    run.log({"iteration": it + 1, "validation": val_metrics})
     return model, val_metrics
 
 
@@ -603,7 +691,7 @@ class AblationModel(torch.nn.Module):
         return z, self.block.displacement(z)
 
 
-def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True):
+def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True, max_minutes=None):
     rank, world = dist_info()
     dev = device_for(device, rank)
     torch.manual_seed(cfg["seed"])
@@ -616,19 +704,21 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
     ca, c1 = cfg["ablation"], cfg["stage1"]
     opt = torch.optim.Adam(model.parameters(), lr=ca["lr"])
     run = Run(out, "ablation", cfg, rank)
-    start = 0
+    start, elapsed = 0, 0.0
     if resume and (state := run.resume()) is not None:
         model.load_state_dict(state["model"])
         opt.load_state_dict(state["optimizer"])
-        start = state["iteration"]
+        start, elapsed = state["iteration"], state.get("elapsed_s", 0.0)
+    budget = Budget(max_minutes, elapsed)
     ddp = wrap_ddp(model, world, dev)
     z_lo = np.full(setup.L, np.inf)
     z_hi = np.full(setup.L, -np.inf)
     sched = dict(c1, iterations=ca["iterations"])
     bar = tqdm(range(start, ca["iterations"]), disable=not progress or rank != 0, desc="ablation")
     for it in bar:
-        steps = rollout_steps(sched, it)
-        w = loss_weights(sched, it)
+        s = run_fraction(sched, it, budget.elapsed(), budget.budget_s)
+        steps = rollout_steps(sched, it, s)
+        w = loss_weights(sched, it, s)
         loss = 0.0
         acc = {k: 0.0 for k in LOSS_TERMS}
         for _ in range(ca["batch"]):
@@ -654,11 +744,17 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
         loss.backward()
         torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
         opt.step()
-        run.log({"iteration": it + 1, "loss": float(loss), "steps": steps, **acc})
+        run.log({"iteration": it + 1, "loss": float(loss), "steps": steps, "fraction": s, **acc})
         bar.set_postfix(loss=f"{float(loss):.4g}")
-        if (it + 1) % ca["checkpoint_every"] == 0 or it + 1 == ca["iterations"]:
+        stop = stop_everywhere(world, budget.spent(), dev)
+        if (it + 1) % ca["checkpoint_every"] == 0 or it + 1 == ca["iterations"] or stop:
             run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
-                            "config": cfg, "garment": garment, "z_min": z_lo, "z_max": z_hi})
+                            "config": cfg, "garment": garment, "z_min": z_lo, "z_max": z_hi,
+                            "elapsed_s": budget.elapsed()})
+        if stop:
+            run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
+                     "elapsed_s": budget.elapsed()})
+            break
     return model, setup
 
 
@@ -687,7 +783,8 @@ def final_losses(out, stage):
             "final_loss_mean_last10": float(np.mean([r["loss"] for r in tail])) if tail else None,
             "iterations": train[-1]["iteration"] if train else 0,
             "wall_time_s": train[-1]["time_s"] if train else None,
-            "validation": val[-1] if val else None}
+            "validation": val[-1] if val else None,
+            "stopped_by_time_budget": any("stopped" in r for r in recs)}
 
 
 def pack(out, model_kind="two-stage", path=None, fp16=False, onnx=False):

@@ -58,24 +58,18 @@ def field(obj, name, default=None):
     return getattr(obj, name, default)
 
 
+_CLIP_CACHE = {}
+
+
 def clips(split, fps, count_limit=None, frames_limit=None, body_model=None):
     """Training or validation clips resampled to `fps`: objects with fps, rotations [T,J,4] (x,y,z,w),
-    root_translation [T,3], root_rotation [T,4]."""
-    mod = _try("pleat.motion")
-    out = None
-    if mod is not None:
-        try:
-            out = _motion_clips(mod, split, fps, body_model)
-            used[f"motion_{split}"] = "pleat.motion"
-        except Exception as exc:  # noqa: BLE001 - any loader failure falls back, and is recorded
-            used[f"motion_{split}"] = f"standin ({type(exc).__name__}: {exc})"
-            out = None
-    if out is None:
-        used.setdefault(f"motion_{split}", "standin")
-        out = standins.standin_clips(fps=fps, frames=150, count=4 if split == "train" else 2,
-                                     seed=0 if split == "train" else 1)
-    if count_limit:
-        out = out[:count_limit]
+    root_translation [T,3], root_rotation [T,4]. Loaded (and retargeted) once per process: stage 1, its
+    validation, stage 2 and the ablation all ask for the same clips."""
+    body_key = None if body_model is None else float(np.asarray(body_model.v_template).sum())
+    key = (split, float(fps), count_limit, body_key)
+    if key not in _CLIP_CACHE:
+        _CLIP_CACHE[key] = _load_clips(split, fps, count_limit, body_model)
+    out = [_Clip(getattr(c, "name", "clip"), c.fps, c.rotations, c.root_translation, c.root_rotation) for c in _CLIP_CACHE[key]]
     if frames_limit:
         for c in out:
             c.rotations = c.rotations[:frames_limit]
@@ -84,15 +78,33 @@ def clips(split, fps, count_limit=None, frames_limit=None, body_model=None):
     return out
 
 
+def _load_clips(split, fps, count_limit, body_model):
+    mod = _try("pleat.motion")
+    out = None
+    if mod is not None:
+        try:
+            out = _motion_clips(mod, split, fps, body_model, count_limit)
+            used[f"motion_{split}"] = "pleat.motion"
+        except Exception as exc:  # noqa: BLE001 - any loader failure falls back, and is recorded
+            used[f"motion_{split}"] = f"standin ({type(exc).__name__}: {exc})"
+            out = None
+    if out is None:
+        used.setdefault(f"motion_{split}", "standin")
+        out = standins.standin_clips(fps=fps, frames=150, count=4 if split == "train" else 2,
+                                     seed=0 if split == "train" else 1)
+    return out[:count_limit] if count_limit else out
+
+
 class _Clip:
     def __init__(self, name, fps, rotations, root_translation, root_rotation):
         self.name, self.fps = name, fps
         self.rotations, self.root_translation, self.root_rotation = rotations, root_translation, root_rotation
 
 
-def _motion_clips(mod, split, fps, body_model=None):
+def _motion_clips(mod, split, fps, body_model=None, count_limit=None):
     split_mod = importlib.import_module("pleat.motion.split")
     names = split_mod.TRAINING if split == "train" else split_mod.VALIDATION
+    names = names[:count_limit] if count_limit else names
     result = []
     for name in names:
         clip = mod.load_clip(name, body=body_model).resample(fps)
