@@ -7,6 +7,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 {
 	kernels->mat_vec = plMatVec_Scalar;
 	kernels->blend_shapes = plBlendShapes_Scalar;
+	kernels->skinning = plSkinning_Scalar;
 #if defined( PLEAT_HAVE_AVX2 ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
 	if ( !force_scalar )
 	{
@@ -16,6 +17,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 			// F16C has no __builtin_cpu_supports name in older GCCs; every AVX2 CPU shipped has it.
 			kernels->mat_vec = plMatVec_Avx2;
 			kernels->blend_shapes = plBlendShapes_Avx2;
+			kernels->skinning = plSkinning_Avx2;
 			return 1;
 		}
 	}

@@ -185,7 +185,7 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	plBlendShapesJob_Run( &blend );
 	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ), a->skin_indices, a->skin_weights,
 						   a->influence_count, t->skin_matrices, a->joint_count, plMakeSpan( inst->positions, n, 12 ),
-						   begin, end };
+						   begin, end, &inst->ctx->kernels };
 	plSkinningJob_Run( &skin );
 }
 

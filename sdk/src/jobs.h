@@ -128,6 +128,7 @@ typedef struct plSkinningJob
 	uint32_t joint_count;         // J
 	plSpan output;             // [N] xyz, any stride (may not alias positions)
 	uint32_t vertex_begin, vertex_end;
+	const plKernels* kernels;     // optional: NULL = the scalar kernel
 } plSkinningJob;
 
 int plSkinningJob_Validate( const plSkinningJob* job );

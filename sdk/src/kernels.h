@@ -12,21 +12,34 @@ typedef void plMatVecFn( float* out, const float* x, const void* weight, int wei
 typedef void plBlendShapesFn( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
 							  uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 
+// Linear blend skinning for vertices [v_begin, v_end): out[v] = (Σ_k w_vk M_{j_vk}) · (in[v], 1), M = [J][3][4]
+// row-major; in/out are strided (bytes), 3 floats per vertex; joint indices >= joint_count count as weight 0.
+typedef void plSkinningFn( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
+						   const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
+						   const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end );
+
 typedef struct plKernels
 {
 	plMatVecFn* mat_vec;
 	plBlendShapesFn* blend_shapes;
+	plSkinningFn* skinning;
 } plKernels;
 
 void plMatVec_Scalar( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
 					  uint32_t in_count, uint32_t row_begin, uint32_t row_end );
 void plBlendShapes_Scalar( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
 						   uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
+void plSkinning_Scalar( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
+						const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
+						const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end );
 #if defined( PLEAT_HAVE_AVX2 )
 void plMatVec_Avx2( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
 					uint32_t in_count, uint32_t row_begin, uint32_t row_end );
 void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
 						 uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
+void plSkinning_Avx2( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
+					  const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
+					  const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end );
 #endif
 
 // Scalar kernels always; AVX2 ones if built, not forced off, and the CPU has AVX2, FMA and F16C. Returns 1 for AVX2.

@@ -14,39 +14,48 @@ int plSkinningJob_Validate( const plSkinningJob* job )
 		   PLEAT_SPAN_HOLDS( job->output, 12, n ) && job->positions.ptr != job->output.ptr;
 }
 
+void plSkinning_Scalar( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
+						const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
+						const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
+{
+	uint32_t K = influence_count;
+	for ( uint32_t v = v_begin; v < v_end; ++v )
+	{
+		float m[12] = { 0 };
+		for ( uint32_t k = 0; k < K; ++k )
+		{
+			uint32_t joint = skin_indices[(size_t)v * K + k];
+			float w = skin_weights[(size_t)v * K + k];
+			if ( joint >= joint_count )
+			{
+				joint = 0; // the asset loader rejects this; never read out of bounds even so
+				w = 0.0f;
+			}
+			const float* mj = skin_matrices + (size_t)joint * 12;
+			for ( int e = 0; e < 12; ++e )
+			{
+				m[e] += w * mj[e];
+			}
+		}
+		const float* p = (const float*)( (const uint8_t*)in + (size_t)v * in_stride_bytes );
+		float* q = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
+		float x = p[0], y = p[1], z = p[2];
+		q[0] = m[0] * x + m[1] * y + m[2] * z + m[3];
+		q[1] = m[4] * x + m[5] * y + m[6] * z + m[7];
+		q[2] = m[8] * x + m[9] * y + m[10] * z + m[11];
+	}
+}
+
 plResult plSkinningJob_Run( const plSkinningJob* job )
 {
 	if ( !plSkinningJob_Validate( job ) )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	const uint8_t* in = (const uint8_t*)job->positions.ptr;
-	uint8_t* out = (uint8_t*)job->output.ptr;
-	uint32_t K = job->influence_count;
-	for ( uint32_t v = job->vertex_begin; v < job->vertex_end; ++v )
-	{
-		float m[12] = { 0 };
-		for ( uint32_t k = 0; k < K; ++k )
-		{
-			uint32_t joint = job->skin_indices[(size_t)v * K + k];
-			float w = job->skin_weights[(size_t)v * K + k];
-			if ( joint >= job->joint_count )
-			{
-				joint = 0; // the asset loader rejects this; never read out of bounds even so
-				w = 0.0f;
-			}
-			const float* mj = job->skin_matrices + (size_t)joint * 12;
-			for ( int e = 0; e < 12; ++e )
-			{
-				m[e] += w * mj[e];
-			}
-		}
-		const float* p = (const float*)( in + (size_t)v * job->positions.stride_bytes );
-		float* q = (float*)( out + (size_t)v * job->output.stride_bytes );
-		float x = p[0], y = p[1], z = p[2];
-		q[0] = m[0] * x + m[1] * y + m[2] * z + m[3];
-		q[1] = m[4] * x + m[5] * y + m[6] * z + m[7];
-		q[2] = m[8] * x + m[9] * y + m[10] * z + m[11];
-	}
+	plSkinningFn* kernel = job->kernels != NULL && job->kernels->skinning != NULL ? job->kernels->skinning
+																				  : plSkinning_Scalar;
+	kernel( (float*)job->output.ptr, job->output.stride_bytes, (const float*)job->positions.ptr,
+			job->positions.stride_bytes, job->skin_indices, job->skin_weights, job->influence_count,
+			job->skin_matrices, job->joint_count, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }

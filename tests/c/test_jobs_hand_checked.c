@@ -196,7 +196,7 @@ static void test_skinning_writes_interleaved_span( void** state )
 	{
 		out[i] = -7.0f;
 	}
-	plSkinningJob job = { plMakeConstSpan( rest, 2, 12 ), idx, w, 2, m, 2, plMakeSpan( out, 2, 32 ), 0, 2 };
+	plSkinningJob job = { plMakeConstSpan( rest, 2, 12 ), idx, w, 2, m, 2, plMakeSpan( out, 2, 32 ), 0, 2, NULL };
 	assert_int_equal( plSkinningJob_Run( &job ), PLEAT_RESULT_OK );
 	// v0: 0.25 · ((1,2,3) + (1,0,0)) + 0.75 · (2,4,6) = (0.5,0.5,0.75) + (1.5,3,4.5) = (2, 3.5, 5.25).
 	assert_float_equal( out[0], 2.0f, 1e-6 );
@@ -222,7 +222,7 @@ static void test_jobs_reject_invalid_spans( void** state )
 	float w[2] = { 1, 1 };
 	float m[12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0 };
 	float out[2 * 3];
-	plSkinningJob good = { plMakeConstSpan( rest, 2, 12 ), idx, w, 1, m, 1, plMakeSpan( out, 2, 12 ), 0, 2 };
+	plSkinningJob good = { plMakeConstSpan( rest, 2, 12 ), idx, w, 1, m, 1, plMakeSpan( out, 2, 12 ), 0, 2, NULL };
 	assert_true( plSkinningJob_Validate( &good ) );
 	plSkinningJob bad[7];
 	for ( int i = 0; i < 7; ++i )

@@ -177,6 +177,78 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 	}
 }
 
+// Skinning: strided input and output (other floats between vertices stay untouched), K = 1..8 influences, a joint
+// index out of range (weight 0 in both), vertex sub-ranges.
+static void test_skinning_avx2_matches_scalar( void** state )
+{
+	(void)state;
+	if ( !plHaveAvx2() )
+	{
+		skip();
+	}
+	plKernels simd, scalar;
+	plSelectKernels( &simd, 0 );
+	plSelectKernels( &scalar, 1 );
+	const uint32_t joint_count = 7, n = 37, in_stride = 16, out_stride = 28; // bytes
+	float matrices[7 * 12];
+	for ( uint32_t i = 0; i < joint_count * 12; ++i )
+	{
+		matrices[i] = 2.0f * plRand();
+	}
+	float in[37 * 4];
+	for ( uint32_t i = 0; i < n * 4; ++i )
+	{
+		in[i] = plRand();
+	}
+	for ( uint32_t K = 1; K <= PLEAT_MAX_INFLUENCES; ++K )
+	{
+		uint16_t indices[37 * 8];
+		float weights[37 * 8];
+		for ( uint32_t i = 0; i < n * K; ++i )
+		{
+			indices[i] = (uint16_t)( ( s_rng = s_rng * 1103515245u + 12345u ) >> 16 ) % ( joint_count + 1 );
+			weights[i] = 0.5f * ( plRand() + 1.0f );
+		}
+		float os[37 * 7], ov[37 * 7];
+		for ( uint32_t i = 0; i < n * 7; ++i )
+		{
+			os[i] = ov[i] = -77.0f;
+		}
+		scalar.skinning( os, out_stride, in, in_stride, indices, weights, K, matrices, joint_count, 2, n - 1 );
+		simd.skinning( ov, out_stride, in, in_stride, indices, weights, K, matrices, joint_count, 2, n - 1 );
+		for ( uint32_t v = 0; v < n; ++v )
+		{
+			for ( uint32_t e = 0; e < 7; ++e )
+			{
+				float a = os[v * 7 + e], b = ov[v * 7 + e];
+				if ( v < 2 || v >= n - 1 || e >= 3 )
+				{
+					assert_true( a == -77.0f && b == -77.0f ); // outside the range or between vertices: untouched
+					continue;
+				}
+				const float p[4] = { in[v * 4], in[v * 4 + 1], in[v * 4 + 2], 1.0f };
+				double magnitude = 0.0;
+				for ( uint32_t k = 0; k < K; ++k )
+				{
+					uint32_t j = indices[v * K + k];
+					if ( j < joint_count )
+					{
+						for ( int c = 0; c < 4; ++c )
+						{
+							magnitude += fabs( (double)weights[v * K + k] * matrices[j * 12 + e * 4 + c] * p[c] );
+						}
+					}
+				}
+				double bound = 4.0 * ( K + 4 ) * 6e-8 * magnitude + 1e-30;
+				if ( fabs( (double)a - b ) > bound )
+				{
+					fail_msg( "K=%u vertex %u row %u: scalar %.9g simd %.9g", K, v, e, a, b );
+				}
+			}
+		}
+	}
+}
+
 // fp16 conversion: exact on every half value (round trip), round-to-nearest-even on floats.
 static void test_half_conversion_round_trips( void** state )
 {
@@ -254,6 +326,7 @@ int main( void )
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_mat_vec_avx2_matches_scalar ),
 		cmocka_unit_test( test_blend_shapes_avx2_matches_scalar ),
+		cmocka_unit_test( test_skinning_avx2_matches_scalar ),
 		cmocka_unit_test( test_half_conversion_round_trips ),
 		cmocka_unit_test( test_pipeline_avx2_matches_scalar ),
 	};

@@ -39,7 +39,7 @@ static void plCpuDeform( const plTestMesh* mesh, const plKernels* kernels, const
 	};
 	plSkinningJob skin = {
 		plMakeConstSpan( deformed, n, 12 ), mesh->skin_indices, mesh->skin_weights, mesh->influence_count, matrices,
-		mesh->joint_count, plMakeSpan( positions, n, 12 ), 0, n,
+		mesh->joint_count, plMakeSpan( positions, n, 12 ), 0, n, kernels,
 	};
 	plNormalsJob normal = {
 		plMakeConstSpan( positions, n, 12 ), mesh->faces, mesh->face_count, mesh->adjacency_offsets,
