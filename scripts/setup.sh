@@ -29,3 +29,9 @@ if [ ! -f "$stamp" ]; then
 fi
 
 scripts/fetch-ort-header.sh || echo "setup: note: ONNX Runtime C API header not fetched; the ONNX Runtime backend builds as a stub (BACKEND_UNAVAILABLE)"
+
+# Motion capture: ../shared/motion or $PLEAT_MOTION_DIR when present, otherwise fetched once into data/motion from the
+# clips' own sources (PyPI's pybullet wheel; GitHub for the long takes, when reachable).
+if ! .venv/bin/python -c "from pleat.motion.loaders import find_motion_dir; find_motion_dir()" >/dev/null 2>&1; then
+  scripts/fetch-motion.sh || echo "setup: note: motion clips not fetched; tests that need real mocap skip"
+fi
