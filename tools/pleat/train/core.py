@@ -522,9 +522,10 @@ def record_latents(setup, model, clips, count, frames, rng):
     """Frozen-Φ rollouts: per sequence the X_c rows (latent block zero) and Φ's latent for each predicted frame."""
     seqs = []
     for _ in range(count):
-        length = frames + 3
+        # clips shorter than the sequence are skipped (sample_window), unless every clip is
+        length = min(frames + 3, max(len(c.rotations) for c in clips))
         win, beta, mat, mat01 = sample_window(setup, [c for c in clips if len(c.rotations) >= 4] or clips, rng,
-                                              min(length, min(len(c.rotations) for c in clips)))
+                                              length)
         window = Window(setup, win, beta, mat, mat01)
         zs = []
         for f in range(3, len(win["dt"])):
