@@ -47,6 +47,8 @@ typedef struct plInstanceData
 	float* positions;       // [N][3]
 	float* normals;         // [N][3]
 	float* face_normals;    // [F][3] scratch: unnormalised face normals
+	float* gl_normals;      // [N][3] GPU modes only: normals read back here (positions into deformed, unused on the
+	                        // GPU path) and copied to normals/positions only when the whole step succeeded
 
 	plOrtMlp* ort_lp;
 	plOrtMlp* ort_dec;
@@ -151,16 +153,18 @@ static void plApplyShape( plInstanceData* inst )
 	}
 }
 
+// Exponent bits all ones = Inf or NaN. Branch-free over the whole array so the compiler vectorises it (it runs over
+// the N·3 positions and normals every step).
 static int plAllFiniteFloats( const float* v, size_t count )
 {
+	uint32_t non_finite = 0;
 	for ( size_t i = 0; i < count; ++i )
 	{
-		if ( !isfinite( v[i] ) )
-		{
-			return 0;
-		}
+		uint32_t bits;
+		memcpy( &bits, v + i, sizeof( bits ) );
+		non_finite |= (uint32_t)( ( bits & 0x7F800000u ) == 0x7F800000u );
 	}
-	return 1;
+	return non_finite == 0;
 }
 
 // ---- the deformation jobs, split over vertex ranges ----
@@ -404,9 +408,9 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 						 n3,
 						 n3,
 						 (size_t)a->face_count * 3 * sizeof( float ),
-						 0 };
+						 def->gpu_mode != PLEAT_GPU_NONE ? n3 : 0 };
 	size_t total = 0;
-	for ( int i = 0; i < 12; ++i )
+	for ( int i = 0; i < 13; ++i )
 	{
 		total += plAlign64( sizes[i] );
 	}
@@ -417,13 +421,14 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
 	inst->block_size = total;
-	float** targets[12] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
+	float** targets[13] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
 							&inst->y,               &inst->blend_weights, &inst->next_weights, &inst->mlp_scratch,
-							&inst->deformed,        &inst->positions,     &inst->normals,     &inst->face_normals };
+							&inst->deformed,        &inst->positions,     &inst->normals,     &inst->face_normals,
+							&inst->gl_normals };
 	uint8_t* cursor = (uint8_t*)inst->block;
-	for ( int i = 0; i < 12; ++i )
+	for ( int i = 0; i < 13; ++i )
 	{
-		*targets[i] = (float*)cursor;
+		*targets[i] = sizes[i] != 0 ? (float*)cursor : NULL;
 		cursor += plAlign64( sizes[i] );
 	}
 
@@ -577,8 +582,10 @@ static int plDeform( plInstanceData* inst, int read_back, plResult* gl_error )
 	const plAssetData* a = inst->asset;
 	if ( inst->gl != NULL )
 	{
+		// Read back into scratch: plInstance_Step copies it to positions/normals only once nothing can fail any more,
+		// so a GL error leaves the instance's buffers as they were.
 		*gl_error = plGlDeformer_Run( inst->gl, inst->next_weights, inst->next_skin_matrices,
-									  read_back ? inst->positions : NULL, read_back ? inst->normals : NULL );
+									  read_back ? inst->deformed : NULL, read_back ? inst->gl_normals : NULL );
 		return 1;
 	}
 	plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices );
@@ -767,13 +774,14 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 	}
 	if ( !ok )
 	{
-		// Non-finite inside the step: recompute as a first frame with a zero latent.
+		// Non-finite inside the step: recompute as a first frame with a zero latent. The instance's own latent and
+		// history stay untouched until the commit below (a GL error after this point must still change nothing);
+		// next_latent is the zero input latent (input assembly reads it before f_LP overwrites it).
 		reset = 1;
-		memset( inst->latent, 0, a->latent_count * sizeof( float ) );
-		inst->history_valid = 0;
+		memset( inst->next_latent, 0, a->latent_count * sizeof( float ) );
 		fk.previous_yaw = 0.0;
 		plForwardKinematicsJob_Run( &fk );
-		ok = plEvaluate( inst, NULL, NULL, inst->latent, &backend_error );
+		ok = plEvaluate( inst, NULL, NULL, inst->next_latent, &backend_error );
 		if ( ok && backend_error == PLEAT_RESULT_OK )
 		{
 			ok = plDeform( inst, read_back, &gl_error );
@@ -792,13 +800,18 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 		return gl_error;
 	}
 
-	// Commit: t−1 ← t (or t+1 on a first frame), t ← t+1, Z_t ← Z_t+1.
-	inst->history[1] = inst->history_valid ? inst->history[0] : *now;
+	// Commit: t−1 ← t (or t+1 on a first frame or after a reset), t ← t+1, Z_t ← Z_t+1.
+	inst->history[1] = inst->history_valid && !reset ? inst->history[0] : *now;
 	inst->history[0] = *now;
 	inst->history_valid = 1;
 	memcpy( inst->latent, inst->next_latent, a->latent_count * sizeof( float ) );
 	memcpy( inst->blend_weights, inst->next_weights, a->blend_count * sizeof( float ) );
 	memcpy( inst->skin_matrices, inst->next_skin_matrices, (size_t)a->joint_count * 12 * sizeof( float ) );
+	if ( inst->gl != NULL && read_back )
+	{
+		memcpy( inst->positions, inst->deformed, (size_t)a->vertex_count * 3 * sizeof( float ) );
+		memcpy( inst->normals, inst->gl_normals, (size_t)a->vertex_count * 3 * sizeof( float ) );
+	}
 	if ( output != NULL && read_back )
 	{
 		plCopyOut( output->positions, output->position_stride_bytes, inst->positions, a->vertex_count );

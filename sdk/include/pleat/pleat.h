@@ -82,7 +82,8 @@
 // ==================================================================================================================
 // Every entry point validates its arguments and returns a plResult: 0 = OK, positive = success with a note
 // (PLEAT_RESULT_CLAMPED, PLEAT_RESULT_NUMERIC_RESET), negative = error. An error leaves every object exactly as it was
-// before the call (the next output is bit-identical to that of an instance that never saw the failed call). Handles are
+// before the call (the next output is bit-identical to that of an instance that never saw the failed call; in the GPU
+// modes the GPU-side vertex buffers are the one documented exception, see plInstance_Step). Handles are
 // written through out parameters and are zero (null) on failure. Nothing aborts, prints or exits; details go to the
 // optional log callback with stable item ids (PLEAT_LOG_ITEMS).
 //
@@ -490,6 +491,12 @@ PLEAT_API int plInstance_IsValid( plInstance instance );
 /// without learned deformation (zero latent and blend weights) and still returns NUMERIC_RESET.
 /// GPU modes: positions/normals are read back from the GPU only when output asks for them; otherwise they stay on
 /// the GPU (in the host buffers, if given) and plInstance_GetPositions/GetNormals keep the last read-back.
+/// A GL error (PLEAT_RESULT_GL_ERROR, GL_UNAVAILABLE) leaves the latent, the pose history, the skinning matrices,
+/// the blend weights, plInstance_GetPositions/GetNormals and the output spans unchanged: read-backs land in scratch
+/// and are copied only once the step has succeeded. The GPU buffers themselves (the engine's host buffers or the
+/// SDK's own) are the one exception: the compute passes write them in place, so after a failed step they may hold a
+/// partial result of that step (keeping a second GPU copy to roll back to would cost 2 × N × 32 bytes of GPU memory
+/// and a copy per step); the next successful step rewrites every vertex.
 PLEAT_API plResult plInstance_Step( plInstance instance, const plFrameInput* input, const plStepOutput* output );
 /// Forget the pose history and latent: the next step is a first frame.
 PLEAT_API plResult plInstance_Reset( plInstance instance );
