@@ -74,9 +74,10 @@ static uint32_t plFourcc( const char* s )
 
 uint32_t plCrc32( uint32_t crc, const uint8_t* data, size_t size )
 {
-	// Reflected IEEE 802.3 polynomial, as zlib.crc32. The table is rebuilt per call (1 KiB, negligible next to a
-	// load) so there is no lazily initialised global.
-	uint32_t table[256];
+	// Reflected IEEE 802.3 polynomial, as zlib.crc32, eight bytes per step ("slicing-by-8": table k advances a byte
+	// k further), ~5× the byte-wise loop on a multi-MB asset. The tables (8 KiB) are rebuilt per call, negligible next
+	// to a load, so there is no lazily initialised global. Bytes are combined explicitly: endian-independent.
+	uint32_t table[8][256];
 	for ( uint32_t i = 0; i < 256; ++i )
 	{
 		uint32_t c = i;
@@ -84,12 +85,29 @@ uint32_t plCrc32( uint32_t crc, const uint8_t* data, size_t size )
 		{
 			c = ( c & 1u ) ? 0xEDB88320u ^ ( c >> 1 ) : c >> 1;
 		}
-		table[i] = c;
+		table[0][i] = c;
+	}
+	for ( uint32_t i = 0; i < 256; ++i )
+	{
+		for ( int k = 1; k < 8; ++k )
+		{
+			uint32_t previous = table[k - 1][i];
+			table[k][i] = ( previous >> 8 ) ^ table[0][previous & 0xFFu];
+		}
 	}
 	crc = ~crc;
-	for ( size_t i = 0; i < size; ++i )
+	for ( ; size >= 8; size -= 8, data += 8 )
 	{
-		crc = table[( crc ^ data[i] ) & 0xFFu] ^ ( crc >> 8 );
+		uint32_t lo = crc ^ ( (uint32_t)data[0] | ( (uint32_t)data[1] << 8 ) | ( (uint32_t)data[2] << 16 ) |
+							  ( (uint32_t)data[3] << 24 ) );
+		uint32_t hi = (uint32_t)data[4] | ( (uint32_t)data[5] << 8 ) | ( (uint32_t)data[6] << 16 ) |
+					  ( (uint32_t)data[7] << 24 );
+		crc = table[7][lo & 0xFFu] ^ table[6][( lo >> 8 ) & 0xFFu] ^ table[5][( lo >> 16 ) & 0xFFu] ^ table[4][lo >> 24] ^
+			  table[3][hi & 0xFFu] ^ table[2][( hi >> 8 ) & 0xFFu] ^ table[1][( hi >> 16 ) & 0xFFu] ^ table[0][hi >> 24];
+	}
+	for ( ; size > 0; --size, ++data )
+	{
+		crc = table[0][( crc ^ *data ) & 0xFFu] ^ ( crc >> 8 );
 	}
 	return ~crc;
 }

@@ -90,6 +90,43 @@ static void plPutU64At( uint8_t* b, size_t offset, uint64_t v )
 	memcpy( b + offset, &v, 8 );
 }
 
+// The loader's CRC-32 is zlib.crc32: the standard check value, and the bit-by-bit definition on every length and split
+// (the sliced loop, its byte tail and chaining across calls).
+static uint32_t plCrc32Bitwise( uint32_t crc, const uint8_t* data, size_t size )
+{
+	crc = ~crc;
+	for ( size_t i = 0; i < size; ++i )
+	{
+		crc ^= data[i];
+		for ( int k = 0; k < 8; ++k )
+		{
+			crc = ( crc & 1u ) ? 0xEDB88320u ^ ( crc >> 1 ) : crc >> 1;
+		}
+	}
+	return ~crc;
+}
+
+static void test_crc32_matches_zlib_definition( void** state )
+{
+	(void)state;
+	assert_int_equal( plCrc32( 0, (const uint8_t*)"123456789", 9 ), 0xCBF43926u );
+	assert_int_equal( plCrc32( 0, NULL, 0 ), 0u );
+	uint8_t bytes[301];
+	uint32_t seed = 12345u;
+	for ( size_t i = 0; i < sizeof( bytes ); ++i )
+	{
+		seed = seed * 1664525u + 1013904223u;
+		bytes[i] = (uint8_t)( seed >> 24 );
+	}
+	for ( size_t size = 0; size <= sizeof( bytes ); size += 1 + size / 16 )
+	{
+		uint32_t expected = plCrc32Bitwise( 0, bytes, size );
+		assert_int_equal( plCrc32( 0, bytes, size ), expected );
+		size_t split = size / 3;
+		assert_int_equal( plCrc32( plCrc32( 0, bytes, split ), bytes + split, size - split ), expected );
+	}
+}
+
 static void test_valid_asset_loads_copied_in_place_and_from_file( void** state )
 {
 	plLoaderFixture* f = (plLoaderFixture*)*state;
@@ -401,6 +438,7 @@ static void test_random_corruption_never_crashes( void** state )
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
+		cmocka_unit_test( test_crc32_matches_zlib_definition ),
 		cmocka_unit_test_setup_teardown( test_valid_asset_loads_copied_in_place_and_from_file, plLoaderSetup,
 										 plLoaderTeardown ),
 		cmocka_unit_test_setup_teardown( test_truncated_asset_is_rejected, plLoaderSetup, plLoaderTeardown ),
