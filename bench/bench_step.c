@@ -2,7 +2,7 @@
 //
 // usage: pleat_bench_step --asset FP32.pleat --case case.bin [--asset-fp16 FP16.pleat] [--iterations N]
 //                         [--warmup N] [--scalar-iterations N] [--onnxruntime LIB] [--clock wall|cpu]
-//                         [--out step.json] [--step-only]
+//                         [--out step.json] [--step-only [--workers 1|2]]
 //
 // FP32.pleat needs the OXLP/OXDC sections (pleat-pack --onnx) for the ONNX Runtime numbers; case.bin is the golden
 // motion of `python -m pleat.reference.golden` (only its poses are used). Every number is a median over N timed
@@ -14,7 +14,11 @@
 //                  accumulation alone (fp32 / fp16 BLND), to split a step into its memory-bound parts
 //   pleat_step_us  plInstance_Step on the fp32 asset, the asset's motion looped (reset at each wrap)
 //   pleat_step_fp16_us, scalar_step_us (a context with force_scalar), ort_step_us (instance with the ORT backend),
-//   pleat_step_2workers_us (fp32, the context given a two-worker task system: this thread + one helper thread)
+//   pleat_step_2workers_us, pleat_step_fp16_2workers_us (the context given a two-worker task system: this thread +
+//   one helper thread)
+//   fp16_max_position_diff_mm, fp16_rms_position_diff_mm, fp16_max_normal_diff_deg: the accuracy cost of the fp16
+//   asset, both assets stepped through the same motion (not timed)
+// --step-only times nothing but plInstance_Step on --asset (fp32 or fp16), optionally with --workers 2.
 #define _POSIX_C_SOURCE 200809L
 #include "pleat/pleat.h"
 
@@ -348,39 +352,68 @@ static double TimeBlendOnly( const plAssetData* asset, uint32_t warmup, uint32_t
 }
 
 // ---- a two-worker task system (the host's side of plContextDef.enqueue_task/finish_task) ----
-// One persistent helper thread takes the upper half of each task's range while the calling thread runs the lower
-// half. The helper spins briefly (a step posts ~10 short tasks back to back), then yields. One task in flight at a
-// time, which is how the SDK uses it (enqueue, then finish at once); a second concurrent enqueue runs inline.
+// One persistent helper thread plus the calling thread share each task's range in chunks, claimed through one atomic
+// word (generation << 32 | next chunk): whoever is running claims the next chunk. The calling thread claims chunks
+// itself right after posting, so when the helper is descheduled (a busy, shared machine) the caller simply runs every
+// chunk and never waits for a thread that has not started; finish waits only for chunks the helper already claimed.
+// The helper spins briefly (a step posts ~10 short tasks back to back), then yields. One task in flight at a time,
+// which is how the SDK uses it (enqueue, then finish at once).
+
+#define TWO_WORKERS_CHUNKS 4u
 
 typedef struct TwoWorkers
 {
 	pthread_t thread;
-	atomic_uint posted;   // generation of the last task handed to the helper
-	atomic_uint finished; // generation the helper has completed
+	_Atomic uint64_t claim;  // generation << 32 | next chunk index
+	atomic_uint done;        // chunks of the current generation completed
 	atomic_int quit;
-	plTaskFn* task;
+	uint32_t generation;     // written by the calling thread only
+	plTaskFn* task;          // stable while any chunk of the current generation is claimed and not done
 	void* task_context;
-	uint32_t begin, end;
+	uint32_t item_count, chunk_size, chunk_count;
 } TwoWorkers;
+
+// Claims and runs chunks of generation `generation` until none is left; returns the number run.
+static uint32_t TwoWorkersRunChunks( TwoWorkers* pool, uint32_t generation, uint32_t worker )
+{
+	uint32_t ran = 0;
+	uint64_t word = atomic_load_explicit( &pool->claim, memory_order_acquire );
+	for ( ;; )
+	{
+		if ( (uint32_t)( word >> 32 ) != generation )
+			return ran;
+		uint32_t chunk = (uint32_t)word;
+		if ( chunk >= pool->chunk_count )
+			return ran;
+		if ( !atomic_compare_exchange_weak_explicit( &pool->claim, &word, word + 1, memory_order_acq_rel,
+													 memory_order_acquire ) )
+			continue;
+		uint32_t begin = chunk * pool->chunk_size;
+		uint32_t end = begin + pool->chunk_size < pool->item_count ? begin + pool->chunk_size : pool->item_count;
+		pool->task( begin, end, worker, pool->task_context );
+		atomic_fetch_add_explicit( &pool->done, 1u, memory_order_acq_rel );
+		ran += 1;
+		word = atomic_load_explicit( &pool->claim, memory_order_acquire );
+	}
+}
 
 static void* TwoWorkersMain( void* arg )
 {
 	TwoWorkers* pool = (TwoWorkers*)arg;
-	unsigned seen = 0;
+	uint32_t seen = 0;
 	for ( ;; )
 	{
 		unsigned spins = 0;
-		unsigned now;
-		while ( ( now = atomic_load_explicit( &pool->posted, memory_order_acquire ) ) == seen )
+		uint64_t word;
+		while ( (uint32_t)( ( word = atomic_load_explicit( &pool->claim, memory_order_acquire ) ) >> 32 ) == seen )
 		{
 			if ( atomic_load_explicit( &pool->quit, memory_order_relaxed ) )
 				return NULL;
-			if ( ++spins > 200000 )
+			if ( ++spins > 20000 )
 				sched_yield();
 		}
-		seen = now;
-		pool->task( pool->begin, pool->end, 1, pool->task_context );
-		atomic_store_explicit( &pool->finished, seen, memory_order_release );
+		seen = (uint32_t)( word >> 32 );
+		TwoWorkersRunChunks( pool, seen, 1 );
 	}
 }
 
@@ -388,19 +421,22 @@ static void* TwoWorkersEnqueue( plTaskFn* task, uint32_t item_count, uint32_t mi
 								void* user_context )
 {
 	TwoWorkers* pool = (TwoWorkers*)user_context;
-	int busy = atomic_load( &pool->finished ) != atomic_load( &pool->posted );
-	if ( busy || item_count < 2 * min_range )
+	uint32_t chunk_size = ( item_count + TWO_WORKERS_CHUNKS - 1 ) / TWO_WORKERS_CHUNKS;
+	chunk_size = chunk_size < min_range ? min_range : chunk_size;
+	if ( chunk_size >= item_count )
 	{
 		task( 0, item_count, 0, task_context );
 		return NULL;
 	}
-	uint32_t half = item_count / 2;
 	pool->task = task;
 	pool->task_context = task_context;
-	pool->begin = half;
-	pool->end = item_count;
-	atomic_fetch_add_explicit( &pool->posted, 1u, memory_order_release );
-	task( 0, half, 0, task_context );
+	pool->item_count = item_count;
+	pool->chunk_size = chunk_size;
+	pool->chunk_count = ( item_count + chunk_size - 1 ) / chunk_size;
+	atomic_store_explicit( &pool->done, 0u, memory_order_relaxed );
+	pool->generation += 1;
+	atomic_store_explicit( &pool->claim, (uint64_t)pool->generation << 32, memory_order_release );
+	TwoWorkersRunChunks( pool, pool->generation, 0 );
 	return pool;
 }
 
@@ -408,11 +444,11 @@ static void TwoWorkersFinish( void* user_task, void* user_context )
 {
 	(void)user_context;
 	TwoWorkers* pool = (TwoWorkers*)user_task;
-	unsigned target = atomic_load_explicit( &pool->posted, memory_order_relaxed );
 	unsigned spins = 0;
-	while ( atomic_load_explicit( &pool->finished, memory_order_acquire ) != target )
+	// Every chunk is claimed by now (the caller ran out of chunks); wait for the ones the helper is still running.
+	while ( atomic_load_explicit( &pool->done, memory_order_acquire ) != pool->chunk_count )
 	{
-		if ( ++spins > 200000 )
+		if ( ++spins > 20000 )
 			sched_yield();
 	}
 }
@@ -508,6 +544,102 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 	return result;
 }
 
+// ---- accuracy cost of the fp16 asset: the same motion through both assets, positions and normals compared ----
+
+typedef struct Fp16Cost
+{
+	double max_position_diff_m;  // max over frames and vertices of |x_fp16 − x_fp32|
+	double rms_position_diff_m;  // over frames and vertices
+	double max_normal_angle_deg; // max angle between the two normals
+} Fp16Cost;
+
+static plResult CreateStepper( const uint8_t* bytes, size_t size, const Motion* motion, plContext* context,
+							   plInstance* instance )
+{
+	plContextDef cdef = plDefaultContextDef();
+	plResult result = plCreateContext( &cdef, context );
+	if ( result != PLEAT_RESULT_OK )
+		return result;
+	plAssetDef adef = plDefaultAssetDef();
+	adef.data = bytes;
+	adef.size = size;
+	adef.flags = PLEAT_ASSET_FLAG_USE_IN_PLACE;
+	plAsset asset;
+	result = plLoadAsset( *context, &adef, &asset );
+	if ( result != PLEAT_RESULT_OK )
+		return result;
+	plInstanceDef idef = plDefaultInstanceDef();
+	idef.asset = asset;
+	idef.beta = motion->beta;
+	idef.beta_count = motion->beta_count;
+	idef.material = motion->material;
+	result = plCreateInstance( *context, &idef, instance );
+	return result < 0 ? result : PLEAT_RESULT_OK;
+}
+
+static plFrameInput MotionFrame( const Motion* motion, uint32_t f )
+{
+	const float* root = motion->root + (size_t)f * 8;
+	plFrameInput in;
+	memset( &in, 0, sizeof( in ) );
+	in.joint_rotations = motion->rotations + (size_t)f * motion->joint_count * 4;
+	in.joint_count = motion->joint_count;
+	in.joint_stride_bytes = 16;
+	in.root_translation = ( plVec3 ){ root[0], root[1], root[2] };
+	in.root_rotation = ( plQuat ){ root[3], root[4], root[5], root[6] };
+	in.dt_s = root[7];
+	return in;
+}
+
+static plResult MeasureFp16Cost( const uint8_t* fp32_bytes, size_t fp32_size, const uint8_t* fp16_bytes,
+								 size_t fp16_size, const Motion* motion, Fp16Cost* cost )
+{
+	plContext c32 = { 0, 0 }, c16 = { 0, 0 };
+	plInstance i32, i16;
+	plResult result = CreateStepper( fp32_bytes, fp32_size, motion, &c32, &i32 );
+	if ( result == PLEAT_RESULT_OK )
+		result = CreateStepper( fp16_bytes, fp16_size, motion, &c16, &i16 );
+	memset( cost, 0, sizeof( *cost ) );
+	double sum_sq = 0.0;
+	size_t count = 0;
+	for ( uint32_t f = 0; result == PLEAT_RESULT_OK && f < motion->frame_count; ++f )
+	{
+		plFrameInput in = MotionFrame( motion, f );
+		plResult a = plInstance_Step( i32, &in, NULL );
+		plResult b = plInstance_Step( i16, &in, NULL );
+		if ( a < 0 || b < 0 )
+		{
+			result = a < 0 ? a : b;
+			break;
+		}
+		const float *p32, *p16, *n32, *n16;
+		uint32_t n = 0;
+		plInstance_GetPositions( i32, &p32, &n );
+		plInstance_GetPositions( i16, &p16, NULL );
+		plInstance_GetNormals( i32, &n32, NULL );
+		plInstance_GetNormals( i16, &n16, NULL );
+		for ( uint32_t v = 0; v < n; ++v )
+		{
+			double dx = (double)p16[v * 3] - p32[v * 3], dy = (double)p16[v * 3 + 1] - p32[v * 3 + 1],
+				   dz = (double)p16[v * 3 + 2] - p32[v * 3 + 2];
+			double d2 = dx * dx + dy * dy + dz * dz;
+			sum_sq += d2;
+			count += 1;
+			cost->max_position_diff_m = fmax( cost->max_position_diff_m, sqrt( d2 ) );
+			double dot = (double)n16[v * 3] * n32[v * 3] + (double)n16[v * 3 + 1] * n32[v * 3 + 1] +
+						 (double)n16[v * 3 + 2] * n32[v * 3 + 2];
+			dot = dot > 1.0 ? 1.0 : ( dot < -1.0 ? -1.0 : dot );
+			cost->max_normal_angle_deg = fmax( cost->max_normal_angle_deg, acos( dot ) * 57.29577951308232 );
+		}
+	}
+	cost->rms_position_diff_m = count > 0 ? sqrt( sum_sq / (double)count ) : NAN;
+	if ( c32.index1 != 0 )
+		plDestroyContext( c32 );
+	if ( c16.index1 != 0 )
+		plDestroyContext( c16 );
+	return result;
+}
+
 // ---- main ----
 
 static void PrintJsonNumber( FILE* out, const char* key, double value, int last )
@@ -516,6 +648,14 @@ static void PrintJsonNumber( FILE* out, const char* key, double value, int last 
 		fprintf( out, "  \"%s\": %.2f%s\n", key, value, last ? "" : "," );
 	else
 		fprintf( out, "  \"%s\": null%s\n", key, last ? "" : "," );
+}
+
+static void PrintJsonPrecise( FILE* out, const char* key, double value )
+{
+	if ( isfinite( value ) )
+		fprintf( out, "  \"%s\": %.4g,\n", key, value );
+	else
+		fprintf( out, "  \"%s\": null,\n", key );
 }
 
 int main( int argc, char** argv )
@@ -527,6 +667,7 @@ int main( int argc, char** argv )
 	const char* out_path = NULL;
 	uint32_t iterations = 2000, warmup = 200, scalar_iterations = 300;
 	int step_only = 0;
+	uint32_t step_only_workers = 1;
 	for ( int i = 1; i < argc; i += 2 )
 	{
 		if ( strcmp( argv[i], "--step-only" ) == 0 )
@@ -556,6 +697,8 @@ int main( int argc, char** argv )
 			iterations = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
 		else if ( strcmp( argv[i], "--warmup" ) == 0 )
 			warmup = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
+		else if ( strcmp( argv[i], "--workers" ) == 0 )
+			step_only_workers = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
 		else if ( strcmp( argv[i], "--scalar-iterations" ) == 0 )
 			scalar_iterations = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
 		else
@@ -597,7 +740,16 @@ int main( int argc, char** argv )
 	{
 		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL };
 		double only_us = NAN;
+		TwoWorkers helper;
+		memset( &helper, 0, sizeof( helper ) );
+		int with_helper = step_only_workers == 2 && pthread_create( &helper.thread, NULL, TwoWorkersMain, &helper ) == 0;
+		only.workers = with_helper ? &helper : NULL;
 		result = TimeSteps( &only, &motion, warmup, iterations, &only_us, NULL );
+		if ( with_helper )
+		{
+			atomic_store( &helper.quit, 1 );
+			pthread_join( helper.thread, NULL );
+		}
 		printf( "{ \"pleat_step_us\": %.2f }\n", only_us );
 		return result == PLEAT_RESULT_OK ? 0 : 1;
 	}
@@ -621,20 +773,17 @@ int main( int argc, char** argv )
 	{
 		return Fail( "step (fp32)", result );
 	}
-	double step_2w_us = NAN;
+	double step_2w_us = NAN, step_fp16_2w_us = NAN;
+	TwoWorkers pool;
+	memset( &pool, 0, sizeof( pool ) );
+	int have_pool = pthread_create( &pool.thread, NULL, TwoWorkersMain, &pool ) == 0;
+	if ( have_pool )
 	{
-		TwoWorkers pool;
-		memset( &pool, 0, sizeof( pool ) );
-		if ( pthread_create( &pool.thread, NULL, TwoWorkersMain, &pool ) == 0 )
-		{
-			config.workers = &pool;
-			result = TimeSteps( &config, &motion, warmup, iterations, &step_2w_us, NULL );
-			if ( result != PLEAT_RESULT_OK )
-				fprintf( stderr, "2-worker step: %s\n", plResultString( result ) );
-			config.workers = NULL;
-			atomic_store( &pool.quit, 1 );
-			pthread_join( pool.thread, NULL );
-		}
+		config.workers = &pool;
+		result = TimeSteps( &config, &motion, warmup, iterations, &step_2w_us, NULL );
+		if ( result != PLEAT_RESULT_OK )
+			fprintf( stderr, "2-worker step: %s\n", plResultString( result ) );
+		config.workers = NULL;
 	}
 	config.force_scalar = 1;
 	if ( scalar_iterations > 0 )
@@ -653,6 +802,7 @@ int main( int argc, char** argv )
 		config.backend = PLEAT_MLP_BACKEND_PLEAT;
 	}
 	uint8_t* fp16_bytes = NULL;
+	double fp16_max_mm = NAN, fp16_rms_mm = NAN, fp16_max_normal_deg = NAN;
 	if ( fp16_path != NULL )
 	{
 		size_t fp16_size = 0;
@@ -664,6 +814,24 @@ int main( int argc, char** argv )
 			result = TimeSteps( &config, &motion, warmup, iterations, &step_fp16_us, NULL );
 			if ( result != PLEAT_RESULT_OK )
 				fprintf( stderr, "fp16 step: %s\n", plResultString( result ) );
+			if ( have_pool )
+			{
+				config.workers = &pool;
+				result = TimeSteps( &config, &motion, warmup, iterations, &step_fp16_2w_us, NULL );
+				if ( result != PLEAT_RESULT_OK )
+					fprintf( stderr, "fp16 2-worker step: %s\n", plResultString( result ) );
+				config.workers = NULL;
+			}
+			Fp16Cost cost;
+			result = MeasureFp16Cost( asset_bytes, asset_size, fp16_bytes, fp16_size, &motion, &cost );
+			if ( result == PLEAT_RESULT_OK )
+			{
+				fp16_max_mm = 1e3 * cost.max_position_diff_m;
+				fp16_rms_mm = 1e3 * cost.rms_position_diff_m;
+				fp16_max_normal_deg = cost.max_normal_angle_deg;
+			}
+			else
+				fprintf( stderr, "fp16 accuracy: %s\n", plResultString( result ) );
 			plAssetData fp16_asset;
 			if ( plAssetData_Parse( fp16_bytes, fp16_size, 0, &fp16_asset ) == PLEAT_RESULT_OK &&
 				 fp16_asset.input_count <= 1024 && fp16_asset.latent_count <= 512 && fp16_asset.blend_count <= 512 )
@@ -672,6 +840,12 @@ int main( int argc, char** argv )
 				blend_fp16_us = TimeBlendOnly( &fp16_asset, warmup, iterations );
 			}
 		}
+	}
+
+	if ( have_pool )
+	{
+		atomic_store( &pool.quit, 1 );
+		pthread_join( pool.thread, NULL );
 	}
 
 	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
@@ -700,6 +874,10 @@ int main( int argc, char** argv )
 	PrintJsonNumber( out, "pleat_step_us", step_us, 0 );
 	PrintJsonNumber( out, "pleat_step_fp16_us", step_fp16_us, 0 );
 	PrintJsonNumber( out, "pleat_step_2workers_us", step_2w_us, 0 );
+	PrintJsonNumber( out, "pleat_step_fp16_2workers_us", step_fp16_2w_us, 0 );
+	PrintJsonPrecise( out, "fp16_max_position_diff_mm", fp16_max_mm );
+	PrintJsonPrecise( out, "fp16_rms_position_diff_mm", fp16_rms_mm );
+	PrintJsonPrecise( out, "fp16_max_normal_diff_deg", fp16_max_normal_deg );
 	PrintJsonNumber( out, "ort_step_us", ort_step_us, 0 );
 	fprintf( out, "  \"scalar_iterations\": %u,\n", scalar_iterations );
 	PrintJsonNumber( out, "scalar_step_us", scalar_us, 1 );
