@@ -29,9 +29,69 @@ def test_schedules_follow_the_paper_scaled_to_the_run():
     assert (w0["inertia"], w1["inertia"], w0["gravity"], w1["gravity"]) == pytest.approx((3, 5, 2, 3))
 
 
-# The tiny run takes far longer than planned on the shared machine (docs/training.md, "Status"), so the tests that
-# train stay out of the default suite until the per-iteration cost is cut.
-slow = pytest.mark.slow
+def test_schedules_follow_the_time_budget_when_it_ends_the_run_first():
+    cfg = core.load_config("tiny")["stage1"]
+    # a run stopped by --max-minutes at half its iterations has still gone through the whole schedule
+    s = core.run_fraction(cfg, 10, elapsed_s=60.0, budget_s=60.0)
+    assert s == 1.0
+    assert core.rollout_steps(cfg, 10, s) == cfg["rollout_max"]
+    assert core.loss_weights(cfg, 10, s)["collision"] == pytest.approx(8e6)
+    # without a budget (or ahead of it) the iteration count decides
+    assert core.run_fraction(cfg, 10) == pytest.approx(10 / (cfg["iterations"] - 1))
+    assert core.run_fraction(cfg, 10, elapsed_s=1.0, budget_s=1e6) == pytest.approx(10 / (cfg["iterations"] - 1))
+
+
+@pytest.fixture(scope="module")
+def tiny_setup():
+    return core.Setup(core.load_config("tiny"), "tshirt", "cpu")
+
+
+def test_garment_at_rest_on_the_shaped_body_has_no_stretching(tiny_setup):
+    """The rest metric is the garment template shaped for β (T + G_S(β)): LBS in the rest pose reproduces it, so the
+    stretching and bending energies vanish for any β, while the β = 0 template's metric would not."""
+    import pleat.physics as ph
+    s = tiny_setup
+    J = len(s.joint_names)
+    q = np.zeros((3, J, 4))
+    q[..., 3] = 1.0
+    clip = type("RestClip", (), dict(rotations=q, root_translation=np.zeros((3, 3)),
+                                     root_rotation=np.tile([0.0, 0.0, 0.0, 1.0], (3, 1)), fps=30.0))()
+    beta = np.random.default_rng(3).uniform(-3, 3, s.B)
+    win = s.pose_window(clip, 0, 3, beta)
+    w = core.Window(s, win, beta, np.array([0.2, 23600.0, 44400.0, 4e-5]), np.full(4, 0.5))
+    x, rest = w.states[-1], w.rest                                   # float32, as training evaluates them
+    mu, lam, k = 23600.0, 44400.0, 4e-5
+    area = float(rest.face_area.sum())
+    assert float(ph.stretching_energy(x, rest, mu, lam)) < 1e-6 * mu * area
+    assert float(ph.bending_energy(x, rest, k)) < 1e-9
+    beta0_rest = ph.cloth_rest(s.template, s.faces)
+    assert ph.stretching_energy(x.double().numpy(), beta0_rest, mu, lam) > 1e-3 * mu * area
+
+
+def test_body_subset_matches_the_full_body_where_it_is_kept(tiny_setup):
+    """Collision and proximity use the body vertices near the garment (a speed-up); they must be the full body's
+    vertices and normals at those indices, and cover everything within body_subset_m of the template."""
+    from pleat import reference
+    from scipy.spatial import cKDTree
+    s = tiny_setup
+    body = s.body
+    clip = core.sources.clips("validation", 30.0, 1, 12, body)[0]
+    beta = np.linspace(-2, 2, s.B)
+    win = s.pose_window(clip, 5, 3, beta)
+    feats = reference.pose_features(s.parents, s.joints_of(beta), s.input_joints, clip.rotations[5:8],
+                                    clip.root_translation[5:8], clip.root_rotation[5:8])
+    M = feats["skin_matrices"]
+    v = body.v_template + np.einsum("vcb,b->vc", body.shapedirs, beta)
+    A = np.einsum("vk,wkab->wvab", body.weights, M)
+    full = np.einsum("wvab,vb->wva", A[..., :3], v) + A[..., 3]
+    from pleat.asset import normal_adjacency
+    adj = normal_adjacency(body.faces, len(v))
+    n_full = reference.normals(full[1], body.faces, *adj)
+    np.testing.assert_allclose(win["body"], full[:, s.body_index], atol=1e-9)
+    np.testing.assert_allclose(win["body_normals"][1], n_full[s.body_index], atol=1e-9)
+    near = np.nonzero(cKDTree(s.template).query(body.v_template)[0] < s.cfg["model"]["body_subset_m"])[0]
+    assert np.isin(near, s.body_index).all()
+    assert len(s.body_index) < 0.5 * len(body.v_template)
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +106,6 @@ def _records(out, stage):
     return [json.loads(line) for line in (out / f"metrics_{stage}.jsonl").read_text().splitlines()]
 
 
-@slow
 def test_tiny_stage1_validation_loss_falls(tiny_run):
     # same validation windows, seeds and (final) loss weights before and after training
     vals = [r for r in _records(tiny_run, "stage1") if "validation" in r]
@@ -54,7 +113,6 @@ def test_tiny_stage1_validation_loss_falls(tiny_run):
     assert vals[0]["iteration"] == 0 and after < before
 
 
-@slow
 def test_tiny_stage2_loss_falls_and_latent_range_recorded(tiny_run):
     train = [r["loss"] for r in _records(tiny_run, "stage2") if "loss" in r]
     assert np.mean(train[-20:]) < 0.5 * np.mean(train[:20])
@@ -63,7 +121,6 @@ def test_tiny_stage2_loss_falls_and_latent_range_recorded(tiny_run):
     assert np.all(state["norms"]["x_std"] > 0)
 
 
-@slow
 def test_tiny_asset_matches_reference_and_runtime(tiny_run):
     from pleat import reference
     from pleat.asset import read_asset

@@ -151,37 +151,33 @@ class Setup:
         self.material_min = np.array(ga.MATERIAL_MIN)
         self.material_max = np.array(ga.MATERIAL_MAX)
         # Body surface for proximity edges, collision and friction: the body vertices within `body_subset_m` of the
-        # garment template (posing all 13.7k body vertices per frame was most of an iteration's cost), plus every
-        # face touching one of them so that their normals are the full mesh's. Body parts that are far from the
-        # garment at rest (hands, head, legs) are left out: a hand pressed against the shirt is not collided.
+        # garment template (posing all 13.7k body vertices per frame was most of an iteration's cost). Their
+        # one-ring is posed too, so that their normals are the full mesh's; only the near vertices themselves are
+        # collided with. Body parts far from the garment at rest (hands, head, legs) are left out: a hand pressed
+        # against the shirt is not collided.
         vc = getattr(self.body, "collision_vertex_count", None) or len(self.body.v_template)
         bf = np.asarray(getattr(self.body, "faces", np.zeros((0, 3))), np.int64)
         bf = bf if len(bf) and bf.max() < vc else None
         body_v = np.asarray(self.body.v_template[:vc], np.float64)
         radius = float(m.get("body_subset_m") or 0.0)
-        if radius > 0:
-            near = cKDTree(self.template).query(body_v)[0] < radius
-            if bf is not None:
-                near_faces = bf[near[bf].any(1)]
-                keep = np.union1d(np.nonzero(near)[0], near_faces.ravel())
-            else:
-                keep = np.nonzero(near)[0]
-        else:
-            keep = np.arange(vc)
-        self.body_index = keep
+        near = cKDTree(self.template).query(body_v)[0] < radius if radius > 0 else np.ones(vc, bool)
+        keep = np.nonzero(near)[0]
+        ring_faces = bf[near[bf].any(1)] if bf is not None else None
+        posed = keep if bf is None else np.concatenate([keep, np.setdiff1d(ring_faces.ravel(), keep)])
+        self.body_index = keep                      # [Vc] body vertices collided with (first Vc of the posed set)
+        self.body_collide = len(keep)
         remap = np.full(vc, -1, np.int64)
-        remap[keep] = np.arange(len(keep))
-        self.body_v = body_v[keep]
-        self.body_dirs = np.asarray(self.body.shapedirs[:vc], np.float64)[keep]
-        self.body_w = np.asarray(self.body.weights[:vc], np.float64)[keep]
+        remap[posed] = np.arange(len(posed))
+        self.body_v = body_v[posed]
+        self.body_dirs = np.asarray(self.body.shapedirs[:vc], np.float64)[posed]
+        self.body_w = np.asarray(self.body.weights[:vc], np.float64)[posed]
         self.body_faces = None
         if bf is not None:
-            sub = remap[bf]
-            self.body_faces = sub[(sub >= 0).all(1)]
+            self.body_faces = remap[ring_faces]
             from pleat.asset import normal_adjacency
-            self.body_adjacency = normal_adjacency(self.body_faces, len(keep))
+            self.body_adjacency = normal_adjacency(self.body_faces, len(posed))
         rest_n = getattr(self.body, "vertex_normals_rest", None)
-        self.body_rest_normals = None if rest_n is None else np.asarray(rest_n)[:vc][keep]
+        self.body_rest_normals = None if rest_n is None else np.asarray(rest_n)[:vc][posed]
         # graphs
         levels, self.vertex_level = graph_mod.build_hierarchy(self.faces, self.N, m["mp_levels"], cfg["seed"])
         self.levels = []
@@ -239,6 +235,7 @@ class Setup:
         else:
             n = np.matmul(Ab[..., :3], self.body_rest_normals[:, :, None])[..., 0]
             n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+        body, n = body[:, :self.body_collide], n[:, :self.body_collide]
         Hinv = np.swapaxes(rot.yaw_matrix(feats["yaw"]), -1, -2)
         return {"A": A, "body": body, "body_normals": n, "dt": dt, "Hinv": Hinv, "p0": feats["pelvis"],
                 "quats": q, "root_translation": tr, "root_rotation": rq}
