@@ -8,6 +8,8 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 	kernels->mat_vec = plMatVec_Scalar;
 	kernels->blend_shapes = plBlendShapes_Scalar;
 	kernels->skinning = plSkinning_Scalar;
+	kernels->face_normals = plFaceNormals_Scalar;
+	kernels->normals_gather = plNormalsGather_Scalar;
 #if defined( PLEAT_HAVE_AVX2 ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
 	if ( !force_scalar )
 	{
@@ -18,6 +20,8 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 			kernels->mat_vec = plMatVec_Avx2;
 			kernels->blend_shapes = plBlendShapes_Avx2;
 			kernels->skinning = plSkinning_Avx2;
+			kernels->face_normals = plFaceNormals_Avx2;
+			kernels->normals_gather = plNormalsGather_Avx2;
 			return 1;
 		}
 	}

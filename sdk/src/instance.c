@@ -46,7 +46,7 @@ typedef struct plInstanceData
 	float* deformed;        // [N][3] T_def
 	float* positions;       // [N][3]
 	float* normals;         // [N][3]
-	float* face_normals;    // [F][3] scratch: unnormalised face normals
+	float* face_normals;    // [F][4] scratch: unnormalised face normals (x, y, z, 0)
 	float* gl_normals;      // [N][3] GPU modes only: normals read back here (positions into deformed, unused on the
 	                        // GPU path) and copied to normals/positions only when the whole step succeeded
 
@@ -201,7 +201,7 @@ static void plNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* 
 	plNormalsGatherJob job = { { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
 								 a->adjacency_offsets, a->adjacency_faces,
 								 plMakeSpan( t->inst->normals, a->vertex_count, 12 ), begin, end },
-							   t->inst->face_normals };
+							   t->inst->face_normals, &t->inst->ctx->kernels };
 	plNormalsGatherJob_Run( &job );
 }
 
@@ -211,7 +211,7 @@ static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, vo
 	const plDeformTask* t = (const plDeformTask*)context;
 	const plAssetData* a = t->inst->asset;
 	plFaceNormalsJob job = { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
-							 t->inst->face_normals, begin, end };
+							 t->inst->face_normals, begin, end, &t->inst->ctx->kernels };
 	plFaceNormalsJob_Run( &job );
 }
 
@@ -407,7 +407,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 						 n3,
 						 n3,
 						 n3,
-						 (size_t)a->face_count * 3 * sizeof( float ),
+						 (size_t)a->face_count * 4 * sizeof( float ),
 						 def->gpu_mode != PLEAT_GPU_NONE ? n3 : 0 };
 	size_t total = 0;
 	for ( int i = 0; i < 13; ++i )

@@ -152,7 +152,8 @@ typedef struct plNormalsJob
 typedef struct plNormalsGatherJob
 {
 	plNormalsJob normals;      // positions may be a zero span here: only the face normals are read
-	const float* face_normals; // [F][3] unnormalised
+	const float* face_normals; // [F][4] unnormalised (x, y, z, 0), 16-byte rows so a SIMD kernel loads one per face
+	const plKernels* kernels;  // optional: NULL = the scalar kernel
 } plNormalsGatherJob;
 
 int plNormalsGatherJob_Validate( const plNormalsGatherJob* job );
@@ -165,8 +166,9 @@ typedef struct plFaceNormalsJob
 	plConstSpan positions;   // [N] xyz, any stride
 	const uint32_t* faces;   // [F][3]
 	uint32_t face_count;
-	float* output;           // [F][3]
+	float* output;           // [F][4] (x, y, z, 0)
 	uint32_t face_begin, face_end;
+	const plKernels* kernels; // optional: NULL = the scalar kernel
 } plFaceNormalsJob;
 
 int plFaceNormalsJob_Validate( const plFaceNormalsJob* job );

@@ -17,7 +17,7 @@ int plNormalsJob_Validate( const plNormalsJob* job )
 		   PLEAT_SPAN_HOLDS( job->output, 12, n );
 }
 
-static void plNormalsGather( const plNormalsJob* job, const float* face_normals );
+static void plNormalsGather( const plNormalsJob* job );
 
 plResult plNormalsJob_Run( const plNormalsJob* job )
 {
@@ -25,7 +25,7 @@ plResult plNormalsJob_Run( const plNormalsJob* job )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	plNormalsGather( job, NULL );
+	plNormalsGather( job );
 	return PLEAT_RESULT_OK;
 }
 
@@ -40,11 +40,46 @@ plResult plNormalsGatherJob_Run( const plNormalsGatherJob* job )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	plNormalsGather( &job->normals, job->face_normals );
+	const plNormalsJob* n = &job->normals;
+	plNormalsGatherFn* kernel = job->kernels != NULL && job->kernels->normals_gather != NULL
+									? job->kernels->normals_gather
+									: plNormalsGather_Scalar;
+	kernel( (float*)n->output.ptr, n->output.stride_bytes, job->face_normals, n->face_count, n->adjacency_offsets,
+			n->adjacency_faces, n->vertex_begin, n->vertex_end );
 	return PLEAT_RESULT_OK;
 }
 
-static void plNormalsGather( const plNormalsJob* job, const float* face_normals )
+void plNormalsGather_Scalar( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
+							 const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
+							 uint32_t v_end )
+{
+	uint32_t limit = 3u * face_count;
+	for ( uint32_t v = v_begin; v < v_end; ++v )
+	{
+		float nx = 0.0f, ny = 0.0f, nz = 0.0f;
+		uint32_t begin = adjacency_offsets[v], end = adjacency_offsets[v + 1];
+		end = end > limit ? limit : end;
+		for ( uint32_t e = begin; e < end; ++e )
+		{
+			uint32_t f = adjacency_faces[e];
+			if ( f < face_count )
+			{
+				nx += face_normals4[(size_t)f * 4 + 0];
+				ny += face_normals4[(size_t)f * 4 + 1];
+				nz += face_normals4[(size_t)f * 4 + 2];
+			}
+		}
+		float length = sqrtf( nx * nx + ny * ny + nz * nz );
+		float scale = length > 0.0f ? 1.0f / length : 0.0f;
+		float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
+		o[0] = nx * scale;
+		o[1] = ny * scale;
+		o[2] = nz * scale;
+	}
+}
+
+// Face normals computed on the fly per vertex (the reference form of the two-pass face normals + gather).
+static void plNormalsGather( const plNormalsJob* job )
 {
 	const uint8_t* in = (const uint8_t*)job->positions.ptr;
 	uint32_t stride = job->positions.stride_bytes;
@@ -55,20 +90,6 @@ static void plNormalsGather( const plNormalsJob* job, const float* face_normals 
 		float nx = 0.0f, ny = 0.0f, nz = 0.0f;
 		uint32_t begin = job->adjacency_offsets[v], end = job->adjacency_offsets[v + 1];
 		end = end > limit ? limit : end;
-		if ( face_normals != NULL )
-		{
-			for ( uint32_t e = begin; e < end; ++e )
-			{
-				uint32_t f = job->adjacency_faces[e];
-				if ( f < job->face_count )
-				{
-					nx += face_normals[(size_t)f * 3 + 0];
-					ny += face_normals[(size_t)f * 3 + 1];
-					nz += face_normals[(size_t)f * 3 + 2];
-				}
-			}
-			begin = end; // gathered; skip the on-the-fly loop
-		}
 		for ( uint32_t e = begin; e < end; ++e )
 		{
 			uint32_t f = job->adjacency_faces[e];
@@ -111,26 +132,35 @@ plResult plFaceNormalsJob_Run( const plFaceNormalsJob* job )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	const uint8_t* in = (const uint8_t*)job->positions.ptr;
-	uint32_t stride = job->positions.stride_bytes;
-	uint32_t n = job->positions.count;
-	for ( uint32_t f = job->face_begin; f < job->face_end; ++f )
+	plFaceNormalsFn* kernel = job->kernels != NULL && job->kernels->face_normals != NULL ? job->kernels->face_normals
+																						 : plFaceNormals_Scalar;
+	kernel( job->output, (const float*)job->positions.ptr, job->positions.stride_bytes, job->positions.count,
+			job->faces, job->face_begin, job->face_end );
+	return PLEAT_RESULT_OK;
+}
+
+void plFaceNormals_Scalar( float* out4, const float* positions, uint32_t position_stride_bytes, uint32_t vertex_count,
+						   const uint32_t* faces, uint32_t f_begin, uint32_t f_end )
+{
+	const uint8_t* in = (const uint8_t*)positions;
+	uint32_t n = vertex_count;
+	for ( uint32_t f = f_begin; f < f_end; ++f )
 	{
-		const uint32_t* tri = job->faces + (size_t)f * 3;
-		float* out = job->output + (size_t)f * 3;
+		const uint32_t* tri = faces + (size_t)f * 3;
+		float* out = out4 + (size_t)f * 4;
+		out[3] = 0.0f;
 		if ( tri[0] >= n || tri[1] >= n || tri[2] >= n )
 		{
 			out[0] = out[1] = out[2] = 0.0f;
 			continue;
 		}
-		const float* a = (const float*)( in + (size_t)tri[0] * stride );
-		const float* b = (const float*)( in + (size_t)tri[1] * stride );
-		const float* c = (const float*)( in + (size_t)tri[2] * stride );
+		const float* a = (const float*)( in + (size_t)tri[0] * position_stride_bytes );
+		const float* b = (const float*)( in + (size_t)tri[1] * position_stride_bytes );
+		const float* c = (const float*)( in + (size_t)tri[2] * position_stride_bytes );
 		float e1x = b[0] - a[0], e1y = b[1] - a[1], e1z = b[2] - a[2];
 		float e2x = c[0] - a[0], e2y = c[1] - a[1], e2z = c[2] - a[2];
 		out[0] = e1y * e2z - e1z * e2y;
 		out[1] = e1z * e2x - e1x * e2z;
 		out[2] = e1x * e2y - e1y * e2x;
 	}
-	return PLEAT_RESULT_OK;
 }

@@ -161,12 +161,14 @@ static void test_normals_of_flat_quad_and_area_weighting( void** state )
 		assert_float_equal( normals[i], expected[i], 1e-6 );
 	}
 	// Gathering precomputed face normals (plFaceNormalsJob) gives bit-identical results.
-	float face_normals[2 * 3], gathered[4 * 3];
-	plFaceNormalsJob faces_job = { plMakeConstSpan( positions, 4, 12 ), faces, 2, face_normals, 0, 2 };
+	float face_normals[2 * 4], gathered[4 * 3];
+	plFaceNormalsJob faces_job = { plMakeConstSpan( positions, 4, 12 ), faces, 2, face_normals, 0, 2, NULL };
 	assert_int_equal( plFaceNormalsJob_Run( &faces_job ), PLEAT_RESULT_OK );
-	assert_float_equal( face_normals[3], 1.0f, 0 ); // face 1: (1, −1, 1)
-	assert_float_equal( face_normals[4], -1.0f, 0 );
-	plNormalsGatherJob gather = { job, face_normals };
+	assert_float_equal( face_normals[4], 1.0f, 0 ); // face 1: (1, −1, 1, 0)
+	assert_float_equal( face_normals[5], -1.0f, 0 );
+	assert_float_equal( face_normals[6], 1.0f, 0 );
+	assert_float_equal( face_normals[7], 0.0f, 0 );
+	plNormalsGatherJob gather = { job, face_normals, NULL };
 	gather.normals.output = plMakeSpan( gathered, 4, 12 );
 	assert_int_equal( plNormalsGatherJob_Run( &gather ), PLEAT_RESULT_OK );
 	assert_memory_equal( gathered, normals, sizeof( normals ) );

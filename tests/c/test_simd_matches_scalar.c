@@ -249,6 +249,64 @@ static void test_skinning_avx2_matches_scalar( void** state )
 	}
 }
 
+// Normals: face normals and the adjacency gather are bit-identical to scalar (same operations in the same order), on a
+// random mesh with out-of-range face and adjacency entries, packed and strided positions; the positions buffer ends at
+// the last vertex's z (a 16-byte load there would be caught by ASan in the sanitizer build).
+static void test_normals_avx2_are_bit_identical_to_scalar( void** state )
+{
+	(void)state;
+	if ( !plHaveAvx2() )
+	{
+		skip();
+	}
+	plKernels simd, scalar;
+	plSelectKernels( &simd, 0 );
+	plSelectKernels( &scalar, 1 );
+	const uint32_t n = 53, f = 97;
+	for ( uint32_t stride = 12; stride <= 20; stride += 8 )
+	{
+		float* positions = (float*)malloc( (size_t)( n - 1 ) * stride + 12 );
+		for ( uint32_t v = 0; v < n; ++v )
+		{
+			float* p = (float*)( (uint8_t*)positions + (size_t)v * stride );
+			p[0] = plRand();
+			p[1] = plRand();
+			p[2] = plRand();
+		}
+		uint32_t faces[97 * 3];
+		for ( uint32_t i = 0; i < f * 3; ++i )
+		{
+			faces[i] = ( s_rng = s_rng * 1103515245u + 12345u ) >> 16;
+			faces[i] %= i % 41 == 0 ? n + 3 : n; // a few out of range
+		}
+		faces[( f - 1 ) * 3] = n - 1; // the last vertex is read
+		uint32_t offsets[53 + 1], adjacency[97 * 3];
+		for ( uint32_t v = 0; v <= n; ++v )
+		{
+			offsets[v] = v * 5 < f * 3 ? v * 5 : f * 3;
+		}
+		for ( uint32_t e = 0; e < f * 3; ++e )
+		{
+			adjacency[e] = ( ( s_rng = s_rng * 1103515245u + 12345u ) >> 16 ) % ( f + 2 );
+		}
+		float fs[97 * 4], fv[97 * 4];
+		memset( fs, 0xAB, sizeof( fs ) );
+		memset( fv, 0xCD, sizeof( fv ) );
+		scalar.face_normals( fs, positions, stride, n, faces, 0, f );
+		simd.face_normals( fv, positions, stride, n, faces, 0, f );
+		assert_memory_equal( fs, fv, sizeof( fs ) );
+		float os[53 * 4], ov[53 * 4];
+		memset( os, 0, sizeof( os ) );
+		memset( ov, 0, sizeof( ov ) );
+		scalar.normals_gather( os, 16, fs, f, offsets, adjacency, 1, n );
+		simd.normals_gather( ov, 16, fs, f, offsets, adjacency, 1, n );
+		assert_memory_equal( os, ov, sizeof( os ) );
+		float length = sqrtf( os[4] * os[4] + os[5] * os[5] + os[6] * os[6] );
+		assert_true( fabsf( length - 1.0f ) < 1e-5f ); // vertex 1 has faces: a unit normal
+		free( positions );
+	}
+}
+
 // fp16 conversion: exact on every half value (round trip), round-to-nearest-even on floats.
 static void test_half_conversion_round_trips( void** state )
 {
@@ -327,6 +385,7 @@ int main( void )
 		cmocka_unit_test( test_mat_vec_avx2_matches_scalar ),
 		cmocka_unit_test( test_blend_shapes_avx2_matches_scalar ),
 		cmocka_unit_test( test_skinning_avx2_matches_scalar ),
+		cmocka_unit_test( test_normals_avx2_are_bit_identical_to_scalar ),
 		cmocka_unit_test( test_half_conversion_round_trips ),
 		cmocka_unit_test( test_pipeline_avx2_matches_scalar ),
 	};
