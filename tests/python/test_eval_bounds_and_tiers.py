@@ -64,3 +64,12 @@ def test_large_tier_is_the_papers_configuration_and_overrides_name_real_config_k
         for part in key.split("."):
             assert part in node, f"{key} is not a key of configs/default.json"
             node = node[part]
+
+
+def test_tier_spec_reads_as_a_random_asset_with_the_tiers_sizes():
+    from pleat.eval.scene import read_weights
+    t = tiers.tier("xsmall")
+    _, w = read_weights("tier:xsmall")
+    assert len(w["z_min"]) == t.latent and len(w["blend_shapes"]) == t.blend
+    assert abs(len(w["template"]) - t.vertices) <= 0.05 * t.vertices
+    assert w["lp.0.weight"].shape[0] == t.lp_hidden[0] and w["dec.0.weight"].shape[0] == t.dec_hidden[0]

@@ -20,7 +20,11 @@ NETWORK_KEYS = ("x_mean", "x_std", "z_mean", "z_std", "z_min", "z_max", "blend_s
 
 
 def read_weights(source):
-    """An asset (path or bytes) → (bytes, weights dict as stored)."""
+    """An asset (path, bytes, or "tier:NAME" for a random-weight asset at a tier's sizes, pleat.eval.tiers) →
+    (bytes, weights dict as stored)."""
+    if isinstance(source, str) and source.startswith("tier:"):
+        from pleat.eval.tiers import random_tier_weights
+        source = write_asset(None, random_tier_weights(source[5:]))
     data = source if isinstance(source, (bytes, bytearray)) else open(source, "rb").read()
     return bytes(data), read_asset(data)
 

@@ -160,7 +160,7 @@ def _reference_window(body, weights, clip, start, frames, beta, material, progre
 
 # ---- the suite ----------------------------------------------------------------------------------------------------
 def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_window_s=None, progress=True,
-              log=print):
+              log=print, plot_prefix=""):
     from pleat import runtime
     from pleat.body import BodyModel
     out_dir = Path(out_dir)
@@ -271,11 +271,11 @@ def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_windo
     report["wall_s"] = time.perf_counter() - t_start
     images = out_dir / "images"
     images.mkdir(parents=True, exist_ok=True)
-    report["plots"] = [str(p.relative_to(out_dir)) for p in plot_suite(report, series, images)]
+    report["plots"] = [str(p.relative_to(out_dir)) for p in plot_suite(report, series, images, plot_prefix)]
     return report
 
 
-def plot_suite(report, series, out_dir):
+def plot_suite(report, series, out_dir, prefix=""):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -293,7 +293,7 @@ def plot_suite(report, series, out_dir):
     ax[0].set_title(f"(a) long run, {tag}: drift ratio {d['ratio']:.3f}, slope {d['slope_mm_per_min']:.4f} mm/min",
                     fontsize=9)
     fig.tight_layout()
-    paths.append(out_dir / "stability_long.png")
+    paths.append(out_dir / f"stability_{prefix}long.png")
     fig.savefig(paths[-1], dpi=80)
     plt.close(fig)
 
@@ -305,7 +305,7 @@ def plot_suite(report, series, out_dir):
     ax.set_title(f"(b) fast motion, {tag}", fontsize=9)
     ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
-    paths.append(out_dir / "stability_fast.png")
+    paths.append(out_dir / f"stability_{prefix}fast.png")
     fig.savefig(paths[-1], dpi=80)
     plt.close(fig)
 
@@ -323,7 +323,7 @@ def plot_suite(report, series, out_dir):
     ax.set_title(f"(c) unusual bodies, {tag}", fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    paths.append(out_dir / "stability_bodies.png")
+    paths.append(out_dir / f"stability_{prefix}bodies.png")
     fig.savefig(paths[-1], dpi=80)
     plt.close(fig)
 
@@ -338,7 +338,7 @@ def plot_suite(report, series, out_dir):
     ax[0].set_title(f"(d) frame-time jitter, {tag}", fontsize=9)
     ax[0].legend(fontsize=6)
     fig.tight_layout()
-    paths.append(out_dir / "stability_dt.png")
+    paths.append(out_dir / f"stability_{prefix}dt.png")
     fig.savefig(paths[-1], dpi=80)
     plt.close(fig)
 
@@ -355,7 +355,7 @@ def plot_suite(report, series, out_dir):
     ax.set_title(f"(e) interpenetration along the long run, {tag}", fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    paths.append(out_dir / "stability_penetration.png")
+    paths.append(out_dir / f"stability_{prefix}penetration.png")
     fig.savefig(paths[-1], dpi=80)
     plt.close(fig)
     return paths
@@ -365,27 +365,50 @@ def _f(v, d=2):
     return "—" if v is None else (f"{v:.{d}f}" if isinstance(v, float) else str(v))
 
 
-def write_markdown(r, path):
-    """docs/stability.md from a suite report: definitions, the numbers, the plots, and the command."""
-    lg = r["long"]
-    d = lg["drift"]
+def write_markdown(reports, path, command):
+    """docs/stability.md from suite reports (one section per asset): definitions, numbers, plots, the command."""
+    r0 = reports[0]
     lines = [
         "# Stability suite", "",
-        f"Made by `{r['command']}` (tools/pleat/eval/stability.py) — rerun it to refresh this page. "
-        f"Asset: `{r['asset']}` — garment `{r['garment']}`, {r['vertices']} vertices, model **{r['model']}**"
-        + (" (the network outputs zero: Pleat equals the LBS-only baseline by construction, so every Pleat − LBS "
-           "number below is 0 and the suite checks the pipeline, the guards and the LBS baseline's penetration; "
-           "rerun on a trained asset for the network's numbers)" if r["model"] == "lbs-only" else "") + ". "
-        f"{'Quick mode. ' if r['quick'] else ''}Wall time {r['wall_s']:.0f} s.", "",
+        f"Made by `{command}` (tools/pleat/eval/stability.py) — rerun it to refresh this page"
+        f"{' (quick mode)' if r0['quick'] else ''}.", "",
         "What is measured (per frame, through the C runtime): **deviation** = mean distance between Pleat and its "
         "LBS-only twin (the network's own displacement; the runtime can afford it for any length); **bound** = the "
         "largest displacement the asset's decoder can produce for any latent the guard lets through (interval "
-        f"arithmetic, `pleat.eval.bounds`; here {r['displacement_bound_max_mm']:.1f} mm at the worst vertex) — "
-        "`bound excess` < 0 means every vertex stayed inside it; **error** = distance to the reference simulator, "
-        "only in short windows because the reference costs seconds per frame on this machine (a 10-minute "
-        "reference would take days); **penetration** = share of garment vertices inside the posed body and the "
-        "deepest, from the simulator's collider (nearest body vertex + normal; pinned vertices included).", "",
-        "## (a) Long run", "",
+        "arithmetic, `pleat.eval.bounds`; a guarantee, and a loose one) — `bound excess` ≤ 0 means every vertex "
+        "stayed inside it; **error** = distance to the reference simulator, only in short windows at the start and "
+        "end of the long run, because the reference costs tens of seconds per frame for the 4,417-vertex t-shirt on "
+        "this machine (a 10-minute reference would take days); **penetration** = share of garment vertices inside "
+        "the posed body and the deepest, from the simulator's collider (nearest body vertex + normal; pinned "
+        "vertices included). Reference, error and penetration need an asset built on assets/body.npz; an asset "
+        "on another skeleton (the random-weight golden tube) gets the runtime-only numbers.", ""]
+    for r in reports:
+        lines += _markdown_section(r)
+    lines += ["## The same checks as tests", "",
+              "`tests/python/test_stability_runtime.py` runs small versions in the default test command (a 300-vertex "
+              "random-weight asset with a contractive latent recurrence, random smooth motion): a 5,000-frame chained "
+              "run whose last 500 frames replay frames 8–507 must have deviation ratio ≤ 1.2 and |slope| < 5 % of the "
+              "first window per minute; every run (long, 2× and 3× speed, β = ±3/±4, dt jitter) must stay finite, "
+              "reset nothing, keep the latent inside [z_min, z_max] and every vertex inside the decoder bound; "
+              "β beyond the range equals β at the range; dt above dt_max equals dt_max; a NaN pose or dt is "
+              "rejected and leaves the instance as it was; an overflow inside f_LP returns NUMERIC_RESET and equals "
+              "a fresh first frame.", ""]
+    Path(path).write_text("\n".join(lines))
+
+
+def _markdown_section(r):
+    pre = r.get("plot_prefix", "")
+    lg = r["long"]
+    d = lg["drift"]
+    lines = [
+        f"## Asset `{r['asset']}`", "",
+        f"Garment `{r['garment']}`, {r['vertices']} vertices, model **{r['model']}**"
+        + (" — the network outputs zero, so Pleat equals the LBS-only baseline by construction: every Pleat − LBS "
+           "number is 0 and this section checks the pipeline, the guards, the LBS baseline's error and penetration"
+           if r["model"] == "lbs-only" else "")
+        + f". Decoder bound {r['displacement_bound_max_mm']:.1f} mm at the worst vertex. Wall time "
+        f"{r['wall_s']:.0f} s.", "",
+        "### (a) Long run", "",
         f"{lg['frames']} frames ({lg['seconds'] / 60:.1f} min at 30 fps) of chained clips "
         f"({', '.join('`' + c + '`' for c in r['clips'])}, 0.25 s blended transitions), looped so that the last "
         f"{d['window']} frames replay frames {d['first_start']}–{d['first_start'] + d['window'] - 1}.", "",
@@ -413,18 +436,18 @@ def write_markdown(r, path):
                          f"{_f(w['pleat_fresh_error_mm'])} | {_f(w['lbs_error_mm'])} | "
                          f"{_f(w['reference_penetration_pct'])} / {_f(w['reference_max_depth_mm'], 1)} | "
                          f"{_f(w['reference_seconds_per_frame'], 1)} |")
-    lines += ["", "![long run](images/stability_long.png)", ""]
-    if "images/stability_penetration.png" in r["plots"]:
-        lines += ["## (e) Interpenetration along the long run", "",
-                  "![penetration](images/stability_penetration.png)", ""]
-    lines += ["## (b) Fast motion", "", "| clip | speed | frames | deviation mean / max (mm) | bound excess (mm) | "
+    lines += ["", "![long run](images/stability_{pre}long.png)", ""]
+    if f"images/stability_{pre}penetration.png" in r["plots"]:
+        lines += ["### (e) Interpenetration along the long run", "",
+                  "![penetration](images/stability_{pre}penetration.png)", ""]
+    lines += ["### (b) Fast motion", "", "| clip | speed | frames | deviation mean / max (mm) | bound excess (mm) | "
               "finite | resets |", "|---|---|---|---|---|---|---|"]
     for name, v in r["fast"].items():
         lines.append(f"| {name} | {v['speed']:g}× | {v['frames']} | {_f(v['deviation_mean_mm'])} / "
                      f"{_f(v['deviation_max_mm'])} | {_f(v['bound_excess_mm'], 1)} | {v['finite']} | "
                      f"{v['numeric_resets']} |")
     lines += ["", "Each clip is looped to at least 10 s (300 frames at 1×) before it is sped up.", "",
-              "![fast](images/stability_fast.png)", "", "## (c) Unusual bodies", "",
+              "![fast](images/stability_{pre}fast.png)", "", "### (c) Unusual bodies", "",
               f"β = ±3 (training's range) and ±4 (beyond it; the clamp limit) on one component at a time, clip "
               f"`{r['clips'][0]}` looped to ≥ 10 s; penetration on 15 frames spread evenly over the clip.", "",
               "| β | deviation mean / max (mm) | bound excess (mm) | Pleat penetration (%) / deepest (mm) | LBS "
@@ -434,7 +457,7 @@ def write_markdown(r, path):
                      f"{_f(v['bound_excess_mm'], 1)} | {_f(v.get('pleat_penetration_pct'))} / "
                      f"{_f(v.get('pleat_max_depth_mm'), 1)} | {_f(v.get('lbs_penetration_pct'))} / "
                      f"{_f(v.get('lbs_max_depth_mm'), 1)} | {v['finite']} |")
-    lines += ["", "![bodies](images/stability_bodies.png)", "", "## (d) Frame-time jitter", "",
+    lines += ["", "![bodies](images/stability_{pre}bodies.png)", "", "### (d) Frame-time jitter", "",
               "dt drawn uniformly from [1/120, 1/15] s; the poses are the clip sampled at the jittered times.", "",
               "| clip | steps | dt range (ms) | clamped steps | deviation mean / max (mm) | bound excess (mm) | "
               "finite | resets |", "|---|---|---|---|---|---|---|---|"]
@@ -442,23 +465,19 @@ def write_markdown(r, path):
         lines.append(f"| {name} | {v['frames']} | {v['dt_min_s'] * 1000:.1f}–{v['dt_max_s'] * 1000:.1f} | "
                      f"{v['clamped_steps']} | {_f(v['deviation_mean_mm'])} / {_f(v['deviation_max_mm'])} | "
                      f"{_f(v['bound_excess_mm'], 1)} | {v['finite']} | {v['numeric_resets']} |")
-    lines += ["", "![dt jitter](images/stability_dt.png)", "",
-              "## The same checks as tests", "",
-              "`tests/python/test_stability_runtime.py` runs small versions in the default test command (a 300-vertex "
-              "random-weight asset with a contractive latent recurrence, random smooth motion): a 5,000-frame chained "
-              "run whose last 500 frames replay frames 8–507 must have deviation ratio ≤ 1.2 and |slope| < 5 % of the "
-              "first window per minute; every run (long, 2× and 3× speed, β = ±3/±4, dt jitter) must stay finite, "
-              "reset nothing, keep the latent inside [z_min, z_max] and every vertex inside the decoder bound; "
-              "β beyond the range equals β at the range; dt above dt_max equals dt_max; a NaN pose or dt is "
-              "rejected and leaves the instance as it was; an overflow inside f_LP returns NUMERIC_RESET and equals "
-              "a fresh first frame.", ""]
-    Path(path).write_text("\n".join(lines))
+    lines += ["", "![dt jitter](images/stability_{pre}dt.png)", ""]
+    return [ln.replace("{pre}", pre) for ln in lines]
+
+
+def _prefix(i, asset):
+    return "" if i == 0 else Path(str(asset).replace("tier:", "tier_")).stem + "_"
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="pleat-stability", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
-    ap.add_argument("--asset", required=True)
+    ap.add_argument("--asset", required=True, nargs="+",
+                    help="one or more assets (one section each); tier:NAME = random weights at a tier's sizes")
     ap.add_argument("--out", required=True, help="folder for stability.json and the stability_*.png plots")
     ap.add_argument("--quick", action="store_true", help="5,000-frame long run, fewer cases, 1 s reference windows")
     ap.add_argument("--motion", nargs="+", default=list(DEFAULT_CLIPS))
@@ -467,13 +486,18 @@ def main(argv=None):
     ap.add_argument("--json", default=None, help="also write the full report as JSON")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
-    report = run_suite(args.asset, args.out, args.quick, args.motion, args.ref_window_s, not args.no_progress,
-                       log=lambda m: print(m, file=sys.stderr))
     import shlex
-    report["command"] = "pleat-stability " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
-    write_markdown(report, Path(args.out) / "stability.md")
+    reports = []
+    for i, asset in enumerate(args.asset):
+        reports.append(run_suite(asset, args.out, args.quick, args.motion, args.ref_window_s, not args.no_progress,
+                                 log=lambda m: print(m, file=sys.stderr),
+                                 plot_prefix=_prefix(i, asset)))
+        reports[-1]["plot_prefix"] = _prefix(i, asset)
+    command = "pleat-stability " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
+    write_markdown(reports, Path(args.out) / "stability.md", command)
     if args.json:
-        Path(args.json).write_text(json.dumps(report, indent=1))
+        Path(args.json).write_text(json.dumps(reports, indent=1))
+    report = reports[0]
     short = dict(drift=report["long"]["drift"], long_finite=report["long"]["finite"],
                  worst_bound_excess_mm=max([report["long"]["bound_excess_mm"]] +
                                            [v["bound_excess_mm"] for part in ("fast", "bodies", "dt_jitter")
