@@ -16,8 +16,7 @@
 static inline __m128 plLoadPoint( const uint8_t* base, size_t index, uint32_t stride_bytes )
 {
 	const float* p = (const float*)( base + index * stride_bytes );
-	__m128 xy = _mm_castpd_ps( _mm_load_sd( (const double*)p ) );
-	return _mm_movelh_ps( xy, _mm_load_ss( p + 2 ) );
+	return _mm_setr_ps( p[0], p[1], p[2], 0.0f );
 }
 
 void plFaceNormals_Avx2( float* out4, const float* positions, uint32_t position_stride_bytes, uint32_t vertex_count,
