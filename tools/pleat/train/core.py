@@ -525,10 +525,13 @@ def load_stage1(out, device="cpu"):
 
 # ---- stage 2 -----------------------------------------------------------------------------------------------------
 @torch.no_grad()
-def record_latents(setup, model, clips, count, frames, rng):
-    """Frozen-Φ rollouts: per sequence the X_c rows (latent block zero) and Φ's latent for each predicted frame."""
+def record_latents(setup, model, clips, count, frames, rng, deadline=None):
+    """Frozen-Φ rollouts: per sequence the X_c rows (latent block zero) and Φ's latent for each predicted frame.
+    Past `deadline` (time.time()) no further sequence is started once two are recorded."""
     seqs = []
     for _ in range(count):
+        if deadline is not None and len(seqs) >= 2 and time.time() > deadline:
+            break
         # clips shorter than the sequence are skipped (sample_window), unless every clip is
         length = min(frames + 3, max(len(c.rotations) for c in clips))
         win, beta, mat, mat01 = sample_window(setup, [c for c in clips if len(c.rotations) >= 4] or clips, rng,
@@ -582,7 +585,9 @@ class LatentPredictor(torch.nn.Module):
 def train_stage2(cfg, out, resume=False, device="auto", progress=True, max_minutes=None):
     rank, world = dist_info()
     dev = device_for(device, rank)
+    stage2_cfg = cfg["stage2"]
     phi, setup, cfg, _ = load_stage1(out, dev)
+    cfg = dict(cfg, stage2=stage2_cfg)      # Φ's config from its checkpoint, stage 2's from this run (--set works)
     c2 = cfg["stage2"]
     run = Run(out, "stage2", cfg, rank)
     rng = np.random.default_rng([cfg["seed"], 2, rank])
@@ -596,8 +601,13 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True, max_minut
         with np.load(data_path, allow_pickle=True) as d:
             seqs, val = list(d["train"]), list(d["validation"])
     else:
-        seqs = record_latents(setup, phi, train_clips, c2["sequences"], c2["sequence_frames"], rng)
-        val = record_latents(setup, phi, val_clips, max(1, c2["sequences"] // 4), c2["sequence_frames"], rng)
+        # recording rolls Φ (the slow network) frame by frame: with a time budget it gets at most
+        # `record_budget_share` of it, so that f_LP still trains
+        share = c2.get("record_budget_share", 0.5)
+        deadline = None if not max_minutes else t_rec + 60.0 * max_minutes * share
+        seqs = record_latents(setup, phi, train_clips, c2["sequences"], c2["sequence_frames"], rng,
+                              None if deadline is None else deadline - 0.2 * 60.0 * max_minutes * share)
+        val = record_latents(setup, phi, val_clips, max(1, len(seqs) // 4), c2["sequence_frames"], rng, deadline)
         if rank == 0:
             np.savez(data_path, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
     run.log({"iteration": 0, "recorded_sequences": len(seqs), "recorded_frames": sum(len(q["z"]) for q in seqs),
