@@ -27,6 +27,9 @@
 //     adef.path = "tshirt.pleat";                         // or adef.data / adef.size for a block in memory
 //     plAsset asset;
 //     plResult r = plLoadAsset( context, &adef, &asset ); // plResultString( r ) names any failure
+//     plAssetInfo info; plAsset_GetInfo( asset, &info );  // N vertices, F faces, joints, ...
+//     const uint32_t* faces; uint32_t face_count;         // the index buffer: [F][3] vertex indices, read in place
+//     plAsset_GetFaces( asset, &faces, &face_count );
 //
 //     plInstanceDef idef = plDefaultInstanceDef();
 //     idef.asset = asset;
