@@ -160,3 +160,20 @@ def test_tiny_asset_matches_reference_and_runtime(tiny_run):
                           for f in range(len(dt))])
     # float32 C kernels over 40 autoregressive steps vs float64: 0.5 mm
     np.testing.assert_allclose(c_pos, ref, atol=5e-4)
+
+
+def test_time_budget_stops_checkpoints_and_resumes(tmp_path):
+    from pleat.train.cli import main
+    args = ["stage1", "--preset", "tiny", "--garment", "tshirt", "--out", str(tmp_path), "--no-progress",
+            "--set", "stage1.iterations=100000", "--set", "stage1.validation_windows=1"]
+    assert main(args + ["--max-minutes", "0.04"]) == 0
+    stopped = [r for r in _records(tmp_path, "stage1") if "stopped" in r]
+    assert len(stopped) == 1 and stopped[0]["stopped"] == "time budget"
+    first = torch.load(tmp_path / "stage1.pt", weights_only=False)
+    assert 0 < first["iteration"] == stopped[0]["iteration"] < 100000
+    # the budget counts across a resume: the elapsed time was saved, so a resumed run gets only what is left
+    assert first["elapsed_s"] >= 0.04 * 60
+    assert main(args + ["--max-minutes", "0.08", "--resume"]) == 0
+    second = torch.load(tmp_path / "stage1.pt", weights_only=False)
+    assert second["iteration"] > first["iteration"]
+    assert 0.08 * 60 <= second["elapsed_s"] < 0.08 * 60 + 30
