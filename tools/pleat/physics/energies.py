@@ -273,14 +273,24 @@ def friction_grad_hess(x, x_t, body_displacement, contact_normal, normal_force, 
     return grad, H
 
 
-def stretching_grad_hess_gn(x, rest, mu, lam):
+def stretching_grad_hess_gn(x, rest, mu, lam, stress_projection="clamp"):
     """StVK gradient [N,3] (the same as `stretching_grad_hess`) and cheaper PSD Hessian blocks [F,9,9].
 
     The exact Hessian is Jᵀ C J + (stress term) with J = ∂E/∂x, C = ∂²ψ/∂E² (PSD for μ > 0, λ ≥ 0) and the stress
     term A (B S Bᵀ) ⊗ I₃ (S = 2μE + λ tr(E) I, the second Piola-Kirchhoff stress). Clamping the 2×2 S to its
     non-negative eigenvalues (closed form) makes the sum PSD without a 6×6 eigen-decomposition per face; in tension
     (S PSD) it is the exact Hessian.
+
+    stress_projection="abs" uses |eigenvalues| of S instead (also PSD, also exact in tension): in compression the
+    clamped stress term leaves only inertia against out-of-plane buckling, so Newton's steps there are far too long
+    and zig-zag; the absolute value keeps the stress's curvature magnitude (after Chen et al. 2024, abs-eigenvalue
+    projection).
+
+    stress_projection="none" keeps S as it is: the exact StVK Hessian, indefinite in compression (for a solver that
+    handles negative curvature itself).
     """
+    if stress_projection not in ("clamp", "abs", "none"):
+        raise ValueError(f"stress_projection must be 'clamp', 'abs' or 'none', got {stress_projection!r}")
     f0, f1 = _deformation_columns(x, rest)
     n_f = len(rest.faces)
     mu = np.broadcast_to(np.asarray(mu, np.float64), (n_f,))
@@ -317,7 +327,12 @@ def stretching_grad_hess_gn(x, rest, mu, lam):
     safe = np.where(rad > 0, rad, 1.0)
     c2 = np.where(rad > 0, 0.5 * (s00 - s11) / safe, 1.0)   # cos 2φ
     s2 = np.where(rad > 0, s01 / safe, 0.0)                  # sin 2φ
-    hi, lo = np.maximum(mean + rad, 0.0), np.maximum(mean - rad, 0.0)
+    if stress_projection == "abs":
+        hi, lo = np.abs(mean + rad), np.abs(mean - rad)
+    elif stress_projection == "none":
+        hi, lo = mean + rad, mean - rad
+    else:
+        hi, lo = np.maximum(mean + rad, 0.0), np.maximum(mean - rad, 0.0)
     S_psd = np.empty((n_f, 2, 2))
     S_psd[:, 0, 0] = lo + (hi - lo) * 0.5 * (1.0 + c2)
     S_psd[:, 1, 1] = lo + (hi - lo) * 0.5 * (1.0 - c2)

@@ -19,10 +19,15 @@ def main(argv=None):
                         help="m,mu,lambda,k (areal density kg/m², Lamé μ, λ, bending k); default HOOD's cotton")
     parser.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     parser.add_argument("--no-body", action="store_true", help="do not store body vertices in sim.npz")
+    parser.add_argument("--lead-in", type=int, default=None, metavar="N",
+                        help="frames from the rest pose to the clip's first pose before frame 0 (default 15; 0: start "
+                             "from the garment skinned onto frame 0)")
+    parser.add_argument("--hold", type=int, default=None, metavar="N",
+                        help="frames the first pose is held after the lead-in (default 5)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     from ..physics import Material
-    from .scene import load_body, load_garment_spec, load_motion, simulate
+    from .scene import HOLD_FRAMES, LEAD_IN_FRAMES, load_body, load_garment_spec, load_motion, simulate
     try:
         material = Material.parse(args.material) if args.material else Material()
     except ValueError as e:
@@ -32,7 +37,9 @@ def main(argv=None):
     garment = load_garment_spec(args.garment, body)
     clip = load_motion(args.motion, body, fps=args.fps)
     positions, body_v, summary = simulate(garment, body, clip, beta=beta, material=material, frames=args.frames,
-                                          progress=not args.quiet, keep_body=not args.no_body)
+                                          progress=not args.quiet, keep_body=not args.no_body,
+                                          lead_in_frames=LEAD_IN_FRAMES if args.lead_in is None else args.lead_in,
+                                          hold_frames=HOLD_FRAMES if args.hold is None else args.hold)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     arrays = dict(positions=positions, faces=garment.faces, fps=np.float64(clip.fps), garment=np.array(garment.name),
@@ -45,7 +52,7 @@ def main(argv=None):
     summary["motion"] = clip.name
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     print(json.dumps({k: summary[k] for k in ("frames", "seconds_per_frame", "max_penetration_mm",
-                                              "final_gradient_norm")}))
+                                              "final_gradient_norm", "steps_not_converged")}))
     return 0
 
 
