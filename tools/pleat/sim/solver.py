@@ -145,6 +145,8 @@ class ClothSolver:
         verts = np.arange(n)[:, None]
         self.pattern = _Pattern(n, self.free_dof_index, [rest.faces, rest.hinges, verts])
         self.weight_scale = float(self.mass.max() * en.GRAVITY_M_S2)
+        self._normal_force = None             # friction's λ carried from one solve to the next substep's
+        self._normal_force_cache = None       # (x at the end of the last step, λ there) for the next step
 
     # -- energy of a substep ---------------------------------------------------------------------------------------
     def _terms(self, x, c):
@@ -185,13 +187,23 @@ class ClothSolver:
         return float(np.abs(gf).max()) if gf.size else 0.0
 
     # -- contacts ----------------------------------------------------------------------------------------------------
-    def _start_contacts(self, x0, body0):
-        """Nearest body vertex at the substep's start and the lagged normal force λ = 3κ·gap² from there."""
+    def _start_contacts(self, x0, body0, normal_force=None):
+        """Nearest body vertex at the substep's start and the lagged normal force λ for friction: the penalty force
+        3κ·gap² the previous solve ended with (`normal_force`), else 3κ·gap² at x0. Not from x0 after a projection:
+        a vertex projected onto the surface (d = 0) sits ε deep in the margin, where the penalty force is
+        3κε² = 48 N, some 10⁵ times a vertex's weight, and friction would glue it to the body for a substep."""
         s = self.settings
         idx0, _, _, d0 = body0.query(x0)
-        gap = np.maximum(s.collision_margin_m - d0, 0.0)
-        gap[self.pinned] = 0.0
-        return dict(idx0=idx0, d0=d0, lam=3.0 * s.collision_stiffness * gap * gap)
+        if normal_force is None:
+            gap = np.maximum(s.collision_margin_m - d0, 0.0)
+            normal_force = 3.0 * s.collision_stiffness * gap * gap
+        lam = np.where(self.pinned, 0.0, normal_force)
+        return dict(idx0=idx0, d0=d0, lam=lam)
+
+    def _solved_normal_force(self, x, c):
+        s = self.settings
+        gap = np.maximum(s.collision_margin_m - np.einsum("ij,ij->i", x - c["p"], c["n"]), 0.0)
+        return 3.0 * s.collision_stiffness * gap * gap
 
     def _contacts(self, x, start, body0, body1, requery=False):
         """Contact point/normal per vertex on the body at the substep's end.
@@ -235,6 +247,9 @@ class ClothSolver:
         pins_next = None if pin_targets is None else np.asarray(pin_targets, np.float64)
         pins_start = x_t if pins_t is None else np.asarray(pins_t, np.float64)
         K = self.substeps_for(x_t, v, body_t, body_next)
+        # the friction normal force the previous step's last solve ended with, if x_t is where that step ended
+        cache = self._normal_force_cache
+        self._normal_force = cache[1] if cache is not None and np.array_equal(cache[0], x_t) else None
         h = s.dt_s / K
         stats = StepStats(substeps=K)
         x = x_t
@@ -253,6 +268,7 @@ class ClothSolver:
             x = x_new
             body0 = body1
         stats.velocity = v
+        self._normal_force_cache = None
         if body_next is not None:
             # last guard at the frame's end, by the plain nearest-vertex measure the tolerance is stated in
             free = ~self.pinned
@@ -264,6 +280,8 @@ class ClothSolver:
                 x[inside] -= d[inside, None] * n[inside]
             d = body_next.query(x)[3]
             stats.penetration_after_projection_m = float(max(0.0, -d[free].min())) if free.any() else 0.0
+            if self._normal_force is not None:
+                self._normal_force_cache = (x.copy(), self._normal_force)
         return x, stats
 
     def _substep(self, x0, v0, h, pins, body0, body1, stats):
@@ -275,14 +293,16 @@ class ClothSolver:
         c = dict(x_pred=x_pred, x_t=x0, h=h, p=None)
         start = None
         if body1 is not None:
-            start = self._start_contacts(x0, body0)
+            start = self._start_contacts(x0, body0, self._normal_force)
             c.update(self._contacts(x, start, body0, body1))
             # warm start: the inertial prediction, with vertices the body moved into lifted onto its surface
             d = np.einsum("ij,ij->i", x - c["p"], c["n"])
             inside = (d < 0.0) & ~self.pinned
             x[inside] -= d[inside, None] * c["n"][inside]
         x = self._newton(x, c, start, body0, body1, stats)
+        self._normal_force = None
         if body1 is not None:
+            self._normal_force = self._solved_normal_force(x, c)
             for k in range(s.projection_rounds):
                 c.update(self._contacts(x, start, body0, body1, requery=True))
                 d = np.einsum("ij,ij->i", x - c["p"], c["n"])
