@@ -62,7 +62,8 @@ def describe_asset(weights):
                 preset=meta.get("preset"))
 
 
-def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, timing_frames=300, progress=True):
+def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, timing_frames=300, progress=True,
+            speed_assets=()):
     from pleat import runtime
     from pleat.body import BodyModel
     from pleat.eval.cli import evaluate
@@ -71,7 +72,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
     timing = _timing_clip(clips[0], timing_frames)
     rows = []
     with runtime.Context() as ctx:
-        for path in assets:
+        for path in list(assets) + list(speed_assets):
             data, w = S.read_weights(path)
             desc = describe_asset(w)
             base = dict(name=Path(path).stem, asset=str(path), **desc)
@@ -87,7 +88,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                     row.update(name=f"LBS-only ({row['garment']}, N={desc['vertices']})", latent=1, blend=1,
                                lp_hidden=[], dec_hidden=[], model="lbs-only")
                 row["step_us"] = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]))
-                if with_error:
+                if with_error and path not in speed_assets:
                     reps = [evaluate(blob, m, max_frames=max_frames, progress=progress, context=ctx)
                             for m in motions]
                     row["mean_mm"] = float(np.mean([r["pleat"]["mean_mm"] for r in reps]))
@@ -153,7 +154,8 @@ def write_markdown(rows, clips, command, library, path, max_frames):
         "",
         "Made by `python -m pleat.eval.pareto` (tools/pleat/eval/pareto.py). Step time: median of "
         "`plInstance_Step` alone (timed around the C call through `pleat.runtime`, one thread, the first 30 steps "
-        f"of each pass dropped) over 3 passes of 300 poses; library `{library}`. Error: mean and 95th-percentile "
+        f"of each pass dropped), the lowest of the medians of 5 passes over 300 poses (the machine is shared; a "
+        f"pass slowed by other jobs is rejected that way); library `{library}`. Error: mean and 95th-percentile "
         f"per-vertex distance to the reference simulation (`pleat.sim`, cached in out/cache/sim/) over the first "
         f"{max_frames} frames of {', '.join(f'`{c}`' for c in clips)} at 30 fps, β = 0, the asset's default "
         "material (pleat-eval's numbers, docs/accuracy.md).",
@@ -183,12 +185,21 @@ def write_markdown(rows, clips, command, library, path, max_frames):
               "- Any asset whose model says `tiny` is a smoke-test network trained for minutes on a 300-vertex "
               "garment: its error is not representative of the method."]
     lines += ["", "## Remake", "", "```", command, "```", ""]
+    made = [r for r in rows if r["kind"] == "lbs" and not str(r.get("asset", "")).startswith("assets/")
+            and r.get("asset") and r["model"].startswith("lbs-only")]
+    if made:
+        lines += ["LBS-only assets outside assets/ are made first with:", "", "```"]
+        lines += [f"python -m pleat.garment_asset --garment {r['garment']} --vertices {r['vertices']} --out {r['asset']}"
+                  "   # remeshing lands within a few vertices of the request" for r in made]
+        lines += ["```", ""]
     Path(path).write_text("\n".join(lines))
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m pleat.eval.pareto", description=__doc__.split("\n\n")[0])
     ap.add_argument("--assets", nargs="*", default=[], help=".pleat assets (trained tiers, LBS-only, tiny)")
+    ap.add_argument("--speed-assets", nargs="*", default=[],
+                    help="assets timed but not scored (their reference would take too long here)")
     ap.add_argument("--motion", nargs="+", default=["deepmimic_pybullet/humanoid3d_punch"],
                     help="validation clips (pleat.motion.split.VALIDATION)")
     ap.add_argument("--out", default="docs", help="folder for pareto.png and pareto.md")
@@ -204,7 +215,7 @@ def main(argv=None):
         if m not in VALIDATION:
             print(f"note: {m} is not a validation clip (pleat.motion.split.VALIDATION)", file=sys.stderr)
     rows, clips = measure(args.assets, args.motion, args.max_frames, not args.no_tiers, not args.no_error,
-                          progress=not args.no_progress)
+                          progress=not args.no_progress, speed_assets=args.speed_assets)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     plot(rows, out / "pareto.png")
