@@ -505,12 +505,16 @@ def validate_stage1(setup, model, cfg):
     rng = np.random.default_rng(12345)
     c1 = cfg["stage1"]
     w = loss_weights(c1, c1["iterations"] - 1)
-    losses = []
+    losses, terms = [], {k: [] for k in LOSS_TERMS}
     for _ in range(c1["validation_windows"]):
         win, beta, mat, mat01 = sample_window(setup, clips, rng, c1["rollout_max"] + 3)
-        loss, _ = rollout_loss(setup, model, Window(setup, win, beta, mat, mat01), c1["rollout_max"], w)
+        loss, t = rollout_loss(setup, model, Window(setup, win, beta, mat, mat01), c1["rollout_max"], w)
         losses.append(float(loss))
-    return {"loss": float(np.mean(losses)), "windows": len(losses)}
+        for k in LOSS_TERMS:
+            terms[k].append(t[k])
+    # mean and median: a few extreme windows (LBS of a cartwheel) dominate the mean
+    return {"loss": float(np.mean(losses)), "loss_median": float(np.median(losses)), "windows": len(losses),
+            **{k: float(np.mean(v)) for k, v in terms.items()}}
 
 
 def load_stage1(out, device="cpu"):
