@@ -121,7 +121,7 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
         x_prev = x.copy()
     out = np.empty((n_frames, len(x), 3), np.float32)
     out[0] = x
-    per_frame = dict(substeps=[], newton_iterations=[], cg_iterations=[], gradient_ratio=[], converged=[],
+    per_frame = dict(substeps=[], substeps_converged=[], newton_iterations=[], cg_iterations=[], gradient_ratio=[], converged=[],
                      penetration_before_projection_mm=[], penetration_after_projection_mm=[], seconds=[])
     iterator = range(1, n_frames)
     if progress:
@@ -139,6 +139,7 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
         out[t] = x
         per_frame["seconds"].append(round(time.perf_counter() - t_frame, 4))
         per_frame["substeps"].append(stats.substeps)
+        per_frame["substeps_converged"].append(stats.substeps_converged)
         per_frame["newton_iterations"].append(stats.newton_iterations)
         per_frame["cg_iterations"].append(stats.cg_iterations)
         per_frame["gradient_ratio"].append(float(stats.worst_gradient_ratio))
@@ -163,6 +164,8 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
                    mean_newton_iterations_per_substep=(float(np.sum(per_frame["newton_iterations"])
                                                              / max(1, np.sum(per_frame["substeps"])))),
                    steps_not_converged=int(sum(not c for c in per_frame["converged"])),
+                   substeps_converged_fraction=(float(np.sum(per_frame["substeps_converged"])
+                                                      / max(1, np.sum(per_frame["substeps"])))),
                    material=dict(zip(("m", "mu", "lambda", "k"), material.as_tuple())),
                    beta=[] if beta is None else [float(b) for b in np.atleast_1d(beta)],
                    settings=asdict(settings), per_frame=per_frame)

@@ -61,6 +61,7 @@ class StepStats:
     penetration_before_projection_m: float = 0.0   # deepest free vertex after a solve, before projecting (all substeps)
     penetration_after_projection_m: float = 0.0    # after the projection at the frame's end
     converged: bool = True                # every substep converged
+    substeps_converged: int = 0           # how many of the substeps converged
     velocity: np.ndarray = None           # [N,3] m/s at the end of the step (the next step's x_prev = x − v dt)
 
 
@@ -378,4 +379,5 @@ class ClothSolver:
         stats.gradient_norm = gnorm
         stats.worst_gradient_ratio = max(stats.worst_gradient_ratio, gnorm / tol)
         stats.converged = stats.converged and converged
+        stats.substeps_converged += int(converged)
         return x
