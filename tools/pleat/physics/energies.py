@@ -139,10 +139,22 @@ def dihedral_angles(x, rest):
     return _dihedral(x[h[:, 0]], x[h[:, 1]], x[h[:, 2]], x[h[:, 3]], namespace(x))
 
 
-def bending_energy(x, rest, k):
-    """Dihedral-angle bending about the rest angles; k in J (N·m)."""
+def _wrap_angle(d, xp):
+    """d ∈ (−2π, 2π) → the same angle in [−π, π]."""
+    return xp.where(d > np.pi, d - 2.0 * np.pi, xp.where(d < -np.pi, d + 2.0 * np.pi, d))
+
+
+def bending_energy(x, rest, k, wrap=False):
+    """Dihedral-angle bending about the rest angles; k in J (N·m).
+
+    wrap=True measures θ − θ̄ in [−π, π]. Without it a hinge whose rest angle is near ±π (sharp folds of a
+    procedural garment's template: the t-shirt has θ̄ up to 3.03 rad) jumps by 2π when it folds a little further:
+    the energy is discontinuous there (a line search cannot pass it) and the force tries to unfold it the long way
+    round. The default keeps the original definition."""
     xp = namespace(x)
     dtheta = dihedral_angles(x, rest) - rest.hinge_angle
+    if wrap:
+        dtheta = _wrap_angle(dtheta, xp)
     return xp.sum(0.5 * k * rest.hinge_weight * dtheta * dtheta)
 
 
@@ -223,8 +235,9 @@ def stretching_grad_hess(x, rest, mu, lam, project=True):
     return grad, H.reshape(n_f, 9, 9)
 
 
-def bending_grad_hess(x, rest, k):
-    """Gradient [N,3] and Gauss-Newton Hessian blocks [H,12,12] (order a,b,c,d × xyz), PSD by construction."""
+def bending_grad_hess(x, rest, k, wrap=False):
+    """Gradient [N,3] and Gauss-Newton Hessian blocks [H,12,12] (order a,b,c,d × xyz), PSD by construction.
+    wrap: as in `bending_energy`."""
     h = rest.hinges
     xa, xb, xc, xd = (x[h[:, i]] for i in range(4))
     e = xb - xa
@@ -241,7 +254,10 @@ def bending_grad_hess(x, rest, k):
     J = np.stack([ga, gb, gc, gd], axis=1).reshape(-1, 12)       # ∇θ per hinge
     theta = np.arctan2(dot(np.cross(n1, n2), e) / elen, dot(n1, n2))
     c = k * rest.hinge_weight
-    gh = (c * (theta - rest.hinge_angle))[:, None] * J
+    dtheta = theta - rest.hinge_angle
+    if wrap:
+        dtheta = _wrap_angle(dtheta, np)
+    gh = (c * dtheta)[:, None] * J
     grad = _scatter_add(len(x), h.ravel(), gh.reshape(-1, 3))
     cJ = c[:, None] * J
     H = cJ[:, :, None] * J[:, None, :]

@@ -156,7 +156,7 @@ class ClothSolver:
         # gravity relative to the substep's start: the same minimiser, less round-off in energy differences
         e = (en.inertia_energy(x, c["x_pred"], self.mass, c["h"])
              + en.GRAVITY_M_S2 * float(self.mass @ (x[:, 1] - c["x_t"][:, 1]))
-             + en.stretching_energy(x, self.rest, m.mu, m.lam) + en.bending_energy(x, self.rest, m.bending))
+             + en.stretching_energy(x, self.rest, m.mu, m.lam) + en.bending_energy(x, self.rest, m.bending, wrap=True))
         if c["p"] is not None:
             e += en.collision_energy(x, c["p"], c["n"], s.collision_margin_m, s.collision_stiffness)
             e += en.friction_energy(x, c["x_t"], c["body_disp"], c["n"], c["lam"], s.friction, s.friction_eps_m)
@@ -170,7 +170,7 @@ class ClothSolver:
         g[:, 1] += self.mass * en.GRAVITY_M_S2
         diag = (self.mass * inv_h2)[:, None, None] * np.eye(3)
         gs, hs = en.stretching_grad_hess_gn(x, self.rest, m.mu, m.lam)
-        gb, hb = en.bending_grad_hess(x, self.rest, m.bending)
+        gb, hb = en.bending_grad_hess(x, self.rest, m.bending, wrap=True)
         g += gs + gb
         if c["p"] is not None:
             gc, hc = en.collision_grad_hess(x, c["p"], c["n"], s.collision_margin_m, s.collision_stiffness)
