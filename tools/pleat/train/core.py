@@ -766,8 +766,8 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
         loss.backward()
         torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
         opt.step()
-        run.log({"iteration": it + 1, "loss": float(loss), "steps": steps, "fraction": s, **acc})
-        bar.set_postfix(loss=f"{float(loss):.4g}")
+        run.log({"iteration": it + 1, "loss": loss.item(), "steps": steps, "fraction": s, **acc})
+        bar.set_postfix(loss=f"{loss.item():.4g}")
         stop = stop_everywhere(world, budget.spent(), dev)
         if (it + 1) % ca["checkpoint_every"] == 0 or it + 1 == ca["iterations"] or stop:
             run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
