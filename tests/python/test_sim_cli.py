@@ -31,7 +31,7 @@ def test_pleat_sim_cli_writes_positions_and_a_truthful_summary(tmp_path):
     make_garment("tshirt", body=body, vertices=500).save(garment_path)
     out = tmp_path / "sim"
     run = subprocess.run([sys.executable, "-m", "pleat.sim.cli", "--garment", str(garment_path), "--motion", MOTION,
-                          "--frames", "2", "--out", str(out), "--quiet"], capture_output=True, text=True, timeout=300,
+                          "--frames", "2", "--out", str(out), "--quiet", "--lead-in", "4", "--hold", "1"], capture_output=True, text=True, timeout=300,
                          cwd=REPO)
     assert run.returncode == 0, run.stderr
     summary = json.loads((out / "summary.json").read_text())
@@ -39,6 +39,8 @@ def test_pleat_sim_cli_writes_positions_and_a_truthful_summary(tmp_path):
                 "final_gradient_norm", "gradient_tolerance", "steps_not_converged", "per_frame"):
         assert key in summary
     assert summary["frames"] == 2
+    assert summary["lead_in"]["frames"] == 4 and summary["lead_in"]["hold_frames"] == 1
+    assert 0.0 <= summary["substeps_converged_fraction"] <= 1.0
     assert 0.0 < summary["seconds_per_frame"] < 300.0
     assert np.isfinite(summary["final_gradient_norm"]) and summary["final_gradient_norm"] >= 0.0
     assert len(summary["per_frame"]["penetration_after_projection_mm"]) == 1
