@@ -69,7 +69,7 @@ def test_reference_cache_key_changes_with_every_input(weights):
     assert base == cache_key(g, body, beta.copy(), mat.copy(), clip, 10, SolverSettings())
     changed = [cache_key(g, body, beta + 0.1, mat, clip, 10, st), cache_key(g, body, beta, mat * 1.01, clip, 10, st),
                cache_key(g, body, beta, mat, clip, 9, st),
-               cache_key(g, body, beta, mat, clip, 10, SolverSettings(force_tol=1e-2)),
+               cache_key(g, body, beta, mat, clip, 10, SolverSettings(force_tol=2 * st.force_tol)),
                cache_key(g, SimpleNamespace(**dict(vars(body), v_template=np.ones((4, 3)))), beta, mat, clip, 10, st)]
     assert len({base, *changed}) == 6
 
