@@ -143,7 +143,7 @@ class Energies:
             normal_force = 3.0 * gap * gap * float(self.collision_weight)
         return {
             "stretching": ph.stretching_energy(x, rest, mu, lam),
-            "bending": ph.bending_energy(x, rest, k),
+            "bending": ph.bending_energy(x, rest, k, wrap=True),
             "inertia": ph.inertia_energy(x, 2 * x_t - x_tm1, mass, dt),
             # relative to the previous state: same gradient, a value that reads as work done in the step
             "gravity": ph.gravity_energy(x, mass) - ph.gravity_energy(x_t, mass).detach(),
