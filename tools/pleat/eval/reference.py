@@ -37,7 +37,11 @@ def cache_key(garment, body, beta, material, clip, frames, settings):
                  body.J_regressor, np.asarray(beta, np.float64), np.asarray(material, np.float64),
                  clip.local_rotations[:frames], clip.root_translation[:frames], clip.root_rotation[:frames],
                  np.float64(clip.fps))
-    h.update(json.dumps(dict(frames=int(frames), settings=asdict(settings)), sort_keys=True).encode())
+    # The scene's lead-in (how the garment is brought onto frame 0) changes every frame after it, so it is part of
+    # the key like the solver settings.
+    from pleat.sim.scene import HOLD_FRAMES, LEAD_IN_FRAMES
+    h.update(json.dumps(dict(frames=int(frames), settings=asdict(settings), lead_in=LEAD_IN_FRAMES, hold=HOLD_FRAMES),
+                        sort_keys=True).encode())
     return h.hexdigest()[:32]
 
 
