@@ -936,6 +936,21 @@ plResult plInstance_GetNormals( plInstance handle, const float** out_normals, ui
 	return PLEAT_RESULT_OK;
 }
 
+// The getters that copy one of the instance's float arrays out: the caller's capacity must hold all of it.
+static plResult plCopyFloatsOut( const float* source, size_t count, float* out, size_t capacity )
+{
+	if ( out == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	if ( capacity < count )
+	{
+		return PLEAT_RESULT_BUFFER_TOO_SMALL;
+	}
+	memcpy( out, source, count * sizeof( float ) );
+	return PLEAT_RESULT_OK;
+}
+
 plResult plInstance_GetSkinMatrices( plInstance handle, float* out, uint32_t joint_count )
 {
 	plInstanceData* inst = plGetInstanceData( handle );
@@ -943,16 +958,8 @@ plResult plInstance_GetSkinMatrices( plInstance handle, float* out, uint32_t joi
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	if ( out == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	if ( joint_count < inst->asset->joint_count )
-	{
-		return PLEAT_RESULT_BUFFER_TOO_SMALL;
-	}
-	memcpy( out, inst->skin_matrices, (size_t)inst->asset->joint_count * 12 * sizeof( float ) );
-	return PLEAT_RESULT_OK;
+	// counts are of 3x4 matrices
+	return plCopyFloatsOut( inst->skin_matrices, (size_t)inst->asset->joint_count * 12, out, (size_t)joint_count * 12 );
 }
 
 plResult plInstance_GetLatent( plInstance handle, float* out, uint32_t latent_count )
@@ -962,16 +969,7 @@ plResult plInstance_GetLatent( plInstance handle, float* out, uint32_t latent_co
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	if ( out == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	if ( latent_count < inst->asset->latent_count )
-	{
-		return PLEAT_RESULT_BUFFER_TOO_SMALL;
-	}
-	memcpy( out, inst->latent, inst->asset->latent_count * sizeof( float ) );
-	return PLEAT_RESULT_OK;
+	return plCopyFloatsOut( inst->latent, inst->asset->latent_count, out, latent_count );
 }
 
 plResult plInstance_GetBlendWeights( plInstance handle, float* out, uint32_t blend_count )
@@ -981,16 +979,7 @@ plResult plInstance_GetBlendWeights( plInstance handle, float* out, uint32_t ble
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	if ( out == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	if ( blend_count < inst->asset->blend_count )
-	{
-		return PLEAT_RESULT_BUFFER_TOO_SMALL;
-	}
-	memcpy( out, inst->blend_weights, inst->asset->blend_count * sizeof( float ) );
-	return PLEAT_RESULT_OK;
+	return plCopyFloatsOut( inst->blend_weights, inst->asset->blend_count, out, blend_count );
 }
 
 plResult plInstance_GetShape( plInstance handle, float* out_beta, uint32_t beta_count, float out_material[4] )
