@@ -18,7 +18,12 @@
 //   one helper thread)
 //   fp16_max_position_diff_mm, fp16_rms_position_diff_mm, fp16_max_normal_diff_deg: the accuracy cost of the fp16
 //   asset, both assets stepped through the same motion (not timed)
+//   stream_floor_us, stream_floor_fp16_us: the memory floor, a pure streaming read (no arithmetic but an integer XOR)
+//                  of exactly the bytes a step must stream: every MLP weight and bias, then the blend shapes, timed
+//                  per pass like a step (so the same cache residency from one pass to the next); step_stream_mb
 // --step-only times nothing but plInstance_Step on --asset (fp32 or fp16), optionally with --workers 2.
+// pleat_bench_phases (the same file against the library built with PLEAT_STEP_PHASES, bench/CMakeLists.txt) adds
+// --phases: the per-phase medians of one-thread steps on --asset and --asset-fp16 (sdk/src/step_phases.h), as JSON.
 #define _POSIX_C_SOURCE 200809L
 #include "pleat/pleat.h"
 
@@ -26,6 +31,7 @@
 #include "jobs.h"
 #include "kernels.h"
 #include "ort_backend.h"
+#include "step_phases.h"
 
 #include <math.h>
 #include <pthread.h>
@@ -453,7 +459,76 @@ static void TwoWorkersFinish( void* user_task, void* user_context )
 	}
 }
 
+// ---- the memory floor: a pure streaming read of the bytes a step must read ----
+
+static uint64_t XorStream( const void* p, size_t bytes, uint64_t acc )
+{
+	const uint64_t* w = (const uint64_t*)p;
+	size_t n = bytes / 8;
+	uint64_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+	size_t i = 0;
+	for ( ; i + 4 <= n; i += 4 )
+	{
+		a0 ^= w[i];
+		a1 ^= w[i + 1];
+		a2 ^= w[i + 2];
+		a3 ^= w[i + 3];
+	}
+	for ( ; i < n; ++i )
+		a0 ^= w[i];
+	return acc ^ a0 ^ a1 ^ a2 ^ a3;
+}
+
+static uint64_t StreamStepBytes( const plAssetData* a, size_t* out_bytes )
+{
+	uint64_t acc = 0;
+	size_t total = 0;
+	for ( int net = 0; net < 2; ++net )
+	{
+		const plLayer* layers = net == 0 ? a->lp : a->dec;
+		uint32_t count = net == 0 ? a->lp_layer_count : a->dec_layer_count;
+		for ( uint32_t i = 0; i < count; ++i )
+		{
+			size_t wb = (size_t)layers[i].out_count * layers[i].in_count * ( layers[i].weight_fp16 ? 2u : 4u );
+			acc = XorStream( layers[i].weight, wb, acc );
+			acc = XorStream( layers[i].bias, (size_t)layers[i].out_count * 4u, acc );
+			total += wb + (size_t)layers[i].out_count * 4u;
+		}
+	}
+	size_t bb = (size_t)a->blend_count * a->vertex_count * 3u * ( a->blend_shapes_fp16 ? 2u : 4u );
+	acc = XorStream( a->blend_shapes, bb, acc );
+	*out_bytes = total + bb;
+	return acc;
+}
+
+static volatile uint64_t g_stream_sink;
+
+static double TimeStreamFloor( const plAssetData* asset, uint32_t warmup, uint32_t iterations, double* out_mb )
+{
+	double* us = (double*)malloc( sizeof( double ) * iterations );
+	size_t bytes = 0;
+	for ( uint32_t it = 0; it < warmup + iterations; ++it )
+	{
+		double t0 = NowUs();
+		g_stream_sink ^= StreamStepBytes( asset, &bytes );
+		if ( it >= warmup )
+			us[it - warmup] = NowUs() - t0;
+	}
+	double median = Median( us, iterations );
+	free( us );
+	*out_mb = (double)bytes / 1e6;
+	return median;
+}
+
 // ---- full step through the public API ----
+
+#if defined( PLEAT_STEP_PHASES )
+static double* g_phase_samples; // [PLEAT_PHASE_COUNT][iterations] per-phase µs of each timed step, when set
+static const char* const k_phase_names[PLEAT_PHASE_COUNT] = { "validate", "fk", "input_assembly", "lp_mlp",
+															   "latent_guard_dec_mlp", "blend_shapes", "skinning",
+															   "face_normals", "vertex_normals", "guards",
+															   "commit_copy" };
+#endif
 
 typedef struct StepConfig
 {
@@ -506,6 +581,9 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 		result = plCreateInstance( context, &idef, &instance );
 	}
 	double* step_us = (double*)malloc( sizeof( double ) * iterations );
+#if defined( PLEAT_STEP_PHASES )
+	g_plStepPhaseClock = (int)g_clock;
+#endif
 	for ( uint32_t it = 0; result >= 0 && it < warmup + iterations; ++it )
 	{
 		uint32_t f = it % motion->frame_count;
@@ -522,6 +600,9 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 		in.root_translation = ( plVec3 ){ root[0], root[1], root[2] };
 		in.root_rotation = ( plQuat ){ root[3], root[4], root[5], root[6] };
 		in.dt_s = root[7];
+#if defined( PLEAT_STEP_PHASES )
+		plStepPhaseReset();
+#endif
 		double t0 = NowUs();
 		plResult step = plInstance_Step( instance, &in, NULL );
 		double t1 = NowUs();
@@ -532,6 +613,11 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 		else if ( it >= warmup )
 		{
 			step_us[it - warmup] = t1 - t0;
+#if defined( PLEAT_STEP_PHASES )
+			if ( g_phase_samples != NULL )
+				for ( int p = 0; p < PLEAT_PHASE_COUNT; ++p )
+					g_phase_samples[(size_t)p * iterations + ( it - warmup )] = g_plStepPhaseUs[p];
+#endif
 		}
 	}
 	if ( result >= 0 )
@@ -666,13 +752,14 @@ int main( int argc, char** argv )
 	const char* ort_library = NULL;
 	const char* out_path = NULL;
 	uint32_t iterations = 2000, warmup = 200, scalar_iterations = 300;
-	int step_only = 0;
+	int step_only = 0, phases = 0;
 	uint32_t step_only_workers = 1;
 	for ( int i = 1; i < argc; i += 2 )
 	{
-		if ( strcmp( argv[i], "--step-only" ) == 0 )
+		if ( strcmp( argv[i], "--step-only" ) == 0 || strcmp( argv[i], "--phases" ) == 0 )
 		{
-			step_only = 1;
+			step_only = step_only || argv[i][2] == 's';
+			phases = phases || argv[i][2] == 'p';
 			i -= 1;
 			continue;
 		}
@@ -736,6 +823,47 @@ int main( int argc, char** argv )
 		return 1;
 	}
 
+#if defined( PLEAT_STEP_PHASES )
+	if ( phases )
+	{
+		FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
+		if ( out == NULL )
+			return 1;
+		fprintf( out, "{\n" );
+		for ( int which = 0; which < 2; ++which )
+		{
+			const char* path = which == 0 ? asset_path : fp16_path;
+			size_t size = 0;
+			uint8_t* bytes = which == 0 ? asset_bytes : ( path != NULL ? ReadAligned( path, &size ) : NULL );
+			if ( bytes == NULL )
+				continue;
+			StepConfig config = { bytes, which == 0 ? asset_size : size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL };
+			g_phase_samples = (double*)malloc( sizeof( double ) * PLEAT_PHASE_COUNT * iterations );
+			double total_us = NAN;
+			result = TimeSteps( &config, &motion, warmup, iterations, &total_us, NULL );
+			fprintf( out, "%s  \"%s\": { \"step_us\": %.1f", which == 0 ? "" : ",\n", which == 0 ? "fp32" : "fp16",
+					 total_us );
+			double sum = 0.0;
+			for ( int p = 0; p < PLEAT_PHASE_COUNT; ++p )
+			{
+				double m = Median( g_phase_samples + (size_t)p * iterations, iterations );
+				sum += m;
+				fprintf( out, ", \"%s\": %.1f", k_phase_names[p], m );
+			}
+			fprintf( out, ", \"sum_of_medians\": %.1f }", sum );
+			free( g_phase_samples );
+			g_phase_samples = NULL;
+			if ( which == 1 )
+				free( bytes );
+			if ( result != PLEAT_RESULT_OK )
+				return Fail( path, result );
+		}
+		fprintf( out, "\n}\n" );
+		if ( out != stdout )
+			fclose( out );
+		return 0;
+	}
+#endif
 	if ( step_only ) // for profilers: nothing but fp32 plInstance_Step
 	{
 		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL };
@@ -764,6 +892,8 @@ int main( int argc, char** argv )
 			 plResultString( mlp.ort_result ), mlp.max_abs_diff );
 
 	double blend_us = TimeBlendOnly( &asset, warmup, iterations );
+	double stream_mb = NAN, stream_fp16_mb = NAN, stream_fp16_us = NAN;
+	double stream_us = TimeStreamFloor( &asset, warmup, iterations, &stream_mb );
 	double blend_fp16_us = NAN;
 	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library, NULL };
 	double step_us = NAN, step_fp16_us = NAN, scalar_us = NAN, ort_step_us = NAN, mlp_fp16_us = NAN;
@@ -838,6 +968,7 @@ int main( int argc, char** argv )
 			{
 				mlp_fp16_us = TimePleatMlpOnly( &fp16_asset, warmup, iterations );
 				blend_fp16_us = TimeBlendOnly( &fp16_asset, warmup, iterations );
+				stream_fp16_us = TimeStreamFloor( &fp16_asset, warmup, iterations, &stream_fp16_mb );
 			}
 		}
 	}
@@ -871,6 +1002,10 @@ int main( int argc, char** argv )
 		fprintf( out, "  \"mlp_max_abs_diff\": %.3g,\n", mlp.max_abs_diff );
 	PrintJsonNumber( out, "pleat_blend_us", blend_us, 0 );
 	PrintJsonNumber( out, "pleat_blend_fp16_us", blend_fp16_us, 0 );
+	PrintJsonNumber( out, "stream_floor_us", stream_us, 0 );
+	PrintJsonNumber( out, "stream_floor_fp16_us", stream_fp16_us, 0 );
+	PrintJsonPrecise( out, "step_stream_mb", stream_mb );
+	PrintJsonPrecise( out, "step_stream_fp16_mb", stream_fp16_mb );
 	PrintJsonNumber( out, "pleat_step_us", step_us, 0 );
 	PrintJsonNumber( out, "pleat_step_fp16_us", step_fp16_us, 0 );
 	PrintJsonNumber( out, "pleat_step_2workers_us", step_2w_us, 0 );

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Benchmark (not a test): builds Pleat in Release, makes the 4,424-vertex reference-size assets (bench/make_assets.py)
-# and runs bench/bench_step.c; writes out/bench/step.json and prints it. See docs/benchmarks.md.
+# and runs bench/bench_step.c, then the per-phase breakdown (pleat_bench_phases --phases, merged in as "phase_us");
+# writes out/bench/step.json and prints it. See docs/benchmarks.md.
 # Environment: BUILD_DIR (default build/bench), ITERATIONS (default 2000), WARMUP (200), SCALAR_ITERATIONS (300),
 # CLOCK (wall, default, or cpu = the thread's CPU time, for a busy shared machine), PLEAT_ONNXRUNTIME_LIBRARY (default:
 # libonnxruntime.so* of the onnxruntime wheel in .venv). OUT_JSON (default out/bench/step.json).
@@ -12,7 +13,7 @@ OUT=out/bench
 PY="$PWD/.venv/bin/python"
 
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPLEAT_BUILD_TESTS=OFF -DPLEAT_PYTHON="$PY" >/dev/null
-cmake --build "$BUILD_DIR" --target pleat_bench_step >/dev/null
+cmake --build "$BUILD_DIR" --target pleat_bench_step pleat_bench_phases >/dev/null
 
 mkdir -p "$OUT"
 if [ ! -f "$OUT/asset_fp32.pleat" ] || [ ! -f "$OUT/asset_fp16.pleat" ] || [ ! -f "$OUT/case.bin" ] \
@@ -32,4 +33,14 @@ ort_args=()
   --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" \
   --scalar-iterations "${SCALAR_ITERATIONS:-300}" --clock "${CLOCK:-wall}" "${ort_args[@]}" \
   --out "${OUT_JSON:-$OUT/step.json}"
+# Per-phase medians of one-thread steps (the library copy built with PLEAT_STEP_PHASES), merged in as phase_us.
+"$BUILD_DIR/bench/pleat_bench_phases" --phases --asset "$OUT/asset_fp32.pleat" --asset-fp16 "$OUT/asset_fp16.pleat" \
+  --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" --clock "${CLOCK:-wall}" \
+  --out "$OUT/phases.json"
+"$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" <<'PY'
+import json, sys
+step = json.load(open(sys.argv[1]))
+step["phase_us"] = json.load(open(sys.argv[2]))
+json.dump(step, open(sys.argv[1], "w"), indent=2)
+PY
 cat "${OUT_JSON:-$OUT/step.json}"

@@ -5,6 +5,7 @@
 #include "gl_deformer.h"
 #include "jobs.h"
 #include "ort_backend.h"
+#include "step_phases.h"
 
 #include <math.h>
 #include <string.h>
@@ -187,10 +188,12 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 							   plMakeConstSpan( t->weights, a->blend_count, 4 ), plMakeSpan( inst->deformed, n, 12 ),
 							   begin, end, &inst->ctx->kernels };
 	plBlendShapesJob_Run( &blend );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_BLEND );
 	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ), a->skin_indices, a->skin_weights,
 						   a->influence_count, t->skin_matrices, a->joint_count, plMakeSpan( inst->positions, n, 12 ),
 						   begin, end, &inst->ctx->kernels };
 	plSkinningJob_Run( &skin );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 }
 
 static void plNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
@@ -203,6 +206,7 @@ static void plNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* 
 								 plMakeSpan( t->inst->normals, a->vertex_count, 12 ), begin, end },
 							   t->inst->face_normals, &t->inst->ctx->kernels };
 	plNormalsGatherJob_Run( &job );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
 }
 
 static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
@@ -213,6 +217,7 @@ static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, vo
 	plFaceNormalsJob job = { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
 							 t->inst->face_normals, begin, end, &t->inst->ctx->kernels };
 	plFaceNormalsJob_Run( &job );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_FACE_NORMALS );
 }
 
 static void plDeformCpu( plInstanceData* inst, const float* weights, const float* skin_matrices )
@@ -524,6 +529,7 @@ static int plEvaluate( plInstanceData* inst, const plPoseFrame* frame_t, const p
 	{
 		inst->x[i] = ( inst->x[i] - a->x_mean[i] ) / a->x_std[i];
 	}
+	PLEAT_STEP_PHASE( PLEAT_PHASE_INPUT );
 	// f_LP
 	if ( inst->ort_lp != NULL )
 	{
@@ -540,10 +546,12 @@ static int plEvaluate( plInstanceData* inst, const plPoseFrame* frame_t, const p
 						plMakeSpan( inst->mlp_scratch, inst->mlp_scratch_count, 4 ), &ctx->kernels, &runner };
 		plMlpJob_Run( &lp );
 	}
+	PLEAT_STEP_PHASE( PLEAT_PHASE_LP );
 	if ( !plAllFiniteFloats( inst->y, a->latent_count ) )
 	{
 		return 0;
 	}
+	PLEAT_STEP_PHASE( PLEAT_PHASE_GUARDS );
 	// The latent guard.
 	for ( uint32_t i = 0; i < a->latent_count; ++i )
 	{
@@ -569,12 +577,11 @@ static int plEvaluate( plInstanceData* inst, const plPoseFrame* frame_t, const p
 						 plMakeSpan( inst->mlp_scratch, inst->mlp_scratch_count, 4 ), &ctx->kernels, &runner };
 		plMlpJob_Run( &dec );
 	}
-	if ( !plAllFiniteFloats( inst->next_weights, a->blend_count ) ||
-		 !plAllFiniteFloats( inst->next_skin_matrices, (size_t)a->joint_count * 12 ) )
-	{
-		return 0;
-	}
-	return 1;
+	PLEAT_STEP_PHASE( PLEAT_PHASE_DEC );
+	int finite = plAllFiniteFloats( inst->next_weights, a->blend_count ) &&
+				 plAllFiniteFloats( inst->next_skin_matrices, (size_t)a->joint_count * 12 );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_GUARDS );
+	return finite;
 }
 
 static int plDeform( plInstanceData* inst, int read_back, plResult* gl_error )
@@ -590,7 +597,9 @@ static int plDeform( plInstanceData* inst, int read_back, plResult* gl_error )
 	}
 	plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices );
 	size_t n3 = (size_t)a->vertex_count * 3;
-	return plAllFiniteFloats( inst->positions, n3 ) && plAllFiniteFloats( inst->normals, n3 );
+	int finite = plAllFiniteFloats( inst->positions, n3 ) && plAllFiniteFloats( inst->normals, n3 );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_GUARDS );
+	return finite;
 }
 
 static plResult plValidateOutput( const plStepOutput* output, uint32_t vertex_count )
@@ -633,6 +642,7 @@ static void plCopyOut( float* dst, uint32_t stride_bytes, const float* src, uint
 
 plResult plInstance_Step( plInstance handle, const plFrameInput* input, const plStepOutput* output )
 {
+	PLEAT_STEP_PHASE_START();
 	plInstanceData* inst = plGetInstanceData( handle );
 	if ( inst == NULL )
 	{
@@ -743,6 +753,7 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 		clamped = 1;
 	}
 
+	PLEAT_STEP_PHASE( PLEAT_PHASE_VALIDATE );
 	// Nothing has changed so far. Forward kinematics for frame t+1 into the scratch frame.
 	plPoseFrame* now = &inst->next_frame;
 	for ( uint32_t j = 0; j < a->joint_count; ++j )
@@ -757,6 +768,7 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 								  dt,            now,
 								  inst->next_skin_matrices };
 	plForwardKinematicsJob_Run( &fk );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_FK );
 
 	int read_back = inst->gl == NULL || ( output != NULL && ( output->positions != NULL || output->normals != NULL ) );
 	plResult backend_error = PLEAT_RESULT_OK;
@@ -817,6 +829,7 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 		plCopyOut( output->positions, output->position_stride_bytes, inst->positions, a->vertex_count );
 		plCopyOut( output->normals, output->normal_stride_bytes, inst->normals, a->vertex_count );
 	}
+	PLEAT_STEP_PHASE( PLEAT_PHASE_COMMIT );
 	if ( reset )
 	{
 		return PLEAT_RESULT_NUMERIC_RESET;

@@ -1,0 +1,34 @@
+// Per-phase timing of plInstance_Step (step_phases.h); compiled only into the benchmark's pleat_phases library.
+#define _POSIX_C_SOURCE 200809L
+#include "step_phases.h"
+
+#include <string.h>
+#include <time.h>
+
+double g_plStepPhaseUs[PLEAT_PHASE_COUNT];
+int g_plStepPhaseClock = CLOCK_MONOTONIC; // the bench sets CLOCK_THREAD_CPUTIME_ID for --clock cpu
+static double s_last_us;
+
+static double plPhaseNowUs( void )
+{
+	struct timespec ts;
+	clock_gettime( (clockid_t)g_plStepPhaseClock, &ts );
+	return (double)ts.tv_sec * 1e6 + (double)ts.tv_nsec * 1e-3;
+}
+
+void plStepPhaseReset( void )
+{
+	memset( g_plStepPhaseUs, 0, sizeof( g_plStepPhaseUs ) );
+}
+
+void plStepPhaseStart( void )
+{
+	s_last_us = plPhaseNowUs();
+}
+
+void plStepPhaseMark( plStepPhase phase )
+{
+	double now = plPhaseNowUs();
+	g_plStepPhaseUs[phase] += now - s_last_us;
+	s_last_us = now;
+}
