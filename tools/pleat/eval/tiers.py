@@ -1,10 +1,12 @@
 """The four quality tiers of a garment model, as data (docs/pareto.md).
 
 Each tier fixes what sets the runtime's step cost: mesh resolution N, latent size L, blend-shape count D and the two
-MLPs' hidden widths. `large` is the paper's configuration (4,424-vertex t-shirt, L = D = 128, LP 3×512, decoder
-2×512); the smaller tiers cut the mesh (a coarser remesh of the same garment), L, D and widths so that the four span
-more than 10× in step time. Training presets can take their sizes from here: `training_overrides(name)` gives the
-`--set` overrides for pleat-train's config (`garment_vertices`, `model.latent`, ...).
+MLPs' hidden widths. `large` is the shipped default t-shirt (the 1k t-shirt, data/garments/tshirt_1k.npz, with the
+paper's inference sizes L = D = 128, f_LP 3×512, f_dec 2×512), trained by the two stages. The smaller tiers are
+distilled from large's stage-1 teacher Φ (`pleat.train.distill`): smaller L, D and widths, and for `xsmall` a coarser
+remesh of the same garment (the 1k mesh's skinning + normals alone cost more than a tenth of large's step), so that
+the four span more than 10× in step time. `asset` is where each ships. `training_overrides(name)` gives the `--set`
+overrides for pleat-train's config if a tier is trained from scratch instead.
 """
 from dataclasses import asdict, dataclass
 
@@ -18,6 +20,8 @@ class Tier:
     lp_hidden: tuple         # latent-predictor hidden widths
     dec_hidden: tuple        # decoder hidden widths
     activation: str = "relu"
+    asset: str = ""          # shipped asset, relative to the repository root
+    distilled: bool = True   # False: trained by the two stages itself (the default asset)
 
     def macs(self, input_joints=19, betas=10, influences=4):
         """Multiply-accumulates per step: MLPs + blend shapes (D·3N) + skinning (12·K·N); a cost model only."""
@@ -30,10 +34,14 @@ class Tier:
 
 
 TIERS = (
-    Tier("xsmall", vertices=1000, latent=32, blend=16, lp_hidden=(128, 128), dec_hidden=(64,)),
-    Tier("small", vertices=2000, latent=64, blend=32, lp_hidden=(256, 256), dec_hidden=(128,)),
-    Tier("medium", vertices=4424, latent=64, blend=64, lp_hidden=(256, 256, 256), dec_hidden=(256, 256)),
-    Tier("large", vertices=4424, latent=128, blend=128, lp_hidden=(512, 512, 512), dec_hidden=(512, 512)),
+    Tier("xsmall", vertices=300, latent=16, blend=16, lp_hidden=(64,), dec_hidden=(64,),
+         asset="assets/tshirt_xsmall.pleat"),
+    Tier("small", vertices=1004, latent=32, blend=32, lp_hidden=(128, 128), dec_hidden=(128,),
+         asset="assets/tshirt_small.pleat"),
+    Tier("medium", vertices=1004, latent=64, blend=64, lp_hidden=(256, 256, 256), dec_hidden=(256, 256),
+         asset="assets/tshirt_medium.pleat"),
+    Tier("large", vertices=1004, latent=128, blend=128, lp_hidden=(512, 512, 512), dec_hidden=(512, 512),
+         asset="assets/tshirt.pleat", distilled=False),
 )
 BY_NAME = {t.name: t for t in TIERS}
 

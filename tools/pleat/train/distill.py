@@ -1,0 +1,304 @@
+"""Quality tiers by distillation from the stage-1 teacher Φ (docs/pareto.md).
+
+A tier is a smaller inference block Ψ' = f_LP' → f_dec' → D' blend shapes trained to reproduce the stage-1 teacher:
+the paper's stage 2 generalised from "f_LP on Φ's own latent" to "a whole smaller block on Φ's garment".
+
+    python -m pleat.train.distill --teacher RUN_DIR --tier medium --out assets/tshirt_medium.pleat [--fp16]
+
+1. Record Φ rollouts (no gradients) over training clips with random β and material, as stage 2 does
+   (`core.record_latents`): per frame the X_c row and Φ's latent Z, and from Z the teacher's garment displacement
+   d = Σ_j f_dec(Z)_j D_j in the rest frame (before skinning) [N, 3].
+2. Blend shapes: the top-D' principal directions of the recorded displacements (uncentred SVD, so that zero weights
+   still mean LBS), scaled by their RMS coefficient, D'_k = σ_k v_k. A tier on a coarser mesh (its own remesh of the
+   same garment, `pleat.garment`) gets the displacements transferred first by barycentric interpolation at the
+   closest point of the teacher's mesh.
+3. Latent Z' = the top-L' PCA coefficients c_k / σ_k (unit RMS). f_dec': Z' → the D' coefficients (MSE weighted by
+   σ², i.e. the displacement error in m²). f_LP': X_c (latent block = its own previous Z', Z'_0 = 0) → Z', trained
+   exactly as stage 2 trains f_LP (normalised targets, windows fed their own clamped predictions), with the
+   asset's normalisation and clamp baked in (`core.LatentPredictor`).
+4. Packed by the training pack code (`core.network_weights` → `garment_asset.weights_from_garment` → `write_asset`).
+"""
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import torch
+
+from pleat import garment_asset as ga
+from pleat.train import core, sources
+from pleat.train.model import InferenceBlock
+
+
+# ---- recording -------------------------------------------------------------------------------------------------
+@torch.no_grad()
+def teacher_displacements(block, z):
+    """Φ's garment displacement [T, N, 3] (rest frame, before skinning) for latents z [T, L]."""
+    return block.displacement(torch.as_tensor(np.asarray(z), dtype=torch.float32)).numpy().astype(np.float64)
+
+
+def record(run_dir, sequences, frames, seed=0, split="train", reuse_stage2=True, progress=False):
+    """Teacher rollouts: list of {"static": X_c rows [T, I] (latent block zero), "z": [T, L], "disp": [T, N, 3]}.
+    With `reuse_stage2`, the teacher run's own stage-2 recording (stage2_latents.npz, same rollouts) is used first."""
+    model, setup, cfg, _ = core.load_stage1(run_dir)
+    seqs = []
+    p = Path(run_dir) / "stage2_latents.npz"
+    if reuse_stage2 and p.exists() and split == "train":
+        with np.load(p, allow_pickle=True) as d:
+            seqs = [dict(s) for s in d["train"]][:sequences]
+    if len(seqs) < sequences:
+        clips = sources.clips(split, cfg["fps"], cfg["clips"]["train_limit"] if split == "train"
+                              else cfg["clips"]["validation_limit"] or None, cfg["clips"]["frames_limit"] or None,
+                              setup.body)
+        rng = np.random.default_rng([seed, 7, 0 if split == "train" else 1])
+        t0 = time.time()
+        seqs += core.record_latents(setup, model, clips, sequences - len(seqs), frames, rng)
+        if progress:
+            print(f"recorded {split}: {len(seqs)} sequences in {time.time() - t0:.0f} s", file=sys.stderr)
+    for s in seqs:
+        s["disp"] = teacher_displacements(model.block, s["z"])
+    return seqs, setup, model
+
+
+# ---- mesh transfer ---------------------------------------------------------------------------------------------
+def barycentric_transfer(src_vertices, src_faces, points):
+    """Sparse [M, N] matrix P with P @ f ≈ f at `points`: barycentric interpolation at the closest point of the
+    source mesh (rows sum to 1)."""
+    import scipy.sparse as sp
+    import trimesh
+    from scipy.spatial import cKDTree
+    v = np.asarray(src_vertices, np.float64)
+    f = np.asarray(src_faces, np.int64)
+    p = np.asarray(points, np.float64)
+    k = min(16, len(f))
+    _, cand = cKDTree(v[f].mean(1)).query(p, k=k)                       # candidate faces by centroid
+    cand = cand.reshape(len(p), k)
+    q = np.repeat(p, k, 0)
+    c = trimesh.triangles.closest_point(v[f[cand.ravel()]], q).reshape(len(p), k, 3)
+    best = np.argmin(((c - p[:, None]) ** 2).sum(-1), 1)
+    tri = cand[np.arange(len(p)), best]
+    closest = c[np.arange(len(p)), best]
+    faces = f[tri]
+    bary = trimesh.triangles.points_to_barycentric(v[faces], closest)
+    bary = np.clip(bary, 0.0, None)
+    bary /= bary.sum(1, keepdims=True)
+    rows = np.repeat(np.arange(len(points)), 3)
+    return sp.csr_matrix((bary.ravel(), (rows, faces.ravel())), shape=(len(points), len(src_vertices)))
+
+
+def transfer(seqs, P):
+    out = []
+    for s in seqs:
+        d = s["disp"]
+        moved = np.stack([P @ d[:, :, c].T for c in range(3)], -1).transpose(1, 0, 2)   # [T, M, 3]
+        out.append(dict(s, disp=moved))
+    return out
+
+
+# ---- the tier -------------------------------------------------------------------------------------------------
+def principal_shapes(seqs, D, free_mask=None):
+    """Top-D uncentred principal directions of the displacements: blend shapes [D, N, 3] = σ_k v_k and σ [D]."""
+    X = np.concatenate([s["disp"].reshape(len(s["disp"]), -1) for s in seqs])
+    if free_mask is not None:
+        X = X * np.repeat(np.asarray(free_mask, np.float64), 3)[None]
+    _, S, Vt = np.linalg.svd(X, full_matrices=False)
+    # directions the teacher never uses (beyond the data's rank) would only add noise targets for f_LP'
+    D = max(1, min(D, int(np.sum(S > 1e-6 * S[0]))))
+    sigma = np.maximum(S[:D] / np.sqrt(len(X)), 1e-9)
+    shapes = (sigma[:, None] * Vt[:D]).reshape(D, -1, 3)
+    energy = float((S[:D] ** 2).sum() / max((S ** 2).sum(), 1e-30))
+    return shapes, sigma, Vt[:D], energy
+
+
+def _shim(setup, L, D, lp_hidden, dec_hidden, activation, teacher_L):
+    """What core.LatentPredictor / core.normalisation / core.network_weights read of a Setup, at the tier's sizes."""
+    model = dict(setup.cfg["model"], latent=L, blend=D, lp_hidden=list(lp_hidden), dec_hidden=list(dec_hidden),
+                 activation=activation, blend_init_m=0.0)
+    return SimpleNamespace(cfg=dict(setup.cfg, model=model), L=L, input_count=setup.input_count - teacher_L + L)
+
+
+def tier_sequences(seqs, Vt, sigma, L, teacher_L):
+    """Per sequence: X_c rows with the tier's latent block (zero) and targets z' (first L coefficients) and c (all D)."""
+    out = []
+    for s in seqs:
+        coeff = s["disp"].reshape(len(s["disp"]), -1) @ Vt.T / sigma          # [T, D], unit RMS
+        static = np.concatenate([np.zeros((len(coeff), L)), s["static"][:, teacher_L:]], 1)
+        out.append({"static": static, "z": coeff[:, :L], "c": coeff})
+    return out
+
+
+def train_decoder(block, seqs, sigma, iterations, lr, batch, gen, noise=0.05):
+    """f_dec': Z' → coefficients, MSE weighted by σ² (the displacement error). Inputs get a little noise so the
+    decoder is smooth around f_LP's imperfect predictions."""
+    z = torch.as_tensor(np.concatenate([s["z"] for s in seqs]), dtype=torch.float32)
+    c = torch.as_tensor(np.concatenate([s["c"] for s in seqs]), dtype=torch.float32)
+    w2 = torch.as_tensor(sigma ** 2 / (sigma ** 2).sum(), dtype=torch.float32)
+    opt = torch.optim.Adam(block.decoder.parameters(), lr=lr)
+    loss = torch.zeros(())
+    for _ in range(iterations):
+        idx = torch.randint(len(z), (batch,), generator=gen)
+        zi = z[idx] + noise * torch.randn(batch, z.shape[1], generator=gen)
+        loss = (((block.decoder(zi) - c[idx]) ** 2) * w2).sum(-1).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    return float(loss.detach())
+
+
+def train_predictor(lp, seqs, iterations, lr, batch, window, gen):
+    """f_LP' exactly as stage 2 trains f_LP: windows starting at a recorded Z'_{j-1} (Z'_0 = 0 at a sequence start),
+    fed their own clamped predictions, MSE on the normalised latent."""
+    lengths = torch.as_tensor([len(q["z"]) for q in seqs])
+    T, L = int(lengths.max()), seqs[0]["z"].shape[1]
+    static = torch.zeros(len(seqs), T, seqs[0]["static"].shape[1])
+    target = torch.zeros(len(seqs), T + 1, L)
+    for i, q in enumerate(seqs):
+        static[i, :len(q["z"])] = torch.as_tensor(q["static"], dtype=torch.float32)
+        target[i, 1:len(q["z"]) + 1] = torch.as_tensor(q["z"], dtype=torch.float32)
+    opt = torch.optim.Adam(lp.parameters(), lr=lr)
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, iterations, eta_min=lr * 0.05)
+    loss = torch.zeros(())
+    for _ in range(iterations):
+        idx = torch.randint(len(seqs), (batch,), generator=gen)
+        n = lengths[idx]
+        starts = (torch.rand(batch, generator=gen) * (n - window).clamp_min(0).add(1)).long()
+        z_prev = target[idx, starts]
+        loss = 0.0
+        for k in range(window):
+            j = torch.minimum(starts + k, n - 1)
+            y, z_prev = lp(z_prev, static[idx, j])
+            loss = loss + ((y - (target[idx, j + 1] - lp.z_mean) / lp.z_std) ** 2).mean()
+        loss = loss / window
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        sched.step()
+    return float(loss.detach())
+
+
+@torch.no_grad()
+def free_running_error(lp, block, seqs, disp_seqs):
+    """Free-running rollouts from Z'_0 = 0 (what the runtime does): RMS displacement error against the teacher (mm),
+    and the same for zero displacement (LBS) and for the exact projection onto the tier's blend shapes."""
+    err, zero, proj = [], [], []
+    B = block.exported_blend_shapes().reshape(block.blend_shapes.shape[0], -1).double()
+    for s, d in zip(seqs, disp_seqs):
+        z = torch.zeros(lp.z_mean.shape)
+        teacher = torch.as_tensor(d["disp"].reshape(len(d["disp"]), -1))
+        for k, row in enumerate(torch.as_tensor(s["static"], dtype=torch.float32)):
+            _, z = lp(z, row)
+            pred = block.decoder(z).double() @ B
+            err.append(float(((pred - teacher[k]) ** 2).mean()))
+            zero.append(float((teacher[k] ** 2).mean()))
+        c = torch.as_tensor(s["c"])
+        proj.extend((((c @ B) - teacher) ** 2).mean(1).tolist())
+    mm = lambda v: float(np.sqrt(np.mean(v)) * 1000.0)
+    return {"rms_mm": mm(err), "rms_zero_mm": mm(zero), "rms_projection_mm": mm(proj), "frames": len(err)}
+
+
+def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iterations=3000, dec_iterations=2000,
+            lr=1e-3, batch=64, window=8, progress=False):
+    """Train one tier. spec: pleat.eval.tiers.Tier (latent, blend, lp_hidden, dec_hidden, activation). garment:
+    None for the teacher's mesh, else a coarser garment of the same shape (its displacements are transferred).
+    Returns (lp, block, norms, shim, garment, report)."""
+    torch.manual_seed(seed)
+    gen = torch.Generator().manual_seed(seed)
+    t0 = time.time()
+    teacher_L = setup.L
+    free_mask = setup.free_mask
+    if garment is not None:
+        P = barycentric_transfer(setup.template, setup.faces, sources.field(garment, "template"))
+        teacher_seqs = transfer(teacher_seqs, P)
+        val_seqs = transfer(val_seqs, P) if val_seqs else val_seqs
+        N = len(sources.field(garment, "template"))
+        free_mask = np.ones(N, np.float32)
+        pinned = sources.field(garment, "pinned", None)
+        if pinned is not None and len(pinned):
+            free_mask[np.asarray(pinned, np.int64)] = 0.0
+    else:
+        garment = setup.garment
+    L, D = spec.latent, spec.blend
+    shapes, sigma, Vt, energy = principal_shapes(teacher_seqs, D, free_mask)
+    D = len(sigma)
+    L = min(L, D)
+    shim = _shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, teacher_L)
+    train = tier_sequences(teacher_seqs, Vt, sigma, L, teacher_L)
+    norms = core.normalisation(shim, train)
+    lp = core.LatentPredictor(shim, norms)
+    block = InferenceBlock(shim.cfg["model"], len(free_mask), free_mask=free_mask)
+    with torch.no_grad():
+        block.blend_shapes.copy_(torch.as_tensor(shapes, dtype=torch.float32))
+    block.blend_shapes.requires_grad_(False)
+    dec_loss = train_decoder(block, train, sigma, dec_iterations, lr, batch * 4, gen)
+    lp_loss = train_predictor(lp, train, iterations, lr, batch, window, gen)
+    report = {"tier": spec.name, "vertices": len(free_mask), "latent": L, "blend": D,
+              "lp_hidden": list(spec.lp_hidden), "dec_hidden": list(spec.dec_hidden),
+              "pca_energy": energy, "decoder_loss": dec_loss, "predictor_loss": lp_loss,
+              "train_frames": int(sum(len(s["z"]) for s in train)), "train_time_s": time.time() - t0}
+    report["train"] = free_running_error(lp, block, train[:4], teacher_seqs[:4])
+    if val_seqs:
+        val = tier_sequences(val_seqs, Vt, sigma, L, teacher_L)
+        report["validation"] = free_running_error(lp, block, val, val_seqs)
+    if progress:
+        print(json.dumps(report), file=sys.stderr)
+    return lp, block, norms, shim, garment, report
+
+
+def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=True, teacher=None):
+    """Write the tier with the training pack code (network_weights → weights_from_garment → write_asset)."""
+    from pleat.asset import write_asset
+    net = core.network_weights(shim, lp.lp, block, norms, fps)
+    meta = {"model": f"pleat tier {report['tier']}: inference block distilled from the stage-1 teacher",
+            "tier": report["tier"], "distillation": {k: v for k, v in report.items()},
+            "teacher": str(teacher) if teacher else None, "training": {"preset": setup.cfg.get("preset")}}
+    weights = ga.weights_from_garment(garment, setup.body, net, metadata=meta, name=setup.name)
+    write_asset(str(path), weights, fp16=fp16)
+    return weights
+
+
+def main(argv=None):
+    from pleat.eval import tiers as tiers_mod
+    ap = argparse.ArgumentParser(prog="python -m pleat.train.distill", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--teacher", required=True, help="stage-1 run directory (stage1.pt)")
+    ap.add_argument("--tier", nargs="+", required=True, help="tier names (pleat.eval.tiers)")
+    ap.add_argument("--out", required=True, help="folder for <garment>_<tier>.pleat")
+    ap.add_argument("--sequences", type=int, default=24)
+    ap.add_argument("--frames", type=int, default=90)
+    ap.add_argument("--val-sequences", type=int, default=4)
+    ap.add_argument("--iterations", type=int, default=3000)
+    ap.add_argument("--dec-iterations", type=int, default=2000)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--fp16", action="store_true")
+    ap.add_argument("--no-reuse-stage2", action="store_true", help="record fresh rollouts even if the run has some")
+    ap.add_argument("--threads", type=int, default=1)
+    args = ap.parse_args(argv)
+    core.set_threads(args.threads)
+    seqs, setup, _ = record(args.teacher, args.sequences, args.frames, args.seed, "train",
+                            not args.no_reuse_stage2, progress=True)
+    val, _, _ = record(args.teacher, args.val_sequences, args.frames, args.seed, "validation", False, progress=True)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    reports = []
+    for name in args.tier:
+        spec = tiers_mod.tier(name)
+        garment = None
+        if spec.vertices and spec.vertices < setup.N * 0.8:
+            garment = sources.garment(setup.name if setup.name in ("tshirt", "tank_top", "long_sleeve", "pants",
+                                                                   "dress") else "tshirt", setup.body, spec.vertices)
+        lp, block, norms, shim, g, rep = distill(seqs, setup, spec, val, garment, args.seed, args.iterations,
+                                                 args.dec_iterations, progress=True)
+        path = out / f"{setup.name}_{name}.pleat"
+        pack_tier(path, lp, block, norms, shim, g, setup, rep, setup.cfg["fps"], args.fp16, args.teacher)
+        rep["asset"] = str(path)
+        reports.append(rep)
+        print(f"{name}: {path} ({path.stat().st_size / 1024:.0f} KiB) validation "
+              f"{rep.get('validation')}", file=sys.stderr)
+    (out / "distill_report.json").write_text(json.dumps(reports, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
