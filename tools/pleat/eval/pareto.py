@@ -6,8 +6,9 @@
 For each asset: the median CPU step time (plInstance_Step through pleat.runtime, timed around the C call alone,
 single thread) and the mean / p95 vertex error against the reference simulator on the clips (pleat-eval's
 `evaluate`, reference cached in out/cache/sim/), plus the LBS-only twin of each asset's garment. For each tier of
-`pleat.eval.tiers`: the step time of that configuration with random weights (golden.random_weights) — the speed half
-of the chart, real before any tier is trained. Writes OUT/pareto.png and OUT/pareto.md (table + this command).
+`pleat.eval.tiers`: its shipped asset (`Tier.asset`) when it exists and is trained — scored like any asset — else the
+step time of that configuration with random weights (golden.random_weights), speed only. Writes OUT/pareto.png and
+OUT/pareto.md (table + this command).
 """
 import argparse
 import json
@@ -62,6 +63,17 @@ def describe_asset(weights):
                 preset=meta.get("preset"))
 
 
+def trained_tier_assets():
+    """{tier name: asset path} for the tiers whose shipped asset exists and has a trained network."""
+    from pleat import REPO_ROOT
+    out = {}
+    for t in tiers_mod.TIERS:
+        p = REPO_ROOT / t.asset if t.asset else None
+        if p is not None and p.is_file() and not S.is_lbs_only(S.read_weights(str(p))[1]):
+            out[t.name] = str(p.relative_to(REPO_ROOT)) if p.is_relative_to(Path.cwd()) else str(p)
+    return out
+
+
 def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, timing_frames=300, progress=True,
             speed_assets=()):
     from pleat import runtime
@@ -71,11 +83,19 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
     clips = [S.load_motion(m, body, S.EVAL_FPS, None) for m in motions]
     timing = _timing_clip(clips[0], timing_frames)
     rows = []
+    tier_of = {}
+    if with_tiers:
+        for name, p in trained_tier_assets().items():
+            tier_of[str(Path(p).resolve())] = name
+        assets = list(assets) + [p for p in trained_tier_assets().values()
+                                 if str(Path(p).resolve()) not in {str(Path(a).resolve()) for a in assets}]
     with runtime.Context() as ctx:
         for path in list(assets) + list(speed_assets):
             data, w = S.read_weights(path)
             desc = describe_asset(w)
-            base = dict(name=Path(path).stem, asset=str(path), **desc)
+            tname = tier_of.get(str(Path(path).resolve()))
+            base = dict(name=f"tier {tname} ({Path(path).name})" if tname else Path(path).stem, asset=str(path),
+                        tier=tname, **desc)
             variants = [("lbs" if S.is_lbs_only(w) else "asset", data)]
             if not S.is_lbs_only(w):
                 variants.append(("lbs", S.lbs_only_bytes(w)))
@@ -86,7 +106,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                            and r["vertices"] == row["vertices"] for r in rows):
                         continue
                     row.update(name=f"LBS-only ({row['garment']}, N={desc['vertices']})", latent=1, blend=1,
-                               lp_hidden=[], dec_hidden=[], model="lbs-only")
+                               lp_hidden=[], dec_hidden=[], model="lbs-only", tier=None)
                 row["step_us"] = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]))
                 if with_error and path not in speed_assets:
                     reps = [evaluate(blob, m, max_frames=max_frames, progress=progress, context=ctx)
@@ -97,6 +117,8 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                 rows.append(row)
         if with_tiers:
             for t in tiers_mod.TIERS:
+                if any(r.get("tier") == t.name for r in rows):
+                    continue
                 from pleat.asset import write_asset
                 w = tiers_mod.random_tier_weights(t.name)
                 blob = write_asset(None, w)
@@ -169,20 +191,32 @@ def write_markdown(rows, clips, command, library, path, max_frames):
             N=r["vertices"], L=r["latent"], D=r["blend"], lp="×".join(map(str, r["lp_hidden"])) or "—",
             dec="×".join(map(str, r["dec_hidden"])) or "—", us=_fmt(r["step_us"]), mean=_fmt(r.get("mean_mm")),
             p95=_fmt(r.get("p95_mm")), front="★" if id(r) in front else ""))
-    tiers = [r for r in rows if r["kind"] == "tier-random"]
+    tiers = [r for r in rows if r["kind"] == "tier-random" or (r.get("tier") and r["kind"] == "asset")]
+    trained = [r for r in tiers if r["kind"] == "asset"]
     if tiers:
         ratio = max(r["step_us"] for r in tiers) / min(r["step_us"] for r in tiers)
-        lines += ["", f"The four tiers span **{ratio:.1f}×** in measured step time (random weights at the tier's "
-                  "sizes; `pleat.eval.tiers.TIERS`)."]
-    lines += ["", "## What is real and what is a placeholder", ""]
+        how = ("trained tier assets" if len(trained) == len(tiers) else
+               f"{len(trained)} trained tier assets, the others random weights at the tier's sizes")
+        lines += ["", f"The {len(tiers)} tiers span **{ratio:.1f}×** in measured step time ({how}; "
+                  "`pleat.eval.tiers.TIERS`)."]
+    lines += ["", "## What each row is", ""]
     lines += ["- Step times are measured, for every row.",
-              "- Rows of kind `lbs-only` are the garment skinned by LBS with a zero network: a real baseline.",
-              "- Rows `tier …` have random weights: their speed is what a trained tier of that size costs, but they "
-              "have **no error**, because no tier has been trained yet (the trained default t-shirt does not exist "
-              "in this checkout). Train them with `pleat-train all --preset default --set KEY=JSON ...` using "
-              "`pleat.eval.tiers.training_overrides(name)`, pack, and pass the assets with `--assets` to put them "
-              "on the chart.",
-              "- Any asset whose model says `tiny` is a smoke-test network trained for minutes on a 300-vertex "
+              "- Rows of kind `lbs-only` are the garment skinned by LBS with a zero network: a real baseline (one "
+              "per mesh: the tiers on a coarser remesh have their own LBS row and their own reference simulation, "
+              "so their error is measured against the reference on *their* mesh)."]
+    if trained:
+        lines += ["- Rows `tier …` are the shipped tier assets (`Tier.asset`). `large` is the default asset itself, "
+                  "trained by the two stages; the smaller tiers are **distilled from large's stage-1 teacher Φ** "
+                  "(`pleat.train.distill`): a tier is a smaller inference block trained to reproduce Φ — the "
+                  "paper's stage 2 generalised. Φ is rolled out (no gradients) over training clips with random β and "
+                  "material; the tier's D' blend shapes are the top-D' principal components of Φ's per-frame "
+                  "garment displacements (transferred by barycentric interpolation for a tier on a coarser remesh), "
+                  "its latent Z' the top-L' principal coefficients, f_dec' maps Z' to the D' coefficients and f_LP' "
+                  "is trained on X_c exactly as stage 2 trains f_LP (Z_0 = 0, windows fed its own predictions)."]
+    if any(r["kind"] == "tier-random" for r in rows):
+        lines += ["- Rows of kind `random weights, untrained` have the tier's sizes but random weights: their speed "
+                  "is what a trained tier of that size costs; they have no error."]
+    lines += ["- Any asset whose model says `tiny` is a smoke-test network trained for minutes on a 300-vertex "
               "garment: its error is not representative of the method."]
     lines += ["", "## Remake", "", "```", command, "```", ""]
     made = [r for r in rows if r["kind"] == "lbs" and not str(r.get("asset", "")).startswith("assets/")
