@@ -1,45 +1,81 @@
-// AVX2 + FMA twin of plSkinning_Scalar. Per vertex the blended matrix Σ_k w_k M_{j_k} is two registers (rows 0–1 in
-// one 8-wide, row 2 in one 4-wide) built with 2 FMAs per influence; the three row · (x, y, z, 1) dot products are
-// then two multiplies and three horizontal adds. Only the 3 floats of each output vertex are written (strided spans
-// may interleave other attributes).
+// AVX2 + FMA twin of plSkinning_Scalar. The J skinning matrices are first rearranged into columns, two registers per
+// joint: (c0 | c1) and (c2 | c3) with c_i = (m0i, m1i, m2i, 0) — J · 64 bytes, in L1, built once per call. Per vertex the
+// blended matrix Σ_k w_k M_{j_k} is then 2 FMAs per influence with whole-register loads, and the transform
+// c0·x + c1·y + c2·z + c3 is one multiply, one FMA and one 4-wide add on broadcast coordinates (no horizontal adds):
+// about a third of the instructions of a row-wise dot-product formulation. A joint index ≥ joint_count reads an
+// all-zero extra column block (weight × 0), as the scalar kernel counts it with weight 0. Only the 3 floats of each
+// output vertex are written, except that packed (12-byte stride) output writes 16 bytes when the next vertex is in
+// the same range (its first float is rewritten right after).
 #include "kernels.h"
 
 #include <immintrin.h>
+
+#define PLEAT_SKIN_MAX_JOINTS 64 // PLEAT_MAX_JOINTS (pleat.h); the asset loader enforces it
+
+static inline void plSkinVertex( float* q, int store16, const float* p, const uint16_t* idx, const float* wt,
+								 uint32_t K, uint32_t joint_count, const float* columns )
+{
+	__m256 a = _mm256_setzero_ps(), b = _mm256_setzero_ps();
+	for ( uint32_t k = 0; k < K; ++k )
+	{
+		uint32_t joint = idx[k];
+		joint = joint < joint_count ? joint : joint_count; // the zero block
+		const float* c = columns + (size_t)joint * 16;
+		__m256 w = _mm256_broadcast_ss( wt + k );
+		a = _mm256_fmadd_ps( w, _mm256_load_ps( c ), a );
+		b = _mm256_fmadd_ps( w, _mm256_load_ps( c + 8 ), b );
+	}
+	__m256 xy = _mm256_set_m128( _mm_broadcast_ss( p + 1 ), _mm_broadcast_ss( p + 0 ) );
+	__m256 z1 = _mm256_set_m128( _mm_set1_ps( 1.0f ), _mm_broadcast_ss( p + 2 ) );
+	__m256 s = _mm256_fmadd_ps( b, z1, _mm256_mul_ps( a, xy ) );
+	__m128 r = _mm_add_ps( _mm256_castps256_ps128( s ), _mm256_extractf128_ps( s, 1 ) ); // (x', y', z', 0)
+	if ( store16 )
+	{
+		_mm_storeu_ps( q, r );
+	}
+	else
+	{
+		_mm_storel_pi( (__m64*)q, r );
+		_mm_store_ss( q + 2, _mm_movehl_ps( r, r ) );
+	}
+}
 
 void plSkinning_Avx2( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
 					  const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
 					  const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
 {
+	_Alignas( 32 ) float columns[( PLEAT_SKIN_MAX_JOINTS + 1 ) * 16];
+	uint32_t J = joint_count < PLEAT_SKIN_MAX_JOINTS ? joint_count : PLEAT_SKIN_MAX_JOINTS;
+	for ( uint32_t j = 0; j < J; ++j )
+	{
+		const float* m = skin_matrices + (size_t)j * 12;
+		float* c = columns + (size_t)j * 16;
+		for ( int col = 0; col < 4; ++col )
+		{
+			c[col * 4 + 0] = m[col];
+			c[col * 4 + 1] = m[4 + col];
+			c[col * 4 + 2] = m[8 + col];
+			c[col * 4 + 3] = 0.0f;
+		}
+	}
+	for ( int e = 0; e < 16; ++e )
+	{
+		columns[(size_t)J * 16 + e] = 0.0f;
+	}
 	uint32_t K = influence_count;
+	int packed = out_stride_bytes == 12;
 	for ( uint32_t v = v_begin; v < v_end; ++v )
 	{
-		__m256 m01 = _mm256_setzero_ps();
-		__m128 m2 = _mm_setzero_ps();
-		for ( uint32_t k = 0; k < K; ++k )
-		{
-			uint32_t joint = skin_indices[(size_t)v * K + k];
-			float w = skin_weights[(size_t)v * K + k];
-			if ( joint >= joint_count )
-			{
-				joint = 0; // the asset loader rejects this; never read out of bounds even so
-				w = 0.0f;
-			}
-			const float* mj = skin_matrices + (size_t)joint * 12;
-			__m256 wv = _mm256_set1_ps( w );
-			m01 = _mm256_fmadd_ps( wv, _mm256_loadu_ps( mj ), m01 );
-			m2 = _mm_fmadd_ps( _mm256_castps256_ps128( wv ), _mm_loadu_ps( mj + 8 ), m2 );
-		}
 		const float* p = (const float*)( (const uint8_t*)in + (size_t)v * in_stride_bytes );
-		__m128 point = _mm_setr_ps( p[0], p[1], p[2], 1.0f );
-		__m256 t01 = _mm256_mul_ps( m01, _mm256_set_m128( point, point ) );
-		__m128 t2 = _mm_mul_ps( m2, point );
-		__m128 h01 = _mm_hadd_ps( _mm256_castps256_ps128( t01 ), _mm256_extractf128_ps( t01, 1 ) );
-		__m128 result = _mm_hadd_ps( h01, _mm_hadd_ps( t2, t2 ) ); // (row 0, row 1, row 2, row 2)
 		float* q = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
-		float r[4];
-		_mm_storeu_ps( r, result );
-		q[0] = r[0];
-		q[1] = r[1];
-		q[2] = r[2];
+		int store16 = packed && v + 1 < v_end;
+		if ( K == 4 ) // the common case: a constant trip count, fully unrolled
+		{
+			plSkinVertex( q, store16, p, skin_indices + (size_t)v * 4, skin_weights + (size_t)v * 4, 4, J, columns );
+		}
+		else
+		{
+			plSkinVertex( q, store16, p, skin_indices + (size_t)v * K, skin_weights + (size_t)v * K, K, J, columns );
+		}
 	}
 }
