@@ -60,22 +60,25 @@ def describe_asset(weights):
                 lp_hidden=[int(weights[k].shape[0]) for k in lp[:-1]],
                 dec_hidden=[int(weights[k].shape[0]) for k in dec[:-1]],
                 model=meta.get("model") or ("lbs-only" if S.is_lbs_only(weights) else "network"),
-                preset=meta.get("preset"))
+                preset=meta.get("preset"), distillation=meta.get("distillation"))
 
 
-def trained_tier_assets():
-    """{tier name: asset path} for the tiers whose shipped asset exists and has a trained network."""
+def trained_tier_assets(overrides=None):
+    """{tier name: asset path} for the tiers whose shipped asset (or the path in `overrides`) exists and has a trained
+    network."""
     from pleat import REPO_ROOT
     out = {}
+    overrides = overrides or {}
     for t in tiers_mod.TIERS:
-        p = REPO_ROOT / t.asset if t.asset else None
+        p = Path(overrides[t.name]).resolve() if t.name in overrides else (REPO_ROOT / t.asset if t.asset else None)
         if p is not None and p.is_file() and not S.is_lbs_only(S.read_weights(str(p))[1]):
-            out[t.name] = str(p.relative_to(REPO_ROOT)) if p.is_relative_to(Path.cwd()) else str(p)
+            p = p.resolve()
+            out[t.name] = str(p.relative_to(Path.cwd())) if p.is_relative_to(Path.cwd()) else str(p)
     return out
 
 
 def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, timing_frames=300, progress=True,
-            speed_assets=()):
+            speed_assets=(), tier_assets=None):
     from pleat import runtime
     from pleat.body import BodyModel
     from pleat.eval.cli import evaluate
@@ -85,9 +88,10 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
     rows = []
     tier_of = {}
     if with_tiers:
-        for name, p in trained_tier_assets().items():
+        found = trained_tier_assets(tier_assets)
+        for name, p in found.items():
             tier_of[str(Path(p).resolve())] = name
-        assets = list(assets) + [p for p in trained_tier_assets().values()
+        assets = list(assets) + [p for p in found.values()
                                  if str(Path(p).resolve()) not in {str(Path(a).resolve()) for a in assets}]
     with runtime.Context() as ctx:
         for path in list(assets) + list(speed_assets):
@@ -218,6 +222,20 @@ def write_markdown(rows, clips, command, library, path, max_frames):
                   "is what a trained tier of that size costs; they have no error."]
     lines += ["- Any asset whose model says `tiny` is a smoke-test network trained for minutes on a 300-vertex "
               "garment: its error is not representative of the method."]
+    dist = [r for r in trained if r.get("distillation")]
+    if dist:
+        lines += ["", "Distillation of each tier (`pleat.train.distill`; RMS per-coordinate displacement error in the "
+                  "rest frame against the teacher Φ on held-out validation rollouts, the tier free-running from "
+                  "Z'_0 = 0 as the runtime runs it; `zero` = what LBS alone scores against Φ, `projection` = Φ's "
+                  "displacement projected on the tier's blend shapes, the best any f_LP' could do):", "",
+                  "| tier | N | PCA energy kept | train frames | RMS vs Φ (mm) | zero (mm) | projection (mm) | "
+                  "train time (s) |", "|---|---|---|---|---|---|---|---|"]
+        for r in dist:
+            d = r["distillation"]
+            v = d.get("validation") or d.get("train") or {}
+            lines.append(f"| {d['tier']} | {d['vertices']} | {100 * d['pca_energy']:.2f} % | {d['train_frames']} | "
+                         f"{_fmt(v.get('rms_mm'), 2)} | {_fmt(v.get('rms_zero_mm'), 2)} | "
+                         f"{_fmt(v.get('rms_projection_mm'), 2)} | {d['train_time_s']:.0f} |")
     lines += ["", "## Remake", "", "```", command, "```", ""]
     made = [r for r in rows if r["kind"] == "lbs" and not str(r.get("asset", "")).startswith("assets/")
             and r.get("asset") and r["model"].startswith("lbs-only")]
@@ -238,7 +256,9 @@ def main(argv=None):
                     help="validation clips (pleat.motion.split.VALIDATION)")
     ap.add_argument("--out", default="docs", help="folder for pareto.png and pareto.md")
     ap.add_argument("--max-frames", type=int, default=30, help="frames per clip scored against the reference")
-    ap.add_argument("--no-tiers", action="store_true", help="skip the random-weight tier timings")
+    ap.add_argument("--no-tiers", action="store_true", help="skip the tiers (their assets and random-weight timings)")
+    ap.add_argument("--tier-asset", nargs="*", default=[], metavar="NAME=PATH",
+                    help="use PATH as tier NAME's asset instead of Tier.asset (e.g. a candidate not yet shipped)")
     ap.add_argument("--no-error", action="store_true", help="times only (no reference simulation)")
     ap.add_argument("--json", default=None, help="also write the rows as JSON")
     ap.add_argument("--no-progress", action="store_true")
@@ -249,7 +269,8 @@ def main(argv=None):
         if m not in VALIDATION:
             print(f"note: {m} is not a validation clip (pleat.motion.split.VALIDATION)", file=sys.stderr)
     rows, clips = measure(args.assets, args.motion, args.max_frames, not args.no_tiers, not args.no_error,
-                          progress=not args.no_progress, speed_assets=args.speed_assets)
+                          progress=not args.no_progress, speed_assets=args.speed_assets,
+                          tier_assets=dict(a.split("=", 1) for a in args.tier_asset))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     plot(rows, out / "pareto.png")

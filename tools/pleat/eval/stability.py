@@ -158,6 +158,20 @@ def _reference_window(body, weights, clip, start, frames, beta, material, progre
     return ref, sub, info
 
 
+def _reference_case(ctx, body, data, lbs_data, weights, clip, frames, beta, material, progress):
+    """Pleat and LBS (both started fresh) against the reference on the first `frames` frames of `clip`: mean vertex
+    error and penetration of all three."""
+    ref, sub, info = _reference_window(body, weights, clip, 0, frames, beta, material, progress)
+    r = paired_run(ctx, data, lbs_data, weights, *_motion(sub, weights), 1.0 / S.EVAL_FPS, beta, material)
+    out = dict(frames=int(frames), reference_seconds_per_frame=info["summary"].get("seconds_per_frame"),
+               pleat_error_mm=float(metrics.vertex_error_mm(r["pleat"].positions, ref).mean()),
+               lbs_error_mm=float(metrics.vertex_error_mm(r["lbs"].positions, ref).mean()))
+    for k, x in (("pleat", r["pleat"].positions), ("lbs", r["lbs"].positions), ("reference", ref)):
+        pen = _penetration(body, sub, beta, x, np.arange(frames))
+        out[f"{k}_penetration_pct"], out[f"{k}_max_depth_mm"] = pen["penetration_pct"], pen["max_depth_mm"]
+    return out
+
+
 # ---- the suite ----------------------------------------------------------------------------------------------------
 def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_window_s=None, progress=True,
               log=print, plot_prefix=""):
@@ -232,6 +246,12 @@ def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_windo
                 fast[cc.name] = dict(speed=f, frames=cc.num_frames, **_summary(r))
                 series["fast"][cc.name] = r["deviation_mm"]
         report["fast"] = fast
+        # errors against the reference in a short window at 1× and 3× (the reference is the slow part)
+        if matches_body and ref_frames > 1:
+            report["fast_reference"] = {
+                f"{loops[0].name} {f:g}×": dict(speed=f, **_reference_case(
+                    ctx, body, data, lbs_data, weights, loops[0].time_scaled(f) if f != 1.0 else loops[0],
+                    ref_frames, beta0, material, progress)) for f in (1.0, 3.0)}
         log(f"(b) fast motion: {len(fast)} runs")
 
         # (c) unusual bodies
@@ -252,6 +272,13 @@ def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_windo
                     entry[f"{m}_max_depth_mm"] = p["max_depth_mm"]
             bodies[f"beta{k}={v:+g}"] = entry
         report["bodies"] = bodies
+        if matches_body and ref_frames > 1:
+            report["bodies_reference"] = {}
+            for v in (-3.0, 3.0):
+                beta = beta0.copy()
+                beta[0] = v
+                report["bodies_reference"][f"beta0={v:+g}"] = _reference_case(
+                    ctx, body, data, lbs_data, weights, c, ref_frames, beta, material, progress)
         log(f"(c) unusual bodies: {len(bodies)} runs")
 
         # (d) dt jitter
@@ -446,7 +473,9 @@ def _markdown_section(r):
         lines.append(f"| {name} | {v['speed']:g}× | {v['frames']} | {_f(v['deviation_mean_mm'])} / "
                      f"{_f(v['deviation_max_mm'])} | {_f(v['bound_excess_mm'], 1)} | {v['finite']} | "
                      f"{v['numeric_resets']} |")
-    lines += ["", "Each clip is looped to at least 10 s (300 frames at 1×) before it is sped up.", "",
+    lines += ["", "Each clip is looped to at least 10 s (300 frames at 1×) before it is sped up.", ""]
+    lines += _reference_table(r.get("fast_reference"), "run")
+    lines += [
               "![fast](images/stability_{pre}fast.png)", "", "### (c) Unusual bodies", "",
               f"β = ±3 (training's range) and ±4 (beyond it; the clamp limit) on one component at a time, clip "
               f"`{r['clips'][0]}` looped to ≥ 10 s; penetration on 15 frames spread evenly over the clip.", "",
@@ -457,7 +486,8 @@ def _markdown_section(r):
                      f"{_f(v['bound_excess_mm'], 1)} | {_f(v.get('pleat_penetration_pct'))} / "
                      f"{_f(v.get('pleat_max_depth_mm'), 1)} | {_f(v.get('lbs_penetration_pct'))} / "
                      f"{_f(v.get('lbs_max_depth_mm'), 1)} | {v['finite']} |")
-    lines += ["", "![bodies](images/stability_{pre}bodies.png)", "", "### (d) Frame-time jitter", "",
+    lines += [""] + _reference_table(r.get("bodies_reference"), "β")
+    lines += ["![bodies](images/stability_{pre}bodies.png)", "", "### (d) Frame-time jitter", "",
               "dt drawn uniformly from [1/120, 1/15] s; the poses are the clip sampled at the jittered times.", "",
               "| clip | steps | dt range (ms) | clamped steps | deviation mean / max (mm) | bound excess (mm) | "
               "finite | resets |", "|---|---|---|---|---|---|---|---|"]
@@ -467,6 +497,21 @@ def _markdown_section(r):
                      f"{_f(v['bound_excess_mm'], 1)} | {v['finite']} | {v['numeric_resets']} |")
     lines += ["", "![dt jitter](images/stability_{pre}dt.png)", ""]
     return [ln.replace("{pre}", pre) for ln in lines]
+
+
+def _reference_table(cases, what):
+    if not cases:
+        return []
+    n = next(iter(cases.values()))["frames"]
+    lines = [f"Against the reference simulator (first {n} frames; Pleat, LBS and the reference all start fresh "
+             "there):", "", f"| {what} | Pleat error (mm) | LBS error (mm) | penetration (%) / deepest (mm): Pleat | "
+             "LBS | reference | reference s/frame |", "|---|---|---|---|---|---|---|"]
+    for name, v in cases.items():
+        lines.append(f"| {name} | {_f(v['pleat_error_mm'])} | {_f(v['lbs_error_mm'])} | "
+                     + " | ".join(f"{_f(v[k + '_penetration_pct'])} / {_f(v[k + '_max_depth_mm'], 1)}"
+                                  for k in ("pleat", "lbs", "reference"))
+                     + f" | {_f(v['reference_seconds_per_frame'], 1)} |")
+    return lines + [""]
 
 
 def _prefix(i, asset):
