@@ -31,6 +31,11 @@ import scipy.sparse as sp
 from ..physics import energies as en
 from .collider import BodyCollider
 
+try:
+    from . import kernels as _kn
+except ImportError:                        # numba missing: the numpy path only
+    _kn = None
+
 
 @dataclass
 class SolverSettings:
@@ -48,6 +53,7 @@ class SolverSettings:
     cg_max_iterations: int = 1000
     projection_rounds: int = 5
     penetration_tol_m: float = 1e-3       # stated tolerance: no free vertex deeper than this after a step
+    backend: str = "numba"                # "numba": compiled assembly (pleat.sim.kernels); "numpy": the reference
 
 
 @dataclass
@@ -63,6 +69,7 @@ class StepStats:
     converged: bool = True                # every substep converged
     substeps_converged: int = 0           # how many of the substeps converged
     velocity: np.ndarray = None           # [N,3] m/s at the end of the step (the next step's x_prev = x − v dt)
+    trace: list = field(default_factory=list)      # per substep: [(‖∇E‖∞, ‖Δx‖∞/h of the step taken, α, CG its)]
 
 
 class _Pattern:
@@ -145,14 +152,41 @@ class ClothSolver:
         self.free_dof = free_dof
         verts = np.arange(n)[:, None]
         self.pattern = _Pattern(n, self.free_dof_index, [rest.faces, rest.hinges, verts])
+        self.backend = self.settings.backend if _kn is not None else "numpy"
+        if self.backend not in ("numba", "numpy"):
+            raise ValueError(f"backend must be 'numba' or 'numpy', got {self.backend!r}")
+        # CSR slot of every element-block entry (−1: a pinned DOF), in the order _Pattern was built from
+        slots = np.full(len(self.pattern.keep), -1, np.int64)
+        slots[self.pattern.keep] = self.pattern.inverse
+        nf, nh = len(rest.faces), len(rest.hinges)
+        self._face_slots = slots[:nf * 81].reshape(nf, 9, 9)
+        self._hinge_slots = slots[nf * 81:nf * 81 + nh * 144].reshape(nh, 12, 12)
+        self._vert_slots = slots[nf * 81 + nh * 144:].reshape(n, 3, 3)
+        self._faces = np.ascontiguousarray(rest.faces, np.int64)
+        self._hinges = np.ascontiguousarray(rest.hinges, np.int64).reshape(-1, 4)
+        self.stvk_mode = 0                    # kernels: 0 clamped stress (PSD), 1 |stress|, 2 exact (indefinite)
         self.weight_scale = float(self.mass.max() * en.GRAVITY_M_S2)
         self._normal_force = None             # friction's λ carried from one solve to the next substep's
         self._normal_force_cache = None       # (x at the end of the last step, λ there) for the next step
 
     # -- energy of a substep ---------------------------------------------------------------------------------------
+    def _nb_contact(self, c):
+        n = self.n
+        if c["p"] is None:
+            z = np.zeros((n, 3))
+            return False, z, z, z, np.zeros(n)
+        return True, c["p"], c["n"], c["body_disp"], np.asarray(c["lam"], np.float64)
+
     def _terms(self, x, c):
         m = self.material
         s = self.settings
+        if self.backend == "numba":
+            has, p, nrm, disp, lam = self._nb_contact(c)
+            r = self.rest
+            return float(_kn.total_energy(x, c["x_pred"], c["x_t"], self.mass, c["h"], self._faces, r.dm_inv,
+                                          r.face_area, float(m.mu), float(m.lam), self._hinges, r.hinge_angle,
+                                          r.hinge_weight, float(m.bending), has, p, nrm, s.collision_margin_m,
+                                          s.collision_stiffness, disp, lam, s.friction, s.friction_eps_m))
         # gravity relative to the substep's start: the same minimiser, less round-off in energy differences
         e = (en.inertia_energy(x, c["x_pred"], self.mass, c["h"])
              + en.GRAVITY_M_S2 * float(self.mass @ (x[:, 1] - c["x_t"][:, 1]))
@@ -162,9 +196,29 @@ class ClothSolver:
             e += en.friction_energy(x, c["x_t"], c["body_disp"], c["n"], c["lam"], s.friction, s.friction_eps_m)
         return float(e)
 
+    def _grad_hess_data(self, x, c, hessian=True):
+        """numba path: gradient [N,3] and the Hessian's CSR values (pattern.indptr/indices), or None."""
+        m = self.material
+        s = self.settings
+        has, p, nrm, disp, lam = self._nb_contact(c)
+        r = self.rest
+        g = np.empty((self.n, 3))
+        data = np.empty(self.pattern.nnz if hessian else 0)
+        _kn.assemble(x, c["x_pred"], self.mass, c["h"], self._faces, r.dm_inv, r.face_area, float(m.mu),
+                     float(m.lam), self._hinges, r.hinge_angle, r.hinge_weight, float(m.bending), has, p, nrm,
+                     s.collision_margin_m, s.collision_stiffness, c["x_t"], disp, lam, s.friction, s.friction_eps_m,
+                     self._face_slots, self._hinge_slots, self._vert_slots, self.stvk_mode, g, data, hessian)
+        return g, (data if hessian else None)
+
     def _grad_hess(self, x, c, hessian=True):
         m = self.material
         s = self.settings
+        if self.backend == "numba":
+            g, data = self._grad_hess_data(x, c, hessian)
+            if not hessian:
+                return g
+            pt = self.pattern
+            return g, sp.csr_matrix((data, pt.indices, pt.indptr), shape=(pt.n, pt.n))
         inv_h2 = 1.0 / (c["h"] * c["h"])
         g = (self.mass * inv_h2)[:, None] * (x - c["x_pred"])
         g[:, 1] += self.mass * en.GRAVITY_M_S2
@@ -321,6 +375,8 @@ class ClothSolver:
         tol = s.force_tol * self.weight_scale
         energy = self._terms(x, c)
         stats.energies = []
+        tr = []
+        stats.trace.append(tr)
         converged = False
         gnorm = np.inf
         for _ in range(s.max_newton):
@@ -334,8 +390,12 @@ class ClothSolver:
             # iterations are (nearly) exact and converge quadratically (the old η = √(‖g‖/‖g₀‖) ≥ 0.1 for most
             # iterations made Newton linear with a rate of about η)
             eta = min(0.1, 0.1 * np.sqrt(gnorm / (1e3 * tol)))
-            blocks = H.data[self.pattern.diag_slots]
-            dx, cg_it = _pcg(H, np.linalg.inv(blocks), -gf, eta, s.cg_max_iterations)
+            if self.backend == "numba":
+                pt = self.pattern
+                dx, cg_it, _ = _kn.pcg(pt.indptr, pt.indices, H.data, pt.diag_slots, -gf, eta, s.cg_max_iterations)
+            else:
+                blocks = H.data[self.pattern.diag_slots]
+                dx, cg_it = _pcg(H, np.linalg.inv(blocks), -gf, eta, s.cg_max_iterations)
             stats.cg_iterations += cg_it
             full = np.zeros(3 * self.n)
             full[self.free_dof] = dx
@@ -370,6 +430,7 @@ class ClothSolver:
                     if not e2 < e_trial:
                         break
                     alpha, trial, e_trial = 2.0 * alpha, trial2, e2
+            tr.append((gnorm, float(np.abs(trial - x).max()) / c["h"], alpha, int(cg_it)))
             x, energy = trial, e_trial
             stats.newton_iterations += 1
             stats.energies.append(energy)
