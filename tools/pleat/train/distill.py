@@ -3,7 +3,8 @@
 A tier is a smaller inference block Ψ' = f_LP' → f_dec' → D' blend shapes trained to reproduce the stage-1 teacher:
 the paper's stage 2 generalised from "f_LP on Φ's own latent" to "a whole smaller block on Φ's garment".
 
-    python -m pleat.train.distill --teacher RUN_DIR --tier medium --out assets/tshirt_medium.pleat [--fp16]
+    python -m pleat.train.distill --teacher RUN_DIR --tier xsmall small medium --out assets/ --fp16 \
+        [--recording out/tiers/teacher_rollouts.npz]      # → assets/<garment>_<tier>.pleat
 
 1. Record Φ rollouts (no gradients) over training clips with random β and material, as stage 2 does
    (`core.record_latents`): per frame the X_c row and Φ's latent Z, and from Z the teacher's garment displacement
@@ -263,7 +264,7 @@ def main(argv=None):
     from pleat.eval import tiers as tiers_mod
     ap = argparse.ArgumentParser(prog="python -m pleat.train.distill", description=__doc__.split("\n\n")[0])
     ap.add_argument("--teacher", required=True, help="stage-1 run directory (stage1.pt)")
-    ap.add_argument("--tier", nargs="+", required=True, help="tier names (pleat.eval.tiers)")
+    ap.add_argument("--tier", nargs="*", default=[], help="tier names (pleat.eval.tiers); none: only record")
     ap.add_argument("--out", required=True, help="folder for <garment>_<tier>.pleat")
     ap.add_argument("--sequences", type=int, default=24)
     ap.add_argument("--frames", type=int, default=90)
@@ -273,12 +274,27 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--fp16", action="store_true")
     ap.add_argument("--no-reuse-stage2", action="store_true", help="record fresh rollouts even if the run has some")
+    ap.add_argument("--recording", default=None,
+                    help="npz of teacher rollouts: loaded if it exists, else recorded and saved there")
+    ap.add_argument("--report", default=None, help="write the distillation reports (JSON) here")
     ap.add_argument("--threads", type=int, default=1)
     args = ap.parse_args(argv)
     core.set_threads(args.threads)
-    seqs, setup, _ = record(args.teacher, args.sequences, args.frames, args.seed, "train",
-                            not args.no_reuse_stage2, progress=True)
-    val, _, _ = record(args.teacher, args.val_sequences, args.frames, args.seed, "validation", False, progress=True)
+    rec = Path(args.recording) if args.recording else None
+    if rec is not None and rec.is_file():
+        with np.load(rec, allow_pickle=True) as d:
+            seqs, val = [dict(s) for s in d["train"]], [dict(s) for s in d["validation"]]
+        _, setup, _, _ = core.load_stage1(args.teacher)
+    else:
+        seqs, setup, _ = record(args.teacher, args.sequences, args.frames, args.seed, "train",
+                                not args.no_reuse_stage2, progress=True)
+        val, _, _ = record(args.teacher, args.val_sequences, args.frames, args.seed, "validation", False,
+                           progress=True)
+        if rec is not None:
+            rec.parent.mkdir(parents=True, exist_ok=True)
+            np.savez(rec, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
+    if not args.tier:
+        return 0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     reports = []
@@ -296,7 +312,8 @@ def main(argv=None):
         reports.append(rep)
         print(f"{name}: {path} ({path.stat().st_size / 1024:.0f} KiB) validation "
               f"{rep.get('validation')}", file=sys.stderr)
-    (out / "distill_report.json").write_text(json.dumps(reports, indent=1))
+    if args.report:
+        Path(args.report).write_text(json.dumps(reports, indent=1))
     return 0
 
 
