@@ -8,8 +8,9 @@ Every case runs the asset and its LBS-only twin (same garment, zero network) thr
               the runtime can compute for any length of run. Drift shows up as this (and the latent norm) growing.
   bound       pleat.eval.bounds.displacement_bound_m: the largest displacement the asset's decoder can ever produce
               (interval arithmetic over the guarded latent box); every vertex must stay within it.
-  error       distance to the reference simulator (mm) — only in short windows, because the reference costs
-              seconds per frame here (a 10-minute reference would take days on this machine).
+  error       distance to the reference simulator (mm) — only in short windows (start and end of the long run,
+              1× and 3× speed, β0 = ±3), because the reference costs seconds per frame here (a 10-minute
+              reference would take days on this machine).
   penetration share of garment vertices inside the posed body (%) and the deepest (mm), per frame.
 
 (a) long: 10 minutes at 30 fps (18,000 frames; --quick: 5,000) of chained clips (pleat.motion.concatenate, 0.25 s
@@ -403,9 +404,10 @@ def write_markdown(reports, path, command):
         "LBS-only twin (the network's own displacement; the runtime can afford it for any length); **bound** = the "
         "largest displacement the asset's decoder can produce for any latent the guard lets through (interval "
         "arithmetic, `pleat.eval.bounds`; a guarantee, and a loose one) — `bound excess` ≤ 0 means every vertex "
-        "stayed inside it; **error** = distance to the reference simulator, only in short windows at the start and "
-        "end of the long run, because the reference costs tens of seconds per frame for the 4,417-vertex t-shirt on "
-        "this machine (a 10-minute reference would take days); **penetration** = share of garment vertices inside "
+        "stayed inside it; **error** = distance to the reference simulator, only in short windows (the start and "
+        "end of the long run, the first clip at 1× and 3× speed, β0 = ±3), because the reference costs seconds per "
+        "frame on this machine (about 5 s for the 1k t-shirt, 30 s for the 4.4k one, plus a 15-frame lead-in per "
+        "window; a 10-minute reference would take days); **penetration** = share of garment vertices inside "
         "the posed body and the deepest, from the simulator's collider (nearest body vertex + normal; pinned "
         "vertices included). Reference, error and penetration need an asset built on assets/body.npz; an asset "
         "on another skeleton (the random-weight golden tube) gets the runtime-only numbers.", ""]
