@@ -26,8 +26,9 @@ def test_free_fall_matches_half_g_t_squared_and_error_shrinks_with_dt():
         drop, x, v = _fall(dt, duration)
         errors.append(abs(drop - exact))
         # a falling sheet does not deform (to within the solver's tolerance: a residual force of at most
-        # force_tol·m·g moves a vertex at most force_tol·g·dt² ≈ 1e-5 m per step against inertia alone)
-        assert np.allclose(x[:, [0, 2]], v[:, [0, 2]], atol=1e-6)
+        # force_tol·m·g moves a vertex at most force_tol·g·dt² ≈ 1e-5 m per step against inertia alone; block-Jacobi
+        # CG solves the uniform pull exactly (~1e-7 m), IC(0)-preconditioned CG leaves ~2e-5 m after 15 steps)
+        assert np.allclose(x[:, [0, 2]], v[:, [0, 2]], atol=5e-5)
     assert errors[0] < 0.1 * exact                          # implicit Euler: O(dt) error, 6 % at dt = 1/30
     assert errors[1] < 0.6 * errors[0] and errors[2] < 0.6 * errors[1]
 

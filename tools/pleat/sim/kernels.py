@@ -403,3 +403,81 @@ def pcg(indptr, indices, data, diag_slots, b, rtol, max_iter):
             p[j] = z[j] + beta * p[j]
         rz = rz_new
     return x, max_iter, False
+
+
+@njit(cache=True)
+def ic0_factor(indptr, indices, data, lower_ptr, lower_idx, lower_src, diag_src, shift, Lval, Ldiag):
+    """Incomplete Cholesky IC(0) of the CSR matrix on its own lower pattern (row i: columns lower_idx[lower_ptr[i]:
+    lower_ptr[i+1]] ascending, taken from data[lower_src]; diagonal data[diag_src]), with the diagonal scaled by
+    (1 + shift). Returns False on breakdown (a non-positive pivot)."""
+    n = len(lower_ptr) - 1
+    w = np.zeros(n)
+    for i in range(n):
+        a = lower_ptr[i]
+        b = lower_ptr[i + 1]
+        for q in range(a, b):
+            w[lower_idx[q]] = data[lower_src[q]]
+        for q in range(a, b):
+            k = lower_idx[q]
+            s = w[k]
+            for r in range(lower_ptr[k], lower_ptr[k + 1]):
+                s -= w[lower_idx[r]] * Lval[r] if lower_idx[r] < k else 0.0
+            s /= Ldiag[k]
+            w[k] = s
+            Lval[q] = s
+        d = data[diag_src[i]] * (1.0 + shift)
+        for q in range(a, b):
+            d -= Lval[q] * Lval[q]
+        for q in range(a, b):
+            w[lower_idx[q]] = 0.0
+        if not d > 0.0:
+            return False
+        Ldiag[i] = math.sqrt(d)
+    return True
+
+
+@njit(cache=True)
+def _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z):
+    n = len(Ldiag)
+    for i in range(n):
+        s = r[i]
+        for q in range(lower_ptr[i], lower_ptr[i + 1]):
+            s -= Lval[q] * z[lower_idx[q]]
+        z[i] = s / Ldiag[i]
+    for i in range(n - 1, -1, -1):
+        zi = z[i] / Ldiag[i]
+        z[i] = zi
+        for q in range(lower_ptr[i], lower_ptr[i + 1]):
+            z[lower_idx[q]] -= Lval[q] * zi
+
+
+@njit(cache=True)
+def pcg_ic0(indptr, indices, data, lower_ptr, lower_idx, Lval, Ldiag, b, rtol, max_iter):
+    """CG on H x = b preconditioned by the IC(0) factor (L Lᵀ ≈ H). Returns (x, iterations, negative_curvature)."""
+    n = b.shape[0]
+    x = np.zeros(n)
+    r = b.copy()
+    z = np.empty(n)
+    Hp = np.empty(n)
+    _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z)
+    p = z.copy()
+    rz = _dot(r, z)
+    stop = rtol * math.sqrt(_dot(b, b))
+    for it in range(1, max_iter + 1):
+        csr_matvec(indptr, indices, data, p, Hp)
+        pHp = _dot(p, Hp)
+        if pHp <= 0.0:
+            return x, it, True
+        alpha = rz / pHp
+        for j in range(n):
+            x[j] += alpha * p[j]
+            r[j] -= alpha * Hp[j]
+        if math.sqrt(_dot(r, r)) <= stop:
+            return x, it, False
+        _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z)
+        rz_new = _dot(r, z)
+        beta = rz_new / rz
+        for j in range(n):
+            p[j] = z[j] + beta * p[j]
+        rz = rz_new
+    return x, max_iter, False

@@ -121,7 +121,7 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
         x_prev = x.copy()
     out = np.empty((n_frames, len(x), 3), np.float32)
     out[0] = x
-    per_frame = dict(substeps=[], substeps_converged=[], newton_iterations=[], cg_iterations=[], gradient_ratio=[], converged=[],
+    per_frame = dict(substeps=[], substeps_converged=[], substeps_force_converged=[], newton_iterations=[], cg_iterations=[], gradient_ratio=[], converged=[],
                      penetration_before_projection_mm=[], penetration_after_projection_mm=[], seconds=[])
     iterator = range(1, n_frames)
     if progress:
@@ -140,6 +140,7 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
         per_frame["seconds"].append(round(time.perf_counter() - t_frame, 4))
         per_frame["substeps"].append(stats.substeps)
         per_frame["substeps_converged"].append(stats.substeps_converged)
+        per_frame["substeps_force_converged"].append(stats.substeps_force_converged)
         per_frame["newton_iterations"].append(stats.newton_iterations)
         per_frame["cg_iterations"].append(stats.cg_iterations)
         per_frame["gradient_ratio"].append(float(stats.worst_gradient_ratio))
@@ -166,6 +167,8 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
                    steps_not_converged=int(sum(not c for c in per_frame["converged"])),
                    substeps_converged_fraction=(float(np.sum(per_frame["substeps_converged"])
                                                       / max(1, np.sum(per_frame["substeps"])))),
+                   substeps_force_converged_fraction=(float(np.sum(per_frame["substeps_force_converged"])
+                                                            / max(1, np.sum(per_frame["substeps"])))),
                    material=dict(zip(("m", "mu", "lambda", "k"), material.as_tuple())),
                    beta=[] if beta is None else [float(b) for b in np.atleast_1d(beta)],
                    settings=asdict(settings), per_frame=per_frame)
@@ -194,6 +197,7 @@ def _simulate_lead_in(garment, body, clip, beta, solver, settings, frames, hold,
     x_prev = x.copy()
     t0 = time.perf_counter()
     not_converged = 0
+    substeps = substeps_ok = 0
     ratios = []
     for t in range(1, lead.num_frames):
         nxt = BodyCollider(body_v[t], body.faces)
@@ -202,7 +206,10 @@ def _simulate_lead_in(garment, body, clip, beta, solver, settings, frames, hold,
         x_prev = x - settings.dt_s * stats.velocity
         prev = nxt
         not_converged += int(not stats.converged)
+        substeps += stats.substeps
+        substeps_ok += stats.substeps_converged
         ratios.append(float(stats.worst_gradient_ratio))
     summary = dict(frames=int(frames), hold_frames=int(hold), seconds=time.perf_counter() - t0,
-                   steps_not_converged=not_converged, worst_gradient_ratio=max(ratios, default=0.0))
+                   steps_not_converged=not_converged, substeps=substeps, substeps_converged=substeps_ok,
+                   worst_gradient_ratio=max(ratios, default=0.0))
     return dict(x=x, x_prev=x_prev, summary=summary)

@@ -54,6 +54,8 @@ class SolverSettings:
     projection_rounds: int = 5
     penetration_tol_m: float = 1e-3       # stated tolerance: no free vertex deeper than this after a step
     backend: str = "numba"                # "numba": compiled assembly (pleat.sim.kernels); "numpy": the reference
+    linear_solver: str = "ic0"            # numba backend: "ic0" (incomplete-Cholesky CG) or "jacobi" (block-Jacobi CG)
+    velocity_tol_m_s: float = 0.0         # > 0: also converged when the Newton step ‖Δx‖∞/h ≤ this (IPC's criterion)
 
 
 @dataclass
@@ -67,7 +69,8 @@ class StepStats:
     penetration_before_projection_m: float = 0.0   # deepest free vertex after a solve, before projecting (all substeps)
     penetration_after_projection_m: float = 0.0    # after the projection at the frame's end
     converged: bool = True                # every substep converged
-    substeps_converged: int = 0           # how many of the substeps converged
+    substeps_converged: int = 0           # how many of the substeps converged (either criterion)
+    substeps_force_converged: int = 0     # how many ended with ‖∇E‖∞ ≤ force tolerance
     velocity: np.ndarray = None           # [N,3] m/s at the end of the step (the next step's x_prev = x − v dt)
     trace: list = field(default_factory=list)      # per substep: [(‖∇E‖∞, ‖Δx‖∞/h of the step taken, α, CG its)]
 
@@ -165,6 +168,15 @@ class ClothSolver:
         self._faces = np.ascontiguousarray(rest.faces, np.int64)
         self._hinges = np.ascontiguousarray(rest.hinges, np.int64).reshape(-1, 4)
         self.stvk_mode = 0                    # kernels: 0 clamped stress (PSD), 1 |stress|, 2 exact (indefinite)
+        # IC(0) on the CSR's own strictly-lower pattern (rows ascending, as the CSR stores them)
+        pt = self.pattern
+        rows = np.repeat(np.arange(pt.n), np.diff(pt.indptr))
+        low = pt.indices < rows
+        self._lower_src = np.where(low)[0].astype(np.int64)
+        self._lower_idx = pt.indices[low].astype(np.int64)
+        self._lower_ptr = np.concatenate([[0], np.cumsum(np.bincount(rows[low], minlength=pt.n))]).astype(np.int64)
+        self._diag_src = np.where(pt.indices == rows)[0].astype(np.int64)
+        self._ic_shift = 1e-3                 # diagonal shift (relative) that the last factorisation needed
         self.weight_scale = float(self.mass.max() * en.GRAVITY_M_S2)
         self._normal_force = None             # friction's λ carried from one solve to the next substep's
         self._normal_force_cache = None       # (x at the end of the last step, λ there) for the next step
@@ -236,6 +248,26 @@ class ClothSolver:
             return g
         values = np.concatenate([hs.ravel(), hb.ravel(), diag.ravel()])
         return g, self.pattern.matrix(values)
+
+    def _linear_solve(self, data, b, rtol):
+        """Newton direction: CG preconditioned by IC(0) (diagonal shifted until the factorisation succeeds) or by
+        3×3 block Jacobi. Returns (dx, CG iterations)."""
+        s = self.settings
+        pt = self.pattern
+        if s.linear_solver == "ic0":
+            lval = np.empty(len(self._lower_idx))
+            ldiag = np.empty(pt.n)
+            shift = max(1e-4, 0.5 * self._ic_shift)           # relax slowly towards a smaller shift
+            while shift < 1.0:
+                if _kn.ic0_factor(pt.indptr, pt.indices, data, self._lower_ptr, self._lower_idx, self._lower_src,
+                                  self._diag_src, shift, lval, ldiag):
+                    self._ic_shift = shift
+                    dx, it, _ = _kn.pcg_ic0(pt.indptr, pt.indices, data, self._lower_ptr, self._lower_idx, lval,
+                                            ldiag, b, rtol, s.cg_max_iterations)
+                    return dx, it
+                shift *= 4.0
+        dx, it, _ = _kn.pcg(pt.indptr, pt.indices, data, pt.diag_slots, b, rtol, s.cg_max_iterations)
+        return dx, it
 
     def _gradient_norm(self, x, c):
         gf = self._grad_hess(x, c, hessian=False).ravel()[self.free_dof]
@@ -391,8 +423,7 @@ class ClothSolver:
             # iterations made Newton linear with a rate of about η)
             eta = min(0.1, 0.1 * np.sqrt(gnorm / (1e3 * tol)))
             if self.backend == "numba":
-                pt = self.pattern
-                dx, cg_it, _ = _kn.pcg(pt.indptr, pt.indices, H.data, pt.diag_slots, -gf, eta, s.cg_max_iterations)
+                dx, cg_it = self._linear_solve(H.data, -gf, eta)
             else:
                 blocks = H.data[self.pattern.diag_slots]
                 dx, cg_it = _pcg(H, np.linalg.inv(blocks), -gf, eta, s.cg_max_iterations)
@@ -400,6 +431,9 @@ class ClothSolver:
             full = np.zeros(3 * self.n)
             full[self.free_dof] = dx
             full = full.reshape(-1, 3)
+            if s.velocity_tol_m_s > 0.0 and float(np.abs(dx).max()) <= s.velocity_tol_m_s * c["h"]:
+                converged = True                             # Newton's own estimate of the distance to the solution
+                break
             slope = float(gf @ dx)
             if slope >= 0.0:                                 # not a descent direction (CG broke down): gradient step
                 full = -g * self.free_dof.reshape(-1, 3) / np.maximum(np.abs(g).max(), 1e-30) * 1e-4
@@ -437,6 +471,7 @@ class ClothSolver:
         if not converged:
             gnorm = self._gradient_norm(x, c)
             converged = gnorm <= tol
+        stats.substeps_force_converged += int(gnorm <= tol)
         stats.gradient_norm = gnorm
         stats.worst_gradient_ratio = max(stats.worst_gradient_ratio, gnorm / tol)
         stats.converged = stats.converged and converged
