@@ -170,7 +170,7 @@ def _fmt(v, digits=1):
     return "—" if v is None else f"{v:.{digits}f}"
 
 
-def write_markdown(rows, clips, command, library, path, max_frames):
+def write_markdown(rows, clips, command, library, path, max_frames, notes=()):
     scored = [r for r in rows if r.get("mean_mm") is not None]
     front = {id(scored[i]) for i in pareto_front([(r["step_us"], r["mean_mm"]) for r in scored])}
     lines = [
@@ -236,6 +236,8 @@ def write_markdown(rows, clips, command, library, path, max_frames):
             lines.append(f"| {d['tier']} | {d['vertices']} | {100 * d['pca_energy']:.2f} % | {d['train_frames']} | "
                          f"{_fmt(v.get('rms_mm'), 2)} | {_fmt(v.get('rms_zero_mm'), 2)} | "
                          f"{_fmt(v.get('rms_projection_mm'), 2)} | {d['train_time_s']:.0f} |")
+    if notes:
+        lines += ["", "## Notes", ""] + [f"- {n}" for n in notes]
     lines += ["", "## Remake", "", "```", command, "```", ""]
     made = [r for r in rows if r["kind"] == "lbs" and not str(r.get("asset", "")).startswith("assets/")
             and r.get("asset") and r["model"].startswith("lbs-only")]
@@ -261,6 +263,7 @@ def main(argv=None):
                     help="use PATH as tier NAME's asset instead of Tier.asset (e.g. a candidate not yet shipped)")
     ap.add_argument("--no-error", action="store_true", help="times only (no reference simulation)")
     ap.add_argument("--json", default=None, help="also write the rows as JSON")
+    ap.add_argument("--note", action="append", default=[], help="a line for the page's Notes section (repeatable)")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
     from pleat import runtime
@@ -277,7 +280,7 @@ def main(argv=None):
     lib = str(runtime.find_library())
     env = f"PLEAT_LIBRARY={os.environ['PLEAT_LIBRARY']} " if os.environ.get("PLEAT_LIBRARY") else ""
     command = env + "python -m pleat.eval.pareto " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
-    write_markdown(rows, clips, command, lib, out / "pareto.md", args.max_frames)
+    write_markdown(rows, clips, command, lib, out / "pareto.md", args.max_frames, args.note)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
     for r in rows:

@@ -200,6 +200,21 @@ def free_running_error(lp, block, seqs, disp_seqs):
     return {"rms_mm": mm(err), "rms_zero_mm": mm(zero), "rms_projection_mm": mm(proj), "frames": len(err)}
 
 
+@torch.no_grad()
+def own_stage2_error(run_dir, seqs):
+    """The teacher run's own inference block (stage-2 f_LP → f_dec → D, what `large` ships) scored like a tier:
+    free-running RMS displacement error against Φ on the same rollouts."""
+    model, setup, _, _ = core.load_stage1(run_dir)
+    s2 = torch.load(Path(run_dir) / "stage2.pt", weights_only=False)
+    lp = core.LatentPredictor(setup, s2["norms"])
+    lp.load_state_dict(s2["model"])
+    block = model.block
+    own = [{"static": s["static"],
+            "c": block.decoder(torch.as_tensor(np.asarray(s["z"]), dtype=torch.float32)).double().numpy()}
+           for s in seqs]
+    return free_running_error(lp, block, own, seqs)
+
+
 def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iterations=3000, dec_iterations=2000,
             lr=1e-3, batch=64, window=8, progress=False):
     """Train one tier. spec: pleat.eval.tiers.Tier (latent, blend, lp_hidden, dec_hidden, activation). garment:
@@ -293,11 +308,17 @@ def main(argv=None):
         if rec is not None:
             rec.parent.mkdir(parents=True, exist_ok=True)
             np.savez(rec, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
+    reports = []
+    if (Path(args.teacher) / "stage2.pt").is_file():
+        rep = {"tier": "large (the teacher run's own stage 2)", "validation": own_stage2_error(args.teacher, val)}
+        print(f"large: validation {rep['validation']}", file=sys.stderr)
+        reports.append(rep)
     if not args.tier:
+        if args.report:
+            Path(args.report).write_text(json.dumps(reports, indent=1))
         return 0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    reports = []
     for name in args.tier:
         spec = tiers_mod.tier(name)
         garment = None
