@@ -50,12 +50,12 @@ class SolverSettings:
     max_body_step_m: float = 0.015        # body motion relative to the garment per substep (sets K)
     min_substeps: int = 1
     max_substeps: int = 8
-    cg_max_iterations: int = 1000
+    cg_max_iterations: int = 200          # truncated Newton: a CG solve stops here (the direction is still descent)
     projection_rounds: int = 5
     penetration_tol_m: float = 1e-3       # stated tolerance: no free vertex deeper than this after a step
     backend: str = "numba"                # "numba": compiled assembly (pleat.sim.kernels); "numpy": the reference
     linear_solver: str = "ic0"            # numba backend: "ic0" (incomplete-Cholesky CG) or "jacobi" (block-Jacobi CG)
-    velocity_tol_m_s: float = 0.0         # > 0: also converged when the Newton step ‖Δx‖∞/h ≤ this (IPC's criterion)
+    velocity_tol_m_s: float = 1e-3        # also converged when the Newton step ‖Δx‖∞/h ≤ this (IPC's criterion; 0: off)
 
 
 @dataclass
@@ -431,8 +431,9 @@ class ClothSolver:
             full = np.zeros(3 * self.n)
             full[self.free_dof] = dx
             full = full.reshape(-1, 3)
-            if s.velocity_tol_m_s > 0.0 and float(np.abs(dx).max()) <= s.velocity_tol_m_s * c["h"]:
-                converged = True                             # Newton's own estimate of the distance to the solution
+            if (s.velocity_tol_m_s > 0.0 and cg_it < s.cg_max_iterations
+                    and float(np.abs(dx).max()) <= s.velocity_tol_m_s * c["h"]):
+                converged = True          # Newton's own estimate of the distance to the solution (CG not truncated)
                 break
             slope = float(gf @ dx)
             if slope >= 0.0:                                 # not a descent direction (CG broke down): gradient step
