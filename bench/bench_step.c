@@ -21,7 +21,10 @@
 //   stream_floor_us, stream_floor_fp16_us: the memory floor, a pure streaming read (no arithmetic but an integer XOR)
 //                  of exactly the bytes a step must stream: every MLP weight and bias, then the blend shapes, timed
 //                  per pass like a step (so the same cache residency from one pass to the next); step_stream_mb
-// --step-only times nothing but plInstance_Step on --asset (fp32 or fp16), optionally with --workers 2.
+//   pleat_step_small_pages_us: pleat_step_us with host allocator hooks that give the asset plain 4 KiB pages (every
+//                  other step timing loads the asset through the SDK's default allocator: huge pages on Linux)
+// --step-only times nothing but plInstance_Step on --asset (fp32 or fp16), optionally with --workers 2; --small-pages
+// (with --step-only or --phases) gives the context the plain allocator hooks.
 // pleat_bench_phases (the same file against the library built with PLEAT_STEP_PHASES, bench/CMakeLists.txt) adds
 // --phases: the per-phase medians of one-thread steps on --asset and --asset-fp16 (sdk/src/step_phases.h), as JSON.
 #define _POSIX_C_SOURCE 200809L
@@ -538,13 +541,24 @@ typedef struct StepConfig
 	plMlpBackend backend;
 	const char* ort_library;
 	TwoWorkers* workers; // NULL = serial
+	int small_pages;     // host allocator hooks without huge pages (see BenchAlloc)
 } StepConfig;
+
+// --small-pages: the context gets host allocator hooks that are plain aligned_alloc/free (BenchAlloc), i.e. an engine allocator
+// that does not give large blocks huge pages. Without it the SDK's default allocator is used, which puts blocks of
+// 2 MiB and more (the asset) in transparent huge pages on Linux (context.c).
+static int g_small_pages;
 
 static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint32_t warmup, uint32_t iterations,
 						   double* out_median_us, int* out_avx2 )
 {
 	plContextDef cdef = plDefaultContextDef();
 	cdef.force_scalar = config->force_scalar;
+	if ( config->small_pages )
+	{
+		cdef.alloc = BenchAlloc;
+		cdef.free = BenchFree;
+	}
 	if ( config->workers != NULL )
 	{
 		cdef.enqueue_task = TwoWorkersEnqueue;
@@ -565,7 +579,7 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 	plAssetDef adef = plDefaultAssetDef();
 	adef.data = config->asset_bytes;
 	adef.size = config->asset_size;
-	adef.flags = PLEAT_ASSET_FLAG_USE_IN_PLACE;
+	adef.flags = 0; // copied into the context's memory, as an engine that hands over a buffer it then frees
 	plAsset asset;
 	result = plLoadAsset( context, &adef, &asset );
 	plInstance instance = { 0 };
@@ -756,6 +770,12 @@ int main( int argc, char** argv )
 	uint32_t step_only_workers = 1;
 	for ( int i = 1; i < argc; i += 2 )
 	{
+		if ( strcmp( argv[i], "--small-pages" ) == 0 )
+		{
+			g_small_pages = 1;
+			i -= 1;
+			continue;
+		}
 		if ( strcmp( argv[i], "--step-only" ) == 0 || strcmp( argv[i], "--phases" ) == 0 )
 		{
 			step_only = step_only || argv[i][2] == 's';
@@ -837,7 +857,8 @@ int main( int argc, char** argv )
 			uint8_t* bytes = which == 0 ? asset_bytes : ( path != NULL ? ReadAligned( path, &size ) : NULL );
 			if ( bytes == NULL )
 				continue;
-			StepConfig config = { bytes, which == 0 ? asset_size : size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL };
+			StepConfig config = { bytes, which == 0 ? asset_size : size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL,
+								  g_small_pages };
 			g_phase_samples = (double*)malloc( sizeof( double ) * PLEAT_PHASE_COUNT * iterations );
 			double total_us = NAN;
 			result = TimeSteps( &config, &motion, warmup, iterations, &total_us, NULL );
@@ -866,7 +887,7 @@ int main( int argc, char** argv )
 #endif
 	if ( step_only ) // for profilers: nothing but fp32 plInstance_Step
 	{
-		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL };
+		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL, g_small_pages };
 		double only_us = NAN;
 		TwoWorkers helper;
 		memset( &helper, 0, sizeof( helper ) );
@@ -895,7 +916,7 @@ int main( int argc, char** argv )
 	double stream_mb = NAN, stream_fp16_mb = NAN, stream_fp16_us = NAN;
 	double stream_us = TimeStreamFloor( &asset, warmup, iterations, &stream_mb );
 	double blend_fp16_us = NAN;
-	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library, NULL };
+	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library, NULL, 0 };
 	double step_us = NAN, step_fp16_us = NAN, scalar_us = NAN, ort_step_us = NAN, mlp_fp16_us = NAN;
 	int avx2 = 0;
 	result = TimeSteps( &config, &motion, warmup, iterations, &step_us, &avx2 );
@@ -903,6 +924,12 @@ int main( int argc, char** argv )
 	{
 		return Fail( "step (fp32)", result );
 	}
+	double step_small_pages_us = NAN;
+	config.small_pages = 1;
+	result = TimeSteps( &config, &motion, warmup, iterations, &step_small_pages_us, NULL );
+	if ( result != PLEAT_RESULT_OK )
+		fprintf( stderr, "small-pages step: %s\n", plResultString( result ) );
+	config.small_pages = 0;
 	double step_2w_us = NAN, step_fp16_2w_us = NAN;
 	TwoWorkers pool;
 	memset( &pool, 0, sizeof( pool ) );
@@ -1007,6 +1034,7 @@ int main( int argc, char** argv )
 	PrintJsonPrecise( out, "step_stream_mb", stream_mb );
 	PrintJsonPrecise( out, "step_stream_fp16_mb", stream_fp16_mb );
 	PrintJsonNumber( out, "pleat_step_us", step_us, 0 );
+	PrintJsonNumber( out, "pleat_step_small_pages_us", step_small_pages_us, 0 );
 	PrintJsonNumber( out, "pleat_step_fp16_us", step_fp16_us, 0 );
 	PrintJsonNumber( out, "pleat_step_2workers_us", step_2w_us, 0 );
 	PrintJsonNumber( out, "pleat_step_fp16_2workers_us", step_fp16_2w_us, 0 );
