@@ -68,6 +68,10 @@
 // An asset is one 64-byte aligned block: with PLEAT_ASSET_FLAG_USE_IN_PLACE and a 64-byte aligned caller buffer the
 // caller's memory is used directly (it must outlive the asset), otherwise the data is copied. An instance allocates
 // everything when it is created; plInstance_Step allocates nothing.
+// Every step streams the asset's network weights and blend shapes in full (12 MB for the fp32 reference garment), so
+// the pages they sit in matter: the default allocator gives blocks of 2 MiB and more 2 MiB alignment and, on Linux,
+// transparent huge pages (madvise), which measured 11–23 % faster fp32 steps than 4 KiB pages. With your own
+// allocator or PLEAT_ASSET_FLAG_USE_IN_PLACE, put the asset in large pages yourself where the platform allows.
 //
 // ==================================================================================================================
 // THREADING
