@@ -55,6 +55,7 @@ class SolverSettings:
     penetration_tol_m: float = 1e-3       # stated tolerance: no free vertex deeper than this after a step
     backend: str = "numba"                # "numba": compiled assembly (pleat.sim.kernels); "numpy": the reference
     linear_solver: str = "ic0"            # numba backend: "ic0" (incomplete-Cholesky CG) or "jacobi" (block-Jacobi CG)
+    ic0_refactor_every: int = 1           # IC(0): refactor every n-th Newton iteration (reuse the factor in between)
     velocity_tol_m_s: float = 1e-3        # also converged when the Newton step ‖Δx‖∞/h ≤ this (IPC's criterion; 0: off)
 
 
@@ -177,6 +178,8 @@ class ClothSolver:
         self._lower_ptr = np.concatenate([[0], np.cumsum(np.bincount(rows[low], minlength=pt.n))]).astype(np.int64)
         self._diag_src = np.where(pt.indices == rows)[0].astype(np.int64)
         self._ic_shift = 1e-3                 # diagonal shift (relative) that the last factorisation needed
+        self._ic_factor = None                # (L values, diagonal) of the last factorisation
+        self._ic_age = 0                      # Newton iterations since it was made
         self.weight_scale = float(self.mass.max() * en.GRAVITY_M_S2)
         self._normal_force = None             # friction's λ carried from one solve to the next substep's
         self._normal_force_cache = None       # (x at the end of the last step, λ there) for the next step
@@ -255,6 +258,12 @@ class ClothSolver:
         s = self.settings
         pt = self.pattern
         if s.linear_solver == "ic0":
+            if self._ic_factor is not None and self._ic_age < s.ic0_refactor_every:
+                self._ic_age += 1
+                lval, ldiag = self._ic_factor
+                dx, it, _ = _kn.pcg_ic0(pt.indptr, pt.indices, data, self._lower_ptr, self._lower_idx, lval, ldiag, b,
+                                        rtol, s.cg_max_iterations)
+                return dx, it
             lval = np.empty(len(self._lower_idx))
             ldiag = np.empty(pt.n)
             shift = max(1e-4, 0.5 * self._ic_shift)           # relax slowly towards a smaller shift
@@ -262,6 +271,8 @@ class ClothSolver:
                 if _kn.ic0_factor(pt.indptr, pt.indices, data, self._lower_ptr, self._lower_idx, self._lower_src,
                                   self._diag_src, shift, lval, ldiag):
                     self._ic_shift = shift
+                    self._ic_factor = (lval, ldiag)
+                    self._ic_age = 1
                     dx, it, _ = _kn.pcg_ic0(pt.indptr, pt.indices, data, self._lower_ptr, self._lower_idx, lval,
                                             ldiag, b, rtol, s.cg_max_iterations)
                     return dx, it
