@@ -1,15 +1,16 @@
 // AVX2 + FMA (+ F16C for fp16 weights) twin of plMatVec_Scalar. Compiled with -mavx2 -mfma -mf16c; only called when
-// CPUID says so. A batch-1 mat-vec reads every weight once, so it is bound by memory bandwidth, not arithmetic: the
-// kernel walks the [rows][in] matrix strictly in address order, one row at a time (one sequential stream the
-// hardware prefetcher follows from DRAM), with four independent 8-wide accumulators per row. x (≤ a few KB) stays in
-// L1. Interleaving four rows (four streams 2 KB apart) measured ~20 % slower inside a step (docs/benchmarks.md).
-// fp16 weights only: two rows per pass sharing the x loads (plDotRows2, per row the same arithmetic as plDotRow, so
-// bit-identical): the fp16 conversions make that kernel less purely bandwidth-bound, −6 to −13 % per fp16 step;
-// for fp32 weights the same measured +11 % (round 2, docs/benchmarks.md).
+// CPUID says so. A batch-1 mat-vec reads every weight once, so it is bound by how fast the weights stream in. The row
+// range is cut into four contiguous blocks and one row of each block is computed at a time: four sequential streams,
+// each walking its block strictly in address order (the pattern of the fastest pure read measured on the benchmark
+// machine, several concurrent sequential streams), with the x loads shared by the four rows. Round 2 measured this
+// ×0.68–0.77 per fp32 step against one row at a time (one stream) and ×0.91 per fp16 step (docs/benchmarks.md);
+// interleaving *adjacent* rows (streams that skip over each other's rows) had measured slower in round 1. Each row's
+// arithmetic (plDotRow2) does not depend on the block split, so a row's result is the same for any worker split.
 #include "kernels.h"
 
 #include <immintrin.h>
 #include <math.h>
+
 
 static inline __m256 plLoadWeights8( const void* w, int fp16, size_t index )
 {
@@ -33,23 +34,22 @@ static inline float plHorizontalSum( __m256 v )
 	return _mm_cvtss_f32( s );
 }
 
-// One row's dot product; the result depends only on the row (not on how rows were split over workers).
-static inline float plDotRow( const float* x, const void* weight, int weight_fp16, size_t base, uint32_t in_count )
+// Per-row arithmetic of the blocked kernel: two 8-wide accumulators over 16-element steps, then an 8-wide tail step,
+// the horizontal sum, a scalar fmaf tail. plDotRowQuad computes exactly this for each of its four rows.
+static inline float plDotRow2( const float* x, const void* weight, int weight_fp16, size_t base, uint32_t in_count )
 {
-	__m256 a0 = _mm256_setzero_ps(), a1 = _mm256_setzero_ps(), a2 = _mm256_setzero_ps(), a3 = _mm256_setzero_ps();
+	__m256 a0 = _mm256_setzero_ps(), a1 = _mm256_setzero_ps();
 	uint32_t c = 0;
-	for ( ; c + 32 <= in_count; c += 32 )
+	for ( ; c + 16 <= in_count; c += 16 )
 	{
 		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c ), _mm256_loadu_ps( x + c ), a0 );
 		a1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c + 8 ), _mm256_loadu_ps( x + c + 8 ), a1 );
-		a2 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c + 16 ), _mm256_loadu_ps( x + c + 16 ), a2 );
-		a3 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c + 24 ), _mm256_loadu_ps( x + c + 24 ), a3 );
 	}
 	for ( ; c + 8 <= in_count; c += 8 )
 	{
 		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c ), _mm256_loadu_ps( x + c ), a0 );
 	}
-	float sum = plHorizontalSum( _mm256_add_ps( _mm256_add_ps( a0, a1 ), _mm256_add_ps( a2, a3 ) ) );
+	float sum = plHorizontalSum( _mm256_add_ps( a0, a1 ) );
 	for ( ; c < in_count; ++c )
 	{
 		sum = fmaf( plLoadWeight1( weight, weight_fp16, base + c ), x[c], sum );
@@ -57,57 +57,69 @@ static inline float plDotRow( const float* x, const void* weight, int weight_fp1
 	return sum;
 }
 
-// Two rows at once with the same per-row arithmetic as plDotRow (so bit-identical to it), sharing the x loads.
-static inline void plDotRows2( const float* x, const void* weight, int weight_fp16, size_t base, uint32_t in_count,
-							   float* out0, float* out1 )
+// Four rows from four contiguous row blocks at once (four sequential streams, each walking its block in address
+// order, like eight-stream reads that measured fastest), sharing the x loads; per row exactly plDotRow2.
+static inline void plDotRowQuad( const float* x, const void* weight, int weight_fp16, const size_t base[4],
+								 uint32_t in_count, float sum[4] )
 {
-	__m256 a0 = _mm256_setzero_ps(), a1 = _mm256_setzero_ps(), a2 = _mm256_setzero_ps(), a3 = _mm256_setzero_ps();
-	__m256 b0 = _mm256_setzero_ps(), b1 = _mm256_setzero_ps(), b2 = _mm256_setzero_ps(), b3 = _mm256_setzero_ps();
-	size_t base1 = base + in_count;
+	__m256 a0 = _mm256_setzero_ps(), a1 = _mm256_setzero_ps(), b0 = _mm256_setzero_ps(), b1 = _mm256_setzero_ps();
+	__m256 c0 = _mm256_setzero_ps(), c1 = _mm256_setzero_ps(), d0 = _mm256_setzero_ps(), d1 = _mm256_setzero_ps();
 	uint32_t c = 0;
-	for ( ; c + 32 <= in_count; c += 32 )
+	for ( ; c + 16 <= in_count; c += 16 )
 	{
 		__m256 x0 = _mm256_loadu_ps( x + c ), x1 = _mm256_loadu_ps( x + c + 8 );
-		__m256 x2 = _mm256_loadu_ps( x + c + 16 ), x3 = _mm256_loadu_ps( x + c + 24 );
-		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c ), x0, a0 );
-		a1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c + 8 ), x1, a1 );
-		a2 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c + 16 ), x2, a2 );
-		a3 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c + 24 ), x3, a3 );
-		b0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base1 + c ), x0, b0 );
-		b1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base1 + c + 8 ), x1, b1 );
-		b2 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base1 + c + 16 ), x2, b2 );
-		b3 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base1 + c + 24 ), x3, b3 );
+		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[0] + c ), x0, a0 );
+		a1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[0] + c + 8 ), x1, a1 );
+		b0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[1] + c ), x0, b0 );
+		b1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[1] + c + 8 ), x1, b1 );
+		c0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[2] + c ), x0, c0 );
+		c1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[2] + c + 8 ), x1, c1 );
+		d0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[3] + c ), x0, d0 );
+		d1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[3] + c + 8 ), x1, d1 );
 	}
 	for ( ; c + 8 <= in_count; c += 8 )
 	{
 		__m256 x0 = _mm256_loadu_ps( x + c );
-		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c ), x0, a0 );
-		b0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base1 + c ), x0, b0 );
+		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[0] + c ), x0, a0 );
+		b0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[1] + c ), x0, b0 );
+		c0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[2] + c ), x0, c0 );
+		d0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[3] + c ), x0, d0 );
 	}
-	float sum0 = plHorizontalSum( _mm256_add_ps( _mm256_add_ps( a0, a1 ), _mm256_add_ps( a2, a3 ) ) );
-	float sum1 = plHorizontalSum( _mm256_add_ps( _mm256_add_ps( b0, b1 ), _mm256_add_ps( b2, b3 ) ) );
+	sum[0] = plHorizontalSum( _mm256_add_ps( a0, a1 ) );
+	sum[1] = plHorizontalSum( _mm256_add_ps( b0, b1 ) );
+	sum[2] = plHorizontalSum( _mm256_add_ps( c0, c1 ) );
+	sum[3] = plHorizontalSum( _mm256_add_ps( d0, d1 ) );
 	for ( ; c < in_count; ++c )
 	{
-		sum0 = fmaf( plLoadWeight1( weight, weight_fp16, base + c ), x[c], sum0 );
-		sum1 = fmaf( plLoadWeight1( weight, weight_fp16, base1 + c ), x[c], sum1 );
+		float xc = x[c];
+		for ( int k = 0; k < 4; ++k )
+		{
+			sum[k] = fmaf( plLoadWeight1( weight, weight_fp16, base[k] + c ), xc, sum[k] );
+		}
 	}
-	*out0 = sum0;
-	*out1 = sum1;
 }
 
 void plMatVec_Avx2( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
 					uint32_t in_count, uint32_t row_begin, uint32_t row_end )
 {
-	uint32_t r = row_begin;
-	for ( ; weight_fp16 && r + 2 <= row_end; r += 2 )
+	uint32_t n = row_end - row_begin, q = n / 4;
+	for ( uint32_t i = 0; i < q; ++i )
 	{
-		float s0, s1;
-		plDotRows2( x, weight, weight_fp16, (size_t)r * in_count, in_count, &s0, &s1 );
-		out[r] = s0 + bias[r];
-		out[r + 1] = s1 + bias[r + 1];
+		uint32_t rows[4] = { row_begin + i, row_begin + q + i, row_begin + 2 * q + i, row_begin + 3 * q + i };
+		size_t base[4];
+		for ( int k = 0; k < 4; ++k )
+		{
+			base[k] = (size_t)rows[k] * in_count;
+		}
+		float sum[4];
+		plDotRowQuad( x, weight, weight_fp16, base, in_count, sum );
+		for ( int k = 0; k < 4; ++k )
+		{
+			out[rows[k]] = sum[k] + bias[rows[k]];
+		}
 	}
-	for ( ; r < row_end; ++r )
+	for ( uint32_t r = row_begin + 4 * q; r < row_end; ++r )
 	{
-		out[r] = plDotRow( x, weight, weight_fp16, (size_t)r * in_count, in_count ) + bias[r];
+		out[r] = plDotRow2( x, weight, weight_fp16, (size_t)r * in_count, in_count ) + bias[r];
 	}
 }
