@@ -236,7 +236,7 @@ def main(argv=None):
                                 settings=dict(zip(("seconds", "fps", "substeps", "iterations"),
                                                   nw["settings"].tolist())))
         result["difference"] = dict(max_vertex_distance_m=float(d.max()), mean_vertex_distance_m=float(d.mean()),
-                                    **{f"{k}_diff_m": result["newton"][k] - result["pleat"][k]
+                                    **{f"{k[:-2]}_diff_m": result["newton"][k] - result["pleat"][k]
                                        for k in result["pleat"] if k.endswith("_m") and k in result["newton"]})
         np.savez(out / "positions.npz", pleat=pl["positions"], newton=xn, rest=v, faces=faces)
     (out / "crosscheck.json").write_text(json.dumps(result, indent=2) + "\n")
