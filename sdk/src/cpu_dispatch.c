@@ -10,6 +10,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 	kernels->skinning = plSkinning_Scalar;
 	kernels->face_normals = plFaceNormals_Scalar;
 	kernels->normals_gather = plNormalsGather_Scalar;
+	kernels->normals_scatter = plNormalsScatter_Scalar;
 #if defined( PLEAT_HAVE_AVX2 ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
 	if ( !force_scalar )
 	{
@@ -22,6 +23,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 			kernels->skinning = plSkinning_Avx2;
 			kernels->face_normals = plFaceNormals_Avx2;
 			kernels->normals_gather = plNormalsGather_Avx2;
+			kernels->normals_scatter = plNormalsScatter_Avx2;
 			return 1;
 		}
 	}

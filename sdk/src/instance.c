@@ -224,9 +224,21 @@ static void plDeformCpu( plInstanceData* inst, const float* weights, const float
 {
 	plTaskRunner runner = plRunnerOf( inst->ctx );
 	plDeformTask task = { inst, weights, skin_matrices };
-	plRunTask( &runner, plBlendAndSkinTask, inst->asset->vertex_count, 256, &task );
-	plRunTask( &runner, plFaceNormalsTask, inst->asset->face_count, 512, &task );
-	plRunTask( &runner, plNormalsTask, inst->asset->vertex_count, 256, &task );
+	const plAssetData* a = inst->asset;
+	plRunTask( &runner, plBlendAndSkinTask, a->vertex_count, 256, &task );
+	if ( ( runner.enqueue_task == NULL || runner.worker_count <= 1 ) && a->face_count >= a->vertex_count )
+	{
+		// One thread: one pass over the faces scattering into per-vertex sums (the face-normal scratch, [F][4] with
+		// F ≥ N, holds them), bit-identical to the face-normal + gather split that workers share.
+		plNormalsScatterJob scatter = { plMakeConstSpan( inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
+										plMakeSpan( inst->normals, a->vertex_count, 12 ), inst->face_normals,
+										a->face_count, &inst->ctx->kernels };
+		plNormalsScatterJob_Run( &scatter );
+		PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
+		return;
+	}
+	plRunTask( &runner, plFaceNormalsTask, a->face_count, 512, &task );
+	plRunTask( &runner, plNormalsTask, a->vertex_count, 256, &task );
 }
 
 // ---- create / destroy ----

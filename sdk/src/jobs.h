@@ -177,4 +177,21 @@ plResult plFaceNormalsJob_Run( const plFaceNormalsJob* job );
 int plNormalsJob_Validate( const plNormalsJob* job );
 plResult plNormalsJob_Run( const plNormalsJob* job );
 
+// One thread, whole mesh: face normals scattered to their vertices in ascending face order, then normalised
+// (plNormalsScatterFn). Bit-identical to plFaceNormalsJob + plNormalsGatherJob on a valid asset, without the face
+// normal array and the adjacency walk; not splittable over workers (neighbouring faces share vertices).
+typedef struct plNormalsScatterJob
+{
+	plConstSpan positions;    // [N] xyz, any stride
+	const uint32_t* faces;    // [F][3]
+	uint32_t face_count;
+	plSpan output;            // [N] xyz unit normals
+	float* sums4;             // [sums4_count][4] scratch, 16-byte aligned, sums4_count >= N
+	uint32_t sums4_count;
+	const plKernels* kernels; // optional: NULL = the scalar kernel
+} plNormalsScatterJob;
+
+int plNormalsScatterJob_Validate( const plNormalsScatterJob* job );
+plResult plNormalsScatterJob_Run( const plNormalsScatterJob* job );
+
 #endif

@@ -29,6 +29,15 @@ typedef void plNormalsGatherFn( float* out, uint32_t out_stride_bytes, const flo
 								const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
 								uint32_t v_end );
 
+// All vertex normals in one serial pass over the faces (no adjacency): each face's cross(x_b − x_a, x_c − x_a) (zero
+// if an index is >= vertex_count) is added to the (x, y, z, 0) sums4 row of each of its in-range vertices in ascending
+// face order, then every vertex is normalised as in the gather. For a valid asset (each vertex's adjacency = its faces
+// in ascending order, which the loader checks) this is bit-identical to face normals + gather; one thread only.
+// sums4: [vertex_count][4] scratch, 16-byte aligned.
+typedef void plNormalsScatterFn( float* out, uint32_t out_stride_bytes, const float* positions,
+								 uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
+								 uint32_t face_count, float* sums4 );
+
 typedef struct plKernels
 {
 	plMatVecFn* mat_vec;
@@ -36,6 +45,7 @@ typedef struct plKernels
 	plSkinningFn* skinning;
 	plFaceNormalsFn* face_normals;
 	plNormalsGatherFn* normals_gather;
+	plNormalsScatterFn* normals_scatter;
 } plKernels;
 
 void plMatVec_Scalar( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
@@ -50,6 +60,9 @@ void plFaceNormals_Scalar( float* out4, const float* positions, uint32_t positio
 void plNormalsGather_Scalar( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
 							 const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
 							 uint32_t v_end );
+void plNormalsScatter_Scalar( float* out, uint32_t out_stride_bytes, const float* positions,
+							  uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
+							  uint32_t face_count, float* sums4 );
 #if defined( PLEAT_HAVE_AVX2 )
 void plMatVec_Avx2( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
 					uint32_t in_count, uint32_t row_begin, uint32_t row_end );
@@ -63,6 +76,9 @@ void plFaceNormals_Avx2( float* out4, const float* positions, uint32_t position_
 void plNormalsGather_Avx2( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
 						   const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
 						   uint32_t v_end );
+void plNormalsScatter_Avx2( float* out, uint32_t out_stride_bytes, const float* positions,
+							uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
+							uint32_t face_count, float* sums4 );
 #endif
 
 // Scalar kernels always; AVX2 ones if built, not forced off, and the CPU has AVX2, FMA and F16C. Returns 1 for AVX2.

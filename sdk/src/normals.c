@@ -4,6 +4,7 @@
 #include "jobs.h"
 
 #include <math.h>
+#include <string.h>
 
 int plNormalsJob_Validate( const plNormalsJob* job )
 {
@@ -163,4 +164,75 @@ void plFaceNormals_Scalar( float* out4, const float* positions, uint32_t positio
 		out[1] = e1z * e2x - e1x * e2z;
 		out[2] = e1x * e2y - e1y * e2x;
 	}
+}
+
+void plNormalsScatter_Scalar( float* out, uint32_t out_stride_bytes, const float* positions,
+							  uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
+							  uint32_t face_count, float* sums4 )
+{
+	const uint8_t* in = (const uint8_t*)positions;
+	uint32_t n = vertex_count;
+	memset( sums4, 0, (size_t)n * 4 * sizeof( float ) );
+	for ( uint32_t f = 0; f < face_count; ++f )
+	{
+		const uint32_t* tri = faces + (size_t)f * 3;
+		float nx = 0.0f, ny = 0.0f, nz = 0.0f;
+		if ( tri[0] < n && tri[1] < n && tri[2] < n )
+		{
+			const float* a = (const float*)( in + (size_t)tri[0] * position_stride_bytes );
+			const float* b = (const float*)( in + (size_t)tri[1] * position_stride_bytes );
+			const float* c = (const float*)( in + (size_t)tri[2] * position_stride_bytes );
+			float e1x = b[0] - a[0], e1y = b[1] - a[1], e1z = b[2] - a[2];
+			float e2x = c[0] - a[0], e2y = c[1] - a[1], e2z = c[2] - a[2];
+			nx = e1y * e2z - e1z * e2y;
+			ny = e1z * e2x - e1x * e2z;
+			nz = e1x * e2y - e1y * e2x;
+		}
+		for ( int k = 0; k < 3; ++k )
+		{
+			if ( tri[k] < n )
+			{
+				float* s = sums4 + (size_t)tri[k] * 4;
+				s[0] += nx;
+				s[1] += ny;
+				s[2] += nz;
+			}
+		}
+	}
+	for ( uint32_t v = 0; v < n; ++v )
+	{
+		const float* s = sums4 + (size_t)v * 4;
+		float nx = s[0], ny = s[1], nz = s[2];
+		float length = sqrtf( nx * nx + ny * ny + nz * nz );
+		float scale = length > 0.0f ? 1.0f / length : 0.0f;
+		float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
+		o[0] = nx * scale;
+		o[1] = ny * scale;
+		o[2] = nz * scale;
+	}
+}
+
+int plNormalsScatterJob_Validate( const plNormalsScatterJob* job )
+{
+	if ( job == NULL || job->faces == NULL || job->sums4 == NULL || ( (uintptr_t)job->sums4 & 15u ) != 0 )
+	{
+		return 0;
+	}
+	uint32_t n = job->positions.count;
+	return job->sums4_count >= n && PLEAT_SPAN_HOLDS( job->positions, 12, n ) && job->output.count == n &&
+		   PLEAT_SPAN_HOLDS( job->output, 12, n );
+}
+
+plResult plNormalsScatterJob_Run( const plNormalsScatterJob* job )
+{
+	if ( !plNormalsScatterJob_Validate( job ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plNormalsScatterFn* kernel = job->kernels != NULL && job->kernels->normals_scatter != NULL
+									 ? job->kernels->normals_scatter
+									 : plNormalsScatter_Scalar;
+	kernel( (float*)job->output.ptr, job->output.stride_bytes, (const float*)job->positions.ptr,
+			job->positions.stride_bytes, job->positions.count, job->faces, job->face_count, job->sums4 );
+	return PLEAT_RESULT_OK;
 }

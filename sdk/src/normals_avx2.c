@@ -144,3 +144,88 @@ void plNormalsGather_Avx2( float* out, uint32_t out_stride_bytes, const float* f
 		o[2] = nz * scale;
 	}
 }
+
+void plNormalsScatter_Avx2( float* out, uint32_t out_stride_bytes, const float* positions,
+							uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
+							uint32_t face_count, float* sums4 )
+{
+	const uint8_t* in = (const uint8_t*)positions;
+	const __m128 xyz_mask = _mm_castsi128_ps( _mm_setr_epi32( -1, -1, -1, 0 ) );
+	uint32_t n = vertex_count;
+	uint32_t last = n > 0 ? n - 1 : 0;
+	for ( uint32_t v = 0; v < n; ++v )
+	{
+		_mm_store_ps( sums4 + (size_t)v * 4, _mm_setzero_ps() );
+	}
+	for ( uint32_t f = 0; f < face_count; ++f )
+	{
+		const uint32_t* tri = faces + (size_t)f * 3;
+		uint32_t i0 = tri[0], i1 = tri[1], i2 = tri[2];
+		uint32_t top = i0 > i1 ? i0 : i1;
+		top = top > i2 ? top : i2;
+		__m128 normal;
+		if ( top < last )
+		{
+			normal = plCross( _mm_loadu_ps( (const float*)( in + (size_t)i0 * position_stride_bytes ) ),
+							  _mm_loadu_ps( (const float*)( in + (size_t)i1 * position_stride_bytes ) ),
+							  _mm_loadu_ps( (const float*)( in + (size_t)i2 * position_stride_bytes ) ), xyz_mask );
+		}
+		else if ( top < n )
+		{
+			normal = plCross( plLoadPointSafe( in, i0, position_stride_bytes ),
+							  plLoadPointSafe( in, i1, position_stride_bytes ),
+							  plLoadPointSafe( in, i2, position_stride_bytes ), xyz_mask );
+		}
+		else
+		{
+			normal = _mm_setzero_ps(); // the scalar kernel adds (0, 0, 0) to the in-range vertices
+			if ( i0 < n )
+				_mm_store_ps( sums4 + (size_t)i0 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i0 * 4 ), normal ) );
+			if ( i1 < n )
+				_mm_store_ps( sums4 + (size_t)i1 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i1 * 4 ), normal ) );
+			if ( i2 < n )
+				_mm_store_ps( sums4 + (size_t)i2 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i2 * 4 ), normal ) );
+			continue;
+		}
+		_mm_store_ps( sums4 + (size_t)i0 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i0 * 4 ), normal ) );
+		_mm_store_ps( sums4 + (size_t)i1 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i1 * 4 ), normal ) );
+		_mm_store_ps( sums4 + (size_t)i2 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i2 * 4 ), normal ) );
+	}
+	int packed = out_stride_bytes == 12;
+	uint32_t v = 0;
+	for ( ; v + 8 <= n; v += 8 )
+	{
+		__m128 s[8];
+		for ( int i = 0; i < 8; ++i )
+		{
+			s[i] = _mm_load_ps( sums4 + (size_t)( v + (uint32_t)i ) * 4 );
+		}
+		__m128 a0 = s[0], a1 = s[1], a2 = s[2], a3 = s[3], b0 = s[4], b1 = s[5], b2 = s[6], b3 = s[7];
+		_MM_TRANSPOSE4_PS( a0, a1, a2, a3 );
+		_MM_TRANSPOSE4_PS( b0, b1, b2, b3 );
+		__m256 x = _mm256_set_m128( b0, a0 ), y = _mm256_set_m128( b1, a1 ), z = _mm256_set_m128( b2, a2 );
+		__m256 length2 = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( x, x ), _mm256_mul_ps( y, y ) ), _mm256_mul_ps( z, z ) );
+		__m256 length = _mm256_sqrt_ps( length2 );
+		__m256 scale = _mm256_and_ps( _mm256_div_ps( _mm256_set1_ps( 1.0f ), length ),
+									  _mm256_cmp_ps( length, _mm256_setzero_ps(), _CMP_GT_OQ ) );
+		float scales[8];
+		_mm256_storeu_ps( scales, scale );
+		for ( int i = 0; i < 8; ++i )
+		{
+			uint32_t u = v + (uint32_t)i;
+			float* o = (float*)( (uint8_t*)out + (size_t)u * out_stride_bytes );
+			plStoreNormal( o, _mm_mul_ps( s[i], _mm_set1_ps( scales[i] ) ), packed && u + 1 < n );
+		}
+	}
+	for ( ; v < n; ++v )
+	{
+		const float* s = sums4 + (size_t)v * 4;
+		float nx = s[0], ny = s[1], nz = s[2];
+		float length = sqrtf( nx * nx + ny * ny + nz * nz );
+		float scale = length > 0.0f ? 1.0f / length : 0.0f;
+		float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
+		o[0] = nx * scale;
+		o[1] = ny * scale;
+		o[2] = nz * scale;
+	}
+}

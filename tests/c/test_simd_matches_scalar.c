@@ -307,6 +307,83 @@ static void test_normals_avx2_are_bit_identical_to_scalar( void** state )
 	}
 }
 
+// Normals scatter (one pass over the faces, one thread): on a valid mesh (distinct in-range corners, adjacency = each
+// vertex's faces in ascending order, as the asset loader requires) the scalar scatter is bit-identical to face normals
+// + gather, and the AVX2 scatter to the scalar one; packed and strided positions and output, the positions buffer
+// ending at the last vertex's z.
+static void test_normals_scatter_is_bit_identical_to_gather( void** state )
+{
+	(void)state;
+	plKernels simd, scalar;
+	plSelectKernels( &simd, 0 );
+	plSelectKernels( &scalar, 1 );
+	const uint32_t n = 61, f = 113;
+	uint32_t faces[113 * 3];
+	for ( uint32_t t = 0; t < f; ++t )
+	{
+		uint32_t a = ( s_rng = s_rng * 1103515245u + 12345u ) >> 16, b, c;
+		a %= n;
+		b = ( a + 1 + ( ( s_rng = s_rng * 1103515245u + 12345u ) >> 16 ) % ( n - 1 ) ) % n;
+		do
+		{
+			c = ( ( s_rng = s_rng * 1103515245u + 12345u ) >> 16 ) % n;
+		} while ( c == a || c == b );
+		faces[t * 3 + 0] = a;
+		faces[t * 3 + 1] = b;
+		faces[t * 3 + 2] = c;
+	}
+	faces[( f - 1 ) * 3 + 2] = n - 1; // the last vertex is read
+	if ( faces[( f - 1 ) * 3] == n - 1 || faces[( f - 1 ) * 3 + 1] == n - 1 )
+	{
+		faces[( f - 1 ) * 3] = 0;
+		faces[( f - 1 ) * 3 + 1] = 1;
+	}
+	uint32_t offsets[61 + 1], adjacency[113 * 3], fill[61];
+	memset( offsets, 0, sizeof( offsets ) );
+	for ( uint32_t i = 0; i < f * 3; ++i )
+	{
+		offsets[faces[i] + 1] += 1;
+	}
+	for ( uint32_t v = 0; v < n; ++v )
+	{
+		offsets[v + 1] += offsets[v];
+		fill[v] = offsets[v];
+	}
+	for ( uint32_t t = 0; t < f; ++t )
+	{
+		for ( int k = 0; k < 3; ++k )
+		{
+			adjacency[fill[faces[t * 3 + k]]++] = t; // ascending t per vertex
+		}
+	}
+	for ( uint32_t stride = 12; stride <= 20; stride += 8 )
+	{
+		float* positions = (float*)malloc( (size_t)( n - 1 ) * stride + 12 );
+		for ( uint32_t v = 0; v < n; ++v )
+		{
+			float* p = (float*)( (uint8_t*)positions + (size_t)v * stride );
+			p[0] = plRand();
+			p[1] = plRand();
+			p[2] = plRand();
+		}
+		float face_normals[113 * 4], sums_scalar[61 * 4], sums_simd[61 * 4];
+		float gathered[61 * 5], scattered[61 * 5], scattered_simd[61 * 5];
+		memset( gathered, 0, sizeof( gathered ) );
+		memset( scattered, 0, sizeof( scattered ) );
+		memset( scattered_simd, 0, sizeof( scattered_simd ) );
+		scalar.face_normals( face_normals, positions, stride, n, faces, 0, f );
+		scalar.normals_gather( gathered, stride, face_normals, f, offsets, adjacency, 0, n );
+		scalar.normals_scatter( scattered, stride, positions, stride, n, faces, f, sums_scalar );
+		assert_memory_equal( gathered, scattered, sizeof( gathered ) );
+		if ( plHaveAvx2() )
+		{
+			simd.normals_scatter( scattered_simd, stride, positions, stride, n, faces, f, sums_simd );
+			assert_memory_equal( scattered, scattered_simd, sizeof( scattered ) );
+		}
+		free( positions );
+	}
+}
+
 // fp16 conversion: exact on every half value (round trip), round-to-nearest-even on floats.
 static void test_half_conversion_round_trips( void** state )
 {
@@ -386,6 +463,7 @@ int main( void )
 		cmocka_unit_test( test_blend_shapes_avx2_matches_scalar ),
 		cmocka_unit_test( test_skinning_avx2_matches_scalar ),
 		cmocka_unit_test( test_normals_avx2_are_bit_identical_to_scalar ),
+		cmocka_unit_test( test_normals_scatter_is_bit_identical_to_gather ),
 		cmocka_unit_test( test_half_conversion_round_trips ),
 		cmocka_unit_test( test_pipeline_avx2_matches_scalar ),
 	};
