@@ -78,7 +78,7 @@ def trained_tier_assets(overrides=None):
 
 
 def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, timing_frames=300, progress=True,
-            speed_assets=(), tier_assets=None):
+            speed_assets=(), tier_assets=None, repeats=5):
     from pleat import runtime
     from pleat.body import BodyModel
     from pleat.eval.cli import evaluate
@@ -111,7 +111,8 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                         continue
                     row.update(name=f"LBS-only ({row['garment']}, N={desc['vertices']})", latent=1, blend=1,
                                lp_hidden=[], dec_hidden=[], model="lbs-only", tier=None)
-                row["step_us"] = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]))
+                row["step_us"] = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]),
+                                                  repeats=repeats)
                 if with_error and path not in speed_assets:
                     reps = [evaluate(blob, m, max_frames=max_frames, progress=progress, context=ctx)
                             for m in motions]
@@ -126,7 +127,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                 from pleat.asset import write_asset
                 w = tiers_mod.random_tier_weights(t.name)
                 blob = write_asset(None, w)
-                us = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]))
+                us = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]), repeats=repeats)
                 rows.append(dict(tiers_mod.as_dict(t), name=f"tier {t.name}", kind="tier-random", step_us=us,
                                  macs=t.macs(), model="random weights (untrained): speed only"))
     return rows, [c.name for c in clips]
@@ -170,7 +171,7 @@ def _fmt(v, digits=1):
     return "—" if v is None else f"{v:.{digits}f}"
 
 
-def write_markdown(rows, clips, command, library, path, max_frames, notes=()):
+def write_markdown(rows, clips, command, library, path, max_frames, notes=(), repeats=5):
     scored = [r for r in rows if r.get("mean_mm") is not None]
     front = {id(scored[i]) for i in pareto_front([(r["step_us"], r["mean_mm"]) for r in scored])}
     lines = [
@@ -180,7 +181,8 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=()):
         "",
         "Made by `python -m pleat.eval.pareto` (tools/pleat/eval/pareto.py). Step time: median of "
         "`plInstance_Step` alone (timed around the C call through `pleat.runtime`, one thread, the first 30 steps "
-        f"of each pass dropped), the lowest of the medians of 5 passes over 300 poses (the machine is shared; a "
+        f"of each pass dropped), the lowest of the medians of {repeats} passes over 300 poses (the machine is "
+        "shared; a "
         f"pass slowed by other jobs is rejected that way); library `{library}`. Error: mean and 95th-percentile "
         f"per-vertex distance to the reference simulation (`pleat.sim`, cached in out/cache/sim/) over the first "
         f"{max_frames} frames of {', '.join(f'`{c}`' for c in clips)} at 30 fps, β = 0, the asset's default "
@@ -263,6 +265,7 @@ def main(argv=None):
                     help="use PATH as tier NAME's asset instead of Tier.asset (e.g. a candidate not yet shipped)")
     ap.add_argument("--no-error", action="store_true", help="times only (no reference simulation)")
     ap.add_argument("--json", default=None, help="also write the rows as JSON")
+    ap.add_argument("--repeats", type=int, default=5, help="timing passes per asset (the lowest median is kept)")
     ap.add_argument("--note", action="append", default=[], help="a line for the page's Notes section (repeatable)")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
@@ -273,14 +276,14 @@ def main(argv=None):
             print(f"note: {m} is not a validation clip (pleat.motion.split.VALIDATION)", file=sys.stderr)
     rows, clips = measure(args.assets, args.motion, args.max_frames, not args.no_tiers, not args.no_error,
                           progress=not args.no_progress, speed_assets=args.speed_assets,
-                          tier_assets=dict(a.split("=", 1) for a in args.tier_asset))
+                          tier_assets=dict(a.split("=", 1) for a in args.tier_asset), repeats=args.repeats)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     plot(rows, out / "pareto.png")
     lib = str(runtime.find_library())
     env = f"PLEAT_LIBRARY={os.environ['PLEAT_LIBRARY']} " if os.environ.get("PLEAT_LIBRARY") else ""
     command = env + "python -m pleat.eval.pareto " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
-    write_markdown(rows, clips, command, lib, out / "pareto.md", args.max_frames, args.note)
+    write_markdown(rows, clips, command, lib, out / "pareto.md", args.max_frames, args.note, args.repeats)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
     for r in rows:

@@ -34,7 +34,7 @@ class Tier:
 
 
 TIERS = (
-    Tier("xsmall", vertices=300, latent=16, blend=16, lp_hidden=(64,), dec_hidden=(64,),
+    Tier("xsmall", vertices=150, latent=16, blend=16, lp_hidden=(64,), dec_hidden=(64,),
          asset="assets/tshirt_xsmall.pleat"),
     Tier("small", vertices=1004, latent=32, blend=32, lp_hidden=(128, 128), dec_hidden=(128,),
          asset="assets/tshirt_small.pleat"),

@@ -122,7 +122,7 @@ def _shim(setup, L, D, lp_hidden, dec_hidden, activation, teacher_L):
 
 
 def tier_sequences(seqs, Vt, sigma, L, teacher_L):
-    """Per sequence: X_c rows with the tier's latent block (zero) and targets z' (first L coefficients) and c (all D)."""
+    """Per sequence: X_c rows with the tier's latent block (zero), targets z' (first L coefficients), c (all D)."""
     out = []
     for s in seqs:
         coeff = s["disp"].reshape(len(s["disp"]), -1) @ Vt.T / sigma          # [T, D], unit RMS
