@@ -122,6 +122,10 @@ def newton_side(path_in, path_out, seconds=6.0, fps=60, substeps=10, iterations=
     model.edge_bending_properties.assign(props.astype(np.float32))
     solver = newton.solvers.SolverVBD(model=model, iterations=iterations)
     state0, state1 = model.state(), model.state()
+    if "start" in s.files:                       # start from the given state (pleat's equilibrium), at rest
+        q = _to_newton(s["start"]).astype(np.float32)
+        state0.particle_q.assign(q)
+        state1.particle_q.assign(q)
     control = model.control()
     dt = 1.0 / fps / substeps
     t0 = time.perf_counter()
@@ -187,6 +191,8 @@ def main(argv=None):
     ap.add_argument("--grid", type=int, default=GRID)
     ap.add_argument("--scene", choices=("sheet", "cantilever"), default="sheet")
     ap.add_argument("--bending", type=float, default=None, help="bending k (J) instead of the default material's")
+    ap.add_argument("--newton-from-pleat", action="store_true",
+                    help="start newton at pleat's equilibrium (at rest) and see whether it stays there")
     ap.add_argument("--reuse-newton", action="store_true", help="keep OUT/newton.npz from an earlier run of the same scene")
     ap.add_argument("--newton-seconds", type=float, default=4.0)
     ap.add_argument("--newton-iterations", type=int, default=20, help="VBD iterations per substep")
@@ -205,8 +211,13 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     v, faces, pins = make_scene(args.grid) if args.scene == "sheet" else make_cantilever()
     scene = out / "scene.npz"
+    extra = {}
+    pl = None
+    if args.newton_from_pleat:
+        pl = pleat_side(v, faces, pins, material)
+        extra["start"] = pl["positions"]
     np.savez(scene, vertices=v, faces=faces, pins=pins, material=np.array(material.as_tuple()),
-             tri_kd=1e-2, edge_kd=1e-2)
+             tri_kd=1e-2, edge_kd=1e-2, **extra)
     t0 = time.perf_counter()
     if args.reuse_newton and (out / "newton.npz").exists():
         proc = subprocess.CompletedProcess([], 0, "", "")
@@ -221,7 +232,9 @@ def main(argv=None):
     if proc.returncode != 0:
         result["newton_error"] = (proc.stderr or proc.stdout)[-4000:]
         print(result["newton_error"], file=sys.stderr)
-    pl = pleat_side(v, faces, pins, material)
+    if pl is None:
+        pl = pleat_side(v, faces, pins, material)
+    result["newton_started_from_pleat"] = bool(args.newton_from_pleat)
     result["pleat"] = dict(_summary(pl["positions"], v, pins), seconds=pl["seconds"],
                            **{k: pl[k] for k in ("last_step_speed", "static_gradient_norm", "static_gradient_tolerance",
                                                  "static_converged", "static_moved_m")})
