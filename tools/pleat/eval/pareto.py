@@ -93,6 +93,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
             tier_of[str(Path(p).resolve())] = name
         assets = list(assets) + [p for p in found.values()
                                  if str(Path(p).resolve()) not in {str(Path(a).resolve()) for a in assets}]
+    timed = []     # (row, asset bytes, motion): timed together at the end, in interleaved rounds
     with runtime.Context() as ctx:
         for path in list(assets) + list(speed_assets):
             data, w = S.read_weights(path)
@@ -111,8 +112,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                         continue
                     row.update(name=f"LBS-only ({row['garment']}, N={desc['vertices']})", latent=1, blend=1,
                                lp_hidden=[], dec_hidden=[], model="lbs-only", tier=None)
-                row["step_us"] = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]),
-                                                  repeats=repeats)
+                timed.append((row, blob, _motion_arrays(timing, w["joint_names"])))
                 if with_error and path not in speed_assets:
                     reps = [evaluate(blob, m, max_frames=max_frames, progress=progress, context=ctx)
                             for m in motions]
@@ -127,9 +127,16 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                 from pleat.asset import write_asset
                 w = tiers_mod.random_tier_weights(t.name)
                 blob = write_asset(None, w)
-                us = S.median_step_us(ctx, blob, *_motion_arrays(timing, w["joint_names"]), repeats=repeats)
-                rows.append(dict(tiers_mod.as_dict(t), name=f"tier {t.name}", kind="tier-random", step_us=us,
+                rows.append(dict(tiers_mod.as_dict(t), name=f"tier {t.name}", kind="tier-random",
                                  macs=t.macs(), model="random weights (untrained): speed only"))
+                timed.append((rows[-1], blob, _motion_arrays(timing, w["joint_names"])))
+        # Step times: `repeats` rounds, each timing every asset for 3 passes, the lowest median kept. Interleaving
+        # spreads each asset's passes over the whole measurement, so a burst of another job on the shared machine
+        # cannot spoil all of one asset's passes.
+        for _ in range(repeats):
+            for row, blob, motion in timed:
+                us = S.median_step_us(ctx, blob, *motion, repeats=3)
+                row["step_us"] = min(row.get("step_us", float("inf")), us)
     return rows, [c.name for c in clips]
 
 
@@ -181,8 +188,8 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=(), re
         "",
         "Made by `python -m pleat.eval.pareto` (tools/pleat/eval/pareto.py). Step time: median of "
         "`plInstance_Step` alone (timed around the C call through `pleat.runtime`, one thread, the first 30 steps "
-        f"of each pass dropped), the lowest of the medians of {repeats} passes over 300 poses (the machine is "
-        "shared; a "
+        f"of each pass dropped), the lowest of the medians of {3 * repeats} passes over 300 poses, taken in "
+        f"{repeats} rounds that interleave the assets (the machine is shared; a "
         f"pass slowed by other jobs is rejected that way); library `{library}`. Error: mean and 95th-percentile "
         f"per-vertex distance to the reference simulation (`pleat.sim`, cached in out/cache/sim/) over the first "
         f"{max_frames} frames of {', '.join(f'`{c}`' for c in clips)} at 30 fps, β = 0, the asset's default "
@@ -265,7 +272,7 @@ def main(argv=None):
                     help="use PATH as tier NAME's asset instead of Tier.asset (e.g. a candidate not yet shipped)")
     ap.add_argument("--no-error", action="store_true", help="times only (no reference simulation)")
     ap.add_argument("--json", default=None, help="also write the rows as JSON")
-    ap.add_argument("--repeats", type=int, default=5, help="timing passes per asset (the lowest median is kept)")
+    ap.add_argument("--repeats", type=int, default=5, help="timing rounds (3 passes per asset each; the lowest median is kept)")
     ap.add_argument("--note", action="append", default=[], help="a line for the page's Notes section (repeatable)")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
