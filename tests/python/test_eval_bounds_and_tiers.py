@@ -73,3 +73,22 @@ def test_tier_spec_reads_as_a_random_asset_with_the_tiers_sizes():
     assert len(w["z_min"]) == t.latent and len(w["blend_shapes"]) == t.blend
     assert abs(len(w["template"]) - t.vertices) <= 0.05 * t.vertices
     assert w["lp.0.weight"].shape[0] == t.lp_hidden[0] and w["dec.0.weight"].shape[0] == t.dec_hidden[0]
+
+
+def test_shipped_tier_assets_have_their_tiers_sizes_and_a_trained_network():
+    from pleat.eval.pareto import describe_asset
+    from pleat.eval.scene import is_lbs_only, read_weights
+    total = 0
+    for t in tiers.TIERS:
+        path = REPO_ROOT / t.asset
+        if not path.is_file():
+            pytest.skip(f"{t.asset} not in this checkout")
+        _, w = read_weights(str(path))
+        d = describe_asset(w)
+        assert (d["latent"], d["blend"]) == (t.latent, t.blend), t.name
+        assert (tuple(d["lp_hidden"]), tuple(d["dec_hidden"])) == (t.lp_hidden, t.dec_hidden), t.name
+        assert abs(d["vertices"] - t.vertices) <= 0.05 * t.vertices, t.name
+        if t.distilled:
+            assert not is_lbs_only(w) and json.loads(w["metadata_json"])["tier"] == t.name
+            total += path.stat().st_size
+    assert total < 10e6
