@@ -151,7 +151,9 @@ def plot(rows, path):
         marker = "s" if r["kind"] == "lbs" else "o"
         ax.scatter(r["step_us"], r["mean_mm"], marker=marker, s=60, zorder=3,
                    edgecolors="k" if i in front else "none", linewidths=1.5)
-        ax.annotate(r["name"], (r["step_us"], r["mean_mm"]), textcoords="offset points", xytext=(6, 4), fontsize=7)
+        # alternate label heights: rows of similar error (tiers on one mesh) would print on top of each other
+        ax.annotate(r["name"], (r["step_us"], r["mean_mm"]), textcoords="offset points",
+                    xytext=(-20, 8 + 11 * (i % 3)) if i % 2 else (-20, -14 - 11 * (i % 3)), fontsize=7)
     if front:
         pts = sorted((scored[i]["step_us"], scored[i]["mean_mm"]) for i in front)
         ax.step([p[0] for p in pts], [p[1] for p in pts], where="post", color="k", lw=1, ls="--",
