@@ -421,7 +421,12 @@ def write_markdown(reports, path, command):
               "reset nothing, keep the latent inside [z_min, z_max] and every vertex inside the decoder bound; "
               "β beyond the range equals β at the range; dt above dt_max equals dt_max; a NaN pose or dt is "
               "rejected and leaves the instance as it was; an overflow inside f_LP returns NUMERIC_RESET and equals "
-              "a fresh first frame.", ""]
+              "a fresh first frame.", "",
+              "`tests/python/test_stability_shipped.py` runs the shipped trained assets (`assets/tshirt*.pleat`) on "
+              "real motion capture (walk, run, jump, punch): a 5,000-frame chain must have deviation ratio ≤ 1.2 "
+              "(measured 1.000 for all four tiers), stay finite, reset nothing and keep the latent in range; the run "
+              "played 3× faster and bodies at β0 = ±4 and β1 = +4 must stay finite with no vertex more than 150 mm "
+              "from the skinned garment (measured 34–52 mm at worst). About 11 s.", ""]
     Path(path).write_text("\n".join(lines))
 
 
