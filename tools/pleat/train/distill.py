@@ -67,24 +67,15 @@ def record(run_dir, sequences, frames, seed=0, split="train", reuse_stage2=True,
 # ---- mesh transfer ---------------------------------------------------------------------------------------------
 def barycentric_transfer(src_vertices, src_faces, points):
     """Sparse [M, N] matrix P with P @ f ≈ f at `points`: barycentric interpolation at the closest point of the
-    source mesh (rows sum to 1)."""
+    source mesh (rows sum to 1). Closest points by gpytoolbox's AABB query (libigl), a base dependency."""
+    import gpytoolbox
     import scipy.sparse as sp
-    import trimesh
-    from scipy.spatial import cKDTree
     v = np.asarray(src_vertices, np.float64)
     f = np.asarray(src_faces, np.int64)
     p = np.asarray(points, np.float64)
-    k = min(16, len(f))
-    _, cand = cKDTree(v[f].mean(1)).query(p, k=k)                       # candidate faces by centroid
-    cand = cand.reshape(len(p), k)
-    q = np.repeat(p, k, 0)
-    c = trimesh.triangles.closest_point(v[f[cand.ravel()]], q).reshape(len(p), k, 3)
-    best = np.argmin(((c - p[:, None]) ** 2).sum(-1), 1)
-    tri = cand[np.arange(len(p)), best]
-    closest = c[np.arange(len(p)), best]
-    faces = f[tri]
-    bary = trimesh.triangles.points_to_barycentric(v[faces], closest)
-    bary = np.clip(bary, 0.0, None)
+    _, tri, bary = gpytoolbox.squared_distance(p, v, f.astype(np.int32), use_cpp=True)
+    faces = f[np.asarray(tri, np.int64)]
+    bary = np.clip(np.asarray(bary, np.float64), 0.0, None)
     bary /= bary.sum(1, keepdims=True)
     rows = np.repeat(np.arange(len(points)), 3)
     return sp.csr_matrix((bary.ravel(), (rows, faces.ravel())), shape=(len(points), len(src_vertices)))
