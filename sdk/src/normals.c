@@ -6,6 +6,30 @@
 #include <math.h>
 #include <string.h>
 
+// cross(x_b − x_a, x_c − x_a) of the triangle `tri`, whose indices the caller has checked against the vertex count.
+static inline void plTriangleCross( const uint8_t* in, uint32_t stride_bytes, const uint32_t* tri, float n[3] )
+{
+	const float* a = (const float*)( in + (size_t)tri[0] * stride_bytes );
+	const float* b = (const float*)( in + (size_t)tri[1] * stride_bytes );
+	const float* c = (const float*)( in + (size_t)tri[2] * stride_bytes );
+	float e1x = b[0] - a[0], e1y = b[1] - a[1], e1z = b[2] - a[2];
+	float e2x = c[0] - a[0], e2y = c[1] - a[1], e2z = c[2] - a[2];
+	n[0] = e1y * e2z - e1z * e2y;
+	n[1] = e1z * e2x - e1x * e2z;
+	n[2] = e1x * e2y - e1y * e2x;
+}
+
+// Vertex v's normal: the sum (x, y, z) normalised, or zero when it has zero length (never NaN).
+static inline void plStoreUnitNormal( float* out, uint32_t out_stride_bytes, uint32_t v, float x, float y, float z )
+{
+	float length = sqrtf( x * x + y * y + z * z );
+	float scale = length > 0.0f ? 1.0f / length : 0.0f;
+	float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
+	o[0] = x * scale;
+	o[1] = y * scale;
+	o[2] = z * scale;
+}
+
 int plNormalsJob_Validate( const plNormalsJob* job )
 {
 	if ( job == NULL || job->faces == NULL || job->adjacency_offsets == NULL || job->adjacency_faces == NULL ||
@@ -70,12 +94,7 @@ void plNormalsGather_Scalar( float* out, uint32_t out_stride_bytes, const float*
 				nz += face_normals4[(size_t)f * 4 + 2];
 			}
 		}
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		float scale = length > 0.0f ? 1.0f / length : 0.0f;
-		float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
-		o[0] = nx * scale;
-		o[1] = ny * scale;
-		o[2] = nz * scale;
+		plStoreUnitNormal( out, out_stride_bytes, v, nx, ny, nz );
 	}
 }
 
@@ -103,21 +122,13 @@ static void plNormalsGather( const plNormalsJob* job )
 			{
 				continue;
 			}
-			const float* a = (const float*)( in + (size_t)tri[0] * stride );
-			const float* b = (const float*)( in + (size_t)tri[1] * stride );
-			const float* c = (const float*)( in + (size_t)tri[2] * stride );
-			float e1x = b[0] - a[0], e1y = b[1] - a[1], e1z = b[2] - a[2];
-			float e2x = c[0] - a[0], e2y = c[1] - a[1], e2z = c[2] - a[2];
-			nx += e1y * e2z - e1z * e2y;
-			ny += e1z * e2x - e1x * e2z;
-			nz += e1x * e2y - e1y * e2x;
+			float c[3];
+			plTriangleCross( in, stride, tri, c );
+			nx += c[0];
+			ny += c[1];
+			nz += c[2];
 		}
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		float scale = length > 0.0f ? 1.0f / length : 0.0f;
-		float* out = (float*)( (uint8_t*)job->output.ptr + (size_t)v * job->output.stride_bytes );
-		out[0] = nx * scale;
-		out[1] = ny * scale;
-		out[2] = nz * scale;
+		plStoreUnitNormal( (float*)job->output.ptr, job->output.stride_bytes, v, nx, ny, nz );
 	}
 }
 
@@ -155,14 +166,7 @@ void plFaceNormals_Scalar( float* out4, const float* positions, uint32_t positio
 			out[0] = out[1] = out[2] = 0.0f;
 			continue;
 		}
-		const float* a = (const float*)( in + (size_t)tri[0] * position_stride_bytes );
-		const float* b = (const float*)( in + (size_t)tri[1] * position_stride_bytes );
-		const float* c = (const float*)( in + (size_t)tri[2] * position_stride_bytes );
-		float e1x = b[0] - a[0], e1y = b[1] - a[1], e1z = b[2] - a[2];
-		float e2x = c[0] - a[0], e2y = c[1] - a[1], e2z = c[2] - a[2];
-		out[0] = e1y * e2z - e1z * e2y;
-		out[1] = e1z * e2x - e1x * e2z;
-		out[2] = e1x * e2y - e1y * e2x;
+		plTriangleCross( in, position_stride_bytes, tri, out );
 	}
 }
 
@@ -176,39 +180,26 @@ void plNormalsScatter_Scalar( float* out, uint32_t out_stride_bytes, const float
 	for ( uint32_t f = 0; f < face_count; ++f )
 	{
 		const uint32_t* tri = faces + (size_t)f * 3;
-		float nx = 0.0f, ny = 0.0f, nz = 0.0f;
+		float normal[3] = { 0.0f, 0.0f, 0.0f };
 		if ( tri[0] < n && tri[1] < n && tri[2] < n )
 		{
-			const float* a = (const float*)( in + (size_t)tri[0] * position_stride_bytes );
-			const float* b = (const float*)( in + (size_t)tri[1] * position_stride_bytes );
-			const float* c = (const float*)( in + (size_t)tri[2] * position_stride_bytes );
-			float e1x = b[0] - a[0], e1y = b[1] - a[1], e1z = b[2] - a[2];
-			float e2x = c[0] - a[0], e2y = c[1] - a[1], e2z = c[2] - a[2];
-			nx = e1y * e2z - e1z * e2y;
-			ny = e1z * e2x - e1x * e2z;
-			nz = e1x * e2y - e1y * e2x;
+			plTriangleCross( in, position_stride_bytes, tri, normal );
 		}
 		for ( int k = 0; k < 3; ++k )
 		{
 			if ( tri[k] < n )
 			{
 				float* s = sums4 + (size_t)tri[k] * 4;
-				s[0] += nx;
-				s[1] += ny;
-				s[2] += nz;
+				s[0] += normal[0];
+				s[1] += normal[1];
+				s[2] += normal[2];
 			}
 		}
 	}
 	for ( uint32_t v = 0; v < n; ++v )
 	{
 		const float* s = sums4 + (size_t)v * 4;
-		float nx = s[0], ny = s[1], nz = s[2];
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		float scale = length > 0.0f ? 1.0f / length : 0.0f;
-		float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
-		o[0] = nx * scale;
-		o[1] = ny * scale;
-		o[2] = nz * scale;
+		plStoreUnitNormal( out, out_stride_bytes, v, s[0], s[1], s[2] );
 	}
 }
 

@@ -34,36 +34,38 @@ static inline __m128 plCross( __m128 a, __m128 b, __m128 c, __m128 xyz_mask )
 	return _mm_and_ps( _mm_sub_ps( _mm_mul_ps( e1_yzx, e2_zxy ), _mm_mul_ps( e1_zxy, e2_yzx ) ), xyz_mask );
 }
 
+// Face normal of `tri` as (x, y, z, 0); zero when an index is out of range. Indices below `last` (= vertex_count − 1)
+// are loaded 16 bytes wide, the last vertex without reading past its third float.
+static inline __m128 plFaceNormal( const uint8_t* in, uint32_t stride_bytes, uint32_t vertex_count, uint32_t last,
+								   const uint32_t* tri, __m128 xyz_mask )
+{
+	uint32_t i0 = tri[0], i1 = tri[1], i2 = tri[2];
+	uint32_t top = i0 > i1 ? i0 : i1;
+	top = top > i2 ? top : i2;
+	if ( top < last )
+	{
+		return plCross( _mm_loadu_ps( (const float*)( in + (size_t)i0 * stride_bytes ) ),
+						_mm_loadu_ps( (const float*)( in + (size_t)i1 * stride_bytes ) ),
+						_mm_loadu_ps( (const float*)( in + (size_t)i2 * stride_bytes ) ), xyz_mask );
+	}
+	if ( top < vertex_count )
+	{
+		return plCross( plLoadPointSafe( in, i0, stride_bytes ), plLoadPointSafe( in, i1, stride_bytes ),
+						plLoadPointSafe( in, i2, stride_bytes ), xyz_mask );
+	}
+	return _mm_setzero_ps();
+}
+
 void plFaceNormals_Avx2( float* out4, const float* positions, uint32_t position_stride_bytes, uint32_t vertex_count,
 						 const uint32_t* faces, uint32_t f_begin, uint32_t f_end )
 {
 	const uint8_t* in = (const uint8_t*)positions;
 	const __m128 xyz_mask = _mm_castsi128_ps( _mm_setr_epi32( -1, -1, -1, 0 ) );
-	uint32_t last = vertex_count > 0 ? vertex_count - 1 : 0; // indices below it may be loaded 16 bytes wide
+	uint32_t last = vertex_count > 0 ? vertex_count - 1 : 0;
 	for ( uint32_t f = f_begin; f < f_end; ++f )
 	{
-		const uint32_t* tri = faces + (size_t)f * 3;
-		uint32_t i0 = tri[0], i1 = tri[1], i2 = tri[2];
-		uint32_t top = i0 > i1 ? i0 : i1;
-		top = top > i2 ? top : i2;
-		__m128 normal;
-		if ( top < last )
-		{
-			normal = plCross( _mm_loadu_ps( (const float*)( in + (size_t)i0 * position_stride_bytes ) ),
-							  _mm_loadu_ps( (const float*)( in + (size_t)i1 * position_stride_bytes ) ),
-							  _mm_loadu_ps( (const float*)( in + (size_t)i2 * position_stride_bytes ) ), xyz_mask );
-		}
-		else if ( top < vertex_count )
-		{
-			normal = plCross( plLoadPointSafe( in, i0, position_stride_bytes ),
-							  plLoadPointSafe( in, i1, position_stride_bytes ),
-							  plLoadPointSafe( in, i2, position_stride_bytes ), xyz_mask );
-		}
-		else
-		{
-			normal = _mm_setzero_ps();
-		}
-		_mm_storeu_ps( out4 + (size_t)f * 4, normal );
+		_mm_storeu_ps( out4 + (size_t)f * 4, plFaceNormal( in, position_stride_bytes, vertex_count, last,
+														   faces + (size_t)f * 3, xyz_mask ) );
 	}
 }
 
@@ -98,12 +100,48 @@ static inline void plStoreNormal( float* o, __m128 n, int store16 )
 	}
 }
 
+// Vertices v .. v+7 from their sums s[0..7]: length = sqrt((x·x + y·y) + z·z) and the scale as in the scalar kernel,
+// one 8-wide sqrt and divide; `v_end` bounds the 16-byte stores of packed output.
+static inline void plStoreUnitNormals8( float* out, uint32_t out_stride_bytes, const __m128 s[8], uint32_t v,
+										uint32_t v_end )
+{
+	__m128 a0 = s[0], a1 = s[1], a2 = s[2], a3 = s[3], b0 = s[4], b1 = s[5], b2 = s[6], b3 = s[7];
+	_MM_TRANSPOSE4_PS( a0, a1, a2, a3 );
+	_MM_TRANSPOSE4_PS( b0, b1, b2, b3 );
+	__m256 x = _mm256_set_m128( b0, a0 ), y = _mm256_set_m128( b1, a1 ), z = _mm256_set_m128( b2, a2 );
+	__m256 length2 = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( x, x ), _mm256_mul_ps( y, y ) ), _mm256_mul_ps( z, z ) );
+	__m256 length = _mm256_sqrt_ps( length2 );
+	__m256 scale = _mm256_and_ps( _mm256_div_ps( _mm256_set1_ps( 1.0f ), length ),
+								  _mm256_cmp_ps( length, _mm256_setzero_ps(), _CMP_GT_OQ ) );
+	float scales[8];
+	_mm256_storeu_ps( scales, scale );
+	int packed = out_stride_bytes == 12;
+	for ( int i = 0; i < 8; ++i )
+	{
+		uint32_t u = v + (uint32_t)i;
+		float* o = (float*)( (uint8_t*)out + (size_t)u * out_stride_bytes );
+		plStoreNormal( o, _mm_mul_ps( s[i], _mm_set1_ps( scales[i] ) ), packed && u + 1 < v_end );
+	}
+}
+
+// One vertex from its sum (x, y, z, ·), the scalar kernel's expression.
+static inline void plStoreUnitNormal1( float* out, uint32_t out_stride_bytes, uint32_t v, __m128 sum )
+{
+	float n[4];
+	_mm_storeu_ps( n, sum );
+	float length = sqrtf( n[0] * n[0] + n[1] * n[1] + n[2] * n[2] );
+	float scale = length > 0.0f ? 1.0f / length : 0.0f;
+	float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
+	o[0] = n[0] * scale;
+	o[1] = n[1] * scale;
+	o[2] = n[2] * scale;
+}
+
 void plNormalsGather_Avx2( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
 						   const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
 						   uint32_t v_end )
 {
 	uint32_t limit = 3u * face_count;
-	int packed = out_stride_bytes == 12;
 	uint32_t v = v_begin;
 	for ( ; v + 8 <= v_end; v += 8 )
 	{
@@ -112,36 +150,12 @@ void plNormalsGather_Avx2( float* out, uint32_t out_stride_bytes, const float* f
 		{
 			s[i] = plGatherSum( face_normals4, face_count, adjacency_offsets, adjacency_faces, limit, v + (uint32_t)i );
 		}
-		// Transpose to x, y, z of eight vertices; length = sqrt((x·x + y·y) + z·z) and the scale as in the scalar kernel.
-		__m128 a0 = s[0], a1 = s[1], a2 = s[2], a3 = s[3], b0 = s[4], b1 = s[5], b2 = s[6], b3 = s[7];
-		_MM_TRANSPOSE4_PS( a0, a1, a2, a3 );
-		_MM_TRANSPOSE4_PS( b0, b1, b2, b3 );
-		__m256 x = _mm256_set_m128( b0, a0 ), y = _mm256_set_m128( b1, a1 ), z = _mm256_set_m128( b2, a2 );
-		__m256 length2 = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( x, x ), _mm256_mul_ps( y, y ) ), _mm256_mul_ps( z, z ) );
-		__m256 length = _mm256_sqrt_ps( length2 );
-		__m256 scale = _mm256_and_ps( _mm256_div_ps( _mm256_set1_ps( 1.0f ), length ),
-									  _mm256_cmp_ps( length, _mm256_setzero_ps(), _CMP_GT_OQ ) );
-		float scales[8];
-		_mm256_storeu_ps( scales, scale );
-		for ( int i = 0; i < 8; ++i )
-		{
-			uint32_t u = v + (uint32_t)i;
-			float* o = (float*)( (uint8_t*)out + (size_t)u * out_stride_bytes );
-			plStoreNormal( o, _mm_mul_ps( s[i], _mm_set1_ps( scales[i] ) ), packed && u + 1 < v_end );
-		}
+		plStoreUnitNormals8( out, out_stride_bytes, s, v, v_end );
 	}
 	for ( ; v < v_end; ++v )
 	{
-		__m128 sum = plGatherSum( face_normals4, face_count, adjacency_offsets, adjacency_faces, limit, v );
-		float n[4];
-		_mm_storeu_ps( n, sum );
-		float nx = n[0], ny = n[1], nz = n[2];
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		float scale = length > 0.0f ? 1.0f / length : 0.0f;
-		float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
-		o[0] = nx * scale;
-		o[1] = ny * scale;
-		o[2] = nz * scale;
+		plStoreUnitNormal1( out, out_stride_bytes, v,
+							plGatherSum( face_normals4, face_count, adjacency_offsets, adjacency_faces, limit, v ) );
 	}
 }
 
@@ -159,39 +173,18 @@ void plNormalsScatter_Avx2( float* out, uint32_t out_stride_bytes, const float* 
 	}
 	for ( uint32_t f = 0; f < face_count; ++f )
 	{
+		// zero for a face with an index out of range, added to its in-range vertices as the scalar kernel does
 		const uint32_t* tri = faces + (size_t)f * 3;
-		uint32_t i0 = tri[0], i1 = tri[1], i2 = tri[2];
-		uint32_t top = i0 > i1 ? i0 : i1;
-		top = top > i2 ? top : i2;
-		__m128 normal;
-		if ( top < last )
+		__m128 normal = plFaceNormal( in, position_stride_bytes, n, last, tri, xyz_mask );
+		for ( int k = 0; k < 3; ++k )
 		{
-			normal = plCross( _mm_loadu_ps( (const float*)( in + (size_t)i0 * position_stride_bytes ) ),
-							  _mm_loadu_ps( (const float*)( in + (size_t)i1 * position_stride_bytes ) ),
-							  _mm_loadu_ps( (const float*)( in + (size_t)i2 * position_stride_bytes ) ), xyz_mask );
+			if ( tri[k] < n )
+			{
+				float* sum = sums4 + (size_t)tri[k] * 4;
+				_mm_store_ps( sum, _mm_add_ps( _mm_load_ps( sum ), normal ) );
+			}
 		}
-		else if ( top < n )
-		{
-			normal = plCross( plLoadPointSafe( in, i0, position_stride_bytes ),
-							  plLoadPointSafe( in, i1, position_stride_bytes ),
-							  plLoadPointSafe( in, i2, position_stride_bytes ), xyz_mask );
-		}
-		else
-		{
-			normal = _mm_setzero_ps(); // the scalar kernel adds (0, 0, 0) to the in-range vertices
-			if ( i0 < n )
-				_mm_store_ps( sums4 + (size_t)i0 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i0 * 4 ), normal ) );
-			if ( i1 < n )
-				_mm_store_ps( sums4 + (size_t)i1 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i1 * 4 ), normal ) );
-			if ( i2 < n )
-				_mm_store_ps( sums4 + (size_t)i2 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i2 * 4 ), normal ) );
-			continue;
-		}
-		_mm_store_ps( sums4 + (size_t)i0 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i0 * 4 ), normal ) );
-		_mm_store_ps( sums4 + (size_t)i1 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i1 * 4 ), normal ) );
-		_mm_store_ps( sums4 + (size_t)i2 * 4, _mm_add_ps( _mm_load_ps( sums4 + (size_t)i2 * 4 ), normal ) );
 	}
-	int packed = out_stride_bytes == 12;
 	uint32_t v = 0;
 	for ( ; v + 8 <= n; v += 8 )
 	{
@@ -200,32 +193,10 @@ void plNormalsScatter_Avx2( float* out, uint32_t out_stride_bytes, const float* 
 		{
 			s[i] = _mm_load_ps( sums4 + (size_t)( v + (uint32_t)i ) * 4 );
 		}
-		__m128 a0 = s[0], a1 = s[1], a2 = s[2], a3 = s[3], b0 = s[4], b1 = s[5], b2 = s[6], b3 = s[7];
-		_MM_TRANSPOSE4_PS( a0, a1, a2, a3 );
-		_MM_TRANSPOSE4_PS( b0, b1, b2, b3 );
-		__m256 x = _mm256_set_m128( b0, a0 ), y = _mm256_set_m128( b1, a1 ), z = _mm256_set_m128( b2, a2 );
-		__m256 length2 = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( x, x ), _mm256_mul_ps( y, y ) ), _mm256_mul_ps( z, z ) );
-		__m256 length = _mm256_sqrt_ps( length2 );
-		__m256 scale = _mm256_and_ps( _mm256_div_ps( _mm256_set1_ps( 1.0f ), length ),
-									  _mm256_cmp_ps( length, _mm256_setzero_ps(), _CMP_GT_OQ ) );
-		float scales[8];
-		_mm256_storeu_ps( scales, scale );
-		for ( int i = 0; i < 8; ++i )
-		{
-			uint32_t u = v + (uint32_t)i;
-			float* o = (float*)( (uint8_t*)out + (size_t)u * out_stride_bytes );
-			plStoreNormal( o, _mm_mul_ps( s[i], _mm_set1_ps( scales[i] ) ), packed && u + 1 < n );
-		}
+		plStoreUnitNormals8( out, out_stride_bytes, s, v, n );
 	}
 	for ( ; v < n; ++v )
 	{
-		const float* s = sums4 + (size_t)v * 4;
-		float nx = s[0], ny = s[1], nz = s[2];
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		float scale = length > 0.0f ? 1.0f / length : 0.0f;
-		float* o = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
-		o[0] = nx * scale;
-		o[1] = ny * scale;
-		o[2] = nz * scale;
+		plStoreUnitNormal1( out, out_stride_bytes, v, _mm_load_ps( sums4 + (size_t)v * 4 ) );
 	}
 }
