@@ -37,19 +37,9 @@ GRID = 21
 
 def make_scene(n=GRID, size=SIZE_M, height=1.0):
     """Vertices [n², 3] (pleat coordinates, Y up) of a vertical sheet, faces, the two pinned top corners."""
-    xs = np.linspace(-0.5, 0.5, n) * size
-    ys = height - np.linspace(0.0, 1.0, n) * size
-    X, Y = np.meshgrid(xs, ys, indexing="ij")
-    v = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], axis=1)
-    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
-    a = (i * n + j).ravel()
-    b = a + n
-    c = b + 1
-    d = a + 1
-    flip = ((i + j) % 2 == 1).ravel()
-    f1 = np.where(flip[:, None], np.stack([a, d, b], 1), np.stack([a, d, c], 1))
-    f2 = np.where(flip[:, None], np.stack([b, d, c], 1), np.stack([a, c, b], 1))
-    faces = np.concatenate([f1, f2]).astype(np.int64)
+    from pleat.garment.sheet import grid_sheet                  # pleat side only (the newton side has no pleat)
+    flat, faces = grid_sheet(n, n, size, size)                  # plane y = 0; its z rows become the sheet's height
+    v = np.stack([flat[:, 0], height - (flat[:, 2] + 0.5 * size), np.zeros(len(flat))], axis=1)
     top = np.isclose(v[:, 1], height)
     pins = np.where(top & np.isclose(np.abs(v[:, 0]), 0.5 * size))[0]
     return v, faces, pins
@@ -58,20 +48,10 @@ def make_scene(n=GRID, size=SIZE_M, height=1.0):
 def make_cantilever(nx=11, nz=5, length=0.1, width=0.04, height=1.0):
     """A horizontal strip (Y up) clamped along its x = 0 edge: it droops under gravity against its bending stiffness
     (a unique, bending-dominated equilibrium, unlike the hanging sheet, which barely deforms)."""
-    xs = np.linspace(0.0, length, nx)
-    zs = np.linspace(-0.5, 0.5, nz) * width
-    X, Z = np.meshgrid(xs, zs, indexing="ij")
-    v = np.stack([X.ravel(), np.full(X.size, height), Z.ravel()], axis=1)
-    i, j = np.meshgrid(np.arange(nx - 1), np.arange(nz - 1), indexing="ij")
-    a = (i * nz + j).ravel()
-    b = a + nz
-    c = b + 1
-    d = a + 1
-    flip = ((i + j) % 2 == 1).ravel()
-    f1 = np.where(flip[:, None], np.stack([a, d, b], 1), np.stack([a, d, c], 1))
-    f2 = np.where(flip[:, None], np.stack([b, d, c], 1), np.stack([a, c, b], 1))
-    pins = np.where(v[:, 0] <= xs[1] + 1e-9)[0]                 # two rows: a clamp (one row would be a hinge)
-    return v, np.concatenate([f1, f2]).astype(np.int64), pins
+    from pleat.garment.sheet import grid_sheet
+    v, faces = grid_sheet(nx, nz, length, width, height, center=(0.5 * length, 0.0))   # x from 0 to length
+    pins = np.where(v[:, 0] <= length / (nx - 1) + 1e-9)[0]    # two rows: a clamp (one row would be a hinge)
+    return v, faces, pins
 
 
 def _to_newton(x):
