@@ -367,18 +367,36 @@ def _inv3(data, slots, out):
 def pcg(indptr, indices, data, diag_slots, b, rtol, max_iter):
     """CG on H x = b, 3×3 block-Jacobi preconditioner (blocks read from `data` at `diag_slots` [n/3,3,3]).
     Returns (x, iterations, negative_curvature_met)."""
-    n = b.shape[0]
-    nb = n // 3
+    nb = b.shape[0] // 3
     Minv = np.empty((nb, 3, 3))
     for i in range(nb):
         _inv3(data, diag_slots[i], Minv[i])
+    no_int, no_float = np.empty(0, indptr.dtype), np.empty(0)
+    return _pcg(indptr, indices, data, b, rtol, max_iter, Minv, no_int, no_int, no_float, no_float, False)
+
+
+@njit(cache=True)
+def _precondition(Minv, lower_ptr, lower_idx, Lval, Ldiag, use_ic0, r, z):
+    """z = M⁻¹ r: the IC(0) factor's two triangular solves, or the 3×3 block-Jacobi inverses."""
+    if use_ic0:
+        _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z)
+        return
+    for i in range(Minv.shape[0]):
+        for a in range(3):
+            z[3 * i + a] = (Minv[i, a, 0] * r[3 * i] + Minv[i, a, 1] * r[3 * i + 1]
+                            + Minv[i, a, 2] * r[3 * i + 2])
+
+
+@njit(cache=True)
+def _pcg(indptr, indices, data, b, rtol, max_iter, Minv, lower_ptr, lower_idx, Lval, Ldiag, use_ic0):
+    """Preconditioned CG on H x = b (H in CSR), stopping at ‖r‖ ≤ rtol ‖b‖ or at the first direction of non-positive
+    curvature. Returns (x, iterations, negative_curvature_met)."""
+    n = b.shape[0]
     x = np.zeros(n)
     r = b.copy()
     z = np.empty(n)
     Hp = np.empty(n)
-    for i in range(nb):
-        for a in range(3):
-            z[3 * i + a] = (Minv[i, a, 0] * r[3 * i] + Minv[i, a, 1] * r[3 * i + 1] + Minv[i, a, 2] * r[3 * i + 2])
+    _precondition(Minv, lower_ptr, lower_idx, Lval, Ldiag, use_ic0, r, z)
     p = z.copy()
     rz = _dot(r, z)
     stop = rtol * math.sqrt(_dot(b, b))
@@ -393,10 +411,7 @@ def pcg(indptr, indices, data, diag_slots, b, rtol, max_iter):
             r[j] -= alpha * Hp[j]
         if math.sqrt(_dot(r, r)) <= stop:
             return x, it, False
-        for i in range(nb):
-            for a in range(3):
-                z[3 * i + a] = (Minv[i, a, 0] * r[3 * i] + Minv[i, a, 1] * r[3 * i + 1]
-                                + Minv[i, a, 2] * r[3 * i + 2])
+        _precondition(Minv, lower_ptr, lower_idx, Lval, Ldiag, use_ic0, r, z)
         rz_new = _dot(r, z)
         beta = rz_new / rz
         for j in range(n):
@@ -454,30 +469,5 @@ def _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z):
 @njit(cache=True)
 def pcg_ic0(indptr, indices, data, lower_ptr, lower_idx, Lval, Ldiag, b, rtol, max_iter):
     """CG on H x = b preconditioned by the IC(0) factor (L Lᵀ ≈ H). Returns (x, iterations, negative_curvature)."""
-    n = b.shape[0]
-    x = np.zeros(n)
-    r = b.copy()
-    z = np.empty(n)
-    Hp = np.empty(n)
-    _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z)
-    p = z.copy()
-    rz = _dot(r, z)
-    stop = rtol * math.sqrt(_dot(b, b))
-    for it in range(1, max_iter + 1):
-        csr_matvec(indptr, indices, data, p, Hp)
-        pHp = _dot(p, Hp)
-        if pHp <= 0.0:
-            return x, it, True
-        alpha = rz / pHp
-        for j in range(n):
-            x[j] += alpha * p[j]
-            r[j] -= alpha * Hp[j]
-        if math.sqrt(_dot(r, r)) <= stop:
-            return x, it, False
-        _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z)
-        rz_new = _dot(r, z)
-        beta = rz_new / rz
-        for j in range(n):
-            p[j] = z[j] + beta * p[j]
-        rz = rz_new
-    return x, max_iter, False
+    return _pcg(indptr, indices, data, b, rtol, max_iter, np.empty((0, 3, 3)), lower_ptr, lower_idx, Lval, Ldiag,
+                True)
