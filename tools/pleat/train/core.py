@@ -567,6 +567,35 @@ def load_stage1(out, device="cpu"):
 
 
 # ---- stage 2 -----------------------------------------------------------------------------------------------------
+def padded_sequences(seqs, dev="cpu"):
+    """Recorded sequences padded into tensors, so a batch is gathered with two index tensors, not a Python loop:
+    lengths [S], static [S, T, ·] (X_c without its latent block), target [S, T+1, L] with target[:, 0] = Z_0 = 0 and
+    target[:, j+1] = Z_j."""
+    lengths = torch.as_tensor([len(q["z"]) for q in seqs], device=dev)
+    T, L = int(lengths.max()), seqs[0]["z"].shape[1]
+    static = torch.zeros(len(seqs), T, seqs[0]["static"].shape[1], device=dev)
+    target = torch.zeros(len(seqs), T + 1, L, device=dev)
+    for i, q in enumerate(seqs):
+        static[i, :len(q["z"])] = to_t(q["static"], dev)
+        target[i, 1:len(q["z"]) + 1] = to_t(q["z"], dev)
+    return lengths, static, target
+
+
+def window_loss(predictor, z_mean, z_std, lengths, static, target, batch, window, gen, dev="cpu"):
+    """Stage 2's loss on one batch of windows: each starts at a recorded Z_{j-1} (zero at a sequence start) and is
+    fed the predictor's own (clamped) predictions; MSE on the normalised latent, averaged over the window."""
+    idx = torch.randint(len(lengths), (batch,), generator=gen).to(dev)
+    n = lengths[idx]
+    starts = (torch.rand(batch, generator=gen).to(dev) * (n - window).clamp_min(0).add(1)).long()
+    z_prev = target[idx, starts]
+    loss = 0.0
+    for k in range(window):
+        j = torch.minimum(starts + k, n - 1)
+        y, z_prev = predictor(z_prev, static[idx, j])
+        loss = loss + ((y - (target[idx, j + 1] - z_mean) / z_std) ** 2).mean()
+    return loss / window
+
+
 @torch.no_grad()
 def record_latents(setup, model, clips, count, frames, rng, deadline=None):
     """Frozen-Φ rollouts: per sequence the X_c rows (latent block zero) and Φ's latent for each predicted frame.
@@ -665,29 +694,13 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True, max_minut
         start, elapsed = state["iteration"], state.get("elapsed_s", elapsed)
     budget = Budget(max_minutes, elapsed)
     ddp = wrap_ddp(model, world, dev)
-    # sequences padded into one tensor so a batch is gathered with two index tensors, not a Python loop
-    lengths = torch.as_tensor([len(q["z"]) for q in seqs], device=dev)
-    T = int(lengths.max())
-    static = torch.zeros(len(seqs), T, seqs[0]["static"].shape[1], device=dev)
-    target = torch.zeros(len(seqs), T + 1, setup.L, device=dev)   # target[:, 0] = Z_0 = 0; target[:, j+1] = Z_j
-    for i, q in enumerate(seqs):
-        static[i, :len(q["z"])] = to_t(q["static"], dev)
-        target[i, 1:len(q["z"]) + 1] = to_t(q["z"], dev)
+    lengths, static, target = padded_sequences(seqs, dev)
     W = c2["window"]
     gen = torch.Generator(device="cpu").manual_seed(int(cfg["seed"]) * 1000 + 2 + rank)
     bar = tqdm(range(start, c2["iterations"]), disable=not progress or rank != 0, desc="stage2")
     it = start - 1
     for it in bar:
-        idx = torch.randint(len(seqs), (c2["batch"],), generator=gen).to(dev)
-        n = lengths[idx]
-        starts = (torch.rand(c2["batch"], generator=gen).to(dev) * (n - W).clamp_min(0).add(1)).long()
-        z_prev = target[idx, starts]                                   # Z_{j-1} (zero at a sequence start)
-        loss = 0.0
-        for k in range(W):
-            j = torch.minimum(starts + k, n - 1)
-            y, z_prev = ddp(z_prev, static[idx, j])
-            loss = loss + ((y - (target[idx, j + 1] - model.z_mean) / model.z_std) ** 2).mean()
-        loss = loss / W
+        loss = window_loss(ddp, model.z_mean, model.z_std, lengths, static, target, c2["batch"], W, gen, dev)
         opt.zero_grad()
         loss.backward()
         opt.step()

@@ -143,27 +143,12 @@ def train_decoder(block, seqs, sigma, iterations, lr, batch, gen, noise=0.05):
 def train_predictor(lp, seqs, iterations, lr, batch, window, gen):
     """f_LP' exactly as stage 2 trains f_LP: windows starting at a recorded Z'_{j-1} (Z'_0 = 0 at a sequence start),
     fed their own clamped predictions, MSE on the normalised latent."""
-    lengths = torch.as_tensor([len(q["z"]) for q in seqs])
-    T, L = int(lengths.max()), seqs[0]["z"].shape[1]
-    static = torch.zeros(len(seqs), T, seqs[0]["static"].shape[1])
-    target = torch.zeros(len(seqs), T + 1, L)
-    for i, q in enumerate(seqs):
-        static[i, :len(q["z"])] = torch.as_tensor(q["static"], dtype=torch.float32)
-        target[i, 1:len(q["z"]) + 1] = torch.as_tensor(q["z"], dtype=torch.float32)
+    lengths, static, target = core.padded_sequences(seqs)
     opt = torch.optim.Adam(lp.parameters(), lr=lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, iterations, eta_min=lr * 0.05)
     loss = torch.zeros(())
     for _ in range(iterations):
-        idx = torch.randint(len(seqs), (batch,), generator=gen)
-        n = lengths[idx]
-        starts = (torch.rand(batch, generator=gen) * (n - window).clamp_min(0).add(1)).long()
-        z_prev = target[idx, starts]
-        loss = 0.0
-        for k in range(window):
-            j = torch.minimum(starts + k, n - 1)
-            y, z_prev = lp(z_prev, static[idx, j])
-            loss = loss + ((y - (target[idx, j + 1] - lp.z_mean) / lp.z_std) ** 2).mean()
-        loss = loss / window
+        loss = core.window_loss(lp, lp.z_mean, lp.z_std, lengths, static, target, batch, window, gen)
         opt.zero_grad()
         loss.backward()
         opt.step()
