@@ -605,6 +605,20 @@ typedef struct StepConfig
 // 2 MiB and more (the asset) in transparent huge pages on Linux (context.c).
 static int g_small_pages;
 
+static plFrameInput MotionFrame( const Motion* motion, uint32_t f )
+{
+	const float* root = motion->root + (size_t)f * 8;
+	plFrameInput in;
+	memset( &in, 0, sizeof( in ) );
+	in.joint_rotations = motion->rotations + (size_t)f * motion->joint_count * 4;
+	in.joint_count = motion->joint_count;
+	in.joint_stride_bytes = 16;
+	in.root_translation = ( plVec3 ){ root[0], root[1], root[2] };
+	in.root_rotation = ( plQuat ){ root[3], root[4], root[5], root[6] };
+	in.dt_s = root[7];
+	return in;
+}
+
 static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint32_t warmup, uint32_t iterations,
 						   double* out_median_us, int* out_avx2 )
 {
@@ -661,15 +675,7 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 		{
 			plInstance_Reset( instance );
 		}
-		const float* root = motion->root + (size_t)f * 8;
-		plFrameInput in;
-		memset( &in, 0, sizeof( in ) );
-		in.joint_rotations = motion->rotations + (size_t)f * motion->joint_count * 4;
-		in.joint_count = motion->joint_count;
-		in.joint_stride_bytes = 16;
-		in.root_translation = ( plVec3 ){ root[0], root[1], root[2] };
-		in.root_rotation = ( plQuat ){ root[3], root[4], root[5], root[6] };
-		in.dt_s = root[7];
+		plFrameInput in = MotionFrame( motion, f );
 #if defined( PLEAT_STEP_PHASES )
 		plStepPhaseReset();
 #endif
@@ -731,20 +737,6 @@ static plResult CreateStepper( const uint8_t* bytes, size_t size, const Motion* 
 	idef.material = motion->material;
 	result = plCreateInstance( *context, &idef, instance );
 	return result < 0 ? result : PLEAT_RESULT_OK;
-}
-
-static plFrameInput MotionFrame( const Motion* motion, uint32_t f )
-{
-	const float* root = motion->root + (size_t)f * 8;
-	plFrameInput in;
-	memset( &in, 0, sizeof( in ) );
-	in.joint_rotations = motion->rotations + (size_t)f * motion->joint_count * 4;
-	in.joint_count = motion->joint_count;
-	in.joint_stride_bytes = 16;
-	in.root_translation = ( plVec3 ){ root[0], root[1], root[2] };
-	in.root_rotation = ( plQuat ){ root[3], root[4], root[5], root[6] };
-	in.dt_s = root[7];
-	return in;
 }
 
 static plResult MeasureFp16Cost( const uint8_t* fp32_bytes, size_t fp32_size, const uint8_t* fp16_bytes,
