@@ -1,5 +1,5 @@
 """Compiled (numba) per-element kernels of the simulator: the incremental potential, its gradient and the Newton
-Hessian scattered straight into the values of a fixed CSR matrix, and a preconditioned CG on that matrix.
+Hessian scattered straight into the 3×3 blocks of a fixed block-CSR matrix (`blocksparse`, which also solves it).
 
 The energies are the ones of `pleat.physics.energies` (the same formulas, term by term: stretching StVK, bending
 with wrap=True, inertia, gravity relative to the substep's start, cubic penalty contact, lagged Huber friction);
@@ -120,9 +120,10 @@ def _theta(x, ia, ib, ic, id_):
 @njit(cache=True)
 def assemble(x, x_pred, mass, h, faces, dm_inv, area, mu, lam, hinges, hinge_angle, hinge_weight, kb,
              has_contact, p, nrm, eps, kappa, x_t, body_disp, lam_n, mu_f, eps_u,
-             face_slots, hinge_slots, vert_slots, stvk_mode, grad, data, want_hessian):
-    """Gradient [N,3] into `grad` and the Newton Hessian's CSR values into `data` (zeroed here); slot arrays map
-    element-block entries to CSR positions (−1: a pinned DOF, dropped)."""
+             face_blocks, hinge_blocks, vert_blocks, stvk_mode, grad, data, want_hessian):
+    """Gradient [N,3] into `grad` and the Newton Hessian's 3×3 blocks into `data` [blocks, 3, 3] (zeroed here);
+    face_blocks [F,3,3], hinge_blocks [H,4,4] and vert_blocks [N] give the block of each element vertex pair
+    (`blocksparse.BlockPattern`; −1: a pinned vertex, dropped)."""
     n = x.shape[0]
     inv_h2 = 1.0 / (h * h)
     for i in range(n):
@@ -133,10 +134,10 @@ def assemble(x, x_pred, mass, h, faces, dm_inv, area, mu, lam, hinges, hinge_ang
         data[:] = 0.0
         for i in range(n):
             w = mass[i] * inv_h2
-            for a in range(3):
-                s = vert_slots[i, a, a]
-                if s >= 0:
-                    data[s] += w
+            blk = vert_blocks[i]
+            if blk >= 0:
+                for a in range(3):
+                    data[blk, a, a] += w
     # ---- stretching (StVK), Gauss-Newton + stress term
     B = np.empty((3, 2))
     J = np.empty((3, 9))
@@ -218,11 +219,13 @@ def assemble(x, x_pred, mass, h, faces, dm_inv, area, mu, lam, hinges, hinge_ang
             for vj in range(3):
                 for c in range(3):
                     Hf[3 * vi + c, 3 * vj + c] += K[vi, vj]
-        for r in range(9):
-            for q in range(9):
-                s = face_slots[f, r, q]
-                if s >= 0:
-                    data[s] += Hf[r, q]
+        for vi in range(3):
+            for vj in range(3):
+                blk = face_blocks[f, vi, vj]
+                if blk >= 0:
+                    for a in range(3):
+                        for c in range(3):
+                            data[blk, a, c] += Hf[3 * vi + a, 3 * vj + c]
     # ---- bending (dihedral angle, wrap), Gauss-Newton
     Jb = np.empty(12)
     e = np.empty(3)
@@ -271,12 +274,14 @@ def assemble(x, x_pred, mass, h, faces, dm_inv, area, mu, lam, hinges, hinge_ang
                 grad[vv, c] += cw * dth * Jb[3 * vi + c]
         if not want_hessian:
             continue
-        for r in range(12):
-            cr = cw * Jb[r]
-            for q in range(12):
-                s = hinge_slots[k, r, q]
-                if s >= 0:
-                    data[s] += cr * Jb[q]
+        for vi in range(4):
+            for vj in range(4):
+                blk = hinge_blocks[k, vi, vj]
+                if blk >= 0:
+                    for a in range(3):
+                        cr = cw * Jb[3 * vi + a]
+                        for c in range(3):
+                            data[blk, a, c] += cr * Jb[3 * vj + c]
     # ---- contact and friction (per vertex, diagonal blocks)
     if has_contact:
         ut = np.empty(3)
@@ -287,12 +292,10 @@ def assemble(x, x_pred, mass, h, faces, dm_inv, area, mu, lam, hinges, hinge_ang
             if gap > 0.0:
                 for a in range(3):
                     grad[i, a] += -3.0 * kappa * gap * gap * nrm[i, a]
-                if want_hessian:
+                if want_hessian and vert_blocks[i] >= 0:
                     for a in range(3):
                         for b in range(3):
-                            s = vert_slots[i, a, b]
-                            if s >= 0:
-                                data[s] += 6.0 * kappa * gap * nrm[i, a] * nrm[i, b]
+                            data[vert_blocks[i], a, b] += 6.0 * kappa * gap * nrm[i, a] * nrm[i, b]
             cf = mu_f * lam_n[i]
             if cf == 0.0:
                 continue
@@ -308,166 +311,10 @@ def assemble(x, x_pred, mass, h, faces, dm_inv, area, mu, lam, hinges, hinge_ang
             scale = 1.0 / eps_u if inside else 1.0 / y
             for a in range(3):
                 grad[i, a] += cf * scale * ut[a]
-            if want_hessian:
+            if want_hessian and vert_blocks[i] >= 0:
                 for a in range(3):
                     for b in range(3):
                         t = (1.0 if a == b else 0.0) - nrm[i, a] * nrm[i, b]
                         if not inside:
                             t -= ut[a] * ut[b] / (y * y)
-                        s = vert_slots[i, a, b]
-                        if s >= 0:
-                            data[s] += cf * scale * t
-
-
-@njit(cache=True)
-def csr_matvec(indptr, indices, data, v, out):
-    for r in range(len(indptr) - 1):
-        acc = 0.0
-        for j in range(indptr[r], indptr[r + 1]):
-            acc += data[j] * v[indices[j]]
-        out[r] = acc
-
-
-@njit(cache=True)
-def _dot(a, b):
-    acc = 0.0
-    for i in range(a.shape[0]):
-        acc += a[i] * b[i]
-    return acc
-
-
-@njit(cache=True)
-def _inv3(data, slots, out):
-    a = data[slots[0, 0]]
-    b = data[slots[0, 1]]
-    c = data[slots[0, 2]]
-    d = data[slots[1, 0]]
-    e = data[slots[1, 1]]
-    f = data[slots[1, 2]]
-    g = data[slots[2, 0]]
-    h = data[slots[2, 1]]
-    k = data[slots[2, 2]]
-    A = e * k - f * h
-    Bc = -(d * k - f * g)
-    C = d * h - e * g
-    det = a * A + b * Bc + c * C
-    inv = 1.0 / det
-    out[0, 0] = A * inv
-    out[0, 1] = -(b * k - c * h) * inv
-    out[0, 2] = (b * f - c * e) * inv
-    out[1, 0] = Bc * inv
-    out[1, 1] = (a * k - c * g) * inv
-    out[1, 2] = -(a * f - c * d) * inv
-    out[2, 0] = C * inv
-    out[2, 1] = -(a * h - b * g) * inv
-    out[2, 2] = (a * e - b * d) * inv
-
-
-@njit(cache=True)
-def pcg(indptr, indices, data, diag_slots, b, rtol, max_iter):
-    """CG on H x = b, 3×3 block-Jacobi preconditioner (blocks read from `data` at `diag_slots` [n/3,3,3]).
-    Returns (x, iterations, negative_curvature_met)."""
-    nb = b.shape[0] // 3
-    Minv = np.empty((nb, 3, 3))
-    for i in range(nb):
-        _inv3(data, diag_slots[i], Minv[i])
-    no_int, no_float = np.empty(0, indptr.dtype), np.empty(0)
-    return _pcg(indptr, indices, data, b, rtol, max_iter, Minv, no_int, no_int, no_float, no_float, False)
-
-
-@njit(cache=True)
-def _precondition(Minv, lower_ptr, lower_idx, Lval, Ldiag, use_ic0, r, z):
-    """z = M⁻¹ r: the IC(0) factor's two triangular solves, or the 3×3 block-Jacobi inverses."""
-    if use_ic0:
-        _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z)
-        return
-    for i in range(Minv.shape[0]):
-        for a in range(3):
-            z[3 * i + a] = (Minv[i, a, 0] * r[3 * i] + Minv[i, a, 1] * r[3 * i + 1]
-                            + Minv[i, a, 2] * r[3 * i + 2])
-
-
-@njit(cache=True)
-def _pcg(indptr, indices, data, b, rtol, max_iter, Minv, lower_ptr, lower_idx, Lval, Ldiag, use_ic0):
-    """Preconditioned CG on H x = b (H in CSR), stopping at ‖r‖ ≤ rtol ‖b‖ or at the first direction of non-positive
-    curvature. Returns (x, iterations, negative_curvature_met)."""
-    n = b.shape[0]
-    x = np.zeros(n)
-    r = b.copy()
-    z = np.empty(n)
-    Hp = np.empty(n)
-    _precondition(Minv, lower_ptr, lower_idx, Lval, Ldiag, use_ic0, r, z)
-    p = z.copy()
-    rz = _dot(r, z)
-    stop = rtol * math.sqrt(_dot(b, b))
-    for it in range(1, max_iter + 1):
-        csr_matvec(indptr, indices, data, p, Hp)
-        pHp = _dot(p, Hp)
-        if pHp <= 0.0:
-            return x, it, True
-        alpha = rz / pHp
-        for j in range(n):
-            x[j] += alpha * p[j]
-            r[j] -= alpha * Hp[j]
-        if math.sqrt(_dot(r, r)) <= stop:
-            return x, it, False
-        _precondition(Minv, lower_ptr, lower_idx, Lval, Ldiag, use_ic0, r, z)
-        rz_new = _dot(r, z)
-        beta = rz_new / rz
-        for j in range(n):
-            p[j] = z[j] + beta * p[j]
-        rz = rz_new
-    return x, max_iter, False
-
-
-@njit(cache=True)
-def ic0_factor(indptr, indices, data, lower_ptr, lower_idx, lower_src, diag_src, shift, Lval, Ldiag):
-    """Incomplete Cholesky IC(0) of the CSR matrix on its own lower pattern (row i: columns lower_idx[lower_ptr[i]:
-    lower_ptr[i+1]] ascending, taken from data[lower_src]; diagonal data[diag_src]), with the diagonal scaled by
-    (1 + shift). Returns False on breakdown (a non-positive pivot)."""
-    n = len(lower_ptr) - 1
-    w = np.zeros(n)
-    for i in range(n):
-        a = lower_ptr[i]
-        b = lower_ptr[i + 1]
-        for q in range(a, b):
-            w[lower_idx[q]] = data[lower_src[q]]
-        for q in range(a, b):
-            k = lower_idx[q]
-            s = w[k]
-            for r in range(lower_ptr[k], lower_ptr[k + 1]):
-                s -= w[lower_idx[r]] * Lval[r] if lower_idx[r] < k else 0.0
-            s /= Ldiag[k]
-            w[k] = s
-            Lval[q] = s
-        d = data[diag_src[i]] * (1.0 + shift)
-        for q in range(a, b):
-            d -= Lval[q] * Lval[q]
-        for q in range(a, b):
-            w[lower_idx[q]] = 0.0
-        if not d > 0.0:
-            return False
-        Ldiag[i] = math.sqrt(d)
-    return True
-
-
-@njit(cache=True)
-def _ic0_apply(lower_ptr, lower_idx, Lval, Ldiag, r, z):
-    n = len(Ldiag)
-    for i in range(n):
-        s = r[i]
-        for q in range(lower_ptr[i], lower_ptr[i + 1]):
-            s -= Lval[q] * z[lower_idx[q]]
-        z[i] = s / Ldiag[i]
-    for i in range(n - 1, -1, -1):
-        zi = z[i] / Ldiag[i]
-        z[i] = zi
-        for q in range(lower_ptr[i], lower_ptr[i + 1]):
-            z[lower_idx[q]] -= Lval[q] * zi
-
-
-@njit(cache=True)
-def pcg_ic0(indptr, indices, data, lower_ptr, lower_idx, Lval, Ldiag, b, rtol, max_iter):
-    """CG on H x = b preconditioned by the IC(0) factor (L Lᵀ ≈ H). Returns (x, iterations, negative_curvature)."""
-    return _pcg(indptr, indices, data, b, rtol, max_iter, np.empty((0, 3, 3)), lower_ptr, lower_idx, Lval, Ldiag,
-                True)
+                        data[vert_blocks[i], a, b] += cf * scale * t

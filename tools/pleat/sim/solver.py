@@ -32,9 +32,10 @@ from ..physics import energies as en
 from .collider import BodyCollider
 
 try:
+    from . import blocksparse as _bs
     from . import kernels as _kn
 except ImportError:                        # numba missing: the numpy path only
-    _kn = None
+    _bs = _kn = None
 
 
 @dataclass
@@ -159,26 +160,17 @@ class ClothSolver:
         self.backend = self.settings.backend if _kn is not None else "numpy"
         if self.backend not in ("numba", "numpy"):
             raise ValueError(f"backend must be 'numba' or 'numpy', got {self.backend!r}")
-        # CSR slot of every element-block entry (−1: a pinned DOF), in the order _Pattern was built from
-        slots = np.full(len(self.pattern.keep), -1, np.int64)
-        slots[self.pattern.keep] = self.pattern.inverse
-        nf, nh = len(rest.faces), len(rest.hinges)
-        self._face_slots = slots[:nf * 81].reshape(nf, 9, 9)
-        self._hinge_slots = slots[nf * 81:nf * 81 + nh * 144].reshape(nh, 12, 12)
-        self._vert_slots = slots[nf * 81 + nh * 144:].reshape(n, 3, 3)
         self._faces = np.ascontiguousarray(rest.faces, np.int64)
         self._hinges = np.ascontiguousarray(rest.hinges, np.int64).reshape(-1, 4)
+        if self.backend == "numba":           # the Newton system in 3×3 blocks, one block row per free vertex
+            free_vertex = np.full(n, -1, np.int64)
+            free_vertex[~self.pinned] = np.arange(int((~self.pinned).sum()))
+            self.blocks = _bs.BlockPattern(free_vertex, [self._faces, self._hinges, verts])
+            self._face_blocks, self._hinge_blocks, vert_blocks = self.blocks.element_blocks
+            self._vert_blocks = np.ascontiguousarray(vert_blocks.reshape(n))
         self.stvk_mode = 0                    # kernels: 0 clamped stress (PSD), 1 |stress|, 2 exact (indefinite)
-        # IC(0) on the CSR's own strictly-lower pattern (rows ascending, as the CSR stores them)
-        pt = self.pattern
-        rows = np.repeat(np.arange(pt.n), np.diff(pt.indptr))
-        low = pt.indices < rows
-        self._lower_src = np.where(low)[0].astype(np.int64)
-        self._lower_idx = pt.indices[low].astype(np.int64)
-        self._lower_ptr = np.concatenate([[0], np.cumsum(np.bincount(rows[low], minlength=pt.n))]).astype(np.int64)
-        self._diag_src = np.where(pt.indices == rows)[0].astype(np.int64)
         self._ic_shift = 1e-3                 # diagonal shift (relative) that the last factorisation needed
-        self._ic_factor = None                # (L values, diagonal) of the last factorisation
+        self._ic_factor = None                # (L blocks, inverse diagonal factors) of the last factorisation
         self._ic_age = 0                      # Newton iterations since it was made
         self.weight_scale = float(self.mass.max() * en.GRAVITY_M_S2)
         self._normal_force = None             # friction's λ carried from one solve to the next substep's
@@ -212,17 +204,17 @@ class ClothSolver:
         return float(e)
 
     def _grad_hess_data(self, x, c, hessian=True):
-        """numba path: gradient [N,3] and the Hessian's CSR values (pattern.indptr/indices), or None."""
+        """numba path: gradient [N,3] and the Hessian's 3×3 blocks [blocks, 3, 3] (`self.blocks`), or None."""
         m = self.material
         s = self.settings
         has, p, nrm, disp, lam = self._nb_contact(c)
         r = self.rest
         g = np.empty((self.n, 3))
-        data = np.empty(self.pattern.nnz if hessian else 0)
+        data = np.empty((self.blocks.n_blocks if hessian else 0, 3, 3))
         _kn.assemble(x, c["x_pred"], self.mass, c["h"], self._faces, r.dm_inv, r.face_area, float(m.mu),
                      float(m.lam), self._hinges, r.hinge_angle, r.hinge_weight, float(m.bending), has, p, nrm,
                      s.collision_margin_m, s.collision_stiffness, c["x_t"], disp, lam, s.friction, s.friction_eps_m,
-                     self._face_slots, self._hinge_slots, self._vert_slots, self.stvk_mode, g, data, hessian)
+                     self._face_blocks, self._hinge_blocks, self._vert_blocks, self.stvk_mode, g, data, hessian)
         return g, (data if hessian else None)
 
     def _grad_hess(self, x, c, hessian=True):
@@ -230,10 +222,7 @@ class ClothSolver:
         s = self.settings
         if self.backend == "numba":
             g, data = self._grad_hess_data(x, c, hessian)
-            if not hessian:
-                return g
-            pt = self.pattern
-            return g, sp.csr_matrix((data, pt.indices, pt.indptr), shape=(pt.n, pt.n))
+            return g if not hessian else (g, self.blocks.to_scipy(data))
         inv_h2 = 1.0 / (c["h"] * c["h"])
         g = (self.mass * inv_h2)[:, None] * (x - c["x_pred"])
         g[:, 1] += self.mass * en.GRAVITY_M_S2
@@ -253,31 +242,34 @@ class ClothSolver:
         return g, self.pattern.matrix(values)
 
     def _linear_solve(self, data, b, rtol):
-        """Newton direction: CG preconditioned by IC(0) (diagonal shifted until the factorisation succeeds) or by
-        3×3 block Jacobi. Returns (dx, CG iterations)."""
+        """Newton direction: CG preconditioned by block IC(0) (diagonal shifted until the factorisation succeeds) or
+        by 3×3 block Jacobi, on the block Hessian `data`. Returns (dx, CG iterations)."""
         s = self.settings
-        pt = self.pattern
+        bp = self.blocks
+        none3, none1 = np.empty((0, 3, 3)), np.empty(0, np.int64)
         if s.linear_solver == "ic0":
+            factor = None
             if self._ic_factor is not None and self._ic_age < s.ic0_refactor_every:
                 self._ic_age += 1
-                lval, ldiag = self._ic_factor
-                dx, it, _ = _kn.pcg_ic0(pt.indptr, pt.indices, data, self._lower_ptr, self._lower_idx, lval, ldiag, b,
-                                        rtol, s.cg_max_iterations)
+                factor = self._ic_factor
+            else:
+                L = np.empty((len(bp.lower), 3, 3))
+                Ldinv = np.empty((bp.n_block_rows, 3, 3))
+                shift = max(1e-4, 0.5 * self._ic_shift)           # relax slowly towards a smaller shift
+                while shift < 1.0:
+                    if _bs.ic0_factor(data, bp.diagonal, bp.lower, bp.lower_ptr, bp.lower_col, shift, L, Ldinv):
+                        self._ic_shift = shift
+                        self._ic_factor = factor = (L, Ldinv)
+                        self._ic_age = 1
+                        break
+                    shift *= 4.0
+            if factor is not None:
+                dx, it, _ = _bs.pcg(bp.indptr, bp.indices, data, b, rtol, s.cg_max_iterations, none3, bp.lower_ptr,
+                                    bp.lower_col, factor[0], factor[1], True)
                 return dx, it
-            lval = np.empty(len(self._lower_idx))
-            ldiag = np.empty(pt.n)
-            shift = max(1e-4, 0.5 * self._ic_shift)           # relax slowly towards a smaller shift
-            while shift < 1.0:
-                if _kn.ic0_factor(pt.indptr, pt.indices, data, self._lower_ptr, self._lower_idx, self._lower_src,
-                                  self._diag_src, shift, lval, ldiag):
-                    self._ic_shift = shift
-                    self._ic_factor = (lval, ldiag)
-                    self._ic_age = 1
-                    dx, it, _ = _kn.pcg_ic0(pt.indptr, pt.indices, data, self._lower_ptr, self._lower_idx, lval,
-                                            ldiag, b, rtol, s.cg_max_iterations)
-                    return dx, it
-                shift *= 4.0
-        dx, it, _ = _kn.pcg(pt.indptr, pt.indices, data, pt.diag_slots, b, rtol, s.cg_max_iterations)
+        Minv = _bs.block_jacobi(data, bp.diagonal)
+        dx, it, _ = _bs.pcg(bp.indptr, bp.indices, data, b, rtol, s.cg_max_iterations, Minv, none1, none1, none3,
+                            none3, False)
         return dx, it
 
     def _gradient_norm(self, x, c):
