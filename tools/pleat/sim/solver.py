@@ -8,20 +8,20 @@ the garment's predicted motion. Each substep solves
 
 (the terms of `pleat.physics`, all with weight 1) over the free vertices; pinned vertices follow their targets (the
 garment skinned onto the body by LBS, interpolated like the body). Element Hessians are PSD (StVK: Gauss-Newton plus
-the clamped stress term, bending Gauss-Newton, collision and friction PSD by construction); the Newton system is
-solved by conjugate gradients with a 3×3 block-Jacobi preconditioner to a relative residual η (Eisenstat-Walker
-forcing), and a backtracking (Armijo) line search keeps the energy monotone for fixed contacts.
+the clamped stress term, bending Gauss-Newton, collision and friction PSD by construction); the Newton system (3×3
+blocks, `blocksparse`) is solved by conjugate gradients preconditioned by block IC(0) in reverse Cuthill–McKee order
+to a relative residual η, and a backtracking (Armijo) line search keeps the energy monotone for fixed contacts.
 
-Converged when the largest residual force on a free vertex, ‖∇E‖∞, is at most `force_tol` times the heaviest vertex
-weight max_i m_i g; nothing else counts as converged (a substep that reaches `max_newton` is reported as not
-converged).
+Converged (the stated tolerance, docs/simulator.md "Converged") when the largest residual force on a free vertex,
+‖∇E‖∞, is at most `force_tol` times the heaviest vertex weight max_i m_i g, or when the Newton step of an
+untruncated CG solve has ‖Δx‖∞/h ≤ `velocity_tol_m_s` (IPC's criterion); a substep that reaches `max_newton` is
+reported as not converged.
 
-Contacts are re-found at every Newton iterate against the body at the substep's end (nearest body vertex and its
-normal). Swept check: each vertex also remembers the body vertex nearest to it at the substep's start; when both
-that tracked body point and the nearest one say "inside" for a vertex that started outside, the body surface has
-swept past it, and the tracked point (which came from the side the vertex is on) is used, so a fast limb pushes
-the cloth ahead of it instead of through it. After the solve, vertices still inside (d < 0) are projected onto the
-contact plane, repeated up to `projection_rounds` times (concave regions).
+Contacts are fixed during a substep's solve: each vertex takes the body vertex nearest to it at the substep's start,
+moved with the body to the substep's end, so a limb that sweeps towards a vertex pushes it from the side it was on.
+After the solve, vertices still inside (d < 0) are projected onto the contact plane of the nearest body vertex at the
+end (or of the tracked one, where both say "inside" for a vertex that started outside: swept), repeated up to
+`projection_rounds` times (concave regions).
 """
 from dataclasses import dataclass, field
 
