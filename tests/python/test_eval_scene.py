@@ -72,6 +72,9 @@ def test_reference_cache_key_changes_with_every_input(weights):
                cache_key(g, body, beta, mat, clip, 10, SolverSettings(force_tol=2 * st.force_tol)),
                cache_key(g, SimpleNamespace(**dict(vars(body), v_template=np.ones((4, 3)))), beta, mat, clip, 10, st)]
     assert len({base, *changed}) == 6
+    # the spread's twin reference has its own key; an unperturbed one keeps the old key (existing caches stay valid)
+    assert cache_key(g, body, beta, mat, clip, 10, st, start_perturbation_m=0.0) == base
+    assert cache_key(g, body, beta, mat, clip, 10, st, start_perturbation_m=1e-6) not in {base, *changed}
 
 
 @needs_lib
@@ -84,13 +87,15 @@ def test_evaluate_scores_lbs_zero_when_the_reference_is_lbs(monkeypatch, tmp_pat
     if not asset.is_file() or not (REPO_ROOT / "assets" / "body.npz").is_file():
         pytest.skip("assets/tshirt.pleat or assets/body.npz missing")
 
-    def fake_reference(garment, body, clip, beta, material, frames=None, **kw):
+    def fake_reference(garment, body, clip, beta, material, frames=None, start_perturbation_m=0.0, **kw):
         _, M = S.posed_body(body, clip, beta)
-        return garment.skin(M, beta).astype(np.float32), dict(key="fake", cache_hit=False)
+        x = garment.skin(M, beta).astype(np.float32)
+        x[..., 0] += 2e3 * start_perturbation_m          # the twin reference: every vertex 2 mm off along x
+        return x, dict(key=f"fake{start_perturbation_m}", cache_hit=False)
     monkeypatch.setattr("pleat.eval.reference.cached_simulate", fake_reference)
     out = tmp_path / "r.json"
     cli.main(["--asset", str(asset), "--motion", "deepmimic_pybullet/humanoid3d_punch", "--max-frames", "4",
-              "--json", str(out), "--plots", str(tmp_path), "--no-progress"])
+              "--json", str(out), "--plots", str(tmp_path), "--no-progress", "--reference-spread"])
     r = json.loads(out.read_text())
     assert r["frames"] == 4 and r["fps"] == 30.0
     for m in ("pleat", "lbs"):
@@ -98,4 +103,6 @@ def test_evaluate_scores_lbs_zero_when_the_reference_is_lbs(monkeypatch, tmp_pat
             assert np.isfinite(r[m][k])
     assert r["lbs"]["mean_mm"] < 1e-3 and r["pleat"]["step_us"] > 0
     assert r["teacher"] is None and r["teacher_reason"]
+    assert r["reference_spread"]["mean_mm"] == pytest.approx(2.0, rel=1e-3)
+    assert r["reference_spread"]["start_perturbation_m"] == 1e-6
     assert list(tmp_path.glob("*.png"))

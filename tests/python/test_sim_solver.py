@@ -136,3 +136,14 @@ def test_material_parse_checks_ranges():
         Material.parse("5,20000,40000,1e-5")
     with pytest.raises(ValueError):
         Material.parse("0.2,20000")
+
+
+def test_start_perturbation_moves_free_vertices_by_exactly_that_distance():
+    """The reference-spread twin (pleat.sim.scene._perturbed): every free vertex moved by the distance, pins kept."""
+    from pleat.sim.scene import _perturbed
+    v, f = grid_sheet(5, 5, 0.2, 0.2, height_m=1.0)
+    solver = ClothSolver(cloth_rest(v, f), Material(), pinned=[0, 4])
+    moved = _perturbed(v, solver, 1e-6)
+    d = np.linalg.norm(moved - v, axis=1)
+    assert np.allclose(d[~solver.pinned], 1e-6, rtol=1e-9) and (d[solver.pinned] == 0).all()
+    assert _perturbed(v, solver, 0.0) is v

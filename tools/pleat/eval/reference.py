@@ -29,7 +29,7 @@ def _hash_arrays(h, *arrays):
         h.update(a.tobytes())
 
 
-def cache_key(garment, body, beta, material, clip, frames, settings):
+def cache_key(garment, body, beta, material, clip, frames, settings, start_perturbation_m=0.0):
     h = hashlib.sha256()
     h.update(f"pleat-eval-reference-v{REFERENCE_VERSION}".encode())
     _hash_arrays(h, garment.template, garment.faces, garment.skin_indices, garment.skin_weights,
@@ -40,13 +40,15 @@ def cache_key(garment, body, beta, material, clip, frames, settings):
     # The scene's lead-in (how the garment is brought onto frame 0) changes every frame after it, so it is part of
     # the key like the solver settings.
     from pleat.sim.scene import HOLD_FRAMES, LEAD_IN_FRAMES
-    h.update(json.dumps(dict(frames=int(frames), settings=asdict(settings), lead_in=LEAD_IN_FRAMES, hold=HOLD_FRAMES),
-                        sort_keys=True).encode())
+    scene = dict(frames=int(frames), settings=asdict(settings), lead_in=LEAD_IN_FRAMES, hold=HOLD_FRAMES)
+    if start_perturbation_m:
+        scene["start_perturbation_m"] = float(start_perturbation_m)
+    h.update(json.dumps(scene, sort_keys=True).encode())
     return h.hexdigest()[:32]
 
 
 def cached_simulate(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,
-                    progress=True):
+                    progress=True, start_perturbation_m=0.0):
     """pleat.sim.scene.simulate through the on-disk cache. Returns (positions [T, N, 3] f32, info) where info has
     the key, whether it was a cache hit and the simulator's summary (seconds per frame, convergence)."""
     from pleat.physics.materials import Material
@@ -55,7 +57,7 @@ def cached_simulate(garment, body, clip, beta, material, frames=None, settings=N
     T = clip.num_frames if frames is None else min(frames, clip.num_frames)
     settings = settings or SolverSettings(dt_s=1.0 / clip.fps)
     beta = np.zeros(garment.shape_blend.shape[0]) if beta is None else np.asarray(beta, np.float64)
-    key = cache_key(garment, body, beta, material, clip, T, settings)
+    key = cache_key(garment, body, beta, material, clip, T, settings, start_perturbation_m)
     cache_dir = Path(cache_dir or DEFAULT_CACHE)
     path = cache_dir / f"{key}.npz"
     if path.is_file():
@@ -63,7 +65,7 @@ def cached_simulate(garment, body, clip, beta, material, frames=None, settings=N
             return z["positions"], dict(key=key, cache_hit=True, path=str(path),
                                         summary=json.loads(str(z["summary"])))
     positions, _, summary = simulate(garment, body, clip, beta, Material(*map(float, material)), T, settings,
-                                     progress, keep_body=False)
+                                     progress, keep_body=False, start_perturbation_m=start_perturbation_m)
     cache_dir.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.stem + ".tmp.npz")
     np.savez_compressed(tmp, positions=positions, summary=json.dumps(summary))

@@ -96,10 +96,12 @@ def lead_in_clip(clip, frames=LEAD_IN_FRAMES, hold=HOLD_FRAMES):
 
 
 def simulate(garment, body, clip, beta=None, material=None, frames=None, settings=None, progress=True,
-             keep_body=True, lead_in_frames=LEAD_IN_FRAMES, hold_frames=HOLD_FRAMES):
+             keep_body=True, lead_in_frames=LEAD_IN_FRAMES, hold_frames=HOLD_FRAMES, start_perturbation_m=0.0):
     """Run the reference simulator over the clip. Returns (positions [T,N,3] f32, body [T,V,3] f32 or None,
     summary dict). With lead_in_frames > 0 the garment starts unstrained on the body's rest pose and is simulated
-    through `lead_in_clip` first; frame 0 is where that ends (lead_in_frames=0: LBS onto frame 0, pushed out)."""
+    through `lead_in_clip` first; frame 0 is where that ends (lead_in_frames=0: LBS onto frame 0, pushed out).
+    start_perturbation_m > 0 moves every free vertex of the start state by that much in a random (seeded) direction:
+    how far two equally valid references drift apart (`reference_spread`, docs/accuracy.md)."""
     material = material or Material()
     settings = settings or SolverSettings(dt_s=1.0 / clip.fps)
     n_frames = clip.num_frames if frames is None else min(int(frames), clip.num_frames)
@@ -107,7 +109,8 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
     solver = ClothSolver(rest, material, pinned=garment.pinned, settings=settings)
     lead = None
     if lead_in_frames > 0:
-        lead = _simulate_lead_in(garment, body, clip, beta, solver, settings, lead_in_frames, hold_frames, progress)
+        lead = _simulate_lead_in(garment, body, clip, beta, solver, settings, lead_in_frames, hold_frames, progress,
+                                 start_perturbation_m)
     M = skinning_matrices(body, clip, beta, slice(0, n_frames))
     A = np.einsum("vk,tkij->tvij", body.weights, M[:, :, :3, :])
     shaped_body = body.shaped_vertices(beta)
@@ -117,7 +120,7 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
     if lead is not None:
         x, x_prev = lead["x"], lead["x_prev"]
     else:
-        x = _pushed_out(pins[0], colliders[0], solver, settings)
+        x = _perturbed(_pushed_out(pins[0], colliders[0], solver, settings), solver, start_perturbation_m)
         x_prev = x.copy()
     out = np.empty((n_frames, len(x), 3), np.float32)
     out[0] = x
@@ -188,7 +191,16 @@ def _pushed_out(x, collider, solver, settings):
     return x
 
 
-def _simulate_lead_in(garment, body, clip, beta, solver, settings, frames, hold, progress):
+def _perturbed(x, solver, distance_m):
+    """x with every free vertex moved by distance_m along a random direction (seed 0)."""
+    if not distance_m:
+        return x
+    d = np.random.default_rng(0).standard_normal(x.shape)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return x + distance_m * d * ~solver.pinned[:, None]
+
+
+def _simulate_lead_in(garment, body, clip, beta, solver, settings, frames, hold, progress, start_perturbation_m=0.0):
     lead = lead_in_clip(clip, frames, hold)
     M = skinning_matrices(body, lead, beta)
     A = np.einsum("vk,tkij->tvij", body.weights, M[:, :, :3, :])
@@ -196,7 +208,7 @@ def _simulate_lead_in(garment, body, clip, beta, solver, settings, frames, hold,
     body_v = np.einsum("tvij,vj->tvi", A[..., :3], shaped_body) + A[..., 3]
     pins = garment.skin(M, beta)
     prev = BodyCollider(body_v[0], body.faces)
-    x = _pushed_out(pins[0], prev, solver, settings)
+    x = _perturbed(_pushed_out(pins[0], prev, solver, settings), solver, start_perturbation_m)
     x_prev = x.copy()
     t0 = time.perf_counter()
     c0 = time.process_time()
