@@ -381,10 +381,11 @@ def _summary(x, v, pins):
 def first_substep(v, faces, pins, material, equilibrium, args, out):
     """newton's VBD, one substep from pleat's equilibrium at rest: the tip's drop per iteration count."""
     scene = out / "first_step_scene.npz"
-    np.savez(scene, vertices=v, faces=faces, pins=pins, material=np.array(material.as_tuple()), tri_kd=1e-2,
-             edge_kd=1e-2, start=equilibrium)
+    np.savez(scene, vertices=v, faces=faces, pins=pins, material=np.array(material.as_tuple()),
+             tri_kd=args.newton_damping, edge_kd=args.newton_damping, start=equilibrium)
     proc = subprocess.run([args.newton_python, str(Path(__file__).resolve()), "--newton-first-step", str(scene),
-                           str(out / "first_step_newton.npz"), "--first-step-iterations", args.first_step_iterations],
+                           str(out / "first_step_newton.npz"), "--first-step-iterations", args.first_step_iterations,
+                           "--newton-substeps", str(args.newton_substeps)],
                           capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(proc.stderr[-4000:])
@@ -437,6 +438,8 @@ def main(argv=None):
     ap.add_argument("--newton-seconds", type=float, default=4.0)
     ap.add_argument("--newton-iterations", type=int, default=20, help="VBD iterations per substep")
     ap.add_argument("--newton-substeps", type=int, default=10, help="VBD substeps per 1/60 s frame")
+    ap.add_argument("--newton-damping", type=float, default=1e-2,
+                    help="newton's tri_kd and edge_kd (its bending damping force is edge_kd·ℓ_e·dθ/dt along ∇θ)")
     ap.add_argument("--height", type=float, default=1.0, help="height (m) of the scene's top edge / strip")
     ap.add_argument("--static", action="store_true",
                     help="cantilever, no stepping: both codes' forces on the same configurations (OUT/static_forces"
@@ -448,7 +451,8 @@ def main(argv=None):
         newton_forces(*args.newton_forces)
         return 0
     if args.newton_first_step:
-        newton_first_step(*args.newton_first_step, iterations=[int(t) for t in args.first_step_iterations.split(",")])
+        newton_first_step(*args.newton_first_step, iterations=[int(t) for t in args.first_step_iterations.split(",")],
+                          substeps=args.newton_substeps)
         return 0
     if args.newton_side:
         newton_side(*args.newton_side, seconds=args.newton_seconds, substeps=args.newton_substeps,
@@ -472,7 +476,7 @@ def main(argv=None):
         pl = pleat_side(v, faces, pins, material)
         extra["start"] = pl["positions"]
     np.savez(scene, vertices=v, faces=faces, pins=pins, material=np.array(material.as_tuple()),
-             tri_kd=1e-2, edge_kd=1e-2, **extra)
+             tri_kd=args.newton_damping, edge_kd=args.newton_damping, **extra)
     t0 = time.perf_counter()
     if args.reuse_newton and (out / "newton.npz").exists():
         proc = subprocess.CompletedProcess([], 0, "", "")
