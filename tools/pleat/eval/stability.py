@@ -405,9 +405,9 @@ def write_markdown(reports, path, command):
         "largest displacement the asset's decoder can produce for any latent the guard lets through (interval "
         "arithmetic, `pleat.eval.bounds`; a guarantee, and a loose one) — `bound excess` ≤ 0 means every vertex "
         "stayed inside it; **error** = distance to the reference simulator, only in short windows (the start and "
-        "end of the long run, the first clip at 1× and 3× speed, β0 = ±3), because the reference costs seconds per "
-        "frame on this machine (about 5 s for the 1k t-shirt, 30 s for the 4.4k one, plus a 15-frame lead-in per "
-        "window; a 10-minute reference would take days); **penetration** = share of garment vertices inside "
+        "end of the long run, the first clip at 1× and 3× speed, β0 = ±3), because the reference costs a CPU "
+        "core 0.2–0.5 s per frame for the 1k t-shirt and 1.2–1.6 s for the 4.4k one (docs/simulator.md), plus a "
+        "20-frame lead-in per window, so a 10-minute reference would take hours; **penetration** = share of garment vertices inside "
         "the posed body and the deepest, from the simulator's collider (nearest body vertex + normal; pinned "
         "vertices included). Reference, error and penetration need an asset built on assets/body.npz; an asset "
         "on another skeleton (the random-weight golden tube) gets the runtime-only numbers.", ""]
