@@ -25,9 +25,13 @@ typedef struct plInstanceData
 	float material_normalized[4];      // (x − min) / (max − min)
 	double rest_joints[PLEAT_MAX_JOINTS * 3]; // J(β)
 
-	plPoseFrame history[2]; // frames t and t−1
+	plPoseFrame history[2]; // frames t and t−1 (of the network: the frames at its last two updates)
 	int history_valid;      // 0: the next step is a first frame
 	plPoseFrame next_frame; // scratch for t+1
+
+	double network_interval_s; // 1 / network_rate_hz; 0 = the networks run every step
+	double network_pending_s;  // time since the last network update (steps that skipped it)
+	int deformed_is_committed; // CPU path: deformed holds T_def of the committed blend weights and current β
 
 	float skin_matrices[PLEAT_MAX_JOINTS * 12];      // last committed step
 	float next_skin_matrices[PLEAT_MAX_JOINTS * 12]; // scratch
@@ -175,6 +179,7 @@ typedef struct plDeformTask
 	plInstanceData* inst;
 	const float* weights;
 	const float* skin_matrices;
+	int blend; // 0: deformed already holds T_def for these weights (a step between network updates)
 } plDeformTask;
 
 static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
@@ -184,11 +189,14 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	plInstanceData* inst = t->inst;
 	const plAssetData* a = inst->asset;
 	uint32_t n = a->vertex_count;
-	plBlendShapesJob blend = { plMakeConstSpan( inst->shaped_template, n, 12 ), a->blend_shapes, a->blend_shapes_fp16,
-							   plMakeConstSpan( t->weights, a->blend_count, 4 ), plMakeSpan( inst->deformed, n, 12 ),
-							   begin, end, &inst->ctx->kernels };
-	plBlendShapesJob_Run( &blend );
-	PLEAT_STEP_PHASE( PLEAT_PHASE_BLEND );
+	if ( t->blend )
+	{
+		plBlendShapesJob blend = { plMakeConstSpan( inst->shaped_template, n, 12 ), a->blend_shapes,
+								   a->blend_shapes_fp16, plMakeConstSpan( t->weights, a->blend_count, 4 ),
+								   plMakeSpan( inst->deformed, n, 12 ), begin, end, &inst->ctx->kernels };
+		plBlendShapesJob_Run( &blend );
+		PLEAT_STEP_PHASE( PLEAT_PHASE_BLEND );
+	}
 	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ), a->skin_indices, a->skin_weights,
 						   a->influence_count, t->skin_matrices, a->joint_count, plMakeSpan( inst->positions, n, 12 ),
 						   begin, end, &inst->ctx->kernels };
@@ -220,10 +228,10 @@ static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, vo
 	PLEAT_STEP_PHASE( PLEAT_PHASE_FACE_NORMALS );
 }
 
-static void plDeformCpu( plInstanceData* inst, const float* weights, const float* skin_matrices )
+static void plDeformCpu( plInstanceData* inst, const float* weights, const float* skin_matrices, int blend )
 {
 	plTaskRunner runner = plRunnerOf( inst->ctx );
-	plDeformTask task = { inst, weights, skin_matrices };
+	plDeformTask task = { inst, weights, skin_matrices, blend };
 	const plAssetData* a = inst->asset;
 	plRunTask( &runner, plBlendAndSkinTask, a->vertex_count, 256, &task );
 	if ( ( runner.enqueue_task == NULL || runner.worker_count <= 1 ) && a->face_count >= a->vertex_count )
@@ -353,7 +361,8 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	if ( ( def->mlp_backend != PLEAT_MLP_BACKEND_PLEAT && def->mlp_backend != PLEAT_MLP_BACKEND_ONNXRUNTIME ) ||
 		 ( def->gpu_mode != PLEAT_GPU_NONE && def->gpu_mode != PLEAT_GPU_HOST_CONTEXT &&
 		   def->gpu_mode != PLEAT_GPU_HEADLESS ) ||
-		 def->beta_count > a->beta_count || ( def->beta == NULL && def->beta_count != 0 ) )
+		 def->beta_count > a->beta_count || ( def->beta == NULL && def->beta_count != 0 ) ||
+		 !( isfinite( def->network_rate_hz ) && def->network_rate_hz >= 0.0f ) )
 	{
 		return PLEAT_RESULT_INVALID_DEF;
 	}
@@ -397,6 +406,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	inst->asset = a;
 	inst->asset_handle = def->asset;
 	inst->user_data = def->user_data;
+	inst->network_interval_s = def->network_rate_hz > 0.0f ? 1.0 / def->network_rate_hz : 0.0;
 	inst->engine_joint_count = engine_joints;
 	for ( uint32_t j = 0; j < a->joint_count; ++j )
 	{
@@ -460,7 +470,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	}
 	memcpy( inst->positions, inst->shaped_template, n3 );
 	memcpy( inst->deformed, inst->shaped_template, n3 );
-	plDeformTask task = { inst, inst->blend_weights, inst->skin_matrices };
+	plDeformTask task = { inst, inst->blend_weights, inst->skin_matrices, 0 };
 	plFaceNormalsTask( 0, a->face_count, 0, &task );
 	plNormalsTask( 0, a->vertex_count, 0, &task );
 
@@ -596,7 +606,8 @@ static int plEvaluate( plInstanceData* inst, const plPoseFrame* frame_t, const p
 	return finite;
 }
 
-static int plDeform( plInstanceData* inst, int read_back, plResult* gl_error )
+// reuse_deformed: skin the committed T_def again (CPU path, a step between network updates) instead of blending.
+static int plDeform( plInstanceData* inst, int read_back, plResult* gl_error, int reuse_deformed )
 {
 	const plAssetData* a = inst->asset;
 	if ( inst->gl != NULL )
@@ -607,7 +618,12 @@ static int plDeform( plInstanceData* inst, int read_back, plResult* gl_error )
 									  read_back ? inst->deformed : NULL, read_back ? inst->gl_normals : NULL );
 		return 1;
 	}
-	plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices );
+	int blend = !( reuse_deformed && inst->deformed_is_committed );
+	if ( blend )
+	{
+		inst->deformed_is_committed = 0; // until this step commits
+	}
+	plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, blend );
 	size_t n3 = (size_t)a->vertex_count * 3;
 	int finite = plAllFiniteFloats( inst->positions, n3 ) && plAllFiniteFloats( inst->normals, n3 );
 	PLEAT_STEP_PHASE( PLEAT_PHASE_GUARDS );
@@ -752,14 +768,18 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_INPUT, "dt_s %g outside (0, 1]", input->dt_s );
 		return PLEAT_RESULT_INVALID_DT;
 	}
-	double dt = input->dt_s;
+	// The networks run on this step unless a network rate is set and less than its interval has gathered since their
+	// last update; when they run, their dt is all the time since that update (docs/inputs.md, "Network update rate").
+	int run_network = inst->network_interval_s <= 0.0 || !inst->history_valid ||
+					  inst->network_pending_s + input->dt_s >= inst->network_interval_s * ( 1.0 - 1e-6 );
+	double dt = run_network ? inst->network_pending_s + input->dt_s : input->dt_s;
 	int clamped = 0;
-	if ( dt < a->dt_min_s )
+	if ( run_network && dt < a->dt_min_s )
 	{
 		dt = a->dt_min_s;
 		clamped = 1;
 	}
-	else if ( dt > a->dt_max_s )
+	else if ( run_network && dt > a->dt_max_s )
 	{
 		dt = a->dt_max_s;
 		clamped = 1;
@@ -784,38 +804,50 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 
 	int read_back = inst->gl == NULL || ( output != NULL && ( output->positions != NULL || output->normals != NULL ) );
 	plResult backend_error = PLEAT_RESULT_OK;
-	int reset = 0;
-	int ok = plEvaluate( inst, inst->history_valid ? &inst->history[0] : NULL,
-						 inst->history_valid ? &inst->history[1] : NULL, inst->latent, &backend_error );
-	if ( backend_error != PLEAT_RESULT_OK )
-	{
-		return backend_error;
-	}
 	plResult gl_error = PLEAT_RESULT_OK;
-	if ( ok )
+	int reset = 0;
+	int ok = 0;
+	if ( !run_network )
 	{
-		ok = plDeform( inst, read_back, &gl_error );
+		// Between network updates: the held latent and blend weights, skinned with the new pose.
+		memcpy( inst->next_latent, inst->latent, a->latent_count * sizeof( float ) );
+		memcpy( inst->next_weights, inst->blend_weights, a->blend_count * sizeof( float ) );
+		ok = plDeform( inst, read_back, &gl_error, 1 );
 	}
-	if ( !ok )
+	else
+	{
+		ok = plEvaluate( inst, inst->history_valid ? &inst->history[0] : NULL,
+						 inst->history_valid ? &inst->history[1] : NULL, inst->latent, &backend_error );
+		if ( backend_error != PLEAT_RESULT_OK )
+		{
+			return backend_error;
+		}
+		if ( ok )
+		{
+			ok = plDeform( inst, read_back, &gl_error, 0 );
+		}
+	}
+	if ( !ok && gl_error == PLEAT_RESULT_OK )
 	{
 		// Non-finite inside the step: recompute as a first frame with a zero latent. The instance's own latent and
 		// history stay untouched until the commit below (a GL error after this point must still change nothing);
 		// next_latent is the zero input latent (input assembly reads it before f_LP overwrites it).
 		reset = 1;
+		run_network = 1;
 		memset( inst->next_latent, 0, a->latent_count * sizeof( float ) );
 		fk.previous_yaw = 0.0;
 		plForwardKinematicsJob_Run( &fk );
 		ok = plEvaluate( inst, NULL, NULL, inst->next_latent, &backend_error );
 		if ( ok && backend_error == PLEAT_RESULT_OK )
 		{
-			ok = plDeform( inst, read_back, &gl_error );
+			ok = plDeform( inst, read_back, &gl_error, 0 );
 		}
 		if ( !ok || backend_error != PLEAT_RESULT_OK )
 		{
 			// Still non-finite from the reset state: dress the body without the learned deformation.
 			memset( inst->next_latent, 0, a->latent_count * sizeof( float ) );
 			memset( inst->next_weights, 0, a->blend_count * sizeof( float ) );
-			plDeform( inst, read_back, &gl_error );
+			plDeform( inst, read_back, &gl_error, 0 );
 		}
 		plLog( ctx, PLEAT_LOG_LEVEL_WARNING, PLEAT_LOG_INSTANCE_NUMERIC_RESET, NULL );
 	}
@@ -824,12 +856,22 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 		return gl_error;
 	}
 
-	// Commit: t−1 ← t (or t+1 on a first frame or after a reset), t ← t+1, Z_t ← Z_t+1.
-	inst->history[1] = inst->history_valid && !reset ? inst->history[0] : *now;
-	inst->history[0] = *now;
-	inst->history_valid = 1;
-	memcpy( inst->latent, inst->next_latent, a->latent_count * sizeof( float ) );
-	memcpy( inst->blend_weights, inst->next_weights, a->blend_count * sizeof( float ) );
+	// Commit. After a network update: t−1 ← t (or t+1 on a first frame or after a reset), t ← t+1, Z_t ← Z_t+1.
+	// Between updates only the pose-dependent outputs change, and the time since the update grows.
+	if ( run_network )
+	{
+		inst->history[1] = inst->history_valid && !reset ? inst->history[0] : *now;
+		inst->history[0] = *now;
+		inst->history_valid = 1;
+		inst->network_pending_s = 0.0;
+		memcpy( inst->latent, inst->next_latent, a->latent_count * sizeof( float ) );
+		memcpy( inst->blend_weights, inst->next_weights, a->blend_count * sizeof( float ) );
+	}
+	else
+	{
+		inst->network_pending_s += input->dt_s;
+	}
+	inst->deformed_is_committed = inst->gl == NULL;
 	memcpy( inst->skin_matrices, inst->next_skin_matrices, (size_t)a->joint_count * 12 * sizeof( float ) );
 	if ( inst->gl != NULL && read_back )
 	{
@@ -862,7 +904,23 @@ plResult plInstance_Reset( plInstance handle )
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
 	inst->history_valid = 0;
+	inst->network_pending_s = 0.0;
 	memset( inst->latent, 0, inst->asset->latent_count * sizeof( float ) );
+	return PLEAT_RESULT_OK;
+}
+
+plResult plInstance_SetNetworkRate( plInstance handle, float network_rate_hz )
+{
+	plInstanceData* inst = plGetInstanceData( handle );
+	if ( inst == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	if ( !( isfinite( network_rate_hz ) && network_rate_hz >= 0.0f ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	inst->network_interval_s = network_rate_hz > 0.0f ? 1.0 / network_rate_hz : 0.0;
 	return PLEAT_RESULT_OK;
 }
 
@@ -883,6 +941,7 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 	}
 	int clamped = plClampBeta( inst->asset, beta, beta_count, inst->beta );
 	plApplyShape( inst );
+	inst->deformed_is_committed = 0; // T_def changes with β: the next step blends again
 	if ( inst->gl != NULL )
 	{
 		plResult r = plGlDeformer_SetShapedTemplate( inst->gl, inst->shaped_template );

@@ -62,7 +62,7 @@ class _InstanceDef(C.Structure):
                 ("engine_joint_count", C.c_uint32), ("beta", C.c_void_p), ("beta_count", C.c_uint32),
                 ("material", C.c_void_p), ("mlp_backend", C.c_int), ("onnxruntime_library", C.c_char_p),
                 ("gpu_mode", C.c_int), ("host_position_buffer", C.c_uint32), ("host_normal_buffer", C.c_uint32),
-                ("user_data", C.c_void_p), ("internal_cookie", C.c_int32)]
+                ("network_rate_hz", C.c_float), ("user_data", C.c_void_p), ("internal_cookie", C.c_int32)]
 
 
 class _Vec3(C.Structure):
@@ -134,6 +134,7 @@ def load_library(path=None):
         "plDestroyInstance": (C.c_int, [_Handle]),
         "plInstance_Step": (C.c_int, [_Handle, P(_FrameInput), P(_StepOutput)]),
         "plInstance_Reset": (C.c_int, [_Handle]),
+        "plInstance_SetNetworkRate": (C.c_int, [_Handle, C.c_float]),
         "plInstance_SetShape": (C.c_int, [_Handle, C.c_void_p, C.c_uint32]),
         "plInstance_SetMaterial": (C.c_int, [_Handle, C.c_void_p]),
         "plInstance_GetSkinMatrices": (C.c_int, [_Handle, C.c_void_p, C.c_uint32]),
@@ -233,7 +234,7 @@ class Instance:
     """A C instance. step(...) returns float32 numpy copies of positions and normals [N, 3]."""
 
     def __init__(self, context, asset, beta=None, material=None, backend="pleat", onnxruntime_library=None,
-                 gpu="none"):
+                 gpu="none", network_rate_hz=0.0):
         self.context, self.asset, lib = context, asset, context.lib
         self.lib = lib
         d = lib.plDefaultInstanceDef()
@@ -251,6 +252,7 @@ class Instance:
         if onnxruntime_library:
             d.onnxruntime_library = os.fsencode(str(onnxruntime_library))
         d.gpu_mode = GPU_MODES[gpu]
+        d.network_rate_hz = float(network_rate_hz)
         self.handle = _Handle()
         _check(lib, lib.plCreateInstance(context.handle, C.byref(d), C.byref(self.handle)), "plCreateInstance")
         self.vertex_count = asset.info["vertex_count"]
@@ -291,6 +293,10 @@ class Instance:
 
     def reset(self):
         _check(self.lib, self.lib.plInstance_Reset(self.handle), "plInstance_Reset")
+
+    def set_network_rate(self, network_rate_hz):
+        _check(self.lib, self.lib.plInstance_SetNetworkRate(self.handle, float(network_rate_hz)),
+               "plInstance_SetNetworkRate")
 
     def set_shape(self, beta):
         b = _f32(beta, -1)

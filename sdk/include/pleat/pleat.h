@@ -60,6 +60,16 @@
 // Outputs are in the space of the root motion (world space when the engine passes world root motion).
 //
 // ==================================================================================================================
+// UPDATE RATE (docs/inputs.md, "Network update rate")
+// ==================================================================================================================
+// With plInstanceDef.network_rate_hz = r > 0 a step runs input assembly, f_LP and f_dec only when the time gathered
+// since the last network update (this step's dt included) reaches 1/r, and then with that whole time as the network's
+// dt, so the networks see a pose history at their own rate (the asset's train_fps is the natural choice). Every other
+// step keeps Z and the blend weights and skins the held deformation T_def with the new pose: on the CPU path it
+// reuses T_def and costs about what LBS costs (forward kinematics, skinning, normals); the GPU path re-blends with the
+// held weights. The first step, and the first after plInstance_Reset, always runs the networks.
+//
+// ==================================================================================================================
 // MEMORY
 // ==================================================================================================================
 // Every allocation goes through the context's allocator hooks (alloc/free, both or neither; default: the C runtime).
@@ -443,6 +453,9 @@ typedef struct plInstanceDef
 	plGpuMode gpu_mode;                ///< PLEAT_GPU_NONE (default), _HOST_CONTEXT or _HEADLESS
 	uint32_t host_position_buffer;     ///< host-context mode: GL buffer name for positions (vec4 per vertex), 0 = own
 	uint32_t host_normal_buffer;       ///< host-context mode: GL buffer name for normals (vec4 per vertex), 0 = own
+	float network_rate_hz;             ///< run the networks at most this often (Hz, e.g. the asset's train_fps under a
+	                                   ///< 60–120 fps game loop); steps in between skin the last learned deformation
+	                                   ///< with the new pose (UPDATE RATE above). 0 = every step (default)
 	void* user_data;                   ///< yours, returned by plInstance_GetUserData
 	int32_t internal_cookie;           ///< set by plDefaultInstanceDef; do not touch
 } plInstanceDef;
@@ -507,6 +520,10 @@ PLEAT_API int plInstance_IsValid( plInstance instance );
 PLEAT_API plResult plInstance_Step( plInstance instance, const plFrameInput* input, const plStepOutput* output );
 /// Forget the pose history and latent: the next step is a first frame.
 PLEAT_API plResult plInstance_Reset( plInstance instance );
+/// Change how often the networks run (Hz; 0 = every step): plInstanceDef.network_rate_hz, e.g. lower for a character
+/// far from the camera. The time already gathered since the last network update is kept. INVALID_ARGUMENT if not
+/// finite or negative (nothing changes).
+PLEAT_API plResult plInstance_SetNetworkRate( plInstance instance, float network_rate_hz );
 /// Set the body shape β ([beta_count] unitless, missing entries 0); recomputes the shaped template and J(β) once.
 /// Values outside [beta_min, beta_max] are clamped (PLEAT_RESULT_CLAMPED).
 PLEAT_API plResult plInstance_SetShape( plInstance instance, const float* beta, uint32_t beta_count );

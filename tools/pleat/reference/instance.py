@@ -27,7 +27,7 @@ class Instance:
     step(rotations [J, 4], root_translation [3], root_rotation [4], dt_s) → (positions [N, 3], normals [N, 3]).
     `last_result` is "ok", "clamped" or "numeric_reset" after each call that changes state."""
 
-    def __init__(self, asset, beta=None, material=None):
+    def __init__(self, asset, beta=None, material=None, network_rate_hz=0.0):
         self.asset = asset
         self.parents = np.asarray(asset["joint_parents"], np.int64)
         self.input_joints = np.asarray(asset["input_joints"], np.int64)
@@ -48,6 +48,7 @@ class Instance:
         self.last_result = RESULT_OK
         self.set_shape(beta)
         self.set_material(material)
+        self.set_network_rate(network_rate_hz)
         self.reset()
 
     def set_shape(self, beta):
@@ -62,10 +63,18 @@ class Instance:
         self.material, self.material_normalised, clamped = clamp_material(self.asset, material)
         return clamped
 
+    def set_network_rate(self, network_rate_hz):
+        """Run the networks at most this often (Hz; 0 = every step), as plInstanceDef.network_rate_hz."""
+        rate = float(network_rate_hz)
+        if not (np.isfinite(rate) and rate >= 0.0):
+            raise ValueError("network_rate_hz: must be finite and >= 0")
+        self.network_interval = 1.0 / rate if rate > 0.0 else 0.0
+
     def reset(self):
         self.latent = np.zeros(self.latent_count)
         self.history = None        # pose features of frames t and t−1, and dt_t
         self.skin_matrices = None
+        self.network_pending = 0.0  # time since the last network update
 
     def _validate(self, rotations, root_translation, root_rotation, dt_s):
         rotations = np.asarray(rotations, np.float64)
@@ -91,7 +100,23 @@ class Instance:
     def step(self, rotations, root_translation, root_rotation, dt_s):
         rotations, root_translation, root_rotation, dt, clamped = self._validate(
             rotations, root_translation, root_rotation, dt_s)
-        result = self._step(rotations, root_translation, root_rotation, dt)
+        # the networks run unless a rate is set and less than its interval has gathered since their last update;
+        # then their dt is all that time (docs/inputs.md, "Network update rate"); dt_s as the C API's float
+        dt_in = float(np.float32(dt_s))
+        run = (self.network_interval <= 0.0 or self.history is None
+               or self.network_pending + dt_in >= self.network_interval * (1.0 - 1e-6))
+        if not run:
+            result = self._skin_held(rotations, root_translation, root_rotation)
+            if result is not None:
+                self.network_pending += dt_in
+                self.last_result = RESULT_OK
+                return result
+        elif self.network_interval > 0.0:
+            lo, hi = np.asarray(self.asset.get("dt_range_s", (1 / 240, 1 / 15)), np.float64)
+            wanted = self.network_pending + dt_in
+            dt = float(np.clip(wanted, lo, hi))
+            clamped = dt != wanted
+        result = None if not run else self._step(rotations, root_translation, root_rotation, dt)
         if result is None:          # non-finite inside the step: reset and recompute from the reset state
             self.reset()
             result = self._step(rotations, root_translation, root_rotation, dt)
@@ -102,6 +127,20 @@ class Instance:
         else:
             self.last_result = RESULT_CLAMPED if clamped else RESULT_OK
         return result
+
+    def _skin_held(self, rotations, root_translation, root_rotation):
+        """A step between network updates: the held blend weights' deformation, skinned with the new pose."""
+        f = pose_features(self.parents, self.joints, self.input_joints, rotations[None], root_translation[None],
+                          root_rotation[None], self.history["yaw"][0])
+        skin_matrices = f["skin_matrices"][0]
+        with np.errstate(all="ignore"):
+            deformed = blend_shapes(self.shaped_template, self.blend, self.blend_weights)
+            positions = skinning(deformed, self.skin_indices, self.skin_weights, skin_matrices)
+            vertex_normals = normals(positions, self.faces, self.adjacency_offsets, self.adjacency_faces)
+        if not (np.all(np.isfinite(positions)) and np.all(np.isfinite(vertex_normals))):
+            return None
+        self.skin_matrices = skin_matrices
+        return positions, vertex_normals
 
     def _step(self, rotations, root_translation, root_rotation, dt):
         previous_yaw = 0.0 if self.history is None else self.history["yaw"][0]
@@ -129,4 +168,5 @@ class Instance:
         self.latent = latent
         self.skin_matrices = now["skin_matrices"]
         self.history = dict(frames=[now, frames[1]], dt=dt, yaw=[now["yaw"]])
+        self.network_pending = 0.0
         return positions, vertex_normals
