@@ -105,4 +105,10 @@ def test_evaluate_scores_lbs_zero_when_the_reference_is_lbs(monkeypatch, tmp_pat
     assert r["teacher"] is None and r["teacher_reason"]
     assert r["reference_spread"]["mean_mm"] == pytest.approx(2.0, rel=1e-3)
     assert r["reference_spread"]["start_perturbation_m"] == 1e-6
+    # at 60 fps with the networks at 30 Hz: 8 frames of 1/60 s, the LBS baseline still exact
+    cli.main(["--asset", str(asset), "--motion", "deepmimic_pybullet/humanoid3d_punch", "--max-frames", "8",
+              "--fps", "60", "--network-rate", "30", "--json", str(out), "--no-progress"])
+    r = json.loads(out.read_text())
+    assert (r["frames"], r["fps"], r["network_rate_hz"]) == (8, 60.0, 30.0)
+    assert r["lbs"]["mean_mm"] < 1e-3 and np.isfinite(r["pleat"]["mean_mm"]) and r["pleat"]["mean_step_us"] > 0
     assert list(tmp_path.glob("*.png"))

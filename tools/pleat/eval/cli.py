@@ -81,10 +81,12 @@ def teacher_rollout(checkpoint, clip, beta, material, weights):
 
 
 def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teacher=None, body_path=None,
-             cache_dir=None, progress=True, context=None, reference_spread=False):
+             cache_dir=None, progress=True, context=None, reference_spread=False, fps=None, network_rate_hz=0.0):
     """The report dict of one asset on one clip (what --json writes), plus per-frame arrays under 'per_frame'.
     reference_spread: also simulate the reference from a start moved by SPREAD_PERTURBATION_M and score it against
-    the first like a method (`reference_spread`): the floor under which no method's error means anything."""
+    the first like a method (`reference_spread`): the floor under which no method's error means anything.
+    fps: the frame rate of the clip, the reference and the runtime's steps (default 30); network_rate_hz: the
+    runtime's plInstanceDef.network_rate_hz for `pleat` (0: the networks run every step)."""
     from pleat import runtime
     from pleat.body import BodyModel
     from pleat.eval.reference import cached_simulate
@@ -95,7 +97,7 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     if not mismatch < 1.0:
         raise SystemExit(f"pleat-eval: the asset's skeleton differs from the body's by {mismatch:.1f} mm; "
                          "evaluate it against the body it was built on (--body)")
-    clip = S.load_motion(motion, body, S.EVAL_FPS, max_frames)
+    clip = S.load_motion(motion, body, fps or S.EVAL_FPS, max_frames)
     T, dt = clip.num_frames, 1.0 / clip.fps
     beta = _clamped_beta(weights, beta)
     material = _clamped_material(weights, material)
@@ -104,7 +106,7 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     own_context = context is None
     ctx = context or runtime.Context()
     try:
-        runs = {"pleat": S.clip_rollout(ctx, data, weights, clip, beta, material),
+        runs = {"pleat": S.clip_rollout(ctx, data, weights, clip, beta, material, network_rate_hz=network_rate_hz),
                 "lbs": S.clip_rollout(ctx, S.lbs_only_bytes(weights), weights, clip, beta, material)}
     finally:
         if own_context:
@@ -128,6 +130,7 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
                   model="lbs-only" if S.is_lbs_only(weights) else "network",
                   clip=clip.name, frames=int(T), fps=float(clip.fps), beta=beta.tolist(), material=material.tolist(),
                   vertices=int(len(weights["template"])), skeleton_mismatch_mm=mismatch,
+                  network_rate_hz=float(network_rate_hz),
                   reference=dict(ref_info,
                                  penetration=_penetration_summary(body_v, body.faces, ref)))
     per_frame = {}
@@ -151,6 +154,7 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
                                           cache_hit=twin_info["cache_hit"])
     for k, r in runs.items():
         report[k]["step_us"] = float(np.median(r.step_us))
+        report[k]["mean_step_us"] = float(np.mean(r.step_us))     # with a network rate the steps differ in cost
         report[k]["numeric_resets"] = r.resets
         report[k]["finite"] = bool(np.isfinite(r.positions).all())
     report["per_frame"] = per_frame
@@ -203,11 +207,15 @@ def main(argv=None):
     ap.add_argument("--reference-spread", action="store_true",
                     help="also score a second reference started 1 µm apart against the first (doubles the "
                          "reference's cost once; cached)")
+    ap.add_argument("--fps", type=float, default=None, help="frame rate of the clip, reference and steps (default 30)")
+    ap.add_argument("--network-rate", type=float, default=0.0,
+                    help="pleat's network update rate in Hz (plInstanceDef.network_rate_hz; default 0: every step)")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args(argv)
     report = evaluate(args.asset, args.motion, parse_floats(args.beta, what="--beta"),
                       parse_floats(args.material, 4, "--material"), args.max_frames, args.teacher, args.body,
-                      args.cache_dir, not args.no_progress, reference_spread=args.reference_spread)
+                      args.cache_dir, not args.no_progress, reference_spread=args.reference_spread, fps=args.fps,
+                      network_rate_hz=args.network_rate)
     if args.plots:
         report["plot"] = str(write_plots(report, args.plots))
     if not args.per_frame:

@@ -109,13 +109,13 @@ class Rollout:
 
 
 def rollout(context, asset_bytes, rotations, root_translation, root_rotation, dt_s, beta=None, material=None,
-            keep_positions=True):
+            keep_positions=True, network_rate_hz=0.0):
     """Steps one C instance through a motion. rotations [T, J, 4] (asset joint order), root_translation [T, 3],
     root_rotation [T, 4], dt_s scalar or [T]. The time of each step is that of the plInstance_Step call alone
     (ctypes structures are prepared outside the timed region)."""
     from pleat import runtime as rt
     asset = context.load_asset(asset_bytes)
-    inst = context.create_instance(asset, beta=beta, material=material)
+    inst = context.create_instance(asset, beta=beta, material=material, network_rate_hz=network_rate_hz)
     try:
         T = len(rotations)
         N = inst.vertex_count
@@ -159,11 +159,12 @@ def rollout(context, asset_bytes, rotations, root_translation, root_rotation, dt
         asset.close()
 
 
-def clip_rollout(context, asset_bytes, weights, clip, beta=None, material=None, dt_s=None, keep_positions=True):
+def clip_rollout(context, asset_bytes, weights, clip, beta=None, material=None, dt_s=None, keep_positions=True,
+                 network_rate_hz=0.0):
     rot = clip_rotations_for(clip, weights["joint_names"])
     dt = 1.0 / clip.fps if dt_s is None else dt_s
     return rollout(context, asset_bytes, rot, clip.root_translation, clip.root_rotation, dt, beta, material,
-                   keep_positions)
+                   keep_positions, network_rate_hz)
 
 
 def median_step_us(context, asset_bytes, rotations, root_translation, root_rotation, dt_s, warmup=30, repeats=5):
