@@ -598,6 +598,9 @@ typedef struct StepConfig
 	const char* ort_library;
 	TwoWorkers* workers; // NULL = serial
 	int small_pages;     // host allocator hooks without huge pages (see BenchAlloc)
+	float network_rate_hz; // plInstanceDef.network_rate_hz (0 = the networks every step)
+	float dt_s;            // > 0: every step's dt instead of the motion's (a game loop's fixed rate)
+	double* out_mean_us;   // optional: the mean step time (steps differ in cost when a network rate is set)
 } StepConfig;
 
 // --small-pages: the context gets host allocator hooks that are plain aligned_alloc/free (BenchAlloc), i.e. an engine allocator
@@ -662,6 +665,7 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 		idef.material = motion->material;
 		idef.mlp_backend = config->backend;
 		idef.onnxruntime_library = config->ort_library;
+		idef.network_rate_hz = config->network_rate_hz;
 		result = plCreateInstance( context, &idef, &instance );
 	}
 	double* step_us = (double*)malloc( sizeof( double ) * iterations );
@@ -676,6 +680,10 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 			plInstance_Reset( instance );
 		}
 		plFrameInput in = MotionFrame( motion, f );
+		if ( config->dt_s > 0.0f )
+		{
+			in.dt_s = config->dt_s;
+		}
 #if defined( PLEAT_STEP_PHASES )
 		plStepPhaseReset();
 #endif
@@ -698,6 +706,13 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 	}
 	if ( result >= 0 )
 	{
+		if ( config->out_mean_us != NULL )
+		{
+			double sum = 0.0;
+			for ( uint32_t i = 0; i < iterations; ++i )
+				sum += step_us[i];
+			*config->out_mean_us = sum / iterations;
+		}
 		*out_median_us = Median( step_us, iterations );
 		result = PLEAT_RESULT_OK;
 	}
@@ -906,7 +921,7 @@ int main( int argc, char** argv )
 			if ( bytes == NULL )
 				continue;
 			StepConfig config = { bytes, which == 0 ? asset_size : size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL,
-								  g_small_pages };
+								  g_small_pages, 0.0f, 0.0f, NULL };
 			g_phase_samples = (double*)malloc( sizeof( double ) * PLEAT_PHASE_COUNT * iterations );
 			double total_us = NAN;
 			result = TimeSteps( &config, &motion, warmup, iterations, &total_us, NULL );
@@ -935,7 +950,8 @@ int main( int argc, char** argv )
 #endif
 	if ( step_only ) // for profilers: nothing but fp32 plInstance_Step
 	{
-		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL, g_small_pages };
+		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL, g_small_pages, 0.0f, 0.0f,
+							NULL };
 		double only_us = NAN;
 		TwoWorkers helper;
 		memset( &helper, 0, sizeof( helper ) );
@@ -965,7 +981,7 @@ int main( int argc, char** argv )
 	double stream_us = TimeStreamFloor( asset_bytes, asset_size, 0, warmup, iterations, &stream_mb );
 	double stream_small_us = TimeStreamFloor( asset_bytes, asset_size, 1, warmup, iterations, &stream_mb );
 	double blend_fp16_us = NAN;
-	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library, NULL, 0 };
+	StepConfig config = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, ort_library, NULL, 0, 0.0f, 0.0f, NULL };
 	double step_us = NAN, step_fp16_us = NAN, scalar_us = NAN, ort_step_us = NAN, mlp_fp16_us = NAN;
 	int avx2 = 0;
 	result = TimeSteps( &config, &motion, warmup, iterations, &step_us, &avx2 );
@@ -979,6 +995,22 @@ int main( int argc, char** argv )
 	if ( result != PLEAT_RESULT_OK )
 		fprintf( stderr, "small-pages step: %s\n", plResultString( result ) );
 	config.small_pages = 0;
+	// A 60 fps game loop: the networks on every step, against the networks at 30 Hz (plInstanceDef.network_rate_hz)
+	// and the held deformation skinned in between. Means, not medians: with a rate the steps alternate in cost.
+	double step_60fps_mean_us = NAN, step_60fps_net30_mean_us = NAN, unused_median_us;
+	config.dt_s = 1.0f / 60.0f;
+	config.out_mean_us = &step_60fps_mean_us;
+	result = TimeSteps( &config, &motion, warmup, iterations, &unused_median_us, NULL );
+	if ( result != PLEAT_RESULT_OK )
+		fprintf( stderr, "60 fps step: %s\n", plResultString( result ) );
+	config.network_rate_hz = 30.0f;
+	config.out_mean_us = &step_60fps_net30_mean_us;
+	result = TimeSteps( &config, &motion, warmup, iterations, &unused_median_us, NULL );
+	if ( result != PLEAT_RESULT_OK )
+		fprintf( stderr, "60 fps step, networks at 30 Hz: %s\n", plResultString( result ) );
+	config.network_rate_hz = 0.0f;
+	config.dt_s = 0.0f;
+	config.out_mean_us = NULL;
 	double step_2w_us = NAN, step_fp16_2w_us = NAN;
 	TwoWorkers pool;
 	memset( &pool, 0, sizeof( pool ) );
@@ -1088,6 +1120,9 @@ int main( int argc, char** argv )
 	PrintJsonNumber( out, "pleat_step_fp16_us", step_fp16_us, 0 );
 	PrintJsonNumber( out, "pleat_step_2workers_us", step_2w_us, 0 );
 	PrintJsonNumber( out, "pleat_step_fp16_2workers_us", step_fp16_2w_us, 0 );
+	PrintJsonNumber( out, "pleat_step_60fps_mean_us", step_60fps_mean_us, 0 );
+	PrintJsonNumber( out, "pleat_step_60fps_net30hz_mean_us", step_60fps_net30_mean_us, 0 );
+	PrintJsonNumber( out, "network_rate_30hz_speedup", step_60fps_mean_us / step_60fps_net30_mean_us, 0 );
 	PrintJsonPrecise( out, "fp16_max_position_diff_mm", fp16_max_mm );
 	PrintJsonPrecise( out, "fp16_rms_position_diff_mm", fp16_rms_mm );
 	PrintJsonPrecise( out, "fp16_max_normal_diff_deg", fp16_max_normal_deg );
