@@ -92,6 +92,7 @@ static void test_null_and_stale_handles_are_rejected( void** state )
 	float f[16];
 	assert_int_equal( plInstance_SetShape( no_inst, f, 1 ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_int_equal( plInstance_SetMaterial( no_inst, f ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( plInstance_SetNetworkRate( no_inst, 30.0f ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_int_equal( plInstance_GetSkinMatrices( no_inst, f, 1 ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_int_equal( plInstance_GetLatent( no_inst, f, 16 ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_int_equal( plInstance_GetBlendWeights( no_inst, f, 16 ), PLEAT_RESULT_INVALID_HANDLE );
@@ -333,6 +334,11 @@ static void test_unavailable_backends_are_reported( void** state )
 	idef.mlp_backend = (plMlpBackend)7;
 	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
 	idef.mlp_backend = PLEAT_MLP_BACKEND_PLEAT;
+	idef.network_rate_hz = -1.0f; // a network rate must be finite and >= 0
+	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
+	idef.network_rate_hz = NAN;
+	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
+	idef.network_rate_hz = 0.0f;
 	idef.gpu_mode = PLEAT_GPU_HOST_CONTEXT; // no GL context is current in this test
 	plResult r = plCreateInstance( rig.context, &idef, &inst );
 	assert_true( r == PLEAT_RESULT_GL_UNAVAILABLE || r == PLEAT_RESULT_GL_ERROR );
