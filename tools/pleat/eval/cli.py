@@ -134,24 +134,22 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
                   reference=dict(ref_info,
                                  penetration=_penetration_summary(body_v, body.faces, ref)))
     per_frame = {}
+
+    def score(name, positions):
+        sd = S.signed_distances(body_v, body.faces, positions)
+        s = metrics.score(positions, ref, weights["faces"], garment.shaped(beta), dt, sd)
+        per_frame[name] = dict(error_mm=s.pop("per_frame_mean_mm"), penetration_pct=s.pop("per_frame_pct"))
+        return s
+
     for k in METHODS:
-        if k not in preds:
-            report[k] = None
-            continue
-        sd = S.signed_distances(body_v, body.faces, preds[k])
-        s = metrics.score(preds[k], ref, weights["faces"], garment.shaped(beta), dt, sd)
-        per_frame[k] = dict(error_mm=s.pop("per_frame_mean_mm"), penetration_pct=s.pop("per_frame_pct"))
-        report[k] = s
+        report[k] = score(k, preds[k]) if k in preds else None
     report["teacher_reason"] = teacher_reason
     report["reference_spread"] = None
     if reference_spread:
         twin, twin_info = cached_simulate(garment, body, clip, beta, material, T, cache_dir=cache_dir,
                                           progress=progress, start_perturbation_m=SPREAD_PERTURBATION_M)
-        sd = S.signed_distances(body_v, body.faces, twin)
-        s = metrics.score(twin, ref, weights["faces"], garment.shaped(beta), dt, sd)
-        per_frame["reference_spread"] = dict(error_mm=s.pop("per_frame_mean_mm"), penetration_pct=s.pop("per_frame_pct"))
-        report["reference_spread"] = dict(s, start_perturbation_m=SPREAD_PERTURBATION_M, key=twin_info["key"],
-                                          cache_hit=twin_info["cache_hit"])
+        report["reference_spread"] = dict(score("reference_spread", twin), start_perturbation_m=SPREAD_PERTURBATION_M,
+                                          key=twin_info["key"], cache_hit=twin_info["cache_hit"])
     for k, r in runs.items():
         report[k]["step_us"] = float(np.median(r.step_us))
         report[k]["mean_step_us"] = float(np.mean(r.step_us))     # with a network rate the steps differ in cost
