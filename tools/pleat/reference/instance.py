@@ -112,9 +112,8 @@ class Instance:
                 self.last_result = RESULT_OK
                 return result
         elif self.network_interval > 0.0:
-            lo, hi = np.asarray(self.asset.get("dt_range_s", (1 / 240, 1 / 15)), np.float64)
-            wanted = self.network_pending + dt_in
-            dt = float(np.clip(wanted, lo, hi))
+            wanted = self.network_pending + dt_in      # may exceed 1 s; dt_max ≤ 1 s, so min() changes no result
+            dt = float(clamp_dt(self.asset, min(wanted, 1.0)))
             clamped = dt != wanted
         result = None if not run else self._step(rotations, root_translation, root_rotation, dt)
         if result is None:          # non-finite inside the step: reset and recompute from the reset state
