@@ -20,18 +20,24 @@ def _pose(case, k):
     return case["rotations"][k], case["root_translation"][k], case["root_rotation"][k]
 
 
+def _assert_half_rate_equals_every_other_pose(at_32hz, every_step, case):
+    """at_32hz stepped at 64 fps, every_step given every other pose at dt = 1/32 (binary-exact dts): after each of
+    the former's network updates both hold the same latent, positions and normals, bit for bit."""
+    for k in range(24):
+        pos_a, nrm_a = at_32hz.step(*_pose(case, k), 1 / 64)
+        if k % 2 == 0:
+            pos_b, nrm_b = every_step.step(*_pose(case, k), 1 / 32)
+            np.testing.assert_array_equal(at_32hz.latent, every_step.latent)
+            np.testing.assert_array_equal(pos_a, pos_b)
+            np.testing.assert_array_equal(nrm_a, nrm_b)
+
+
 def test_half_rate_network_sees_exactly_the_half_rate_history(small):
     """At 32 Hz under a 64 fps loop the networks run on every other step with dt = 1/32: exactly what an instance
-    without a rate computes when it is given every other pose at dt = 1/32 (binary-exact dts)."""
+    without a rate computes when it is given every other pose at dt = 1/32."""
     _, asset, case = small
-    a = Instance(asset, case["beta"], case["material"], network_rate_hz=32.0)
-    b = Instance(asset, case["beta"], case["material"])
-    for k in range(24):
-        pos_a, _ = a.step(*_pose(case, k), 1 / 64)
-        if k % 2 == 0:
-            pos_b, _ = b.step(*_pose(case, k), 1 / 32)
-            np.testing.assert_array_equal(a.latent, b.latent)
-            np.testing.assert_array_equal(pos_a, pos_b)
+    _assert_half_rate_equals_every_other_pose(Instance(asset, case["beta"], case["material"], network_rate_hz=32.0),
+                                              Instance(asset, case["beta"], case["material"]), case)
 
 
 def test_between_updates_the_latent_is_held_and_the_held_deformation_follows_the_pose(small):
@@ -108,13 +114,7 @@ def test_c_half_rate_equals_full_rate_on_every_other_pose_bit_for_bit(small):
         c_asset = ctx.load_asset((out / "asset.pleat").read_bytes())
         a = ctx.create_instance(c_asset, beta=case["beta"], material=case["material"], network_rate_hz=32.0)
         b = ctx.create_instance(c_asset, beta=case["beta"], material=case["material"])
-        for k in range(24):
-            pos_a, nrm_a = a.step(*_pose(case, k), 1 / 64)
-            if k % 2 == 0:
-                pos_b, nrm_b = b.step(*_pose(case, k), 1 / 32)
-                np.testing.assert_array_equal(a.latent, b.latent)
-                np.testing.assert_array_equal(pos_a, pos_b)
-                np.testing.assert_array_equal(nrm_a, nrm_b)
+        _assert_half_rate_equals_every_other_pose(a, b, case)
         # a rate can change at run time, and a bad one changes nothing
         with pytest.raises(runtime.PleatError):
             a.set_network_rate(float("nan"))
