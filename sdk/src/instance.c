@@ -809,8 +809,8 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 	int ok = 0;
 	if ( !run_network )
 	{
-		// Between network updates: the held latent and blend weights, skinned with the new pose.
-		memcpy( inst->next_latent, inst->latent, a->latent_count * sizeof( float ) );
+		// Between network updates: the held blend weights' deformation, skinned with the new pose (the latent is not
+		// committed on such a step, so next_latent is not needed).
 		memcpy( inst->next_weights, inst->blend_weights, a->blend_count * sizeof( float ) );
 		ok = plDeform( inst, read_back, &gl_error, 1 );
 	}
