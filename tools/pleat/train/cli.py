@@ -7,7 +7,8 @@ import time
 
 def main(argv=None):
     p = argparse.ArgumentParser(prog="pleat-train", description=__doc__)
-    p.add_argument("command", choices=["stage1", "stage2", "ablation", "pack", "all"])
+    p.add_argument("command", choices=["stage1", "stage2", "ablation", "pack", "all", "simsup"],
+                   help="simsup: the simulator-supervised recipe (simulate, fit, pack; docs/training.md)")
     p.add_argument("--preset", default="tiny", help="configs/<preset>.json (tiny, default)")
     p.add_argument("--config", default=None, help="a config file instead of the preset")
     p.add_argument("--set", action="append", default=[], metavar="KEY=JSON",
@@ -25,6 +26,8 @@ def main(argv=None):
     p.add_argument("--max-minutes", type=float, default=None,
                    help="wall-clock budget per training stage: stops cleanly, checkpoints and records it; the "
                         "rollout and loss-weight schedules follow the budget when it ends the run first")
+    p.add_argument("--workers", type=int, default=2, help="simsup: simulation processes (default 2)")
+    p.add_argument("--cache-dir", default=None, help="simsup: simulation cache (default out/cache/sim)")
     p.add_argument("--threads", type=int, default=None, help="torch CPU threads (default 1: faster than 2 on the shared 2-core machine)")
     args = p.parse_args(argv)
     try:
@@ -51,6 +54,10 @@ def main(argv=None):
     if args.command in ("stage2", "all"):
         _, val = core.train_stage2(cfg, args.out, args.resume, args.device, progress, args.max_minutes)
         print(f"stage2 done: validation {val}")
+    if args.command == "simsup":
+        from pleat.train import simsup
+        simsup.train(cfg, args.garment, args.out, args.workers, args.max_minutes, args.device, progress,
+                     args.cache_dir)
     if args.command == "ablation":
         core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)
         print("ablation done")

@@ -122,17 +122,17 @@ def tier_sequences(seqs, Vt, sigma, L, teacher_L):
     return out
 
 
-def train_decoder(block, seqs, sigma, iterations, lr, batch, gen, noise=0.05):
+def train_decoder(block, seqs, sigma, iterations, lr, batch, gen, noise=0.05, dev="cpu"):
     """f_dec': Z' → coefficients, MSE weighted by σ² (the displacement error). Inputs get a little noise so the
     decoder is smooth around f_LP's imperfect predictions."""
-    z = torch.as_tensor(np.concatenate([s["z"] for s in seqs]), dtype=torch.float32)
-    c = torch.as_tensor(np.concatenate([s["c"] for s in seqs]), dtype=torch.float32)
-    w2 = torch.as_tensor(sigma ** 2 / (sigma ** 2).sum(), dtype=torch.float32)
+    z = torch.as_tensor(np.concatenate([s["z"] for s in seqs]), dtype=torch.float32, device=dev)
+    c = torch.as_tensor(np.concatenate([s["c"] for s in seqs]), dtype=torch.float32, device=dev)
+    w2 = torch.as_tensor(sigma ** 2 / (sigma ** 2).sum(), dtype=torch.float32, device=dev)
     opt = torch.optim.Adam(block.decoder.parameters(), lr=lr)
     loss = torch.zeros(())
     for _ in range(iterations):
-        idx = torch.randint(len(z), (batch,), generator=gen)
-        zi = z[idx] + noise * torch.randn(batch, z.shape[1], generator=gen)
+        idx = torch.randint(len(z), (batch,), generator=gen).to(dev)
+        zi = z[idx] + noise * torch.randn(batch, z.shape[1], generator=gen).to(dev)
         loss = (((block.decoder(zi) - c[idx]) ** 2) * w2).sum(-1).mean()
         opt.zero_grad()
         loss.backward()
@@ -140,15 +140,15 @@ def train_decoder(block, seqs, sigma, iterations, lr, batch, gen, noise=0.05):
     return float(loss.detach())
 
 
-def train_predictor(lp, seqs, iterations, lr, batch, window, gen):
+def train_predictor(lp, seqs, iterations, lr, batch, window, gen, dev="cpu"):
     """f_LP' exactly as stage 2 trains f_LP: windows starting at a recorded Z'_{j-1} (Z'_0 = 0 at a sequence start),
     fed their own clamped predictions, MSE on the normalised latent."""
-    lengths, static, target = core.padded_sequences(seqs)
+    lengths, static, target = core.padded_sequences(seqs, dev)
     opt = torch.optim.Adam(lp.parameters(), lr=lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, iterations, eta_min=lr * 0.05)
     loss = torch.zeros(())
     for _ in range(iterations):
-        loss = core.window_loss(lp, lp.z_mean, lp.z_std, lengths, static, target, batch, window, gen)
+        loss = core.window_loss(lp, lp.z_mean, lp.z_std, lengths, static, target, batch, window, gen, dev)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -192,7 +192,7 @@ def own_stage2_error(run_dir, seqs):
 
 
 def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iterations=3000, dec_iterations=2000,
-            lr=1e-3, batch=64, window=8, progress=False):
+            lr=1e-3, batch=64, window=8, progress=False, device="cpu"):
     """Train one tier. spec: pleat.eval.tiers.Tier (latent, blend, lp_hidden, dec_hidden, activation). garment:
     None for the teacher's mesh, else a coarser garment of the same shape (its displacements are transferred).
     Returns (lp, block, norms, shim, garment, report)."""
@@ -224,8 +224,9 @@ def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iter
     with torch.no_grad():
         block.blend_shapes.copy_(torch.as_tensor(shapes, dtype=torch.float32))
     block.blend_shapes.requires_grad_(False)
-    dec_loss = train_decoder(block, train, sigma, dec_iterations, lr, batch * 4, gen)
-    lp_loss = train_predictor(lp, train, iterations, lr, batch, window, gen)
+    dec_loss = train_decoder(block.to(device), train, sigma, dec_iterations, lr, batch * 4, gen, dev=device)
+    lp_loss = train_predictor(lp.to(device), train, iterations, lr, batch, window, gen, dev=device)
+    lp, block = lp.cpu(), block.cpu()
     report = {"tier": spec.name, "vertices": len(free_mask), "latent": L, "blend": D,
               "lp_hidden": list(spec.lp_hidden), "dec_hidden": list(spec.dec_hidden),
               "pca_energy": energy, "decoder_loss": dec_loss, "predictor_loss": lp_loss,
@@ -239,15 +240,17 @@ def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iter
     return lp, block, norms, shim, garment, report
 
 
-def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=True, teacher=None):
+def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=True, teacher=None, model=None,
+              training=None, onnx=False):
     """Write the tier with the training pack code (network_weights → weights_from_garment → write_asset)."""
     from pleat.asset import write_asset
     net = core.network_weights(shim, lp.lp, block, norms, fps)
-    meta = {"model": f"pleat tier {report['tier']}: inference block distilled from the stage-1 teacher",
+    meta = {"model": model or f"pleat tier {report['tier']}: inference block distilled from the stage-1 teacher",
             "tier": report["tier"], "distillation": {k: v for k, v in report.items()},
-            "teacher": str(teacher) if teacher else None, "training": {"preset": setup.cfg.get("preset")}}
+            "teacher": str(teacher) if teacher else None,
+            "training": dict({"preset": setup.cfg.get("preset")}, **(training or {}))}
     weights = ga.weights_from_garment(garment, setup.body, net, metadata=meta, name=setup.name)
-    write_asset(str(path), weights, fp16=fp16)
+    write_asset(str(path), weights, fp16=fp16, onnx=onnx)
     return weights
 
 

@@ -1,0 +1,185 @@
+"""Simulated garment sequences for the simulator-supervised recipe (docs/training.md, "Recipes").
+
+The reference simulator (`pleat.sim`) is the teacher: training clips, and their mirrored and time-scaled variants,
+are cut into segments; each segment is simulated at its own sampled β and material on `workers` processes. Every
+segment goes through pleat-eval's on-disk cache (`pleat.eval.reference.cached_simulate`: same key, same folder), so a
+rerun or a resumed run never simulates a segment twice, and a time budget only decides how many segments there are.
+
+A simulated frame becomes a training target by un-skinning it: LBS is an invertible affine map per vertex
+(x = A·v + a with A = Σ_k w_k R_k), so d = A⁻¹(x − a) − (T + G_S(β)) is exactly the rest-frame displacement the
+runtime's blend shapes must add for the runtime to reproduce the simulated frame. A user's own offline simulation
+(`pleat.train.pointcache`) becomes segments of the same kind.
+"""
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from pleat import garment_asset as ga
+
+# The variants of a training clip the data is drawn from: (name, time scale). Mirroring swaps left and right; a
+# time scale above 1 plays the clip faster (fast motion is where learned cloth breaks first, docs/stability.md).
+VARIANTS = (("original", 1.0), ("mirrored", 1.0), ("fast", 1.5), ("slow", 0.7))
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One simulated sequence: frames [start, start + frames) of a variant of a training clip."""
+    clip: str
+    variant: str
+    start: int
+    frames: int
+    beta: tuple
+    material: tuple
+
+
+def variant_clip(clip, variant):
+    """The pleat.motion Clip played as `variant` (see VARIANTS), at the clip's own frame rate."""
+    scale = dict(VARIANTS)[variant]
+    if variant == "mirrored":
+        clip = clip.mirrored()
+    if scale != 1.0:
+        clip = clip.time_scaled(scale)
+    return clip
+
+
+def cut(clip, start, frames):
+    """Frames [start, start + frames) of a Clip."""
+    sel = slice(start, start + frames)
+    return replace(clip, local_rotations=clip.local_rotations[sel], root_translation=clip.root_translation[sel],
+                   root_rotation=clip.root_rotation[sel])
+
+
+def sample_beta(rng, count, scale, limit):
+    """β ~ N(0, scale²) per component, clipped to ±limit: most bodies near the mean, some far from it."""
+    return np.clip(rng.normal(0.0, scale, count), -limit, limit)
+
+
+def sample_material(rng, default_share):
+    """The asset's default material with probability `default_share`, else uniform in the paper's ranges."""
+    if rng.uniform() < default_share:
+        return np.array(ga.MATERIAL_DEFAULT, np.float64)
+    lo, hi = np.array(ga.MATERIAL_MIN), np.array(ga.MATERIAL_MAX)
+    return lo + rng.uniform(0.0, 1.0, 4) * (hi - lo)
+
+
+def plan_segments(clips, cfg, beta_count, seed):
+    """The segments to simulate, in the order they are worth simulating: round-robin over (clip, variant) so that a
+    run stopped by its time budget still covers every clip. The first segment of every clip is at β = 0 and the
+    default material (the validation setting)."""
+    rng = np.random.default_rng([seed, 11])
+    F = int(cfg["segment_frames"])
+    per_source = []
+    for clip in clips:
+        for variant, _ in VARIANTS:
+            if variant not in cfg["variants"]:
+                continue
+            T = variant_clip(clip, variant).num_frames
+            frames = min(F, T)
+            starts = list(range(0, max(T - frames, 0) + 1, max(frames // 2, 1)))
+            rng.shuffle(starts)
+            per_source.append([(clip.name, variant, int(s), int(frames)) for s in starts])
+    order = []
+    rounds = max(len(s) for s in per_source) * int(cfg["repeats"])
+    for r in range(rounds):
+        for src in per_source:
+            if src:
+                order.append(src[r % len(src)])
+    segments = []
+    for k, (name, variant, start, frames) in enumerate(order):
+        first = k < len(per_source) and variant == "original"
+        beta = np.zeros(beta_count) if first else sample_beta(rng, beta_count, cfg["beta_scale"], cfg["beta_max"])
+        mat = np.array(ga.MATERIAL_DEFAULT) if first else sample_material(rng, cfg["default_material_share"])
+        segments.append(Segment(name, variant, start, frames, tuple(map(float, beta)), tuple(map(float, mat))))
+    return segments
+
+
+# ---- simulation on worker processes ---------------------------------------------------------------------------
+_WORKER = {}
+
+
+def _worker_init(garment_arrays, body_path, clip_names, fps, cache_dir):
+    # one thread per process: the workers are the parallelism
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    from pleat.body import BodyModel
+    from pleat.garment import Garment
+    from pleat.motion import load_clip
+    body = BodyModel.load(body_path)
+    _WORKER.update(body=body, garment=Garment.build(**garment_arrays), cache_dir=cache_dir,
+                   clips={n: load_clip(n, body=body).resample(fps) for n in clip_names})
+
+
+def _simulate_segment(segment, deadline):
+    """Simulates one segment through the cache; returns (segment, cache path, seconds, hit) or None past the
+    deadline."""
+    if deadline is not None and time.time() > deadline:
+        return None
+    from pleat.eval.reference import cached_simulate
+    w = _WORKER
+    clip = cut(variant_clip(w["clips"][segment.clip], segment.variant), segment.start, segment.frames)
+    t0 = time.process_time()
+    _, info = cached_simulate(w["garment"], w["body"], clip, np.array(segment.beta), np.array(segment.material),
+                              segment.frames, cache_dir=w["cache_dir"], progress=False)
+    return segment, info["path"], time.process_time() - t0, info["cache_hit"]
+
+
+def garment_arrays(setup):
+    """What pleat.garment.Garment.build needs, from the training setup's garment (the asset's own arrays)."""
+    return dict(name=setup.name, template=setup.template, faces=setup.faces, skin_indices=setup.skin_indices,
+                skin_weights=setup.skin_weights, shape_blend=setup.shape_blend, pinned=setup.pinned)
+
+
+def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=None):
+    """Simulates the segments on `workers` processes until done or past `deadline` (time.time()); returns
+    [(segment, cache path)] of those finished, and the CPU seconds spent (cache hits cost ~0)."""
+    from pleat import REPO_ROOT
+    body_path = str(REPO_ROOT / setup.cfg["body"]) if not os.path.isabs(setup.cfg["body"]) else setup.cfg["body"]
+    names = sorted({s.clip for s in segments})
+    done, cpu_s = [], 0.0
+    args = (garment_arrays(setup), body_path, names, float(setup.cfg["fps"]), str(cache_dir))
+    with ProcessPoolExecutor(max_workers=max(1, int(workers)), initializer=_worker_init, initargs=args) as pool:
+        futures = [pool.submit(_simulate_segment, s, deadline) for s in segments]
+        for k, f in enumerate(futures):
+            r = f.result()
+            if r is None:
+                continue
+            seg, path, sec, hit = r
+            done.append((seg, path))
+            cpu_s += sec
+            if log is not None:
+                log({"segment": k, "clip": seg.clip, "variant": seg.variant, "start": seg.start,
+                     "frames": seg.frames, "cpu_s": round(sec, 2), "cache_hit": bool(hit)})
+    return done, cpu_s
+
+
+# ---- targets ----------------------------------------------------------------------------------------------------
+def unskin(A, x):
+    """Rest-frame positions v with A[..., :3] v + A[..., 3] = x (per vertex; A [T, N, 3, 4], x [T, N, 3])."""
+    return np.linalg.solve(A[..., :3], (x - A[..., 3])[..., None])[..., 0]
+
+
+def sequence(setup, clip, beta, material, positions):
+    """One training sequence from a simulated clip: X_c rows [T, I] (latent block zero; row t predicts frame t
+    from a reset at frame 0, as the runtime does) and the rest-frame displacement targets [T, N, 3]."""
+    from types import SimpleNamespace
+    c = SimpleNamespace(rotations=clip.local_rotations, root_translation=clip.root_translation,
+                        root_rotation=clip.root_rotation, fps=clip.fps)
+    T = min(len(positions), clip.num_frames)
+    win = setup.pose_window(c, 0, T, beta)
+    static = setup.static_inputs(win, beta, material)
+    disp = unskin(win["A"], np.asarray(positions[:T], np.float64)) - setup.shaped(beta)[None]
+    disp[:, setup.pinned] = 0.0
+    return {"static": static.astype(np.float64), "disp": disp}
+
+
+def load_sequences(setup, done, clips_by_name):
+    """Training sequences for finished segments [(segment, cache path)]."""
+    seqs = []
+    for seg, path in done:
+        clip = cut(variant_clip(clips_by_name[seg.clip], seg.variant), seg.start, seg.frames)
+        with np.load(path, allow_pickle=False) as z:
+            positions = z["positions"]
+        seqs.append(sequence(setup, clip, np.array(seg.beta), np.array(seg.material), positions))
+    return seqs

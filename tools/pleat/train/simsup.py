@@ -1,0 +1,165 @@
+"""The simulator-supervised recipe: `pleat-train simsup` (docs/training.md, "Recipes").
+
+    pleat-train simsup --preset default --garment tshirt --out out/train/simsup --max-minutes 110 --workers 2
+
+1. Simulate (`pleat.train.simdata`): training-clip segments at sampled β and material on `workers` processes, through
+   the simulation cache, for `simsup.simulate_share` of the budget; the validation clips at β = 0 and the default
+   material (pleat-eval's setting) are simulated too, for the verdict only.
+2. Fit the compact latent space and the blend shapes to the un-skinned simulated frames, and the latent predictor
+   on them, at the shipped sizes (L = D = 128, f_dec 2×512, f_LP 3×512): `pleat.train.distill.distill` with the
+   simulator as the teacher (principal blend shapes, f_dec, then f_LP fed its own predictions as in stage 2).
+3. Pack, with the recipe, the data and the CPU time in META, and print a plain verdict against LBS-only on the
+   validation clips (posed mean vertex error against the simulator, in mm).
+Every step resumes: the simulations are cached, the fitted model is checkpointed (simsup.pt).
+"""
+import json
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import torch
+
+from pleat.train import core, distill, simdata, sources
+
+
+def _clips(split, fps, body):
+    from pleat.motion import load_clip
+    from pleat.motion.split import TRAINING, VALIDATION
+    names = TRAINING if split == "train" else VALIDATION
+    return {n: SimpleNamespace(clip=load_clip(n, body=body).resample(fps), name=n) for n in names}
+
+
+def _named(clips):
+    out = {}
+    for name, c in clips.items():
+        c.clip.name = name
+        out[name] = c.clip
+    return out
+
+
+@torch.no_grad()
+def posed_errors(lp, block, seqs, setup_latent):
+    """Free-running from a reset (Z_0 = 0, as the runtime does) on sequences with their skinning "A" and simulated
+    "positions": mean per-vertex distance to the simulation (mm) of the model and of LBS-only, per sequence.
+    setup_latent: the size of the latent block the sequences' X_c rows were assembled with (replaced by the
+    model's own)."""
+    B = block.exported_blend_shapes().double()
+    L = int(lp.z_mean.shape[0])
+    out = []
+    for s in seqs:
+        rows = np.concatenate([np.zeros((len(s["static"]), L)), s["static"][:, setup_latent:]], 1)
+        A = torch.as_tensor(s["A"])
+        shaped = torch.as_tensor(s["shaped"])
+        x_sim = torch.as_tensor(s["positions"], dtype=torch.float64)
+        z = torch.zeros(lp.z_mean.shape)
+        err = []
+        for k, row in enumerate(torch.as_tensor(rows, dtype=torch.float32)):
+            _, z = lp(z, row)
+            d = torch.einsum("d,dnc->nc", block.decoder(z).double(), B)
+            x = torch.einsum("nab,nb->na", A[k, :, :, :3], shaped + d) + A[k, :, :, 3]
+            err.append(float((x - x_sim[k]).norm(dim=-1).mean()))
+        lbs = torch.einsum("tnab,nb->tna", A[..., :3], shaped) + A[..., 3]
+        out.append({"clip": s.get("name", ""), "pleat_mm": 1e3 * float(np.mean(err)),
+                    "lbs_mm": 1e3 * float((lbs - x_sim).norm(dim=-1).mean())})
+    return out
+
+
+def validation_sequences(setup, clips, frames, workers, cache_dir, log):
+    """pleat-eval's validation setting (β = 0, default material, the first `frames` frames) on every validation
+    clip, simulated through the same cache, as sequences with what posed_errors needs."""
+    beta = np.zeros(setup.B)
+    mat = tuple(float(v) for v in simdata.ga.MATERIAL_DEFAULT)
+    segs = [simdata.Segment(n, "original", 0, min(frames, c.num_frames), tuple(beta), mat) for n, c in clips.items()]
+    done, cpu_s = simdata.simulate_segments(setup, segs, workers, cache_dir, log=log)
+    seqs = []
+    for seg, path in done:
+        clip = simdata.cut(clips[seg.clip], 0, seg.frames)
+        with np.load(path, allow_pickle=False) as z:
+            pos = z["positions"][:seg.frames]
+        s = simdata.sequence(setup, clip, beta, np.array(mat), pos)
+        c = SimpleNamespace(rotations=clip.local_rotations, root_translation=clip.root_translation,
+                            root_rotation=clip.root_rotation, fps=clip.fps)
+        s.update(A=setup.pose_window(c, 0, len(pos), beta)["A"], shaped=setup.shaped(beta), positions=pos,
+                 name=seg.clip)
+        seqs.append(s)
+    return seqs, cpu_s
+
+
+def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progress=True, cache_dir=None,
+          resume=True):
+    from pleat.eval.reference import DEFAULT_CACHE
+    from pleat.eval.tiers import tier
+    t_start = time.time()
+    c = cfg["simsup"]
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    cache_dir = Path(cache_dir or DEFAULT_CACHE)
+    setup = core.Setup(cfg, garment, "cpu")
+    run = core.Run(out, "simsup", cfg, 0)
+    budget_s = 60.0 * max_minutes if max_minutes else None
+
+    def log(rec):
+        run.log(rec)
+        if progress and "segment" in rec and rec["segment"] % 10 == 0:
+            print(f"simsup: segment {rec['segment']} {rec['clip']} ({rec['variant']}) {rec['cpu_s']} CPU s",
+                  file=sys.stderr)
+
+    # 1. data
+    train_clips = _named(_clips("train", cfg["fps"], setup.body))
+    val_clips = _named(_clips("validation", cfg["fps"], setup.body))
+    if c.get("validation_limit"):
+        val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
+    segments = simdata.plan_segments(list(train_clips.values()), c, setup.B, cfg["seed"])
+    segments = segments[:int(c["max_segments"])] if c.get("max_segments") else segments
+    deadline = None if budget_s is None else t_start + c["simulate_share"] * budget_s
+    done, sim_cpu = simdata.simulate_segments(setup, segments, workers, cache_dir, deadline, log)
+    val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log)
+    seqs = simdata.load_sequences(setup, done, train_clips)
+    frames = int(sum(len(s["disp"]) for s in seqs))
+    run.log({"data": {"segments": len(seqs), "frames": frames, "planned_segments": len(segments),
+                      "simulation_cpu_s": sim_cpu, "validation_cpu_s": val_cpu, "wall_s": time.time() - t_start}})
+    if progress:
+        print(f"simsup: {len(seqs)} segments, {frames} frames simulated ({sim_cpu / 3600:.2f} CPU h)", file=sys.stderr)
+
+    # 2. fit
+    spec = tier(c["tier"])
+    dev = core.device_for(device, 0)
+    t_fit = time.time()
+    lp, block, norms, shim, g, report = distill.distill(
+        seqs, setup, spec, val, None, cfg["seed"], c["iterations"], c["dec_iterations"], c["lr"], c["batch"],
+        c["window"], progress, device=dev)
+    fit_s = time.time() - t_fit
+    torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
+                "config": cfg, "garment": garment}, out / "simsup.pt")
+    val_err = posed_errors(lp, block, val, setup.L)
+    # 3. pack
+    cpu_h = (sim_cpu + val_cpu) / 3600.0 + fit_s * max(1, torch.get_num_threads()) / 3600.0
+    summary = {"recipe": "simulator-supervised", "segments": len(seqs), "frames": frames,
+               "clips": sorted(train_clips), "variants": list(c["variants"]),
+               "simulation_cpu_h": sim_cpu / 3600.0, "fit_wall_s": fit_s, "cpu_hours": cpu_h,
+               "wall_s": time.time() - t_start, "hardware": core.hardware(), "fit": report,
+               "validation": val_err}
+    path = out / f"{setup.name}.pleat"
+    distill.pack_tier(path, lp, block, norms, shim, g, setup, dict(report, tier="large"), cfg["fps"],
+                      fp16=c.get("fp16", True), teacher="reference simulator",
+                      model="pleat simulator-supervised: inference block fitted to the reference simulator",
+                      training=summary)
+    run.log({"summary": summary})
+    (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
+    print(verdict(val_err))
+    return path, summary
+
+
+def verdict(rows):
+    """One plain line: better or worse than LBS-only on the validation clips, by how much."""
+    if not rows:
+        return "verdict: no validation clip was simulated"
+    p = float(np.mean([r["pleat_mm"] for r in rows]))
+    lbs = float(np.mean([r["lbs_mm"] for r in rows]))
+    worse = [r["clip"].split("/")[-1] for r in rows if r["pleat_mm"] > r["lbs_mm"]]
+    word = "BETTER" if p < lbs else "WORSE"
+    tail = f"; worse than LBS-only on {', '.join(worse)}" if worse else "; better on every clip"
+    return (f"verdict: {word} than LBS-only on {len(rows)} validation clips: {p:.1f} mm against {lbs:.1f} mm "
+            f"(ratio {p / lbs:.2f}){tail}")
