@@ -16,8 +16,8 @@ typedef enum plGlDeformerMode
 	// The engine's GL 4.3+ context is current on the calling thread for Create, Run and Destroy. The SDK saves and
 	// restores every piece of GL state it touches and never makes a context current.
 	PLEAT_GL_DEFORMER_HOST_CONTEXT = 1,
-	// The SDK creates its own headless context (EGL surfaceless, OSMesa as fallback) and makes it current only inside
-	// its own calls, restoring the previously current EGL context afterwards.
+	// The SDK creates its own headless context (EGL device platform with a hardware device, then EGL surfaceless, then
+	// OSMesa) and makes it current only inside its own calls, restoring the previously current EGL context afterwards.
 	PLEAT_GL_DEFORMER_HEADLESS = 2,
 } plGlDeformerMode;
 
@@ -41,6 +41,10 @@ typedef struct plGlDeformerDesc
 	// from; the deformer writes one vec4 per vertex (xyz, w = 1 for positions, 0 for normals).
 	uint32_t host_position_buffer;
 	uint32_t host_normal_buffer;
+	// Headless mode only, optional (NULL = no report): Create writes here, NUL-terminated, which platform, device and
+	// renderer the headless context got (or why every route failed), for the instance to log.
+	char* report;
+	size_t report_size;
 } plGlDeformerDesc;
 
 plResult plGlDeformer_Create( const plGlDeformerDesc* desc, const plAllocator* allocator, plGlDeformer** out );

@@ -5,6 +5,7 @@
 #include "gl_deformer.h"
 #include "jobs.h"
 #include "ort_backend.h"
+#include "skeleton.h"
 #include "step_phases.h"
 
 #include <math.h>
@@ -299,7 +300,16 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 		}
 		if ( r != PLEAT_RESULT_OK )
 		{
-			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_BACKEND_UNAVAILABLE, "%s", plResultString( r ) );
+			char why[400];
+			if ( r == PLEAT_RESULT_BACKEND_UNAVAILABLE &&
+				 plOrtMlp_DescribeUnavailable( def->onnxruntime_library, why, sizeof( why ) ) )
+			{
+				plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_BACKEND_UNAVAILABLE, "%s: %s", plResultString( r ), why );
+			}
+			else
+			{
+				plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_BACKEND_UNAVAILABLE, "%s", plResultString( r ) );
+			}
 			return r;
 		}
 	}
@@ -323,12 +333,23 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 		desc.adjacency_faces = a->adjacency_faces;
 		desc.host_position_buffer = def->gpu_mode == PLEAT_GPU_HOST_CONTEXT ? def->host_position_buffer : 0;
 		desc.host_normal_buffer = def->gpu_mode == PLEAT_GPU_HOST_CONTEXT ? def->host_normal_buffer : 0;
+		// Headless: the SDK picks the platform and device itself, so it says which it got (a GPU machine silently
+		// running on a software rasteriser is the failure this makes visible).
+		char report[448];
+		report[0] = '\0';
+		desc.report = report;
+		desc.report_size = sizeof( report );
 		plResult r = plGlDeformer_Create( &desc, &ctx->allocator, &inst->gl );
 		if ( r != PLEAT_RESULT_OK )
 		{
 			inst->gl = NULL;
-			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_GL_UNAVAILABLE, "%s", plResultString( r ) );
+			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_GL_UNAVAILABLE, "%s%s%s", plResultString( r ),
+				   report[0] != '\0' ? ": " : "", report );
 			return r;
+		}
+		if ( def->gpu_mode == PLEAT_GPU_HEADLESS )
+		{
+			plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_GL_HEADLESS_CONTEXT, "%s", report );
 		}
 	}
 	return PLEAT_RESULT_OK;
@@ -349,21 +370,44 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
+	// Every rejection below names the def field (and entry) in the log: the result code alone cannot say which of a
+	// dozen fields an integrator got wrong.
 	if ( def->internal_cookie != PLEAT_DEF_COOKIE )
 	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+			   "internal_cookie: the def was not made by plDefaultInstanceDef()" );
 		return PLEAT_RESULT_INVALID_DEF;
 	}
 	plAssetData* a = plGetAssetData( def->asset );
 	if ( a == NULL || def->asset.context1 != ctx->index1 )
 	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+			   "asset: null, destroyed or from another context" );
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	if ( ( def->mlp_backend != PLEAT_MLP_BACKEND_PLEAT && def->mlp_backend != PLEAT_MLP_BACKEND_ONNXRUNTIME ) ||
-		 ( def->gpu_mode != PLEAT_GPU_NONE && def->gpu_mode != PLEAT_GPU_HOST_CONTEXT &&
-		   def->gpu_mode != PLEAT_GPU_HEADLESS ) ||
-		 def->beta_count > a->beta_count || ( def->beta == NULL && def->beta_count != 0 ) ||
-		 !( isfinite( def->network_rate_hz ) && def->network_rate_hz >= 0.0f ) )
+	if ( def->mlp_backend != PLEAT_MLP_BACKEND_PLEAT && def->mlp_backend != PLEAT_MLP_BACKEND_ONNXRUNTIME )
 	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "mlp_backend %d is not a plMlpBackend",
+			   (int)def->mlp_backend );
+		return PLEAT_RESULT_INVALID_DEF;
+	}
+	if ( def->gpu_mode != PLEAT_GPU_NONE && def->gpu_mode != PLEAT_GPU_HOST_CONTEXT && def->gpu_mode != PLEAT_GPU_HEADLESS )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "gpu_mode %d is not a plGpuMode",
+			   (int)def->gpu_mode );
+		return PLEAT_RESULT_INVALID_DEF;
+	}
+	if ( def->beta_count > a->beta_count || ( def->beta == NULL && def->beta_count != 0 ) )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+			   "beta_count %u: the asset has %u shape components%s", def->beta_count, a->beta_count,
+			   def->beta == NULL ? " and beta is NULL" : "" );
+		return PLEAT_RESULT_INVALID_DEF;
+	}
+	if ( !( isfinite( def->network_rate_hz ) && def->network_rate_hz >= 0.0f ) )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "network_rate_hz %g: must be finite and >= 0",
+			   (double)def->network_rate_hz );
 		return PLEAT_RESULT_INVALID_DEF;
 	}
 	uint32_t engine_joints = def->engine_joint_count != 0 ? def->engine_joint_count : a->joint_count;
@@ -371,29 +415,51 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	{
 		if ( def->joint_map_count != a->joint_count )
 		{
+			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+				   "joint_map_count %u: must equal the asset's joint count %u (one entry per asset joint)",
+				   def->joint_map_count, a->joint_count );
 			return PLEAT_RESULT_JOINT_COUNT_MISMATCH;
 		}
 		for ( uint32_t j = 0; j < a->joint_count; ++j )
 		{
 			if ( def->joint_map[j] < -1 || def->joint_map[j] >= (int64_t)engine_joints )
 			{
+				plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+					   "joint_map[%u] (asset joint '%s') = %d: outside -1..%u (engine_joint_count %u)", j,
+					   a->joint_names + (size_t)j * PLEAT_JOINT_NAME_SIZE, (int)def->joint_map[j], engine_joints - 1u,
+					   engine_joints );
 				return PLEAT_RESULT_JOINT_COUNT_MISMATCH;
 			}
 		}
 	}
 	else if ( engine_joints != a->joint_count )
 	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+			   "engine_joint_count %u without a joint_map: must be 0 or the asset's joint count %u",
+			   def->engine_joint_count, a->joint_count );
 		return PLEAT_RESULT_JOINT_COUNT_MISMATCH;
 	}
 	for ( uint32_t b = 0; b < def->beta_count; ++b )
 	{
 		if ( !isfinite( def->beta[b] ) )
 		{
+			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "beta[%u] = %g is not finite", b,
+				   (double)def->beta[b] );
 			return PLEAT_RESULT_NON_FINITE_INPUT;
 		}
 	}
 	if ( def->material != NULL && !plAllFiniteFloats( def->material, 4 ) )
 	{
+		static const char* const material_names[4] = { "areal density m", "mu", "lambda", "bending k" };
+		for ( uint32_t i = 0; i < 4; ++i )
+		{
+			if ( !isfinite( def->material[i] ) )
+			{
+				plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "material[%u] (%s) = %g is not finite",
+					   i, material_names[i], (double)def->material[i] );
+				break;
+			}
+		}
 		return PLEAT_RESULT_NON_FINITE_INPUT;
 	}
 
@@ -733,7 +799,24 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 	}
 	if ( !finite )
 	{
-		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_INPUT, "non-finite pose, root or dt" );
+		// Name the first offender in the engine's joint numbering: that is the array the engine filled.
+		int32_t bad_engine_joint = -1;
+		for ( uint32_t j = 0; j < a->joint_count && bad_engine_joint < 0; ++j )
+		{
+			for ( int c = 0; c < 4; ++c )
+			{
+				bad_engine_joint = isfinite( quats[j][c] ) ? bad_engine_joint : inst->joint_map[j];
+			}
+		}
+		if ( bad_engine_joint >= 0 )
+		{
+			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_INPUT, "engine joint %d rotation is not finite",
+				   (int)bad_engine_joint );
+		}
+		else
+		{
+			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_INPUT, "non-finite root or dt" );
+		}
 		return PLEAT_RESULT_NON_FINITE_INPUT;
 	}
 	if ( root_q[0] == 0.0 && root_q[1] == 0.0 && root_q[2] == 0.0 && root_q[3] == 0.0 )
@@ -745,8 +828,10 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 	{
 		if ( !plValidQuatLength( quats[j], &length ) )
 		{
-			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_INPUT, "joint %u quaternion length %g", j,
-				   length );
+			// The engine's index (what it filled joint_rotations by), with the asset joint it drives for context.
+			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_INPUT,
+				   "engine joint %d (asset joint %u '%s') quaternion length %g", (int)inst->joint_map[j], j,
+				   a->joint_names + (size_t)j * PLEAT_JOINT_NAME_SIZE, length );
 			return PLEAT_RESULT_INVALID_QUATERNION;
 		}
 		for ( int c = 0; c < 4; ++c )
@@ -1108,4 +1193,24 @@ void* plInstance_GetUserData( plInstance handle )
 {
 	plInstanceData* inst = plGetInstanceData( handle );
 	return inst != NULL ? inst->user_data : NULL;
+}
+
+plResult plInstance_GetRestPose( plInstance handle, plRestJoint* out_joints, uint32_t joint_capacity )
+{
+	if ( out_joints == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plInstanceData* inst = plGetInstanceData( handle );
+	if ( inst == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	if ( joint_capacity < inst->asset->joint_count )
+	{
+		return PLEAT_RESULT_BUFFER_TOO_SMALL;
+	}
+	// rest_joints is the J(β) forward kinematics uses (plApplyShape), so a retarget sees exactly those joints.
+	plFillRestPose( inst->asset->parents, inst->rest_joints, inst->asset->joint_count, out_joints );
+	return PLEAT_RESULT_OK;
 }

@@ -19,6 +19,7 @@
 #include <dlfcn.h>
 #include <limits.h>
 #include <pthread.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -59,7 +60,8 @@ static struct
 	const OrtApi* api;
 	OrtEnv* env;
 	uint32_t env_refs;
-} s_ort = { PTHREAD_MUTEX_INITIALIZER, NULL, NULL, NULL, 0 };
+	char load_error[256]; // dlerror() of the last candidate that failed to open, for plOrtMlp_DescribeUnavailable
+} s_ort = { PTHREAD_MUTEX_INITIALIZER, NULL, NULL, NULL, 0, { 0 } };
 
 // ORT logs through the env; the SDK never prints, so messages are dropped. Failures reach the caller as result codes.
 static void plOrt_DiscardLog( void* param, OrtLoggingLevel severity, const char* category, const char* logid,
@@ -111,11 +113,9 @@ static void* plOrt_FindSymbol( void* library, const char* name )
 	return dlsym( library, name );
 }
 
-// Opens `path` (or the search list of ort_backend.h) and checks it is ONNX Runtime with our API version.
-// Called with the mutex held and no library loaded.
-static plResult plOrt_LoadLibrary( const char* path )
+// The search list of ort_backend.h: `path` alone, or $PLEAT_ONNXRUNTIME_LIBRARY then the two sonames.
+static int plOrt_Candidates( const char* path, const char* candidates[3] )
 {
-	const char* candidates[3];
 	int candidate_count = 0;
 	if ( path != NULL )
 	{
@@ -131,12 +131,23 @@ static plResult plOrt_LoadLibrary( const char* path )
 		candidates[candidate_count++] = "libonnxruntime.so";
 		candidates[candidate_count++] = "libonnxruntime.so.1";
 	}
+	return candidate_count;
+}
 
+// Opens `path` (or the search list of ort_backend.h) and checks it is ONNX Runtime with our API version.
+// Called with the mutex held and no library loaded.
+static plResult plOrt_LoadLibrary( const char* path )
+{
+	const char* candidates[3];
+	int candidate_count = plOrt_Candidates( path, candidates );
+	s_ort.load_error[0] = '\0';
 	for ( int i = 0; i < candidate_count; ++i )
 	{
 		void* library = dlopen( candidates[i], RTLD_NOW | RTLD_LOCAL );
 		if ( library == NULL )
 		{
+			const char* error = dlerror();
+			snprintf( s_ort.load_error, sizeof( s_ort.load_error ), "%s", error != NULL ? error : candidates[i] );
 			continue;
 		}
 		void* symbol = plOrt_FindSymbol( library, "OrtGetApiBase" );
@@ -526,7 +537,44 @@ void plOrtMlp_Destroy( plOrtMlp* mlp )
 	}
 }
 
+int plOrtMlp_DescribeUnavailable( const char* library_path, char* out, size_t out_size )
+{
+	if ( out == NULL || out_size == 0 )
+	{
+		return 0;
+	}
+	out[0] = '\0';
+	pthread_mutex_lock( &s_ort.mutex );
+	int loaded = s_ort.library != NULL;
+	int usable = s_ort.api != NULL;
+	char load_error[sizeof( s_ort.load_error )];
+	memcpy( load_error, s_ort.load_error, sizeof( load_error ) );
+	pthread_mutex_unlock( &s_ort.mutex );
+	if ( loaded && usable )
+	{
+		return 0;
+	}
+	if ( loaded )
+	{
+		snprintf( out, out_size, "the ONNX Runtime library found is older than C API version %d", ORT_API_VERSION );
+		return 1;
+	}
+	// Not found: say what was tried and how to point the SDK at the library, the one fix an integrator needs.
+	const char* candidates[3];
+	int candidate_count = plOrt_Candidates( library_path, candidates );
+	// The advice first: the log line is bounded, and a long path or dlerror text must not push it out.
+	snprintf( out, out_size,
+			  "ONNX Runtime library not found; set PLEAT_ONNXRUNTIME_LIBRARY (or plInstanceDef.onnxruntime_library) "
+			  "to the full path of libonnxruntime.so (tried %s%s%s%s%s%s; last error: %s)",
+			  candidates[0], candidate_count > 1 ? ", " : "", candidate_count > 1 ? candidates[1] : "",
+			  candidate_count > 2 ? ", " : "", candidate_count > 2 ? candidates[2] : "",
+			  library_path != NULL ? " from plInstanceDef.onnxruntime_library" : "", load_error );
+	return 1;
+}
+
 #else // no ONNX Runtime header at build time (or Windows, where dlopen is not available): the backend is absent
+
+#include <string.h>
 
 plResult plOrtMlp_Create( const char* library_path, const void* onnx_model, size_t onnx_model_size,
 						  uint32_t input_count, uint32_t output_count, const plAllocator* allocator, plOrtMlp** out )
@@ -555,6 +603,22 @@ plResult plOrtMlp_Run( plOrtMlp* mlp, const float* input, float* output )
 void plOrtMlp_Destroy( plOrtMlp* mlp )
 {
 	(void)mlp;
+}
+
+int plOrtMlp_DescribeUnavailable( const char* library_path, char* out, size_t out_size )
+{
+	(void)library_path;
+	if ( out == NULL || out_size == 0 )
+	{
+		return 0;
+	}
+	// The stub cannot load anything; still point at PLEAT_ONNXRUNTIME_LIBRARY's prerequisite, the header.
+	static const char message[] = "built without the ONNX Runtime C API header (scripts/fetch-ort-header.sh), so "
+								  "PLEAT_ONNXRUNTIME_LIBRARY is not consulted and the backend is absent";
+	size_t n = sizeof( message ) < out_size ? sizeof( message ) : out_size;
+	memcpy( out, message, n );
+	out[n - 1] = '\0';
+	return 1;
 }
 
 #endif

@@ -18,5 +18,9 @@ plResult plOrtMlp_Create( const char* library_path, const void* onnx_model, size
 						  uint32_t input_count, uint32_t output_count, const plAllocator* allocator, plOrtMlp** out );
 plResult plOrtMlp_Run( plOrtMlp* mlp, const float* input, float* output );
 void plOrtMlp_Destroy( plOrtMlp* mlp );
+// After plOrtMlp_Create failed with BACKEND_UNAVAILABLE: writes why into out (NUL-terminated) for the log — the
+// library not found (naming what was tried and PLEAT_ONNXRUNTIME_LIBRARY), too old, or the SDK built without the
+// header. Returns 0 and writes "" when the library is loaded and usable (the failure was elsewhere).
+int plOrtMlp_DescribeUnavailable( const char* library_path, char* out, size_t out_size );
 
 #endif

@@ -39,8 +39,8 @@
 //     plInstance instance;
 //     plCreateInstance( context, &idef, &instance );
 //
-//     each frame:
-//         plFrameInput in = { 0 };                        // local rotations (x, y, z, w) in engine joint order
+//     each frame:                                         // local rotations relative to the asset's rest pose
+//         plFrameInput in = { 0 };                        // (next section: retarget if your bind pose differs)
 //         in.joint_rotations = pose; in.joint_count = my_skeleton_joint_count; in.joint_stride_bytes = 16;
 //         in.root_translation = ...; in.root_rotation = ...; in.dt_s = 1.0f / 60.0f;
 //         plStepOutput out = { 0 };                       // optional: strided destination spans
@@ -58,6 +58,22 @@
 // the time from the previous pose to this one. The instance keeps the two previous poses and the previous latent; the
 // first step after creation or plInstance_Reset treats the history as standing still with a zero latent.
 // Outputs are in the space of the root motion (world space when the engine passes world root motion).
+//
+// ==================================================================================================================
+// SKELETON AND REST POSE (docs/inputs.md, "Retargeting from another bind pose"; docs/body.md)
+// ==================================================================================================================
+// The joint rotations plInstance_Step takes are LOCAL rotations (each joint relative to its parent) MEASURED FROM THE
+// ASSET'S REST POSE: all identity (with an identity root rotation and zero root translation) dresses the garment on
+// that rest pose, whatever the engine's own bind pose is. The shipped body's rest pose is a wide A-pose: arms 25°
+// below the horizontal in the frontal plane, forearms straight on the same line, legs straight, +Y up, facing +Z, the
+// body's left at +X, the mean body's pelvis at the origin. The SDK cannot tell a pose measured from another bind pose
+// (a T-pose, or joint frames that are not world-aligned): such input is valid quaternions and gives wrong cloth with no
+// error, so an engine whose bind pose differs retargets each frame. plAsset_GetRestPose (mean body, β = 0) and
+// plInstance_GetRestPose (the instance's current β) give what a retarget needs, in the form of an engine reference
+// pose: per joint the parent, the rest position J(β), the local translation and the local rotation (identity for
+// every joint: rest-relative rotations make the rest pose identity by definition). samples/minimal builds a retarget
+// from a T-pose engine skeleton with them (samples/minimal/retarget.c): per joint the rotation that takes the asset's
+// rest bone directions onto the engine's bind bone directions, applied around the engine's pose.
 //
 // ==================================================================================================================
 // UPDATE RATE (docs/inputs.md, "Network update rate")
@@ -235,8 +251,10 @@ PLEAT_API const char* plResultString( plResult result );
 	X( INSTANCE_NUMERIC_RESET, 21, "non-finite value inside a step: history and latent reset" )                       \
 	X( INSTANCE_INPUT_CLAMPED, 22, "an input was clamped to its range" )                                              \
 	X( INSTANCE_BAD_INPUT, 23, "a step input was rejected" )                                                          \
+	X( INSTANCE_BAD_DEF, 24, "instance def rejected" )                                                                \
 	X( BACKEND_UNAVAILABLE, 30, "ONNX Runtime backend unavailable" )                                                  \
 	X( GL_UNAVAILABLE, 31, "GL deformer unavailable" )                                                                \
+	X( GL_HEADLESS_CONTEXT, 32, "headless GL context created" )                                                       \
 	X( OUT_OF_MEMORY, 40, "allocation failed" )
 
 /// Log item ids (PLEAT_LOG_ + name in PLEAT_LOG_ITEMS).
@@ -475,7 +493,8 @@ typedef struct plVec3
 /// One frame of pose, as an engine has it. This pose is frame t+1 (see FRAME CONVENTION).
 typedef struct plFrameInput
 {
-	const float* joint_rotations; ///< local joint rotations (x, y, z, w) in engine joint order (unit quaternions)
+	const float* joint_rotations; ///< local joint rotations (x, y, z, w) relative to the asset's rest pose (SKELETON
+	                              ///< AND REST POSE above), in engine joint order (unit quaternions)
 	uint32_t joint_count;         ///< engine joints in joint_rotations (count), must equal engine_joint_count
 	uint32_t joint_stride_bytes;  ///< bytes from one joint's quaternion to the next (0 = 16)
 	plVec3 root_translation;      ///< root translation t_root (metres)
@@ -547,6 +566,30 @@ PLEAT_API plResult plInstance_GetShape( plInstance instance, float* out_beta, ui
 PLEAT_API plResult plInstance_GetAsset( plInstance instance, plAsset* out_asset );
 /// The def's user_data.
 PLEAT_API void* plInstance_GetUserData( plInstance instance );
+
+// ------------------------------------------------------------------------------------------------------------------
+// Skeleton and rest pose (SKELETON AND REST POSE above)
+// ------------------------------------------------------------------------------------------------------------------
+
+/// One joint of the asset's rest pose, laid out as an engine's reference (bind) pose: what a retarget from another
+/// bind pose reads. Rest space: metres, +Y up, facing +Z, the body's left at +X.
+typedef struct plRestJoint
+{
+	int32_t parent;           ///< parent joint index (always < this joint's index), -1 for joint 0, the root
+	plVec3 position;          ///< rest joint position J_k(β) (metres, rest space; the mean body's pelvis is at 0)
+	plVec3 local_translation; ///< J_k(β) − J_parent(β) (metres, rest space); J_0(β) for the root
+	plQuat local_rotation;    ///< rest local rotation (x, y, z, w): identity for every joint, since the rotations
+	                          ///< plInstance_Step takes are measured from this pose (given so that a generic
+	                          ///< retarget reads it like any other reference pose)
+} plRestJoint;
+
+/// The asset's rest pose for the mean body (β = 0): out_joints[k] for asset joint k, k < the asset's joint count.
+/// joint_capacity: entries out_joints holds (BUFFER_TOO_SMALL if fewer than the asset's joint count; nothing written).
+PLEAT_API plResult plAsset_GetRestPose( plAsset asset, plRestJoint* out_joints, uint32_t joint_capacity );
+/// The rest pose for the instance's current (clamped) β: positions J(β) = J_template + Σ_b β_b · J_shapedirs[b], the
+/// joints the instance's forward kinematics uses. Changes with plInstance_SetShape (rebuild a retarget then: bone
+/// directions move a little with β). Same layout and capacity rule as plAsset_GetRestPose.
+PLEAT_API plResult plInstance_GetRestPose( plInstance instance, plRestJoint* out_joints, uint32_t joint_capacity );
 
 #ifdef __cplusplus
 }

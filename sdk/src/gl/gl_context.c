@@ -1,6 +1,8 @@
 #include "gl_context.h"
 #include <dlfcn.h>
 #include <epoxy/egl.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <string.h>
 #if PLEAT_HAVE_OSMESA
 // After epoxy/gl.h, which defines __gl_h_, so GL/gl.h (included by osmesa.h) adds nothing.
@@ -18,10 +20,18 @@ typedef GLboolean ( *plOSMesaMakeCurrentFn )( OSMesaContext context, void* buffe
 typedef OSMesaContext ( *plOSMesaGetCurrentContextFn )( void );
 typedef OSMESAproc ( *plOSMesaGetProcAddressFn )( const char* name );
 
+// EGL_EXT_device_drm_render_node's token (EGL registry value), for libepoxy versions that predate the extension.
+#ifndef EGL_DRM_RENDER_NODE_FILE_EXT
+#define EGL_DRM_RENDER_NODE_FILE_EXT 0x3377
+#endif
+// Enough for every GPU of a large node plus Mesa's software device; more are simply not looked at.
+#define PLEAT_GL_MAX_EGL_DEVICES 16
+
 struct plGlContext
 {
 	plAllocator allocator;
 	plGlHeadlessBackend backend;
+	plGlHeadlessPlatform platform;
 	plGlApi api;
 
 	// EGL
@@ -88,54 +98,213 @@ static void plRestoreEglCurrent( plGlContext* context, EGLDisplay own_display )
 	eglBindAPI( context->saved_api );
 }
 
-static plResult plCreateEgl( plGlContext* context )
+// What plGlContext_Create reports: the route it took (chosen) and what it passed over or failed on (tried). Kept
+// apart so the chosen route comes first in the log line, which the log bounds.
+typedef struct plGlReport
 {
-	// Client extensions: EGL_NO_DISPLAY query is only valid with EGL_EXT_client_extensions (NULL otherwise).
-	const char* client_extensions = eglQueryString( EGL_NO_DISPLAY, EGL_EXTENSIONS );
-	if ( !plHasExtension( client_extensions, "EGL_MESA_platform_surfaceless" ) ||
-		 !plHasExtension( client_extensions, "EGL_EXT_platform_base" ) )
+	char chosen[256];
+	char tried[320];
+} plGlReport;
+
+static void plAppend( char* buffer, size_t size, const char* format, ... )
+#if defined( __GNUC__ )
+	__attribute__( ( format( printf, 3, 4 ) ) )
+#endif
+	;
+
+static void plAppend( char* buffer, size_t size, const char* format, ... )
+{
+	size_t length = strlen( buffer );
+	if ( length + 1 >= size )
+		return;
+	va_list args;
+	va_start( args, format );
+	vsnprintf( buffer + length, size - length, format, args );
+	va_end( args );
+}
+
+#define PL_TRIED( report, ... ) plAppend( ( report )->tried, sizeof( ( report )->tried ), __VA_ARGS__ )
+
+// Makes the freshly created context current once to check it is desktop GL 4.3+ (compute shaders, SSBOs) and to
+// record who renders; releases the back end if it is not usable.
+static void plReleaseBackend( plGlContext* context );
+
+static plResult plVerifyContext( plGlContext* context, plGlReport* report, const char* route )
+{
+	plResult result = plGlContext_Enter( context );
+	if ( result != PLEAT_RESULT_OK )
+	{
+		PL_TRIED( report, "%s: context not made current; ", route );
+		plReleaseBackend( context );
 		return PLEAT_RESULT_GL_UNAVAILABLE;
-	EGLDisplay display = eglGetPlatformDisplayEXT( EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL );
+	}
+	int version = plGlApi_CurrentVersion( &context->api );
+	const GLubyte* vendor = context->api.GetString( GL_VENDOR );
+	const GLubyte* renderer = context->api.GetString( GL_RENDERER );
+	const GLubyte* version_string = context->api.GetString( GL_VERSION );
+	char strings[200];
+	snprintf( strings, sizeof( strings ), "GL_VENDOR '%s', GL_RENDERER '%s', GL_VERSION '%s'",
+			  vendor != NULL ? (const char*)vendor : "?", renderer != NULL ? (const char*)renderer : "?",
+			  version_string != NULL ? (const char*)version_string : "?" );
+	plGlContext_Leave( context );
+	if ( version < 43 )
+	{
+		PL_TRIED( report, "%s: not desktop GL 4.3+ (%s); ", route, strings );
+		plReleaseBackend( context );
+		return PLEAT_RESULT_GL_UNAVAILABLE;
+	}
+	plAppend( report->chosen, sizeof( report->chosen ), "%s; %s", route, strings );
+	return PLEAT_RESULT_OK;
+}
+
+// A GL 4.3 core context without a surface on an EGL display got from eglGetPlatformDisplayEXT. The display is
+// terminated on failure only if this call initialised it: a display someone else initialised (the engine, another
+// deformer) is the same object for the same platform and device, and eglTerminate would pull it from under them.
+static plResult plCreateEglOnDisplay( plGlContext* context, EGLDisplay display, plGlReport* report, const char* route )
+{
+	if ( display == EGL_NO_DISPLAY )
+	{
+		PL_TRIED( report, "%s: no display; ", route );
+		return PLEAT_RESULT_GL_UNAVAILABLE;
+	}
+	int initialised_before = eglQueryString( display, EGL_VENDOR ) != NULL;
 	EGLint major = 0, minor = 0;
-	if ( display == EGL_NO_DISPLAY || !eglInitialize( display, &major, &minor ) )
+	if ( !eglInitialize( display, &major, &minor ) )
+	{
+		PL_TRIED( report, "%s: eglInitialize failed (0x%x); ", route, (unsigned)eglGetError() );
 		return PLEAT_RESULT_GL_UNAVAILABLE;
+	}
 	const char* extensions = eglQueryString( display, EGL_EXTENSIONS );
+	EGLContext egl_context = EGL_NO_CONTEXT;
 	if ( !plHasExtension( extensions, "EGL_KHR_surfaceless_context" ) ||
 		 !plHasExtension( extensions, "EGL_KHR_create_context" ) )
 	{
-		eglTerminate( display );
-		return PLEAT_RESULT_GL_UNAVAILABLE;
+		PL_TRIED( report, "%s: no EGL_KHR_surfaceless_context/EGL_KHR_create_context; ", route );
 	}
-	EGLConfig config = EGL_NO_CONFIG_KHR;
-	if ( !plHasExtension( extensions, "EGL_KHR_no_config_context" ) )
+	else
 	{
-		const EGLint config_attribs[] = { EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE };
-		EGLint config_count = 0;
-		if ( !eglChooseConfig( display, config_attribs, &config, 1, &config_count ) || config_count < 1 )
+		EGLConfig config = EGL_NO_CONFIG_KHR;
+		int have_config = 1;
+		if ( !plHasExtension( extensions, "EGL_KHR_no_config_context" ) )
 		{
-			eglTerminate( display );
-			return PLEAT_RESULT_GL_UNAVAILABLE;
+			const EGLint config_attribs[] = { EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE };
+			EGLint config_count = 0;
+			have_config = eglChooseConfig( display, config_attribs, &config, 1, &config_count ) && config_count >= 1;
+			if ( !have_config )
+				PL_TRIED( report, "%s: no desktop GL config; ", route );
+		}
+		if ( have_config )
+		{
+			const EGLint context_attribs[] = {
+				EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 3, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+				EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE,
+			};
+			EGLenum previous_api = eglQueryAPI();
+			if ( eglBindAPI( EGL_OPENGL_API ) )
+				egl_context = eglCreateContext( display, config, EGL_NO_CONTEXT, context_attribs );
+			eglBindAPI( previous_api );
+			if ( egl_context == EGL_NO_CONTEXT )
+				PL_TRIED( report, "%s: no GL 4.3 core context (0x%x); ", route, (unsigned)eglGetError() );
 		}
 	}
-	const EGLint context_attribs[] = {
-		EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 3, EGL_CONTEXT_OPENGL_PROFILE_MASK,
-		EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE,
-	};
-	EGLenum previous_api = eglQueryAPI();
-	EGLContext egl_context = EGL_NO_CONTEXT;
-	if ( eglBindAPI( EGL_OPENGL_API ) )
-		egl_context = eglCreateContext( display, config, EGL_NO_CONTEXT, context_attribs );
-	eglBindAPI( previous_api );
 	if ( egl_context == EGL_NO_CONTEXT )
 	{
-		eglTerminate( display );
+		if ( !initialised_before )
+			eglTerminate( display );
 		return PLEAT_RESULT_GL_UNAVAILABLE;
 	}
 	context->backend = PLEAT_GL_HEADLESS_EGL;
 	context->egl_display = display;
 	context->egl_context = egl_context;
 	plGlApi_LoadEpoxy( &context->api );
-	return PLEAT_RESULT_OK;
+	return plVerifyContext( context, report, route );
+}
+
+// Mesa marks its software rasteriser's device with EGL_MESA_device_software; a device without that mark is taken to
+// be hardware (NVIDIA's devices carry EGL_NV_device_cuda and, with the DRM module loaded, EGL_EXT_device_drm).
+static int plEglDeviceIsSoftware( EGLDeviceEXT device )
+{
+	return plHasExtension( eglQueryDeviceStringEXT( device, EGL_EXTENSIONS ), "EGL_MESA_device_software" );
+}
+
+// "/dev/dri/renderD128" or the like: the render node when the driver names one, else the primary node, else "".
+static const char* plEglDeviceFile( EGLDeviceEXT device )
+{
+	const char* extensions = eglQueryDeviceStringEXT( device, EGL_EXTENSIONS );
+	const char* file = NULL;
+	if ( plHasExtension( extensions, "EGL_EXT_device_drm_render_node" ) )
+		file = eglQueryDeviceStringEXT( device, EGL_DRM_RENDER_NODE_FILE_EXT );
+	if ( file == NULL && plHasExtension( extensions, "EGL_EXT_device_drm" ) )
+		file = eglQueryDeviceStringEXT( device, EGL_DRM_DEVICE_FILE_EXT );
+	return file != NULL ? file : "";
+}
+
+// EGL_EXT_platform_device: hardware devices in enumeration order first; software devices only when allowed (the
+// surfaceless platform is the better software route: Mesa picks there for itself).
+static plResult plCreateEglDevice( plGlContext* context, int allow_software, plGlReport* report )
+{
+	const char* client_extensions = eglQueryString( EGL_NO_DISPLAY, EGL_EXTENSIONS );
+	int has_enumeration = plHasExtension( client_extensions, "EGL_EXT_device_base" ) ||
+						  ( plHasExtension( client_extensions, "EGL_EXT_device_enumeration" ) &&
+							plHasExtension( client_extensions, "EGL_EXT_device_query" ) );
+	if ( !plHasExtension( client_extensions, "EGL_EXT_platform_device" ) ||
+		 !plHasExtension( client_extensions, "EGL_EXT_platform_base" ) || !has_enumeration )
+	{
+		PL_TRIED( report, "EGL device platform: not offered; " );
+		return PLEAT_RESULT_GL_UNAVAILABLE;
+	}
+	EGLDeviceEXT devices[PLEAT_GL_MAX_EGL_DEVICES];
+	EGLint device_count = 0;
+	if ( !eglQueryDevicesEXT( PLEAT_GL_MAX_EGL_DEVICES, devices, &device_count ) || device_count <= 0 )
+	{
+		PL_TRIED( report, "EGL device platform: no devices; " );
+		return PLEAT_RESULT_GL_UNAVAILABLE;
+	}
+	for ( int pass = 0; pass < 2; ++pass )
+	{
+		int want_software = pass == 1;
+		if ( want_software && !allow_software )
+			break;
+		for ( EGLint i = 0; i < device_count; ++i )
+		{
+			int software = plEglDeviceIsSoftware( devices[i] );
+			if ( software != want_software )
+			{
+				if ( software && !allow_software )
+					PL_TRIED( report, "EGL device %d of %d: software, passed over; ", (int)i, (int)device_count );
+				continue;
+			}
+			const char* file = plEglDeviceFile( devices[i] );
+			char route[160];
+			snprintf( route, sizeof( route ), "EGL device platform (EGL_EXT_platform_device), device %d of %d%s%s, %s",
+					  (int)i, (int)device_count, file[0] != '\0' ? " " : "", file, software ? "software" : "hardware" );
+			EGLDisplay display = eglGetPlatformDisplayEXT( EGL_PLATFORM_DEVICE_EXT, devices[i], NULL );
+			if ( plCreateEglOnDisplay( context, display, report, route ) == PLEAT_RESULT_OK )
+			{
+				context->platform = PLEAT_GL_PLATFORM_EGL_DEVICE;
+				return PLEAT_RESULT_OK;
+			}
+		}
+	}
+	return PLEAT_RESULT_GL_UNAVAILABLE;
+}
+
+static plResult plCreateEglSurfaceless( plGlContext* context, plGlReport* report )
+{
+	// Client extensions: EGL_NO_DISPLAY query is only valid with EGL_EXT_client_extensions (NULL otherwise).
+	const char* client_extensions = eglQueryString( EGL_NO_DISPLAY, EGL_EXTENSIONS );
+	if ( !plHasExtension( client_extensions, "EGL_MESA_platform_surfaceless" ) ||
+		 !plHasExtension( client_extensions, "EGL_EXT_platform_base" ) )
+	{
+		PL_TRIED( report, "EGL surfaceless platform: not offered; " );
+		return PLEAT_RESULT_GL_UNAVAILABLE;
+	}
+	EGLDisplay display = eglGetPlatformDisplayEXT( EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL );
+	plResult result = plCreateEglOnDisplay( context, display, report,
+											"EGL surfaceless platform (EGL_MESA_platform_surfaceless)" );
+	if ( result == PLEAT_RESULT_OK )
+		context->platform = PLEAT_GL_PLATFORM_EGL_SURFACELESS;
+	return result;
 }
 
 static plOSMesaGetProcAddressFn pl_osmesa_get_proc_address; // for the plGlApi_LoadWith callback
@@ -153,19 +322,23 @@ static void* plSym( void* library, const char* name )
 	return dlsym( library, name );
 }
 
-static plResult plCreateOsmesa( plGlContext* context )
+static plResult plCreateOsmesa( plGlContext* context, plGlReport* report )
 {
 #if !PLEAT_HAVE_OSMESA
 	(void)context;
 	(void)plOsmesaGetProc;
 	(void)plSym;
+	PL_TRIED( report, "OSMesa: not built in (no GL/osmesa.h); " );
 	return PLEAT_RESULT_GL_UNAVAILABLE;
 #else
 	void* library = dlopen( "libOSMesa.so.8", RTLD_NOW | RTLD_LOCAL );
 	if ( library == NULL )
 		library = dlopen( "libOSMesa.so", RTLD_NOW | RTLD_LOCAL );
 	if ( library == NULL )
+	{
+		PL_TRIED( report, "OSMesa: libOSMesa not found; " );
 		return PLEAT_RESULT_GL_UNAVAILABLE;
+	}
 	plOSMesaCreateContextAttribsFn create_context;
 	void* symbols[5] = {
 		plSym( library, "OSMesaCreateContextAttribs" ), plSym( library, "OSMesaDestroyContext" ),
@@ -177,6 +350,7 @@ static plResult plCreateOsmesa( plGlContext* context )
 		if ( symbols[i] == NULL )
 		{
 			dlclose( library );
+			PL_TRIED( report, "OSMesa: entry points missing; " );
 			return PLEAT_RESULT_GL_UNAVAILABLE;
 		}
 	}
@@ -194,6 +368,7 @@ static plResult plCreateOsmesa( plGlContext* context )
 	if ( osmesa_context == NULL )
 	{
 		dlclose( library );
+		PL_TRIED( report, "OSMesa: no GL 4.3 core context; " );
 		return PLEAT_RESULT_GL_UNAVAILABLE;
 	}
 	pl_osmesa_get_proc_address = context->osmesa_get_proc_address;
@@ -201,12 +376,14 @@ static plResult plCreateOsmesa( plGlContext* context )
 	{
 		context->osmesa_destroy_context( osmesa_context );
 		dlclose( library );
+		PL_TRIED( report, "OSMesa: GL entry points missing; " );
 		return PLEAT_RESULT_GL_UNAVAILABLE;
 	}
 	context->backend = PLEAT_GL_HEADLESS_OSMESA;
+	context->platform = PLEAT_GL_PLATFORM_OSMESA;
 	context->osmesa_library = library;
 	context->osmesa_context = osmesa_context;
-	return PLEAT_RESULT_OK;
+	return plVerifyContext( context, report, "OSMesa (libOSMesa, software)" );
 #endif
 }
 
@@ -223,11 +400,20 @@ static void plReleaseBackend( plGlContext* context )
 		context->osmesa_destroy_context( context->osmesa_context );
 		// libOSMesa stays loaded: unloading LLVM-backed drivers at run time is not safe.
 	}
+	// Back to "nothing made": a failed route leaves the context ready for the next one.
+	context->backend = PLEAT_GL_HEADLESS_AUTO;
+	context->platform = PLEAT_GL_PLATFORM_NONE;
+	context->egl_display = EGL_NO_DISPLAY;
+	context->egl_context = EGL_NO_CONTEXT;
+	context->osmesa_context = NULL;
 }
 
-plResult plGlContext_Create( plGlHeadlessBackend backend, const plAllocator* allocator, plGlContext** out )
+plResult plGlContext_Create( plGlHeadlessBackend backend, const plAllocator* allocator, plGlContext** out,
+							 char* report, size_t report_size )
 {
-	if ( allocator == NULL || out == NULL || backend < PLEAT_GL_HEADLESS_AUTO || backend > PLEAT_GL_HEADLESS_OSMESA )
+	if ( report != NULL && report_size > 0 )
+		report[0] = '\0';
+	if ( allocator == NULL || out == NULL || backend < PLEAT_GL_HEADLESS_AUTO || backend > PLEAT_GL_HEADLESS_EGL_DEVICE )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	*out = NULL;
 	plGlContext* context = plAllocZeroed( allocator, sizeof( *context ), 16 );
@@ -237,24 +423,27 @@ plResult plGlContext_Create( plGlHeadlessBackend backend, const plAllocator* all
 	context->egl_display = EGL_NO_DISPLAY;
 	context->egl_context = EGL_NO_CONTEXT;
 
+	// Each route verifies its context (desktop GL 4.3+) before it counts, so a route that yields an unusable context
+	// falls through to the next.
+	plGlReport route_report;
+	memset( &route_report, 0, sizeof( route_report ) );
 	plResult result = PLEAT_RESULT_GL_UNAVAILABLE;
-	if ( backend == PLEAT_GL_HEADLESS_AUTO || backend == PLEAT_GL_HEADLESS_EGL )
-		result = plCreateEgl( context );
+	if ( backend == PLEAT_GL_HEADLESS_AUTO || backend == PLEAT_GL_HEADLESS_EGL || backend == PLEAT_GL_HEADLESS_EGL_DEVICE )
+		result = plCreateEglDevice( context, backend == PLEAT_GL_HEADLESS_EGL_DEVICE, &route_report );
+	if ( result != PLEAT_RESULT_OK && ( backend == PLEAT_GL_HEADLESS_AUTO || backend == PLEAT_GL_HEADLESS_EGL ) )
+		result = plCreateEglSurfaceless( context, &route_report );
 	if ( result != PLEAT_RESULT_OK && ( backend == PLEAT_GL_HEADLESS_AUTO || backend == PLEAT_GL_HEADLESS_OSMESA ) )
-		result = plCreateOsmesa( context );
-	if ( result == PLEAT_RESULT_OK )
+		result = plCreateOsmesa( context, &route_report );
+	if ( report != NULL && report_size > 0 )
 	{
-		// The context must really be desktop GL 4.3+ (compute shaders, SSBOs).
-		result = plGlContext_Enter( context );
+		size_t tried = strlen( route_report.tried );
+		while ( tried >= 2 && route_report.tried[tried - 2] == ';' ) // drop the trailing "; "
+			route_report.tried[tried -= 2] = '\0';
 		if ( result == PLEAT_RESULT_OK )
-		{
-			int version = plGlApi_CurrentVersion( &context->api );
-			plGlContext_Leave( context );
-			if ( version < 43 )
-				result = PLEAT_RESULT_GL_UNAVAILABLE;
-		}
-		if ( result != PLEAT_RESULT_OK )
-			plReleaseBackend( context );
+			snprintf( report, report_size, "%s%s%s", route_report.chosen, tried > 0 ? "; passed over: " : "",
+					  route_report.tried );
+		else
+			snprintf( report, report_size, "%s", route_report.tried );
 	}
 	if ( result != PLEAT_RESULT_OK )
 	{
@@ -304,6 +493,11 @@ const plGlApi* plGlContext_Api( const plGlContext* context )
 plGlHeadlessBackend plGlContext_Backend( const plGlContext* context )
 {
 	return context->backend;
+}
+
+plGlHeadlessPlatform plGlContext_Platform( const plGlContext* context )
+{
+	return context->platform;
 }
 
 void plGlContext_Destroy( plGlContext* context )

@@ -368,7 +368,7 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 
 	if ( desc->mode == PLEAT_GL_DEFORMER_HEADLESS )
 	{
-		result = plGlContext_Create( backend, allocator, &deformer->context );
+		result = plGlContext_Create( backend, allocator, &deformer->context, desc->report, desc->report_size );
 		if ( result != PLEAT_RESULT_OK )
 		{
 			plFreeDeformer( deformer );
@@ -423,6 +423,11 @@ plResult plGlDeformer_CreateHeadless( const plGlDeformerDesc* desc, const plAllo
 plGlHeadlessBackend plGlDeformer_Backend( const plGlDeformer* deformer )
 {
 	return deformer->context != NULL ? plGlContext_Backend( deformer->context ) : PLEAT_GL_HEADLESS_AUTO;
+}
+
+plGlHeadlessPlatform plGlDeformer_Platform( const plGlDeformer* deformer )
+{
+	return deformer->context != NULL ? plGlContext_Platform( deformer->context ) : PLEAT_GL_PLATFORM_NONE;
 }
 
 plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template )

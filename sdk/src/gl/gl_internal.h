@@ -11,6 +11,8 @@ plResult plGlDeformer_CreateHeadless( const plGlDeformerDesc* desc, const plAllo
 									  plGlHeadlessBackend backend, plGlDeformer** out );
 // The back end a headless deformer runs on (EGL or OSMESA); 0 for a host-context deformer.
 plGlHeadlessBackend plGlDeformer_Backend( const plGlDeformer* deformer );
+// The platform a headless deformer's context came from; PLEAT_GL_PLATFORM_NONE for a host-context deformer.
+plGlHeadlessPlatform plGlDeformer_Platform( const plGlDeformer* deformer );
 
 // Every piece of GL state the deformer changes in the engine's context (docs/gpu.md lists it).
 typedef struct plGlSavedState
