@@ -1,6 +1,4 @@
 """Pleat offline tools. The runtime SDK (sdk/) never imports any of this."""
-from pathlib import Path
+from pleat.paths import ASSETS_DIR, REPO_ROOT  # noqa: F401  (the one repository lookup: pleat.paths)
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-ASSETS_DIR = REPO_ROOT / "assets"
 __version__ = "0.1.0"

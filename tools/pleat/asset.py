@@ -388,7 +388,8 @@ def write_asset(path_or_file, weights, fp16=False, onnx=False):
     data = bytes(buf)
     if path_or_file is not None:
         if isinstance(path_or_file, (str, os.PathLike)):
-            Path(path_or_file).write_bytes(data)
+            from pleat.fileio import write_bytes
+            write_bytes(path_or_file, data)   # atomic: a failed write keeps the old file
         else:
             path_or_file.write(data)
     return data

@@ -70,9 +70,12 @@ def decoder_model(w):
 def export(w, out_dir):
     """Writes latent_predictor.onnx and decoder.onnx into out_dir; returns their paths."""
     from pathlib import Path
+
+    from pleat.fileio import write_bytes
+    models = (latent_predictor_model(w), decoder_model(w))      # both built before either file is touched
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "latent_predictor.onnx", out / "decoder.onnx"]
-    paths[0].write_bytes(latent_predictor_model(w))
-    paths[1].write_bytes(decoder_model(w))
+    for path, model in zip(paths, models):
+        write_bytes(path, model)
     return paths

@@ -1,16 +1,18 @@
 """pleat-pack: weights file (.npz / .safetensors) → Pleat asset (.pleat), and asset inspection. No PyTorch.
 
-    pleat-pack WEIGHTS.npz -o OUT.pleat [--fp16] [--onnx] [--name NAME] [--metadata JSON] [--export-onnx DIR]
+    pleat-pack WEIGHTS.npz --out OUT.pleat [--fp16] [--onnx] [--name NAME] [--metadata JSON] [--export-onnx DIR]
     pleat-pack --info FILE.pleat
 """
 import argparse
 import json
 import sys
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from pleat import asset as pa
+from pleat.cli import InputError, add_quiet, command
 
 DTYPE_NAMES = {pa.DTYPE_F32: "f32", pa.DTYPE_F16: "f16", pa.DTYPE_U32: "u32", pa.DTYPE_U16: "u16",
                pa.DTYPE_I32: "i32", pa.DTYPE_U8: "u8"}
@@ -55,45 +57,61 @@ def info(path, out=None):
         return 1
 
 
-def main(argv=None):
+def build_parser():
     p = argparse.ArgumentParser(prog="pleat-pack", description="Pack a Pleat weights file into a .pleat asset.")
     p.add_argument("weights", nargs="?", help="weights file (.npz or .safetensors), keys per docs/asset-format.md")
-    p.add_argument("-o", "--output", help="output asset path (.pleat)")
+    p.add_argument("-o", "--out", "--output", dest="output",
+                   help="output file: the asset (.pleat); --output is the older name")
     p.add_argument("--fp16", action="store_true", help="store LP/decoder weight matrices and BLND as fp16")
     p.add_argument("--onnx", action="store_true", help="embed the MLPs as ONNX models (OXLP, OXDC)")
     p.add_argument("--name", help="garment name (overrides garment_name)")
     p.add_argument("--metadata", help="META JSON: inline JSON text or a path to a .json file (overrides metadata_json)")
     p.add_argument("--export-onnx", metavar="DIR", help="also write latent_predictor.onnx and decoder.onnx to DIR")
     p.add_argument("--info", metavar="FILE", help="print header, sections, counts and META of an asset and exit")
+    add_quiet(p)
+    return p
+
+
+@command("pleat-pack")
+def main(argv=None):
+    p = build_parser()
     a = p.parse_args(argv)
     if a.info:
         try:
             return info(a.info)
-        except (OSError, pa.AssetError) as e:
-            print(f"pleat-pack: {a.info}: {e}", file=sys.stderr)
-            return 1
+        except pa.AssetError as e:
+            raise InputError(a.info, f"not a valid Pleat asset ({e})") from None
     if not a.weights or not (a.output or a.export_onnx):
         p.error("need WEIGHTS and -o OUT.pleat (or --export-onnx DIR), or --info FILE")
     try:
         weights = pa.load_weights(a.weights)
-        if a.name is not None:
-            weights["garment_name"] = a.name
-        if a.metadata is not None:
-            text = Path(a.metadata).read_text() if a.metadata.endswith(".json") and Path(a.metadata).is_file() \
-                else a.metadata
+    except (ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+        raise InputError(a.weights, f"not a weights file ({type(e).__name__}: {e})") from None
+    if a.name is not None:
+        weights["garment_name"] = a.name
+    if a.metadata is not None:
+        text = Path(a.metadata).read_text() if a.metadata.endswith(".json") and Path(a.metadata).is_file() \
+            else a.metadata
+        try:
             json.loads(text)
-            weights["metadata_json"] = text
+        except json.JSONDecodeError as e:
+            raise InputError(a.metadata if text is not a.metadata else "--metadata", f"not valid JSON ({e})") \
+                from None
+        weights["metadata_json"] = text
+    try:
+        # everything is built and validated before the first file is written (each write is atomic)
+        w = pa.validate_weights(weights, fp16=a.fp16)
         if a.output:
             data = pa.write_asset(a.output, weights, fp16=a.fp16, onnx=a.onnx)
-            print(f"wrote {a.output}: {len(data)} bytes", file=sys.stderr)
+            if not a.quiet:
+                print(f"wrote {a.output}: {len(data)} bytes", file=sys.stderr)
         if a.export_onnx:
             from pleat import onnx_export
-            w = pa.validate_weights(weights, fp16=a.fp16)
             for path in onnx_export.export(w, a.export_onnx):
-                print(f"wrote {path}", file=sys.stderr)
-    except (OSError, ValueError, KeyError) as e:
-        print(f"pleat-pack: {e}", file=sys.stderr)
-        return 1
+                if not a.quiet:
+                    print(f"wrote {path}", file=sys.stderr)
+    except (ValueError, KeyError) as e:
+        raise InputError(a.weights, f"cannot be packed ({type(e).__name__}: {e})") from None
     return 0
 
 

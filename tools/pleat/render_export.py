@@ -187,14 +187,8 @@ def export_body(body, out, beta=None, influences=4, asset_path=None):
 
 def load_clip(spec, fps):
     """A pleat.motion Clip by file path or by name on the motion loaders' search path, resampled to `fps`."""
-    try:
-        from pleat.motion import load_clip as loader
-    except ImportError:
-        from pleat.motion.loaders import load_clip as loader
-    clip = loader(spec)
-    if abs(float(clip.fps) - fps) > 1e-6:
-        clip = clip.resample(fps)
-    return clip
+    from pleat.motion.loaders import load_clip_at
+    return load_clip_at(spec, None, fps)
 
 
 def export_motion(clip, out, joint_names=None, frames=0, asset_path=None):

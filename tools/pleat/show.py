@@ -8,8 +8,13 @@ Flat-shaded triangles sorted back to front (painter's algorithm), orthographic v
 """
 import argparse
 import sys
+import zipfile
+from pathlib import Path
 
 import numpy as np
+
+from pleat.cli import InputError, add_quiet, command
+from pleat.fileio import save_figure
 
 BODY_COLOR = (0.80, 0.70, 0.62)
 GARMENT_COLORS = [(0.25, 0.45, 0.75), (0.75, 0.30, 0.30), (0.30, 0.62, 0.40), (0.62, 0.45, 0.75),
@@ -73,40 +78,77 @@ def contact_sheet(panels, out, titles=None, panel_px=260, dpi=100):
         if titles:
             ax.set_title(titles[k], fontsize=9)
     fig.subplots_adjust(left=0.01, right=0.99, top=0.93, bottom=0.01, wspace=0.02)
-    fig.savefig(out, dpi=dpi)
+    save_figure(fig, out, dpi=dpi)
     plt.close(fig)
 
 
 def _frames(text):
-    return [int(t) for t in str(text).split(",") if t.strip() != ""]
+    frames = [int(t) for t in str(text).split(",") if t.strip() != ""]
+    if not frames or min(frames) < 0:
+        raise ValueError(f"--frames needs comma-separated frame indices >= 0, got {text!r}")
+    return frames
 
 
-def main(argv=None):
+def build_parser():
     parser = argparse.ArgumentParser(prog="pleat-show", description=__doc__.split("\n\n")[0])
     parser.add_argument("--garment", required=True,
                         help="garment npz, or garment name(s) (comma-separated) to generate or find in data/garments")
-    parser.add_argument("--sim", default=None, help="simulation directory with sim.npz (pleat-sim --out)")
+    parser.add_argument("--sim", default=None, help="simulation folder with sim.npz (pleat-sim --out)")
     parser.add_argument("--motion", default=None, help="motion clip (name or file) to pose body and garment by LBS")
     parser.add_argument("--frames", default="0", help="comma-separated frame indices")
     parser.add_argument("--beta", default=None, help="comma-separated shape β")
     parser.add_argument("--yaw", type=float, default=0.0, help="camera yaw about +Y, degrees (0 = from the front)")
     parser.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
-    parser.add_argument("--out", required=True, help="output PNG")
+    parser.add_argument("--out", required=True, help="output file: the PNG")
+    add_quiet(parser)
+    return parser
+
+
+def _read_sim(folder):
+    path = Path(folder) / "sim.npz"
+    if not path.is_file():
+        raise InputError(folder, "no sim.npz in it (pleat-sim --out FOLDER writes one)")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            pos = np.asarray(z["positions"])
+            body_v = np.asarray(z["body_vertices"]) if "body_vertices" in z.files else None
+    except (ValueError, KeyError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise InputError(path, f"not a pleat-sim output ({type(exc).__name__}: {exc})") from None
+    if pos.ndim != 3 or pos.shape[-1] != 3 or not np.isfinite(pos).all():
+        raise InputError(path, f"positions must be finite [T, N, 3], got shape {pos.shape}")
+    return pos, body_v
+
+
+@command("pleat-show")
+def main(argv=None):
+    parser = build_parser()
     args = parser.parse_args(argv)
+    try:
+        frames = _frames(args.frames)
+        beta = None if args.beta is None else np.array([float(b) for b in args.beta.split(",")])
+    except ValueError as exc:
+        parser.error(str(exc))
+    from .motion.loaders import load_clip_at
     from .sim.scene import load_body, load_garment_spec, posed_sequence
     body = load_body(args.body)
-    beta = None if args.beta is None else np.array([float(b) for b in args.beta.split(",")])
-    frames = _frames(args.frames)
+    # every input is read and checked before the garments are made and before anything is drawn or written
+    clip = None
+    if args.sim is not None:
+        pos, body_v = _read_sim(args.sim)
+        if max(frames) >= len(pos):
+            raise InputError(args.sim, f"frame {max(frames)} is beyond the simulation's {len(pos)} frames")
+    elif args.motion is not None:
+        clip = load_clip_at(args.motion, body, 30.0)
+        if max(frames) >= clip.num_frames:
+            raise InputError(args.motion, f"frame {max(frames)} is beyond the clip's {clip.num_frames} frames "
+                                          "(at 30 fps)")
     garments = [load_garment_spec(s, body) for s in args.garment.split(",")]
     panels, titles = [], []
     if args.sim is not None:
-        with np.load(f"{args.sim}/sim.npz", allow_pickle=False) as z:
-            pos = z["positions"]
-            body_v = z["body_vertices"] if "body_vertices" in z.files else None
         g = garments[0]
+        if pos.shape[1] != g.num_vertices:
+            raise InputError(args.sim, f"simulates {pos.shape[1]} vertices; garment {g.name} has {g.num_vertices}")
         for t in frames:
-            if t >= len(pos):
-                raise SystemExit(f"pleat-show: frame {t} beyond the simulation's {len(pos)} frames")
             meshes = [(pos[t], g.faces, GARMENT_COLORS[0])]
             if body_v is not None:
                 meshes.insert(0, (body_v[t], body.faces, BODY_COLOR))
@@ -114,7 +156,7 @@ def main(argv=None):
             titles.append(f"{g.name} sim frame {t}")
     else:
         for k, g in enumerate(garments):
-            body_seq, garment_seq = posed_sequence(body, g, args.motion, frames, beta)
+            body_seq, garment_seq = posed_sequence(body, g, clip, frames, beta)
             for i, t in enumerate(frames):
                 panels.append(([(body_seq[i], body.faces, BODY_COLOR),
                                 (garment_seq[i], g.faces, GARMENT_COLORS[k % len(GARMENT_COLORS)])], args.yaw))

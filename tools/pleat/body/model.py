@@ -285,5 +285,5 @@ class BodyCollider:
 
 
 def default_body_path():
-    from pathlib import Path
-    return Path(__file__).resolve().parents[3] / "assets" / "body.npz"
+    from pleat.paths import BODY_PATH
+    return BODY_PATH

@@ -22,8 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
+from pleat.cli import add_quiet, command, positive_float
 from pleat.eval import metrics
 from pleat.eval import scene as S
+from pleat.fileio import save_figure, write_text
 
 METHODS = ("pleat", "lbs", "teacher")
 SPREAD_PERTURBATION_M = 1e-6     # --reference-spread: the second reference's start state, moved by 1 µm per vertex
@@ -91,13 +93,18 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     from pleat.body import BodyModel
     from pleat.eval.reference import cached_simulate
 
-    data, weights = S.read_weights(asset_path)
+    from pleat.asset import AssetError
+    from pleat.cli import InputError
+    try:
+        data, weights = S.read_weights(asset_path)
+    except AssetError as exc:
+        raise InputError(asset_path, f"not a valid Pleat asset ({exc.code}: {exc})") from None
     body = BodyModel.load(body_path)
+    clip = S.load_motion(motion, body, fps or S.EVAL_FPS, max_frames)     # bad clips fail here, before any work
     mismatch = S.skeleton_mismatch_mm(weights, body)
     if not mismatch < 1.0:
-        raise SystemExit(f"pleat-eval: the asset's skeleton differs from the body's by {mismatch:.1f} mm; "
-                         "evaluate it against the body it was built on (--body)")
-    clip = S.load_motion(motion, body, fps or S.EVAL_FPS, max_frames)
+        raise InputError(asset_path, f"the asset's skeleton differs from the body's by {mismatch:.1f} mm; "
+                                     "evaluate it against the body it was built on (--body)")
     T, dt = clip.num_frames, 1.0 / clip.fps
     beta = _clamped_beta(weights, beta)
     material = _clamped_material(weights, material)
@@ -183,21 +190,23 @@ def write_plots(report, out_dir):
     axes[0].set_title(f"{report['garment']} ({report['model']}) on {report['clip']}")
     fig.tight_layout()
     path = out_dir / f"{stem}.png"
-    fig.savefig(path, dpi=80)
+    save_figure(fig, path, dpi=80)
     plt.close(fig)
     return path
 
 
-def main(argv=None):
+def build_parser():
     ap = argparse.ArgumentParser(prog="pleat-eval", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
-    ap.add_argument("--asset", required=True)
-    ap.add_argument("--motion", required=True, help="clip file or name (DeepMimic .txt, .bvh, .amc, AMASS .npz)")
+    ap.add_argument("--asset", required=True, help="the .pleat asset to score")
+    ap.add_argument("--motion", required=True, help="clip file or name (DeepMimic .txt, .bvh, .amc, AMASS .npz, "
+                                                    "Pleat clip .npz)")
     ap.add_argument("--beta", default=None, help="comma-separated β (missing components are 0; default all 0)")
     ap.add_argument("--material", default=None, help="m,mu,lambda,k (default: the asset's default material)")
-    ap.add_argument("--json", required=True, help="output report")
+    ap.add_argument("--out", "--json", dest="json", required=True,
+                    help="output file: the JSON report (--json is the older name)")
     ap.add_argument("--plots", default=None, help="folder for the per-frame error / penetration plot")
-    ap.add_argument("--max-frames", type=int, default=300)
+    ap.add_argument("--max-frames", type=int, default=300, help="frames of the clip scored (at least 2)")
     ap.add_argument("--teacher", default=None, help="stage-1 checkpoint (stage1.pt or its run folder)")
     ap.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     ap.add_argument("--cache-dir", default=None, help="reference cache (default out/cache/sim)")
@@ -205,21 +214,36 @@ def main(argv=None):
     ap.add_argument("--reference-spread", action="store_true",
                     help="also score a second reference started 1 µm apart against the first (doubles the "
                          "reference's cost once; cached)")
-    ap.add_argument("--fps", type=float, default=None, help="frame rate of the clip, reference and steps (default 30)")
+    ap.add_argument("--fps", type=positive_float, default=None,
+                    help="frame rate of the clip, reference and steps (default 30)")
     ap.add_argument("--network-rate", type=float, default=0.0,
                     help="pleat's network update rate in Hz (plInstanceDef.network_rate_hz; default 0: every step)")
-    ap.add_argument("--no-progress", action="store_true")
+    add_quiet(ap)
+    return ap
+
+
+@command("pleat-eval")
+def main(argv=None):
+    ap = build_parser()
     args = ap.parse_args(argv)
-    report = evaluate(args.asset, args.motion, parse_floats(args.beta, what="--beta"),
-                      parse_floats(args.material, 4, "--material"), args.max_frames, args.teacher, args.body,
-                      args.cache_dir, not args.no_progress, reference_spread=args.reference_spread, fps=args.fps,
+    try:
+        beta = parse_floats(args.beta, what="--beta")
+        material = parse_floats(args.material, 4, "--material")
+    except ValueError as exc:
+        ap.error(str(exc))
+    if args.max_frames < 2:
+        ap.error("--max-frames must be at least 2")
+    if not args.network_rate >= 0:
+        ap.error("--network-rate must be 0 (every step) or a positive rate in Hz")
+    report = evaluate(args.asset, args.motion, beta, material, args.max_frames, args.teacher, args.body,
+                      args.cache_dir, not args.quiet, reference_spread=args.reference_spread, fps=args.fps,
                       network_rate_hz=args.network_rate)
     if args.plots:
         report["plot"] = str(write_plots(report, args.plots))
     if not args.per_frame:
         report.pop("per_frame")
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.json).write_text(json.dumps(report, indent=1))
+    write_text(args.json, json.dumps(report, indent=1))
     summary = {k: (None if report[k] is None else {m: round(report[k][m], 3) for m in
                                                    ("mean_mm", "p95_mm", "penetration_pct", "max_depth_mm")})
                for k in METHODS + ("reference_spread",)}

@@ -72,20 +72,8 @@ def skeleton_mismatch_mm(weights, body):
 def load_motion(spec, body=None, fps=EVAL_FPS, max_frames=None):
     """A clip file or name (DeepMimic, BVH, ASF/AMC, AMASS npz, or a Clip .npz saved by pleat.motion) at `fps`,
     cut to `max_frames`."""
-    from dataclasses import replace
-
-    from pleat.motion import Clip, load_clip
-    if str(spec).endswith(".npz") and "local_rotations" in np.load(spec, allow_pickle=False).files:
-        clip = Clip.load(spec)            # a Clip saved by pleat.motion (already on the body)
-    else:
-        clip = load_clip(spec, body)
-    if abs(clip.fps - fps) > 1e-9:
-        clip = clip.resample(fps)
-    if max_frames and clip.num_frames > max_frames:
-        clip = replace(clip, local_rotations=clip.local_rotations[:max_frames],
-                       root_translation=clip.root_translation[:max_frames],
-                       root_rotation=clip.root_rotation[:max_frames])
-    return clip
+    from pleat.motion.loaders import load_clip_at
+    return load_clip_at(spec, body, fps, max_frames)
 
 
 def clip_rotations_for(clip, joint_names):

@@ -3,6 +3,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..fileio import save_npz
 from ..physics.energies import cloth_rest
 from ..physics.materials import MATERIAL_DEFAULT
 
@@ -51,7 +52,7 @@ class Garment:
         return np.einsum("...nij,nj->...ni", A[..., :3], x) + A[..., 3]
 
     def save(self, path):
-        np.savez_compressed(path, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
+        save_npz(path, compressed=True, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
 
     @classmethod
     def load(cls, path):

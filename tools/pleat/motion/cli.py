@@ -1,63 +1,105 @@
-"""pleat-motion: list the motion clips, convert one onto the Pleat body, print the training/validation split."""
+"""pleat-motion: list the motion clips, convert one onto the Pleat body, show how a skeleton's joints match the
+body's, print the training/validation split (docs/motion.md)."""
 import argparse
 import json
 import sys
 
-from pleat.body.model import BodyModel, default_body_path
+from pleat.body.model import default_body_path
+from pleat.cli import add_quiet, command, positive_float
+
+DIR_HELP = "motion folder (default: $PLEAT_MOTION_DIR, ../shared/motion, data/motion)"
+JOINT_MAP_HELP = ("JSON file {\"source joint\": \"body joint\" or null} for a BVH or ASF/AMC skeleton whose names "
+                  "are not recognised (merged over the Mixamo table and the name guesses)")
 
 
-def main(argv=None):
+def build_parser():
     ap = argparse.ArgumentParser(prog="pleat-motion", description=__doc__)
-    sub = ap.add_subparsers(dest="cmd", required=True)
+    sub = ap.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
     ls = sub.add_parser("list", help="clips found in the motion folder, with frames, fps and split")
-    ls.add_argument("--dir", default=None, help="motion folder (default: $PLEAT_MOTION_DIR, ../shared/motion, "
-                                                "data/motion)")
+    ls.add_argument("--dir", default=None, help=DIR_HELP)
     cv = sub.add_parser("convert", help="retarget one clip onto the body and write a clip npz")
     cv.add_argument("clip", help="clip name (as `list` prints it) or a .txt/.json/.bvh/.amc/.npz file")
-    cv.add_argument("--fps", type=float, default=30.0)
-    cv.add_argument("--out", required=True)
-    cv.add_argument("--body", default=str(default_body_path()))
-    cv.add_argument("--dir", default=None)
+    cv.add_argument("--out", required=True, help="output file: the clip npz (Clip.save)")
+    cv.add_argument("--fps", type=positive_float, default=30.0, help="frame rate the clip is resampled to")
+    cv.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
+    cv.add_argument("--dir", default=None, help=DIR_HELP)
+    cv.add_argument("--joint-map", default=None, metavar="FILE", help=JOINT_MAP_HELP)
     cv.add_argument("--mirror", action="store_true", help="left-right mirror")
-    cv.add_argument("--speed", type=float, default=1.0, help="time scale (2 = twice as fast)")
+    cv.add_argument("--speed", type=positive_float, default=1.0, help="time scale (2 = twice as fast)")
+    add_quiet(cv)
+    jt = sub.add_parser("joints", help="which source joint drives each body joint (matched, unmatched, unused); "
+                                       "writes nothing")
+    jt.add_argument("clip", help="clip name or motion file")
+    jt.add_argument("--joint-map", default=None, metavar="FILE", help=JOINT_MAP_HELP)
+    jt.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
+    jt.add_argument("--dir", default=None, help=DIR_HELP)
+    jt.add_argument("--json", action="store_true", help="print the match as JSON instead of a table")
     sp = sub.add_parser("split", help="the training / validation split (pleat.motion.split)")
-    sp.add_argument("--dir", default=None)
-    args = ap.parse_args(argv)
+    sp.add_argument("--dir", default=None, help=DIR_HELP)
+    return ap
 
+
+def _info(path):
+    """frames / fps / duration column of `list` (DeepMimic files), or why the file cannot be read."""
+    from pleat.motion.loaders import _deepmimic_frames
+    if path.suffix not in (".txt", ".json"):
+        return ""
+    try:
+        frames = _deepmimic_frames(path)
+    except (ValueError, OSError) as exc:
+        return f"unreadable: {getattr(exc, 'problem', exc)}"
+    dt = frames[:-1, 0]
+    return f"{len(frames):6d} frames  {1 / float(sorted(dt)[len(dt) // 2]):6.1f} fps  {dt.sum():7.2f} s"
+
+
+@command("pleat-motion")
+def main(argv=None):
+    args = build_parser().parse_args(argv)
+
+    from pleat.body.model import BodyModel
     from pleat.motion import split as split_mod
     from pleat.motion.loaders import list_clips, load_clip
 
     if args.cmd == "list":
-        import json as _json
-        import numpy as np
         for name, path in list_clips(args.dir).items():
-            info = ""
-            if path.suffix in (".txt", ".json"):
-                with open(path) as fh:
-                    frames = np.asarray(_json.load(fh)["Frames"])
-                info = f"{len(frames):6d} frames  {1 / np.median(frames[:-1, 0]):6.1f} fps  " \
-                       f"{frames[:-1, 0].sum():7.2f} s"
-            print(f"{name:50s} {info}  {split_mod.split_of(name) or '-'}")
+            print(f"{name:50s} {_info(path)}  {split_mod.split_of(name) or '-'}")
+    elif args.cmd == "joints":
+        body = BodyModel.load(args.body or default_body_path())
+        _, match = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map, with_match=True)
+        if args.json:
+            print(json.dumps(match.as_dict(), indent=1))
+        else:
+            print("\n".join(match.lines()))
     elif args.cmd == "convert":
-        body = BodyModel.load(args.body)
-        clip = load_clip(args.clip, body, motion_dir=args.dir)
+        body = BodyModel.load(args.body or default_body_path())
+        clip, match = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map,
+                                with_match=True)
         if args.speed != 1.0:
             clip = clip.time_scaled(args.speed)
         if args.mirror:
             clip = clip.mirrored()
         clip = clip.resample(args.fps)
-        clip.save(args.out)
-        print(json.dumps(dict(out=args.out, name=clip.name, frames=clip.num_frames, fps=clip.fps,
-                              duration_s=round(clip.duration, 4), source=clip.source)))
+        if clip.num_frames < 2:
+            from pleat.motion.loaders import MotionFileError
+            raise MotionFileError(args.clip, f"lasts {clip.duration:.4g} s: one frame at {args.fps:g} fps; a clip "
+                                             "needs at least 2")
+        out = clip.save(args.out)
+        if not args.quiet:
+            print("\n".join(["pleat-motion: joints:"] + match.lines()), file=sys.stderr)
+        joints = match.as_dict()
+        print(json.dumps(dict(out=str(out), name=clip.name, frames=clip.num_frames, fps=clip.fps,
+                              duration_s=round(clip.duration, 4), source=clip.source,
+                              joints=dict(matched=len(joints["matched"]), unmatched=joints["unmatched"],
+                                          unused=joints["unused"]))))
     else:
-        from pleat.motion.loaders import list_clips as lc
-        found = set(lc(args.dir))
+        found = set(list_clips(args.dir))
         out = dict(training=[n for n in split_mod.TRAINING if n in found],
                    validation=[n for n in split_mod.VALIDATION if n in found],
                    missing=[n for n in split_mod.TRAINING + split_mod.VALIDATION if n not in found],
                    unassigned=sorted(n for n in found if split_mod.split_of(n) is None))
         print(json.dumps(out, indent=1))
         return 0 if not out["missing"] else 1
+    return 0
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from pleat.body.model import SMPL_JOINT_NAMES
+from pleat.fileio import save_npz
 from pleat.rotations import quat_multiply, quat_normalize, quat_slerp, quat_to_matrix, yaw_of, yaw_matrix, \
     matrix_to_quat
 
@@ -95,7 +96,8 @@ class Clip:
 
     # ---- storage ------------------------------------------------------------------------------------------------
     def save(self, path):
-        np.savez_compressed(path, name=np.array(self.name), source=np.array(self.source),
+        """Writes the npz atomically (pleat.fileio: a failed write keeps the old file); adds .npz like numpy."""
+        return save_npz(path, compressed=True, name=np.array(self.name), source=np.array(self.source),
                             fps=np.float64(self.fps), joint_names=np.array(self.joint_names),
                             local_rotations=self.local_rotations.astype(np.float32),
                             root_translation=self.root_translation.astype(np.float32),

@@ -1,44 +1,60 @@
-"""Motion loaders → `Clip` on the Pleat body: DeepMimic (JSON .txt), BVH, Acclaim ASF/AMC, AMASS-style npz.
+"""Motion loaders → `Clip` on the Pleat body: DeepMimic (JSON .txt), BVH, Acclaim ASF/AMC, AMASS-style npz, and
+Pleat clip npz (what `pleat-motion convert` writes).
 
 Clips are found in $PLEAT_MOTION_DIR, then ../shared/motion beside the repository, then data/motion in it (where
 scripts/fetch-motion.sh writes). See docs/motion.md.
+
+Loading is parse → check → retarget → check. Every reader checks what it read before anything uses it (structure,
+then meaning: at least two frames, a positive frame time, finite numbers, no zero quaternions, the joints that
+retargeting needs) and raises `MotionFileError(path, what is wrong)`; anything else a malformed file makes a reader
+raise is turned into a MotionFileError too. So a bad file costs one clear line in the CLIs (pleat.cli), never a
+traceback and never a clip of NaNs.
 """
 import json
-import os
+import math
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from pleat.body.model import BodyModel, SMPL_JOINT_NAMES, SMPL_PARENTS
+from pleat.cli import InputError
 from pleat.motion.clip import Clip
+from pleat.motion.joint_map import (REQUIRED_JOINTS, JointMatch, guess_joint_map, match_joints,  # noqa: F401
+                                    read_joint_map_file, strip_namespace)
 from pleat.motion.retarget import SourceMotion, retarget
-from pleat.rotations import axis_angle_to_matrix, quat_to_matrix
+from pleat.paths import REPO_ROOT, motion_dirs  # noqa: F401  (REPO_ROOT: kept for importers)
+from pleat.rotations import axis_angle_to_matrix, quat_normalize, quat_to_matrix
 
-REPO_ROOT = Path(__file__).resolve().parents[3]
+MIN_FRAMES = 2                   # a clip needs a start and an end: (T − 1)/fps is its duration
+MIN_FRAME_TIME_S = 1e-4          # 10 kHz: faster is not mocap, it is a units mistake
+MAX_FRAME_TIME_S = 10.0
+MAX_DURATION_S = 3600.0
+MAX_POSITION = 1e6               # |root / offset coordinates| in source units (cm: 10 km)
+MAX_BVH_DEPTH = 256              # real skeletons are < 40 deep (fingers included)
+MAX_JOINTS = 1024
+QUAT_MIN_NORM = 1e-6
+_SUFFIXES = (".txt", ".json", ".bvh", ".amc", ".npz")
 
 
-def motion_dirs():
-    dirs = []
-    if os.environ.get("PLEAT_MOTION_DIR"):
-        dirs.append(Path(os.environ["PLEAT_MOTION_DIR"]))
-    dirs += [REPO_ROOT.parent / "shared" / "motion", REPO_ROOT / "data" / "motion"]
-    return dirs
+class MotionFileError(InputError):
+    """A motion file that cannot be turned into a clip, and why (one line)."""
 
 
+# ---- finding clips -------------------------------------------------------------------------------------------------
 def find_motion_dir():
     for d in motion_dirs():
         if d.is_dir():
             return d
     raise FileNotFoundError("no motion folder: set PLEAT_MOTION_DIR or run scripts/fetch-motion.sh "
-                            f"(looked in {[str(d) for d in motion_dirs()]})")
-
-
-_SUFFIXES = (".txt", ".json", ".bvh", ".amc", ".npz")
+                            f"(looked in {', '.join(str(d) for d in motion_dirs())})")
 
 
 def list_clips(motion_dir=None):
     """Clip names (paths relative to the motion folder, without suffix) → file paths."""
     root = Path(motion_dir) if motion_dir else find_motion_dir()
+    if not root.is_dir():
+        raise InputError(root, "no such motion folder")
     out = {}
     for p in sorted(root.rglob("*")):
         if p.suffix not in _SUFFIXES or not p.is_file() or p.name.upper().startswith(("LICENSE", "PROVENANCE")):
@@ -48,30 +64,27 @@ def list_clips(motion_dir=None):
 
 
 def resolve_clip(name_or_path, motion_dir=None):
+    """A motion file path, or a clip name from the motion folder (`humanoid3d_walk`, `deepmimic_pybullet/...`)."""
     p = Path(name_or_path)
     if p.is_file():
         return p
-    clips = list_clips(motion_dir)
-    key = str(Path(name_or_path).with_suffix("")) if Path(name_or_path).suffix in _SUFFIXES else name_or_path
+    if p.is_dir():
+        raise MotionFileError(p, "is a folder, not a motion file")
+    try:
+        clips = list_clips(motion_dir)
+    except FileNotFoundError as exc:
+        raise MotionFileError(name_or_path, f"no such file, and no motion folder to look the name up in ({exc})") \
+            from None
+    key = str(p.with_suffix("")) if p.suffix in _SUFFIXES else str(name_or_path)
     if key in clips:
         return clips[key]
     hits = [v for k, v in clips.items() if k.endswith("/" + key) or Path(k).name == key]
     if len(hits) == 1:
         return hits[0]
-    raise FileNotFoundError(f"no clip {name_or_path!r} ({len(hits)} matches)")
-
-
-def load_clip(name_or_path, body=None, motion_dir=None, **kw):
-    """Any supported file or clip name → Clip retargeted onto `body` (default: assets/body.npz)."""
-    path = resolve_clip(name_or_path, motion_dir)
-    body = body or BodyModel.load()
-    if path.suffix == ".bvh":
-        return load_bvh(path, body, **kw)
-    if path.suffix == ".amc":
-        return load_asf_amc(path, body, **kw)
-    if path.suffix == ".npz":
-        return load_amass(path, body, **kw)
-    return load_deepmimic(path, body, **kw)
+    if hits:
+        raise MotionFileError(name_or_path, f"names {len(hits)} clips ({', '.join(sorted(str(h) for h in hits))}); "
+                                            "give more of the path")
+    raise MotionFileError(name_or_path, "no such file or clip name (pleat-motion list shows the clips)")
 
 
 def _clip_name(path):
@@ -81,6 +94,215 @@ def _clip_name(path):
         return str(path.resolve().relative_to(root.resolve()).with_suffix(""))
     except (ValueError, FileNotFoundError):
         return path.stem
+
+
+# ---- loading, checked ----------------------------------------------------------------------------------------------
+def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_map_file=None, with_match=False, **kw):
+    """Any supported file or clip name → Clip retargeted onto `body` (default: assets/body.npz).
+
+    joint_map: {body joint: source joint}, the whole map (replaces the name matching); joint_map_file: a JSON file
+    {source joint: body joint or null} (`--joint-map`), merged over the Mixamo table and the name guesses.
+    with_match: also return the JointMatch (what `pleat-motion joints` reports). kw go to `retarget`."""
+    path = resolve_clip(name_or_path, motion_dir)
+    body = body or BodyModel.load()
+    user_map = read_joint_map_file(joint_map_file, body.joint_names) if joint_map_file else None
+    fmt = _format_of(path)
+    if fmt == "clip":
+        clip = _reading(path, "Pleat clip npz", read_clip_file, path, body)
+        match = JointMatch({n: n for n in clip.joint_names}, {n: "clip file" for n in clip.joint_names},
+                           list(clip.joint_names), tuple(body.joint_names))
+        if joint_map_file:
+            raise InputError(joint_map_file, f"--joint-map applies to BVH and ASF/AMC skeletons; {path.name} is a "
+                                             "Pleat clip already on the body")
+        return (clip, match) if with_match else clip
+    fps = kw.pop("fps", None)
+    if fmt == "bvh":
+        src = _reading(path, "BVH", read_bvh, path)
+    elif fmt == "amc":
+        src = _reading(path, "ASF/AMC", read_amc, path)
+        src.fps = float(fps or 120.0)
+    elif fmt == "amass":
+        src = _reading(path, "AMASS npz", read_amass, path, body)
+        kw.setdefault("root_scale", 1.0)   # AMASS is in metres on human-sized SMPL bodies
+    else:
+        src = _reading(path, "DeepMimic JSON", read_deepmimic, path)
+    check_source(src, path)
+    spread = None
+    if fmt in ("bvh", "amc"):
+        animated = [n for n, has in zip(src.names, getattr(src, "animated", [True] * len(src.names))) if has]
+        if joint_map is not None:
+            match = JointMatch(dict(joint_map), {k: "joint_map argument" for k in joint_map}, list(src.names),
+                               tuple(body.joint_names), animated)
+        else:
+            match = match_joints(src.names, user_map, joint_map_file, body.joint_names, animated)
+    else:
+        if joint_map_file:
+            raise InputError(joint_map_file, f"--joint-map applies to BVH and ASF/AMC skeletons; {path.name} has "
+                                             "a fixed skeleton")
+        if fmt == "amass":
+            mapping, animated = {n: n for n in SMPL_JOINT_NAMES}, list(SMPL_JOINT_NAMES[:22])
+        else:
+            mapping, spread = dict(DEEPMIMIC_MAP), DEEPMIMIC_SPREAD
+            animated = [j[0] for j in DEEPMIMIC_JOINTS]
+        shared = {n: mapping[k] for k, chain in (spread or {}).items() for n in chain if n != k}
+        match = JointMatch(mapping, {k: "fixed" for k in mapping}, list(src.names), tuple(body.joint_names),
+                           animated, shared)
+    check_skeleton(src, match, path)
+    try:
+        clip = retarget(src, match.mapping, body, spread=spread, **kw)
+    except InputError:
+        raise
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        raise MotionFileError(path, f"cannot be retargeted onto the body: {exc}") from None
+    check_clip(clip, path)
+    return (clip, match) if with_match else clip
+
+
+def load_clip_at(name_or_path, body=None, fps=30.0, max_frames=None, **kw):
+    """load_clip, resampled to `fps` and cut to `max_frames`; still at least MIN_FRAMES frames (a clip shorter than a
+    frame at `fps` is reported, not passed on as one frame)."""
+    from dataclasses import replace
+    clip = load_clip(name_or_path, body, **kw)
+    if abs(clip.fps - fps) > 1e-9:
+        clip = clip.resample(fps)
+    if max_frames and clip.num_frames > max_frames:
+        clip = replace(clip, local_rotations=clip.local_rotations[:max_frames],
+                       root_translation=clip.root_translation[:max_frames],
+                       root_rotation=clip.root_rotation[:max_frames])
+    if clip.num_frames < MIN_FRAMES:
+        raise MotionFileError(name_or_path, f"lasts {clip.duration:.4g} s: {clip.num_frames} frame at {fps:g} fps; "
+                                            f"a clip needs at least {MIN_FRAMES}")
+    return clip
+
+
+def _format_of(path):
+    suffix = path.suffix.lower()
+    if suffix not in _SUFFIXES:
+        raise MotionFileError(path, f"unknown motion format {path.suffix or '(no suffix)'!r}: use DeepMimic .txt/"
+                                    ".json, .bvh, .amc (+ .asf), AMASS .npz or a Pleat clip .npz")
+    if suffix == ".bvh":
+        return "bvh"
+    if suffix == ".amc":
+        return "amc"
+    if suffix == ".npz":
+        try:
+            with zipfile.ZipFile(path) as z:
+                names = set(z.namelist())
+        except (zipfile.BadZipFile, EOFError, ValueError):
+            raise MotionFileError(path, "is not an npz file (not a zip archive)") from None
+        return "clip" if "local_rotations.npy" in names else "amass"
+    return "deepmimic"
+
+
+def _reading(path, fmt, reader, *args):
+    """reader(*args), with whatever a malformed file makes it raise turned into one MotionFileError line."""
+    try:
+        return reader(*args)
+    except (InputError, OSError, MemoryError):
+        raise
+    except UnicodeDecodeError:
+        raise MotionFileError(path, f"is not a text file (not UTF-8): not a {fmt} file") from None
+    except RecursionError:
+        raise MotionFileError(path, f"nests too deeply to be read as {fmt}") from None
+    except (ValueError, IndexError, KeyError, TypeError, OverflowError, ZeroDivisionError, AttributeError,
+            zipfile.BadZipFile, EOFError) as exc:
+        raise MotionFileError(path, f"malformed {fmt} file ({type(exc).__name__}: {exc})") from None
+
+
+def _first_bad(mask):
+    """Index tuple of the first True in `mask`."""
+    return tuple(int(i) for i in np.argwhere(mask)[0])
+
+
+def check_source(src, path):
+    """A SourceMotion that retargeting can use: ≥ 2 frames, a sane frame rate, finite numbers."""
+    T = src.local_rotations.shape[0]
+    if T < MIN_FRAMES:
+        raise MotionFileError(path, f"has {T} frame{'s' if T != 1 else ''}; a clip needs at least {MIN_FRAMES}")
+    fps = float(src.fps)
+    if not math.isfinite(fps) or not 1.0 / MAX_FRAME_TIME_S <= fps <= 1.0 / MIN_FRAME_TIME_S:
+        raise MotionFileError(path, f"frame rate {fps:g} fps is outside {1 / MAX_FRAME_TIME_S:g}..."
+                                    f"{1 / MIN_FRAME_TIME_S:g} fps")
+    if (T - 1) / fps > MAX_DURATION_S:
+        raise MotionFileError(path, f"lasts {(T - 1) / fps:.0f} s; clips longer than {MAX_DURATION_S:.0f} s are "
+                                    "not supported: cut it")
+    for what, arr in (("rest skeleton offset", src.rest_positions), ("root position", src.root_positions)):
+        arr = np.asarray(arr, np.float64)
+        if not np.isfinite(arr).all():
+            raise MotionFileError(path, f"a {what} is not finite ({arr[_first_bad(~np.isfinite(arr))]})")
+        if np.abs(arr).max(initial=0.0) > MAX_POSITION:
+            raise MotionFileError(path, f"a {what} of {np.abs(arr).max():g} is out of range (|x| ≤ {MAX_POSITION:g})")
+    R = np.asarray(src.local_rotations)
+    bad = ~np.isfinite(R).all(axis=(-2, -1))
+    if bad.any():
+        t, s = _first_bad(bad)
+        raise MotionFileError(path, f"frame {t}: joint {src.names[s]!r} has a non-finite rotation")
+
+
+def check_skeleton(src, match, path):
+    """The joints retargeting needs are there, and the rest skeleton tells facing and leg length."""
+    missing = match.missing_required
+    if missing:
+        shown = ", ".join(src.names[:12]) + (", ..." if len(src.names) > 12 else "")
+        raise MotionFileError(path, f"no source joint for {', '.join(missing)} (the skeleton has {shown}); name "
+                                    "them in a --joint-map FILE (JSON {\"source joint\": \"body joint\"})")
+    idx = {n: i for i, n in enumerate(src.names)}
+    rest = np.asarray(src.rest_positions, np.float64)
+    m = match.mapping
+    hips = rest[idx[m["left_hip"]]] - rest[idx[m["right_hip"]]]
+    if np.hypot(hips[0], hips[2]) < 1e-9:
+        raise MotionFileError(path, f"the left and right hips ({m['left_hip']}, {m['right_hip']}) are not apart "
+                                    "sideways in the rest skeleton: cannot tell which way it faces")
+    for side in ("left", "right"):
+        a, b, c = (rest[idx[m[f"{side}_{j}"]]] for j in ("hip", "knee", "ankle"))
+        if np.linalg.norm(b - a) + np.linalg.norm(c - b) < 1e-9:
+            raise MotionFileError(path, f"the {side} leg ({m[f'{side}_hip']} → {m[f'{side}_ankle']}) has zero "
+                                        "length in the rest skeleton: no scale for the root path")
+
+
+def check_clip(clip, path):
+    """The retargeted clip: finite, unit quaternions."""
+    for what, arr in (("joint rotations", clip.local_rotations), ("root path", clip.root_translation),
+                      ("root rotations", clip.root_rotation)):
+        if not np.isfinite(arr).all():
+            raise MotionFileError(path, f"retargeting gives non-finite {what} (values out of range?)")
+
+
+# ---- Pleat clip npz (pleat-motion convert) -------------------------------------------------------------------------
+def read_clip_file(path, body=None):
+    """A Clip npz (Clip.save), checked: keys, shapes, joint names of the body, ≥ 2 frames, fps, finite values and
+    non-zero quaternions."""
+    need = ("fps", "joint_names", "local_rotations", "root_translation", "root_rotation")
+    with np.load(path, allow_pickle=False) as z:
+        missing = [k for k in need if k not in z.files]
+        if missing:
+            raise MotionFileError(path, f"Pleat clip npz without {', '.join(missing)}")
+        arrays = {k: z[k] for k in z.files}
+    names = [str(n) for n in np.atleast_1d(arrays["joint_names"])]
+    expected = list(body.joint_names if body is not None else SMPL_JOINT_NAMES)
+    if names != expected:
+        raise MotionFileError(path, f"clip joints {names[:4]}... are not the body's {len(expected)} joints")
+    q, t, r = (np.asarray(arrays[k], np.float64) for k in ("local_rotations", "root_translation", "root_rotation"))
+    T = q.shape[0] if q.ndim else 0
+    if q.shape != (T, len(names), 4) or t.shape != (T, 3) or r.shape != (T, 4):
+        raise MotionFileError(path, f"clip arrays have shapes {q.shape}, {t.shape}, {r.shape}; expected [T, "
+                                    f"{len(names)}, 4], [T, 3], [T, 4]")
+    if T < MIN_FRAMES:
+        raise MotionFileError(path, f"has {T} frame{'s' if T != 1 else ''}; a clip needs at least {MIN_FRAMES}")
+    fps = float(np.asarray(arrays["fps"]).reshape(-1)[0]) if np.asarray(arrays["fps"]).size else float("nan")
+    if not math.isfinite(fps) or not 1.0 / MAX_FRAME_TIME_S <= fps <= 1.0 / MIN_FRAME_TIME_S:
+        raise MotionFileError(path, f"frame rate {fps:g} fps is outside {1 / MAX_FRAME_TIME_S:g}..."
+                                    f"{1 / MIN_FRAME_TIME_S:g} fps")
+    for what, arr in (("joint rotation", q), ("root translation", t), ("root rotation", r)):
+        if not np.isfinite(arr).all():
+            raise MotionFileError(path, f"frame {_first_bad(~np.isfinite(arr))[0]}: a {what} is not finite")
+    for what, arr in (("joint rotation", q), ("root rotation", r)):
+        small = np.linalg.norm(arr, axis=-1) < QUAT_MIN_NORM
+        if small.any():
+            raise MotionFileError(path, f"frame {_first_bad(small)[0]}: a {what} quaternion is zero")
+    return Clip(name=str(arrays.get("name", Path(path).stem)), fps=fps, local_rotations=quat_normalize(q),
+                root_translation=t, root_rotation=quat_normalize(r), source=str(arrays.get("source", "")),
+                joint_names=names)
 
 
 def _uniform(times, local, root_pos):
@@ -102,6 +324,13 @@ def _uniform(times, local, root_pos):
     return fps, quat_to_matrix(qs), pos
 
 
+def _read_text(path):
+    text = Path(path).read_text(encoding="utf-8")
+    if not text.strip():
+        raise MotionFileError(path, "is empty")
+    return text
+
+
 # ---- DeepMimic ---------------------------------------------------------------------------------------------------
 # humanoid3d: 13 bodies. Frame = [dt, root pos (3), root quat (w,x,y,z), then per joint below a quaternion (w,x,y,z)
 # or, for knees and elbows, one angle (rad) about the joint's z axis]. The rest pose (all rotations identity) stands
@@ -121,6 +350,7 @@ DEEPMIMIC_JOINTS = [  # name, parent, offset from parent, dofs (4 = quaternion, 
     ("left_shoulder", 1, (-0.02405, 0.24350, -0.18311), 4),
     ("left_elbow", 11, (0.0, -0.274788, 0.0), 1),
 ]
+DEEPMIMIC_FRAME_VALUES = 4 + sum(d for *_, d in DEEPMIMIC_JOINTS)      # dt, root position, then the rotations: 44
 # end sites (no data): give the forearms their rest direction
 DEEPMIMIC_ENDS = [("right_wrist", 7, (0.0, -0.258947, 0.0)), ("left_wrist", 12, (0.0, -0.258947, 0.0))]
 DEEPMIMIC_MAP = {"pelvis": "root", "spine3": "chest", "head": "neck",
@@ -142,13 +372,57 @@ def _skeleton_rest(joints):
     return pos
 
 
+def _deepmimic_frames(path):
+    """The "Frames" table of a DeepMimic JSON file, checked: [T ≥ 2, 44] finite numbers, positive durations."""
+    text = _read_text(path)
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise MotionFileError(path, f"is not JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("Frames"), list):
+        raise MotionFileError(path, 'has no "Frames" list: a DeepMimic motion is {"Loop": ..., "Frames": '
+                                    '[[duration, root position, rotations...], ...]}')
+    rows = data["Frames"]
+    for i, row in enumerate(rows):
+        if not isinstance(row, list):
+            raise MotionFileError(path, f"frame {i} is not a list of numbers")
+        if len(row) != DEEPMIMIC_FRAME_VALUES:
+            raise MotionFileError(path, f"frame {i} has {len(row)} values; humanoid3d frames have "
+                                        f"{DEEPMIMIC_FRAME_VALUES}")
+        for j, v in enumerate(row):
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise MotionFileError(path, f"frame {i}, value {j} is {json.dumps(v)[:20]}, not a number")
+    if len(rows) < MIN_FRAMES:
+        raise MotionFileError(path, f"has {len(rows)} frame{'s' if len(rows) != 1 else ''}; a clip needs at least "
+                                    f"{MIN_FRAMES}")
+    frames = np.asarray(rows, dtype=np.float64)
+    if not np.isfinite(frames).all():
+        i, j = _first_bad(~np.isfinite(frames))
+        raise MotionFileError(path, f"frame {i}, value {j} is {frames[i, j]}: values must be finite")
+    dt = frames[:-1, 0]                   # the last frame's duration is unused (DeepMimic writes 0 there)
+    if np.all(dt == 0):
+        raise MotionFileError(path, "every frame duration is 0 (the first value of a frame is its duration in s)")
+    if np.any(dt <= 0):
+        i = int(np.argmax(dt <= 0))
+        raise MotionFileError(path, f"frame {i} has duration {dt[i]:g} s: durations must be positive")
+    if dt.min() < MIN_FRAME_TIME_S or dt.max() > MAX_FRAME_TIME_S:
+        bad = dt.min() if dt.min() < MIN_FRAME_TIME_S else dt.max()
+        raise MotionFileError(path, f"a frame duration of {bad:g} s is outside {MIN_FRAME_TIME_S:g}..."
+                                    f"{MAX_FRAME_TIME_S:g} s")
+    col = 4
+    for name, _, _, dof in DEEPMIMIC_JOINTS:
+        if dof == 4:
+            small = np.linalg.norm(frames[:, col:col + 4], axis=1) < QUAT_MIN_NORM
+            if small.any():
+                raise MotionFileError(path, f"frame {int(np.argmax(small))}: the {name} rotation quaternion is "
+                                            "zero (w, x, y, z all 0)")
+        col += dof
+    return frames
+
+
 def read_deepmimic(path):
     """DeepMimic JSON → SourceMotion (source units: metres, +Y up)."""
-    with open(path) as fh:
-        data = json.load(fh)
-    frames = np.asarray(data["Frames"], dtype=np.float64)
-    if frames.ndim != 2 or frames.shape[1] != 44:
-        raise ValueError(f"{path}: expected humanoid3d frames of 44 values, got {frames.shape}")
+    frames = _deepmimic_frames(path)
     dt = frames[:, 0]
     times = np.concatenate([[0.0], np.cumsum(dt[:-1])])
     T = len(frames)
@@ -170,57 +444,7 @@ def read_deepmimic(path):
 
 
 def load_deepmimic(path, body=None, **kw):
-    body = body or BodyModel.load()
-    return retarget(read_deepmimic(path), DEEPMIMIC_MAP, body, spread=DEEPMIMIC_SPREAD, **kw)
-
-
-# ---- generic name map (BVH, ASF) -----------------------------------------------------------------------------------
-_SIDE_CANDIDATES = {
-    "hip": ["{S}UpLeg", "{S}Hip", "{s}Thigh", "{S}Thigh", "{s}femur"],
-    "knee": ["{S}Leg", "{S}Knee", "{s}Shin", "{S}Shin", "{s}tibia"],
-    "ankle": ["{S}Foot", "{S}Ankle", "{s}Foot", "{s}foot"],
-    "foot": ["{S}ToeBase", "{S}Toe", "{S}Toes", "{s}Toe", "{s}toes"],
-    "collar": ["{S}Shoulder", "{S}Collar", "{s}Collar", "{s}clavicle"],
-    "shoulder": ["{S}Arm", "{S}UpArm", "{S}UpperArm", "{s}Shldr", "{s}humerus"],
-    "elbow": ["{S}ForeArm", "{S}Elbow", "{S}LowerArm", "{s}ForeArm", "{s}radius"],
-    "wrist": ["{S}Hand", "{S}Wrist", "{s}Hand", "{s}wrist"],
-    "hand": ["{S}HandMiddle1", "{S}HandIndex1", "{S}FingerBase", "{s}hand"],
-}
-_CENTER_CANDIDATES = {
-    "pelvis": ["Hips", "hip", "Hip", "pelvis", "Pelvis", "root"],
-    "spine1": ["Spine", "LowerBack", "lowerback", "Abdomen", "abdomen", "spine"],
-    "spine2": ["Spine1", "Chest", "chest", "upperback"],
-    "spine3": ["Spine2", "Chest2", "UpperChest", "thorax", "Spine3"],
-    "neck": ["Neck", "neck", "lowerneck", "Neck1"],
-    "head": ["Head", "head"],
-}
-
-
-def guess_joint_map(source_names):
-    """Body joint → source joint by common naming schemes (CMU BVH, Mixamo, Biovision, Acclaim/CMU ASF)."""
-    names = list(source_names)
-    lower = {n.lower(): n for n in names}
-    used, out = set(), {}
-
-    def pick(cands):
-        for c in cands:
-            for n in (c, c.lower()):
-                hit = n if n in names else lower.get(n.lower())
-                if hit and hit not in used:
-                    return hit
-        return None
-
-    for joint, cands in _CENTER_CANDIDATES.items():
-        hit = pick(cands)
-        if hit:
-            out[joint], _ = hit, used.add(hit)
-    for side, S, s in (("left", "Left", "l"), ("right", "Right", "r")):
-        for part, cands in _SIDE_CANDIDATES.items():
-            hit = pick([c.format(S=S, s=s) for c in cands])
-            if hit:
-                out[f"{side}_{part}"], _ = hit, used.add(hit)
-    out["pelvis"] = names[0]
-    return out
+    return load_clip(Path(path), body, **kw)
 
 
 def _euler(order, angles_deg, intrinsic):
@@ -237,67 +461,138 @@ def _euler(order, angles_deg, intrinsic):
 
 
 # ---- BVH -----------------------------------------------------------------------------------------------------------
-def read_bvh(path):
-    tokens = Path(path).read_text().split()
-    pos = 0
-    names, parents, offsets, channels = [], [], [], []
+_BVH_CHANNELS = {f"{a}{k}": (a, k) for a in "XYZ" for k in ("position", "rotation")}
 
-    def expect(tok):
-        nonlocal pos
-        if tokens[pos] != tok:
-            raise ValueError(f"{path}: expected {tok!r}, found {tokens[pos]!r}")
-        pos += 1
 
-    def parse_joint(parent):
-        nonlocal pos
-        kind = tokens[pos]
-        pos += 1
-        if kind == "End":
-            expect("Site")
-            name = f"{names[parent]}_end"
-        else:
-            name = tokens[pos]
-            pos += 1
-        expect("{")
-        idx = len(names)
+class _Tokens:
+    """The whitespace-separated words of a BVH file, read front to back, with errors that say what was expected."""
+
+    def __init__(self, path, words):
+        self.path, self.words, self.pos = path, words, 0
+
+    def next(self, expected):
+        if self.pos >= len(self.words):
+            raise MotionFileError(self.path, f"ends early: expected {expected}")
+        self.pos += 1
+        return self.words[self.pos - 1]
+
+    def expect(self, word, where=""):
+        got = self.next(repr(word) + where)
+        if got != word:
+            raise MotionFileError(self.path, f"expected {word!r}{where}, found {got[:40]!r}")
+
+    def number(self, what, integer=False):
+        word = self.next(what)
+        try:
+            value = int(word) if integer else float(word)
+        except ValueError:
+            raise MotionFileError(self.path, f"{what} is {word[:40]!r}, not {'an integer' if integer else 'a number'}") \
+                from None
+        if not integer and not math.isfinite(value):
+            raise MotionFileError(self.path, f"{what} is {word}: it must be finite")
+        return value
+
+
+def _bvh_hierarchy(path, tok):
+    """HIERARCHY → names, parents, offsets, channels; iterative (a stack of open joints), at most MAX_BVH_DEPTH deep."""
+    names, parents, offsets, channels, is_end = [], [], [], [], []
+    tok.expect("HIERARCHY")
+    tok.expect("ROOT", " after HIERARCHY")
+    stack = []
+
+    def open_joint(name, parent, end=False):
+        if len(names) >= MAX_JOINTS:
+            raise MotionFileError(path, f"has more than {MAX_JOINTS} joints")
+        if len(stack) >= MAX_BVH_DEPTH:
+            raise MotionFileError(path, f"joints nest more than {MAX_BVH_DEPTH} deep (at {name!r}); a skeleton is "
+                                        "not this deep: the file is malformed")
+        tok.expect("{", f" after {'End Site' if end else 'joint ' + repr(name)}")
         names.append(name)
         parents.append(parent)
-        offsets.append([0.0, 0.0, 0.0])
+        offsets.append(None)
         channels.append([])
-        while tokens[pos] != "}":
-            t = tokens[pos]
-            if t == "OFFSET":
-                offsets[idx] = [float(x) for x in tokens[pos + 1:pos + 4]]
-                pos += 4
-            elif t == "CHANNELS":
-                n = int(tokens[pos + 1])
-                channels[idx] = tokens[pos + 2:pos + 2 + n]
-                pos += 2 + n
-            elif t in ("JOINT", "End"):
-                parse_joint(idx)
-            else:
-                raise ValueError(f"{path}: unexpected token {t!r}")
-        pos += 1
+        is_end.append(end)
+        stack.append(len(names) - 1)
 
-    expect("HIERARCHY")
-    expect("ROOT")
-    pos -= 1
-    tokens[pos] = "JOINT"
-    parse_joint(-1)
-    expect("MOTION")
-    expect("Frames:")
-    n_frames = int(tokens[pos])
-    pos += 1
-    expect("Frame")
-    expect("Time:")
-    frame_time = float(tokens[pos])
-    pos += 1
+    open_joint(tok.next("the root joint's name"), -1)
+    while stack:
+        j = stack[-1]
+        where = f" in joint {names[j]!r}"
+        word = tok.next(f"'}}' closing joint {names[j]!r}")
+        if word == "OFFSET":
+            offsets[j] = [tok.number(f"OFFSET{where}") for _ in range(3)]
+        elif word == "CHANNELS":
+            if is_end[j]:
+                raise MotionFileError(path, f"End Site of {names[parents[j]]!r} has CHANNELS")
+            n = tok.number(f"the CHANNELS count{where}", integer=True)
+            if not 0 <= n <= 6:
+                raise MotionFileError(path, f"CHANNELS count {n}{where}: a joint has 0 to 6 channels")
+            chans = [tok.next(f"{n} channel names{where}") for _ in range(n)]
+            for c in chans:
+                if c.capitalize() not in _BVH_CHANNELS:
+                    raise MotionFileError(path, f"unknown channel {c[:40]!r}{where} (Xposition ... Zrotation)")
+            if len({c.lower() for c in chans}) != len(chans):
+                raise MotionFileError(path, f"a channel is listed twice{where}")
+            channels[j] = [c.capitalize() for c in chans]
+        elif word == "JOINT":
+            if is_end[j]:
+                raise MotionFileError(path, f"End Site of {names[parents[j]]!r} has a child joint")
+            open_joint(tok.next(f"a joint name{where}"), j)
+        elif word == "End":
+            tok.expect("Site", " after 'End'")
+            open_joint(f"{names[j]}_end", j, end=True)
+        elif word == "}":
+            if offsets[j] is None:
+                raise MotionFileError(path, f"joint {names[j]!r} has no OFFSET")
+            stack.pop()
+        else:
+            raise MotionFileError(path, f"unexpected {word[:40]!r}{where}")
+    seen = set()
+    for n, end in zip(names, is_end):
+        if not end and n in seen:
+            raise MotionFileError(path, f"joint name {n!r} appears twice")
+        seen.add(n)
+    return names, parents, offsets, channels
+
+
+def read_bvh(path):
+    path = Path(path)
+    tok = _Tokens(path, _read_text(path).split())
+    names, parents, offsets, channels = _bvh_hierarchy(path, tok)
+    tok.expect("MOTION", " after the HIERARCHY")
+    tok.expect("Frames:", " after MOTION")
+    n_frames = tok.number("the Frames: count", integer=True)
+    tok.expect("Frame", " after the Frames: count")
+    tok.expect("Time:", " after 'Frame'")
+    frame_time = tok.number("Frame Time")
+    if not frame_time > 0:
+        raise MotionFileError(path, f"Frame Time is {frame_time:g}: it must be a positive number of seconds per "
+                                    "frame")
+    if n_frames < MIN_FRAMES:
+        raise MotionFileError(path, f"has {max(n_frames, 0)} frame{'s' if n_frames != 1 else ''} (Frames: "
+                                    f"{n_frames}); a clip needs at least {MIN_FRAMES}")
     n_ch = sum(len(c) for c in channels)
-    values = np.asarray(tokens[pos:pos + n_frames * n_ch], dtype=np.float64)
-    if values.size != n_frames * n_ch:
-        raise ValueError(f"{path}: expected {n_frames} frames of {n_ch} channels")
+    if n_ch == 0:
+        raise MotionFileError(path, "has no CHANNELS: nothing moves")
+    words = tok.words[tok.pos:]
+    if len(words) != n_frames * n_ch:
+        full = len(words) // n_ch
+        if len(words) < n_frames * n_ch:
+            raise MotionFileError(path, f"has {full} complete frame{'s' if full != 1 else ''} of {n_ch} channels, "
+                                        f"but Frames: says {n_frames} (truncated?)")
+        raise MotionFileError(path, f"has {len(words) - n_frames * n_ch} values more than Frames: {n_frames} × "
+                                    f"{n_ch} channels")
+    try:
+        values = np.asarray(words, dtype=np.float64)
+    except ValueError:
+        k = next(i for i, w in enumerate(words) if not _is_number(w))
+        raise MotionFileError(path, f"motion value {words[k][:40]!r} (frame {k // n_ch}) is not a number") from None
     values = values.reshape(n_frames, n_ch)
-    offsets = np.asarray(offsets)
+    if not np.isfinite(values).all():
+        t, c = _first_bad(~np.isfinite(values))
+        joint, chan = _channel_at(names, channels, c)
+        raise MotionFileError(path, f"frame {t}: {joint} {chan} is {values[t, c]}: values must be finite")
+    offsets = np.asarray(offsets, np.float64)
     rest = np.zeros_like(offsets)
     for i, p in enumerate(parents):
         rest[i] = offsets[i] + (rest[p] if p >= 0 else 0.0)
@@ -307,27 +602,55 @@ def read_bvh(path):
     for i, ch in enumerate(channels):
         block = values[:, col:col + len(ch)]
         col += len(ch)
-        rot_axes = [c[0] for c in ch if c.lower().endswith("rotation")]
-        rot_cols = [j for j, c in enumerate(ch) if c.lower().endswith("rotation")]
+        rot_axes = [c[0] for c in ch if c.endswith("rotation")]
+        rot_cols = [j for j, c in enumerate(ch) if c.endswith("rotation")]
         if rot_axes:
             local[:, i] = _euler("".join(rot_axes), block[:, rot_cols], intrinsic=True)
         if i == 0:
             for j, c in enumerate(ch):
-                if c.lower().endswith("position"):
-                    root[:, "XYZ".index(c[0].upper())] = block[:, j]
-    return SourceMotion(name=_clip_name(path), source=f"BVH {Path(path).name}", fps=1.0 / frame_time, names=names,
-                        parents=np.array(parents), rest_positions=rest, local_rotations=local, root_positions=root)
+                if c.endswith("position"):
+                    root[:, "XYZ".index(c[0])] = block[:, j]
+    src = SourceMotion(name=_clip_name(path), source=f"BVH {path.name}", fps=1.0 / frame_time, names=names,
+                       parents=np.array(parents), rest_positions=rest, local_rotations=local, root_positions=root)
+    src.animated = [any(c.endswith("rotation") for c in ch) for ch in channels]
+    return src
+
+
+def _is_number(word):
+    try:
+        float(word)
+        return True
+    except ValueError:
+        return False
+
+
+def _channel_at(names, channels, column):
+    for n, ch in zip(names, channels):
+        if column < len(ch):
+            return n, ch[column]
+        column -= len(ch)
+    return "?", "?"
 
 
 def load_bvh(path, body=None, joint_map=None, **kw):
-    body = body or BodyModel.load()
-    src = read_bvh(path)
-    return retarget(src, joint_map or guess_joint_map(src.names), body, **kw)
+    return load_clip(Path(path), body, joint_map=joint_map, **kw)
 
 
 # ---- Acclaim ASF/AMC ---------------------------------------------------------------------------------------------
+def _floats(path, parts, what, count=None):
+    try:
+        values = [float(x) for x in parts]
+    except ValueError:
+        raise MotionFileError(path, f"{what}: {' '.join(parts)[:40]!r} are not numbers") from None
+    if count is not None and len(values) != count:
+        raise MotionFileError(path, f"{what} needs {count} numbers, has {len(values)}")
+    if not all(math.isfinite(v) for v in values):
+        raise MotionFileError(path, f"{what} has a non-finite value")
+    return np.array(values)
+
+
 def read_asf(path):
-    lines = [ln.split("#")[0].strip() for ln in Path(path).read_text().splitlines()]
+    lines = [ln.split("#")[0].strip() for ln in _read_text(path).splitlines()]
     lines = [ln for ln in lines if ln]
     bones = {"root": dict(direction=np.zeros(3), length=0.0, axis=np.zeros(3), axis_order="XYZ", dof=[])}
     order_root, axis_root = ["TX", "TY", "TZ", "RX", "RY", "RZ"], "XYZ"
@@ -336,38 +659,52 @@ def read_asf(path):
     for ln in lines:
         if ln.startswith(":"):
             section = ln.split()[0][1:]
-            rest = ln.split()[1:]
             continue
         parts = ln.split()
         if section == "root":
             if parts[0] == "order":
                 order_root = [p.upper() for p in parts[1:]]
+                if any(o not in ("TX", "TY", "TZ", "RX", "RY", "RZ") for o in order_root):
+                    raise MotionFileError(path, f"root order {' '.join(parts[1:])!r}: use TX TY TZ RX RY RZ")
             elif parts[0] == "axis":
                 axis_root = parts[1].upper()
                 bones["root"]["axis_order"] = axis_root
             elif parts[0] == "orientation":
-                bones["root"]["axis"] = np.array([float(x) for x in parts[1:4]])
+                bones["root"]["axis"] = _floats(path, parts[1:4], "root orientation", 3)
         elif section == "bonedata":
             if parts[0] == "begin":
                 cur = dict(direction=np.zeros(3), length=0.0, axis=np.zeros(3), axis_order="XYZ", dof=[])
+            elif cur is None:
+                raise MotionFileError(path, f"bone data {ln[:40]!r} outside begin ... end")
             elif parts[0] == "end":
+                if "name" not in cur:
+                    raise MotionFileError(path, "a bone without a name")
                 bones[cur["name"]] = cur
+                cur = None
             elif parts[0] == "name":
                 cur["name"] = parts[1]
             elif parts[0] == "direction":
-                cur["direction"] = np.array([float(x) for x in parts[1:4]])
+                cur["direction"] = _floats(path, parts[1:4], f"bone {cur.get('name')} direction", 3)
             elif parts[0] == "length":
-                cur["length"] = float(parts[1])
+                cur["length"] = float(_floats(path, parts[1:2], f"bone {cur.get('name')} length", 1)[0])
             elif parts[0] == "axis":
-                cur["axis"] = np.array([float(x) for x in parts[1:4]])
+                cur["axis"] = _floats(path, parts[1:4], f"bone {cur.get('name')} axis", 3)
                 cur["axis_order"] = parts[4].upper() if len(parts) > 4 else "XYZ"
             elif parts[0] == "dof":
                 cur["dof"] = [p.lower() for p in parts[1:]]
+                if any(d not in ("rx", "ry", "rz", "tx", "ty", "tz", "l") for d in cur["dof"]):
+                    raise MotionFileError(path, f"bone {cur.get('name')}: unknown dof in {ln[:40]!r}")
         elif section == "hierarchy":
             if parts[0] in ("begin", "end"):
                 continue
             for child in parts[1:]:
                 hierarchy[child] = parts[0]
+    for child, parent in hierarchy.items():
+        for n in (child, parent):
+            if n not in bones:
+                raise MotionFileError(path, f"the hierarchy names bone {n!r}, which :bonedata does not define")
+    if len(bones) < 2 or not hierarchy:
+        raise MotionFileError(path, "has no bones (:bonedata) or no :hierarchy")
     return bones, hierarchy, order_root
 
 
@@ -375,7 +712,7 @@ def read_amc(path, asf_path=None):
     path = Path(path)
     asf_path = Path(asf_path) if asf_path else path.with_suffix(".asf")
     if not asf_path.is_file():
-        raise FileNotFoundError(f"{path}: no ASF skeleton {asf_path.name} beside it")
+        raise MotionFileError(path, f"no ASF skeleton {asf_path.name} beside it")
     bones, hierarchy, order_root = read_asf(asf_path)
     # bones in hierarchy order (parents first)
     names = ["root"]
@@ -395,7 +732,7 @@ def read_amc(path, asf_path=None):
             b = bones[n]
             ends[i] = rest[i] + b["direction"] / max(np.linalg.norm(b["direction"]), 1e-12) * b["length"]
     frames = []
-    for ln in path.read_text().splitlines():
+    for ln in _read_text(path).splitlines():
         ln = ln.strip()
         if not ln or ln.startswith(("#", ":")):
             continue
@@ -403,8 +740,16 @@ def read_amc(path, asf_path=None):
         if len(parts) == 1 and parts[0].isdigit():
             frames.append({})
         elif frames:
-            frames[-1][parts[0]] = np.array([float(x) for x in parts[1:]])
+            bone = parts[0]
+            if bone not in bones:
+                raise MotionFileError(path, f"frame {len(frames) - 1}: bone {bone!r} is not in {asf_path.name}")
+            want = len(order_root) if bone == "root" else len(bones[bone]["dof"])
+            frames[-1][bone] = _floats(path, parts[1:], f"frame {len(frames) - 1}, bone {bone}", want)
+        else:
+            raise MotionFileError(path, f"{ln[:40]!r} before the first frame number")
     T = len(frames)
+    if T < MIN_FRAMES:
+        raise MotionFileError(path, f"has {T} frame{'s' if T != 1 else ''}; a clip needs at least {MIN_FRAMES}")
     local = np.broadcast_to(np.eye(3), (T, len(names), 3, 3)).copy()
     root = np.zeros((T, 3))
     for i, n in enumerate(names):
@@ -425,16 +770,15 @@ def read_amc(path, asf_path=None):
             vals = np.stack([f.get(n, np.zeros(len(b["dof"])))[[b["dof"].index(d) for d in dofs]] for f in frames])
             M = _euler("".join(d[1] for d in dofs), vals, intrinsic=False)
         local[:, i] = C @ M @ C.T
-    return SourceMotion(name=_clip_name(path), source=f"ASF/AMC {asf_path.name} + {path.name}", fps=120.0,
-                        names=names, parents=parents, rest_positions=rest, local_rotations=local, root_positions=root)
+    src = SourceMotion(name=_clip_name(path), source=f"ASF/AMC {asf_path.name} + {path.name}", fps=120.0,
+                       names=names, parents=parents, rest_positions=rest, local_rotations=local, root_positions=root)
+    src.animated = [n == "root" or any(d.startswith("r") for d in bones[n]["dof"]) for n in names]
+    return src
 
 
 def load_asf_amc(path, body=None, fps=120.0, joint_map=None, **kw):
     """An .amc file with the .asf of the same stem beside it. Acclaim files carry no frame rate: `fps` (CMU: 120)."""
-    body = body or BodyModel.load()
-    src = read_amc(path)
-    src.fps = float(fps)
-    return retarget(src, joint_map or guess_joint_map(src.names), body, **kw)
+    return load_clip(Path(path), body, joint_map=joint_map, fps=fps, **kw)
 
 
 # ---- AMASS (SMPL-H npz) ------------------------------------------------------------------------------------------
@@ -446,12 +790,27 @@ def read_amass(path, body):
     `mocap_framerate` → SourceMotion on the SMPL joint layout. SMPL's rest is a T-pose: the source rest skeleton
     is the Pleat body's own J(0) with the arms made horizontal, so only the arms get a rest offset."""
     with np.load(path, allow_pickle=False) as z:
+        missing = [k for k in ("poses", "trans") if k not in z.files]
+        rate_key = next((k for k in ("mocap_framerate", "mocap_frame_rate") if k in z.files), None)
+        if missing or rate_key is None:
+            raise MotionFileError(path, f"AMASS npz without {', '.join(missing + ([] if rate_key else ['mocap_framerate']))}")
         poses = np.asarray(z["poses"], dtype=np.float64)
         trans = np.asarray(z["trans"], dtype=np.float64)
-        fps = float(z["mocap_framerate"]) if "mocap_framerate" in z.files else float(z["mocap_frame_rate"])
+        rate = np.asarray(z[rate_key], dtype=np.float64)
     if poses.ndim != 2 or poses.shape[1] < 66:
-        raise ValueError(f"{path}: poses must be [T, 156] (or at least 66) axis-angle values")
+        raise MotionFileError(path, f"poses has shape {poses.shape}; it must be [T, 156] (or at least 66) "
+                                    "axis-angle values")
     T = poses.shape[0]
+    if trans.shape != (T, 3):
+        raise MotionFileError(path, f"trans has shape {trans.shape}; with {T} poses it must be [{T}, 3]")
+    if rate.size != 1:
+        raise MotionFileError(path, f"{rate_key} must be one number")
+    fps = float(rate.reshape(-1)[0])
+    if not fps > 0 or not math.isfinite(fps):
+        raise MotionFileError(path, f"{rate_key} is {fps:g}: it must be a positive frame rate")
+    for what, arr in (("poses", poses[:, :66]), ("trans", trans)):
+        if not np.isfinite(arr).all():
+            raise MotionFileError(path, f"frame {_first_bad(~np.isfinite(arr))[0]}: {what} has a non-finite value")
     local = np.broadcast_to(np.eye(3), (T, 24, 3, 3)).copy()
     local[:, :22] = axis_angle_to_matrix(poses[:, :66].reshape(T, 22, 3))    # hands (22, 23) stay identity
     local[:, 0] = Z_UP_TO_Y_UP @ local[:, 0]
@@ -468,6 +827,4 @@ def read_amass(path, body):
 
 
 def load_amass(path, body=None, **kw):
-    body = body or BodyModel.load()
-    kw.setdefault("root_scale", 1.0)   # AMASS is in metres on human-sized SMPL bodies
-    return retarget(read_amass(path, body), {n: n for n in SMPL_JOINT_NAMES}, body, **kw)
+    return load_clip(Path(path), body, **kw)

@@ -6,14 +6,17 @@ from pathlib import Path
 
 import numpy as np
 
+from pleat.cli import add_quiet, command, positive_float
+from pleat.fileio import save_npz, write_text
 
-def main(argv=None):
+
+def build_parser():
     parser = argparse.ArgumentParser(prog="pleat-sim", description=__doc__.split(": ", 1)[1])
     parser.add_argument("--garment", required=True, help="garment npz (pleat-garment) or garment name")
     parser.add_argument("--motion", required=True, help="clip name or file (pleat-motion list)")
-    parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument("--out", required=True, help="output folder (sim.npz, summary.json)")
     parser.add_argument("--frames", type=int, default=None, help="simulate only the first N frames")
-    parser.add_argument("--fps", type=float, default=30.0, help="frame rate the clip is resampled to (dt = 1/fps)")
+    parser.add_argument("--fps", type=positive_float, default=30.0, help="frame rate the clip is resampled to (dt = 1/fps)")
     parser.add_argument("--beta", default=None, help="comma-separated body shape β (up to 10 values)")
     parser.add_argument("--material", default=None,
                         help="m,mu,lambda,k (areal density kg/m², Lamé μ, λ, bending k); default HOOD's cotton")
@@ -24,18 +27,26 @@ def main(argv=None):
                              "from the garment skinned onto frame 0)")
     parser.add_argument("--hold", type=int, default=None, metavar="N",
                         help="frames the first pose is held after the lead-in (default 5)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(parser)
+    return parser
+
+
+@command("pleat-sim")
+def main(argv=None):
+    parser = build_parser()
     args = parser.parse_args(argv)
     from ..physics import Material
     from .scene import HOLD_FRAMES, LEAD_IN_FRAMES, load_body, load_garment_spec, load_motion, simulate
     try:
         material = Material.parse(args.material) if args.material else Material()
+        beta = None if args.beta is None else np.array([float(b) for b in args.beta.split(",")])
     except ValueError as e:
         parser.error(str(e))
-    beta = None if args.beta is None else np.array([float(b) for b in args.beta.split(",")])
+    if args.frames is not None and args.frames < 1:
+        parser.error("--frames must be at least 1")
     body = load_body(args.body)
+    clip = load_motion(args.motion, body, fps=args.fps)          # a bad clip fails here, before any work
     garment = load_garment_spec(args.garment, body)
-    clip = load_motion(args.motion, body, fps=args.fps)
     positions, body_v, summary = simulate(garment, body, clip, beta=beta, material=material, frames=args.frames,
                                           progress=not args.quiet, keep_body=not args.no_body,
                                           lead_in_frames=LEAD_IN_FRAMES if args.lead_in is None else args.lead_in,
@@ -48,9 +59,9 @@ def main(argv=None):
         arrays["beta"] = beta.astype(np.float32)
     if body_v is not None:
         arrays["body_vertices"] = body_v
-    np.savez_compressed(out / "sim.npz", **arrays)
+    save_npz(out / "sim.npz", compressed=True, **arrays)
     summary["motion"] = clip.name
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     print(json.dumps({k: summary[k] for k in ("frames", "seconds_per_frame", "max_penetration_mm",
                                               "final_gradient_norm", "steps_not_converged")}))
     return 0

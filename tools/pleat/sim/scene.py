@@ -29,20 +29,19 @@ def load_garment_spec(spec, body):
     from ..garment import Garment, make_garment
     if str(spec).endswith(".npz"):
         return Garment.load(spec)
-    cached = Path(__file__).resolve().parents[3] / "data" / "garments" / f"{spec}.npz"
+    from ..paths import GARMENTS_DIR
+    cached = GARMENTS_DIR / f"{spec}.npz"
     if cached.exists():
         return Garment.load(cached)
     return make_garment(spec, body=body)
 
 
 def load_motion(spec, body, fps=30.0, frames=None):
-    from ..motion import identity_clip, load_clip
+    from ..motion import identity_clip
+    from ..motion.loaders import load_clip_at
     if spec is None:
         return identity_clip(frames or 1, fps=fps)
-    clip = load_clip(spec, body=body)
-    if abs(clip.fps - fps) > 1e-6:
-        clip = clip.resample(fps)
-    return clip
+    return load_clip_at(spec, body, fps)
 
 
 def skinning_matrices(body, clip, beta=None, frames=None):
@@ -53,9 +52,11 @@ def skinning_matrices(body, clip, beta=None, frames=None):
 
 
 def posed_sequence(body, garment, motion, frames, beta=None):
-    """(body vertices [T,V,3], garment by LBS [T,N,3]) at `frames` of `motion` (None: rest pose)."""
+    """(body vertices [T,V,3], garment by LBS [T,N,3]) at `frames` of `motion` (a Clip, a clip name or file, or None:
+    the rest pose)."""
+    from ..motion import Clip
     frames = list(frames)
-    clip = load_motion(motion, body, frames=max(frames) + 1)
+    clip = motion if isinstance(motion, Clip) else load_motion(motion, body, frames=max(frames) + 1)
     M = skinning_matrices(body, clip, beta, frames)
     G = body.forward_kinematics(clip.local_matrices()[frames], clip.root_translation[frames],
                                 clip.root_matrices()[frames], beta)

@@ -1,0 +1,201 @@
+"""Which source joint drives which body joint (docs/motion.md, "Your own skeleton").
+
+For a BVH or ASF/AMC skeleton, each body joint (SMPL-style names: pelvis, left_hip, ...) gets a source joint by, in
+this order:
+1. a joint-map file (`--joint-map FILE`): JSON {source joint name: body joint name, or null to leave it unused};
+2. the Mixamo table (`MIXAMO_TO_BODY`), on names with their namespace stripped (`mixamorig:LeftUpLeg` → LeftUpLeg);
+3. common naming schemes (CMU BVH, Biovision, Acclaim/CMU ASF), on the stripped names.
+The body's pelvis is always the source root. Legs (hips, knees, ankles) are required: without them there is no
+facing, no scale and no ground, and the loader says which are missing. Any other body joint without a source joint
+moves rigidly with its parent. `JointMatch` records the result for the report that `pleat-motion joints` prints.
+"""
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pleat.body.model import SMPL_JOINT_NAMES
+from pleat.cli import InputError
+
+REQUIRED_JOINTS = ("pelvis", "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle")
+
+# Mixamo's rig (FBX or BVH export, after the namespace) → the body's SMPL-style joints.
+MIXAMO_TO_BODY = {
+    "Hips": "pelvis", "Spine": "spine1", "Spine1": "spine2", "Spine2": "spine3", "Neck": "neck", "Head": "head",
+    **{f"{S}{m}": f"{s}_{b}" for S, s in (("Left", "left"), ("Right", "right")) for m, b in (
+        ("UpLeg", "hip"), ("Leg", "knee"), ("Foot", "ankle"), ("ToeBase", "foot"), ("Shoulder", "collar"),
+        ("Arm", "shoulder"), ("ForeArm", "elbow"), ("Hand", "wrist"), ("HandMiddle1", "hand"))},
+}
+
+_SIDE_CANDIDATES = {
+    "hip": ["{S}UpLeg", "{S}Hip", "{s}Thigh", "{S}Thigh", "{s}femur"],
+    "knee": ["{S}Leg", "{S}Knee", "{s}Shin", "{S}Shin", "{s}tibia"],
+    "ankle": ["{S}Foot", "{S}Ankle", "{s}Foot", "{s}foot"],
+    "foot": ["{S}ToeBase", "{S}Toe", "{S}Toes", "{s}Toe", "{s}toes"],
+    "collar": ["{S}Shoulder", "{S}Collar", "{s}Collar", "{s}clavicle"],
+    "shoulder": ["{S}Arm", "{S}UpArm", "{S}UpperArm", "{s}Shldr", "{s}humerus"],
+    "elbow": ["{S}ForeArm", "{S}Elbow", "{S}LowerArm", "{s}ForeArm", "{s}radius"],
+    "wrist": ["{S}Hand", "{S}Wrist", "{s}Hand", "{s}wrist"],
+    "hand": ["{S}HandMiddle1", "{S}HandIndex1", "{S}FingerBase", "{s}hand"],
+}
+_CENTER_CANDIDATES = {
+    "pelvis": ["Hips", "hip", "Hip", "pelvis", "Pelvis", "root"],
+    "spine1": ["Spine", "LowerBack", "lowerback", "Abdomen", "abdomen", "spine"],
+    "spine2": ["Spine1", "Chest", "chest", "upperback"],
+    "spine3": ["Spine2", "Chest2", "UpperChest", "thorax", "Spine3"],
+    "neck": ["Neck", "neck", "lowerneck", "Neck1"],
+    "head": ["Head", "head"],
+}
+_MIXAMO_PREFIX = re.compile(r"^mixamorig\d*[_:]", re.IGNORECASE)
+
+
+def strip_namespace(name):
+    """`mixamorig:LeftUpLeg`, `Armature|mixamorig:LeftUpLeg`, `mixamorig1_LeftUpLeg` → `LeftUpLeg`."""
+    base = re.split(r"[:|]", str(name))[-1]
+    base = _MIXAMO_PREFIX.sub("", base)
+    return base or str(name)
+
+
+def guess_joint_map(source_names, root=True):
+    """Body joint → source joint by common naming schemes (CMU BVH, Mixamo, Biovision, Acclaim/CMU ASF), on names
+    with their namespace stripped; with `root`, the pelvis is the first name (the skeleton's root)."""
+    names = list(source_names)
+    stripped = [strip_namespace(n) for n in names]
+    exact = {}
+    lower = {}
+    for raw, s in zip(names, stripped):
+        exact.setdefault(s, raw)
+        lower.setdefault(s.lower(), raw)
+    used, out = set(), {}
+
+    def pick(cands):
+        for c in cands:
+            hit = exact.get(c) or lower.get(c.lower())
+            if hit and hit not in used:
+                return hit
+        return None
+
+    for joint, cands in _CENTER_CANDIDATES.items():
+        hit = pick(cands)
+        if hit:
+            out[joint] = hit
+            used.add(hit)
+    for side, S, s in (("left", "Left", "l"), ("right", "Right", "r")):
+        for part, cands in _SIDE_CANDIDATES.items():
+            hit = pick([c.format(S=S, s=s) for c in cands])
+            if hit:
+                out[f"{side}_{part}"] = hit
+                used.add(hit)
+    if root and names:
+        out["pelvis"] = names[0]
+    return out
+
+
+def read_joint_map_file(path, body_names=SMPL_JOINT_NAMES):
+    """A --joint-map JSON file → {source name: body name or None}, checked: an object whose values are body joint
+    names (or null) and that gives no body joint twice."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(path, "joint map file not found") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(path, f"joint map is not valid JSON ({exc})") from None
+    if not isinstance(data, dict) or not data:
+        raise InputError(path, 'joint map must be a JSON object {"source joint": "body joint", ...}')
+    known = set(body_names)
+    seen = {}
+    for src, dst in data.items():
+        if dst is None:
+            continue
+        if not isinstance(dst, str) or dst not in known:
+            raise InputError(path, f"joint map entry {src!r}: {dst!r} is not a body joint "
+                                   f"(one of {', '.join(body_names)}, or null)")
+        if dst in seen:
+            raise InputError(path, f"joint map gives body joint {dst!r} twice ({seen[dst]!r} and {src!r})")
+        seen[dst] = src
+    return dict(data)
+
+
+@dataclass
+class JointMatch:
+    """The body joint → source joint map used by retargeting, and where each entry came from."""
+    mapping: dict                       # body joint → source joint name (as in the file)
+    origin: dict                        # body joint → "joint map" | "Mixamo table" | "name guess" | "fixed"
+    source_names: list
+    body_names: tuple = SMPL_JOINT_NAMES
+    source_animated: list = field(default=None)   # source joints with rotation channels (None: all)
+    shared: dict = field(default_factory=dict)    # body joint → source joint whose rotation it shares (spread)
+
+    @property
+    def unmatched(self):
+        return [n for n in self.body_names if n not in self.mapping and n not in self.shared]
+
+    @property
+    def unused(self):
+        used = set(self.mapping.values())
+        pool = self.source_animated if self.source_animated is not None else self.source_names
+        return [n for n in pool if n not in used]
+
+    @property
+    def missing_required(self):
+        return [n for n in REQUIRED_JOINTS if n not in self.mapping]
+
+    def as_dict(self):
+        return dict(matched={k: self.mapping[k] for k in self.body_names if k in self.mapping},
+                    shared=dict(self.shared), unmatched=self.unmatched, unused=self.unused)
+
+    def lines(self):
+        """The report: one line per body joint, then the source joints no body joint uses."""
+        out = []
+        for k in self.body_names:
+            if k in self.shared:
+                out.append(f"  {k:15s} <- a share of {self.shared[k]}'s rotation  (spread over a chain)")
+            elif k in self.mapping:
+                out.append(f"  {k:15s} <- {self.mapping[k]}  ({self.origin[k]})")
+            else:
+                out.append(f"  {k:15s} -- unmatched: moves with its parent")
+        out.append(f"  {len(self.mapping) + len(self.shared)} of {len(self.body_names)} body joints matched; "
+                   "source joints unused: "
+                   + (", ".join(self.unused) if self.unused else "none"))
+        return out
+
+
+def match_joints(source_names, user_map=None, map_path=None, body_names=SMPL_JOINT_NAMES, source_animated=None):
+    """source_names (root first) → JointMatch. user_map: {source name: body name or None} (read_joint_map_file);
+    its source names may be given with or without their namespace."""
+    names = list(source_names)
+    by_stripped = {}
+    for n in names:
+        by_stripped.setdefault(strip_namespace(n), n)
+    mapping, origin, taken = {}, {}, set()
+
+    root = names[0] if names else None
+    if user_map:
+        for src, dst in user_map.items():
+            raw = src if src in names else by_stripped.get(strip_namespace(src))
+            if raw is None:
+                raise InputError(map_path, f"joint map names {src!r}, which the skeleton does not have")
+            if (dst == "pelvis" and raw != root) or (dst not in (None, "pelvis") and raw == root):
+                raise InputError(map_path, f"the body's pelvis must be the skeleton's root {root!r} "
+                                           f"(the joint map pairs {src!r} with {dst!r})")
+            taken.add(raw)
+            if dst is not None:
+                mapping[dst] = raw
+                origin[dst] = "joint map"
+    if root is not None:
+        mapping["pelvis"] = root
+        origin.setdefault("pelvis", "root")
+        taken.add(root)
+    for raw in names:
+        dst = MIXAMO_TO_BODY.get(strip_namespace(raw))
+        if dst and dst != "pelvis" and dst not in mapping and raw not in taken and dst in body_names:
+            mapping[dst] = raw
+            origin[dst] = "Mixamo table"
+            taken.add(raw)
+    for dst, raw in guess_joint_map([n for n in names if n not in taken], root=False).items():
+        if dst != "pelvis" and dst not in mapping and dst in body_names:
+            mapping[dst] = raw
+            origin[dst] = "name guess"
+    return JointMatch(mapping=mapping, origin=origin, source_names=names, body_names=tuple(body_names),
+                      source_animated=source_animated)
