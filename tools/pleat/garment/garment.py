@@ -52,7 +52,7 @@ class Garment:
         return np.einsum("...nij,nj->...ni", A[..., :3], x) + A[..., 3]
 
     def save(self, path):
-        save_npz(path, compressed=True, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
+        return save_npz(path, compressed=True, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
 
     @classmethod
     def load(cls, path):
