@@ -78,10 +78,11 @@ def main(argv=None):
             clip = clip.time_scaled(args.speed)
         if args.mirror:
             clip = clip.mirrored()
+        duration = clip.duration
         clip = clip.resample(args.fps)
         if clip.num_frames < 2:
             from pleat.motion.loaders import MotionFileError
-            raise MotionFileError(args.clip, f"lasts {clip.duration:.4g} s: one frame at {args.fps:g} fps; a clip "
+            raise MotionFileError(args.clip, f"lasts {duration:.4g} s: one frame at {args.fps:g} fps; a clip "
                                              "needs at least 2")
         out = clip.save(args.out)
         if not args.quiet:

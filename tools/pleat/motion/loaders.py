@@ -163,6 +163,7 @@ def load_clip_at(name_or_path, body=None, fps=30.0, max_frames=None, **kw):
     frame at `fps` is reported, not passed on as one frame)."""
     from dataclasses import replace
     clip = load_clip(name_or_path, body, **kw)
+    duration = clip.duration
     if abs(clip.fps - fps) > 1e-9:
         clip = clip.resample(fps)
     if max_frames and clip.num_frames > max_frames:
@@ -170,7 +171,7 @@ def load_clip_at(name_or_path, body=None, fps=30.0, max_frames=None, **kw):
                        root_translation=clip.root_translation[:max_frames],
                        root_rotation=clip.root_rotation[:max_frames])
     if clip.num_frames < MIN_FRAMES:
-        raise MotionFileError(name_or_path, f"lasts {clip.duration:.4g} s: {clip.num_frames} frame at {fps:g} fps; "
+        raise MotionFileError(name_or_path, f"lasts {duration:.4g} s: {clip.num_frames} frame at {fps:g} fps; "
                                             f"a clip needs at least {MIN_FRAMES}")
     return clip
 
