@@ -1,6 +1,7 @@
 // The GL compute path (sdk/src/gl/, shaders/) against a double-precision reference of the same equations, on Mesa
 // llvmpipe: host-context mode (the test plays the engine: its own EGL context and output buffers, and GL state that
-// must come back unchanged), headless mode (EGL surfaceless, and OSMesa forced), fp16 blend shapes, bad descriptions.
+// must come back unchanged), headless mode (the automatic choice, the EGL device platform forced, OSMesa forced), fp16
+// blend shapes, bad descriptions.
 //
 // Tolerances: positions within 2e-5 m (fp32 accumulation of D = 32 shapes of a few cm and a 3×4 transform on
 // coordinates up to ~1.5 m gives errors of a few 1e-7 m; 2e-5 m leaves room for GPU FMA contraction and is still far
@@ -192,6 +193,39 @@ static void test_headless_osmesa_fallback_matches_reference( void** state )
 	plRunMotion( fixture, deformer, 0, 3, &position_error, &normal_error );
 	print_message( "headless OSMesa: max position error %.3g m, max normal error %.3g\n", position_error,
 				   normal_error );
+	plGlDeformer_Destroy( deformer );
+	plExpectNoLeak( fixture );
+}
+
+// The EGL device platform route itself (EGL_EXT_platform_device), forced with software devices allowed so that it
+// runs here on Mesa's llvmpipe device too: same results as the reference, and the report names the route.
+static void test_headless_egl_device_platform_matches_reference( void** state )
+{
+	plTestFixture* fixture = *state;
+	plRequireGl( fixture );
+	plGlDeformerDesc desc = plDescFor( &fixture->mesh, PLEAT_GL_DEFORMER_HEADLESS, 0 );
+	char report[448] = { 0 };
+	desc.report = report;
+	desc.report_size = sizeof( report );
+	plGlDeformer* deformer = NULL;
+	plResult result = plGlDeformer_CreateHeadless( &desc, &fixture->allocator, PLEAT_GL_HEADLESS_EGL_DEVICE, &deformer );
+	if ( result == PLEAT_RESULT_GL_UNAVAILABLE )
+	{
+		print_message( "SKIP: no EGL device gives a GL 4.3 core context here: %s\n", report );
+		skip();
+	}
+	assert_int_equal( result, PLEAT_RESULT_OK );
+	print_message( "report: %s\n", report );
+	assert_int_equal( plGlDeformer_Backend( deformer ), PLEAT_GL_HEADLESS_EGL );
+	assert_int_equal( plGlDeformer_Platform( deformer ), PLEAT_GL_PLATFORM_EGL_DEVICE );
+	assert_true( strncmp( report, "EGL device platform (EGL_EXT_platform_device), device ", 54 ) == 0 );
+	assert_non_null( strstr( report, "GL_RENDERER '" ) );
+	assert_ptr_equal( eglGetCurrentContext(), EGL_NO_CONTEXT );
+	double position_error, normal_error;
+	plRunMotion( fixture, deformer, 0, 5, &position_error, &normal_error );
+	print_message( "headless EGL device: max position error %.3g m, max normal error %.3g\n", position_error,
+				   normal_error );
+	assert_ptr_equal( eglGetCurrentContext(), EGL_NO_CONTEXT );
 	plGlDeformer_Destroy( deformer );
 	plExpectNoLeak( fixture );
 }
@@ -500,6 +534,7 @@ int main( void )
 		cmocka_unit_test( test_headless_matches_reference_over_motion ),
 		cmocka_unit_test( test_headless_restores_the_callers_current_context ),
 		cmocka_unit_test( test_headless_osmesa_fallback_matches_reference ),
+		cmocka_unit_test( test_headless_egl_device_platform_matches_reference ),
 		cmocka_unit_test( test_fp16_blend_shapes_match_rounded_reference ),
 		cmocka_unit_test( test_set_shaped_template_moves_the_output ),
 		cmocka_unit_test( test_host_context_matches_reference_and_restores_state ),

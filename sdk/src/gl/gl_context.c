@@ -440,7 +440,7 @@ plResult plGlContext_Create( plGlHeadlessBackend backend, const plAllocator* all
 		while ( tried >= 2 && route_report.tried[tried - 2] == ';' ) // drop the trailing "; "
 			route_report.tried[tried -= 2] = '\0';
 		if ( result == PLEAT_RESULT_OK )
-			snprintf( report, report_size, "%s%s%s", route_report.chosen, tried > 0 ? "; passed over: " : "",
+			snprintf( report, report_size, "%s%s%s", route_report.chosen, tried > 0 ? "; tried first: " : "",
 					  route_report.tried );
 		else
 			snprintf( report, report_size, "%s", route_report.tried );

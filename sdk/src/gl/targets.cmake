@@ -35,9 +35,10 @@ foreach(_test_source IN LISTS _pleat_gl_tests)
   target_include_directories(${_test_name} PRIVATE "${_pleat_root}/sdk/src" "${_pleat_root}/sdk/include"
                              "${_pleat_root}/tests/c")
   target_link_libraries(${_test_name} PRIVATE ${_pleat_gl_lib} ${PLEAT_GL_LIBRARIES} PkgConfig::PLEAT_GL_CMOCKA m)
-  if(_test_name STREQUAL "test_gl_instance")
+  # These two build their assets with the core's C test asset builder.
+  if(_test_name MATCHES "^test_gl_(instance|headless_reports_platform)$")
     if(NOT TARGET pleat_test_support)
-      message(STATUS "Pleat GL: tests/c has no pleat_test_support (asset builder); test_gl_instance not built")
+      message(STATUS "Pleat GL: tests/c has no pleat_test_support (asset builder); ${_test_name} not built")
       set_target_properties(${_test_name} PROPERTIES EXCLUDE_FROM_ALL ON)
       continue()
     endif()
