@@ -441,6 +441,7 @@ static void plFuzzScenario( const plFuzzControl* c, const uint8_t* block, size_t
 	memset( &instance, 0, sizeof( instance ) );
 	plAssetInfo info;
 	float* rotations = NULL;
+	float* bad_rotations = NULL;
 	plFuzzOutput output;
 	memset( &output, 0, sizeof( output ) );
 	if ( r != PLEAT_RESULT_OK )
@@ -542,6 +543,38 @@ static void plFuzzScenario( const plFuzzControl* c, const uint8_t* block, size_t
 	{
 		idef.mlp_backend = PLEAT_MLP_BACKEND_ONNXRUNTIME;
 	}
+	if ( c->flags & PLEAT_FUZZ_BAD_INPUT_PROBES )
+	{
+		// Defs that must be refused before anything is allocated.
+		uint64_t allocations = host.allocations;
+		plInstanceDef base = idef;
+		base.beta_count = base.beta_count > B ? B : base.beta_count; // only the one fault under test
+		plInstanceDef bad = base;
+		bad.joint_map = NULL;
+		bad.engine_joint_count = 0;
+		float bad_values[PLEAT_MAX_BETAS + 4];
+		memcpy( bad_values, beta, PLEAT_MAX_BETAS * sizeof( float ) );
+		bad_values[0] = NAN;
+		bad.beta = bad_values;
+		bad.beta_count = B > 0 ? 1 : 0;
+		bad.material = B > 0 ? material : bad_values;
+		PLEAT_FUZZ_REQUIRE( plCreateInstance( context, &bad, &instance ) == PLEAT_RESULT_NON_FINITE_INPUT );
+		bad = base;
+		bad.network_rate_hz = -1.0f;
+		PLEAT_FUZZ_REQUIRE( plCreateInstance( context, &bad, &instance ) == PLEAT_RESULT_INVALID_DEF );
+		bad = base;
+		bad.joint_map = joint_map;
+		bad.joint_map_count = J + 1;
+		PLEAT_FUZZ_REQUIRE( plCreateInstance( context, &bad, &instance ) == PLEAT_RESULT_JOINT_COUNT_MISMATCH );
+		bad = base;
+		bad.joint_map = NULL;
+		bad.engine_joint_count = J + 1;
+		PLEAT_FUZZ_REQUIRE( plCreateInstance( context, &bad, &instance ) == PLEAT_RESULT_JOINT_COUNT_MISMATCH );
+		bad = base;
+		bad.internal_cookie = 0;
+		PLEAT_FUZZ_REQUIRE( plCreateInstance( context, &bad, &instance ) == PLEAT_RESULT_INVALID_DEF );
+		PLEAT_FUZZ_REQUIRE( instance.index1 == 0 && host.allocations == allocations );
+	}
 	failed_before = host.failed;
 	r = plCreateInstance( context, &idef, &instance );
 	run->hash ^= (uint64_t)(uint32_t)r;
@@ -580,7 +613,8 @@ static void plFuzzScenario( const plFuzzControl* c, const uint8_t* block, size_t
 	// Steps.
 	uint32_t stride_floats = 4u + c->input_stride % 5u;
 	rotations = (float*)malloc( (size_t)( engine_joints + 1 ) * stride_floats * sizeof( float ) );
-	PLEAT_FUZZ_REQUIRE( rotations != NULL );
+	bad_rotations = (float*)malloc( (size_t)( engine_joints + 1 ) * stride_floats * sizeof( float ) );
+	PLEAT_FUZZ_REQUIRE( rotations != NULL && bad_rotations != NULL );
 	plFuzzOutput_Init( &output, c->output_mode, N );
 	float* latent = (float*)malloc( ( info.latent_count + (size_t)info.blend_count + 2 ) * sizeof( float ) );
 	float* blend_weights = latent + info.latent_count + 1;
@@ -681,9 +715,31 @@ static void plFuzzScenario( const plFuzzControl* c, const uint8_t* block, size_t
 			bad.dt_s = NAN;
 			PLEAT_FUZZ_REQUIRE( plInstance_Step( instance, &bad, output.use ? &output.spans : NULL ) ==
 						( output.too_small ? PLEAT_RESULT_BUFFER_TOO_SMALL : PLEAT_RESULT_NON_FINITE_INPUT ) );
+			bad.dt_s = 1.5f;
+			PLEAT_FUZZ_REQUIRE( plInstance_Step( instance, &bad, NULL ) == PLEAT_RESULT_INVALID_DT );
 			bad.dt_s = in.dt_s;
 			bad.joint_count = engine_joints + 1;
 			PLEAT_FUZZ_REQUIRE( plInstance_Step( instance, &bad, NULL ) == PLEAT_RESULT_JOINT_COUNT_MISMATCH );
+			bad.joint_count = engine_joints;
+			bad.root_rotation.w = 2.0f;
+			PLEAT_FUZZ_REQUIRE( plInstance_Step( instance, &bad, NULL ) == PLEAT_RESULT_INVALID_QUATERNION );
+			bad.root_rotation = in.root_rotation;
+			uint32_t probe_joint = 0;
+			while ( probe_joint + 1 < engine_joints && !referenced[probe_joint] )
+			{
+				probe_joint++;
+			}
+			if ( referenced[probe_joint] )
+			{
+				size_t rotation_floats = (size_t)engine_joints * stride_floats;
+				memcpy( bad_rotations, rotations, rotation_floats * sizeof( float ) );
+				bad.joint_rotations = bad_rotations;
+				bad_rotations[(size_t)probe_joint * stride_floats + 3] *= 1.5f;
+				bad_rotations[(size_t)probe_joint * stride_floats + 3] += 0.5f; // never unit, even from w = 0
+				PLEAT_FUZZ_REQUIRE( plInstance_Step( instance, &bad, NULL ) == PLEAT_RESULT_INVALID_QUATERNION );
+				bad_rotations[(size_t)probe_joint * stride_floats + 1] = INFINITY;
+				PLEAT_FUZZ_REQUIRE( plInstance_Step( instance, &bad, NULL ) == PLEAT_RESULT_NON_FINITE_INPUT );
+			}
 			PLEAT_FUZZ_REQUIRE( memcmp( before, positions, (size_t)N * 3 * sizeof( float ) ) == 0 );
 			PLEAT_FUZZ_REQUIRE( memcmp( before + (size_t)N * 3, normals, (size_t)N * 3 * sizeof( float ) ) == 0 );
 			PLEAT_FUZZ_REQUIRE( plInstance_GetLatent( instance, latent_probe, info.latent_count ) == PLEAT_RESULT_OK );
@@ -766,6 +822,7 @@ done:
 		run->complete = 0;
 	}
 	free( rotations );
+	free( bad_rotations );
 	free( output.buffer );
 }
 
