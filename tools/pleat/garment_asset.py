@@ -17,6 +17,8 @@ import sys
 
 import numpy as np
 
+from pleat.cli import add_quiet, command
+
 # Joints left out of X_c (docs/inputs.md): the pelvis (its motion is the root velocity and tilt), wrists and hands
 # (the paper: minimal impact on the garment).
 EXCLUDED_INPUT_JOINTS = ("pelvis", "left_wrist", "right_wrist", "left_hand", "right_hand")
@@ -154,14 +156,20 @@ def _load_garment(spec, vertices, body):
     return make_garment(spec, vertices=vertices or None, body=body)
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m pleat.garment_asset", description=__doc__.split("\n\n")[0])
+def build_parser():
+    parser = argparse.ArgumentParser(prog="pleat-garment-asset", description=__doc__.split("\n\n")[0])
     parser.add_argument("--garment", required=True, help="garment npz (pleat-garment output) or garment name")
     parser.add_argument("--vertices", type=int, default=0, help="vertex count when generating by name")
-    parser.add_argument("--body", default="assets/body.npz")
-    parser.add_argument("--out", required=True, help="output .pleat")
+    parser.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
+    parser.add_argument("--out", required=True, help="output file: the LBS-only .pleat asset")
     parser.add_argument("--name", default=None, help="garment name in the asset (default: the garment's)")
-    args = parser.parse_args(argv)
+    add_quiet(parser)
+    return parser
+
+
+@command("pleat-garment-asset")
+def main(argv=None):
+    args = build_parser().parse_args(argv)
 
     from pleat.asset import write_asset
     from pleat.body import BodyModel

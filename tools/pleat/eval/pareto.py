@@ -19,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from pleat.cli import add_quiet, command
 from pleat.eval import scene as S
+from pleat.fileio import save_figure, write_text
 from pleat.eval import tiers as tiers_mod
 
 
@@ -172,7 +174,7 @@ def plot(rows, path):
     if front:
         ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 
@@ -257,44 +259,49 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=(), re
         lines += [f"python -m pleat.garment_asset --garment {r['garment']} --vertices {r['vertices']} --out {r['asset']}"
                   "   # remeshing lands within a few vertices of the request" for r in made]
         lines += ["```", ""]
-    Path(path).write_text("\n".join(lines))
+    write_text(path, "\n".join(lines))
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m pleat.eval.pareto", description=__doc__.split("\n\n")[0])
+def build_parser():
+    ap = argparse.ArgumentParser(prog="pleat-pareto", description=__doc__.split("\n\n")[0])
     ap.add_argument("--assets", nargs="*", default=[], help=".pleat assets (trained tiers, LBS-only, tiny)")
     ap.add_argument("--speed-assets", nargs="*", default=[],
                     help="assets timed but not scored (their reference would take too long here)")
     ap.add_argument("--motion", nargs="+", default=["deepmimic_pybullet/humanoid3d_punch"],
                     help="validation clips (pleat.motion.split.VALIDATION)")
-    ap.add_argument("--out", default="docs", help="folder for pareto.png and pareto.md")
+    ap.add_argument("--out", default="docs", help="output folder (pareto.png, pareto.md)")
     ap.add_argument("--max-frames", type=int, default=30, help="frames per clip scored against the reference")
     ap.add_argument("--no-tiers", action="store_true", help="skip the tiers (their assets and random-weight timings)")
     ap.add_argument("--tier-asset", nargs="*", default=[], metavar="NAME=PATH",
                     help="use PATH as tier NAME's asset instead of Tier.asset (e.g. a candidate not yet shipped)")
     ap.add_argument("--no-error", action="store_true", help="times only (no reference simulation)")
-    ap.add_argument("--json", default=None, help="also write the rows as JSON")
+    ap.add_argument("--json", default=None, help="also write the rows to this JSON file")
     ap.add_argument("--repeats", type=int, default=5, help="timing rounds (3 passes per asset each; the lowest median is kept)")
     ap.add_argument("--note", action="append", default=[], help="a line for the page's Notes section (repeatable)")
-    ap.add_argument("--no-progress", action="store_true")
-    args = ap.parse_args(argv)
+    add_quiet(ap)
+    return ap
+
+
+@command("pleat-pareto")
+def main(argv=None):
+    args = build_parser().parse_args(argv)
     from pleat import runtime
     from pleat.motion.split import VALIDATION
     for m in args.motion:
         if m not in VALIDATION:
             print(f"note: {m} is not a validation clip (pleat.motion.split.VALIDATION)", file=sys.stderr)
     rows, clips = measure(args.assets, args.motion, args.max_frames, not args.no_tiers, not args.no_error,
-                          progress=not args.no_progress, speed_assets=args.speed_assets,
+                          progress=not args.quiet, speed_assets=args.speed_assets,
                           tier_assets=dict(a.split("=", 1) for a in args.tier_asset), repeats=args.repeats)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     plot(rows, out / "pareto.png")
     lib = str(runtime.find_library())
     env = f"PLEAT_LIBRARY={os.environ['PLEAT_LIBRARY']} " if os.environ.get("PLEAT_LIBRARY") else ""
-    command = env + "python -m pleat.eval.pareto " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
-    write_markdown(rows, clips, command, lib, out / "pareto.md", args.max_frames, args.note, args.repeats)
+    cmdline = env + "pleat-pareto " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
+    write_markdown(rows, clips, cmdline, lib, out / "pareto.md", args.max_frames, args.note, args.repeats)
     if args.json:
-        Path(args.json).write_text(json.dumps(rows, indent=1))
+        write_text(args.json, json.dumps(rows, indent=1))
     for r in rows:
         print(f"{r['name']:40s} {r['step_us']:9.1f} us  {_fmt(r.get('mean_mm'), 2):>7s} mm")
     return 0

@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from pleat.cli import add_quiet, command
 from pleat.eval import bounds
+from pleat.fileio import save_figure, write_text
 from pleat.eval import metrics
 from pleat.eval import scene as S
 
@@ -322,7 +324,7 @@ def plot_suite(report, series, out_dir, prefix=""):
                     fontsize=9)
     fig.tight_layout()
     paths.append(out_dir / f"stability_{prefix}long.png")
-    fig.savefig(paths[-1], dpi=80)
+    save_figure(fig, paths[-1], dpi=80)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(7, 3.2))
@@ -334,7 +336,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
     paths.append(out_dir / f"stability_{prefix}fast.png")
-    fig.savefig(paths[-1], dpi=80)
+    save_figure(fig, paths[-1], dpi=80)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(7, 3.2))
@@ -352,7 +354,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     ax.legend(fontsize=7)
     fig.tight_layout()
     paths.append(out_dir / f"stability_{prefix}bodies.png")
-    fig.savefig(paths[-1], dpi=80)
+    save_figure(fig, paths[-1], dpi=80)
     plt.close(fig)
 
     fig, ax = plt.subplots(2, 1, figsize=(7, 4), sharex=True)
@@ -367,7 +369,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     ax[0].legend(fontsize=6)
     fig.tight_layout()
     paths.append(out_dir / f"stability_{prefix}dt.png")
-    fig.savefig(paths[-1], dpi=80)
+    save_figure(fig, paths[-1], dpi=80)
     plt.close(fig)
 
     if "penetration" not in series:
@@ -384,7 +386,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     ax.legend(fontsize=7)
     fig.tight_layout()
     paths.append(out_dir / f"stability_{prefix}penetration.png")
-    fig.savefig(paths[-1], dpi=80)
+    save_figure(fig, paths[-1], dpi=80)
     plt.close(fig)
     return paths
 
@@ -427,7 +429,7 @@ def write_markdown(reports, path, command):
               "(measured 1.000 for all four tiers), stay finite, reset nothing and keep the latent in range; the run "
               "played 3× faster and bodies at β0 = ±4 and β1 = +4 must stay finite with no vertex more than 150 mm "
               "from the skinned garment (measured 34–52 mm at worst). About 11 s.", ""]
-    Path(path).write_text("\n".join(lines))
+    write_text(path, "\n".join(lines))
 
 
 def _markdown_section(r):
@@ -525,30 +527,35 @@ def _prefix(i, asset):
     return "" if i == 0 else Path(str(asset).replace("tier:", "tier_")).stem + "_"
 
 
-def main(argv=None):
+def build_parser():
     ap = argparse.ArgumentParser(prog="pleat-stability", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--asset", required=True, nargs="+",
                     help="one or more assets (one section each); tier:NAME = random weights at a tier's sizes")
-    ap.add_argument("--out", required=True, help="folder for stability.json and the stability_*.png plots")
+    ap.add_argument("--out", required=True, help="output folder (stability.md and the stability_*.png plots)")
     ap.add_argument("--quick", action="store_true", help="5,000-frame long run, fewer cases, 1 s reference windows")
-    ap.add_argument("--motion", nargs="+", default=list(DEFAULT_CLIPS))
+    ap.add_argument("--motion", nargs="+", default=list(DEFAULT_CLIPS), help="clips of the long run and the cases")
     ap.add_argument("--ref-window-s", type=float, default=None,
                     help="reference window length at the start and end of the long run (0: none)")
-    ap.add_argument("--json", default=None, help="also write the full report as JSON")
-    ap.add_argument("--no-progress", action="store_true")
-    args = ap.parse_args(argv)
+    ap.add_argument("--json", default=None, help="also write the full report to this JSON file")
+    add_quiet(ap)
+    return ap
+
+
+@command("pleat-stability")
+def main(argv=None):
+    args = build_parser().parse_args(argv)
     import shlex
     reports = []
     for i, asset in enumerate(args.asset):
-        reports.append(run_suite(asset, args.out, args.quick, args.motion, args.ref_window_s, not args.no_progress,
-                                 log=lambda m: print(m, file=sys.stderr),
+        reports.append(run_suite(asset, args.out, args.quick, args.motion, args.ref_window_s, not args.quiet,
+                                 log=(lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr)),
                                  plot_prefix=_prefix(i, asset)))
         reports[-1]["plot_prefix"] = _prefix(i, asset)
-    command = "pleat-stability " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
-    write_markdown(reports, Path(args.out) / "stability.md", command)
+    cmdline = "pleat-stability " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
+    write_markdown(reports, Path(args.out) / "stability.md", cmdline)
     if args.json:
-        Path(args.json).write_text(json.dumps(reports, indent=1))
+        write_text(args.json, json.dumps(reports, indent=1))
     report = reports[0]
     short = dict(drift=report["long"]["drift"], long_finite=report["long"]["finite"],
                  worst_bound_excess_mm=max([report["long"]["bound_excess_mm"]] +

@@ -17,6 +17,7 @@ def build_parser():
     sub = ap.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
     ls = sub.add_parser("list", help="clips found in the motion folder, with frames, fps and split")
     ls.add_argument("--dir", default=None, help=DIR_HELP)
+    add_quiet(ls)
     cv = sub.add_parser("convert", help="retarget one clip onto the body and write a clip npz")
     cv.add_argument("clip", help="clip name (as `list` prints it) or a .txt/.json/.bvh/.amc/.npz file")
     cv.add_argument("--out", required=True, help="output file: the clip npz (Clip.save)")
@@ -34,8 +35,10 @@ def build_parser():
     jt.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     jt.add_argument("--dir", default=None, help=DIR_HELP)
     jt.add_argument("--json", action="store_true", help="print the match as JSON instead of a table")
+    add_quiet(jt)
     sp = sub.add_parser("split", help="the training / validation split (pleat.motion.split)")
     sp.add_argument("--dir", default=None, help=DIR_HELP)
+    add_quiet(sp)
     return ap
 
 

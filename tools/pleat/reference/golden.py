@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from pleat.asset import input_count, read_asset, write_asset
+from pleat.cli import add_quiet, command
+from pleat.fileio import atomic_write
 from pleat.reference.input_assembly import assemble_inputs
 from pleat.reference.instance import Instance
 from pleat.reference.mlp import mlp
@@ -270,7 +272,7 @@ def write_case(path, beta, material, rotations, root_translation, root_rotation,
     f32 = lambda a: np.asarray(a, "<f4").reshape(T, -1)
     frames = np.concatenate([f32(rotations), f32(root_translation), f32(root_rotation), f32(dt_s), f32(latents),
                              f32(positions), f32(normals)], axis=1)
-    with open(path, "wb") as f:
+    with atomic_write(path, "wb") as f:
         f.write(CASE_MAGIC + struct.pack("<6I", CASE_VERSION, T, J, N, B, L))
         f.write(np.asarray(beta, "<f4").tobytes() + np.asarray(material, "<f4").tobytes())
         f.write(frames.astype("<f4").tobytes())
@@ -327,18 +329,25 @@ def generate(out_dir, frames=300, fp16=False, seed=0, vertices=4424):
     return asset, latents, positions, normals
 
 
-def main(argv=None):
-    p = argparse.ArgumentParser(prog="python -m pleat.reference.golden", description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", required=True, help="output directory (asset.pleat, case.bin)")
-    p.add_argument("--frames", type=int, default=300)
+def build_parser():
+    p = argparse.ArgumentParser(prog="pleat-golden", description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", required=True, help="output folder (asset.pleat, case.bin)")
+    p.add_argument("--frames", type=int, default=300, help="frames of the random-motion case")
     p.add_argument("--fp16", action="store_true", help="store weight matrices and blend shapes as fp16")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--vertices", type=int, default=4424)
-    a = p.parse_args(argv)
+    p.add_argument("--seed", type=int, default=0, help="seed of the random weights and motion")
+    p.add_argument("--vertices", type=int, default=4424, help="garment vertex count of the random asset")
+    add_quiet(p)
+    return p
+
+
+@command("pleat-golden")
+def main(argv=None):
+    a = build_parser().parse_args(argv)
     start = time.perf_counter()
     _, latents, positions, _ = generate(a.out, a.frames, a.fp16, a.seed, a.vertices)
-    print(f"wrote {a.out}/asset.pleat and case.bin: {a.frames} frames, {positions.shape[1]} vertices, "
-          f"|latent| max {np.abs(latents).max():.3f}, {time.perf_counter() - start:.1f} s", file=sys.stderr)
+    if not a.quiet:
+        print(f"wrote {a.out}/asset.pleat and case.bin: {a.frames} frames, {positions.shape[1]} vertices, "
+              f"|latent| max {np.abs(latents).max():.3f}, {time.perf_counter() - start:.1f} s", file=sys.stderr)
     return 0
 
 

@@ -35,6 +35,15 @@ from pathlib import Path
 
 import numpy as np
 
+try:
+    from pleat.cli import add_quiet, command
+except ImportError:      # the newton side runs this file as a script in newton's own venv, where pleat is absent
+    def command(prog):
+        return lambda main: main
+
+    def add_quiet(parser):
+        return parser
+
 SIZE_M = 0.3
 GRID = 21
 
@@ -422,20 +431,24 @@ def static_main(v, faces, pins, material, args, out):
     return 0
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description="pleat simulator vs newton VBD on a hanging sheet or a cantilever")
+def build_parser():
+    ap = argparse.ArgumentParser(prog="pleat-crosscheck",
+                                 description="pleat simulator vs newton VBD on a hanging sheet or a cantilever")
     ap.add_argument("--newton-side", nargs=2, metavar=("IN", "OUT"), help=argparse.SUPPRESS)
     ap.add_argument("--newton-forces", nargs=2, metavar=("IN", "OUT"), help=argparse.SUPPRESS)
     ap.add_argument("--newton-first-step", nargs=2, metavar=("IN", "OUT"), help=argparse.SUPPRESS)
-    ap.add_argument("--newton-python", default="out/venv-newton/bin/python")
-    ap.add_argument("--out", default="out/crosscheck")
-    ap.add_argument("--grid", type=int, default=GRID)
-    ap.add_argument("--scene", choices=("sheet", "cantilever"), default="sheet")
+    ap.add_argument("--newton-python", default="out/venv-newton/bin/python",
+                    help="python of a venv with newton and warp installed (the newton side runs there)")
+    ap.add_argument("--out", default="out/crosscheck",
+                    help="output folder (crosscheck.json, scene.npz, newton.npz, positions.npz)")
+    ap.add_argument("--grid", type=int, default=GRID, help="sheet: vertices per side")
+    ap.add_argument("--scene", choices=("sheet", "cantilever"), default="sheet",
+                    help="a hanging sheet pinned at two corners, or a cantilever strip")
     ap.add_argument("--bending", type=float, default=None, help="bending k (J) instead of the default material's")
     ap.add_argument("--newton-from-pleat", action="store_true",
                     help="start newton at pleat's equilibrium (at rest) and see whether it stays there")
     ap.add_argument("--reuse-newton", action="store_true", help="keep OUT/newton.npz from an earlier run of the same scene")
-    ap.add_argument("--newton-seconds", type=float, default=4.0)
+    ap.add_argument("--newton-seconds", type=float, default=4.0, help="simulated time of the newton side, s")
     ap.add_argument("--newton-iterations", type=int, default=20, help="VBD iterations per substep")
     ap.add_argument("--newton-substeps", type=int, default=10, help="VBD substeps per 1/60 s frame")
     ap.add_argument("--newton-damping", type=float, default=1e-2,
@@ -446,6 +459,13 @@ def main(argv=None):
                          ".json) and pleat's equilibrium against beam theory with its hinge energy's D_eff")
     ap.add_argument("--first-step-iterations", default="1,10,100,1000,10000,50000",
                     help="with --static: VBD iteration counts of the one-substep test from pleat's equilibrium")
+    add_quiet(ap)
+    return ap
+
+
+@command("pleat-crosscheck")
+def main(argv=None):
+    ap = build_parser()
     args = ap.parse_args(argv)
     if args.newton_forces:
         newton_forces(*args.newton_forces)

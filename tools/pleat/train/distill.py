@@ -3,7 +3,7 @@
 A tier is a smaller inference block Ψ' = f_LP' → f_dec' → D' blend shapes trained to reproduce the stage-1 teacher:
 the paper's stage 2 generalised from "f_LP on Φ's own latent" to "a whole smaller block on Φ's garment".
 
-    python -m pleat.train.distill --teacher RUN_DIR --tier xsmall small medium --out assets/ --fp16 \
+    pleat-distill --teacher RUN_DIR --tier xsmall small medium --out assets/ --fp16 \
         [--recording out/tiers/teacher_rollouts.npz]      # → assets/<garment>_<tier>.pleat
 
 1. Record Φ rollouts (no gradients) over training clips with random β and material, as stage 2 does
@@ -30,6 +30,8 @@ import numpy as np
 import torch
 
 from pleat import garment_asset as ga
+from pleat.cli import add_quiet, command
+from pleat.fileio import write_text
 from pleat.train import core, sources
 from pleat.train.model import InferenceBlock
 
@@ -254,25 +256,32 @@ def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=Tr
     return weights
 
 
-def main(argv=None):
-    from pleat.eval import tiers as tiers_mod
-    ap = argparse.ArgumentParser(prog="python -m pleat.train.distill", description=__doc__.split("\n\n")[0])
+def build_parser():
+    ap = argparse.ArgumentParser(prog="pleat-distill", description=__doc__.split("\n\n")[0])
     ap.add_argument("--teacher", required=True, help="stage-1 run directory (stage1.pt)")
     ap.add_argument("--tier", nargs="*", default=[], help="tier names (pleat.eval.tiers); none: only record")
-    ap.add_argument("--out", required=True, help="folder for <garment>_<tier>.pleat")
-    ap.add_argument("--sequences", type=int, default=24)
-    ap.add_argument("--frames", type=int, default=90)
-    ap.add_argument("--val-sequences", type=int, default=4)
-    ap.add_argument("--iterations", type=int, default=3000)
-    ap.add_argument("--dec-iterations", type=int, default=2000)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--fp16", action="store_true")
+    ap.add_argument("--out", required=True, help="output folder (<garment>_<tier>.pleat)")
+    ap.add_argument("--sequences", type=int, default=24, help="teacher rollouts recorded for training")
+    ap.add_argument("--frames", type=int, default=90, help="frames per recorded rollout")
+    ap.add_argument("--val-sequences", type=int, default=4, help="teacher rollouts recorded for validation")
+    ap.add_argument("--iterations", type=int, default=3000, help="training iterations of f_LP'")
+    ap.add_argument("--dec-iterations", type=int, default=2000, help="training iterations of f_dec'")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the rollouts and the training")
+    ap.add_argument("--fp16", action="store_true", help="store the tier assets' weights as fp16")
     ap.add_argument("--no-reuse-stage2", action="store_true", help="record fresh rollouts even if the run has some")
     ap.add_argument("--recording", default=None,
                     help="npz of teacher rollouts: loaded if it exists, else recorded and saved there")
-    ap.add_argument("--report", default=None, help="write the distillation reports (JSON) here")
-    ap.add_argument("--threads", type=int, default=1)
-    args = ap.parse_args(argv)
+    ap.add_argument("--report", default=None, help="write the distillation reports to this JSON file")
+    ap.add_argument("--threads", type=int, default=1, help="torch CPU threads")
+    add_quiet(ap)
+    return ap
+
+
+@command("pleat-distill")
+def main(argv=None):
+    from pleat.eval import tiers as tiers_mod
+    args = build_parser().parse_args(argv)
+    progress = not args.quiet
     core.set_threads(args.threads)
     rec = Path(args.recording) if args.recording else None
     if rec is not None and rec.is_file():
@@ -281,9 +290,9 @@ def main(argv=None):
         _, setup, _, _ = core.load_stage1(args.teacher)
     else:
         seqs, setup, _ = record(args.teacher, args.sequences, args.frames, args.seed, "train",
-                                not args.no_reuse_stage2, progress=True)
+                                not args.no_reuse_stage2, progress=progress)
         val, _, _ = record(args.teacher, args.val_sequences, args.frames, args.seed, "validation", False,
-                           progress=True)
+                           progress=progress)
         if rec is not None:
             rec.parent.mkdir(parents=True, exist_ok=True)
             np.savez(rec, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
@@ -294,7 +303,7 @@ def main(argv=None):
         reports.append(rep)
     if not args.tier:
         if args.report:
-            Path(args.report).write_text(json.dumps(reports, indent=1))
+            write_text(args.report, json.dumps(reports, indent=1))
         return 0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -305,7 +314,7 @@ def main(argv=None):
             garment = sources.garment(setup.name if setup.name in ("tshirt", "tank_top", "long_sleeve", "pants",
                                                                    "dress") else "tshirt", setup.body, spec.vertices)
         lp, block, norms, shim, g, rep = distill(seqs, setup, spec, val, garment, args.seed, args.iterations,
-                                                 args.dec_iterations, progress=True)
+                                                 args.dec_iterations, progress=progress)
         path = out / f"{setup.name}_{name}.pleat"
         pack_tier(path, lp, block, norms, shim, g, setup, rep, setup.cfg["fps"], args.fp16, args.teacher)
         rep["asset"] = str(path)
@@ -313,7 +322,7 @@ def main(argv=None):
         print(f"{name}: {path} ({path.stat().st_size / 1024:.0f} KiB) validation "
               f"{rep.get('validation')}", file=sys.stderr)
     if args.report:
-        Path(args.report).write_text(json.dumps(reports, indent=1))
+        write_text(args.report, json.dumps(reports, indent=1))
     return 0
 
 

@@ -1,6 +1,6 @@
 """Contact sheet of a trained asset beside the LBS-only baseline and the reference simulation, to look at.
 
-    python -m pleat.train.preview --asset out/train/default/tshirt.pleat --motion humanoid3d_long_walk3 \
+    pleat-preview --asset out/train/default/tshirt.pleat --motion humanoid3d_long_walk3 \
         --frames 10,30,59 --out out/train/default/preview.png [--max-frames 60] [--yaw 0]
 
 Rows are frames; columns: reference (pleat.sim, from pleat-eval's cache: run pleat-eval first or wait), LBS-only,
@@ -12,18 +12,27 @@ import sys
 
 import numpy as np
 
+from pleat.cli import add_quiet, command
+from pleat.fileio import save_figure
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(prog="pleat.train.preview", description=__doc__,
+
+def build_parser():
+    ap = argparse.ArgumentParser(prog="pleat-preview", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--asset", required=True)
+    ap.add_argument("--asset", required=True, help="the trained .pleat asset (second column)")
     ap.add_argument("--extra", action="append", default=[], help="further assets, one column each")
-    ap.add_argument("--motion", required=True)
-    ap.add_argument("--frames", default="10,30,59")
-    ap.add_argument("--max-frames", type=int, default=60)
-    ap.add_argument("--yaw", type=float, default=0.0)
-    ap.add_argument("--out", required=True)
-    args = ap.parse_args(argv)
+    ap.add_argument("--motion", required=True, help="clip name or file")
+    ap.add_argument("--frames", default="10,30,59", help="comma-separated frame indices, one row each")
+    ap.add_argument("--max-frames", type=int, default=60, help="frames of the clip simulated and stepped")
+    ap.add_argument("--yaw", type=float, default=0.0, help="camera yaw about +Y, degrees (0 = from the front)")
+    ap.add_argument("--out", required=True, help="output file: the PNG contact sheet")
+    add_quiet(ap)
+    return ap
+
+
+@command("pleat-preview")
+def main(argv=None):
+    args = build_parser().parse_args(argv)
 
     import matplotlib
     matplotlib.use("Agg")
@@ -62,7 +71,7 @@ def main(argv=None):
             err = np.linalg.norm(pos[f] - ref[f], axis=1).mean() * 1e3
             axes[r, c].set_title(f"{name}\nframe {f}" + ("" if c == 0 else f", {err:.1f} mm"), fontsize=8)
     fig.tight_layout()
-    fig.savefig(args.out)
+    save_figure(fig, args.out)
     print(f"wrote {args.out}")
     return 0
 
