@@ -101,7 +101,12 @@ def find_library():
         return found[0]
     found = list(REPO_ROOT.glob("build*/libpleat.so")) + list(REPO_ROOT.glob("build*/*/libpleat.so")) + \
         list(REPO_ROOT.glob("build*/*/sdk/libpleat.so"))
-    return max(found, key=lambda p: p.stat().st_mtime) if found else None
+    if found:
+        return max(found, key=lambda p: p.stat().st_mtime)
+    # outside a checkout: an installed library (cmake --install) on the system's search path
+    import ctypes.util
+    name = ctypes.util.find_library("pleat")
+    return Path(name) if name else None
 
 
 _lib = None
@@ -114,7 +119,8 @@ def load_library(path=None):
         return _lib
     path = path or find_library()
     if path is None:
-        raise OSError("libpleat.so not found (set PLEAT_LIBRARY or PLEAT_BUILD_DIR, or build with CMake into build/)")
+        raise OSError("libpleat.so not found (set PLEAT_LIBRARY or PLEAT_BUILD_DIR, build with CMake into build/, or "
+                      "install it where the system's loader finds it)")
     lib = C.CDLL(str(path))
     P = C.POINTER
     sig = {
