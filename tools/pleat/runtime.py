@@ -73,6 +73,10 @@ class _Quat(C.Structure):
     _fields_ = [("x", C.c_float), ("y", C.c_float), ("z", C.c_float), ("w", C.c_float)]
 
 
+class _RestJoint(C.Structure):
+    _fields_ = [("parent", C.c_int32), ("position", _Vec3), ("local_translation", _Vec3), ("local_rotation", _Quat)]
+
+
 class _FrameInput(C.Structure):
     _fields_ = [("joint_rotations", C.c_void_p), ("joint_count", C.c_uint32), ("joint_stride_bytes", C.c_uint32),
                 ("root_translation", _Vec3), ("root_rotation", _Quat), ("dt_s", C.c_float)]
@@ -146,6 +150,8 @@ def load_library(path=None):
         "plInstance_GetSkinMatrices": (C.c_int, [_Handle, C.c_void_p, C.c_uint32]),
         "plInstance_GetLatent": (C.c_int, [_Handle, C.c_void_p, C.c_uint32]),
         "plInstance_GetBlendWeights": (C.c_int, [_Handle, C.c_void_p, C.c_uint32]),
+        "plAsset_GetRestPose": (C.c_int, [_Handle, P(_RestJoint), C.c_uint32]),
+        "plInstance_GetRestPose": (C.c_int, [_Handle, P(_RestJoint), C.c_uint32]),
     }
     for name, (restype, argtypes) in sig.items():
         fn = getattr(lib, name)
@@ -159,6 +165,20 @@ def _check(lib, result, what):
     if result < 0:
         raise PleatError(result, lib.plResultString(result).decode(), what)
     return result
+
+
+def _rest_pose(lib, fn, handle, joint_count):
+    """plAsset_GetRestPose / plInstance_GetRestPose as arrays: parents [J], positions [J, 3], local_translations
+    [J, 3], local_rotations [J, 4] (x, y, z, w)."""
+    joints = (_RestJoint * joint_count)()
+    _check(lib, getattr(lib, fn)(handle, joints, joint_count), fn)
+    vec = lambda v: (v.x, v.y, v.z)
+    return {"parents": np.array([j.parent for j in joints], np.int32),
+            "positions": np.array([vec(j.position) for j in joints], np.float32).reshape(joint_count, 3),
+            "local_translations": np.array([vec(j.local_translation) for j in joints],
+                                           np.float32).reshape(joint_count, 3),
+            "local_rotations": np.array([vec(j.local_rotation) + (j.local_rotation.w,) for j in joints],
+                                        np.float32).reshape(joint_count, 4)}
 
 
 def _f32(a, shape):
@@ -230,6 +250,10 @@ class Asset:
             names.append(p.value.decode("utf-8"))
         self.joint_names = names
 
+    def rest_pose(self):
+        """The asset's rest pose for β = 0 (plAsset_GetRestPose), see _rest_pose."""
+        return _rest_pose(self.context.lib, "plAsset_GetRestPose", self.handle, self.info["joint_count"])
+
     def close(self):
         if self.handle.index1 and self.context.handle.index1:
             _check(self.context.lib, self.context.lib.plDestroyAsset(self.handle), "plDestroyAsset")
@@ -296,6 +320,10 @@ class Instance:
     def skin_matrices(self):
         J = self.joint_count
         return self._get("plInstance_GetSkinMatrices", J * 12, J).reshape(J, 3, 4)
+
+    def rest_pose(self):
+        """The rest pose for the instance's current β (plInstance_GetRestPose), see _rest_pose."""
+        return _rest_pose(self.lib, "plInstance_GetRestPose", self.handle, self.joint_count)
 
     def reset(self):
         _check(self.lib, self.lib.plInstance_Reset(self.handle), "plInstance_Reset")
