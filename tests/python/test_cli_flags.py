@@ -4,7 +4,10 @@ stops `parse_args` and walks the parser it was called on, subcommands included."
 import argparse
 import ast
 import importlib
+import os
 import re
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
 
@@ -112,3 +115,22 @@ def test_no_progress_still_works_as_quiet(monkeypatch):
     monkeypatch.undo()
     args = parser.parse_args(["--asset", "a.pleat", "--motion", "m", "--json", "r.json", "--no-progress"])
     assert args.quiet and args.json == "r.json", "--json (older name of --out) and --no-progress still parse"
+
+
+def test_the_repository_is_looked_up_in_one_place(tmp_path):
+    """Only pleat.paths derives locations from the package's own path; PLEAT_ROOT moves every default with it."""
+    for path in (REPO / "tools" / "pleat").rglob("*.py"):
+        if path.name != "paths.py":
+            assert not re.search(r"__file__\)?\.resolve\(\)\.parents", path.read_text()), path
+    code = ("from pleat import REPO_ROOT, paths; from pleat.body.model import default_body_path; "
+            "from pleat.motion.loaders import motion_dirs; from pleat.sim import scene; "
+            "print(REPO_ROOT, default_body_path(), paths.GARMENTS_DIR, motion_dirs()[-1], sep='|')")
+    env = {k: v for k, v in os.environ.items() if k != "PLEAT_MOTION_DIR"}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60,
+                         env=dict(env, PLEAT_ROOT=str(tmp_path)))
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().split("|") == [str(tmp_path), str(tmp_path / "assets" / "body.npz"),
+                                             str(tmp_path / "data" / "garments"), str(tmp_path / "data" / "motion")]
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=60,
+                         env={k: v for k, v in env.items() if k != "PLEAT_ROOT"})
+    assert run.stdout.split("|")[0] == str(REPO), "without PLEAT_ROOT: the checkout the package comes from"
