@@ -1,4 +1,4 @@
-# Warning and sanitizer flags shared by every Pleat target.
+# Warning, floating-point and sanitizer flags shared by every Pleat target.
 function(pleat_set_warnings target)
   if(CMAKE_C_COMPILER_ID MATCHES "GNU|Clang")
     target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wstrict-prototypes
@@ -6,7 +6,21 @@ function(pleat_set_warnings target)
   elseif(MSVC)
     target_compile_options(${target} PRIVATE /W4 $<$<BOOL:${PLEAT_WERROR}>:/WX>)
   endif()
+  pleat_set_float_semantics(${target})
   pleat_set_sanitizers(${target})
+endfunction()
+
+# No floating-point contraction, in every build type: the AVX2 variants are tested bit for bit against the scalar
+# kernels, and outputs must not depend on the worker count, which holds only if a*b + c is rounded twice wherever the
+# source says so. GCC in its default GNU mode (no -std=c11) contracts into FMA wherever -mfma allows it at -O2 and up,
+# and clang contracts within an expression by default, so Release builds differed from the Debug builds CI ran
+# (issue 14). Where a kernel wants an FMA it says so (an FMA intrinsic, fmaf).
+function(pleat_set_float_semantics target)
+  if(CMAKE_C_COMPILER_ID MATCHES "GNU|Clang")
+    target_compile_options(${target} PRIVATE -ffp-contract=off)
+  elseif(MSVC)
+    target_compile_options(${target} PRIVATE /fp:precise)
+  endif()
 endfunction()
 
 function(pleat_set_sanitizers target)
