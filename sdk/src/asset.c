@@ -825,10 +825,9 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	}
 	asset->owned_block = owned;
 	asset->owned_size = owned_size;
-	asset->context1 = ctx->index1;
 	out_asset->index1 = slot + 1;
-	out_asset->context1 = ctx->index1;
 	out_asset->generation = ctx->assets.slots[slot].generation;
+	out_asset->context = ctx->handle;
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_ASSET_LOADED, "'%s': N=%u F=%u J=%u L=%u D=%u", asset->name,
 		   asset->vertex_count, asset->face_count, asset->joint_count, asset->latent_count, asset->blend_count );
 	return PLEAT_RESULT_OK;
@@ -836,7 +835,7 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 
 plAssetData* plGetAssetData( plAsset asset )
 {
-	plContextData* ctx = plGetContextByIndex1( asset.context1 );
+	plContextData* ctx = plGetContext( asset.context ); // the context generation too: its slot may have a new context
 	if ( ctx == NULL )
 	{
 		return NULL;
@@ -858,7 +857,7 @@ plResult plDestroyAsset( plAsset handle )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	plContextData* ctx = plGetContextByIndex1( handle.context1 );
+	plContextData* ctx = plGetContext( handle.context );
 	if ( asset->instance_count != 0 )
 	{
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_ASSET_IN_USE, "%u instances", asset->instance_count );

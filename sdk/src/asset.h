@@ -25,7 +25,6 @@ typedef struct plAssetData
 	void* owned_block;    // non-NULL if the SDK allocated (and must free) the block
 	size_t owned_size;
 	uint32_t instance_count; // live instances using this asset
-	uint16_t context1;
 
 	// CONF
 	uint32_t vertex_count, face_count, joint_count, input_joint_count, influence_count, beta_count, latent_count,

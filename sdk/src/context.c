@@ -13,8 +13,7 @@
 #include <sys/mman.h>
 #endif
 
-static plContextData* s_contexts[PLEAT_MAX_CONTEXTS];
-static uint16_t s_context_generations[PLEAT_MAX_CONTEXTS];
+plContextTable g_plContextTable;
 
 const char* plResultString( plResult result )
 {
@@ -186,7 +185,8 @@ plResult plCreateContext( const plContextDef* def, plContext* out_context )
 	uint32_t slot = UINT32_MAX;
 	for ( uint32_t i = 0; i < PLEAT_MAX_CONTEXTS; ++i )
 	{
-		if ( s_contexts[i] == NULL )
+		// A retired slot (its generation used up) stays empty for the life of the process.
+		if ( g_plContextTable.contexts[i] == NULL && g_plContextTable.generations[i] != PLEAT_GENERATION_LAST )
 		{
 			slot = i;
 			break;
@@ -218,15 +218,11 @@ plResult plCreateContext( const plContextDef* def, plContext* out_context )
 	ctx->log = def->log;
 	ctx->log_context = def->log_context;
 	ctx->uses_avx2 = plSelectKernels( &ctx->kernels, def->force_scalar );
-	ctx->index1 = (uint16_t)( slot + 1 );
-
-	if ( s_context_generations[slot] == 0 )
-	{
-		s_context_generations[slot] = 1;
-	}
-	s_contexts[slot] = ctx;
-	out_context->index1 = (uint16_t)( slot + 1 );
-	out_context->generation = s_context_generations[slot];
+	g_plContextTable.generations[slot] += 1;
+	g_plContextTable.contexts[slot] = ctx;
+	ctx->handle.index1 = slot + 1;
+	ctx->handle.generation = g_plContextTable.generations[slot];
+	*out_context = ctx->handle;
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_CONTEXT_CREATED, "%u workers", ctx->worker_count );
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, ctx->uses_avx2 ? PLEAT_LOG_KERNELS_AVX2 : PLEAT_LOG_KERNELS_SCALAR, NULL );
 	return PLEAT_RESULT_OK;
@@ -239,20 +235,11 @@ plContextData* plGetContext( plContext context )
 		return NULL;
 	}
 	uint32_t slot = context.index1 - 1u;
-	if ( s_contexts[slot] == NULL || s_context_generations[slot] != context.generation )
+	if ( g_plContextTable.contexts[slot] == NULL || g_plContextTable.generations[slot] != context.generation )
 	{
 		return NULL;
 	}
-	return s_contexts[slot];
-}
-
-plContextData* plGetContextByIndex1( uint16_t index1 )
-{
-	if ( index1 == 0 || index1 > PLEAT_MAX_CONTEXTS )
-	{
-		return NULL;
-	}
-	return s_contexts[index1 - 1u];
+	return g_plContextTable.contexts[slot];
 }
 
 int plContext_IsValid( plContext context )
@@ -291,13 +278,7 @@ plResult plDestroyContext( plContext context )
 	}
 	plSlotTable_Free( ctx, &ctx->instances );
 	plSlotTable_Free( ctx, &ctx->assets );
-	uint32_t slot = context.index1 - 1u;
-	s_contexts[slot] = NULL;
-	s_context_generations[slot] = (uint16_t)( s_context_generations[slot] + 1 );
-	if ( s_context_generations[slot] == 0 )
-	{
-		s_context_generations[slot] = 1;
-	}
+	g_plContextTable.contexts[context.index1 - 1u] = NULL; // the generation stays: the next context gets the one after
 	plFreeFn* host_free = ctx->host_free;
 	void* user = ctx->host_allocator_context;
 	host_free( ctx, sizeof( plContextData ), user );
@@ -338,9 +319,11 @@ uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* objec
 {
 	for ( uint32_t i = 0; i < table->capacity; ++i )
 	{
-		if ( table->slots[i].object == NULL )
+		plSlot* slot = &table->slots[i];
+		if ( slot->object == NULL && slot->generation != PLEAT_GENERATION_LAST ) // retired slots are skipped for good
 		{
-			table->slots[i].object = object;
+			slot->object = object;
+			slot->generation += 1;
 			table->live_count += 1;
 			return i;
 		}
@@ -359,25 +342,22 @@ uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* objec
 	{
 		return UINT32_MAX;
 	}
-	memset( slots, 0, bytes );
+	memset( slots, 0, bytes ); // new slots: generation 0, never used
 	if ( table->slots != NULL )
 	{
 		memcpy( slots, table->slots, table->capacity * sizeof( plSlot ) );
 		ctx->host_free( table->slots, table->capacity * sizeof( plSlot ), ctx->host_allocator_context );
 	}
-	for ( uint32_t i = table->capacity; i < new_capacity; ++i )
-	{
-		slots[i].generation = 1;
-	}
 	uint32_t index = table->capacity;
 	table->slots = slots;
 	table->capacity = new_capacity;
 	table->slots[index].object = object;
+	table->slots[index].generation = 1;
 	table->live_count += 1;
 	return index;
 }
 
-void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint16_t generation )
+void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint32_t generation )
 {
 	if ( index1 == 0 || index1 > table->capacity )
 	{
@@ -393,13 +373,9 @@ void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint16_t gener
 
 void plSlotTable_Remove( plSlotTable* table, uint32_t index1 )
 {
-	plSlot* slot = &table->slots[index1 - 1u];
-	slot->object = NULL;
-	slot->generation = (uint16_t)( slot->generation + 1 );
-	if ( slot->generation == 0 )
-	{
-		slot->generation = 1;
-	}
+	// The generation stays: handles of the removed object no longer find an object, and the next object of the slot
+	// gets the next generation (or, at PLEAT_GENERATION_LAST, the slot is never used again).
+	table->slots[index1 - 1u].object = NULL;
 	table->live_count -= 1;
 }
 

@@ -11,10 +11,15 @@
 #define PLEAT_MAX_CONTEXTS 64
 #define PLEAT_DEF_COOKIE 0x504c4154 // "PLAT"
 
+// Slot generations (pleat.h, HANDLES): a slot holds the generation of its live object, or of the last one it held
+// (0 = never used); a new object gets the next one, and a slot whose generation is PLEAT_GENERATION_LAST is retired
+// instead of wrapping to 0, so no handle is ever issued twice.
+#define PLEAT_GENERATION_LAST UINT32_MAX
+
 typedef struct plSlot
 {
-	void* object;        // NULL = free
-	uint16_t generation; // >= 1
+	void* object;        // NULL = free (or retired)
+	uint32_t generation; // of the live object, or of the last one; 0 = never used
 } plSlot;
 
 typedef struct plSlotTable
@@ -45,8 +50,17 @@ typedef struct plContextData
 
 	plSlotTable assets;
 	plSlotTable instances;
-	uint16_t index1;
+	plContext handle; // this context's own handle, written into the handles of its assets and instances
 } plContextData;
+
+// The process-wide context table (context.c). Internal: exposed so that a test can start a slot near its last
+// generation and see it retire without 2^32 create/destroy cycles.
+typedef struct plContextTable
+{
+	plContextData* contexts[PLEAT_MAX_CONTEXTS];
+	uint32_t generations[PLEAT_MAX_CONTEXTS]; // as plSlot.generation
+} plContextTable;
+extern plContextTable g_plContextTable;
 
 // The task system a job may split its work with (NULL members = serial).
 typedef struct plTaskRunner
@@ -60,17 +74,19 @@ typedef struct plTaskRunner
 // Runs task over [0, item_count) through the runner (or inline) and waits for it.
 void plRunTask( const plTaskRunner* runner, plTaskFn* task, uint32_t item_count, uint32_t min_range, void* context );
 
+// The live context a handle names (index and generation both match), or NULL. Asset and instance lookups go through
+// this with the context handle they carry.
 plContextData* plGetContext( plContext context );
-plContextData* plGetContextByIndex1( uint16_t index1 );
 void plLog( const plContextData* ctx, plLogLevel level, plLogItem item, const char* format, ... )
 #if defined( __GNUC__ )
 	__attribute__( ( format( printf, 4, 5 ) ) )
 #endif
 	;
 
-// Slot tables: insert returns the slot index or UINT32_MAX (out of memory / capacity).
+// Slot tables: insert returns the slot index or UINT32_MAX (out of memory / capacity); the object's generation is then
+// table->slots[index].generation.
 uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object );
-void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint16_t generation );
+void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint32_t generation );
 void plSlotTable_Remove( plSlotTable* table, uint32_t index1 );
 void plSlotTable_Free( plContextData* ctx, plSlotTable* table );
 

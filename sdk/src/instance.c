@@ -63,7 +63,7 @@ typedef struct plInstanceData
 
 static plInstanceData* plGetInstanceData( plInstance handle )
 {
-	plContextData* ctx = plGetContextByIndex1( handle.context1 );
+	plContextData* ctx = plGetContext( handle.context ); // the context generation too: its slot may have a new context
 	if ( ctx == NULL )
 	{
 		return NULL;
@@ -379,7 +379,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		return PLEAT_RESULT_INVALID_DEF;
 	}
 	plAssetData* a = plGetAssetData( def->asset );
-	if ( a == NULL || def->asset.context1 != ctx->index1 )
+	if ( a == NULL || plGetContext( def->asset.context ) != ctx )
 	{
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
 			   "asset: null, destroyed or from another context" );
@@ -557,8 +557,8 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		return r;
 	}
 	out_instance->index1 = slot + 1;
-	out_instance->context1 = ctx->index1;
 	out_instance->generation = ctx->instances.slots[slot].generation;
+	out_instance->context = ctx->handle;
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_INSTANCE_CREATED, "asset '%s'", a->name );
 	return clamped ? PLEAT_RESULT_CLAMPED : PLEAT_RESULT_OK;
 }

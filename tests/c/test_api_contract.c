@@ -77,8 +77,8 @@ static void test_null_and_stale_handles_are_rejected( void** state )
 {
 	(void)state;
 	plContext no_ctx = { 0, 0 };
-	plAsset no_asset = { 0, 0, 0 };
-	plInstance no_inst = { 0, 0, 0 };
+	plAsset no_asset = { 0, 0, { 0, 0 } };
+	plInstance no_inst = { 0, 0, { 0, 0 } };
 	assert_false( plContext_IsValid( no_ctx ) );
 	assert_false( plAsset_IsValid( no_asset ) );
 	assert_false( plInstance_IsValid( no_inst ) );
@@ -205,7 +205,7 @@ static void test_faces_and_template_come_from_the_asset( void** state )
 	assert_int_equal( plAsset_GetFaces( rig.asset, &faces, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plAsset_GetTemplatePositions( rig.asset, NULL, &vertex_count ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plAsset_GetTemplatePositions( rig.asset, &rest, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
-	plAsset null_asset = { 0, 0, 0 };
+	plAsset null_asset = { 0, 0, { 0, 0 } };
 	assert_int_equal( plAsset_GetFaces( null_asset, &faces, &face_count ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_null( faces );
 	assert_int_equal( face_count, 0 );

@@ -89,7 +89,7 @@ static void test_null_pointers_are_rejected( void** state )
 	in.joint_rotations = NULL;
 	plExpectRejected( f, &in, NULL, PLEAT_RESULT_INVALID_ARGUMENT );
 	in = plNextFrame( f, q );
-	plInstance null_instance = { 0, 0, 0 };
+	plInstance null_instance = { 0, 0, { 0, 0 } };
 	assert_int_equal( plInstance_Step( null_instance, &in, NULL ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_int_equal( plInstance_SetMaterial( f->subject, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plInstance_SetShape( f->subject, NULL, 1 ), PLEAT_RESULT_INVALID_ARGUMENT );

@@ -126,8 +126,8 @@ static void test_rest_pose_rejects_bad_arguments_and_writes_nothing( void** stat
 	assert_int_equal( plInstance_GetRestPose( inst, NULL, 64 ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plAsset_GetRestPose( rig.asset, rest, model->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
 	assert_int_equal( plInstance_GetRestPose( inst, rest, model->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
-	plAsset null_asset = { 0, 0, 0 };
-	plInstance null_instance = { 0, 0, 0 };
+	plAsset null_asset = { 0, 0, { 0, 0 } };
+	plInstance null_instance = { 0, 0, { 0, 0 } };
 	assert_int_equal( plAsset_GetRestPose( null_asset, rest, 64 ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_int_equal( plInstance_GetRestPose( null_instance, rest, 64 ), PLEAT_RESULT_INVALID_HANDLE );
 	plInstance stale = inst;

@@ -27,11 +27,12 @@ class PleatError(RuntimeError):
 
 
 class _Context(C.Structure):
-    _fields_ = [("index1", C.c_uint16), ("generation", C.c_uint16)]
+    _fields_ = [("index1", C.c_uint32), ("generation", C.c_uint32)]
 
 
 class _Handle(C.Structure):
-    _fields_ = [("index1", C.c_uint32), ("context1", C.c_uint16), ("generation", C.c_uint16)]
+    """plAsset / plInstance: slot index and generation, then the context's handle (pleat.h, HANDLES)."""
+    _fields_ = [("index1", C.c_uint32), ("generation", C.c_uint32), ("context", _Context)]
 
 
 class _ContextDef(C.Structure):

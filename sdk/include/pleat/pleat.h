@@ -121,6 +121,20 @@
 // optional log callback with stable item ids (PLEAT_LOG_ITEMS).
 //
 // ==================================================================================================================
+// HANDLES
+// ==================================================================================================================
+// plContext, plAsset and plInstance are small values: a slot index and a 32-bit generation (asset and instance handles
+// also carry the handle of their context). All zero is null. A handle is valid while its object lives; once the
+// object is destroyed it is stale for good and every call through it returns PLEAT_RESULT_INVALID_HANDLE:
+// - a slot's generation grows by one each time the slot is reused, so the old handle no longer matches;
+// - an asset or instance handle also names its context's generation, so when a new context takes the slot of a
+//   destroyed one (and its objects take the same slots in it), the old context's handles name nothing there;
+// - a slot whose generation has reached 2^32 − 1 is retired rather than wrapped: it is never handed out again, so a
+//   generation, and with it a handle, is never issued twice. A slot retires after 4,294,967,295 objects have lived
+//   in it; the 64 context slots therefore last for 2.7 · 10^11 contexts per process, and a retired asset or instance
+//   slot keeps its 16 bytes in the context's table until the context is destroyed.
+//
+// ==================================================================================================================
 // ASSET FORMAT
 // ==================================================================================================================
 // docs/asset-format.md (version 1.0): header with magic "PLEATAST", section table, 64-byte aligned sections, CRC-32.
@@ -298,30 +312,30 @@ typedef void* plEnqueueTaskFn( plTaskFn* task, uint32_t item_count, uint32_t min
 typedef void plFinishTaskFn( void* user_task, void* user_context );
 
 // ------------------------------------------------------------------------------------------------------------------
-// Handles: small value ids (index + generation); all zero = null. Copy them freely.
+// Handles: small value ids (index + generation, HANDLES above); all zero = null. Copy them freely.
 // ------------------------------------------------------------------------------------------------------------------
 
 /// A context handle.
 typedef struct plContext
 {
-	uint16_t index1;     ///< slot index + 1 (0 = null)
-	uint16_t generation; ///< slot generation, bumped on destroy
+	uint32_t index1;     ///< slot index + 1 in the process-wide context table (0 = null)
+	uint32_t generation; ///< the slot's generation when the context was created (>= 1)
 } plContext;
 
 /// An asset handle.
 typedef struct plAsset
 {
-	uint32_t index1;     ///< slot index + 1 in the context (0 = null)
-	uint16_t context1;   ///< context slot index + 1
-	uint16_t generation; ///< slot generation
+	uint32_t index1;     ///< slot index + 1 in the context's asset table (0 = null)
+	uint32_t generation; ///< the slot's generation when the asset was loaded (>= 1)
+	plContext context;   ///< the context the asset was loaded into
 } plAsset;
 
 /// An instance handle.
 typedef struct plInstance
 {
-	uint32_t index1;     ///< slot index + 1 in the context (0 = null)
-	uint16_t context1;   ///< context slot index + 1
-	uint16_t generation; ///< slot generation
+	uint32_t index1;     ///< slot index + 1 in the context's instance table (0 = null)
+	uint32_t generation; ///< the slot's generation when the instance was created (>= 1)
+	plContext context;   ///< the context the instance was created in
 } plInstance;
 
 // ------------------------------------------------------------------------------------------------------------------
