@@ -133,30 +133,41 @@ static int plClampMaterial( const plAssetData* a, const float* material, float* 
 	return clamped;
 }
 
-// T + Σ_b β_b G_S[b] and J(β) = J_template + Σ_b β_b J_shapedirs[b], accumulated in double in b order.
-static void plApplyShape( plInstanceData* inst )
+// T + Σ_b β_b G_S[b], accumulated in double in b order. out: [N][3].
+static void plShapeTemplate( const plAssetData* a, const float* beta, float* out )
 {
-	const plAssetData* a = inst->asset;
 	size_t n3 = (size_t)a->vertex_count * 3;
 	for ( size_t i = 0; i < n3; ++i )
 	{
 		double v = a->template_positions[i];
 		for ( uint32_t b = 0; b < a->beta_count; ++b )
 		{
-			v += (double)inst->beta[b] * a->shape_blend[b * n3 + i];
+			v += (double)beta[b] * a->shape_blend[b * n3 + i];
 		}
-		inst->shaped_template[i] = (float)v;
+		out[i] = (float)v;
 	}
+}
+
+// J(β) = J_template + Σ_b β_b J_shapedirs[b], accumulated in double in b order. out: [J][3].
+static void plShapeJoints( const plAssetData* a, const float* beta, double* out )
+{
 	size_t j3 = (size_t)a->joint_count * 3;
 	for ( size_t i = 0; i < j3; ++i )
 	{
 		double v = a->joint_template[i];
 		for ( uint32_t b = 0; b < a->beta_count; ++b )
 		{
-			v += (double)inst->beta[b] * a->joint_shapedirs[b * j3 + i];
+			v += (double)beta[b] * a->joint_shapedirs[b * j3 + i];
 		}
-		inst->rest_joints[i] = v;
+		out[i] = v;
 	}
+}
+
+// The shaped template and J(β) of inst->beta.
+static void plApplyShape( plInstanceData* inst )
+{
+	plShapeTemplate( inst->asset, inst->beta, inst->shaped_template );
+	plShapeJoints( inst->asset, inst->beta, inst->rest_joints );
 }
 
 // Exponent bits all ones = Inf or NaN. Branch-free over the whole array so the compiler vectorises it (it runs over
@@ -1024,17 +1035,31 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 	{
 		return PLEAT_RESULT_NON_FINITE_INPUT;
 	}
-	int clamped = plClampBeta( inst->asset, beta, beta_count, inst->beta );
-	plApplyShape( inst );
-	inst->deformed_is_committed = 0; // T_def changes with β: the next step blends again
+	const plAssetData* a = inst->asset;
+	float clamped_beta[PLEAT_MAX_BETAS];
+	int clamped = plClampBeta( a, beta, beta_count, clamped_beta );
 	if ( inst->gl != NULL )
 	{
-		plResult r = plGlDeformer_SetShapedTemplate( inst->gl, inst->shaped_template );
+		// The new template goes to the GPU before anything on the CPU changes, so a GL error leaves β, J(β) and the
+		// template as they were (an error changes nothing). It is built in `deformed`, which on the GPU path only
+		// receives read-backs and holds nothing between calls. The GPU copy is unchanged too after a failure: GL
+		// ignores a command that raises an error, and the upload is one BufferSubData.
+		plShapeTemplate( a, clamped_beta, inst->deformed );
+		plResult r = plGlDeformer_SetShapedTemplate( inst->gl, inst->deformed );
 		if ( r != PLEAT_RESULT_OK )
 		{
 			return r;
 		}
+		memcpy( inst->beta, clamped_beta, a->beta_count * sizeof( float ) );
+		memcpy( inst->shaped_template, inst->deformed, (size_t)a->vertex_count * 3 * sizeof( float ) );
+		plShapeJoints( a, inst->beta, inst->rest_joints );
 	}
+	else
+	{
+		memcpy( inst->beta, clamped_beta, a->beta_count * sizeof( float ) );
+		plApplyShape( inst );
+	}
+	inst->deformed_is_committed = 0; // T_def changes with β: the next step blends again
 	if ( clamped )
 	{
 		plLog( inst->ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_INSTANCE_INPUT_CLAMPED, "beta" );

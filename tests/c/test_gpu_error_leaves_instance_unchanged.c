@@ -1,7 +1,9 @@
 // A GL error inside plInstance_Step (host-context mode; the engine deleted the buffers it gave the instance, so
 // binding them fails with GL_INVALID_OPERATION) returns PLEAT_RESULT_GL_ERROR and leaves the instance's CPU-side state
 // exactly as it was: positions and normals (read back into scratch, committed only on success), latent, blend weights,
-// skinning matrices, and the caller's output spans. Skips (77) without an EGL surfaceless GL 4.3 context.
+// skinning matrices, and the caller's output spans. A GL error inside plInstance_SetShape (the engine called it with
+// another GL context current, where the instance's buffer names do not exist) leaves β, J(β) and the shaped template
+// as they were (issue 14, defect 5). Skips (77) without an EGL surfaceless GL 4.3 context.
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -113,10 +115,107 @@ static void test_gl_error_in_step_changes_nothing( void** state )
 	plTestEgl_Destroy( &engine );
 }
 
+// Two host-context instances step in lockstep; one gets a plInstance_SetShape that fails with a GL error. Afterwards it
+// must report the old β and step bit for bit like its twin that never saw the call (before the fix β, J(β) and the
+// shaped template changed on the CPU while the GPU kept the old template, and GL_ERROR was returned all the same).
+static void test_gl_error_in_set_shape_changes_nothing( void** state )
+{
+	(void)state;
+	plTestEglContext engine, other;
+	if ( !plTestEgl_Create( &engine ) )
+	{
+		print_message( "SKIP: no EGL surfaceless desktop GL 4.3 core context\n" );
+		skip();
+	}
+	assert_true( plTestEgl_Create( &other ) ); // a second context of the same kind, sharing nothing with the first
+	assert_true( plTestEgl_MakeCurrent( &engine ) );
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	uint32_t n = rig.info.vertex_count;
+	plInstanceDef idef = plDefaultInstanceDef();
+	idef.asset = rig.asset;
+	idef.gpu_mode = PLEAT_GPU_HOST_CONTEXT;
+	plInstance failed, twin;
+	plResult r = plCreateInstance( rig.context, &idef, &failed );
+	if ( r == PLEAT_RESULT_GL_UNAVAILABLE )
+	{
+		plTestRig_Free( &rig );
+		plTestAsset_Destroy( model );
+		plTestEgl_Destroy( &other );
+		plTestEgl_Destroy( &engine );
+		skip();
+	}
+	assert_int_equal( r, PLEAT_RESULT_OK );
+	assert_int_equal( plCreateInstance( rig.context, &idef, &twin ), PLEAT_RESULT_OK );
+
+	size_t bytes = (size_t)n * 3 * sizeof( float );
+	float* out_failed = (float*)malloc( 2 * bytes );
+	float* out_twin = (float*)malloc( 2 * bytes );
+	plStepOutput output_failed = { out_failed, 12, out_failed + (size_t)n * 3, 12, n };
+	plStepOutput output_twin = { out_twin, 12, out_twin + (size_t)n * 3, 12, n };
+	float q[64 * 4];
+	for ( uint32_t t = 0; t < 3; ++t )
+	{
+		plFrameInput in = plTestMotion( t, model->J, q );
+		assert_int_equal( plInstance_Step( failed, &in, &output_failed ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( twin, &in, &output_twin ), PLEAT_RESULT_OK );
+	}
+	assert_memory_equal( out_failed, out_twin, 2 * bytes );
+	float beta_before[16], material_before[4], beta_after[16], material_after[4];
+	assert_int_equal( plInstance_GetShape( failed, beta_before, 16, material_before ), PLEAT_RESULT_OK );
+
+	// Another context current: binding the instance's template buffer fails (GL_INVALID_OPERATION, a name that
+	// context never generated). The β asked for is far outside the range, so a clamp would show too.
+	assert_true( plTestEgl_MakeCurrent( &other ) );
+	const float beta[2] = { 1.5f, -40.0f };
+	assert_int_equal( plInstance_SetShape( failed, beta, 2 ), PLEAT_RESULT_GL_ERROR );
+	while ( glGetError() != GL_NO_ERROR )
+	{
+	}
+	assert_true( plTestEgl_MakeCurrent( &engine ) );
+
+	assert_int_equal( plInstance_GetShape( failed, beta_after, 16, material_after ), PLEAT_RESULT_OK );
+	assert_memory_equal( beta_after, beta_before, rig.info.beta_count * sizeof( float ) );
+	assert_memory_equal( material_after, material_before, sizeof( material_before ) );
+	for ( uint32_t t = 3; t < 6; ++t )
+	{
+		plFrameInput in = plTestMotion( t, model->J, q );
+		assert_int_equal( plInstance_Step( failed, &in, &output_failed ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( twin, &in, &output_twin ), PLEAT_RESULT_OK );
+		assert_memory_equal( out_failed, out_twin, 2 * bytes );
+	}
+	float matrices_failed[64 * 12], matrices_twin[64 * 12];
+	assert_int_equal( plInstance_GetSkinMatrices( failed, matrices_failed, 64 ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_GetSkinMatrices( twin, matrices_twin, 64 ), PLEAT_RESULT_OK );
+	assert_memory_equal( matrices_failed, matrices_twin, rig.info.joint_count * 12 * sizeof( float ) );
+
+	// The same call with the right context current succeeds and does change the shape (the test asks for a real change).
+	assert_int_equal( plInstance_SetShape( failed, beta, 2 ), PLEAT_RESULT_CLAMPED );
+	assert_int_equal( plInstance_GetShape( failed, beta_after, 16, material_after ), PLEAT_RESULT_OK );
+	assert_memory_not_equal( beta_after, beta_before, rig.info.beta_count * sizeof( float ) );
+	plFrameInput in = plTestMotion( 6, model->J, q );
+	assert_int_equal( plInstance_Step( failed, &in, &output_failed ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_Step( twin, &in, &output_twin ), PLEAT_RESULT_OK );
+	assert_memory_not_equal( out_failed, out_twin, bytes );
+
+	assert_int_equal( plDestroyInstance( failed ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyInstance( twin ), PLEAT_RESULT_OK );
+	free( out_failed );
+	free( out_twin );
+	plTestRig_Free( &rig );
+	plTestAsset_Destroy( model );
+	plTestEgl_Release( &engine );
+	plTestEgl_Destroy( &other );
+	plTestEgl_Destroy( &engine );
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_gl_error_in_step_changes_nothing ),
+		cmocka_unit_test( test_gl_error_in_set_shape_changes_nothing ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

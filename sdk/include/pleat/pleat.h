@@ -558,7 +558,8 @@ PLEAT_API plResult plInstance_Reset( plInstance instance );
 /// finite or negative (nothing changes).
 PLEAT_API plResult plInstance_SetNetworkRate( plInstance instance, float network_rate_hz );
 /// Set the body shape β ([beta_count] unitless, missing entries 0); recomputes the shaped template and J(β) once.
-/// Values outside [beta_min, beta_max] are clamped (PLEAT_RESULT_CLAMPED).
+/// Values outside [beta_min, beta_max] are clamped (PLEAT_RESULT_CLAMPED). GPU modes upload the new template first:
+/// a GL error (GL_ERROR, GL_UNAVAILABLE) leaves β, J(β) and the template, on the CPU and on the GPU, as they were.
 PLEAT_API plResult plInstance_SetShape( plInstance instance, const float* beta, uint32_t beta_count );
 /// Set the material (areal density m kg/m², μ N/m, λ N/m, bending k J); values outside the asset's ranges are clamped (CLAMPED).
 PLEAT_API plResult plInstance_SetMaterial( plInstance instance, const float material[4] );
