@@ -1,12 +1,18 @@
 // The asset loader (docs/asset-format.md v1.0): structure and overflow checks before any pointer into the buffer is
 // made, then the CRC-32, then meaning (dims, index ranges, finite values). Loads from memory (in place or copied to an
 // aligned block) or from a file.
+#if !defined( _WIN32 ) && !defined( _POSIX_C_SOURCE )
+#define _POSIX_C_SOURCE 200809L // fstat, fileno (plReadFile)
+#endif
 #include "asset.h"
 #include "core.h"
+#include "onnx_model.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
 
 #if defined( __BYTE_ORDER__ ) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "Pleat assets are little-endian and read in place; a big-endian port needs a byte-swapping loader"
@@ -643,6 +649,22 @@ static plResult plParseContent( const uint8_t* data, const plSectionTable* table
 		a->onnx_dec = data + oxdc->offset;
 		a->onnx_dec_size = oxdc->size;
 	}
+	// Checked here, whatever backend an instance will use: an asset whose model reaches outside it is not one asset
+	// (onnx_model.c), and loading it is where an engine learns that.
+	const plSection* models[2] = { oxlp, oxdc };
+	for ( int m = 0; m < 2; ++m )
+	{
+		plOnnxFinding finding =
+			models[m] != NULL ? plOnnxModel_Check( data + models[m]->offset, models[m]->size ) : PLEAT_ONNX_SELF_CONTAINED;
+		if ( finding != PLEAT_ONNX_SELF_CONTAINED )
+		{
+			a->rejected_item =
+				finding == PLEAT_ONNX_MALFORMED ? PLEAT_LOG_ASSET_BAD_CONTENT : PLEAT_LOG_ASSET_ONNX_REACHES_OUTSIDE;
+			snprintf( a->rejected_detail, sizeof( a->rejected_detail ), "%s: %s", m == 0 ? "OXLP" : "OXDC",
+					  plOnnxFinding_Describe( finding ) );
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
 	return PLEAT_RESULT_OK;
 }
 
@@ -681,6 +703,28 @@ plAssetDef plDefaultAssetDef( void )
 	return def;
 }
 
+// The size of an open file, from the file system, if it is a regular file; IO_ERROR for anything else. fopen succeeds
+// on a directory on POSIX systems and fseek/ftell then report LONG_MAX (a FIFO or a device has no size at all), which
+// once became a 2^63-byte allocation request; only a regular file's size is something to allocate for.
+static plResult plRegularFileSize( FILE* file, uint64_t* out_size )
+{
+#if defined( _WIN32 )
+	struct _stat64 info;
+	if ( _fstat64( _fileno( file ), &info ) != 0 || ( info.st_mode & _S_IFMT ) != _S_IFREG || info.st_size < 0 )
+	{
+		return PLEAT_RESULT_IO_ERROR;
+	}
+#else
+	struct stat info;
+	if ( fstat( fileno( file ), &info ) != 0 || !S_ISREG( info.st_mode ) || info.st_size < 0 )
+	{
+		return PLEAT_RESULT_IO_ERROR;
+	}
+#endif
+	*out_size = (uint64_t)info.st_size;
+	return PLEAT_RESULT_OK;
+}
+
 static plResult plReadFile( plContextData* ctx, const char* path, void** out_block, size_t* out_size )
 {
 	FILE* file = fopen( path, "rb" );
@@ -688,33 +732,33 @@ static plResult plReadFile( plContextData* ctx, const char* path, void** out_blo
 	{
 		return PLEAT_RESULT_IO_ERROR;
 	}
-	plResult r = PLEAT_RESULT_IO_ERROR;
-	void* block = NULL;
-	long length = -1;
-	if ( fseek( file, 0, SEEK_END ) == 0 )
+	uint64_t length = 0;
+	plResult r = plRegularFileSize( file, &length );
+	if ( r == PLEAT_RESULT_OK && length == 0 )
 	{
-		length = ftell( file );
+		r = PLEAT_RESULT_TRUNCATED;
 	}
-	if ( length > 0 && fseek( file, 0, SEEK_SET ) == 0 )
+	else if ( r == PLEAT_RESULT_OK && (uint64_t)(size_t)length != length )
+	{
+		r = PLEAT_RESULT_OUT_OF_MEMORY; // a 32-bit process cannot hold it
+	}
+	void* block = NULL;
+	if ( r == PLEAT_RESULT_OK )
 	{
 		block = plAlloc( &ctx->allocator, (size_t)length, 64 );
 		if ( block == NULL )
 		{
 			r = PLEAT_RESULT_OUT_OF_MEMORY;
 		}
-		else if ( fread( block, 1, (size_t)length, file ) == (size_t)length )
+		else if ( fread( block, 1, (size_t)length, file ) != (size_t)length )
 		{
-			r = PLEAT_RESULT_OK;
+			r = PLEAT_RESULT_IO_ERROR; // shorter than it was a moment ago, or a read error
 		}
-	}
-	else if ( length == 0 )
-	{
-		r = PLEAT_RESULT_TRUNCATED;
 	}
 	fclose( file );
 	if ( r != PLEAT_RESULT_OK )
 	{
-		plFree( &ctx->allocator, block, length > 0 ? (size_t)length : 0 );
+		plFree( &ctx->allocator, block, block != NULL ? (size_t)length : 0 );
 		return r;
 	}
 	*out_block = block;
@@ -817,8 +861,10 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	}
 	if ( r != PLEAT_RESULT_OK )
 	{
-		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, plLogItemForLoadResult( r ), "%s (%s)", plResultString( r ),
-			   def->path != NULL ? def->path : "memory" );
+		plLogItem item = asset->rejected_item != PLEAT_LOG_NONE ? asset->rejected_item : plLogItemForLoadResult( r );
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, item, "%s (%s)%s%s", plResultString( r ),
+			   def->path != NULL ? def->path : "memory", asset->rejected_detail[0] != '\0' ? ": " : "",
+			   asset->rejected_detail );
 		plFree( &ctx->allocator, owned, owned_size );
 		plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
 		return r;

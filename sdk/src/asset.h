@@ -64,6 +64,11 @@ typedef struct plAssetData
 	size_t onnx_lp_size;
 	const void* onnx_dec;   // OXDC or NULL
 	size_t onnx_dec_size;
+
+	// Set by a failed parse whose check has more to say than its result code (else PLEAT_LOG_NONE): plLoadAsset logs
+	// this item and detail instead of the item the result maps to.
+	plLogItem rejected_item;
+	char rejected_detail[128];
 } plAssetData;
 
 // Validates data (structure, checksum unless skip_checksum, then content) and fills out; pointers point into data,

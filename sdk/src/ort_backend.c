@@ -13,6 +13,7 @@
 // plOrtMlp_Run is a copy in, RunWithBinding, a copy out: no per-call name lookup or output allocation on our side.
 // (ORT's own working memory comes from ORT's allocator, not the plAllocator; its planner reuses it across runs.)
 #include "ort_backend.h"
+#include "onnx_model.h"
 
 #if defined( PLEAT_HAVE_ORT_HEADER ) && PLEAT_HAVE_ORT_HEADER && !defined( _WIN32 )
 
@@ -370,6 +371,10 @@ static plResult plOrt_CreateSession( plOrtMlp* mlp, const void* onnx_model, size
 		status = api->AddSessionConfigEntry( options, "session.intra_op.allow_spinning", "0" );
 	if ( status == NULL )
 		status = api->AddSessionConfigEntry( options, "session.inter_op.allow_spinning", "0" );
+	// The bytes are an ONNX protobuf, the only form plOnnxModel_Check walks: ORT must not take them for its own
+	// flatbuffer format because of a marker inside them.
+	if ( status == NULL )
+		status = api->AddSessionConfigEntry( options, "session.load_model_format", "ONNX" );
 	result = plOrt_ConsumeStatus( api, status, PLEAT_RESULT_BACKEND_UNAVAILABLE );
 
 	if ( result == PLEAT_RESULT_OK )
@@ -492,7 +497,15 @@ plResult plOrtMlp_Create( const char* library_path, const void* onnx_model, size
 	}
 	mlp->api = api;
 
-	result = plOrt_CreateSession( mlp, onnx_model, onnx_model_size );
+	// The loader rejected such assets already; checked again because a block used in place is the caller's memory
+	// until the session is made, and ONNX Runtime must never be the first to read a model that points outside itself.
+	result = plOnnxModel_Check( (const uint8_t*)onnx_model, onnx_model_size ) == PLEAT_ONNX_SELF_CONTAINED
+				 ? PLEAT_RESULT_OK
+				 : PLEAT_RESULT_INVALID_ASSET_DATA;
+	if ( result == PLEAT_RESULT_OK )
+	{
+		result = plOrt_CreateSession( mlp, onnx_model, onnx_model_size );
+	}
 	if ( result == PLEAT_RESULT_OK )
 	{
 		result = plOrt_CreateValues( mlp );

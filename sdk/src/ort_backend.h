@@ -14,6 +14,8 @@ typedef struct plOrtMlp plOrtMlp;
 // library_path: NULL = search $PLEAT_ONNXRUNTIME_LIBRARY, then "libonnxruntime.so", then "libonnxruntime.so.1".
 // The library is loaded once per process and reference counted. Sessions use one intra-op thread and no inter-op
 // threads (the host's task system owns parallelism). One input and one output tensor of shape [1, count], fp32.
+// A model that is not self-contained (onnx_model.h: external tensor data, session config) is INVALID_ASSET_DATA
+// before ONNX Runtime sees it.
 plResult plOrtMlp_Create( const char* library_path, const void* onnx_model, size_t onnx_model_size,
 						  uint32_t input_count, uint32_t output_count, const plAllocator* allocator, plOrtMlp** out );
 plResult plOrtMlp_Run( plOrtMlp* mlp, const float* input, float* output );

@@ -223,7 +223,9 @@ typedef enum plResult
 	/// The asset's structure is broken (header fields, section table, bounds, alignment, sizes, overlap).
 	PLEAT_RESULT_MALFORMED_ASSET = -16,
 	/// The asset's structure is sound but its content is not (missing section, wrong dims, index out of range,
-	/// non-finite float, non-positive std, skin weights not summing to one, parent order).
+	/// non-finite float, non-positive std, skin weights not summing to one, parent order), or an embedded ONNX model
+	/// is not well-formed or reaches outside the asset: tensor data in external files (data_location = EXTERNAL,
+	/// external_data location), ONNX Runtime session options in its metadata (log item ASSET_ONNX_REACHES_OUTSIDE).
 	PLEAT_RESULT_INVALID_ASSET_DATA = -17,
 	/// The requested MLP backend (ONNX Runtime) or the asset's ONNX sections are not available.
 	PLEAT_RESULT_BACKEND_UNAVAILABLE = -18,
@@ -261,6 +263,7 @@ PLEAT_API const char* plResultString( plResult result );
 	X( ASSET_BAD_SECTION_TABLE, 15, "asset section table rejected" )                                                  \
 	X( ASSET_BAD_CONTENT, 16, "asset content rejected" )                                                              \
 	X( ASSET_IN_USE, 17, "asset destroyed while instances use it" )                                                   \
+	X( ASSET_ONNX_REACHES_OUTSIDE, 18, "asset ONNX model reaches outside the asset (external data, session config)" ) \
 	X( INSTANCE_CREATED, 20, "instance created" )                                                                     \
 	X( INSTANCE_NUMERIC_RESET, 21, "non-finite value inside a step: history and latent reset" )                       \
 	X( INSTANCE_INPUT_CLAMPED, 22, "an input was clamped to its range" )                                              \
