@@ -379,3 +379,54 @@ def test_a_failing_convert_keeps_the_previous_output(tmp_path, capsys):
     assert motion_cli.main(["convert", str(bad), "--out", str(out)]) == 1
     assert out.read_bytes() == before
     assert "Frame Time is 0" in capsys.readouterr().err
+
+
+# ---- the other inputs: assets, weights, garments, bodies, joint maps --------------------------------------------------
+def _other_cases(d):
+    """(cli, main, argv, the path the line names, fragment); every output path lies under d/out."""
+    from pleat import garment_asset, pack, render_export
+    from pleat.body import cli as body_cli
+    from pleat.garment import cli as garment_cli
+    junk = d / "junk.npz"
+    junk.write_text("not a zip")
+    junk_asset = d / "junk.pleat"
+    junk_asset.write_bytes(b"PLEATAST" + bytes(40))
+    clip = d / "walk.bvh"
+    clip.write_text(bvh())
+    out = d / "out"
+    return [
+        ("pleat-eval", eval_cli.main, ["--asset", str(junk_asset), "--motion", str(clip), "--out", str(out / "r.json")],
+         junk_asset, "not a valid Pleat asset"),
+        ("pleat-eval", eval_cli.main, ["--asset", str(d / "absent.pleat"), "--motion", str(clip), "--out",
+                                       str(out / "r.json")], d / "absent.pleat", "No such file"),
+        ("pleat-pack", pack.main, [str(junk), "--out", str(out / "a.pleat")], junk, "not an npz file"),
+        ("pleat-pack", pack.main, ["--info", str(junk_asset)], junk_asset, "not a valid Pleat asset"),
+        ("pleat-sim", sim_cli.main, ["--garment", str(junk), "--motion", str(clip), "--out", str(out / "s")], junk,
+         "not a garment npz"),
+        ("pleat-show", show.main, ["--garment", "poncho", "--out", str(out / "s.png")], "poncho", "no such garment"),
+        ("pleat-show", show.main, ["--garment", "tshirt", "--sim", str(d), "--out", str(out / "s.png")], d,
+         "no sim.npz in it"),
+        ("pleat-body", body_cli.main, ["info", str(junk)], junk, "not a body npz"),
+        ("pleat-garment", garment_cli.main, ["--from-obj", str(d / "absent.obj"), "--out", str(out / "g.npz")],
+         d / "absent.obj", "no such OBJ file"),
+        ("pleat-garment-asset", garment_asset.main, ["--garment", str(junk), "--out", str(out / "g.pleat")], junk,
+         "not a garment npz"),
+        ("pleat-render-export", render_export.main, ["motion", "--clip", str(d / "absent.bvh"), "--out",
+                                                     str(out / "c.bin")], d / "absent.bvh", "no such file"),
+        ("pleat-motion", motion_cli.main, ["convert", str(clip), "--joint-map", str(d / "absent.json"), "--out",
+                                           str(out / "c.npz")], d / "absent.json", "joint map file not found"),
+    ]
+
+
+def test_other_bad_inputs_give_one_line_and_no_output(tmp_path, capsys):
+    problems = []
+    for cli, main, argv, named, fragment in _other_cases(tmp_path):
+        (tmp_path / "out").mkdir(exist_ok=True)
+        before = _listing(tmp_path)
+        rc = main(argv)
+        captured = capsys.readouterr()
+        lines = [ln for ln in captured.err.splitlines() if ln.strip()]
+        if not (rc == 1 and len(lines) == 1 and lines[0].startswith(f"{cli}: error: {named}: ")
+                and fragment in lines[0] and _listing(tmp_path) == before):
+            problems.append(f"{cli} {argv[:2]}: rc={rc} stderr={captured.err.strip()[:300]!r}")
+    assert not problems, "\n".join(problems)

@@ -67,6 +67,15 @@ def command(prog):
     return wrap
 
 
+def not_npz(path, exc, what):
+    """The InputError for an npz that numpy could not read: a plain 'not an npz' when it is no zip archive (numpy
+    would talk about pickles), else what numpy said."""
+    import zipfile
+    if not zipfile.is_zipfile(path):
+        return InputError(path, f"not {what}: not an npz file (not a zip archive)")
+    return InputError(path, f"not {what} ({type(exc).__name__}: {exc})")
+
+
 def add_quiet(parser):
     """--quiet, and --no-progress as its deprecated alias (same destination: args.quiet)."""
     parser.add_argument("--quiet", action="store_true", help="no progress bars or progress messages")

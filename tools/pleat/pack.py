@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from pleat import asset as pa
-from pleat.cli import InputError, add_quiet, command
+from pleat.cli import InputError, add_quiet, command, not_npz
 
 DTYPE_NAMES = {pa.DTYPE_F32: "f32", pa.DTYPE_F16: "f16", pa.DTYPE_U32: "u32", pa.DTYPE_U16: "u16",
                pa.DTYPE_I32: "i32", pa.DTYPE_U8: "u8"}
@@ -85,8 +85,12 @@ def main(argv=None):
         p.error("need WEIGHTS and -o OUT.pleat (or --export-onnx DIR), or --info FILE")
     try:
         weights = pa.load_weights(a.weights)
-    except (ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
-        raise InputError(a.weights, f"not a weights file ({type(e).__name__}: {e})") from None
+    except Exception as e:   # noqa: BLE001 - numpy and safetensors raise many kinds on a bad file
+        if isinstance(e, OSError) and e.filename is not None:
+            raise
+        if Path(a.weights).suffix == ".safetensors":
+            raise InputError(a.weights, f"not a safetensors weights file ({type(e).__name__}: {e})") from None
+        raise not_npz(a.weights, e, "a weights file") from None
     if a.name is not None:
         weights["garment_name"] = a.name
     if a.metadata is not None:

@@ -2,12 +2,13 @@
 import argparse
 import json
 import sys
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from pleat.body.model import BodyModel, default_body_path
-from pleat.cli import add_quiet, command
+from pleat.cli import add_quiet, command, not_npz
 from pleat.fileio import save_npz
 
 
@@ -28,7 +29,10 @@ def _export(args):
 
 
 def _info(args):
-    body = BodyModel.load(args.path)
+    try:
+        body = BodyModel.load(args.path)
+    except (ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        raise not_npz(args.path, exc, "a body npz") from None
     J = body.joints()
     v = body.v_template
     info = dict(

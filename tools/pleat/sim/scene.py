@@ -26,13 +26,23 @@ def load_body(path=None):
 
 def load_garment_spec(spec, body):
     """A garment npz path, or a garment name (data/garments/NAME.npz if present, else generated now)."""
+    import zipfile
+
+    from ..cli import InputError, not_npz
     from ..garment import Garment, make_garment
-    if str(spec).endswith(".npz"):
-        return Garment.load(spec)
+    from ..garment.generate import GARMENT_NAMES
     from ..paths import GARMENTS_DIR
-    cached = GARMENTS_DIR / f"{spec}.npz"
-    if cached.exists():
-        return Garment.load(cached)
+    path = Path(spec) if str(spec).endswith(".npz") else GARMENTS_DIR / f"{spec}.npz"
+    if str(spec).endswith(".npz") or path.exists():
+        try:
+            return Garment.load(path)
+        except FileNotFoundError:
+            raise InputError(spec, "no such garment file") from None
+        except (ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
+            raise not_npz(path, exc, "a garment npz (pleat-garment writes one)") from None
+    if spec not in GARMENT_NAMES:
+        raise InputError(spec, f"no such garment: not an npz, not in {GARMENTS_DIR}, and not one of "
+                               f"{', '.join(GARMENT_NAMES)} (pleat-garment list)")
     return make_garment(spec, body=body)
 
 
