@@ -23,10 +23,18 @@ function(pleat_set_float_semantics target)
   endif()
 endfunction()
 
+# PLEAT_SANITIZE: ASan + UBSan, nothing recoverable (the first finding fails the test). PLEAT_TSAN: ThreadSanitizer
+# (scripts/ci-stages.sh runs the "threads" tests with it); the two cannot be combined.
 function(pleat_set_sanitizers target)
+  if(PLEAT_SANITIZE AND PLEAT_TSAN)
+    message(FATAL_ERROR "PLEAT_SANITIZE (ASan) and PLEAT_TSAN cannot be combined")
+  endif()
   if(PLEAT_SANITIZE AND CMAKE_C_COMPILER_ID MATCHES "GNU|Clang")
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer
-      -fno-sanitize-recover=undefined)
+      -fno-sanitize-recover=all)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  elseif(PLEAT_TSAN AND CMAKE_C_COMPILER_ID MATCHES "GNU|Clang")
+    target_compile_options(${target} PRIVATE -fsanitize=thread -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=thread)
   endif()
 endfunction()

@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# The CI stages of .ci/run: what ships is what is tested. Each stage builds in its own build/ci-<stage> directory, so
+# any subset runs locally on its own:
+#
+#     PLEAT_CI_STAGES="asan tsan" scripts/ci-stages.sh
+#
+#   default  scripts/test.sh: Debug build, warnings as errors, ctest, the Python tests (the README's test command)
+#   release  Release build (what ships) + ctest
+#   asan     ASan + UBSan, nothing recoverable, leaks checked (tests/sanitizers/lsan-mesa.supp: leaks inside Mesa
+#            only) + ctest, GL tests on llvmpipe included
+#   tsan     ThreadSanitizer + the "threads" tests: the multi-worker determinism test and two threads stepping
+#            different instances at once
+#   scalar   PLEAT_FORCE_SCALAR=ON Release build (no AVX2 kernels compiled) + ctest
+#   fuzz     scripts/fuzz.sh: both libFuzzer targets for PLEAT_CI_FUZZ_SECONDS each (60)
+#   soak     test_soak_live_bytes_flat for PLEAT_CI_SOAK_STEPS steps (100,000) on the release build: live bytes flat
+#   slow     the pytest tests marked slow (PLEAT_SLOW_TESTS=1 -m slow); the others ran in `default`, the CLI
+#            bad-input tests among them
+#
+# PLEAT_CI_STAGES (default: all of the above, in that order) picks stages; every chosen stage runs even after one
+# fails, and the script fails if any did. A table of stage times ends the log.
+# Measured on the 2-core development machine (shared with other work, so upper bounds), warm venv and apt:
+#   release 0:40  asan 1:50  tsan 0:20  scalar 0:35  fuzz 2:40  soak 0:10  slow 0:20
+# — about 7 minutes beyond `default`, whose time is dominated by the first install of the venv (PyTorch with
+# PLEAT_EXTRAS=train) and the Python tests; see docs/ci.md.
+set -euo pipefail
+SELF="$(cd "$(dirname "$0")" && pwd)/$(basename "$0")"
+cd "$(dirname "$0")/.."
+STAGES=${PLEAT_CI_STAGES:-default release asan tsan scalar fuzz soak slow}
+PY="$PWD/.venv/bin/python"
+SUPPRESSIONS="$PWD/tests/sanitizers/lsan-mesa.supp"
+
+configure() { # configure DIR CMAKE_ARGS...
+  local dir=$1; shift
+  cmake -S . -B "$dir" -G Ninja -DPLEAT_WERROR=ON -DPLEAT_PYTHON="$PY" "$@" >/dev/null
+}
+
+build_and_ctest() { # build_and_ctest DIR [CTEST_ARGS...]
+  local dir=$1; shift
+  nice cmake --build "$dir"
+  nice ctest --test-dir "$dir" --output-on-failure -j2 "$@"
+}
+
+stage_default() {
+  PLEAT_EXTRAS=${PLEAT_EXTRAS:-train} scripts/test.sh
+}
+
+stage_release() {
+  configure build/ci-release -DCMAKE_BUILD_TYPE=Release
+  build_and_ctest build/ci-release
+}
+
+stage_asan() {
+  configure build/ci-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPLEAT_SANITIZE=ON
+  ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1" \
+  LSAN_OPTIONS="suppressions=$SUPPRESSIONS:print_suppressions=0" \
+  UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
+    build_and_ctest build/ci-asan
+}
+
+stage_tsan() {
+  # The GL path is not threaded by the SDK (one GL context per instance, calls on the owning thread): left out here.
+  configure build/ci-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPLEAT_TSAN=ON -DPLEAT_GL=OFF
+  TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1" build_and_ctest build/ci-tsan -L threads
+}
+
+stage_scalar() {
+  configure build/ci-scalar -DCMAKE_BUILD_TYPE=Release -DPLEAT_FORCE_SCALAR=ON
+  build_and_ctest build/ci-scalar
+}
+
+stage_fuzz() {
+  FUZZ_SECONDS=${PLEAT_CI_FUZZ_SECONDS:-60} BUILD_DIR=build/ci-fuzz FUZZ_OUT=out/ci-fuzz scripts/fuzz.sh
+}
+
+stage_soak() {
+  configure build/ci-release -DCMAKE_BUILD_TYPE=Release
+  nice cmake --build build/ci-release --target test_soak_live_bytes_flat
+  build/ci-release/tests/c/test_soak_live_bytes_flat "${PLEAT_CI_SOAK_STEPS:-100000}"
+}
+
+stage_slow() {
+  # Uses libpleat.so from the release stage when it ran, else builds it.
+  configure build/ci-release -DCMAKE_BUILD_TYPE=Release
+  nice cmake --build build/ci-release --target pleat
+  local status=0
+  PLEAT_SLOW_TESTS=1 PLEAT_BUILD_DIR="$PWD/build/ci-release" "$PY" -m pytest -q -m slow tests/python || status=$?
+  [ "$status" -eq 5 ] && status=0 # no test marked slow: nothing to run
+  return $status
+}
+
+# One stage in a process of its own, so that `set -e` holds inside it (the loop below tests its exit status).
+if [ -n "${PLEAT_CI_RUN_STAGE:-}" ]; then
+  "stage_$PLEAT_CI_RUN_STAGE"
+  exit 0
+fi
+
+if [ -n "${STAGES// /}" ] && [ "$STAGES" != default ]; then
+  scripts/setup.sh # Debian packages and the venv; quick when present (stage_default runs it itself)
+fi
+summary=""
+failed=""
+for stage in $STAGES; do
+  if ! declare -F "stage_$stage" >/dev/null; then
+    echo "ci-stages: unknown stage '$stage' (default release asan tsan scalar fuzz soak slow)" >&2
+    exit 2
+  fi
+  echo "=== stage $stage"
+  start=$(date +%s)
+  status=0
+  PLEAT_CI_RUN_STAGE=$stage bash "$SELF" || status=$?
+  elapsed=$(( $(date +%s) - start ))
+  verdict=passed
+  if [ "$status" -ne 0 ]; then verdict="FAILED (exit $status)"; failed="$failed $stage"; fi
+  line=$(printf "%-8s %3d:%02d  %s" "$stage" $((elapsed / 60)) $((elapsed % 60)) "$verdict")
+  echo "=== $line"
+  summary="$summary$line"$'\n'
+done
+echo "=== CI stages"
+printf "%s" "$summary"
+if [ -n "$failed" ]; then
+  echo "ci-stages: failed:$failed" >&2
+  exit 1
+fi
