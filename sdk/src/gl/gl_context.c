@@ -239,6 +239,18 @@ static const char* plEglDeviceFile( EGLDeviceEXT device )
 	return file != NULL ? file : "";
 }
 
+// libepoxy aborts the process when an EGL entry point is first called and it cannot dlopen libEGL.so.1 (a GPU
+// container with the driver's EGL vendor library but no libglvnd loader, a server without Mesa): the SDK never
+// aborts, so the EGL routes are taken only when that library loads. The handle is kept; epoxy opens it again itself.
+static int plEglLibraryLoads( plGlReport* report )
+{
+	if ( dlopen( "libEGL.so.1", RTLD_LAZY | RTLD_LOCAL | RTLD_NOLOAD ) != NULL ||
+		 dlopen( "libEGL.so.1", RTLD_LAZY | RTLD_LOCAL ) != NULL )
+		return 1;
+	PL_TRIED( report, "EGL: libEGL.so.1 not found; " );
+	return 0;
+}
+
 // EGL_EXT_platform_device: hardware devices in enumeration order first; software devices only when allowed (the
 // surfaceless platform is the better software route: Mesa picks there for itself).
 static plResult plCreateEglDevice( plGlContext* context, int allow_software, plGlReport* report )
@@ -428,9 +440,11 @@ plResult plGlContext_Create( plGlHeadlessBackend backend, const plAllocator* all
 	plGlReport route_report;
 	memset( &route_report, 0, sizeof( route_report ) );
 	plResult result = PLEAT_RESULT_GL_UNAVAILABLE;
-	if ( backend == PLEAT_GL_HEADLESS_AUTO || backend == PLEAT_GL_HEADLESS_EGL || backend == PLEAT_GL_HEADLESS_EGL_DEVICE )
+	int wants_egl = backend != PLEAT_GL_HEADLESS_OSMESA;
+	int egl = wants_egl && plEglLibraryLoads( &route_report );
+	if ( egl && backend != PLEAT_GL_HEADLESS_OSMESA )
 		result = plCreateEglDevice( context, backend == PLEAT_GL_HEADLESS_EGL_DEVICE, &route_report );
-	if ( result != PLEAT_RESULT_OK && ( backend == PLEAT_GL_HEADLESS_AUTO || backend == PLEAT_GL_HEADLESS_EGL ) )
+	if ( egl && result != PLEAT_RESULT_OK && ( backend == PLEAT_GL_HEADLESS_AUTO || backend == PLEAT_GL_HEADLESS_EGL ) )
 		result = plCreateEglSurfaceless( context, &route_report );
 	if ( result != PLEAT_RESULT_OK && ( backend == PLEAT_GL_HEADLESS_AUTO || backend == PLEAT_GL_HEADLESS_OSMESA ) )
 		result = plCreateOsmesa( context, &route_report );
