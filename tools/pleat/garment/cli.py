@@ -1,5 +1,6 @@
 """pleat-garment: make a procedural garment (or diffuse skin and shape onto your own OBJ) → an npz; `pleat-garment
-list` shows the garments there are."""
+list` shows the garments there are; `pleat-garment import MESH` brings a DCC mesh (OBJ, glTF) with a fit, pins and
+a report; `pleat-garment scene --out DIR` writes the body (and garment, motion) for a DCC tool."""
 import argparse
 import sys
 from pathlib import Path
@@ -15,7 +16,9 @@ def build_parser():
     parser = argparse.ArgumentParser(prog="pleat-garment", description=__doc__.split(": ", 1)[1])
     parser.add_argument("name", nargs="?",
                         help=f"one of {', '.join(GARMENT_NAMES)} (or the name for --from-obj); `list`: print the "
-                             "procedural garments, the garment npz files in data/garments and the shipped assets")
+                             "procedural garments, the garment npz files in data/garments and the shipped assets; "
+                             "`import MESH ...`: see pleat-garment import --help; `scene ...`: see pleat-garment scene "
+                             "--help")
     parser.add_argument("--vertices", type=int, default=None, help="vertex count (500-20000; ±5%%)")
     parser.add_argument("--from-obj", default=None, help="a rest-pose garment mesh fitted to the template body")
     parser.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
@@ -44,6 +47,13 @@ def list_garments():
 @command("pleat-garment")
 def main(argv=None):
     from .generate import GARMENT_NAMES
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] == "import":
+        from .importer import import_main
+        return import_main(argv[1:])
+    if argv and argv[0] == "scene":
+        from .scene import scene_main
+        return scene_main(argv[1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.name == "list" and not args.from_obj:
