@@ -62,9 +62,9 @@ def test_a_successful_write_replaces_the_file_and_keeps_its_permissions(tmp_path
 
 def _run_limited(setup, action, cwd):
     """Runs `setup`, lowers the file-size limit to LIMIT_BYTES, runs `action` in a child Python."""
+    limit = f"resource.setrlimit(resource.RLIMIT_FSIZE, ({LIMIT_BYTES}, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))"
     code = "import resource, signal, sys\nsignal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n" + textwrap.dedent(setup) + \
-        f"\nresource.setrlimit(resource.RLIMIT_FSIZE, ({LIMIT_BYTES}, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))\n" \
-        + textwrap.dedent(action)
+        "\n" + limit + "\n" + textwrap.dedent(action)
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=cwd)
 
 

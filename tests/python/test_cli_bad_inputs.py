@@ -93,7 +93,8 @@ ASF = """:version 1.10
   rtibia rfoot
  end
 """
-BONES = [("lhipjoint", "1 -0.5 0", 9), ("rhipjoint", "-1 -0.5 0", 9), ("lfemur", "0 -1 0", 42), ("ltibia", "0 -1 0", 41), ("lfoot", "0 0 1", 12),
+BONES = [("lhipjoint", "1 -0.5 0", 9), ("rhipjoint", "-1 -0.5 0", 9), ("lfemur", "0 -1 0", 42),
+         ("ltibia", "0 -1 0", 41), ("lfoot", "0 0 1", 12),
          ("rfemur", "0 -1 0", 42), ("rtibia", "0 -1 0", 41), ("rfoot", "0 0 1", 12)]
 
 
@@ -381,7 +382,7 @@ def test_a_failing_convert_keeps_the_previous_output(tmp_path, capsys):
     assert "Frame Time is 0" in capsys.readouterr().err
 
 
-# ---- the other inputs: assets, weights, garments, bodies, joint maps --------------------------------------------------
+# ---- the other inputs: assets, weights, garments, bodies, joint maps ------------------------------------------------
 def _other_cases(d):
     """(cli, main, argv, the path the line names, fragment); every output path lies under d/out."""
     from pleat import garment_asset, pack, render_export

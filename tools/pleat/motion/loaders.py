@@ -487,15 +487,16 @@ class _Tokens:
         try:
             value = int(word) if integer else float(word)
         except ValueError:
-            raise MotionFileError(self.path, f"{what} is {word[:40]!r}, not {'an integer' if integer else 'a number'}") \
-                from None
+            kind = "an integer" if integer else "a number"
+            raise MotionFileError(self.path, f"{what} is {word[:40]!r}, not {kind}") from None
         if not integer and not math.isfinite(value):
             raise MotionFileError(self.path, f"{what} is {word}: it must be finite")
         return value
 
 
 def _bvh_hierarchy(path, tok):
-    """HIERARCHY → names, parents, offsets, channels; iterative (a stack of open joints), at most MAX_BVH_DEPTH deep."""
+    """HIERARCHY → names, parents, offsets, channels; iterative (a stack of open joints), at most MAX_BVH_DEPTH
+    deep."""
     names, parents, offsets, channels, is_end = [], [], [], [], []
     tok.expect("HIERARCHY")
     tok.expect("ROOT", " after HIERARCHY")
@@ -794,7 +795,8 @@ def read_amass(path, body):
         missing = [k for k in ("poses", "trans") if k not in z.files]
         rate_key = next((k for k in ("mocap_framerate", "mocap_frame_rate") if k in z.files), None)
         if missing or rate_key is None:
-            raise MotionFileError(path, f"AMASS npz without {', '.join(missing + ([] if rate_key else ['mocap_framerate']))}")
+            missing += [] if rate_key else ["mocap_framerate"]
+            raise MotionFileError(path, f"AMASS npz without {', '.join(missing)}")
         poses = np.asarray(z["poses"], dtype=np.float64)
         trans = np.asarray(z["trans"], dtype=np.float64)
         rate = np.asarray(z[rate_key], dtype=np.float64)

@@ -16,7 +16,8 @@ def build_parser():
     parser.add_argument("--motion", required=True, help="clip name or file (pleat-motion list)")
     parser.add_argument("--out", required=True, help="output folder (sim.npz, summary.json)")
     parser.add_argument("--frames", type=int, default=None, help="simulate only the first N frames")
-    parser.add_argument("--fps", type=positive_float, default=30.0, help="frame rate the clip is resampled to (dt = 1/fps)")
+    parser.add_argument("--fps", type=positive_float, default=30.0,
+                        help="frame rate the clip is resampled to (dt = 1/fps)")
     parser.add_argument("--beta", default=None, help="comma-separated body shape β (up to 10 values)")
     parser.add_argument("--material", default=None,
                         help="m,mu,lambda,k (areal density kg/m², Lamé μ, λ, bending k); default HOOD's cotton")
