@@ -88,7 +88,7 @@ def validation_sequences(setup, clips, frames, workers, cache_dir, log):
 
 
 def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progress=True, cache_dir=None,
-          resume=True):
+          resume=True, user_sims=None, user_only=False):
     from pleat.eval.reference import DEFAULT_CACHE
     from pleat.eval.tiers import tier
     t_start = time.time()
@@ -113,10 +113,17 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
         val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
     segments = simdata.plan_segments(list(train_clips.values()), c, setup.B, cfg["seed"])
     segments = segments[:int(c["max_segments"])] if c.get("max_segments") else segments
+    user_train, user_val, user_info = user_simulations(setup, user_sims, cfg["fps"], run.log, progress)
+    if user_only:
+        if not user_train:
+            from pleat.cli import InputError
+            raise InputError(None, "--user-sim-only needs at least one --user-sim training simulation")
+        segments, val_clips = [], ({} if user_val else val_clips)
     deadline = None if budget_s is None else t_start + c["simulate_share"] * budget_s
     done, sim_cpu = simdata.simulate_segments(setup, segments, workers, cache_dir, deadline, log)
     val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log)
     seqs = simdata.load_sequences(setup, done, train_clips)
+    seqs, val = seqs + user_train, val + user_val
     frames = int(sum(len(s["disp"]) for s in seqs))
     run.log({"data": {"segments": len(seqs), "frames": frames, "planned_segments": len(segments),
                       "simulation_cpu_s": sim_cpu, "validation_cpu_s": val_cpu, "wall_s": time.time() - t_start}})
@@ -140,7 +147,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                "clips": sorted(train_clips), "variants": list(c["variants"]),
                "simulation_cpu_h": sim_cpu / 3600.0, "fit_wall_s": fit_s, "cpu_hours": cpu_h,
                "wall_s": time.time() - t_start, "hardware": core.hardware(), "fit": report,
-               "validation": val_err}
+               "validation": val_err, "user_simulations": user_info}
     path = out / f"{setup.name}.pleat"
     distill.pack_tier(path, lp, block, norms, shim, g, setup, dict(report, tier="large"), cfg["fps"],
                       fp16=c.get("fp16", True), teacher="reference simulator",
@@ -150,6 +157,19 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     print(verdict(val_err))
     return path, summary
+
+
+def user_simulations(setup, specs, fps, log=None, progress=True):
+    """The user's own offline simulations (--user-sim: PC2 or npz caches with their motions, pleat.train.pointcache)
+    as (training sequences, validation sequences, infos), all read and checked before anything is simulated."""
+    if not specs:
+        return [], [], []
+    from pleat.train import pointcache
+    train_seqs, val_seqs, infos = pointcache.user_sequences(setup, specs, fps, log)
+    if progress:
+        for info in infos:
+            print(f"simsup: {pointcache.info_line(info)}", file=sys.stderr)
+    return train_seqs, val_seqs, infos
 
 
 def verdict(rows):
