@@ -6,6 +6,7 @@
 #endif
 #include "asset.h"
 #include "core.h"
+#include "jobs.h"
 #include "onnx_model.h"
 
 #include <math.h>
@@ -116,11 +117,6 @@ uint32_t plCrc32( uint32_t crc, const uint8_t* data, size_t size )
 		crc = table[0][( crc ^ *data ) & 0xFFu] ^ ( crc >> 8 );
 	}
 	return ~crc;
-}
-
-uint64_t plInputCountFormula( uint64_t latent_count, uint64_t input_joint_count, uint64_t beta_count )
-{
-	return latent_count + 8u + 3u * ( 6u * input_joint_count + 6u ) + 9u * input_joint_count + beta_count + 4u;
 }
 
 static uint32_t plDtypeSize( uint32_t dtype )
@@ -785,6 +781,14 @@ static plLogItem plLogItemForLoadResult( plResult r )
 	}
 }
 
+// The asset table's destroy callback (plDestroyObjectFn), also what plDestroyAsset frees with.
+static void plAssetData_Destroy( plContextData* ctx, void* object )
+{
+	plAssetData* asset = (plAssetData*)object;
+	plFree( &ctx->allocator, asset->owned_block, asset->owned_size );
+	plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
+}
+
 plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_asset )
 {
 	if ( out_asset != NULL )
@@ -853,7 +857,7 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	uint32_t slot = UINT32_MAX;
 	if ( r == PLEAT_RESULT_OK )
 	{
-		slot = plSlotTable_Insert( ctx, &ctx->assets, asset );
+		slot = plSlotTable_Insert( ctx, &ctx->assets, asset, plAssetData_Destroy );
 		if ( slot == UINT32_MAX )
 		{
 			r = PLEAT_RESULT_OUT_OF_MEMORY;
@@ -887,13 +891,6 @@ plAssetData* plGetAssetData( plAsset asset )
 		return NULL;
 	}
 	return (plAssetData*)plSlotTable_Get( &ctx->assets, asset.index1, asset.generation );
-}
-
-void plAssetData_Destroy( plContextData* ctx, void* object )
-{
-	plAssetData* asset = (plAssetData*)object;
-	plFree( &ctx->allocator, asset->owned_block, asset->owned_size );
-	plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
 }
 
 plResult plDestroyAsset( plAsset handle )

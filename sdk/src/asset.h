@@ -1,22 +1,11 @@
 // Internal: a loaded, validated asset (docs/asset-format.md). Every pointer points into the one 64-byte aligned block.
 #ifndef PLEAT_ASSET_H
 #define PLEAT_ASSET_H
+#include "kernels.h"
 #include "pleat/pleat.h"
 
 #include <stddef.h>
 #include <stdint.h>
-
-#define PLEAT_ACTIVATION_RELU 1
-#define PLEAT_ACTIVATION_SILU 2
-
-typedef struct plLayer
-{
-	const void* weight; // [out][in] row-major (torch Linear.weight), fp32 or fp16
-	int weight_fp16;
-	const float* bias;  // [out]
-	uint32_t in_count;
-	uint32_t out_count;
-} plLayer;
 
 typedef struct plAssetData
 {
@@ -79,8 +68,5 @@ plResult plAssetData_Parse( const uint8_t* data, size_t size, int skip_checksum,
 plAssetData* plGetAssetData( plAsset asset );
 
 uint32_t plCrc32( uint32_t crc, const uint8_t* data, size_t size );
-
-// I = L + 8 + 3·(6·Jin + 6) + 9·Jin + B + 4 (docs/inputs.md)
-uint64_t plInputCountFormula( uint64_t latent_count, uint64_t input_joint_count, uint64_t beta_count );
 
 #endif

@@ -139,25 +139,6 @@ static void plCountingFree( void* ptr, size_t size, void* user )
 	ctx->host_free( ptr, size, ctx->host_allocator_context );
 }
 
-void plRunTask( const plTaskRunner* runner, plTaskFn* task, uint32_t item_count, uint32_t min_range, void* context )
-{
-	if ( item_count == 0 )
-	{
-		return;
-	}
-	if ( runner == NULL || runner->enqueue_task == NULL || runner->worker_count <= 1 )
-	{
-		task( 0, item_count, 0, context );
-		return;
-	}
-	void* handle = runner->enqueue_task( task, item_count, min_range == 0 ? 1 : min_range, context,
-										 runner->task_context );
-	if ( handle != NULL )
-	{
-		runner->finish_task( handle, runner->task_context );
-	}
-}
-
 plContextDef plDefaultContextDef( void )
 {
 	plContextDef def;
@@ -211,10 +192,10 @@ plResult plCreateContext( const plContextDef* def, plContext* out_context )
 	ctx->allocator.alloc = plCountingAlloc;
 	ctx->allocator.free = plCountingFree;
 	ctx->allocator.user = ctx;
-	ctx->enqueue_task = def->enqueue_task;
-	ctx->finish_task = def->finish_task;
-	ctx->task_context = def->task_context;
-	ctx->worker_count = def->enqueue_task != NULL ? ( def->worker_count == 0 ? 1 : def->worker_count ) : 1;
+	ctx->runner.enqueue_task = def->enqueue_task;
+	ctx->runner.finish_task = def->finish_task;
+	ctx->runner.task_context = def->task_context;
+	ctx->runner.worker_count = def->enqueue_task != NULL ? ( def->worker_count == 0 ? 1 : def->worker_count ) : 1;
 	ctx->log = def->log;
 	ctx->log_context = def->log_context;
 	ctx->uses_avx2 = plSelectKernels( &ctx->kernels, def->force_scalar );
@@ -223,7 +204,7 @@ plResult plCreateContext( const plContextDef* def, plContext* out_context )
 	ctx->handle.index1 = slot + 1;
 	ctx->handle.generation = g_plContextTable.generations[slot];
 	*out_context = ctx->handle;
-	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_CONTEXT_CREATED, "%u workers", ctx->worker_count );
+	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_CONTEXT_CREATED, "%u workers", ctx->runner.worker_count );
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, ctx->uses_avx2 ? PLEAT_LOG_KERNELS_AVX2 : PLEAT_LOG_KERNELS_SCALAR, NULL );
 	return PLEAT_RESULT_OK;
 }
@@ -260,22 +241,6 @@ plResult plDestroyContext( plContext context )
 			   ctx->assets.live_count, ctx->instances.live_count );
 	}
 	// Instances first: they hold references to assets.
-	for ( uint32_t i = 0; i < ctx->instances.capacity; ++i )
-	{
-		if ( ctx->instances.slots[i].object != NULL )
-		{
-			plInstanceData_Destroy( ctx, ctx->instances.slots[i].object );
-			plSlotTable_Remove( &ctx->instances, i + 1 );
-		}
-	}
-	for ( uint32_t i = 0; i < ctx->assets.capacity; ++i )
-	{
-		if ( ctx->assets.slots[i].object != NULL )
-		{
-			plAssetData_Destroy( ctx, ctx->assets.slots[i].object );
-			plSlotTable_Remove( &ctx->assets, i + 1 );
-		}
-	}
 	plSlotTable_Free( ctx, &ctx->instances );
 	plSlotTable_Free( ctx, &ctx->assets );
 	g_plContextTable.contexts[context.index1 - 1u] = NULL; // the generation stays: the next context gets the one after
@@ -315,8 +280,9 @@ plResult plContext_UsesAvx2( plContext context, int* out_avx2 )
 	return PLEAT_RESULT_OK;
 }
 
-uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object )
+uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object, plDestroyObjectFn* destroy )
 {
+	table->destroy = destroy;
 	for ( uint32_t i = 0; i < table->capacity; ++i )
 	{
 		plSlot* slot = &table->slots[i];
@@ -381,6 +347,14 @@ void plSlotTable_Remove( plSlotTable* table, uint32_t index1 )
 
 void plSlotTable_Free( plContextData* ctx, plSlotTable* table )
 {
+	for ( uint32_t i = 0; i < table->capacity; ++i )
+	{
+		if ( table->slots[i].object != NULL )
+		{
+			table->destroy( ctx, table->slots[i].object );
+			plSlotTable_Remove( table, i + 1 );
+		}
+	}
 	if ( table->slots != NULL )
 	{
 		ctx->host_free( table->slots, table->capacity * sizeof( plSlot ), ctx->host_allocator_context );

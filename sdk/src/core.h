@@ -1,9 +1,12 @@
-// Internal: the context, its object tables, logging and the CPU kernel dispatch table.
+// Internal: the context, its object tables, logging and the CPU kernel dispatch table. The context knows nothing of
+// assets or instances: each table is told by its first insert how to destroy what it holds (plDestroyObjectFn), so
+// plDestroyContext cleans up without calling into asset.c or instance.c.
 #ifndef PLEAT_CORE_H
 #define PLEAT_CORE_H
 #include "allocator.h"
 #include "kernels.h"
 #include "pleat/pleat.h"
+#include "tasks.h"
 
 #include <stdatomic.h>
 #include <stdint.h>
@@ -22,14 +25,20 @@ typedef struct plSlot
 	uint32_t generation; // of the live object, or of the last one; 0 = never used
 } plSlot;
 
+typedef struct plContextData plContextData;
+
+// Frees an object a slot table holds (its owner's destroy, without the slot bookkeeping).
+typedef void plDestroyObjectFn( plContextData* ctx, void* object );
+
 typedef struct plSlotTable
 {
 	plSlot* slots;
 	uint32_t capacity;
 	uint32_t live_count;
+	plDestroyObjectFn* destroy; // set by the first insert; what plDestroyContext calls for objects still alive
 } plSlotTable;
 
-typedef struct plContextData
+struct plContextData
 {
 	plAllocator allocator; // counting wrapper around the host hooks; pass &ctx->allocator everywhere
 	plAllocFn* host_alloc;
@@ -37,10 +46,7 @@ typedef struct plContextData
 	void* host_allocator_context;
 	_Atomic uint64_t live_bytes;
 
-	plEnqueueTaskFn* enqueue_task;
-	plFinishTaskFn* finish_task;
-	void* task_context;
-	uint32_t worker_count;
+	plTaskRunner runner; // the def's task hooks; worker_count 1 without them
 
 	plLogFn* log;
 	void* log_context;
@@ -51,7 +57,7 @@ typedef struct plContextData
 	plSlotTable assets;
 	plSlotTable instances;
 	plContext handle; // this context's own handle, written into the handles of its assets and instances
-} plContextData;
+};
 
 // The process-wide context table (context.c). Internal: exposed so that a test can start a slot near its last
 // generation and see it retire without 2^32 create/destroy cycles.
@@ -61,18 +67,6 @@ typedef struct plContextTable
 	uint32_t generations[PLEAT_MAX_CONTEXTS]; // as plSlot.generation
 } plContextTable;
 extern plContextTable g_plContextTable;
-
-// The task system a job may split its work with (NULL members = serial).
-typedef struct plTaskRunner
-{
-	plEnqueueTaskFn* enqueue_task;
-	plFinishTaskFn* finish_task;
-	void* task_context;
-	uint32_t worker_count;
-} plTaskRunner;
-
-// Runs task over [0, item_count) through the runner (or inline) and waits for it.
-void plRunTask( const plTaskRunner* runner, plTaskFn* task, uint32_t item_count, uint32_t min_range, void* context );
 
 // The live context a handle names (index and generation both match), or NULL. Asset and instance lookups go through
 // this with the context handle they carry.
@@ -84,14 +78,11 @@ void plLog( const plContextData* ctx, plLogLevel level, plLogItem item, const ch
 	;
 
 // Slot tables: insert returns the slot index or UINT32_MAX (out of memory / capacity); the object's generation is then
-// table->slots[index].generation.
-uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object );
+// table->slots[index].generation. destroy is how the table's objects are freed (the same for every insert).
+uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object, plDestroyObjectFn* destroy );
 void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint32_t generation );
 void plSlotTable_Remove( plSlotTable* table, uint32_t index1 );
+// Destroys every object still in the table (through its destroy callback), then frees the table itself.
 void plSlotTable_Free( plContextData* ctx, plSlotTable* table );
-
-// Asset and instance internals used by context.c to clean up.
-void plAssetData_Destroy( plContextData* ctx, void* asset );
-void plInstanceData_Destroy( plContextData* ctx, void* instance );
 
 #endif

@@ -42,6 +42,13 @@ static float* plWrite6d( float* x, const double m[9] )
 	return x;
 }
 
+uint64_t plInputCountFormula( uint64_t latent_count, uint64_t input_joint_count, uint64_t beta_count )
+{
+	// Z_t, two root velocities (v, ω) × (t+1, t), 6D rotations of Jin joints + pelvis tilt × 3 frames, heading-frame
+	// positions of Jin joints × 3 frames, β, material.
+	return latent_count + 8u + 3u * ( 6u * input_joint_count + 6u ) + 9u * input_joint_count + beta_count + 4u;
+}
+
 int plInputAssemblyJob_Validate( const plInputAssemblyJob* job )
 {
 	if ( job == NULL || job->frames[0] == NULL || job->frames[1] == NULL || job->frames[2] == NULL ||

@@ -2,6 +2,8 @@
 // a step needs (allocated once at creation). plInstance_Step validates everything first (an error changes nothing),
 // then runs the jobs: forward kinematics → input assembly → f_LP → latent guard → f_dec → blend shapes → skinning →
 // normals, and commits the new history and latent only at the end.
+#include "asset.h"
+#include "core.h"
 #include "gl_deformer.h"
 #include "jobs.h"
 #include "ort_backend.h"
@@ -79,12 +81,6 @@ plInstanceDef plDefaultInstanceDef( void )
 	def.gpu_mode = PLEAT_GPU_NONE;
 	def.internal_cookie = PLEAT_DEF_COOKIE;
 	return def;
-}
-
-static plTaskRunner plRunnerOf( const plContextData* ctx )
-{
-	plTaskRunner runner = { ctx->enqueue_task, ctx->finish_task, ctx->task_context, ctx->worker_count };
-	return runner;
 }
 
 // ---- shape and material ----
@@ -242,11 +238,11 @@ static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, vo
 
 static void plDeformCpu( plInstanceData* inst, const float* weights, const float* skin_matrices, int blend )
 {
-	plTaskRunner runner = plRunnerOf( inst->ctx );
+	const plTaskRunner* runner = &inst->ctx->runner;
 	plDeformTask task = { inst, weights, skin_matrices, blend };
 	const plAssetData* a = inst->asset;
-	plRunTask( &runner, plBlendAndSkinTask, a->vertex_count, 256, &task );
-	if ( ( runner.enqueue_task == NULL || runner.worker_count <= 1 ) && a->face_count >= a->vertex_count )
+	plRunTask( runner, plBlendAndSkinTask, a->vertex_count, 256, &task );
+	if ( !plTaskRunner_IsParallel( runner ) && a->face_count >= a->vertex_count )
 	{
 		// One thread: one pass over the faces scattering into per-vertex sums (the face-normal scratch, [F][4] with
 		// F ≥ N, holds them), bit-identical to the face-normal + gather split that workers share.
@@ -257,8 +253,8 @@ static void plDeformCpu( plInstanceData* inst, const float* weights, const float
 		PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
 		return;
 	}
-	plRunTask( &runner, plFaceNormalsTask, a->face_count, 512, &task );
-	plRunTask( &runner, plNormalsTask, a->vertex_count, 256, &task );
+	plRunTask( runner, plFaceNormalsTask, a->face_count, 512, &task );
+	plRunTask( runner, plNormalsTask, a->vertex_count, 256, &task );
 }
 
 // ---- create / destroy ----
@@ -268,7 +264,8 @@ static size_t plAlign64( size_t v )
 	return ( v + 63u ) & ~(size_t)63u;
 }
 
-void plInstanceData_Destroy( plContextData* ctx, void* object )
+// The instance table's destroy callback (plDestroyObjectFn), also what plDestroyInstance frees with.
+static void plInstanceData_Destroy( plContextData* ctx, void* object )
 {
 	plInstanceData* inst = (plInstanceData*)object;
 	if ( inst->gl != NULL )
@@ -555,7 +552,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	uint32_t slot = UINT32_MAX;
 	if ( r == PLEAT_RESULT_OK )
 	{
-		slot = plSlotTable_Insert( ctx, &ctx->instances, inst );
+		slot = plSlotTable_Insert( ctx, &ctx->instances, inst, plInstanceData_Destroy );
 		if ( slot == UINT32_MAX )
 		{
 			r = PLEAT_RESULT_OUT_OF_MEMORY;
@@ -608,7 +605,7 @@ static int plEvaluate( plInstanceData* inst, const plPoseFrame* frame_t, const p
 {
 	plAssetData* a = inst->asset;
 	plContextData* ctx = inst->ctx;
-	plTaskRunner runner = plRunnerOf( ctx );
+	const plTaskRunner* runner = &ctx->runner;
 	plPoseFrame* now = &inst->next_frame;
 	plInputAssemblyJob assembly;
 	memset( &assembly, 0, sizeof( assembly ) );
@@ -642,7 +639,7 @@ static int plEvaluate( plInstanceData* inst, const plPoseFrame* frame_t, const p
 	{
 		plMlpJob lp = { a->lp, a->lp_layer_count, a->lp_activation, plMakeConstSpan( inst->x, a->input_count, 4 ),
 						plMakeSpan( inst->y, a->latent_count, 4 ),
-						plMakeSpan( inst->mlp_scratch, inst->mlp_scratch_count, 4 ), &ctx->kernels, &runner };
+						plMakeSpan( inst->mlp_scratch, inst->mlp_scratch_count, 4 ), &ctx->kernels, runner };
 		plMlpJob_Run( &lp );
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_LP );
@@ -673,7 +670,7 @@ static int plEvaluate( plInstanceData* inst, const plPoseFrame* frame_t, const p
 		plMlpJob dec = { a->dec, a->dec_layer_count, a->dec_activation,
 						 plMakeConstSpan( inst->next_latent, a->latent_count, 4 ),
 						 plMakeSpan( inst->next_weights, a->blend_count, 4 ),
-						 plMakeSpan( inst->mlp_scratch, inst->mlp_scratch_count, 4 ), &ctx->kernels, &runner };
+						 plMakeSpan( inst->mlp_scratch, inst->mlp_scratch_count, 4 ), &ctx->kernels, runner };
 		plMlpJob_Run( &dec );
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_DEC );

@@ -1,10 +1,12 @@
 // Internal: the runtime's jobs, one file each, mirroring the paper (docs/inputs.md "Network evaluation"). A job is a
-// struct of input and output spans with _Validate (non-zero = valid) and _Run (validates, never allocates).
+// struct of input and output spans with _Validate (non-zero = valid) and _Run (validates, never allocates). Jobs see
+// only spans, the kernel table and the task runner: never a context, an asset or an instance, so they sit below all
+// three (docs/architecture.md).
 #ifndef PLEAT_JOBS_H
 #define PLEAT_JOBS_H
-#include "asset.h"
-#include "core.h"
 #include "kernels.h"
+#include "pleat/pleat.h"
+#include "tasks.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -66,6 +68,9 @@ plResult plForwardKinematicsJob_Run( const plForwardKinematicsJob* job );
 void plQuatToMatrix( const double q[4], double m[9] );
 
 // ---- input_assembly.c: X_c exactly per docs/inputs.md ----
+
+// I = L + 8 + 3·(6·Jin + 6) + 9·Jin + B + 4, the length of X_c (docs/inputs.md); the loader checks CONF against it.
+uint64_t plInputCountFormula( uint64_t latent_count, uint64_t input_joint_count, uint64_t beta_count );
 
 typedef struct plInputAssemblyJob
 {

@@ -5,6 +5,20 @@
 #define PLEAT_KERNELS_H
 #include <stdint.h>
 
+// One Linear layer of an MLP as the asset stores it (read in place); the MLP job runs a chain of them.
+typedef struct plLayer
+{
+	const void* weight; // [out][in] row-major (torch Linear.weight), fp32 or fp16
+	int weight_fp16;
+	const float* bias;  // [out]
+	uint32_t in_count;
+	uint32_t out_count;
+} plLayer;
+
+// Activation on the hidden layers (asset CONF lp_activation / dec_activation).
+#define PLEAT_ACTIVATION_RELU 1
+#define PLEAT_ACTIVATION_SILU 2
+
 // out[r] = bias[r] + Σ_c W[r][c] · x[c] for rows [row_begin, row_end); W is [rows][in] row-major, fp32 or fp16.
 typedef void plMatVecFn( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
 						 uint32_t in_count, uint32_t row_begin, uint32_t row_end );

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "asset.h"
+#include "jobs.h"
 #include "kernels.h"
 
 static uint32_t plTestRandom( uint32_t* state )

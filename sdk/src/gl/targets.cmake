@@ -1,23 +1,14 @@
 # Deferred from sdk/src/gl/CMakeLists.txt to the end of the top-level directory, when the library targets exist:
-# the GL tests (cmocka, ctest) and the timing program gl_step_timing.
+# the GL tests (cmocka, ctest). The timing program is a benchmark: bench/gl_step_timing.c, built by bench/.
 if(TARGET pleat_static)
   set(_pleat_gl_lib pleat_static)
 elseif(TARGET pleat)
   set(_pleat_gl_lib pleat)
 else()
-  message(WARNING "Pleat GL: no pleat/pleat_static library target; GL tests and timing program not built")
+  message(WARNING "Pleat GL: no pleat/pleat_static library target; GL tests not built")
   return()
 endif()
 get_filename_component(_pleat_root "${PLEAT_GL_DIR}/../../.." ABSOLUTE)
-
-add_executable(pleat_gl_step_timing "${PLEAT_GL_DIR}/gl_step_timing.c")
-target_include_directories(pleat_gl_step_timing PRIVATE "${_pleat_root}/sdk/src" "${_pleat_root}/sdk/include")
-target_sources(pleat_gl_step_timing PRIVATE "${_pleat_root}/tests/c/test_gl_support.c")
-target_include_directories(pleat_gl_step_timing PRIVATE "${_pleat_root}/tests/c")
-target_link_libraries(pleat_gl_step_timing PRIVATE ${_pleat_gl_lib} ${PLEAT_GL_LIBRARIES} m)
-if(COMMAND pleat_set_warnings)
-  pleat_set_warnings(pleat_gl_step_timing)
-endif()
 
 if(NOT PLEAT_BUILD_TESTS AND DEFINED PLEAT_BUILD_TESTS)
   return()

@@ -9,8 +9,8 @@
 //    the GPU work; without it Run only queues commands).
 // 2. With an asset: plInstance_Step with gpu_mode PLEAT_GPU_NONE vs PLEAT_GPU_HEADLESS over the same motion, stepped
 //    alternately, plus the largest CPU/GL output difference.
-#include "../jobs.h"
-#include "gl_internal.h"
+#include "jobs.h"
+#include "gl/gl_internal.h"
 #include "test_gl_support.h"
 #include <math.h>
 #include <stdio.h>
