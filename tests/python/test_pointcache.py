@@ -14,7 +14,6 @@ import pytest
 
 pytest.importorskip("torch")
 
-from pleat import garment_asset as ga                                           # noqa: E402
 from pleat.cli import InputError                                                # noqa: E402
 from pleat.garment.meshio import from_pleat_axes, read_obj, to_pleat_axes, write_obj  # noqa: E402
 from pleat.motion.bvh_export import write_bvh                                    # noqa: E402
@@ -135,7 +134,7 @@ def test_specs_from_a_manifest_and_key_values(tmp_path):
             pc.parse_user_sims([bad])
 
 
-# ---- the round trip ---------------------------------------------------------------------------------------------------
+# ---- the round trip --------------------------------------------------------------------------------------------------
 def test_pc2_obj_bvh_round_trip_equals_the_simulated_sequence(tmp_path, setup, simulated):
     """The simulated segment as PC2 (cm, Z up) + OBJ + BVH reads back as the sequence simdata.sequence makes from
     the original positions: X_c rows to rounding, displacement targets to float32 precision (the cache's)."""

@@ -197,9 +197,10 @@ def import_garment(path, body, units="m", up="y", fit_mm=None, pins="auto", pin_
         x_fit = fit_to_body(x, faces, collider, fit_mm * 1e-3)
         moved = np.linalg.norm(x_fit - x, axis=1)
         x = x_fit
-        report["fit"] = {"margin_mm": float(fit_mm), "moved_vertices": int((moved > 1e-6).sum()),
-                         "max_move_mm": 1e3 * float(moved.max()), "mean_move_mm": 1e3 * float(moved[moved > 1e-6].mean())
-                         if (moved > 1e-6).any() else 0.0}
+        hit = moved > 1e-6
+        report["fit"] = {"margin_mm": float(fit_mm), "moved_vertices": int(hit.sum()),
+                         "max_move_mm": 1e3 * float(moved.max()),
+                         "mean_move_mm": 1e3 * float(moved[hit].mean()) if hit.any() else 0.0}
     inside1, close1, deep1 = penetration(collider, x)
     report["penetration_after"] = {"inside": inside1, "within_4mm": close1, "deepest_mm": 1e3 * deep1}
     skin_indices, skin_weights, shape_blend = diffuse_from_body(x, faces, body)

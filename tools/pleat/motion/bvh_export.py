@@ -126,7 +126,7 @@ def pleat_skeleton_scale(src, body):
     return scale
 
 
-def clip_from_pleat_skeleton(src, body, scale, path=None):
+def clip_from_pleat_skeleton(src, body, scale):
     """The Clip of a BVH of the Pleat skeleton (see the module doc), exactly."""
     idx = [src.names.index(n) for n in body.joint_names]
     local = np.asarray(src.local_rotations, np.float64)[:, idx]  # [T, K, 3, 3]
@@ -145,7 +145,7 @@ def read_pleat_bvh(path, body):
     path = Path(path)
     try:
         src = read_bvh(path)
-    except MotionFileError:
+    except (MotionFileError, OSError):
         raise
     except (ValueError, IndexError, KeyError, TypeError, OverflowError) as exc:
         raise MotionFileError(path, f"malformed BVH file ({type(exc).__name__}: {exc})") from None
@@ -153,4 +153,4 @@ def read_pleat_bvh(path, body):
     scale = pleat_skeleton_scale(src, body)
     if scale is None:
         return None
-    return clip_from_pleat_skeleton(src, body, scale, path)
+    return clip_from_pleat_skeleton(src, body, scale)

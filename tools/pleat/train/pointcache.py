@@ -414,8 +414,8 @@ def load_user_sim(setup, sim, fps):
         raise InputError(sim.origin, "material needs 4 values (m kg/m², μ N/m, λ N/m, k)")
     lo, hi = np.array(ga.MATERIAL_MIN), np.array(ga.MATERIAL_MAX)
     if np.any(material < lo * (1 - 1e-6)) or np.any(material > hi * (1 + 1e-6)):
-        raise InputError(sim.origin, f"material {material.tolist()} is outside the asset's ranges {list(ga.MATERIAL_MIN)}"
-                                     f" .. {list(ga.MATERIAL_MAX)}")
+        raise InputError(sim.origin, f"material {material.tolist()} is outside the asset's ranges "
+                                     f"{list(ga.MATERIAL_MIN)} .. {list(ga.MATERIAL_MAX)}")
     obj_res = None
     if sim.garment_obj:
         obj_res = check_obj(sim, setup.shaped(beta), sim.up, sim.units)
