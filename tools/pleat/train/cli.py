@@ -31,6 +31,8 @@ def build_parser():
                         "rollout and loss-weight schedules follow the budget when it ends the run first")
     p.add_argument("--workers", type=int, default=2, help="simsup: simulation processes (default 2)")
     p.add_argument("--cache-dir", default=None, help="simsup: simulation cache (default out/cache/sim)")
+    p.add_argument("--data", default=None, help="simsup: a dataset npz written by --export (no simulation)")
+    p.add_argument("--export", default=None, help="simsup: write the simulated dataset to this npz")
     p.add_argument("--user-sim", action="append", default=[], metavar="SPEC",
                    help="simsup: your own simulation, added to the simulated segments (repeatable): a JSON manifest "
                         "(pleat-garment scene writes one) or cache=FILE.pc2,motion=FILE.bvh[,obj=FILE.obj][,units=cm]"
@@ -72,7 +74,8 @@ def main(argv=None):
     if args.command == "simsup":
         from pleat.train import simsup
         simsup.train(cfg, args.garment, args.out, args.workers, args.max_minutes, args.device, progress,
-                     args.cache_dir, user_sims=args.user_sim, user_only=args.user_sim_only)
+                     args.cache_dir, args.data, args.export, user_sims=args.user_sim,
+                     user_only=args.user_sim_only)
     if args.command == "ablation":
         core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)
         print("ablation done")

@@ -581,9 +581,10 @@ def padded_sequences(seqs, dev="cpu"):
     return lengths, static, target
 
 
-def window_loss(predictor, z_mean, z_std, lengths, static, target, batch, window, gen, dev="cpu"):
+def window_loss(predictor, z_mean, z_std, lengths, static, target, batch, window, gen, dev="cpu", weights=None):
     """Stage 2's loss on one batch of windows: each starts at a recorded Z_{j-1} (zero at a sequence start) and is
-    fed the predictor's own (clamped) predictions; MSE on the normalised latent, averaged over the window."""
+    fed the predictor's own (clamped) predictions; MSE on the normalised latent, averaged over the window.
+    weights [L] (mean 1), if given, weigh the latent components (e.g. by how much displacement each one carries)."""
     idx = torch.randint(len(lengths), (batch,), generator=gen).to(dev)
     n = lengths[idx]
     starts = (torch.rand(batch, generator=gen).to(dev) * (n - window).clamp_min(0).add(1)).long()
@@ -592,7 +593,8 @@ def window_loss(predictor, z_mean, z_std, lengths, static, target, batch, window
     for k in range(window):
         j = torch.minimum(starts + k, n - 1)
         y, z_prev = predictor(z_prev, static[idx, j])
-        loss = loss + ((y - (target[idx, j + 1] - z_mean) / z_std) ** 2).mean()
+        sq = (y - (target[idx, j + 1] - z_mean) / z_std) ** 2
+        loss = loss + (sq.mean() if weights is None else (sq * weights).mean())
     return loss / window
 
 

@@ -142,7 +142,7 @@ def train_decoder(block, seqs, sigma, iterations, lr, batch, gen, noise=0.05, de
     return float(loss.detach())
 
 
-def train_predictor(lp, seqs, iterations, lr, batch, window, gen, dev="cpu"):
+def train_predictor(lp, seqs, iterations, lr, batch, window, gen, dev="cpu", weights=None):
     """f_LP' exactly as stage 2 trains f_LP: windows starting at a recorded Z'_{j-1} (Z'_0 = 0 at a sequence start),
     fed their own clamped predictions, MSE on the normalised latent."""
     lengths, static, target = core.padded_sequences(seqs, dev)
@@ -150,7 +150,8 @@ def train_predictor(lp, seqs, iterations, lr, batch, window, gen, dev="cpu"):
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, iterations, eta_min=lr * 0.05)
     loss = torch.zeros(())
     for _ in range(iterations):
-        loss = core.window_loss(lp, lp.z_mean, lp.z_std, lengths, static, target, batch, window, gen, dev)
+        loss = core.window_loss(lp, lp.z_mean, lp.z_std, lengths, static, target, batch, window, gen, dev,
+                                weights)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -194,7 +195,7 @@ def own_stage2_error(run_dir, seqs):
 
 
 def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iterations=3000, dec_iterations=2000,
-            lr=1e-3, batch=64, window=8, progress=False, device="cpu"):
+            lr=1e-3, batch=64, window=8, progress=False, device="cpu", weight_by_energy=False):
     """Train one tier. spec: pleat.eval.tiers.Tier (latent, blend, lp_hidden, dec_hidden, activation). garment:
     None for the teacher's mesh, else a coarser garment of the same shape (its displacements are transferred).
     Returns (lp, block, norms, shim, garment, report)."""
@@ -227,7 +228,12 @@ def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iter
         block.blend_shapes.copy_(torch.as_tensor(shapes, dtype=torch.float32))
     block.blend_shapes.requires_grad_(False)
     dec_loss = train_decoder(block.to(device), train, sigma, dec_iterations, lr, batch * 4, gen, dev=device)
-    lp_loss = train_predictor(lp.to(device), train, iterations, lr, batch, window, gen, dev=device)
+    # weight_by_energy: each latent component's error counts by the displacement it carries (σ², mean 1), so f_LP
+    # spends its capacity on the large shapes rather than equally on the small, noisy ones
+    w = None
+    if weight_by_energy:
+        w = torch.as_tensor(sigma[:L] ** 2 / np.mean(sigma[:L] ** 2), dtype=torch.float32, device=device)
+    lp_loss = train_predictor(lp.to(device), train, iterations, lr, batch, window, gen, dev=device, weights=w)
     lp, block = lp.cpu(), block.cpu()
     report = {"tier": spec.name, "vertices": len(free_mask), "latent": L, "blend": D,
               "lp_hidden": list(spec.lp_hidden), "dec_hidden": list(spec.dec_hidden),

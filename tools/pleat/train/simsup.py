@@ -75,20 +75,69 @@ def validation_sequences(setup, clips, frames, workers, cache_dir, log):
     done, cpu_s = simdata.simulate_segments(setup, segs, workers, cache_dir, log=log)
     seqs = []
     for seg, path in done:
-        clip = simdata.cut(clips[seg.clip], 0, seg.frames)
         with np.load(path, allow_pickle=False) as z:
-            pos = z["positions"][:seg.frames]
-        s = simdata.sequence(setup, clip, beta, np.array(mat), pos)
-        c = SimpleNamespace(rotations=clip.local_rotations, root_translation=clip.root_translation,
-                            root_rotation=clip.root_rotation, fps=clip.fps)
-        s.update(A=setup.pose_window(c, 0, len(pos), beta)["A"], shaped=setup.shaped(beta), positions=pos,
-                 name=seg.clip)
-        seqs.append(s)
+            seqs.append(_validation_sequence(setup, clips[seg.clip], z["positions"][:seg.frames]))
     return seqs, cpu_s
 
 
+def export_dataset(path, done, seqs, val, components=256):
+    """The simulated data in a portable npz (what a many-core machine sends back): the segments, the training
+    displacements as their top-`components` principal coefficients (float16) and basis, the validation positions
+    in full. X_c rows are not stored: they follow from the segments."""
+    X = np.concatenate([s["disp"].reshape(len(s["disp"]), -1) for s in seqs])
+    _, S, Vt = np.linalg.svd(X, full_matrices=False)
+    # keep the file under 16 MB (what a device run may send back): ≤ 6 M float16 coefficients
+    K = min(components, len(S), max(16, int(6e6 // len(X))))
+    coeff = X @ Vt[:K].T
+    resid = float(np.sqrt(max((S[K:] ** 2).sum(), 0.0) / X.size)) * 1e3
+    lengths = [len(s["disp"]) for s in seqs]
+    segs = [dict(seg.__dict__) for seg, _ in done]
+    vals = {f"val_positions_{i}": np.asarray(v["positions"], np.float32) for i, v in enumerate(val)}
+    np.savez_compressed(path, segments=json.dumps(segs), lengths=np.array(lengths), basis=Vt[:K].astype(np.float32),
+                        coefficients=coeff.astype(np.float16), residual_rms_mm=resid)
+    np.savez_compressed(_val_path(path), val_segments=json.dumps([v["name"] for v in val]), **vals)
+    return resid
+
+
+def import_dataset(path, setup, train_clips, val_clips, validation_frames):
+    """Inverse of export_dataset: (done [(segment, None)], training sequences, validation sequences)."""
+    with np.load(path, allow_pickle=False) as z:
+        segs = [simdata.Segment(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items()})
+                for d in json.loads(str(z["segments"]))]
+        disp = z["coefficients"].astype(np.float64) @ z["basis"].astype(np.float64)
+        lengths = z["lengths"]
+    with np.load(_val_path(path), allow_pickle=False) as z:
+        names = json.loads(str(z["val_segments"]))
+        val_pos = [z[f"val_positions_{i}"] for i in range(len(names))]
+    seqs, o = [], 0
+    for seg, T in zip(segs, lengths):
+        clip = simdata.cut(simdata.variant_clip(train_clips[seg.clip], seg.variant), seg.start, seg.frames)
+        s = simdata.sequence(setup, clip, np.array(seg.beta), np.array(seg.material),
+                             np.zeros((T, setup.N, 3)))
+        s["disp"] = disp[o:o + T].reshape(T, setup.N, 3)
+        o += T
+        seqs.append(s)
+    val = [_validation_sequence(setup, val_clips[n], pos) for n, pos in zip(names, val_pos)]
+    return [(s, None) for s in segs], seqs, val
+
+
+def _val_path(path):
+    return Path(path).with_name(Path(path).stem + "_validation.npz")
+
+
+def _validation_sequence(setup, clip, pos):
+    beta, mat = np.zeros(setup.B), np.array(simdata.ga.MATERIAL_DEFAULT)
+    clip = simdata.cut(clip, 0, len(pos))
+    s = simdata.sequence(setup, clip, beta, mat, pos)
+    c = SimpleNamespace(rotations=clip.local_rotations, root_translation=clip.root_translation,
+                        root_rotation=clip.root_rotation, fps=clip.fps)
+    s.update(A=setup.pose_window(c, 0, len(pos), beta)["A"], shaped=setup.shaped(beta), positions=pos,
+             name=clip.name)
+    return s
+
+
 def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progress=True, cache_dir=None,
-          resume=True, user_sims=None, user_only=False):
+          data=None, export=None, user_sims=None, user_only=False):
     from pleat.eval.reference import DEFAULT_CACHE
     from pleat.eval.tiers import tier
     t_start = time.time()
@@ -119,10 +168,23 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
             from pleat.cli import InputError
             raise InputError(None, "--user-sim-only needs at least one --user-sim training simulation")
         segments, val_clips = [], ({} if user_val else val_clips)
-    deadline = None if budget_s is None else t_start + c["simulate_share"] * budget_s
-    done, sim_cpu = simdata.simulate_segments(setup, segments, workers, cache_dir, deadline, log)
-    val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log)
-    seqs = simdata.load_sequences(setup, done, train_clips)
+    if data:
+        done, seqs, val = import_dataset(data, setup, train_clips, val_clips, c["validation_frames"])
+        prev = json.loads(Path(data).with_suffix(".json").read_text()) if Path(data).with_suffix(".json").exists() else {}
+        sim_cpu, val_cpu = prev.get("simulation_cpu_s", 0.0), prev.get("validation_cpu_s", 0.0)
+    else:
+        val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log)
+        deadline = None if budget_s is None else t_start + c["simulate_share"] * budget_s
+        done, sim_cpu = simdata.simulate_segments(setup, segments, workers, cache_dir, deadline, log)
+        seqs = simdata.load_sequences(setup, done, train_clips)
+    if export:
+        resid = export_dataset(export, done, seqs, val)
+        Path(export).with_suffix(".json").write_text(json.dumps(
+            {"simulation_cpu_s": sim_cpu, "validation_cpu_s": val_cpu, "residual_rms_mm": resid,
+             "segments": len(seqs), "frames": int(sum(len(s["disp"]) for s in seqs)),
+             "wall_s": time.time() - t_start, "hardware": core.hardware()}))
+        if c.get("export_only"):
+            return None, None
     seqs, val = seqs + user_train, val + user_val
     frames = int(sum(len(s["disp"]) for s in seqs))
     run.log({"data": {"segments": len(seqs), "frames": frames, "planned_segments": len(segments),
@@ -136,7 +198,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     t_fit = time.time()
     lp, block, norms, shim, g, report = distill.distill(
         seqs, setup, spec, val, None, cfg["seed"], c["iterations"], c["dec_iterations"], c["lr"], c["batch"],
-        c["window"], progress, device=dev)
+        c["window"], progress, device=dev, weight_by_energy=bool(c.get("weight_by_energy", False)))
     fit_s = time.time() - t_fit
     torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
                 "config": cfg, "garment": garment}, out / "simsup.pt")
@@ -152,7 +214,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     distill.pack_tier(path, lp, block, norms, shim, g, setup, dict(report, tier="large"), cfg["fps"],
                       fp16=c.get("fp16", True), teacher="reference simulator",
                       model="pleat simulator-supervised: inference block fitted to the reference simulator",
-                      training=summary)
+                      training=summary, onnx=bool(c.get("onnx", False)))
     run.log({"summary": summary})
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     print(verdict(val_err))

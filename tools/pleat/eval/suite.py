@@ -1,0 +1,109 @@
+"""Assets scored on a set of clips and bodies in one run: the numbers of docs/training.md's recipe table.
+
+    PLEAT_LIBRARY=build/eval/libpleat.so python -m pleat.eval.suite --assets A.pleat [B.pleat ...] \
+        [--clips validation | CLIP ...] [--betas 0 | "0;1.5,-1;..."] [--max-frames 60] [--reference-spread] \
+        --out out/suite.json
+
+Every (asset, clip, β) is pleat-eval's `evaluate` (the C runtime against the cached reference simulation, and the
+LBS-only twin of the same garment in the same run). Per asset it reports the mean over all runs of: mean and p95
+vertex error (mm), the ratio to LBS-only (mean of the paired per-run ratios, and ratio of the means), the ratio to
+the reference's own spread (with --reference-spread), penetration (% of vertex-frames inside the body) and jitter;
+plus the worst run's ratio to LBS-only and every run's row.
+"""
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from pleat.cli import add_quiet, command
+from pleat.fileio import write_text
+
+
+def _betas(text):
+    if text is None:
+        return [None]
+    return [np.array([float(v) for v in part.split(",")]) if part.strip() not in ("", "0") else None
+            for part in text.split(";")]
+
+
+def _clips(names):
+    if names == ["validation"]:
+        from pleat.motion.split import VALIDATION
+        # humanoid3d_stealthy_walk is a 4 s cut of stealthy_walk1 (split.py): scored once, as the long take
+        return [n for n in VALIDATION if not n.endswith("humanoid3d_stealthy_walk")]
+    return names
+
+
+def summarise(rows):
+    """Aggregate rows of one asset (dicts with pleat / lbs / reference_spread reports)."""
+    p = np.array([r["pleat"]["mean_mm"] for r in rows])
+    lbs = np.array([r["lbs"]["mean_mm"] for r in rows])
+    out = {"runs": len(rows), "mean_mm": float(p.mean()), "p95_mm": float(np.mean([r["pleat"]["p95_mm"] for r in rows])),
+           "lbs_mean_mm": float(lbs.mean()), "lbs_p95_mm": float(np.mean([r["lbs"]["p95_mm"] for r in rows])),
+           "ratio_to_lbs": float(p.mean() / lbs.mean()), "ratio_to_lbs_paired": float(np.mean(p / lbs)),
+           "worst_ratio_to_lbs": float(np.max(p / lbs)),
+           "clips_worse_than_lbs": [r["clip"] for r in rows if r["pleat"]["mean_mm"] > r["lbs"]["mean_mm"]],
+           "penetration_pct": float(np.mean([r["pleat"]["penetration_pct"] for r in rows])),
+           "lbs_penetration_pct": float(np.mean([r["lbs"]["penetration_pct"] for r in rows])),
+           "reference_penetration_pct": float(np.mean([r["reference"]["penetration"]["penetration_pct"] for r in rows])),
+           "jitter": float(np.mean([r["pleat"]["jitter"] for r in rows])),
+           "lbs_jitter": float(np.mean([r["lbs"]["jitter"] for r in rows])),
+           "step_us": float(np.median([r["pleat"]["step_us"] for r in rows]))}
+    spread = [r["reference_spread"]["mean_mm"] for r in rows if r.get("reference_spread")]
+    if len(spread) == len(rows):
+        out["spread_mean_mm"] = float(np.mean(spread))
+        out["ratio_to_spread"] = float(p.mean() / np.mean(spread))
+    return out
+
+
+def run(assets, clips, betas, max_frames, reference_spread, progress=False):
+    from pleat import runtime
+    from pleat.eval.cli import evaluate
+    result = {}
+    ctx = runtime.Context()
+    try:
+        for asset in assets:
+            rows = []
+            for clip in clips:
+                for beta in betas:
+                    rep = evaluate(asset, clip, beta, None, max_frames, context=ctx, progress=progress,
+                                   reference_spread=reference_spread)
+                    rep.pop("per_frame", None)
+                    rows.append(rep)
+                    if progress:
+                        print(f"{asset} {clip} β={None if beta is None else list(beta)}: "
+                              f"pleat {rep['pleat']['mean_mm']:.1f} mm, lbs {rep['lbs']['mean_mm']:.1f} mm",
+                              file=sys.stderr)
+            result[str(asset)] = {"summary": summarise(rows), "runs": rows}
+    finally:
+        ctx.close()
+    return result
+
+
+@command("pleat-eval-suite")
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m pleat.eval.suite", description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap.add_argument("--assets", nargs="+", required=True, help="the .pleat assets to score")
+    ap.add_argument("--clips", nargs="+", default=["validation"],
+                    help="clip names or files; 'validation' = the held-out split (default)")
+    ap.add_argument("--betas", default=None, help="';'-separated β vectors (comma-separated; '0' = the mean body)")
+    ap.add_argument("--max-frames", type=int, default=60, help="frames scored per clip (default 60)")
+    ap.add_argument("--reference-spread", action="store_true", help="also score a second reference 1 µm apart")
+    ap.add_argument("--out", required=True, help="output JSON")
+    add_quiet(ap)
+    args = ap.parse_args(argv)
+    res = run(args.assets, _clips(args.clips), _betas(args.betas), args.max_frames, args.reference_spread,
+              progress=not args.quiet)
+    write_text(args.out, json.dumps(res, indent=1, default=float))
+    for asset, r in res.items():
+        s = r["summary"]
+        print(f"{asset}: {s['mean_mm']:.1f} mm (p95 {s['p95_mm']:.1f}) against LBS-only {s['lbs_mean_mm']:.1f} mm, "
+              f"ratio {s['ratio_to_lbs']:.2f}; penetration {s['penetration_pct']:.2f} % "
+              f"(LBS {s['lbs_penetration_pct']:.2f} %); worse than LBS on {len(s['clips_worse_than_lbs'])} runs")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
