@@ -161,6 +161,8 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     if c.get("validation_limit"):
         val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
     segments = simdata.plan_segments(list(train_clips.values()), c, setup.B, cfg["seed"])
+    # skip_segments: a second machine continues the same plan where the first stopped
+    segments = segments[int(c.get("skip_segments", 0)):]
     segments = segments[:int(c["max_segments"])] if c.get("max_segments") else segments
     user_train, user_val, user_info = user_simulations(setup, user_sims, cfg["fps"], run.log, progress)
     if user_only:
@@ -169,11 +171,18 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
             raise InputError(None, "--user-sim-only needs at least one --user-sim training simulation")
         segments, val_clips = [], ({} if user_val else val_clips)
     if data:
-        done, seqs, val = import_dataset(data, setup, train_clips, val_clips, c["validation_frames"])
-        prev = json.loads(Path(data).with_suffix(".json").read_text()) if Path(data).with_suffix(".json").exists() else {}
-        sim_cpu, val_cpu = prev.get("simulation_cpu_s", 0.0), prev.get("validation_cpu_s", 0.0)
+        done, seqs, val, sim_cpu, val_cpu = [], [], None, 0.0, 0.0
+        for part in str(data).split(","):
+            d, q, v = import_dataset(part, setup, train_clips, val_clips, c["validation_frames"])
+            done, seqs, val = done + d, seqs + q, val or v
+            info = Path(part).with_suffix(".json")
+            prev = json.loads(info.read_text()) if info.exists() else {}
+            sim_cpu += prev.get("simulation_cpu_s", 0.0)
+            val_cpu = val_cpu or prev.get("validation_cpu_s", 0.0)
     else:
-        val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log)
+        val, val_cpu = [], 0.0
+        if not c.get("skip_validation"):    # a second data machine need not simulate the validation clips again
+            val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log)
         deadline = None if budget_s is None else t_start + c["simulate_share"] * budget_s
         done, sim_cpu = simdata.simulate_segments(setup, segments, workers, cache_dir, deadline, log)
         seqs = simdata.load_sequences(setup, done, train_clips)
