@@ -145,6 +145,10 @@ def test_pc2_obj_bvh_round_trip_equals_the_simulated_sequence(tmp_path, setup, s
     write_bvh(tmp_path / "walk.bvh", seg, setup.body)
     sim = _sim(cache=str(tmp_path / "shirt.pc2"), motion=str(tmp_path / "walk.bvh"),
                garment_obj=str(tmp_path / "shirt.obj"), units="cm", up="z")
+    from pleat.motion import load_clip
+    back = load_clip(tmp_path / "walk.bvh", body=setup.body)          # the loaders read the Pleat skeleton exactly
+    assert np.abs(back.root_translation - seg.root_translation).max() < 1e-12
+    assert np.abs(back.joint_positions(setup.body) - seg.joint_positions(setup.body)).max() < 1e-12
     got, info = pc.load_user_sim(setup, sim, 30.0)
     assert got["static"].shape == ref["static"].shape and got["disp"].shape == ref["disp"].shape == pos.shape
     assert np.abs(got["static"] - ref["static"]).max() < 1e-9

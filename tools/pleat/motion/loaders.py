@@ -127,6 +127,17 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
     else:
         src = _reading(path, "DeepMimic JSON", read_deepmimic, path)
     check_source(src, path)
+    if fmt == "bvh" and joint_map is None and not joint_map_file:
+        # the body's own skeleton (pleat-garment scene's motion.bvh): the clip exactly, no retargeting or grounding
+        from pleat.motion.bvh_export import clip_from_pleat_skeleton, pleat_skeleton_scale
+        scale = pleat_skeleton_scale(src, body)
+        if scale is not None:
+            clip = clip_from_pleat_skeleton(src, body, scale)
+            check_clip(clip, path)
+            match = JointMatch({n: n for n in body.joint_names}, {n: "Pleat skeleton" for n in body.joint_names},
+                               list(src.names), tuple(body.joint_names),
+                               [n for n, has in zip(src.names, src.animated) if has])
+            return (clip, match) if with_match else clip
     spread = None
     if fmt in ("bvh", "amc"):
         animated = [n for n, has in zip(src.names, getattr(src, "animated", [True] * len(src.names))) if has]
