@@ -284,18 +284,6 @@ static const void* plRequire( const uint8_t* data, const plSectionTable* table, 
 	return data + s->offset;
 }
 
-static int plAllFinite( const float* v, uint64_t count )
-{
-	for ( uint64_t i = 0; i < count; ++i )
-	{
-		if ( !isfinite( v[i] ) )
-		{
-			return 0;
-		}
-	}
-	return 1;
-}
-
 static int plAllFiniteHalf( const uint16_t* v, uint64_t count )
 {
 	for ( uint64_t i = 0; i < count; ++i )
@@ -329,7 +317,7 @@ static const void* plRequireWeights( const uint8_t* data, const plSectionTable* 
 		return NULL;
 	}
 	uint64_t count = (uint64_t)d0 * d1 * ( dim_count == 3 ? d2 : 1u );
-	if ( fp16 ? !plAllFiniteHalf( (const uint16_t*)p, count ) : !plAllFinite( (const float*)p, count ) )
+	if ( fp16 ? !plAllFiniteHalf( (const uint16_t*)p, count ) : !plAllFiniteFloats( (const float*)p, count ) )
 	{
 		return NULL;
 	}
@@ -364,7 +352,7 @@ static plResult plParseLayers( const uint8_t* data, const plSectionTable* table,
 		int fp16 = 0;
 		const void* w = plRequireWeights( data, table, wname, flags, 2, out_count, in_count, 1, &fp16 );
 		const float* b = (const float*)plRequire( data, table, bname, PLEAT_DTYPE_F32, 1, out_count, 1, 1 );
-		if ( w == NULL || b == NULL || !plAllFinite( b, out_count ) )
+		if ( w == NULL || b == NULL || !plAllFiniteFloats( b, out_count ) )
 		{
 			return PLEAT_RESULT_INVALID_ASSET_DATA;
 		}
@@ -522,12 +510,12 @@ static plResult plParseContent( const uint8_t* data, const plSectionTable* table
 			return PLEAT_RESULT_INVALID_ASSET_DATA;
 		}
 	}
-	if ( !plAllFinite( a->joint_template, (uint64_t)J * 3 ) ||
-		 !plAllFinite( a->joint_shapedirs, (uint64_t)B * J * 3 ) ||
-		 !plAllFinite( a->template_positions, (uint64_t)N * 3 ) ||
-		 !plAllFinite( a->shape_blend, (uint64_t)B * N * 3 ) || !plAllFinite( a->x_mean, a->input_count ) ||
-		 !plAllFinite( a->x_std, a->input_count ) || !plAllFinite( a->z_mean, L ) || !plAllFinite( a->z_std, L ) ||
-		 !plAllFinite( a->z_min, L ) || !plAllFinite( a->z_max, L ) )
+	if ( !plAllFiniteFloats( a->joint_template, (uint64_t)J * 3 ) ||
+		 !plAllFiniteFloats( a->joint_shapedirs, (uint64_t)B * J * 3 ) ||
+		 !plAllFiniteFloats( a->template_positions, (uint64_t)N * 3 ) ||
+		 !plAllFiniteFloats( a->shape_blend, (uint64_t)B * N * 3 ) || !plAllFiniteFloats( a->x_mean, a->input_count ) ||
+		 !plAllFiniteFloats( a->x_std, a->input_count ) || !plAllFiniteFloats( a->z_mean, L ) || !plAllFiniteFloats( a->z_std, L ) ||
+		 !plAllFiniteFloats( a->z_min, L ) || !plAllFiniteFloats( a->z_max, L ) )
 	{
 		return PLEAT_RESULT_INVALID_ASSET_DATA;
 	}

@@ -35,6 +35,54 @@ int plSpan_Holds( const void* ptr, size_t bytes, uint32_t count, uint32_t stride
 	plSpan_Holds( ( span ).ptr, ( span ).bytes, ( span ).count, ( span ).stride_bytes, element_bytes, required )
 plSpan plMakeSpan( void* ptr, uint32_t count, uint32_t stride_bytes );
 plConstSpan plMakeConstSpan( const void* ptr, uint32_t count, uint32_t stride_bytes );
+// Non-zero if input and output are packed float spans of the same, non-zero count: an element-wise job's spans.
+int plSpan_ElementwiseFloats( const plConstSpan* input, const plSpan* output );
+
+// Non-zero if none of the count floats is NaN or ±inf: the step's guards (a non-finite value inside a step is a
+// numeric reset) and the loader's content checks. Branch-free so the compiler vectorises the N·3 scans of a step.
+int plAllFiniteFloats( const float* v, size_t count );
+
+// ---- network_rate.c: whether a step runs the networks, and their dt (docs/inputs.md "Network update rate") ----
+// Not a job (no spans): the one decision plInstance_Step makes before anything runs, kept apart so that the numpy
+// twin (tools/pleat/reference/network_rate.py) can mirror it line for line.
+
+typedef struct plNetworkUpdate
+{
+	int run;        // the networks run on this step (else the held deformation is skinned with the new pose)
+	double dt_s;    // run: all the time since the networks' last update, clamped; else the step's own dt_s (seconds)
+	int dt_clamped; // run, and dt_s was clamped to the asset's [dt_min_s, dt_max_s]
+} plNetworkUpdate;
+
+// network_interval_s: 1 / network_rate_hz (0 = every step); network_pending_s: time gathered since the last update;
+// dt_s: this step's dt (validated, in (0, 1]); first_frame: no history yet (the networks always run then).
+plNetworkUpdate plDecideNetworkUpdate( double network_interval_s, double network_pending_s, float dt_s, int first_frame,
+									   float dt_min_s, float dt_max_s );
+
+// ---- shape_blend.c: the shape blend G_S(β) — T + Σ_b β_b G_S[b] — and the joints J(β) it moves ----
+// Run once per β (creation, plInstance_SetShape), not per step; both accumulate in double in b order.
+
+typedef struct plShapeBlendJob
+{
+	plConstSpan template_positions;  // [N] xyz, packed (stride 12): T, metres
+	const float* shape_blend_shapes; // [B][N][3] G_S, metres per unit β
+	plConstSpan beta;                // [B] floats, packed, clamped
+	plSpan output;                   // [N] xyz, packed (stride 12): T + G_S(β)
+} plShapeBlendJob;
+
+int plShapeBlendJob_Validate( const plShapeBlendJob* job );
+plResult plShapeBlendJob_Run( const plShapeBlendJob* job );
+
+typedef struct plShapedJointsJob
+{
+	const float* joint_template;  // [J][3] metres
+	const float* joint_shapedirs; // [B][J][3] metres per unit β
+	uint32_t joint_count;         // J
+	plConstSpan beta;             // [B] floats, packed, clamped
+	double* output;               // [J][3] J(β), metres: the rest joints of forward kinematics
+} plShapedJointsJob;
+
+int plShapedJointsJob_Validate( const plShapedJointsJob* job );
+plResult plShapedJointsJob_Run( const plShapedJointsJob* job );
 
 // ---- forward_kinematics.c: one frame of pose → joint transforms, heading yaw and skinning matrices ----
 
@@ -88,6 +136,19 @@ typedef struct plInputAssemblyJob
 int plInputAssemblyJob_Validate( const plInputAssemblyJob* job );
 plResult plInputAssemblyJob_Run( const plInputAssemblyJob* job );
 
+// ---- input_normalisation.c: x = (X_c − x_mean) / x_std, what f_LP reads (the training statistics of X_c) ----
+
+typedef struct plInputNormalisationJob
+{
+	plConstSpan input;   // [I] floats, packed: X_c
+	const float* x_mean; // [I]
+	const float* x_std;  // [I], each > 0 (the loader checks)
+	plSpan output;       // [I] floats, packed; may be input itself
+} plInputNormalisationJob;
+
+int plInputNormalisationJob_Validate( const plInputNormalisationJob* job );
+plResult plInputNormalisationJob_Run( const plInputNormalisationJob* job );
+
 // ---- mlp.c: a chain of Linear layers, activation on hidden layers, last layer linear ----
 
 typedef struct plMlpJob
@@ -104,6 +165,22 @@ typedef struct plMlpJob
 
 int plMlpJob_Validate( const plMlpJob* job );
 plResult plMlpJob_Run( const plMlpJob* job );
+
+// ---- latent_guard.c: Z_t+1 = clamp(y · z_std + z_mean, z_min, z_max), the latent kept in its training range ----
+
+typedef struct plLatentGuardJob
+{
+	plConstSpan input;   // [L] floats, packed: y, f_LP's standardised output. The step checks it is finite first:
+	                     // the clamp would turn ±inf into a bound and hide an overflow that must reset the instance
+	const float* z_mean; // [L]
+	const float* z_std;  // [L]
+	const float* z_min;  // [L] latent units
+	const float* z_max;  // [L]
+	plSpan output;       // [L] floats, packed: Z_t+1
+} plLatentGuardJob;
+
+int plLatentGuardJob_Validate( const plLatentGuardJob* job );
+plResult plLatentGuardJob_Run( const plLatentGuardJob* job );
 
 // ---- blend_shapes.c: T_def = shaped template + Σ_j w_j D_j over a vertex range ----
 

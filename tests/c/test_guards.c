@@ -94,6 +94,61 @@ static void test_non_finite_inside_step_resets_history_and_latent( void** state 
 	plTestAsset_Destroy( model );
 }
 
+// X_c[L + 8], the first 6D component of input joint 1's rotation, is about 1 on every frame, first frames included; with
+// x_std 1e-30 and LP weights ±1e30 on it, f_LP overflows even from the reset state. The step must then dress the body
+// without the learned deformation — zero latent, zero blend weights, the shaped template skinned with the pose — and
+// still return NUMERIC_RESET: bit for bit what a twin whose decoder outputs zero gives (tools/pleat/reference
+// instance.py does the same, tests/python/test_failed_reset_twins.py).
+static void test_non_finite_even_from_reset_dresses_the_body_without_learned_deformation( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	plTestAsset* overflowing = plTestAsset_Create( &p );
+	plTestAsset* zero_decoder = plTestAsset_Create( &p );
+	uint32_t column = overflowing->L + 8;
+	overflowing->x_mean[column] = 0.0f;
+	overflowing->x_std[column] = 1e-30f;
+	for ( uint32_t r = 0; r < overflowing->lp[0].out_count; ++r )
+	{
+		overflowing->lp[0].weight[(size_t)r * overflowing->lp[0].in_count + column] = ( r & 1u ) ? 1e30f : -1e30f;
+	}
+	for ( uint32_t i = 0; i < zero_decoder->dec_count; ++i )
+	{
+		plTestLayer* layer = &zero_decoder->dec[i];
+		memset( layer->weight, 0, (size_t)layer->out_count * layer->in_count * sizeof( float ) );
+		memset( layer->bias, 0, layer->out_count * sizeof( float ) );
+	}
+	plTestRig a_rig, b_rig;
+	assert_int_equal( plTestRig_Init( &a_rig, overflowing, NULL ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Init( &b_rig, zero_decoder, NULL ), PLEAT_RESULT_OK );
+	plInstance a, b;
+	assert_int_equal( plTestRig_Instance( &a_rig, &a ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( &b_rig, &b ), PLEAT_RESULT_OK );
+	float q[64 * 4];
+	for ( uint32_t t = 0; t < 3; ++t ) // a first frame, then steps with a history: each resets and falls back
+	{
+		plFrameInput in = plTestMotion( t, overflowing->J, q );
+		assert_int_equal( plInstance_Step( a, &in, NULL ), PLEAT_RESULT_NUMERIC_RESET );
+		assert_int_equal( plInstance_Step( b, &in, NULL ), PLEAT_RESULT_OK );
+		plExpectSameOutput( a, b, overflowing->N );
+		float latent[64], weights[64];
+		assert_int_equal( plInstance_GetLatent( a, latent, 64 ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_GetBlendWeights( a, weights, 64 ), PLEAT_RESULT_OK );
+		for ( uint32_t i = 0; i < overflowing->L; ++i )
+		{
+			assert_true( latent[i] == 0.0f );
+		}
+		for ( uint32_t i = 0; i < overflowing->D; ++i )
+		{
+			assert_true( weights[i] == 0.0f );
+		}
+	}
+	plTestRig_Free( &a_rig );
+	plTestRig_Free( &b_rig );
+	plTestAsset_Destroy( overflowing );
+	plTestAsset_Destroy( zero_decoder );
+}
+
 // dt below dt_min_s or above dt_max_s (but inside (0, 1]) is clamped: CLAMPED, and the output equals a twin given the
 // clamped dt directly. Reset forgets the history: a reset instance equals a fresh one.
 static void test_dt_is_clamped_to_asset_range( void** state )
@@ -135,6 +190,7 @@ int main( void )
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_latent_is_clamped_to_training_range ),
 		cmocka_unit_test( test_non_finite_inside_step_resets_history_and_latent ),
+		cmocka_unit_test( test_non_finite_even_from_reset_dresses_the_body_without_learned_deformation ),
 		cmocka_unit_test( test_dt_is_clamped_to_asset_range ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );

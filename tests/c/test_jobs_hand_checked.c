@@ -393,6 +393,117 @@ static void test_forward_kinematics_chain( void** state )
 	assert_int_equal( plForwardKinematicsJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
 }
 
+// Shape blend over 2 vertices, B = 2: T = ((1, 2, 3), (0, 0, 0)), G_S[0] = (1, 1, 1) and G_S[1] = (0.5, 0, 0) for both
+// vertices, β = (2, −4): vertex 0 → (1, 2, 3) + (2, 2, 2) + (−2, 0, 0) = (1, 4, 5), vertex 1 → (0, 2, 2).
+// J(β) of the same arrays read as two joints is the same sum, in double.
+static void test_shape_blend_and_shaped_joints_by_hand( void** state )
+{
+	(void)state;
+	float t[6] = { 1, 2, 3, 0, 0, 0 };
+	float g[12] = { 1, 1, 1, 1, 1, 1, 0.5f, 0, 0, 0.5f, 0, 0 };
+	float beta[2] = { 2, -4 };
+	float out[6];
+	plShapeBlendJob job = { plMakeConstSpan( t, 2, 12 ), g, plMakeConstSpan( beta, 2, 4 ), plMakeSpan( out, 2, 12 ) };
+	assert_int_equal( plShapeBlendJob_Run( &job ), PLEAT_RESULT_OK );
+	const float expected[6] = { 1, 4, 5, 0, 2, 2 };
+	for ( int i = 0; i < 6; ++i )
+	{
+		assert_float_equal( out[i], expected[i], 0 );
+	}
+	double joints[6];
+	plShapedJointsJob joints_job = { t, g, 2, plMakeConstSpan( beta, 2, 4 ), joints };
+	assert_int_equal( plShapedJointsJob_Run( &joints_job ), PLEAT_RESULT_OK );
+	for ( int i = 0; i < 6; ++i )
+	{
+		assert_float_equal( joints[i], expected[i], 0 );
+	}
+	// β = 0 components (B = 0) leave the template as it is, with no shapes at all.
+	job.beta = plMakeConstSpan( NULL, 0, 4 );
+	job.shape_blend_shapes = NULL;
+	assert_int_equal( plShapeBlendJob_Run( &job ), PLEAT_RESULT_OK );
+	assert_memory_equal( out, t, sizeof( t ) );
+
+	plShapeBlendJob bad[4] = { job, job, job, job };
+	bad[0].beta = plMakeConstSpan( beta, 2, 4 );            // shapes missing for B = 2
+	bad[1].output = plMakeSpan( out, 1, 12 );                // output shorter than the template
+	bad[2].template_positions = plMakeConstSpan( t, 2, 16 ); // not packed
+	bad[3].output.ptr = NULL;                                // no output
+	for ( int i = 0; i < 4; ++i )
+	{
+		assert_false( plShapeBlendJob_Validate( &bad[i] ) );
+		assert_int_equal( plShapeBlendJob_Run( &bad[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+	}
+	joints_job.joint_count = PLEAT_MAX_JOINTS + 1;
+	assert_int_equal( plShapedJointsJob_Run( &joints_job ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plShapeBlendJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plShapedJointsJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+}
+
+// Normalisation: ((3 − 1) / 4, (−2 − 0) / 0.5) = (0.5, −4), in place. Latent guard with mean (1, 1), std (2, 2) and
+// range [−1, 2]: y = (0.25, 5) → (1.5, 11) → (1.5, 2); y = −3 → −5 → −1.
+static void test_input_normalisation_and_latent_guard_by_hand( void** state )
+{
+	(void)state;
+	float x[2] = { 3, -2 }, mean[2] = { 1, 0 }, std[2] = { 4, 0.5f };
+	plInputNormalisationJob norm = { plMakeConstSpan( x, 2, 4 ), mean, std, plMakeSpan( x, 2, 4 ) };
+	assert_int_equal( plInputNormalisationJob_Run( &norm ), PLEAT_RESULT_OK );
+	assert_float_equal( x[0], 0.5f, 0 );
+	assert_float_equal( x[1], -4.0f, 0 );
+
+	float y[3] = { 0.25f, 5, -3 }, z[3];
+	float z_mean[3] = { 1, 1, 1 }, z_std[3] = { 2, 2, 2 }, z_min[3] = { -1, -1, -1 }, z_max[3] = { 2, 2, 2 };
+	plLatentGuardJob guard = { plMakeConstSpan( y, 3, 4 ), z_mean, z_std, z_min, z_max, plMakeSpan( z, 3, 4 ) };
+	assert_int_equal( plLatentGuardJob_Run( &guard ), PLEAT_RESULT_OK );
+	assert_float_equal( z[0], 1.5f, 0 );
+	assert_float_equal( z[1], 2.0f, 0 );
+	assert_float_equal( z[2], -1.0f, 0 );
+
+	plInputNormalisationJob bad_norm[3] = { norm, norm, norm };
+	bad_norm[0].x_std = NULL;                       // no statistics
+	bad_norm[1].output = plMakeSpan( x, 1, 4 );     // output shorter than the input
+	bad_norm[2].input = plMakeConstSpan( x, 1, 8 ); // not packed
+	for ( int i = 0; i < 3; ++i )
+	{
+		assert_false( plInputNormalisationJob_Validate( &bad_norm[i] ) );
+		assert_int_equal( plInputNormalisationJob_Run( &bad_norm[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+	}
+	plLatentGuardJob bad_guard[3] = { guard, guard, guard };
+	bad_guard[0].z_max = NULL;                     // no range
+	bad_guard[1].output = plMakeSpan( z, 2, 4 );   // output shorter than the input
+	bad_guard[2].input = plMakeConstSpan( y, 0, 4 ); // empty
+	for ( int i = 0; i < 3; ++i )
+	{
+		assert_false( plLatentGuardJob_Validate( &bad_guard[i] ) );
+		assert_int_equal( plLatentGuardJob_Run( &bad_guard[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+	}
+	assert_int_equal( plInputNormalisationJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plLatentGuardJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+}
+
+// The rate decision (docs/inputs.md "Network update rate"), dt range [1/64, 1/16] s, binary-exact values:
+// no rate: always run with the step's dt; 16 Hz under 64 fps: run when 4 × 1/64 have gathered, with dt 1/16;
+// a first frame always runs; a gathered 1/8 is clamped to 1/16; a step dt below the range is clamped up.
+static void test_network_rate_decision_by_hand( void** state )
+{
+	(void)state;
+	const float lo = 1.0f / 64.0f, hi = 1.0f / 16.0f;
+	plNetworkUpdate u = plDecideNetworkUpdate( 0.0, 0.0, 1.0f / 32.0f, 0, lo, hi );
+	assert_true( u.run && u.dt_s == 1.0 / 32.0 && !u.dt_clamped );
+	u = plDecideNetworkUpdate( 1.0 / 16.0, 2.0 / 64.0, 1.0f / 64.0f, 0, lo, hi ); // 3/64 < 1/16: held
+	assert_true( !u.run && u.dt_s == 1.0 / 64.0 && !u.dt_clamped );
+	u = plDecideNetworkUpdate( 1.0 / 16.0, 3.0 / 64.0, 1.0f / 64.0f, 0, lo, hi ); // 4/64 = 1/16: run
+	assert_true( u.run && u.dt_s == 1.0 / 16.0 && !u.dt_clamped );
+	u = plDecideNetworkUpdate( 1.0 / 16.0, 0.0, 1.0f / 64.0f, 1, lo, hi ); // first frame
+	assert_true( u.run && u.dt_s == 1.0 / 64.0 && !u.dt_clamped );
+	u = plDecideNetworkUpdate( 1.0 / 8.0, 7.0 / 64.0, 1.0f / 64.0f, 0, lo, hi ); // 8/64 gathered, above 1/16
+	assert_true( u.run && u.dt_s == 1.0 / 16.0 && u.dt_clamped );
+	u = plDecideNetworkUpdate( 0.0, 0.0, 1.0f / 128.0f, 0, lo, hi ); // below 1/64
+	assert_true( u.run && u.dt_s == (double)lo && u.dt_clamped );
+	// 25 Hz under 100 fps: 4 × float(0.01) falls a rounding error short of 1/25 and still runs (the 1e-6 slack).
+	u = plDecideNetworkUpdate( 1.0 / 25.0, 3.0 * (double)0.01f, 0.01f, 0, lo, hi );
+	assert_true( u.run );
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
@@ -404,6 +515,9 @@ int main( void )
 		cmocka_unit_test( test_mlp_small_network_by_hand ),
 		cmocka_unit_test( test_input_assembly_against_hand_values ),
 		cmocka_unit_test( test_forward_kinematics_chain ),
+		cmocka_unit_test( test_shape_blend_and_shaped_joints_by_hand ),
+		cmocka_unit_test( test_input_normalisation_and_latent_guard_by_hand ),
+		cmocka_unit_test( test_network_rate_decision_by_hand ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

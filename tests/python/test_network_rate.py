@@ -52,7 +52,7 @@ def test_between_updates_the_latent_is_held_and_the_held_deformation_follows_the
     pos2, _ = inst.step(*_pose(case, 0), 1 / 60)                    # back to the first pose: the same garment
     np.testing.assert_allclose(pos2, pos0, atol=1e-12)
     inst.step(*_pose(case, 3), 1 / 60)                              # 3/60 = 1/20: the networks run
-    assert np.abs(inst.latent - z0).max() > 1e-6 and inst.network_pending == 0.0
+    assert np.abs(inst.latent - z0).max() > 1e-6 and inst.network_pending_s == 0.0
 
 
 def test_a_network_dt_beyond_the_assets_range_is_clamped_and_reported(small):

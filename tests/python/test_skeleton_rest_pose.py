@@ -1,5 +1,5 @@
 """The C skeleton API (plAsset_GetRestPose, plInstance_GetRestPose) against the numpy reference on the shipped
-t-shirt: parents as the asset's JPAR, positions J(β) as pleat.reference.forward_kinematics.shaped_joints with the
+t-shirt: parents as the asset's JPAR, positions J(β) as pleat.reference.shape_blend.shaped_joints with the
 clamped β, local translations J_k − J_parent, identity local rotations; and forward kinematics of the identity pose
 puts every joint at its rest position."""
 from pathlib import Path
@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from pleat.asset import read_asset
-from pleat.reference.forward_kinematics import forward_kinematics, shaped_joints
+from pleat.reference.forward_kinematics import forward_kinematics
+from pleat.reference.shape_blend import shaped_joints
 from pleat.reference.input_assembly import clamp_beta
 
 ASSET = Path(__file__).resolve().parents[2] / "assets" / "tshirt.pleat"

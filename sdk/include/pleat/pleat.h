@@ -239,6 +239,10 @@ typedef enum plResult
 	PLEAT_RESULT_NOT_FOUND = -22,
 	/// The context's object table is full (too many contexts, assets or instances).
 	PLEAT_RESULT_CAPACITY_EXCEEDED = -23,
+	/// A runtime job rejected the buffers the SDK built for it: a defect of the SDK, not of the call (please report
+	/// it). plInstance_Step stops before its commit (history, latent, weights and skinning matrices unchanged), but
+	/// on the CPU path the positions and normals may be partly written.
+	PLEAT_RESULT_INTERNAL_ERROR = -24,
 } plResult;
 
 /// Stable name of a result code, e.g. "PLEAT_RESULT_CLAMPED"; "PLEAT_RESULT_UNKNOWN" for values not listed.

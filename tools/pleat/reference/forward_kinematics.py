@@ -3,16 +3,12 @@
     G_0 = T(t_root) · Rot(Q_root) · T(J_0) · Rot(R_0)
     G_k = G_parent(k) · T(J_k − J_parent(k)) · Rot(R_k)
     M_k = G_k · T(−J_k)            (skinning matrix: rest space → world)
+
+J(β), the joint locations, come from reference.shape_blend.shaped_joints.
 """
 import numpy as np
 
 from pleat.rotations import quat_to_matrix
-
-
-def shaped_joints(joint_template, joint_shapedirs, beta):
-    """J(β) = J_template + Σ_b β_b · J_shapedirs[b]  → [J, 3]."""
-    return np.asarray(joint_template, np.float64) + np.tensordot(np.asarray(beta, np.float64),
-                                                                 np.asarray(joint_shapedirs, np.float64), axes=1)
 
 
 def forward_kinematics(joint_parents, joint_locations, rotations, root_translation, root_rotation):

@@ -11,7 +11,8 @@ import numpy as np
 
 from pleat.asset import input_count
 from pleat.rotations import matrix_to_6d, quat_to_matrix, wrap_angle, yaw_matrix, yaw_of
-from pleat.reference.forward_kinematics import forward_kinematics, shaped_joints
+from pleat.reference.forward_kinematics import forward_kinematics
+from pleat.reference.shape_blend import shaped_joints
 
 QUATERNION_TOLERANCE = 1e-3
 

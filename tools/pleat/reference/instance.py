@@ -1,13 +1,29 @@
-"""The numpy twin of the C instance (plInstance): pose history, latent, clamps and guards of docs/inputs.md."""
+"""The numpy twin of the C instance (plInstance, sdk/src/instance*.c): pose history, latent, clamps and guards of
+docs/inputs.md. `Instance.step` is plInstance_Step (instance_step.c) function for function:
+
+    _validate_step → decide_network_update → _forward_kinematics → _step_from_history
+        (_evaluate_networks: input_assembly → input_normalisation → f_LP → latent_guard → f_dec; then _deform:
+         blend_shapes → skinning → normals)
+    → on a non-finite value _step_from_reset (a first frame with a zero latent; if even that is non-finite, the body
+      dressed without the learned deformation) → _commit.
+
+The arithmetic is float64 where C's is float32, so the two agree to the tolerances of test_reference_golden; the
+decisions (when the networks run, what is clamped, when the step resets, what is committed) are the same.
+"""
+from typing import NamedTuple
+
 import numpy as np
 
 from pleat.asset import normal_adjacency
-from pleat.reference.blend_shapes import blend_shapes, shape_blend
-from pleat.reference.forward_kinematics import shaped_joints
-from pleat.reference.input_assembly import (clamp_beta, clamp_dt, clamp_material, input_assembly,
-                                            normalize_quaternions, pose_features)
+from pleat.reference.blend_shapes import blend_shapes
+from pleat.reference.input_assembly import (clamp_beta, clamp_material, input_assembly, normalize_quaternions,
+                                            pose_features)
+from pleat.reference.input_normalisation import input_normalisation
+from pleat.reference.latent_guard import latent_guard
 from pleat.reference.mlp import layers, mlp
+from pleat.reference.network_rate import decide_network_update
 from pleat.reference.normals import normals
+from pleat.reference.shape_blend import shape_blend, shaped_joints
 from pleat.reference.skinning import skinning
 
 RESULT_OK, RESULT_CLAMPED, RESULT_NUMERIC_RESET = "ok", "clamped", "numeric_reset"
@@ -20,6 +36,30 @@ class StepError(ValueError):
     def __init__(self, message, code):
         super().__init__(message)
         self.code = code
+
+
+class StepPose(NamedTuple):
+    """Frame t+1 as the jobs read it (instance_step.c plStepPose): checked and normalised."""
+    rotations: np.ndarray         # [J, 4] local (x, y, z, w)
+    root_translation: np.ndarray  # [3] metres
+    root_rotation: np.ndarray     # [4] (x, y, z, w); all zero was taken as identity
+    dt_s: float                   # the step's dt as the C API's float, in (0, 1]
+
+
+class Networks(NamedTuple):
+    """What _evaluate_networks computes: X_c, Z_t+1 and the blend weights w."""
+    x_c: np.ndarray
+    latent: np.ndarray
+    blend_weights: np.ndarray
+
+
+class Outcome(NamedTuple):
+    """A step's result before the commit: the latent and weights to commit, and the outputs."""
+    networks: object              # Networks, or None where the networks did not run (held weights, or the fallback)
+    latent: np.ndarray
+    blend_weights: np.ndarray
+    positions: np.ndarray
+    normals: np.ndarray
 
 
 class Instance:
@@ -43,16 +83,22 @@ class Instance:
         f64 = lambda k: np.asarray(asset[k], np.float64)
         self.x_mean, self.x_std = f64("x_mean"), f64("x_std")
         self.z_mean, self.z_std, self.z_min, self.z_max = f64("z_mean"), f64("z_std"), f64("z_min"), f64("z_max")
+        self.dt_min_s, self.dt_max_s = (float(v) for v in np.asarray(asset.get("dt_range_s", (1 / 240, 1 / 15)),
+                                                                         np.float32))
         self.joint_count = len(self.parents)
         self.latent_count = len(self.z_mean)
         self.last_result = RESULT_OK
+        self.blend_weights = np.zeros(self.blend.shape[0])     # as plCreateInstance: zero until the first step
+        self.skin_matrices = np.broadcast_to(np.eye(3, 4), (self.joint_count, 3, 4)).copy()   # the rest pose
+        self.x_c = None
         self.set_shape(beta)
         self.set_material(material)
         self.set_network_rate(network_rate_hz)
         self.reset()
 
     def set_shape(self, beta):
-        """Clamps β and recomputes the shaped template and joints. Returns True if β was clamped."""
+        """Clamps β and recomputes the shaped template T + G_S(β) and the rest joints J(β). Returns True if β was
+        clamped."""
         self.beta, clamped = clamp_beta(self.asset, beta)
         self.shaped_template = shape_blend(self.asset["template"], self.asset["shape_blend"], self.beta)
         self.joints = shaped_joints(self.asset["joint_template"], self.asset["joint_shapedirs"], self.beta)
@@ -64,19 +110,35 @@ class Instance:
         return clamped
 
     def set_network_rate(self, network_rate_hz):
-        """Run the networks at most this often (Hz; 0 = every step), as plInstanceDef.network_rate_hz."""
+        """Run the networks at most this often (Hz; 0 = every step), as plInstanceDef.network_rate_hz (a float)."""
         rate = float(network_rate_hz)
         if not (np.isfinite(rate) and rate >= 0.0):
             raise ValueError("network_rate_hz: must be finite and >= 0")
-        self.network_interval = 1.0 / rate if rate > 0.0 else 0.0
+        rate = float(np.float32(rate))
+        self.network_interval_s = 1.0 / rate if rate > 0.0 else 0.0
 
     def reset(self):
+        """plInstance_Reset: the next step is a first frame with a zero latent."""
         self.latent = np.zeros(self.latent_count)
-        self.history = None        # pose features of frames t and t−1, and dt_t
-        self.skin_matrices = None
-        self.network_pending = 0.0  # time since the last network update
+        self.history = None            # frames t and t−1 (of the networks: the frames at their last two updates)
+        self.network_pending_s = 0.0   # time since the last network update
 
-    def _validate(self, rotations, root_translation, root_rotation, dt_s):
+    def step(self, rotations, root_translation, root_rotation, dt_s):
+        pose = self._validate_step(rotations, root_translation, root_rotation, dt_s)
+        update = decide_network_update(self.network_interval_s, self.network_pending_s, pose.dt_s,
+                                       self.history is None, self.dt_min_s, self.dt_max_s)
+        # nothing has changed so far, and nothing changes until the commit
+        frame = self._forward_kinematics(pose, update.dt_s, 0.0 if self.history is None else self.history[0]["yaw"])
+        outcome = self._step_from_history(frame, update)
+        reset = outcome is None
+        if reset:
+            frame, outcome = self._step_from_reset(pose, update.dt_s)
+        self._commit(frame, outcome, update.run or reset, reset, pose.dt_s)
+        self.last_result = (RESULT_NUMERIC_RESET if reset else RESULT_CLAMPED if update.dt_clamped else RESULT_OK)
+        return outcome.positions, outcome.normals
+
+    def _validate_step(self, rotations, root_translation, root_rotation, dt_s):
+        """Joint count, then non-finite values, then quaternion lengths, then the dt range (as plValidateStep)."""
         rotations = np.asarray(rotations, np.float64)
         if rotations.shape != (self.joint_count, 4):
             raise StepError(f"rotations: expected [{self.joint_count}, 4], got {rotations.shape}",
@@ -91,81 +153,84 @@ class Instance:
             root_rotation = normalize_quaternions(root_rotation, zero_is_identity=True)
         except ValueError as e:
             raise StepError(str(e), "INVALID_QUATERNION") from None
-        try:
-            dt = float(clamp_dt(self.asset, dt_s))
-        except ValueError as e:
-            raise StepError(str(e), "INVALID_DT") from None
-        return rotations, root_translation, root_rotation, dt, dt != float(dt_s)
+        dt = float(np.float32(dt_s))          # plFrameInput.dt_s is a float
+        if not dt > 0.0 or dt > 1.0:
+            raise StepError("dt_s: must be in (0, 1] s", "INVALID_DT")
+        return StepPose(rotations, root_translation, root_rotation, dt)
 
-    def step(self, rotations, root_translation, root_rotation, dt_s):
-        rotations, root_translation, root_rotation, dt, clamped = self._validate(
-            rotations, root_translation, root_rotation, dt_s)
-        # the networks run unless a rate is set and less than its interval has gathered since their last update;
-        # then their dt is all that time (docs/inputs.md, "Network update rate"); dt_s as the C API's float
-        dt_in = float(np.float32(dt_s))
-        run = (self.network_interval <= 0.0 or self.history is None
-               or self.network_pending + dt_in >= self.network_interval * (1.0 - 1e-6))
-        if not run:
-            result = self._skin_held(rotations, root_translation, root_rotation)
-            if result is not None:
-                self.network_pending += dt_in
-                self.last_result = RESULT_OK
-                return result
-        elif self.network_interval > 0.0:
-            wanted = self.network_pending + dt_in      # may exceed 1 s; dt_max ≤ 1 s, so min() changes no result
-            dt = float(clamp_dt(self.asset, min(wanted, 1.0)))
-            clamped = dt != wanted
-        result = None if not run else self._step(rotations, root_translation, root_rotation, dt)
-        if result is None:          # non-finite inside the step: reset and recompute from the reset state
-            self.reset()
-            result = self._step(rotations, root_translation, root_rotation, dt)
-            self.last_result = RESULT_NUMERIC_RESET
-            if result is None:      # still non-finite: leave the instance reset
-                self.reset()
-                raise FloatingPointError("step is non-finite even from the reset state")
-        else:
-            self.last_result = RESULT_CLAMPED if clamped else RESULT_OK
-        return result
+    def _forward_kinematics(self, pose, dt_s, previous_yaw):
+        """Frame t+1: pose features, skinning matrices and the dt from the frame before (plRunForwardKinematics)."""
+        f = pose_features(self.parents, self.joints, self.input_joints, pose.rotations[None],
+                          pose.root_translation[None], pose.root_rotation[None], previous_yaw)
+        frame = {k: v[0] for k, v in f.items()}
+        frame["dt_s"] = dt_s
+        return frame
 
-    def _skin_held(self, rotations, root_translation, root_rotation):
-        """A step between network updates: the held blend weights' deformation, skinned with the new pose."""
-        f = pose_features(self.parents, self.joints, self.input_joints, rotations[None], root_translation[None],
-                          root_rotation[None], self.history["yaw"][0])
-        skin_matrices = f["skin_matrices"][0]
-        with np.errstate(all="ignore"):
-            deformed = blend_shapes(self.shaped_template, self.blend, self.blend_weights)
-            positions = skinning(deformed, self.skin_indices, self.skin_weights, skin_matrices)
-            vertex_normals = normals(positions, self.faces, self.adjacency_offsets, self.adjacency_faces)
-        if not (np.all(np.isfinite(positions)) and np.all(np.isfinite(vertex_normals))):
-            return None
-        self.skin_matrices = skin_matrices
-        return positions, vertex_normals
-
-    def _step(self, rotations, root_translation, root_rotation, dt):
-        previous_yaw = 0.0 if self.history is None else self.history["yaw"][0]
-        f = pose_features(self.parents, self.joints, self.input_joints, rotations[None], root_translation[None],
-                          root_rotation[None], previous_yaw)
-        now = {k: v[0] for k, v in f.items()}
-        if self.history is None:
-            frames, dts = [now, now, now], [dt, dt]
-        else:
-            frames, dts = [now] + self.history["frames"], [dt, self.history["dt"]]
+    def _evaluate_networks(self, frame, history, latent):
+        """Z_t+1 and w from frame t+1, the history [t, t−1] (None = a first frame: t+1 stands in for both) and Z_t.
+        None if f_LP's output, the weights or the skinning matrices are not all finite."""
+        frames = [frame] + (history if history is not None else [frame, frame])
         stack = lambda key: np.stack([fr[key] for fr in frames])
         with np.errstate(all="ignore"):
-            x_c = input_assembly(self.latent, stack("rotations_6d"), stack("positions"), stack("pelvis"),
-                                 np.array([fr["yaw"] for fr in frames]), np.array(dts), self.beta,
+            x_c = input_assembly(latent, stack("rotations_6d"), stack("positions"), stack("pelvis"),
+                                 np.array([fr["yaw"] for fr in frames]),
+                                 np.array([frames[0]["dt_s"], frames[1]["dt_s"]]), self.beta,
                                  self.material_normalised)
-            y = mlp((x_c - self.x_mean) / self.x_std, self.lp_weights, self.lp_biases, self.lp_activation)
-            latent = np.clip(y * self.z_std + self.z_mean, self.z_min, self.z_max)
-            blend_weights = mlp(latent, self.dec_weights, self.dec_biases, self.dec_activation)
-            deformed = blend_shapes(self.shaped_template, self.blend, blend_weights)
-            positions = skinning(deformed, self.skin_indices, self.skin_weights, now["skin_matrices"])
-            vertex_normals = normals(positions, self.faces, self.adjacency_offsets, self.adjacency_faces)
-        if not all(np.all(np.isfinite(a)) for a in (y, blend_weights, positions, vertex_normals)):
+            x = input_normalisation(x_c, self.x_mean, self.x_std)
+            y = mlp(x, self.lp_weights, self.lp_biases, self.lp_activation)
+            if not np.all(np.isfinite(y)):
+                return None                  # before the guard: its clamp would turn an overflow into a bound
+            next_latent = latent_guard(y, self.z_mean, self.z_std, self.z_min, self.z_max)
+            blend_weights = mlp(next_latent, self.dec_weights, self.dec_biases, self.dec_activation)
+        if not (np.all(np.isfinite(blend_weights)) and np.all(np.isfinite(frame["skin_matrices"]))):
             return None
-        self.x_c, self.blend_weights = x_c, blend_weights
-        self.latent = latent
-        self.skin_matrices = now["skin_matrices"]
-        self.history = dict(frames=[now, frames[1]], dt=dt, yaw=[now["yaw"]])
-        self.network_pending = 0.0
-        return positions, vertex_normals
+        return Networks(x_c, next_latent, blend_weights)
+
+    def _deform(self, blend_weights, skin_matrices):
+        """T_def → x' → n (plDeform). Returns (positions, normals, finite)."""
+        with np.errstate(all="ignore"):
+            deformed = blend_shapes(self.shaped_template, self.blend, blend_weights)
+            positions = skinning(deformed, self.skin_indices, self.skin_weights, skin_matrices)
+            vertex_normals = normals(positions, self.faces, self.adjacency_offsets, self.adjacency_faces)
+        return positions, vertex_normals, bool(np.all(np.isfinite(positions)) and np.all(np.isfinite(vertex_normals)))
+
+    def _step_from_history(self, frame, update):
+        """The step as asked: the networks from the history when the rate decision runs them, else the held weights
+        skinned with the new pose. None if a value is not finite."""
+        if not update.run:
+            positions, vertex_normals, finite = self._deform(self.blend_weights, frame["skin_matrices"])
+            return Outcome(None, self.latent, self.blend_weights, positions, vertex_normals) if finite else None
+        networks = self._evaluate_networks(frame, self.history, self.latent)
+        if networks is None:
+            return None
+        positions, vertex_normals, finite = self._deform(networks.blend_weights, frame["skin_matrices"])
+        return Outcome(networks, networks.latent, networks.blend_weights, positions, vertex_normals) if finite else None
+
+    def _step_from_reset(self, pose, dt_s):
+        """The numeric reset: frame t+1 as a first frame (previous yaw 0) with a zero latent; if even that is not
+        finite, the body dressed without the learned deformation (zero latent and weights), committed as it is."""
+        frame = self._forward_kinematics(pose, dt_s, 0.0)
+        zero_latent = np.zeros(self.latent_count)
+        networks = self._evaluate_networks(frame, None, zero_latent)
+        if networks is not None:
+            positions, vertex_normals, finite = self._deform(networks.blend_weights, frame["skin_matrices"])
+            if finite:
+                return frame, Outcome(networks, networks.latent, networks.blend_weights, positions, vertex_normals)
+        zero_weights = np.zeros(self.blend.shape[0])
+        positions, vertex_normals, _ = self._deform(zero_weights, frame["skin_matrices"])
+        return frame, Outcome(None, zero_latent, zero_weights, positions, vertex_normals)
+
+    def _commit(self, frame, outcome, networks_ran, reset, dt_s):
+        """After a network update: t−1 ← t (or t+1 on a first frame or after a reset), t ← t+1, Z_t ← Z_t+1,
+        w ← w_next. Between updates only the pose-dependent outputs change, and the time since the update grows."""
+        if networks_ran:
+            previous = self.history[0] if self.history is not None and not reset else frame
+            self.history = [frame, previous]
+            self.network_pending_s = 0.0
+            self.latent = outcome.latent
+            self.blend_weights = outcome.blend_weights
+            if outcome.networks is not None:
+                self.x_c = outcome.networks.x_c
+        else:
+            self.network_pending_s += dt_s
+        self.skin_matrices = frame["skin_matrices"]

@@ -1,0 +1,131 @@
+// The CPU deformation of an instance: blend shapes → skinning → normals, each a job over an index range so the host's
+// workers can split it (pleat.h, THREADING). The outputs do not depend on the split: every job sums in a fixed order.
+#include "instance.h"
+#include "step_phases.h"
+
+#include <stdatomic.h>
+
+typedef struct plDeformTask
+{
+	plInstanceData* inst;
+	const float* weights;
+	const float* skin_matrices;
+	int blend;         // 0: deformed already holds T_def for these weights (a step between network updates)
+	atomic_int result; // a job's error (plResult), written by whichever worker saw one; PLEAT_RESULT_OK otherwise
+} plDeformTask;
+
+// Workers cannot return a result: a failing job leaves its code here for plDeformCpu to return after the task.
+static void plDeformTask_Record( plDeformTask* t, plResult r )
+{
+	if ( r != PLEAT_RESULT_OK )
+	{
+		atomic_store_explicit( &t->result, (int)r, memory_order_relaxed );
+	}
+}
+
+static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plDeformTask* t = (plDeformTask*)context;
+	plInstanceData* inst = t->inst;
+	const plAssetData* a = inst->asset;
+	uint32_t n = a->vertex_count;
+	if ( t->blend )
+	{
+		plBlendShapesJob blend = { plMakeConstSpan( inst->shaped_template, n, 12 ), a->blend_shapes,
+								   a->blend_shapes_fp16, plMakeConstSpan( t->weights, a->blend_count, 4 ),
+								   plMakeSpan( inst->deformed, n, 12 ), begin, end, &inst->ctx->kernels };
+		plDeformTask_Record( t, plBlendShapesJob_Run( &blend ) );
+		PLEAT_STEP_PHASE( PLEAT_PHASE_BLEND );
+	}
+	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ), a->skin_indices, a->skin_weights,
+						   a->influence_count, t->skin_matrices, a->joint_count, plMakeSpan( inst->positions, n, 12 ),
+						   begin, end, &inst->ctx->kernels };
+	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
+}
+
+static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plDeformTask* t = (plDeformTask*)context;
+	const plAssetData* a = t->inst->asset;
+	plFaceNormalsJob job = { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
+							 t->inst->face_normals, begin, end, &t->inst->ctx->kernels };
+	plDeformTask_Record( t, plFaceNormalsJob_Run( &job ) );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_FACE_NORMALS );
+}
+
+static void plNormalsGatherTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plDeformTask* t = (plDeformTask*)context;
+	const plAssetData* a = t->inst->asset;
+	plNormalsGatherJob job = { { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
+								 a->adjacency_offsets, a->adjacency_faces,
+								 plMakeSpan( t->inst->normals, a->vertex_count, 12 ), begin, end },
+							   t->inst->face_normals, &t->inst->ctx->kernels };
+	plDeformTask_Record( t, plNormalsGatherJob_Run( &job ) );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
+}
+
+static void plDeformTask_Init( plDeformTask* task, plInstanceData* inst, const float* weights,
+							   const float* skin_matrices, int blend )
+{
+	task->inst = inst;
+	task->weights = weights;
+	task->skin_matrices = skin_matrices;
+	task->blend = blend;
+	atomic_init( &task->result, (int)PLEAT_RESULT_OK );
+}
+
+// A job that rejects the spans the instance built for it is a defect of the SDK, not of the call.
+static plResult plDeformTask_Result( plDeformTask* task )
+{
+	return atomic_load_explicit( &task->result, memory_order_relaxed ) == (int)PLEAT_RESULT_OK
+			   ? PLEAT_RESULT_OK
+			   : PLEAT_RESULT_INTERNAL_ERROR;
+}
+
+plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend )
+{
+	const plTaskRunner* runner = &inst->ctx->runner;
+	const plAssetData* a = inst->asset;
+	plDeformTask task;
+	plDeformTask_Init( &task, inst, blend_weights, skin_matrices, blend );
+	plRunTask( runner, plBlendAndSkinTask, a->vertex_count, 256, &task );
+	if ( plDeformTask_Result( &task ) != PLEAT_RESULT_OK )
+	{
+		return plDeformTask_Result( &task );
+	}
+	if ( !plTaskRunner_IsParallel( runner ) && a->face_count >= a->vertex_count )
+	{
+		// One thread: one pass over the faces scattering into per-vertex sums (the face-normal scratch, [F][4] with
+		// F ≥ N, holds them), bit-identical to the face-normal + gather split that workers share.
+		plNormalsScatterJob scatter = { plMakeConstSpan( inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
+										plMakeSpan( inst->normals, a->vertex_count, 12 ), inst->face_normals,
+										a->face_count, &inst->ctx->kernels };
+		plResult r = plNormalsScatterJob_Run( &scatter );
+		PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
+		return r == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
+	}
+	plRunTask( runner, plFaceNormalsTask, a->face_count, 512, &task );
+	if ( plDeformTask_Result( &task ) != PLEAT_RESULT_OK )
+	{
+		return plDeformTask_Result( &task );
+	}
+	plRunTask( runner, plNormalsGatherTask, a->vertex_count, 256, &task );
+	return plDeformTask_Result( &task );
+}
+
+plResult plNormalsSerial( plInstanceData* inst )
+{
+	plDeformTask task;
+	plDeformTask_Init( &task, inst, NULL, NULL, 0 );
+	plFaceNormalsTask( 0, inst->asset->face_count, 0, &task );
+	if ( plDeformTask_Result( &task ) == PLEAT_RESULT_OK )
+	{
+		plNormalsGatherTask( 0, inst->asset->vertex_count, 0, &task );
+	}
+	return plDeformTask_Result( &task );
+}
