@@ -185,12 +185,13 @@ def test_cli_prints_the_report_and_writes_the_mesh_to_simulate(tmp_path, shirt):
     assert json.loads((tmp_path / "r.json").read_text())["vertices"] == g.num_vertices
 
 
-def test_import_parser_follows_the_cli_conventions():
-    p = build_import_parser()
-    flags = {f: a for a in p._actions for f in a.option_strings}
-    assert flags["--out"].help.startswith("output file") and "body npz" in flags["--body"].help
-    assert flags["--quiet"].dest == "quiet" and flags["--no-progress"].dest == "quiet"
-    assert all(a.help for a in p._actions)
+def test_import_and_scene_parsers_follow_the_cli_conventions():
+    from pleat.garment.scene import build_scene_parser
+    for p, out in ((build_import_parser(), "output file"), (build_scene_parser(), "output folder")):
+        flags = {f: a for a in p._actions for f in a.option_strings}
+        assert flags["--out"].help.startswith(out) and "body npz" in flags["--body"].help
+        assert flags["--quiet"].dest == "quiet" and flags["--no-progress"].dest == "quiet"
+        assert all(a.help for a in p._actions)
 
 
 def _bad_files(tmp_path, shirt):
@@ -244,3 +245,33 @@ def test_gltf_byte_ranges_are_checked_before_reading(tmp_path, shirt):
     (tmp_path / "s.glb").write_bytes(bytes(glb))
     with pytest.raises(MeshFileError, match="chunk"):
         read_gltf(tmp_path / "s.glb")
+
+
+def test_mutated_gltf_and_obj_files_never_crash_the_readers(tmp_path, shirt):
+    """300 mutations of a small GLB (digits in its JSON changed — counts, offsets, indices, types — and random bytes
+    anywhere) and of an OBJ: each read either gives a mesh with valid indices or raises MeshFileError."""
+    rng = np.random.default_rng(7)
+    v, f = M.compact(shirt.template, shirt.faces[:40].astype(np.int64))
+    glb = write_gltf(tmp_path / "s.glb", v, f).read_bytes()
+    json_len = struct.unpack_from("<I", glb, 12)[0]
+    digits = [i for i in range(20, 20 + json_len) if chr(glb[i]).isdigit()]
+    obj = write_obj(tmp_path / "s.obj", v, f).read_bytes()
+    for k in range(300):
+        if k % 3 == 2:
+            data, path = bytearray(obj), tmp_path / "m.obj"
+            for i in rng.integers(0, len(data), 3):
+                data[i] = int(rng.choice(list(b"0123456789 -/\nfv.")))
+        else:
+            data, path = bytearray(glb), tmp_path / "m.glb"
+            if k % 3 == 0:
+                for i in rng.choice(digits, 2):
+                    data[i] = ord(str(rng.integers(0, 10)))
+            else:
+                for i in rng.integers(0, len(data), 4):
+                    data[i] = int(rng.integers(0, 256))
+        path.write_bytes(bytes(data))
+        try:
+            mesh = read_mesh(path)
+        except MeshFileError:
+            continue
+        assert mesh.faces.min() >= 0 and mesh.faces.max() < len(mesh.vertices) and np.isfinite(mesh.vertices).all()

@@ -27,6 +27,7 @@ from pleat.cli import InputError
 
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
 MAX_VERTICES = 2_000_000
+MAX_ACCESSOR = 3 * 4 * MAX_VERTICES   # elements of one glTF accessor (indices of 4 triangles per vertex)
 MAX_POLYGON = 256                 # vertices of one OBJ face: more is a malformed file, not a garment
 
 
@@ -292,6 +293,8 @@ def _accessor(path, doc, i, glb_bin, cache, want):
     if want == "indices" and (atype != "SCALAR" or ctype not in (5121, 5123, 5125)):
         raise MeshFileError(path, f"accessor {i} (indices) is {atype} of componentType {ctype}; expected SCALAR "
                                   "unsigned byte, short or int")
+    if count > MAX_ACCESSOR:
+        raise MeshFileError(path, f"accessor {i} has {count} elements (at most {MAX_ACCESSOR} are read)")
     if "sparse" in a:
         raise MeshFileError(path, f"accessor {i} is sparse, which this reader does not support (export without "
                                   "morph targets or sparse accessors)")
@@ -394,7 +397,10 @@ def _read_gltf_doc(path, doc, glb_bin, kind):
     placed = []
     scenes = doc.get("scenes", [])
     if scenes:
-        scene = scenes[doc.get("scene", 0)]
+        k = doc.get("scene", 0)
+        if not isinstance(k, int) or not 0 <= k < len(scenes):
+            raise MeshFileError(path, f"scene {k} does not exist ({len(scenes)} scenes)")
+        scene = scenes[k]
         stack = [(k, np.eye(4)) for k in reversed(scene.get("nodes", []))]
         seen = 0
         while stack:
