@@ -30,13 +30,17 @@ if [ -n "$need" ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $need >/dev/null
 fi
 
-build() { # build DIR EXTRA_CMAKE_ARGS...
-  local dir=$1; shift
-  CC=clang cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPLEAT_FUZZ=ON -DPLEAT_GL=OFF \
-    -DPLEAT_BUILD_TESTS=ON "$@" >/dev/null
-  nice cmake --build "$dir" --target $TARGETS fuzz_asset_seed >/dev/null
+build() { # build DIR TARGETS CMAKE_ARGS...: quiet unless it fails
+  local dir=$1 targets=$2; shift 2
+  mkdir -p "$dir"
+  if ! { CC=clang cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPLEAT_FUZZ=ON -DPLEAT_GL=OFF \
+           -DPLEAT_BUILD_TESTS=ON "$@" && nice cmake --build "$dir" --target $targets; } >"$dir/fuzz-build.log" 2>&1; then
+    cat "$dir/fuzz-build.log" >&2
+    echo "fuzz.sh: the build in $dir failed" >&2
+    exit 1
+  fi
 }
-build "$BUILD_DIR" -DPLEAT_FUZZ_COVERAGE=OFF
+build "$BUILD_DIR" "$TARGETS fuzz_asset_seed" -DPLEAT_FUZZ_COVERAGE=OFF
 
 # Seeds, written fresh each run next to what earlier runs found.
 seeds=$(mktemp -d)
@@ -73,7 +77,7 @@ for target in $TARGETS; do
 done
 
 if [ "${FUZZ_COVERAGE:-0}" = 1 ]; then
-  build "$BUILD_DIR-coverage" -DPLEAT_FUZZ_COVERAGE=ON
+  build "$BUILD_DIR-coverage" "$TARGETS" -DPLEAT_FUZZ_COVERAGE=ON
   for target in $TARGETS; do
     dir="$OUT/$target"
     rm -f "$dir"/coverage-*.profraw
