@@ -29,8 +29,10 @@ static double plMedian( double* values, uint32_t count )
 	return count % 2 ? values[count / 2] : 0.5 * ( values[count / 2 - 1] + values[count / 2] );
 }
 
+// The CPU jobs on one thread, normals as face normals + gather: the algorithm the GL path runs (face_normals.comp,
+// normals_gather.comp). face_normals: [F][4] scratch.
 static void plCpuDeform( const plTestMesh* mesh, const plKernels* kernels, const float* weights, const float* matrices,
-						 float* deformed, float* positions, float* normals )
+						 float* deformed, float* positions, float* face_normals, float* normals )
 {
 	uint32_t n = mesh->vertex_count;
 	plBlendShapesJob blend = {
@@ -41,12 +43,15 @@ static void plCpuDeform( const plTestMesh* mesh, const plKernels* kernels, const
 		plMakeConstSpan( deformed, n, 12 ), mesh->skin_indices, mesh->skin_weights, mesh->influence_count, matrices,
 		mesh->joint_count, plMakeSpan( positions, n, 12 ), 0, n, kernels,
 	};
-	plNormalsJob normal = {
-		plMakeConstSpan( positions, n, 12 ), mesh->faces, mesh->face_count, mesh->adjacency_offsets,
-		mesh->adjacency_faces, plMakeSpan( normals, n, 12 ), 0, n,
+	plFaceNormalsJob face = {
+		plMakeConstSpan( positions, n, 12 ), mesh->faces, mesh->face_count, face_normals, 0, mesh->face_count, kernels,
+	};
+	plNormalsGatherJob gather = {
+		face_normals, mesh->face_count, mesh->adjacency_offsets, mesh->adjacency_faces, plMakeSpan( normals, n, 12 ),
+		0,            n,                kernels,
 	};
 	if ( plBlendShapesJob_Run( &blend ) != PLEAT_RESULT_OK || plSkinningJob_Run( &skin ) != PLEAT_RESULT_OK ||
-		 plNormalsJob_Run( &normal ) != PLEAT_RESULT_OK )
+		 plFaceNormalsJob_Run( &face ) != PLEAT_RESULT_OK || plNormalsGatherJob_Run( &gather ) != PLEAT_RESULT_OK )
 	{
 		fprintf( stderr, "CPU job failed\n" );
 		exit( 1 );
@@ -98,6 +103,7 @@ static int plTimeDeformation( uint32_t frames )
 	float* buffers = malloc( sizeof( float ) * 3 * n * 5 );
 	float *deformed = buffers, *cpu_positions = buffers + 3 * n, *cpu_normals = buffers + 6 * n;
 	float *gl_positions = buffers + 9 * n, *gl_normals = buffers + 12 * n;
+	float* face_normals = malloc( sizeof( float ) * 4 * mesh.face_count );
 	double* cpu_s = malloc( sizeof( double ) * frames );
 	double* gl_s = malloc( sizeof( double ) * frames );
 	double worst_position = 0.0, worst_normal = 0.0;
@@ -107,7 +113,7 @@ static int plTimeDeformation( uint32_t frames )
 	{
 		plTestMotion_Frame( &mesh, frame, weights, matrices );
 		double t0 = plTestNowSeconds();
-		plCpuDeform( &mesh, &kernels, weights, matrices, deformed, cpu_positions, cpu_normals );
+		plCpuDeform( &mesh, &kernels, weights, matrices, deformed, cpu_positions, face_normals, cpu_normals );
 		double t1 = plTestNowSeconds();
 		if ( plGlDeformer_Run( deformer, weights, matrices, gl_positions, gl_normals ) != PLEAT_RESULT_OK )
 		{
@@ -130,6 +136,7 @@ static int plTimeDeformation( uint32_t frames )
 	free( weights );
 	free( matrices );
 	free( buffers );
+	free( face_normals );
 	free( cpu_s );
 	free( gl_s );
 	plTestMesh_Free( &mesh );

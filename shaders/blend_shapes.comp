@@ -17,6 +17,7 @@ layout(std140, binding = 0) uniform plGlDeformParams
 	uint blend_count;     // D
 	uint influence_count; // K
 	uint joint_count;     // J
+	uint face_count;      // F
 };
 
 layout(std430, binding = 0) restrict readonly buffer ShapedTemplate { vec4 shaped_template[]; }; // [N] xyz, w = 1

@@ -12,6 +12,7 @@ layout(std140, binding = 0) uniform plGlDeformParams
 	uint blend_count;     // D
 	uint influence_count; // K
 	uint joint_count;     // J
+	uint face_count;      // F
 };
 
 layout(std430, binding = 3) restrict readonly buffer Deformed { vec4 deformed[]; };         // [N] T_def, w = 1

@@ -1,7 +1,7 @@
 // Internal contract between the instance (sdk/src/instance.c) and the GL compute path (sdk/src/gl/).
 // The instance runs the MLPs on the CPU (or ONNX Runtime) and hands the GL deformer the D blend weights and the J
-// skinning matrices; the deformer runs blend_shapes.comp, skinning.comp and normals.comp (shaders/), the same math as
-// blend_shapes.c, skinning.c and normals.c. Built only with PLEAT_GL; otherwise gl_deformer_stub.c returns
+// skinning matrices; the deformer runs blend_shapes.comp, skinning.comp, face_normals.comp and normals_gather.comp
+// (shaders/), the same jobs as blend_shapes.c, skinning.c and normals.c (plFaceNormalsJob, plNormalsGatherJob). Built only with PLEAT_GL; otherwise gl_deformer_stub.c returns
 // PLEAT_RESULT_GL_UNAVAILABLE from Create.
 #ifndef PLEAT_GL_DEFORMER_H
 #define PLEAT_GL_DEFORMER_H

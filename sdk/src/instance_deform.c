@@ -61,10 +61,14 @@ static void plNormalsGatherTask( uint32_t begin, uint32_t end, uint32_t worker, 
 	(void)worker;
 	plDeformTask* t = (plDeformTask*)context;
 	const plAssetData* a = t->inst->asset;
-	plNormalsGatherJob job = { { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
-								 a->adjacency_offsets, a->adjacency_faces,
-								 plMakeSpan( t->inst->normals, a->vertex_count, 12 ), begin, end },
-							   t->inst->face_normals, &t->inst->ctx->kernels };
+	plNormalsGatherJob job = { t->inst->face_normals,
+							   a->face_count,
+							   a->adjacency_offsets,
+							   a->adjacency_faces,
+							   plMakeSpan( t->inst->normals, a->vertex_count, 12 ),
+							   begin,
+							   end,
+							   &t->inst->ctx->kernels };
 	plDeformTask_Record( t, plNormalsGatherJob_Run( &job ) );
 	PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
 }

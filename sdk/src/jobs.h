@@ -216,58 +216,51 @@ typedef struct plSkinningJob
 int plSkinningJob_Validate( const plSkinningJob* job );
 plResult plSkinningJob_Run( const plSkinningJob* job );
 
-// ---- normals.c: area-weighted vertex normals gathered over the CSR adjacency, fixed order ----
+// ---- normals.c: area-weighted vertex normals n_i = normalize(Σ_{faces f ∋ i} cross(x_b − x_a, x_c − x_a)) ----
+// Two algorithms, each with one name on all three sides (C job, GLSL shader, numpy function, same argument names):
+//   face normals + normals gather   plFaceNormalsJob + plNormalsGatherJob, shaders/face_normals.comp +
+//                                   shaders/normals_gather.comp, reference.normals.face_normals + normals_gather:
+//                                   each face's cross product once, then per vertex the sum over its CSR adjacency
+//                                   (NADO/NADF) in ascending face order. Splittable over workers, no atomics.
+//   normals scatter                 plNormalsScatterJob, reference.normals.normals_scatter: one serial pass adding each
+//                                   face to its three vertices in ascending face order. Bit-identical to the above on a
+//                                   valid asset (each vertex's adjacency = its faces in ascending order), cheaper on one
+//                                   thread, not splittable (no GLSL twin: a GPU would need atomics).
+// A vertex whose sum has zero length gets a zero normal (never NaN).
 
-typedef struct plNormalsJob
-{
-	plConstSpan positions;           // [N] xyz, any stride
-	const uint32_t* faces;           // [F][3]
-	uint32_t face_count;
-	const uint32_t* adjacency_offsets; // [N + 1]
-	const uint32_t* adjacency_faces;   // [3F]
-	plSpan output;                   // [N] xyz unit normals (zero for a vertex whose faces have no area)
-	uint32_t vertex_begin, vertex_end;
-} plNormalsJob;
-
-// The same gather reading precomputed face normals (plFaceNormalsJob) instead of recomputing each face's cross
-// product for each of its three vertices: same arithmetic in the same order, bit-identical results.
-typedef struct plNormalsGatherJob
-{
-	plNormalsJob normals;      // positions may be a zero span here: only the face normals are read
-	const float* face_normals; // [F][4] unnormalised (x, y, z, 0), 16-byte rows so a SIMD kernel loads one per face
-	const plKernels* kernels;  // optional: NULL = the scalar kernel
-} plNormalsGatherJob;
-
-int plNormalsGatherJob_Validate( const plNormalsGatherJob* job );
-plResult plNormalsGatherJob_Run( const plNormalsGatherJob* job );
-
-// Unnormalised face normals cross(x_b − x_a, x_c − x_a) for faces [face_begin, face_end), so the gather above reads
-// each face once instead of recomputing it for each of its three vertices. Same arithmetic, same results.
 typedef struct plFaceNormalsJob
 {
-	plConstSpan positions;   // [N] xyz, any stride
-	const uint32_t* faces;   // [F][3]
-	uint32_t face_count;
-	float* output;           // [F][4] (x, y, z, 0)
+	plConstSpan positions;     // [N] xyz, any stride
+	const uint32_t* faces;     // [F][3]
+	uint32_t face_count;       // F
+	float* face_normals;       // out: [F][4] unnormalised (x, y, z, 0), 16-byte rows: a SIMD kernel loads one per face
 	uint32_t face_begin, face_end;
-	const plKernels* kernels; // optional: NULL = the scalar kernel
+	const plKernels* kernels;  // optional: NULL = the scalar kernel
 } plFaceNormalsJob;
 
 int plFaceNormalsJob_Validate( const plFaceNormalsJob* job );
 plResult plFaceNormalsJob_Run( const plFaceNormalsJob* job );
 
-int plNormalsJob_Validate( const plNormalsJob* job );
-plResult plNormalsJob_Run( const plNormalsJob* job );
+typedef struct plNormalsGatherJob
+{
+	const float* face_normals;         // [F][4] from plFaceNormalsJob
+	uint32_t face_count;               // F
+	const uint32_t* adjacency_offsets; // [N + 1]
+	const uint32_t* adjacency_faces;   // [3F]
+	plSpan normals;                    // out: [N] xyz unit normals, any stride
+	uint32_t vertex_begin, vertex_end;
+	const plKernels* kernels;          // optional: NULL = the scalar kernel
+} plNormalsGatherJob;
 
-// One thread, whole mesh: face normals scattered to their vertices in ascending face order, then normalised
-// (plNormalsScatterFn). Bit-identical to plFaceNormalsJob + plNormalsGatherJob on a valid asset, without the face
-// normal array and the adjacency walk; not splittable over workers (neighbouring faces share vertices).
+int plNormalsGatherJob_Validate( const plNormalsGatherJob* job );
+plResult plNormalsGatherJob_Run( const plNormalsGatherJob* job );
+
 typedef struct plNormalsScatterJob
 {
 	plConstSpan positions;    // [N] xyz, any stride
 	const uint32_t* faces;    // [F][3]
-	uint32_t face_count;
-	plSpan output;            // [N] xyz unit normals
+	uint32_t face_count;      // F
+	plSpan normals;           // out: [N] xyz unit normals, any stride
 	float* sums4;             // [sums4_count][4] scratch, 16-byte aligned, sums4_count >= N
 	uint32_t sums4_count;
 	const plKernels* kernels; // optional: NULL = the scalar kernel

@@ -32,23 +32,23 @@ typedef void plSkinningFn( float* out, uint32_t out_stride_bytes, const float* i
 						   const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
 						   const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end );
 
-// Unnormalised face normals cross(x_b − x_a, x_c − x_a) for faces [f_begin, f_end) into out4 [F][4] (x, y, z, 0);
-// positions [vertex_count] xyz with a byte stride; a face with an index >= vertex_count gets (0, 0, 0, 0).
-typedef void plFaceNormalsFn( float* out4, const float* positions, uint32_t position_stride_bytes, uint32_t vertex_count,
-							  const uint32_t* faces, uint32_t f_begin, uint32_t f_end );
-// Vertex normals for [v_begin, v_end): Σ of face_normals4 over the CSR adjacency in ascending order (entries past
+// Unnormalised face normals cross(x_b − x_a, x_c − x_a) for faces [f_begin, f_end) into face_normals [F][4]
+// (x, y, z, 0); positions [vertex_count] xyz with a byte stride; a face with an index >= vertex_count gets zero.
+typedef void plFaceNormalsFn( float* face_normals, const float* positions, uint32_t position_stride_bytes,
+							  uint32_t vertex_count, const uint32_t* faces, uint32_t f_begin, uint32_t f_end );
+// Vertex normals for [v_begin, v_end): Σ of face_normals over the CSR adjacency in ascending order (entries past
 // 3·face_count or naming a face >= face_count are skipped), normalised (zero if the sum is zero), written with a byte
 // stride. Bit-identical across variants: per component the same additions in the same order, the same normalisation.
-typedef void plNormalsGatherFn( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
-								const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
-								uint32_t v_end );
+typedef void plNormalsGatherFn( float* normals, uint32_t normals_stride_bytes, const float* face_normals,
+								uint32_t face_count, const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces,
+								uint32_t v_begin, uint32_t v_end );
 
 // All vertex normals in one serial pass over the faces (no adjacency): each face's cross(x_b − x_a, x_c − x_a) (zero
 // if an index is >= vertex_count) is added to the (x, y, z, 0) sums4 row of each of its in-range vertices in ascending
 // face order, then every vertex is normalised as in the gather. For a valid asset (each vertex's adjacency = its faces
 // in ascending order, which the loader checks) this is bit-identical to face normals + gather; one thread only.
 // sums4: [vertex_count][4] scratch, 16-byte aligned.
-typedef void plNormalsScatterFn( float* out, uint32_t out_stride_bytes, const float* positions,
+typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, const float* positions,
 								 uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
 								 uint32_t face_count, float* sums4 );
 
@@ -62,37 +62,20 @@ typedef struct plKernels
 	plNormalsScatterFn* normals_scatter;
 } plKernels;
 
-void plMatVec_Scalar( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
-					  uint32_t in_count, uint32_t row_begin, uint32_t row_end );
-void plBlendShapes_Scalar( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
-						   uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
-void plSkinning_Scalar( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
-						const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-						const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end );
-void plFaceNormals_Scalar( float* out4, const float* positions, uint32_t position_stride_bytes, uint32_t vertex_count,
-						   const uint32_t* faces, uint32_t f_begin, uint32_t f_end );
-void plNormalsGather_Scalar( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
-							 const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
-							 uint32_t v_end );
-void plNormalsScatter_Scalar( float* out, uint32_t out_stride_bytes, const float* positions,
-							  uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
-							  uint32_t face_count, float* sums4 );
+// The variants, declared through the kernel types so that their signatures cannot drift apart.
+plMatVecFn plMatVec_Scalar;
+plBlendShapesFn plBlendShapes_Scalar;
+plSkinningFn plSkinning_Scalar;
+plFaceNormalsFn plFaceNormals_Scalar;
+plNormalsGatherFn plNormalsGather_Scalar;
+plNormalsScatterFn plNormalsScatter_Scalar;
 #if defined( PLEAT_HAVE_AVX2 )
-void plMatVec_Avx2( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
-					uint32_t in_count, uint32_t row_begin, uint32_t row_end );
-void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
-						 uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
-void plSkinning_Avx2( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
-					  const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-					  const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end );
-void plFaceNormals_Avx2( float* out4, const float* positions, uint32_t position_stride_bytes, uint32_t vertex_count,
-						 const uint32_t* faces, uint32_t f_begin, uint32_t f_end );
-void plNormalsGather_Avx2( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
-						   const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
-						   uint32_t v_end );
-void plNormalsScatter_Avx2( float* out, uint32_t out_stride_bytes, const float* positions,
-							uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
-							uint32_t face_count, float* sums4 );
+plMatVecFn plMatVec_Avx2;
+plBlendShapesFn plBlendShapes_Avx2;
+plSkinningFn plSkinning_Avx2;
+plFaceNormalsFn plFaceNormals_Avx2;
+plNormalsGatherFn plNormalsGather_Avx2;
+plNormalsScatterFn plNormalsScatter_Avx2;
 #endif
 
 // Scalar kernels always; AVX2 ones if built, not forced off, and the CPU has AVX2, FMA and F16C. Returns 1 for AVX2.

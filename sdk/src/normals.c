@@ -1,6 +1,7 @@
-// The normals job: n_v = normalize(Σ_{faces f ∋ v} cross(x_b − x_a, x_c − x_a)), area weighted, gathered through the
-// asset's CSR adjacency (NADO/NADF) in ascending face order: deterministic for any split of the vertex range, no
-// atomics. A vertex whose faces all have zero area gets a zero normal (not NaN).
+// The normals jobs: n_v = normalize(Σ_{faces f ∋ v} cross(x_b − x_a, x_c − x_a)), area weighted, as face normals
+// then a gather through the asset's CSR adjacency (NADO/NADF) in ascending face order — deterministic for any split
+// of the vertex range, no atomics — or, on one thread, as one scatter pass with the same sums (jobs.h names the two
+// algorithms and their GLSL and numpy twins). A vertex whose faces all have zero area gets a zero normal (not NaN).
 #include "jobs.h"
 
 #include <math.h>
@@ -30,33 +31,15 @@ static inline void plStoreUnitNormal( float* out, uint32_t out_stride_bytes, uin
 	o[2] = z * scale;
 }
 
-int plNormalsJob_Validate( const plNormalsJob* job )
+int plNormalsGatherJob_Validate( const plNormalsGatherJob* job )
 {
-	if ( job == NULL || job->faces == NULL || job->adjacency_offsets == NULL || job->adjacency_faces == NULL ||
+	if ( job == NULL || job->face_normals == NULL || job->adjacency_offsets == NULL || job->adjacency_faces == NULL ||
 		 job->face_count == 0 )
 	{
 		return 0;
 	}
-	uint32_t n = job->positions.count;
-	return job->vertex_begin <= job->vertex_end && job->vertex_end <= n && PLEAT_SPAN_HOLDS( job->positions, 12, n ) &&
-		   PLEAT_SPAN_HOLDS( job->output, 12, n );
-}
-
-static void plNormalsGather( const plNormalsJob* job );
-
-plResult plNormalsJob_Run( const plNormalsJob* job )
-{
-	if ( !plNormalsJob_Validate( job ) )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	plNormalsGather( job );
-	return PLEAT_RESULT_OK;
-}
-
-int plNormalsGatherJob_Validate( const plNormalsGatherJob* job )
-{
-	return job != NULL && job->face_normals != NULL && plNormalsJob_Validate( &job->normals );
+	uint32_t n = job->normals.count;
+	return job->vertex_begin <= job->vertex_end && job->vertex_end <= n && PLEAT_SPAN_HOLDS( job->normals, 12, n );
 }
 
 plResult plNormalsGatherJob_Run( const plNormalsGatherJob* job )
@@ -65,18 +48,17 @@ plResult plNormalsGatherJob_Run( const plNormalsGatherJob* job )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	const plNormalsJob* n = &job->normals;
 	plNormalsGatherFn* kernel = job->kernels != NULL && job->kernels->normals_gather != NULL
 									? job->kernels->normals_gather
 									: plNormalsGather_Scalar;
-	kernel( (float*)n->output.ptr, n->output.stride_bytes, job->face_normals, n->face_count, n->adjacency_offsets,
-			n->adjacency_faces, n->vertex_begin, n->vertex_end );
+	kernel( (float*)job->normals.ptr, job->normals.stride_bytes, job->face_normals, job->face_count,
+			job->adjacency_offsets, job->adjacency_faces, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }
 
-void plNormalsGather_Scalar( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
-							 const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
-							 uint32_t v_end )
+void plNormalsGather_Scalar( float* normals, uint32_t normals_stride_bytes, const float* face_normals,
+							 uint32_t face_count, const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces,
+							 uint32_t v_begin, uint32_t v_end )
 {
 	uint32_t limit = 3u * face_count;
 	for ( uint32_t v = v_begin; v < v_end; ++v )
@@ -89,52 +71,18 @@ void plNormalsGather_Scalar( float* out, uint32_t out_stride_bytes, const float*
 			uint32_t f = adjacency_faces[e];
 			if ( f < face_count )
 			{
-				nx += face_normals4[(size_t)f * 4 + 0];
-				ny += face_normals4[(size_t)f * 4 + 1];
-				nz += face_normals4[(size_t)f * 4 + 2];
+				nx += face_normals[(size_t)f * 4 + 0];
+				ny += face_normals[(size_t)f * 4 + 1];
+				nz += face_normals[(size_t)f * 4 + 2];
 			}
 		}
-		plStoreUnitNormal( out, out_stride_bytes, v, nx, ny, nz );
-	}
-}
-
-// Face normals computed on the fly per vertex (the reference form of the two-pass face normals + gather).
-static void plNormalsGather( const plNormalsJob* job )
-{
-	const uint8_t* in = (const uint8_t*)job->positions.ptr;
-	uint32_t stride = job->positions.stride_bytes;
-	uint32_t n = job->positions.count;
-	uint32_t limit = 3u * job->face_count;
-	for ( uint32_t v = job->vertex_begin; v < job->vertex_end; ++v )
-	{
-		float nx = 0.0f, ny = 0.0f, nz = 0.0f;
-		uint32_t begin = job->adjacency_offsets[v], end = job->adjacency_offsets[v + 1];
-		end = end > limit ? limit : end;
-		for ( uint32_t e = begin; e < end; ++e )
-		{
-			uint32_t f = job->adjacency_faces[e];
-			if ( f >= job->face_count )
-			{
-				continue;
-			}
-			const uint32_t* tri = job->faces + (size_t)f * 3;
-			if ( tri[0] >= n || tri[1] >= n || tri[2] >= n )
-			{
-				continue;
-			}
-			float c[3];
-			plTriangleCross( in, stride, tri, c );
-			nx += c[0];
-			ny += c[1];
-			nz += c[2];
-		}
-		plStoreUnitNormal( (float*)job->output.ptr, job->output.stride_bytes, v, nx, ny, nz );
+		plStoreUnitNormal( normals, normals_stride_bytes, v, nx, ny, nz );
 	}
 }
 
 int plFaceNormalsJob_Validate( const plFaceNormalsJob* job )
 {
-	return job != NULL && job->faces != NULL && job->output != NULL && job->face_begin <= job->face_end &&
+	return job != NULL && job->faces != NULL && job->face_normals != NULL && job->face_begin <= job->face_end &&
 		   job->face_end <= job->face_count && PLEAT_SPAN_HOLDS( job->positions, 12, job->positions.count );
 }
 
@@ -146,20 +94,20 @@ plResult plFaceNormalsJob_Run( const plFaceNormalsJob* job )
 	}
 	plFaceNormalsFn* kernel = job->kernels != NULL && job->kernels->face_normals != NULL ? job->kernels->face_normals
 																						 : plFaceNormals_Scalar;
-	kernel( job->output, (const float*)job->positions.ptr, job->positions.stride_bytes, job->positions.count,
+	kernel( job->face_normals, (const float*)job->positions.ptr, job->positions.stride_bytes, job->positions.count,
 			job->faces, job->face_begin, job->face_end );
 	return PLEAT_RESULT_OK;
 }
 
-void plFaceNormals_Scalar( float* out4, const float* positions, uint32_t position_stride_bytes, uint32_t vertex_count,
-						   const uint32_t* faces, uint32_t f_begin, uint32_t f_end )
+void plFaceNormals_Scalar( float* face_normals, const float* positions, uint32_t position_stride_bytes,
+						   uint32_t vertex_count, const uint32_t* faces, uint32_t f_begin, uint32_t f_end )
 {
 	const uint8_t* in = (const uint8_t*)positions;
 	uint32_t n = vertex_count;
 	for ( uint32_t f = f_begin; f < f_end; ++f )
 	{
 		const uint32_t* tri = faces + (size_t)f * 3;
-		float* out = out4 + (size_t)f * 4;
+		float* out = face_normals + (size_t)f * 4;
 		out[3] = 0.0f;
 		if ( tri[0] >= n || tri[1] >= n || tri[2] >= n )
 		{
@@ -170,7 +118,7 @@ void plFaceNormals_Scalar( float* out4, const float* positions, uint32_t positio
 	}
 }
 
-void plNormalsScatter_Scalar( float* out, uint32_t out_stride_bytes, const float* positions,
+void plNormalsScatter_Scalar( float* normals, uint32_t normals_stride_bytes, const float* positions,
 							  uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
 							  uint32_t face_count, float* sums4 )
 {
@@ -199,7 +147,7 @@ void plNormalsScatter_Scalar( float* out, uint32_t out_stride_bytes, const float
 	for ( uint32_t v = 0; v < n; ++v )
 	{
 		const float* s = sums4 + (size_t)v * 4;
-		plStoreUnitNormal( out, out_stride_bytes, v, s[0], s[1], s[2] );
+		plStoreUnitNormal( normals, normals_stride_bytes, v, s[0], s[1], s[2] );
 	}
 }
 
@@ -210,8 +158,8 @@ int plNormalsScatterJob_Validate( const plNormalsScatterJob* job )
 		return 0;
 	}
 	uint32_t n = job->positions.count;
-	return job->sums4_count >= n && PLEAT_SPAN_HOLDS( job->positions, 12, n ) && job->output.count == n &&
-		   PLEAT_SPAN_HOLDS( job->output, 12, n );
+	return job->sums4_count >= n && PLEAT_SPAN_HOLDS( job->positions, 12, n ) && job->normals.count == n &&
+		   PLEAT_SPAN_HOLDS( job->normals, 12, n );
 }
 
 plResult plNormalsScatterJob_Run( const plNormalsScatterJob* job )
@@ -223,7 +171,7 @@ plResult plNormalsScatterJob_Run( const plNormalsScatterJob* job )
 	plNormalsScatterFn* kernel = job->kernels != NULL && job->kernels->normals_scatter != NULL
 									 ? job->kernels->normals_scatter
 									 : plNormalsScatter_Scalar;
-	kernel( (float*)job->output.ptr, job->output.stride_bytes, (const float*)job->positions.ptr,
+	kernel( (float*)job->normals.ptr, job->normals.stride_bytes, (const float*)job->positions.ptr,
 			job->positions.stride_bytes, job->positions.count, job->faces, job->face_count, job->sums4 );
 	return PLEAT_RESULT_OK;
 }

@@ -56,21 +56,21 @@ static inline __m128 plFaceNormal( const uint8_t* in, uint32_t stride_bytes, uin
 	return _mm_setzero_ps();
 }
 
-void plFaceNormals_Avx2( float* out4, const float* positions, uint32_t position_stride_bytes, uint32_t vertex_count,
-						 const uint32_t* faces, uint32_t f_begin, uint32_t f_end )
+void plFaceNormals_Avx2( float* face_normals, const float* positions, uint32_t position_stride_bytes,
+						 uint32_t vertex_count, const uint32_t* faces, uint32_t f_begin, uint32_t f_end )
 {
 	const uint8_t* in = (const uint8_t*)positions;
 	const __m128 xyz_mask = _mm_castsi128_ps( _mm_setr_epi32( -1, -1, -1, 0 ) );
 	uint32_t last = vertex_count > 0 ? vertex_count - 1 : 0;
 	for ( uint32_t f = f_begin; f < f_end; ++f )
 	{
-		_mm_storeu_ps( out4 + (size_t)f * 4, plFaceNormal( in, position_stride_bytes, vertex_count, last,
+		_mm_storeu_ps( face_normals + (size_t)f * 4, plFaceNormal( in, position_stride_bytes, vertex_count, last,
 														   faces + (size_t)f * 3, xyz_mask ) );
 	}
 }
 
 // Σ of the vertex's adjacent face normals, (x, y, z, 0), in ascending adjacency order.
-static inline __m128 plGatherSum( const float* face_normals4, uint32_t face_count, const uint32_t* adjacency_offsets,
+static inline __m128 plGatherSum( const float* face_normals, uint32_t face_count, const uint32_t* adjacency_offsets,
 								  const uint32_t* adjacency_faces, uint32_t limit, uint32_t v )
 {
 	__m128 sum = _mm_setzero_ps();
@@ -81,7 +81,7 @@ static inline __m128 plGatherSum( const float* face_normals4, uint32_t face_coun
 		uint32_t f = adjacency_faces[e];
 		if ( f < face_count )
 		{
-			sum = _mm_add_ps( sum, _mm_loadu_ps( face_normals4 + (size_t)f * 4 ) );
+			sum = _mm_add_ps( sum, _mm_loadu_ps( face_normals + (size_t)f * 4 ) );
 		}
 	}
 	return sum;
@@ -137,9 +137,9 @@ static inline void plStoreUnitNormal1( float* out, uint32_t out_stride_bytes, ui
 	o[2] = n[2] * scale;
 }
 
-void plNormalsGather_Avx2( float* out, uint32_t out_stride_bytes, const float* face_normals4, uint32_t face_count,
-						   const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces, uint32_t v_begin,
-						   uint32_t v_end )
+void plNormalsGather_Avx2( float* normals, uint32_t normals_stride_bytes, const float* face_normals,
+						   uint32_t face_count, const uint32_t* adjacency_offsets, const uint32_t* adjacency_faces,
+						   uint32_t v_begin, uint32_t v_end )
 {
 	uint32_t limit = 3u * face_count;
 	uint32_t v = v_begin;
@@ -148,18 +148,18 @@ void plNormalsGather_Avx2( float* out, uint32_t out_stride_bytes, const float* f
 		__m128 s[8];
 		for ( int i = 0; i < 8; ++i )
 		{
-			s[i] = plGatherSum( face_normals4, face_count, adjacency_offsets, adjacency_faces, limit, v + (uint32_t)i );
+			s[i] = plGatherSum( face_normals, face_count, adjacency_offsets, adjacency_faces, limit, v + (uint32_t)i );
 		}
-		plStoreUnitNormals8( out, out_stride_bytes, s, v, v_end );
+		plStoreUnitNormals8( normals, normals_stride_bytes, s, v, v_end );
 	}
 	for ( ; v < v_end; ++v )
 	{
-		plStoreUnitNormal1( out, out_stride_bytes, v,
-							plGatherSum( face_normals4, face_count, adjacency_offsets, adjacency_faces, limit, v ) );
+		plStoreUnitNormal1( normals, normals_stride_bytes, v,
+							plGatherSum( face_normals, face_count, adjacency_offsets, adjacency_faces, limit, v ) );
 	}
 }
 
-void plNormalsScatter_Avx2( float* out, uint32_t out_stride_bytes, const float* positions,
+void plNormalsScatter_Avx2( float* normals, uint32_t normals_stride_bytes, const float* positions,
 							uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
 							uint32_t face_count, float* sums4 )
 {
@@ -193,10 +193,10 @@ void plNormalsScatter_Avx2( float* out, uint32_t out_stride_bytes, const float* 
 		{
 			s[i] = _mm_load_ps( sums4 + (size_t)( v + (uint32_t)i ) * 4 );
 		}
-		plStoreUnitNormals8( out, out_stride_bytes, s, v, n );
+		plStoreUnitNormals8( normals, normals_stride_bytes, s, v, n );
 	}
 	for ( ; v < n; ++v )
 	{
-		plStoreUnitNormal1( out, out_stride_bytes, v, _mm_load_ps( sums4 + (size_t)v * 4 ) );
+		plStoreUnitNormal1( normals, normals_stride_bytes, v, _mm_load_ps( sums4 + (size_t)v * 4 ) );
 	}
 }

@@ -129,9 +129,23 @@ static void test_rotating_one_joint_90_degrees_moves_its_vertices( void** state 
 	plTestAsset_Destroy( model );
 }
 
+// The normals of positions through both algorithms (jobs.h): face normals + gather into gathered, scatter into
+// scattered. Both must succeed.
+static void plRunNormals( const float* positions, uint32_t n, const uint32_t* faces, uint32_t f,
+						  const uint32_t* offsets, const uint32_t* adjacency, float* face_normals, float* gathered,
+						  float* scattered, float* sums4 )
+{
+	plFaceNormalsJob face_job = { plMakeConstSpan( positions, n, 12 ), faces, f, face_normals, 0, f, NULL };
+	plNormalsGatherJob gather = { face_normals, f, offsets, adjacency, plMakeSpan( gathered, n, 12 ), 0, n, NULL };
+	plNormalsScatterJob scatter = { plMakeConstSpan( positions, n, 12 ), faces, f, plMakeSpan( scattered, n, 12 ),
+									sums4, n, NULL };
+	assert_int_equal( plFaceNormalsJob_Run( &face_job ), PLEAT_RESULT_OK );
+	assert_int_equal( plNormalsGatherJob_Run( &gather ), PLEAT_RESULT_OK );
+	assert_int_equal( plNormalsScatterJob_Run( &scatter ), PLEAT_RESULT_OK );
+}
+
 // Normals of a flat quad (two CCW triangles in the XY plane) are +Z; on a "roof" the shared vertices get the
-// area-weighted average: face A in the plane z = 0 with area 1/2 (normal +Z, cross length 1), face B tilted with cross
-// (0, −1, 1)·... see below.
+// area-weighted average (values below). Face normals + gather and the scatter give the same bits.
 static void test_normals_of_flat_quad_and_area_weighting( void** state )
 {
 	(void)state;
@@ -140,48 +154,73 @@ static void test_normals_of_flat_quad_and_area_weighting( void** state )
 	uint32_t faces[6] = { 0, 1, 2, 0, 2, 3 };
 	uint32_t offsets[5] = { 0, 2, 3, 5, 6 };
 	uint32_t adjacency[6] = { 0, 1, 0, 0, 1, 1 };
-	float normals[4 * 3];
-	plNormalsJob job = { plMakeConstSpan( positions, 4, 12 ), faces, 2, offsets, adjacency,
-						 plMakeSpan( normals, 4, 12 ), 0, 4 };
-	assert_int_equal( plNormalsJob_Run( &job ), PLEAT_RESULT_OK );
+	_Alignas( 16 ) float face_normals[2 * 4], sums4[4 * 4];
+	float normals[4 * 3], scattered[4 * 3];
+	plRunNormals( positions, 4, faces, 2, offsets, adjacency, face_normals, normals, scattered, sums4 );
 	for ( int v = 0; v < 4; ++v )
 	{
 		assert_float_equal( normals[v * 3 + 0], 0.0f, 0.0 );
 		assert_float_equal( normals[v * 3 + 1], 0.0f, 0.0 );
 		assert_float_equal( normals[v * 3 + 2], 1.0f, 0.0 );
 	}
+	assert_memory_equal( scattered, normals, sizeof( normals ) );
 	// Roof: lift v3 to (0, 1, 1). Face 0 cross = (1,0,0)×(1,1,0) = (0,0,1). Face 1 cross = (1,1,0)×(0,1,1) = (1,−1,1).
 	// v0 and v2 touch both: sum (1,−1,2), normalised (1,−1,2)/√6. v1: (0,0,1). v3: (1,−1,1)/√3.
 	positions[3 * 3 + 2] = 1.0f;
-	assert_int_equal( plNormalsJob_Run( &job ), PLEAT_RESULT_OK );
+	plRunNormals( positions, 4, faces, 2, offsets, adjacency, face_normals, normals, scattered, sums4 );
+	assert_float_equal( face_normals[4], 1.0f, 0 ); // face 1: (1, −1, 1, 0)
+	assert_float_equal( face_normals[5], -1.0f, 0 );
+	assert_float_equal( face_normals[6], 1.0f, 0 );
+	assert_float_equal( face_normals[7], 0.0f, 0 );
 	float s6 = 1.0f / sqrtf( 6.0f ), s3 = 1.0f / sqrtf( 3.0f );
 	const float expected[12] = { s6, -s6, 2 * s6, 0, 0, 1, s6, -s6, 2 * s6, s3, -s3, s3 };
 	for ( int i = 0; i < 12; ++i )
 	{
 		assert_float_equal( normals[i], expected[i], 1e-6 );
 	}
-	// Gathering precomputed face normals (plFaceNormalsJob) gives bit-identical results.
-	float face_normals[2 * 4], gathered[4 * 3];
-	plFaceNormalsJob faces_job = { plMakeConstSpan( positions, 4, 12 ), faces, 2, face_normals, 0, 2, NULL };
-	assert_int_equal( plFaceNormalsJob_Run( &faces_job ), PLEAT_RESULT_OK );
-	assert_float_equal( face_normals[4], 1.0f, 0 ); // face 1: (1, −1, 1, 0)
-	assert_float_equal( face_normals[5], -1.0f, 0 );
-	assert_float_equal( face_normals[6], 1.0f, 0 );
-	assert_float_equal( face_normals[7], 0.0f, 0 );
-	plNormalsGatherJob gather = { job, face_normals, NULL };
-	gather.normals.output = plMakeSpan( gathered, 4, 12 );
-	assert_int_equal( plNormalsGatherJob_Run( &gather ), PLEAT_RESULT_OK );
-	assert_memory_equal( gathered, normals, sizeof( normals ) );
-	faces_job.face_end = 3;
-	assert_int_equal( plFaceNormalsJob_Run( &faces_job ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_memory_equal( scattered, normals, sizeof( normals ) );
 	// A degenerate vertex (all faces zero area) gets a zero normal, not NaN.
 	float flat_line[4 * 3] = { 0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0 };
-	job.positions = plMakeConstSpan( flat_line, 4, 12 );
-	assert_int_equal( plNormalsJob_Run( &job ), PLEAT_RESULT_OK );
+	plRunNormals( flat_line, 4, faces, 2, offsets, adjacency, face_normals, normals, scattered, sums4 );
 	for ( int i = 0; i < 12; ++i )
 	{
 		assert_float_equal( normals[i], 0.0f, 0.0 );
+		assert_float_equal( scattered[i], 0.0f, 0.0 );
 	}
+
+	// Invalid inputs, one per row: each job's Validate says no and its Run changes nothing.
+	plFaceNormalsJob face_job = { plMakeConstSpan( positions, 4, 12 ), faces, 2, face_normals, 0, 2, NULL };
+	plFaceNormalsJob bad_face[3] = { face_job, face_job, face_job };
+	bad_face[0].face_end = 3;          // range beyond the faces
+	bad_face[1].face_normals = NULL;   // no output
+	bad_face[2].positions.bytes = 12;  // span too short for 4 vertices
+	plNormalsGatherJob gather = { face_normals, 2, offsets, adjacency, plMakeSpan( normals, 4, 12 ), 0, 4, NULL };
+	plNormalsGatherJob bad_gather[4] = { gather, gather, gather, gather };
+	bad_gather[0].face_normals = NULL;               // no face normals
+	bad_gather[1].vertex_end = 5;                    // range beyond the output
+	bad_gather[2].adjacency_offsets = NULL;          // no adjacency
+	bad_gather[3].normals = plMakeSpan( normals, 4, 8 ); // stride smaller than a vertex
+	plNormalsScatterJob scatter = { plMakeConstSpan( positions, 4, 12 ), faces, 2, plMakeSpan( normals, 4, 12 ),
+									sums4, 4, NULL };
+	plNormalsScatterJob bad_scatter[3] = { scatter, scatter, scatter };
+	bad_scatter[0].sums4_count = 3;                       // scratch shorter than N
+	bad_scatter[1].sums4 = sums4 + 1;                     // scratch not 16-byte aligned
+	bad_scatter[2].normals = plMakeSpan( normals, 3, 12 ); // output count differs from the positions'
+	float before[12];
+	memcpy( before, normals, sizeof( before ) );
+	for ( int i = 0; i < 3; ++i )
+	{
+		assert_false( plFaceNormalsJob_Validate( &bad_face[i] ) );
+		assert_int_equal( plFaceNormalsJob_Run( &bad_face[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+		assert_false( plNormalsScatterJob_Validate( &bad_scatter[i] ) );
+		assert_int_equal( plNormalsScatterJob_Run( &bad_scatter[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+	}
+	for ( int i = 0; i < 4; ++i )
+	{
+		assert_false( plNormalsGatherJob_Validate( &bad_gather[i] ) );
+		assert_int_equal( plNormalsGatherJob_Run( &bad_gather[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+	}
+	assert_memory_equal( before, normals, sizeof( before ) );
 }
 
 // Skinning writes through a strided (interleaved) output span and leaves the bytes between vertices alone.
@@ -243,7 +282,9 @@ static void test_jobs_reject_invalid_spans( void** state )
 		assert_false( plSkinningJob_Validate( &bad[i] ) );
 		assert_int_equal( plSkinningJob_Run( &bad[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
 	}
-	assert_int_equal( plNormalsJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plFaceNormalsJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plNormalsGatherJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plNormalsScatterJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plMlpJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plBlendShapesJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plInputAssemblyJob_Run( NULL ), PLEAT_RESULT_INVALID_ARGUMENT );

@@ -5,6 +5,7 @@ import pytest
 from pleat import asset as pa
 from pleat.reference import (Instance, StepError, assemble_inputs, forward_kinematics, mlp, normals, skinning)
 from pleat.reference.golden import random_motion, random_weights
+from pleat.reference.normals import face_normals, normals_gather, normals_scatter
 from pleat.rotations import axis_angle_to_matrix, matrix_to_6d, matrix_to_quat, sixd_to_matrix
 
 
@@ -64,6 +65,23 @@ def test_normals_of_an_octahedron_point_outward_and_are_area_weighted():
     face_n = np.cross(v2[faces[:, 1]] - v2[faces[:, 0]], v2[faces[:, 2]] - v2[faces[:, 0]])
     expected = face_n[[f for f in range(8) if 2 in faces[f]]].sum(0)
     np.testing.assert_allclose(n2[2], expected / np.linalg.norm(expected), atol=1e-12)
+
+
+def test_normals_scatter_gives_the_gather_normals_and_a_lone_degenerate_vertex_gets_zero():
+    """normals_scatter (the C path on one thread) and face_normals + normals_gather are one algorithm's two
+    traversals: the same per-vertex sums. A vertex whose faces have no area gets (0, 0, 0), not NaN."""
+    rng = np.random.default_rng(3)
+    w = random_weights(vertices=80, latent=4, blend=2, lp_hidden=(8,), dec_hidden=(4,), seed=2)
+    x = np.asarray(w["template"], np.float64) + 0.01 * rng.standard_normal(np.shape(w["template"]))
+    faces = np.asarray(w["faces"])
+    off, adj = pa.normal_adjacency(faces, len(x))
+    gathered = normals_gather(face_normals(x, faces), off, adj)
+    np.testing.assert_allclose(normals_scatter(x, faces), gathered, atol=1e-15)
+    np.testing.assert_array_equal(normals(x, faces, off, adj), gathered)
+    line = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]], float)
+    tri = np.array([[0, 1, 2]])
+    for n in (normals_scatter(line, tri), normals(line, tri, *pa.normal_adjacency(tri, 3))):
+        np.testing.assert_array_equal(n, np.zeros((3, 3)))
 
 
 def test_forward_kinematics_of_a_two_joint_chain_by_hand():

@@ -1,4 +1,5 @@
-// The GL compute path: blend_shapes.comp → skinning.comp → normals.comp over GPU-resident asset data. See
+// The GL compute path: blend_shapes.comp → skinning.comp → face_normals.comp → normals_gather.comp over GPU-resident
+// asset data. See
 // sdk/src/gl_deformer.h for the contract and docs/gpu.md for the buffers, the saved state and the measurements.
 #include "gl_internal.h"
 #include "gl_shaders.h"
@@ -8,7 +9,8 @@ enum
 {
 	PLEAT_GL_PROGRAM_BLEND_SHAPES,
 	PLEAT_GL_PROGRAM_SKINNING,
-	PLEAT_GL_PROGRAM_NORMALS,
+	PLEAT_GL_PROGRAM_FACE_NORMALS,
+	PLEAT_GL_PROGRAM_NORMALS_GATHER,
 	PLEAT_GL_PROGRAM_COUNT
 };
 
@@ -261,7 +263,8 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		api, plGlShaderSource_blend_shapes,
 		desc->blend_shapes_fp16 ? "#define PLEAT_BLEND_FP16 1\n" : "#define PLEAT_BLEND_FP16 0\n" );
 	deformer->programs[PLEAT_GL_PROGRAM_SKINNING] = plCompileProgram( api, plGlShaderSource_skinning, "" );
-	deformer->programs[PLEAT_GL_PROGRAM_NORMALS] = plCompileProgram( api, plGlShaderSource_normals, "" );
+	deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] = plCompileProgram( api, plGlShaderSource_face_normals, "" );
+	deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] = plCompileProgram( api, plGlShaderSource_normals_gather, "" );
 	for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
 	{
 		if ( deformer->programs[p] == 0 )
@@ -269,7 +272,8 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	}
 
 	size_t n = desc->vertex_count;
-	plGlDeformParams params = { desc->vertex_count, desc->blend_count, desc->influence_count, desc->joint_count };
+	plGlDeformParams params = { desc->vertex_count, desc->blend_count,  desc->influence_count,
+								desc->joint_count,  desc->face_count, { 0, 0, 0 } };
 	api->GenBuffers( 1, &deformer->params_buffer );
 	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
 	api->BufferData( GL_UNIFORM_BUFFER, sizeof( params ), &params, GL_STATIC_DRAW );
@@ -305,6 +309,7 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		deformer->bindings[PLEAT_GL_BINDING_NORMALS] = desc->host_normal_buffer;
 	else
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_NORMALS, n * 16, NULL, GL_DYNAMIC_COPY );
+	plCreateBuffer( deformer, PLEAT_GL_BINDING_FACE_NORMALS, (size_t)desc->face_count * 16, NULL, GL_DYNAMIC_COPY );
 	return plCheckErrors( api );
 }
 
@@ -480,13 +485,17 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, deformer->bindings[b] );
 
 	GLuint groups = ( deformer->vertex_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
+	GLuint face_groups = ( deformer->face_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] );
 	api->DispatchCompute( groups, 1, 1 );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_SKINNING] );
 	api->DispatchCompute( groups, 1, 1 );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_NORMALS] );
+	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
+	api->DispatchCompute( face_groups, 1, 1 );
+	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] );
 	api->DispatchCompute( groups, 1, 1 );
 	// Whatever reads the outputs next: our read-back, or the engine's vertex fetch / shaders from its buffers.
 	api->MemoryBarrier( GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |

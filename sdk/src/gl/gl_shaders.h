@@ -4,6 +4,7 @@
 
 extern const char plGlShaderSource_blend_shapes[];
 extern const char plGlShaderSource_skinning[];
-extern const char plGlShaderSource_normals[];
+extern const char plGlShaderSource_face_normals[];
+extern const char plGlShaderSource_normals_gather[];
 
 #endif

@@ -4,15 +4,17 @@
 #define PLEAT_GL_TYPES_H
 #include <stdint.h>
 
-// std140 uniform block plGlDeformParams (uniform buffer binding 0), shared by all three shaders.
+// std140 uniform block plGlDeformParams (uniform buffer binding 0), the same in every shader.
 typedef struct plGlDeformParams
 {
 	uint32_t vertex_count;    // N
 	uint32_t blend_count;     // D
 	uint32_t influence_count; // K
 	uint32_t joint_count;     // J
+	uint32_t face_count;      // F
+	uint32_t pad[3];          // the buffer is bound whole: its size a multiple of the 16-byte std140 vec4 row
 } plGlDeformParams;
-_Static_assert( sizeof( plGlDeformParams ) == 16, "std140 plGlDeformParams is 16 bytes" );
+_Static_assert( sizeof( plGlDeformParams ) == 32, "std140 plGlDeformParams is 32 bytes" );
 
 // std430 vec4 element: positions/normals/templates (xyz + w) and one row of a 3×4 skin matrix.
 typedef struct plGlVec4
@@ -41,15 +43,17 @@ typedef enum plGlBinding
 	PLEAT_GL_BINDING_SKIN_INDICES = 4,      // uint [N][K]         skinning.comp
 	PLEAT_GL_BINDING_SKIN_WEIGHTS = 5,      // float [N][K]
 	PLEAT_GL_BINDING_SKIN_MATRICES = 6,     // vec4 [J][3]
-	PLEAT_GL_BINDING_POSITIONS = 7,         // vec4 [N]            skinning.comp → normals.comp
-	PLEAT_GL_BINDING_FACES = 8,             // uint [F][3]         normals.comp
-	PLEAT_GL_BINDING_ADJACENCY_OFFSETS = 9, // uint [N + 1]
+	PLEAT_GL_BINDING_POSITIONS = 7,         // vec4 [N]            skinning.comp → face_normals.comp
+	PLEAT_GL_BINDING_FACES = 8,             // uint [F][3]         face_normals.comp
+	PLEAT_GL_BINDING_ADJACENCY_OFFSETS = 9, // uint [N + 1]        normals_gather.comp
 	PLEAT_GL_BINDING_ADJACENCY_FACES = 10,  // uint [3F]
 	PLEAT_GL_BINDING_NORMALS = 11,          // vec4 [N]
-	PLEAT_GL_BINDING_COUNT = 12,
+	PLEAT_GL_BINDING_FACE_NORMALS = 12,     // vec4 [F]            face_normals.comp → normals_gather.comp
+	PLEAT_GL_BINDING_COUNT = 13,
 } plGlBinding;
 
-// Workgroup size of every shader (layout(local_size_x = 64)); dispatch ceil(N / 64) groups.
+// Workgroup size of every shader (layout(local_size_x = 64)); dispatch ceil(N / 64) groups (ceil(F / 64) for
+// face_normals.comp).
 #define PLEAT_GL_WORKGROUP_SIZE 64u
 
 #endif

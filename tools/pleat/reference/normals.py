@@ -1,18 +1,48 @@
-"""Vertex normals: normalize(Σ_{faces f ∋ i} cross(x_b − x_a, x_c − x_a)), gathered through the CSR adjacency
-(NADO/NADF) in its order, like the C job. A vertex whose sum has zero length gets (0, 0, 0)."""
+"""Vertex normals n_i = normalize(Σ_{faces f ∋ i} cross(x_b − x_a, x_c − x_a)), area weighted (sdk/src/normals.c).
+
+Two algorithms, each with one name in C, GLSL and here, with the same argument names:
+    face_normals + normals_gather   plFaceNormalsJob + plNormalsGatherJob, shaders/face_normals.comp +
+                                    shaders/normals_gather.comp: each face's cross product once, then per vertex the
+                                    sum over the CSR adjacency (NADO/NADF) in its order. `normals` is the two in a row.
+    normals_scatter                 plNormalsScatterJob (the CPU path on one thread): each face added to its three
+                                    vertices in ascending face order — the same sums on a valid asset.
+A vertex whose sum has zero length gets (0, 0, 0)."""
 import numpy as np
 
 
-def normals(positions, faces, adjacency_offsets, adjacency_faces):
+def _normalize(sums):
+    length = np.linalg.norm(sums, axis=1, keepdims=True)
+    return np.where(length > 0, sums / np.where(length > 0, length, 1.0), 0.0)
+
+
+def face_normals(positions, faces):
+    """positions [N, 3]; faces [F, 3] → unnormalised cross(x_b − x_a, x_c − x_a) [F, 3]."""
     x = np.asarray(positions, np.float64)
     f = np.asarray(faces, np.int64)
-    face_normals = np.cross(x[f[:, 1]] - x[f[:, 0]], x[f[:, 2]] - x[f[:, 0]])
+    return np.cross(x[f[:, 1]] - x[f[:, 0]], x[f[:, 2]] - x[f[:, 0]])
+
+
+def normals_gather(face_normals, adjacency_offsets, adjacency_faces):
+    """face_normals [F, 3]; adjacency_offsets [N + 1], adjacency_faces [3F] (CSR) → unit normals [N, 3]."""
     offsets = np.asarray(adjacency_offsets, np.int64)
-    gathered = face_normals[np.asarray(adjacency_faces, np.int64)]
-    summed = np.zeros_like(x)
-    counts = np.diff(offsets)
-    has = counts > 0
+    gathered = np.asarray(face_normals, np.float64)[np.asarray(adjacency_faces, np.int64)]
+    sums = np.zeros((len(offsets) - 1, 3))
+    has = np.diff(offsets) > 0
     if gathered.shape[0]:
-        summed[has] = np.add.reduceat(gathered, offsets[:-1][has], axis=0)
-    length = np.linalg.norm(summed, axis=1, keepdims=True)
-    return np.where(length > 0, summed / np.where(length > 0, length, 1.0), 0.0)
+        sums[has] = np.add.reduceat(gathered, offsets[:-1][has], axis=0)
+    return _normalize(sums)
+
+
+def normals_scatter(positions, faces):
+    """positions [N, 3]; faces [F, 3] → unit normals [N, 3], each face added to its vertices in face order."""
+    sums = np.zeros(np.shape(positions))
+    corners = np.asarray(faces, np.int64)
+    per_face = face_normals(positions, corners)
+    for k in range(3):
+        np.add.at(sums, corners[:, k], per_face)
+    return _normalize(sums)
+
+
+def normals(positions, faces, adjacency_offsets, adjacency_faces):
+    """face_normals, then normals_gather: the normals of plInstance_Step and of the GL path."""
+    return normals_gather(face_normals(positions, faces), adjacency_offsets, adjacency_faces)
