@@ -466,28 +466,42 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
     if start == 0:
         run.log({"iteration": 0, "validation": validate_stage1(setup, model, cfg)})
     budget = Budget(max_minutes, elapsed)
-    ddp = wrap_ddp(model, world, dev)
     rng = np.random.default_rng([cfg["seed"], rank, start])
+    batched = batched_path(c1)
+    if batched:     # K windows per iteration through one graph (batching.py; the same losses, tested)
+        from pleat.train import batching
+        ddp = wrap_ddp(batching.BatchedStage1(model), world, dev)
+        source = batching.WindowSource(setup, clips, rng, c1.get("windows_per_iteration", 1),
+                                       worker=bool(c1.get("data_worker", False)))
+    else:
+        ddp = wrap_ddp(model, world, dev)
     bar = tqdm(range(start, c1["iterations"]), disable=not progress or rank != 0, desc="stage1")
     it = start - 1
     for it in bar:
         s = run_fraction(c1, it, budget.elapsed(), budget.budget_s)
         steps = rollout_steps(c1, it, s)
         w = loss_weights(c1, it, s)
-        win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
-        scale = 1.0
-        if c1.get("loss_norm") == "lbs":
-            scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1.get("loss_norm_floor", 1.0))
-        loss, terms = rollout_loss(setup, ddp, Window(setup, win, beta, mat, mat01), steps, w)
-        opt.zero_grad()
-        (loss / scale).backward()
+        if batched:
+            s_next = run_fraction(c1, it + 1, budget.elapsed(), budget.budget_s)
+            objective, rec = batching.stage1_iteration(setup, ddp, source, c1, steps, w,
+                                                       rollout_steps(c1, it + 1, s_next))
+            opt.zero_grad()
+            objective.backward()
+        else:
+            win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
+            scale = 1.0
+            if c1.get("loss_norm") == "lbs":
+                scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1.get("loss_norm_floor", 1.0))
+            loss, terms = rollout_loss(setup, ddp, Window(setup, win, beta, mat, mat01), steps, w)
+            opt.zero_grad()
+            (loss / scale).backward()
+            rec = {"loss": loss.item(), "lbs_scale": scale, "ratio": loss.item() / scale, **terms}
         gn = torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
         opt.step()
-        rec = {"iteration": it + 1, "loss": loss.item(), "lbs_scale": scale, "ratio": loss.item() / scale,
-               "steps": steps, "grad_norm": float(gn), "fraction": s,
-               **{k: v for k, v in terms.items()}, **{f"w_{k}": v for k, v in w.items()}}
+        rec = {"iteration": it + 1, **rec, "steps": steps, "grad_norm": float(gn), "fraction": s,
+               **{f"w_{k}": v for k, v in w.items()}}
         run.log(rec)
-        bar.set_postfix(loss=f"{loss.item():.4g}", ratio=f"{loss.item() / scale:.3g}", steps=steps)
+        bar.set_postfix(loss=f"{rec['loss']:.4g}", ratio=f"{rec['ratio']:.3g}", steps=steps)
         stop = stop_everywhere(world, budget.spent(), dev)
         if (it + 1) % c1["checkpoint_every"] == 0 or it + 1 == c1["iterations"] or stop:
             run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
@@ -499,9 +513,17 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
             run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
                      "elapsed_s": budget.elapsed()})
             break
+    if batched:
+        source.close()
     val = validate_stage1(setup, model, cfg)
     run.log({"iteration": it + 1, "validation": val})
     return model, setup, val
+
+
+def batched_path(c1):
+    """Whether the physics-loss stages run the batched path (batching.py; default) or the per-window one
+    (`--set stage1.batched=false`, kept for the A/B comparison in bench/train_throughput.py)."""
+    return bool(c1.get("batched", True))
 
 
 def stop_everywhere(world, stop, device):
@@ -539,7 +561,10 @@ def validate_stage1(setup, model, cfg):
     c1 = cfg["stage1"]
     w = loss_weights(c1, c1["iterations"] - 1)
     losses, ratios, terms, lbs_terms = [], [], {k: [] for k in LOSS_TERMS}, {k: [] for k in LOSS_TERMS}
-    for _ in range(c1["validation_windows"]):
+    if batched_path(c1):
+        from pleat.train import batching
+        losses, ratios, terms, lbs_terms = batching.validate_stage1(setup, model, clips, rng, w, c1)
+    for _ in range(0 if batched_path(c1) else c1["validation_windows"]):
         win, beta, mat, mat01 = sample_window(setup, clips, rng, c1["rollout_max"] + 3)
         scale, tl = lbs_scale(setup, win, beta, mat, mat01, c1["rollout_max"], w, c1.get("loss_norm_floor", 1.0))
         loss, t = rollout_loss(setup, model, Window(setup, win, beta, mat, mat01), c1["rollout_max"], w)
@@ -602,6 +627,10 @@ def window_loss(predictor, z_mean, z_std, lengths, static, target, batch, window
 def record_latents(setup, model, clips, count, frames, rng, deadline=None):
     """Frozen-Φ rollouts: per sequence the X_c rows (latent block zero) and Φ's latent for each predicted frame.
     Past `deadline` (time.time()) no further sequence is started once two are recorded."""
+    if batched_path(setup.cfg["stage1"]):      # several sequences rolled together (batching.py)
+        from pleat.train import batching
+        return batching.record_latents(setup, model, clips, count, frames, rng, deadline,
+                                       int(setup.cfg.get("stage2", {}).get("record_group", 8)))
     seqs = []
     for _ in range(count):
         if deadline is not None and len(seqs) >= 2 and time.time() > deadline:
@@ -789,6 +818,11 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
     z_lo = np.full(setup.L, np.inf)
     z_hi = np.full(setup.L, -np.inf)
     sched = dict(c1, iterations=ca["iterations"])
+    batched = batched_path(c1)
+    if batched:     # the batch's windows through the model together (batching.py; the same losses, tested)
+        from pleat.train import batching
+        source = batching.WindowSource(setup, clips, rng, ca["batch"], static=True,
+                                       worker=bool(c1.get("data_worker", False)))
     bar = tqdm(range(start, ca["iterations"]), disable=not progress or rank != 0, desc="ablation")
     for it in bar:
         s = run_fraction(sched, it, budget.elapsed(), budget.budget_s)
@@ -796,7 +830,12 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
         w = loss_weights(sched, it, s)
         loss = 0.0
         acc = {k: 0.0 for k in LOSS_TERMS}
-        for _ in range(ca["batch"]):
+        if batched:
+            s_next = run_fraction(sched, it + 1, budget.elapsed(), budget.budget_s)
+            loss, acc = batching.ablation_iteration(setup, ddp, source, c1, steps, w, z_lo, z_hi,
+                                                    rollout_steps(sched, it + 1, s_next))
+            acc.pop("loss")
+        for _ in range(0 if batched else ca["batch"]):
             win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
             window = Window(setup, win, beta, mat, mat01)
             static = to_t(setup.static_inputs(win, beta, mat), dev)
@@ -833,6 +872,8 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
             run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
                      "elapsed_s": budget.elapsed()})
             break
+    if batched:
+        source.close()
     return model, setup
 
 

@@ -1,0 +1,191 @@
+"""The batched physics-loss path (pleat.train.batching: K windows per iteration through one graph) computes what
+the per-window path of pleat.train.core computes: the same window draws, the same loss, terms, LBS normaliser and
+gradients for stage 1 and the ablation, the same validation and recorded latents (docs/training.md, "Speed").
+Tiny preset; skips without PyTorch."""
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch", reason="PyTorch not installed (pip install 'pleat-tools[train]')")
+
+from pleat.train import batching, core  # noqa: E402
+
+STEPS = 3
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    torch.set_num_threads(1)
+    cfg = core.load_config("tiny")
+    setup = core.Setup(cfg, "tshirt", "cpu")
+    clips = core.physics_clips(cfg, setup.body)
+    return cfg, setup, clips
+
+
+def _weights(cfg, s=0.6):
+    # past the start of the collision ramp (w_c ≈ 3.5·10⁶), so collision and friction weigh in
+    return core.loss_weights(cfg["stage1"], 0, s)
+
+
+def _picks(setup, clips, seed, count, steps=STEPS):
+    rng = np.random.default_rng(seed)
+    return [batching.sample_pick(setup, clips, rng, steps + 3) for _ in range(count)]
+
+
+def _grads(model):
+    return [p.grad.detach().clone() if p.grad is not None else torch.zeros_like(p) for p in model.parameters()]
+
+
+def _assert_grads_close(a, b, rel=1e-4):
+    scale = max(float(g.abs().max()) for g in a)
+    assert scale > 0
+    for ga, gb in zip(a, b):
+        assert torch.allclose(ga, gb, rtol=rel, atol=rel * scale), float((ga - gb).abs().max()) / scale
+
+
+def test_sampling_draws_the_windows_of_the_per_window_path(tiny):
+    _, setup, clips = tiny
+    r1, r2 = np.random.default_rng(7), np.random.default_rng(7)
+    for _ in range(4):
+        win, beta, mat, mat01 = core.sample_window(setup, clips, r1, STEPS + 3)
+        p = batching.sample_pick(setup, clips, r2, STEPS + 3)
+        assert np.array_equal(beta, p["beta"]) and np.array_equal(mat, p["material"])
+        one = batching.prepare(batching.kinematics(setup), [p])
+        # the kinematics of the pick are the per-window posing's (body posing by a sparse matmul, normals in bulk)
+        for key in ("A", "body", "body_normals", "Hinv", "p0", "dt"):
+            np.testing.assert_allclose(one[key][0], win[key], rtol=1e-10, atol=1e-12)
+
+
+def test_rest_geometry_equals_cloth_rest_for_every_shape(tiny):
+    import pleat.physics as ph
+    _, setup, _ = tiny
+    betas = np.random.default_rng(1).uniform(-3, 3, (3, setup.B))
+    kin = batching.kinematics(setup)
+    geo = kin.topology.geometry(kin.shaped(betas))
+    for k, beta in enumerate(betas):
+        ref = ph.cloth_rest(setup.shaped(beta), setup.faces)
+        for key in ("dm_inv", "face_area", "hinge_angle", "hinge_weight", "vertex_area"):
+            np.testing.assert_allclose(geo[key][k], getattr(ref, key), rtol=1e-12, atol=1e-15)
+
+
+def test_stage1_batch_has_the_per_window_loss_terms_normaliser_and_gradients(tiny):
+    """Three fixed windows: each window's loss, equation-4 terms and LBS-only divisor, and the gradient of the
+    iteration's objective (mean of loss / LBS loss), equal the per-window path's (core.Window / rollout_loss /
+    lbs_scale, one window at a time) within float32 tolerance."""
+    cfg, setup, clips = tiny
+    w = _weights(cfg)
+    torch.manual_seed(0)
+    model = core.Stage1Model(setup)
+    picks = _picks(setup, clips, 5, 3)
+    model.zero_grad()
+    ref_loss, ref_scale, ref_terms = [], [], []
+    for p in picks:
+        win = setup.pose_window(p["clip"], p["start"], p["length"], p["beta"])
+        scale, _ = core.lbs_scale(setup, win, p["beta"], p["material"], p["material01"], STEPS, w, 1.0)
+        loss, terms = core.rollout_loss(setup, model, core.Window(setup, win, p["beta"], p["material"],
+                                                                  p["material01"]), STEPS, w)
+        (loss / scale / len(picks)).backward()
+        ref_loss.append(loss.item())
+        ref_scale.append(scale)
+        ref_terms.append(terms)
+    ref_grads = _grads(model)
+    model.zero_grad()
+    objective, loss, scale, terms = batching.stage1_loss(setup, batching.BatchedStage1(model),
+                                                         batching.prepare(batching.kinematics(setup), picks),
+                                                         STEPS, w, "lbs", 1.0)
+    objective.backward()
+    np.testing.assert_allclose(loss.detach().numpy(), ref_loss, rtol=1e-5)
+    np.testing.assert_allclose(scale, ref_scale, rtol=1e-5)
+    for k in core.LOSS_TERMS:
+        np.testing.assert_allclose(terms[k], [t[k] for t in ref_terms], rtol=1e-4, atol=1e-9)
+    assert max(t["friction"] for t in ref_terms) > 0 and max(t["stretching"] for t in ref_terms) > 0
+    _assert_grads_close(ref_grads, _grads(model))
+
+
+def test_ablation_batch_has_the_per_window_objective_gradients_and_latent_range(tiny):
+    cfg, setup, clips = tiny
+    w = _weights(cfg)
+    c1 = dict(cfg["stage1"], loss_norm="lbs")
+    torch.manual_seed(0)
+    norms = core.pose_statistics(setup, clips, np.random.default_rng(0), samples=2)
+    model = core.AblationModel(setup, norms)
+    picks = _picks(setup, clips, 9, 2)
+    lo, hi = np.full(setup.L, np.inf), np.full(setup.L, -np.inf)
+    model.zero_grad()
+    ref = 0.0
+    for p in picks:       # core.train_ablation's per-window loop
+        win = setup.pose_window(p["clip"], p["start"], p["length"], p["beta"])
+        static = core.to_t(setup.static_inputs(win, p["beta"], p["material"]), "cpu")
+        zbox = [torch.zeros(setup.L)]
+
+        def predictor(f, static=static, zbox=zbox):
+            z, disp = model(zbox[0], static[f])
+            zbox[0] = z
+            np.minimum(lo, z.detach().numpy(), out=lo)
+            np.maximum(hi, z.detach().numpy(), out=hi)
+            return disp
+
+        scale, _ = core.lbs_scale(setup, win, p["beta"], p["material"], p["material01"], STEPS, w, 1.0)
+        loss, _ = core.rollout_loss(setup, None, core.Window(setup, win, p["beta"], p["material"],
+                                                             p["material01"]), STEPS, w, predictor)
+        ref = ref + loss / scale / len(picks)
+    ref.backward()
+    ref_grads = _grads(model)
+
+    class Fixed:                  # a WindowSource that hands out these picks
+        def next(self, steps, next_steps=None):
+            return batching._Prepared(batching.kinematics(setup), clips, setup.asset_stub)(picks, static=True)
+
+    for p in picks:
+        p["clip_index"] = next(i for i, c in enumerate(clips) if c is p["clip"])
+    z_lo, z_hi = np.full(setup.L, np.inf), np.full(setup.L, -np.inf)
+    model.zero_grad()
+    objective, rec = batching.ablation_iteration(setup, model, Fixed(), c1, STEPS, w, z_lo, z_hi)
+    objective.backward()
+    assert objective.item() == pytest.approx(ref.item(), rel=1e-5)
+    np.testing.assert_allclose(z_lo, lo, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(z_hi, hi, rtol=1e-5, atol=1e-6)
+    _assert_grads_close(ref_grads, _grads(model))
+
+
+def test_validation_and_recorded_latents_equal_the_per_window_path(tiny):
+    cfg, setup, _ = tiny
+    torch.manual_seed(0)
+    model = core.Stage1Model(setup).eval()
+    per_window = dict(cfg, stage1=dict(cfg["stage1"], batched=False, validation_windows=3))
+    batched = dict(cfg, stage1=dict(cfg["stage1"], batched=True, validation_windows=3))
+    a, b = core.validate_stage1(setup, model, per_window), core.validate_stage1(setup, model, batched)
+    assert a.keys() == b.keys()
+    for k in a:
+        assert b[k] == pytest.approx(a[k], rel=1e-4, abs=1e-9), k
+    clips = core.sources.clips("validation", 30.0, 1, 12, setup.body)
+    setup.cfg = per_window
+    old = core.record_latents(setup, model, clips, 3, 6, np.random.default_rng(2))
+    setup.cfg = batched
+    new = core.record_latents(setup, model, clips, 3, 6, np.random.default_rng(2))
+    setup.cfg = cfg
+    assert len(old) == len(new) == 3
+    for o, n in zip(old, new):
+        np.testing.assert_allclose(n["static"], o["static"], rtol=1e-12)
+        np.testing.assert_allclose(n["z"], o["z"], rtol=1e-4, atol=1e-5)
+
+
+def test_data_worker_prepares_the_same_windows_as_the_trainer_would(tiny):
+    """The forked worker prepares iteration i + 1 while iteration i trains: the windows it hands out are those the
+    in-process source draws from the same generator, also across a change of rollout length (the guess misses and
+    the windows are drawn again)."""
+    _, setup, clips = tiny
+    here = batching.WindowSource(setup, clips, np.random.default_rng(3), 2, static=True)
+    there = batching.WindowSource(setup, clips, np.random.default_rng(3), 2, static=True, worker=True)
+    try:
+        schedule = [1, 1, 2, 2]
+        for i, steps in enumerate(schedule):
+            a = there.next(steps, steps)     # the trainer's guess for the next iteration: this one's length
+            if i and schedule[i - 1] != steps:
+                here.next(schedule[i - 1])   # what the worker drew for the missed guess, dropped
+            b = here.next(steps)
+            for key in ("A", "body", "static", "beta", "material"):
+                np.testing.assert_array_equal(a[key], b[key])
+            assert a["A"].shape[1] == steps + 3
+            assert len(a["trees"]) == 2 and len(a["trees"][0]) == steps + 3
+    finally:
+        there.close()

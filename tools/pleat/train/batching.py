@@ -1,0 +1,673 @@
+"""Batched physics-loss iterations: K windows per iteration through one graph (docs/training.md, "Speed").
+
+The per-window path in `core` (Window, rollout_loss, lbs_scale) builds one window's kinematics, rest geometry,
+KD-trees, features and losses at a time. This module computes the same quantities for K windows at once:
+
+- kinematics (`pose_windows`): forward kinematics per window, then the garment's blended transforms, the posed body
+  (a sparse skinning matrix: body vertices have at most a few joint weights) and its normals for every frame of every
+  window in a few array operations;
+- rest geometry of the β-shaped template (`RestTopology`): the hinge and face topology is the garment's and is
+  found once; only lengths, areas and angles are computed per window (`pleat.physics.cloth_rest` re-derived the
+  topology with Python dictionaries for every window, twice per iteration);
+- the garment graph of K windows is block-diagonal: node, edge and body-edge rows of window k sit after those of
+  window k − 1, with indices offset by k·N, so Φ's MLPs and message passing run once over all K windows
+  (`BatchedStage1`); the compressor and the decoder take [K, …] tensors;
+- body proximity: one KD-tree per window frame, queried once per garment state (the per-window path queried the
+  same state twice: for the loss of frame f and for the features predicting f + 1);
+- the equation-4 terms (`terms`) per window, [K] each, written like `pleat.physics` with a leading window axis;
+- the LBS-only normaliser (`lbs_scales`) of all windows and all steps in one call: the zero-network rollout is LBS,
+  so it needs no step-by-step loop.
+
+The model and its parameters are the same (`core.Stage1Model`, `core.AblationModel`; checkpoints are unchanged),
+and so are the losses: `tests/python/test_train_batching.py` checks that every window's loss, terms, LBS normaliser
+and the gradients equal the per-window path's on fixed windows. With K windows an iteration's loss is the mean
+over its windows of loss / LBS loss; K = 1 is the paper's batch of one.
+"""
+import time
+
+import numpy as np
+import scipy.sparse
+import torch
+from scipy.spatial import cKDTree
+
+from pleat import reference
+from pleat import rotations as rot
+from pleat.physics.energies import GRAVITY_M_S2, _dihedral, _huber, _wrap_angle
+from pleat.physics.xp import _TorchOps, cross, dot
+from pleat.train.model import skin
+
+LOSS_TERMS = ("bending", "stretching", "inertia", "gravity", "friction", "collision")
+_SCALE_TERMS = ("bending", "stretching", "inertia", "friction", "collision")
+
+
+# ---- window sampling -------------------------------------------------------------------------------------------
+def sample_pick(setup, clips, rng, length):
+    """What `core.sample_window` draws, in the same order from the same generator (clip, start, β, material), without
+    posing: the posing of K picks is done together by `pose_windows`."""
+    while True:
+        index = int(rng.integers(len(clips)))
+        if len(clips[index].rotations) >= length:
+            break
+    start = rng.integers(0, len(clips[index].rotations) - length + 1)
+    beta = setup.sample_beta(rng)
+    mat, mat01 = setup.sample_material(rng)
+    return {"clip": clips[index], "clip_index": index, "start": int(start), "length": int(length), "beta": beta,
+            "material": mat, "material01": mat01}
+
+
+# ---- static per-garment data -----------------------------------------------------------------------------------
+class Kinematics:
+    """The garment/body data `pose_windows` needs (numpy only, so a data worker process can hold it)."""
+
+    def __init__(self, setup):
+        self.parents, self.input_joints = setup.parents, setup.input_joints
+        self.joint_template, self.joint_shapedirs = setup.joint_template, setup.joint_shapedirs
+        self.skin_weights, self.skin_indices = setup.skin_weights, setup.skin_indices
+        self.template, self.shape_blend = setup.template, setup.shape_blend
+        self.body_v, self.body_dirs = setup.body_v, setup.body_dirs
+        self.body_skin = scipy.sparse.csr_matrix(setup.body_w)       # [V, J], a few joints per body vertex
+        self.body_faces = setup.body_faces
+        self.body_adjacency = getattr(setup, "body_adjacency", None)
+        self.body_rest_normals = setup.body_rest_normals
+        self.body_collide = setup.body_collide
+        self.topology = RestTopology(setup.energies.rest.faces, setup.energies.rest.hinges)
+
+    def shaped(self, betas):
+        """T + G_S(β) for betas [K, B] → [K, N, 3]."""
+        return self.template[None] + np.einsum("kb,bnc->knc", betas, self.shape_blend)
+
+
+def kinematics(setup):
+    """The setup's Kinematics, made once."""
+    if "_kinematics" not in setup.__dict__:
+        setup._kinematics = Kinematics(setup)
+    return setup._kinematics
+
+
+def body_normals(positions, faces, adjacency_offsets, adjacency_faces):
+    """`pleat.reference.normals` for positions [..., V, 3] (every frame at once, the same sums in the same order)."""
+    x = np.asarray(positions, np.float64)
+    face_normals = np.cross(x[..., faces[:, 1], :] - x[..., faces[:, 0], :], x[..., faces[:, 2], :] - x[..., faces[:, 0], :])
+    offsets = np.asarray(adjacency_offsets, np.int64)
+    gathered = face_normals[..., np.asarray(adjacency_faces, np.int64), :]
+    summed = np.zeros_like(x)
+    has = np.diff(offsets) > 0
+    if gathered.shape[-2]:
+        summed[..., has, :] = np.add.reduceat(gathered, offsets[:-1][has], axis=-2)
+    length = np.linalg.norm(summed, axis=-1, keepdims=True)
+    return np.where(length > 0, summed / np.where(length > 0, length, 1.0), 0.0)
+
+
+def pose_windows(kin, picks):
+    """`Setup.pose_window` for K picks of equal length, stacked: A [K, W, N, 3, 4], body / body_normals
+    [K, W, Vc, 3], dt [K, W], Hinv [K, W, 3, 3], p0 [K, W, 3] (float64), plus the picks' β [K, B]."""
+    M, dts, Hinv, p0 = [], [], [], []
+    for p in picks:
+        s, n, clip = p["start"], p["length"], p["clip"]
+        q = np.asarray(clip.rotations[s:s + n], np.float64)
+        tr = np.asarray(clip.root_translation[s:s + n], np.float64)
+        rq = np.asarray(clip.root_rotation[s:s + n], np.float64)
+        joints = reference.shaped_joints(kin.joint_template, kin.joint_shapedirs, p["beta"])
+        feats = reference.pose_features(kin.parents, joints, kin.input_joints, q, tr, rq)
+        M.append(feats["skin_matrices"])
+        dts.append(np.full(len(q), 1.0 / float(clip.fps)))
+        Hinv.append(np.swapaxes(rot.yaw_matrix(feats["yaw"]), -1, -2))
+        p0.append(feats["pelvis"])
+    M = np.stack(M)                                                    # [K, W, J, 3, 4] rest → world
+    K, W, J = M.shape[:3]
+    betas = np.stack([p["beta"] for p in picks])
+    A = np.einsum("nk,swnkab->swnab", kin.skin_weights, M[:, :, kin.skin_indices])
+    shaped_body = kin.body_v[None] + np.einsum("vcb,kb->kvc", kin.body_dirs, betas)          # [K, V, 3]
+    Ab = kin.body_skin @ np.moveaxis(M.reshape(K * W, J, 12), 1, 0).reshape(J, -1)           # [V, K·W·12]
+    Ab = np.moveaxis(Ab.reshape(-1, K, W, 3, 4), 0, 2)                                         # [K, W, V, 3, 4]
+    body = np.einsum("kwvab,kvb->kwva", Ab[..., :3], shaped_body) + Ab[..., 3]
+    if kin.body_faces is not None:
+        normals = body_normals(body, kin.body_faces, *kin.body_adjacency)
+    else:
+        normals = np.einsum("kwvab,vb->kwva", Ab[..., :3], kin.body_rest_normals)
+        normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
+    vc = kin.body_collide
+    return {"A": A, "body": body[:, :, :vc], "body_normals": normals[:, :, :vc], "dt": np.stack(dts),
+            "Hinv": np.stack(Hinv), "p0": np.stack(p0), "beta": betas}
+
+
+class RestTopology:
+    """The rest geometry of `pleat.physics.cloth_rest` for many shapes of one mesh: the faces, hinges and the two
+    faces of each hinge are fixed, so only the geometry is computed per shape."""
+
+    def __init__(self, faces, hinges):
+        self.faces = np.asarray(faces, np.int64)
+        self.hinges = np.asarray(hinges, np.int64)
+        face_of = {}
+        for fi, (a, b, c) in enumerate(self.faces):
+            face_of[(a, b)] = fi
+            face_of[(b, c)] = fi
+            face_of[(c, a)] = fi
+        self.hinge_fa = np.array([face_of[(a, b)] for a, b in self.hinges[:, :2]], np.int64)
+        self.hinge_fb = np.array([face_of[(b, a)] for a, b in self.hinges[:, :2]], np.int64)
+
+    def geometry(self, shaped):
+        """shaped [K, N, 3] float64 → dm_inv [K, F, 2, 2], face_area [K, F], hinge_angle, hinge_weight [K, H],
+        vertex_area [K, N] (numpy float64, the formulas of cloth_rest)."""
+        x = np.asarray(shaped, np.float64)
+        f = self.faces
+        K, N = x.shape[:2]
+        d1 = x[:, f[:, 1]] - x[:, f[:, 0]]
+        d2 = x[:, f[:, 2]] - x[:, f[:, 0]]
+        l1 = np.linalg.norm(d1, axis=-1)
+        n = np.cross(d1, d2)
+        nlen = np.linalg.norm(n, axis=-1)
+        if np.any(nlen <= 0) or np.any(l1 <= 0):
+            raise ValueError("garment has degenerate (zero-area) faces")
+        dm = np.zeros(l1.shape + (2, 2))
+        dm[..., 0, 0] = l1
+        dm[..., 0, 1] = np.einsum("kij,kij->ki", d1, d2) / l1
+        dm[..., 1, 1] = nlen / l1
+        area = 0.5 * nlen
+        h = self.hinges
+        if len(h):
+            elen2 = np.sum((x[:, h[:, 1]] - x[:, h[:, 0]]) ** 2, axis=-1)
+            weight = 3.0 * elen2 / (area[:, self.hinge_fa] + area[:, self.hinge_fb])
+            angle = _dihedral(*(x[:, h[:, i]] for i in range(4)), np)
+        else:
+            weight = angle = np.zeros((K, 0))
+        slots = (f.reshape(1, -1) + N * np.arange(K)[:, None]).ravel()
+        vertex_area = np.bincount(slots, weights=np.repeat(area / 3.0, 3, axis=-1).ravel(),
+                                  minlength=K * N).reshape(K, N)
+        return {"dm_inv": np.linalg.inv(dm), "face_area": area, "hinge_angle": angle, "hinge_weight": weight,
+                "vertex_area": vertex_area}
+
+
+def prepare(kin, picks, trees=True):
+    """Everything about K picks that does not depend on the network (numpy): kinematics, shaped template, rest
+    geometry and, with `trees`, the KD-tree of the body in every frame. Cheap to send to another process."""
+    win = pose_windows(kin, picks)
+    shaped = kin.shaped(win["beta"])
+    win["shaped"] = shaped
+    win["rest"] = kin.topology.geometry(shaped)
+    win["material"] = np.stack([p["material"] for p in picks])
+    win["material01"] = np.stack([p["material01"] for p in picks])
+    if trees:
+        win["trees"] = [[cKDTree(b) for b in frames] for frames in win["body"]]
+    return win
+
+
+class _Prepared:
+    """The clip list and kinematics a data worker prepares windows from (held by the worker process)."""
+
+    def __init__(self, kin, clips, asset_stub=None):
+        self.kin, self.clips, self.asset_stub = kin, clips, asset_stub
+
+    def __call__(self, picks, static=False):
+        picks = [dict(p, clip=self.clips[p["clip_index"]]) for p in picks]
+        win = prepare(self.kin, picks)
+        if static:
+            win["static"] = np.stack([static_inputs(self.asset_stub, p) for p in picks])
+        return win
+
+
+def static_inputs(asset_stub, pick):
+    """Setup.static_inputs of a pick: X_c (latent block zero) for every frame of its window."""
+    s, n, clip = pick["start"], pick["length"], pick["clip"]
+    return reference.assemble_inputs(asset_stub, np.asarray(clip.rotations[s:s + n], np.float64),
+                                     np.asarray(clip.root_translation[s:s + n], np.float64),
+                                     np.asarray(clip.root_rotation[s:s + n], np.float64),
+                                     np.full(n, 1.0 / float(clip.fps)), pick["beta"], pick["material"])
+
+
+def _worker_loop(prepared, conn):
+    while True:
+        msg = conn.recv()
+        if msg is None:
+            break
+        picks, static = msg
+        conn.send(prepared(picks, static))
+
+
+class WindowSource:
+    """K windows per call, drawn from `rng` in the order `core.sample_window` draws them, prepared (kinematics,
+    rest geometry, KD-trees, optionally X_c rows) here or, with `worker=True`, in a forked process one call ahead:
+    while torch trains on iteration i, the worker prepares the windows of iteration i + 1 (numpy/scipy only; it
+    never touches torch). `steps` is guessed one call ahead by `next_steps`; when a guess misses (the rollout
+    schedule moved on, 4 times a run), the prepared windows are dropped and new ones drawn and prepared here."""
+
+    def __init__(self, setup, clips, rng, windows, static=False, worker=False):
+        self.setup, self.clips, self.rng, self.K, self.static = setup, clips, rng, int(windows), static
+        self.prepared = _Prepared(kinematics(setup), clips, setup.asset_stub if static else None)
+        self.pending, self.proc, self.conn = None, None, None
+        if worker:
+            import multiprocessing as mp
+            ctx = mp.get_context("fork")
+            self.conn, child = ctx.Pipe()
+            self.proc = ctx.Process(target=_worker_loop, args=(self.prepared, child), daemon=True)
+            self.proc.start()
+            child.close()
+
+    def _picks(self, steps):
+        picks = [sample_pick(self.setup, self.clips, self.rng, steps + 3) for _ in range(self.K)]
+        for p in picks:
+            del p["clip"]          # the worker has the clips; only the index travels
+        return picks
+
+    def next(self, steps, next_steps=None):
+        """The windows of this iteration (rollouts of `steps`), and with a worker, start preparing the next
+        iteration's (of `next_steps`, default `steps`)."""
+        win = None
+        if self.pending is not None:
+            pend_steps, self.pending = self.pending, None
+            win = self.conn.recv()
+            if pend_steps != steps:
+                win = None
+        if win is None:
+            win = self.prepared(self._picks(steps), self.static)
+        if self.proc is not None:
+            n = steps if next_steps is None else next_steps
+            self.conn.send((self._picks(n), self.static))
+            self.pending = n
+        return win
+
+    def close(self):
+        if self.proc is not None:
+            if self.pending is not None:
+                self.conn.recv()
+            self.conn.send(None)
+            self.proc.join(timeout=10)
+            self.proc = None
+
+
+# ---- the batch in torch ----------------------------------------------------------------------------------------
+def _f32(a, device):
+    return torch.as_tensor(np.ascontiguousarray(a), dtype=torch.float32, device=device)
+
+
+class WindowBatch:
+    """K windows of one iteration in torch, with the garments' rollout states [K, N, 3]."""
+
+    def __init__(self, setup, win):
+        d = self.device = setup.device
+        self.setup, self.win = setup, win
+        self.K, self.F = win["A"].shape[:2]
+        self.N, self.Vc = setup.N, win["body"].shape[2]
+        self.A = _f32(win["A"], d)
+        self.body = win["body"]
+        self.body_t = _f32(win["body"], d)
+        self.body_n = _f32(win["body_normals"], d)
+        self.Hinv_T = _f32(np.swapaxes(win["Hinv"], -1, -2), d)       # [K, F, 3, 3]: v @ Hinv.T for row vectors v
+        self.p0 = _f32(win["p0"], d)
+        self.dt = win["dt"]                                             # [K, F] float64
+        self.dt30 = _f32(win["dt"] * 30.0, d)                           # [K, F]
+        self.dt2 = _f32(win["dt"] * win["dt"], d)                       # [K, F]
+        self.shaped = _f32(win["shaped"], d)
+        self.rest = {k: _f32(v, d) for k, v in win["rest"].items()}
+        self.material = _f32(win["material"], d)
+        self.material01 = _f32(win["material01"], d)
+        self.trees = win.get("trees") or [[cKDTree(b) for b in frames] for frames in self.body]
+        self.near = {}
+        self.kidx = torch.arange(self.K, device=d)
+        self.rest_edges = []
+        for snd, rcv, _ in setup.levels:
+            r = self.shaped[:, snd] - self.shaped[:, rcv]
+            self.rest_edges.append(torch.cat([r, r.norm(dim=-1, keepdim=True)], -1))
+        lbs = skin(self.A[:, :3], self.shaped[:, None])
+        self.states = [lbs[:, 0], lbs[:, 1], lbs[:, 2]]
+
+    def nearest(self, f):
+        """Nearest body vertex of frame f to the garment state of frame f (dist, index [K, N]); a state is queried
+        once although both the loss of frame f and the features predicting f + 1 need it."""
+        if f not in self.near:
+            x = self.states[f].detach().cpu().numpy()
+            out = [self.trees[k][f].query(x[k]) for k in range(self.K)]
+            self.near[f] = (np.stack([o[0] for o in out]), np.stack([o[1] for o in out]))
+        return self.near[f]
+
+    def features(self, f):
+        """Φ's inputs predicting frame f for all K windows, as block-diagonal graph rows (core.Window.features per
+        window, concatenated): node [K·N, ·], edges per level [K·E_l, 13], body edges [ΣE_b, 9] and their
+        receivers (indices into K·N)."""
+        s, K, N = self.setup, self.K, self.N
+        x2, x1, x0 = self.states[-3], self.states[-2], self.states[-1]
+        dt = torch.as_tensor(self.dt[:, f], dtype=torch.float32, device=self.device)[:, None, None]
+        HT = self.Hinv_T[:, f]
+        vel = (x0 - x1) / dt
+        acc = (x0 - 2 * x1 + x2) / self.dt2[:, f, None, None]
+        pos = x0 - self.p0[:, f, None]
+        nrm = vertex_normals(x0, s.energies.faces)
+        dt30 = self.dt30[:, f, None, None]
+        node = torch.cat([pos @ HT, vel @ HT, 0.1 * acc @ HT, nrm @ HT, self.material01[:, None].expand(K, N, 4),
+                          dt30.expand(K, N, 1), s.static_node.expand(K, N, -1)], -1).reshape(K * N, -1)
+        edges = []
+        for (snd, rcv, _), rest in zip(s.levels, self.rest_edges):
+            rel = (x0[:, snd] - x0[:, rcv]) @ HT
+            E = len(snd)
+            edges.append(torch.cat([rel, rel.norm(dim=-1, keepdim=True), rest,
+                                    self.material01[:, None].expand(K, E, 4), dt30.expand(K, E, 1)],
+                                   -1).reshape(K * E, -1))
+        dist, idx = self.nearest(f - 1)
+        kk, vv = np.nonzero(dist < s.cfg["model"]["body_radius_m"])
+        k_t = torch.as_tensor(kk, device=self.device)
+        recv_local = torch.as_tensor(vv, device=self.device)
+        bi = torch.as_tensor(idx[kk, vv], device=self.device)
+        xr = x0[k_t, recv_local]
+        HTe = HT[k_t]
+        b_t = ((self.body_t[k_t, f - 1, bi] - xr)[:, None, :] @ HTe)[:, 0]
+        b_n = ((self.body_t[k_t, f, bi] - xr)[:, None, :] @ HTe)[:, 0]
+        body = torch.cat([b_t, b_n, b_t.norm(dim=-1, keepdim=True), b_n.norm(dim=-1, keepdim=True),
+                          self.dt30[k_t, f, None]], -1)
+        return node, edges, body, k_t * N + recv_local
+
+    def advance(self, f, displacement):
+        x = skin(self.A[:, f], self.shaped + displacement)
+        self.states.append(x)
+        return x
+
+    def losses(self, f, collision_weight):
+        """Equation-4 terms of the newest state (frame f) per window, [K] each."""
+        x, x_t, x_tm1 = self.states[-1], self.states[-2], self.states[-3]
+        _, idx = self.nearest(f)
+        idx = torch.as_tensor(idx, device=self.device)
+        k = self.kidx[:, None]
+        return terms(self.setup.energies, x, x_t, x_tm1, self.material, self.dt2[:, f], self.body_t[k, f, idx],
+                     self.body_n[k, f, idx], self.body_t[k, f - 1, idx], self.rest, collision_weight)
+
+
+def vertex_normals(x, faces):
+    """core.vertex_normals for x [K, N, 3]."""
+    fn = torch.cross(x[:, faces[:, 1]] - x[:, faces[:, 0]], x[:, faces[:, 2]] - x[:, faces[:, 0]], dim=-1)
+    n = torch.zeros_like(x)
+    for c in range(3):
+        n = n.index_add(1, faces[:, c], fn)
+    return n / n.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+
+
+def terms(energies, x, x_t, x_tm1, material, dt2, body_points, body_normals, body_points_t, rest, collision_weight):
+    """`sources.Energies.terms` (the pleat.physics energies) with a leading window axis: x [K, N, 3], material
+    [K, 4], dt2 [K] (dt² per window), rest geometry [K, …] → {term: [K]}."""
+    xp = _TorchOps
+    m, mu, lam, k = (material[:, i, None] for i in range(4))
+    mass = m * rest["vertex_area"]
+    eps = energies.eps
+    gap = torch.relu(eps - dot(x - body_points, body_normals))
+    collision = (1.0 * gap * gap * gap).sum(-1)
+    with torch.no_grad():  # lagged normal force of the collision penalty (held fixed in the step)
+        g = torch.relu(eps - ((x - body_points) * body_normals).sum(-1))
+        normal_force = 3.0 * g * g * float(collision_weight)
+    # stretching (StVK)
+    faces, di = energies.faces, rest["dm_inv"]
+    x0 = x[:, faces[:, 0]]
+    d1 = x[:, faces[:, 1]] - x0
+    d2 = x[:, faces[:, 2]] - x0
+    f0 = d1 * di[..., 0, 0, None] + d2 * di[..., 1, 0, None]
+    f1 = d1 * di[..., 0, 1, None] + d2 * di[..., 1, 1, None]
+    e00 = 0.5 * (dot(f0, f0) - 1.0)
+    e11 = 0.5 * (dot(f1, f1) - 1.0)
+    e01 = 0.5 * dot(f0, f1)
+    tr = e00 + e11
+    psi = mu * (e00 * e00 + e11 * e11 + 2.0 * e01 * e01) + 0.5 * lam * tr * tr
+    stretching = (rest["face_area"] * psi).sum(-1)
+    # bending (wrap=True, as training always measures it)
+    h = hinge_index(energies, x.device)
+    dtheta = _wrap_angle(_dihedral(x[:, h[:, 0]], x[:, h[:, 1]], x[:, h[:, 2]], x[:, h[:, 3]], xp)
+                         - rest["hinge_angle"], xp)
+    bending = (0.5 * k * rest["hinge_weight"] * dtheta * dtheta).sum(-1)
+    # inertia, gravity (relative to the previous state)
+    d = x - (2 * x_t - x_tm1)
+    inertia = (0.5 * mass / dt2[:, None] * dot(d, d)).sum(-1)
+    gravity = (mass * GRAVITY_M_S2 * x[..., 1]).sum(-1) - (mass * GRAVITY_M_S2 * x_t[..., 1]).sum(-1).detach()
+    # friction
+    u = (x - x_t) - (body_points - body_points_t)
+    ut = u - dot(u, body_normals)[..., None] * body_normals
+    y = torch.sqrt(torch.clamp(dot(ut, ut), min=1e-30))
+    friction = (energies.friction_mu * normal_force * _huber(y, energies.friction_eps, xp)).sum(-1)
+    return {"stretching": stretching, "bending": bending, "inertia": inertia, "gravity": gravity,
+            "friction": friction, "collision": collision}
+
+
+def hinge_index(energies, device):
+    if getattr(energies, "_hinges_t", None) is None or energies._hinges_t.device != device:
+        energies._hinges_t = torch.as_tensor(energies.rest.hinges, device=device)
+    return energies._hinges_t
+
+
+def _weighted(t, w):
+    return sum(w[k] * t[k] for k in LOSS_TERMS)
+
+
+def rollout(batch, steps, w, predict):
+    """core.rollout_loss for K windows: predict(f) → displacement [K, N, 3]. Returns the per-window loss [K] (mean
+    over steps of the weighted terms) and the per-window terms {term: [K] numpy}, averaged over steps."""
+    total = 0.0
+    acc = {k: np.zeros(batch.K) for k in LOSS_TERMS}
+    for i in range(steps):
+        f = 3 + i
+        batch.advance(f, predict(f))
+        t = batch.losses(f, w["collision"])
+        total = total + _weighted(t, w)
+        for k in LOSS_TERMS:
+            acc[k] += t[k].detach().cpu().numpy().astype(np.float64) / steps
+    return total / steps, acc
+
+
+@torch.no_grad()
+def lbs_scales(batch, steps, w, floor):
+    """core.lbs_scale for K windows: the zero-network rollout is the LBS of the shaped template in every frame, so
+    all steps of all windows are one call. Returns scales [K] (numpy) and the terms {term: [K]} averaged over
+    steps."""
+    K, s, d = batch.K, batch.setup, batch.device
+    lbs = skin(batch.A[:, :steps + 3], batch.shaped[:, None])             # [K, steps+3, N, 3]
+    frames = np.arange(3, 3 + steps)
+    idx = np.stack([np.stack([batch.trees[k][f].query(lbs[k, f].cpu().numpy())[1] for f in frames])
+                    for k in range(K)])                                   # [K, steps, N]
+    idx = torch.as_tensor(idx, device=d)
+    fr = torch.as_tensor(frames, device=d)
+    kk = batch.kidx[:, None, None]
+    ff = fr[None, :, None]
+
+    def flat(a):
+        return a.reshape((K * steps,) + a.shape[2:])
+
+    rest = {k: flat(v[:, None].expand((K, steps) + v.shape[1:])) for k, v in batch.rest.items()}
+    t = terms(s.energies, flat(lbs[:, 3:]), flat(lbs[:, 2:-1]), flat(lbs[:, 1:-2]),
+              flat(batch.material[:, None].expand(K, steps, 4)), flat(batch.dt2[:, 3:3 + steps]),
+              flat(batch.body_t[kk, ff, idx]), flat(batch.body_n[kk, ff, idx]), flat(batch.body_t[kk, ff - 1, idx]),
+              rest, w["collision"])
+    acc = {k: np.zeros(K) for k in LOSS_TERMS}
+    for i in range(steps):     # the per-window path's order: a running sum over steps of term / steps
+        for k in LOSS_TERMS:
+            acc[k] += t[k].reshape(K, steps)[:, i].cpu().numpy().astype(np.float64) / steps
+    scale = np.maximum(sum(w[k] * acc[k] for k in _SCALE_TERMS), float(floor))
+    return scale, acc
+
+
+# ---- Φ over K windows ----------------------------------------------------------------------------------------
+class BatchedStage1(torch.nn.Module):
+    """core.Stage1Model's forward for K windows at once (the same parameters: this module only holds the model).
+
+    Two rewrites of the same arithmetic make it cheaper than K calls of the model:
+    - the first layer of each edge MLP acts on [e, h_sender, h_receiver]; it is applied as
+      W_e·e + (W_s·h)[sender] + (W_r·h)[receiver] (the same linear map split by columns), so the node terms are
+      computed once per node instead of once per edge;
+    - on a coarse level only that level's vertices are updated (the node mask is zero elsewhere), so the level's
+      edge and node MLPs run on those vertices only, and their update is added back at their rows."""
+
+    def __init__(self, model):
+        super().__init__()
+        self.model = model
+
+    def forward(self, node, edges, body, recv, graph, K):
+        phi = self.model.phi
+        h = phi.node_enc(node)
+        e = [enc(x) for enc, x in zip(phi.edge_enc, edges)]
+        b = (phi.body_enc(body), recv)
+        for block, l in zip(phi.blocks, phi.schedule):
+            if l == 0:
+                h, e[l], b = graph_block(block, h, e[l], graph[l], b)
+            else:
+                h, e[l], _ = graph_block(block, h, e[l], graph[l])
+        z = compress(phi.compressor, h.reshape(K, -1, h.shape[-1]))
+        return z, self.model.block.displacement(z)
+
+
+def graph_block(block, h, e, level, body=None):
+    """model.GraphBlock.forward on one level of the block-diagonal graph (see BatchedStage1). level: the dict of
+    `block_graph`; `active` is None on the finest level (every vertex is updated there)."""
+    lin0 = block.edge[0]
+    H = h.shape[-1]
+    W = lin0.weight
+    active = level["active"]
+    hl = h if active is None else h.index_select(0, active)
+    s, r = level["senders"], level["receivers"]
+    pre = (torch.nn.functional.linear(e, W[:, :H], lin0.bias) + (hl @ W[:, H:2 * H].T).index_select(0, s)
+           + (hl @ W[:, 2 * H:].T).index_select(0, r))
+    e = e + block.edge[1:](pre)
+    parts = [hl, torch.zeros_like(hl).index_add_(0, r, e)]
+    if block.with_body:
+        be, brecv = body
+        be = be + block.body_edge(torch.cat([be, hl.index_select(0, brecv)], -1))
+        parts.append(torch.zeros_like(hl).index_add_(0, brecv, be))
+        body = (be, brecv)
+    update = block.node(torch.cat(parts, -1))
+    h = h + update if active is None else h.index_add(0, active, update)
+    return h, e, body
+
+
+def compress(compressor, h):
+    """model.Compressor.forward for h [K, N, C] → Z [K, L]."""
+    for blk in compressor.blocks:
+        conv = blk.conv
+        g = h[:, conv.nbr]                                                   # [K, V_out, k, C_in]
+        pooled = torch.einsum("ok,bokc->boc", blk.pool, g)
+        mixed = torch.einsum("okm,bokc->bomc", conv.coeff, g)
+        y = torch.einsum("bomc,mcd->bod", mixed, conv.basis) + conv.bias
+        h = torch.nn.functional.elu(y) + blk.res(pooled)
+    return compressor.flat(h.reshape(h.shape[0], -1))
+
+
+def block_graph(setup, K):
+    """setup.levels for K windows (kept on the setup): per level the senders and receivers, with window k's
+    vertices at k·N + i; on coarse levels (node mask not all ones) as positions in the list of that level's
+    vertices (`active`, ascending)."""
+    cache = setup.__dict__.setdefault("_block_graphs", {})
+    if K not in cache:
+        d, N = setup.device, setup.N
+        out = []
+        for s, r, m in setup.levels:
+            full = (s[None] + N * torch.arange(K, device=d)[:, None]).reshape(-1), \
+                (r[None] + N * torch.arange(K, device=d)[:, None]).reshape(-1)
+            if bool((m > 0).all()):
+                out.append({"active": None, "senders": full[0], "receivers": full[1]})
+                continue
+            verts = torch.nonzero(m[:, 0] > 0)[:, 0]
+            n = len(verts)
+            pos = torch.full((N,), -1, dtype=torch.long, device=d)
+            pos[verts] = torch.arange(n, device=d)
+            off = n * torch.arange(K, device=d)[:, None]
+            assert bool((pos[s] >= 0).all() and (pos[r] >= 0).all()), "a coarse edge leaves its level"
+            out.append({"active": (verts[None] + N * torch.arange(K, device=d)[:, None]).reshape(-1),
+                        "senders": (pos[s][None] + off).reshape(-1), "receivers": (pos[r][None] + off).reshape(-1)})
+        cache[K] = out
+    return cache[K]
+
+
+# ---- one stage-1 iteration over K windows -------------------------------------------------------------------------
+def stage1_loss(setup, net, win, steps, w, loss_norm, floor):
+    """The K windows' losses for one iteration. net: BatchedStage1 (or its DDP wrapper). Returns (objective for
+    backward = mean over windows of loss / LBS loss, per-window raw losses [K], scales [K], terms {k: [K]})."""
+    batch = WindowBatch(setup, win)
+    scale = np.ones(batch.K)
+    if loss_norm == "lbs":
+        scale, _ = lbs_scales(batch, steps, w, floor)
+    graph = block_graph(setup, batch.K)
+
+    def predict(f):
+        node, edges, body, recv = batch.features(f)
+        return net(node, edges, body, recv, graph, batch.K)[1]
+
+    loss, acc = rollout(batch, steps, w, predict)
+    objective = (loss / torch.as_tensor(scale, dtype=loss.dtype, device=loss.device)).mean()
+    return objective, loss, scale, acc
+
+
+def stage1_iteration(setup, net, source, c1, steps, w, next_steps=None):
+    """One stage-1 iteration's objective (to back-propagate) and its log record: with K windows, `loss`,
+    `lbs_scale`, `ratio` and the terms are means over the windows (K = 1: exactly the per-window record)."""
+    win = source.next(steps, next_steps)
+    objective, loss, scale, acc = stage1_loss(setup, net, win, steps, w, c1.get("loss_norm"),
+                                              c1.get("loss_norm_floor", 1.0))
+    losses = loss.detach().cpu().numpy().astype(np.float64)
+    rec = {"loss": float(losses.mean()), "lbs_scale": float(scale.mean()), "ratio": float((losses / scale).mean())}
+    if len(losses) > 1:
+        rec["windows"] = len(losses)
+    rec.update({k: float(v.mean()) for k, v in acc.items()})
+    return objective, rec
+
+
+@torch.no_grad()
+def validate_stage1(setup, model, clips, rng, w, c1):
+    """core.validate_stage1's windows (the same draws from `rng`) as one batch; returns the per-window losses,
+    ratios and terms, and the LBS-only terms, as lists."""
+    n, steps = c1["validation_windows"], c1["rollout_max"]
+    picks = [sample_pick(setup, clips, rng, steps + 3) for _ in range(n)]
+    batch = WindowBatch(setup, prepare(kinematics(setup), picks))
+    scale, lbs_terms = lbs_scales(batch, steps, w, c1.get("loss_norm_floor", 1.0))
+    net, graph = BatchedStage1(model), block_graph(setup, n)
+
+    def predict(f):
+        node, edges, body, recv = batch.features(f)
+        return net(node, edges, body, recv, graph, n)[1]
+
+    loss, terms = rollout(batch, steps, w, predict)
+    losses = [float(v) for v in loss.cpu().numpy()]
+    return (losses, [l / sc for l, sc in zip(losses, scale)], {k: list(v) for k, v in terms.items()},
+            {k: list(v) for k, v in lbs_terms.items()})
+
+
+def ablation_iteration(setup, model, source, c1, steps, w, z_lo, z_hi, next_steps=None):
+    """One ablation iteration over the source's K windows: f_LP → f_dec → D fed its own latents, on the stage-1
+    losses; updates the latent range z_lo/z_hi in place. Returns the objective (mean over windows of loss / LBS
+    loss, what core's per-window loop sums) and the log record (terms averaged over windows)."""
+    win = source.next(steps, next_steps)
+    batch = WindowBatch(setup, win)
+    scale = np.ones(batch.K)
+    if c1.get("loss_norm") == "lbs":
+        scale, _ = lbs_scales(batch, steps, w, c1.get("loss_norm_floor", 1.0))
+    static = _f32(win["static"], batch.device)                          # [K, W, I]
+    state = {"z": torch.zeros(batch.K, setup.L, device=batch.device)}
+
+    def predict(f):
+        z, disp = model(state["z"], static[:, f])
+        state["z"] = z
+        zn = z.detach().cpu().numpy()
+        np.minimum(z_lo, zn.min(0), out=z_lo)
+        np.maximum(z_hi, zn.max(0), out=z_hi)
+        return disp
+
+    loss, acc = rollout(batch, steps, w, predict)
+    objective = (loss / torch.as_tensor(scale, dtype=loss.dtype, device=loss.device)).mean()
+    return objective, {"loss": objective.item(), **{k: float(v.mean()) for k, v in acc.items()}}
+
+
+@torch.no_grad()
+def record_latents(setup, model, clips, count, frames, rng, deadline=None, group=8):
+    """core.record_latents with `group` sequences rolled together (the same draws from `rng`); past `deadline` no
+    further group is started once two sequences are recorded."""
+    pool = [c for c in clips if len(c.rotations) >= 4] or clips
+    length = min(frames + 3, max(len(c.rotations) for c in clips))
+    prepared = _Prepared(kinematics(setup), pool, setup.asset_stub)
+    net = BatchedStage1(model)
+    seqs = []
+    while len(seqs) < count:
+        if deadline is not None and len(seqs) >= 2 and time.time() > deadline:
+            break
+        n = min(group, count - len(seqs))
+        win = prepared([sample_pick(setup, pool, rng, length) for _ in range(n)], static=True)
+        batch, graph = WindowBatch(setup, win), block_graph(setup, n)
+        zs = []
+        for f in range(3, length):
+            node, edges, body, recv = batch.features(f)
+            z, disp = net(node, edges, body, recv, graph, n)
+            batch.advance(f, disp)
+            zs.append(z.cpu().numpy())
+        zs = np.stack(zs, 1)
+        for k in range(n):
+            seqs.append({"static": win["static"][k, 3:].astype(np.float64), "z": zs[k].astype(np.float64)})
+    return seqs
