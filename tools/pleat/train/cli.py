@@ -9,8 +9,9 @@ from pleat.cli import add_quiet, command
 
 def build_parser():
     p = argparse.ArgumentParser(prog="pleat-train", description=__doc__)
-    p.add_argument("command", choices=["stage1", "stage2", "ablation", "pack", "all", "simsup"],
-                   help="simsup: the simulator-supervised recipe (simulate, fit, pack; docs/training.md)")
+    p.add_argument("command", choices=["stage1", "stage2", "ablation", "pack", "all", "simsup", "simsup-tiers"],
+                   help="simsup: the simulator-supervised recipe (simulate, fit, pack; docs/training.md); "
+                        "simsup-tiers: cheaper tiers distilled from the simsup model in --out")
     p.add_argument("--preset", default="tiny", help="configs/<preset>.json (tiny, default)")
     p.add_argument("--config", default=None, help="a config file instead of the preset")
     p.add_argument("--set", action="append", default=[], metavar="KEY=JSON",
@@ -31,6 +32,9 @@ def build_parser():
                         "rollout and loss-weight schedules follow the budget when it ends the run first")
     p.add_argument("--workers", type=int, default=2, help="simsup: simulation processes (default 2)")
     p.add_argument("--cache-dir", default=None, help="simsup: simulation cache (default out/cache/sim)")
+    p.add_argument("--tiers", nargs="+", default=["medium", "small", "xsmall"],
+                   help="simsup-tiers: tier names (pleat.eval.tiers; default medium small xsmall)")
+    p.add_argument("--tier-dir", default=None, help="simsup-tiers: folder for <garment>_<tier>.pleat (default --out)")
     p.add_argument("--data", default=None, help="simsup: a dataset npz written by --export (no simulation)")
     p.add_argument("--export", default=None, help="simsup: write the simulated dataset to this npz")
     p.add_argument("--user-sim", action="append", default=[], metavar="SPEC",
@@ -76,6 +80,11 @@ def main(argv=None):
         simsup.train(cfg, args.garment, args.out, args.workers, args.max_minutes, args.device, progress,
                      args.cache_dir, args.data, args.export, user_sims=args.user_sim,
                      user_only=args.user_sim_only)
+    if args.command == "simsup-tiers":
+        from pleat.train import simsup
+        if not args.data:
+            p.error("simsup-tiers needs --data (the datasets the model was fitted on)")
+        simsup.distill_tiers(args.out, args.data, args.tiers, args.tier_dir or args.out, progress=progress)
     if args.command == "ablation":
         core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)
         print("ablation done")

@@ -254,3 +254,84 @@ def verdict(rows):
     tail = f"; worse than LBS-only on {', '.join(worse)}" if worse else "; better on every clip"
     return (f"verdict: {word} than LBS-only on {len(rows)} validation clips: {p:.1f} mm against {lbs:.1f} mm "
             f"(ratio {p / lbs:.2f}){tail}")
+
+
+# ---- tiers distilled from a simulator-supervised model ------------------------------------------------------------
+@torch.no_grad()
+def teacher_sequences(lp, block, seqs, setup_latent):
+    """The model's own free-running garment (from a reset, as the runtime runs it) on each sequence's X_c rows:
+    sequences {"static", "disp"} with the model's displacement as the target a tier learns."""
+    B = block.exported_blend_shapes()
+    L = int(lp.z_mean.shape[0])
+    out = []
+    for s in seqs:
+        rows = torch.as_tensor(np.concatenate([np.zeros((len(s["static"]), L)), s["static"][:, setup_latent:]], 1),
+                               dtype=torch.float32)
+        z = torch.zeros(L)
+        disp = []
+        for row in rows:
+            _, z = lp(z, row)
+            disp.append(torch.einsum("d,dnc->nc", block.decoder(z), B))
+        out.append({"static": s["static"], "disp": torch.stack(disp).double().numpy()})
+    return out
+
+
+def load_model(run_dir):
+    """(lp, block, norms, shim, setup) of a simsup run (simsup.pt)."""
+    from pleat.eval.tiers import tier
+    state = torch.load(Path(run_dir) / "simsup.pt", weights_only=False)
+    cfg = state["config"]
+    setup = core.Setup(cfg, state["garment"], "cpu")
+    spec = tier(cfg["simsup"]["tier"])
+    L, D = state["norms"]["z_mean"].shape[0], state["block"]["blend_shapes"].shape[0]
+    shim = distill._shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
+    lp = core.LatentPredictor(shim, state["norms"])
+    lp.load_state_dict(state["lp"])
+    from pleat.train.model import InferenceBlock
+    block = InferenceBlock(shim.cfg["model"], setup.N, free_mask=setup.free_mask)
+    block.load_state_dict(state["block"])
+    return lp.eval(), block.eval(), state["norms"], shim, setup
+
+
+def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True):
+    """Each tier of `tiers` (pleat.eval.tiers names) distilled from the simsup model in `run_dir` on the training
+    sequences of `data` (exported datasets): the tier learns the model's own garment, as the tiers learnt Φ's in
+    the two-stage recipe. Writes OUT_DIR/<garment>_<tier>.pleat; returns the reports."""
+    from pleat.eval.tiers import tier
+    lp, block, _, _, setup = load_model(run_dir)
+    cfg, c = setup.cfg, setup.cfg["simsup"]
+    train_clips = _named(_clips("train", cfg["fps"], setup.body))
+    val_clips = _named(_clips("validation", cfg["fps"], setup.body))
+    seqs, val = [], None
+    for part in str(data).split(","):
+        _, q, v = import_dataset(part, setup, train_clips, val_clips, c["validation_frames"])
+        seqs, val = seqs + q, val or v
+    t0 = time.time()
+    teacher = teacher_sequences(lp, block, seqs, setup.L)
+    teacher_val = teacher_sequences(lp, block, val, setup.L)
+    if progress:
+        print(f"simsup tiers: teacher rollouts on {len(seqs)} sequences in {time.time() - t0:.0f} s", file=sys.stderr)
+    reports = []
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for name in tiers:
+        spec = tier(name)
+        garment = None
+        if spec.vertices and spec.vertices < setup.N * 0.8:
+            garment = sources.garment(setup.name, setup.body, spec.vertices)
+        t1 = time.time()
+        tlp, tblock, norms, shim, g, rep = distill.distill(
+            teacher, setup, spec, teacher_val, garment, cfg["seed"], iterations or c["iterations"],
+            c["dec_iterations"], c["lr"], c["batch"], c["window"], False, weight_by_energy=True)
+        rep["fit_wall_s"] = time.time() - t1
+        if garment is None:
+            rep["simulator_validation"] = posed_errors(tlp, tblock, val, setup.L)
+        path = out_dir / f"{setup.name}_{name}.pleat"
+        distill.pack_tier(path, tlp, tblock, norms, shim, g, setup, rep, cfg["fps"], fp16=True,
+                          teacher=f"simulator-supervised model {run_dir}",
+                          model=f"pleat tier {name}: inference block distilled from the simulator-supervised model")
+        rep["asset"] = str(path)
+        reports.append(rep)
+        if progress:
+            print(f"simsup tiers: {name} → {path} in {rep['fit_wall_s']:.0f} s", file=sys.stderr)
+    return reports
