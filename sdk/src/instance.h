@@ -72,6 +72,35 @@ plInstanceData* plGetInstanceData( plInstance handle );
 // then skinning with skin_matrices into positions, then normals, split over the context's workers.
 // PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
 plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend );
+// ---- instance_step.c: the stages of plInstance_Step that plStepInstances (batch.c) runs too ----
+// The batch runs them in the same order for each instance, with f_LP, f_dec and the blend batched in between, so the
+// two paths share every line that decides what a step does (pleat.h: batch = single, bit for bit).
+
+// The pose of frame t+1 as the jobs read it: per asset joint, checked and normalised.
+typedef struct plStepPose
+{
+	double joint_quats[PLEAT_MAX_JOINTS][4]; // local rotations (x, y, z, w), identity where the joint map has −1
+	double root_rotation[4];                 // Q_root (x, y, z, w); all zero was taken as identity
+	double root_translation[3];              // t_root, metres
+} plStepPose;
+
+// Checks the step's arguments in the documented order and gathers the pose (changes nothing in the instance).
+plResult plValidateStep( const plInstanceData* inst, const plFrameInput* input, const plStepOutput* output,
+						 plStepPose* pose );
+// Frame t+1 into next_frame and next_skin_matrices.
+plResult plRunForwardKinematics( plInstanceData* inst, const plStepPose* pose, double dt_s, double previous_yaw );
+// X_c from next_frame, the history (NULL = a first frame) and latent, normalised, into inst->x.
+plResult plAssembleNetworkInput( plInstanceData* inst, const plPoseFrame* frame_t, const plPoseFrame* frame_tm1,
+								 const float* latent );
+// The latent guard: inst->y (f_LP's output, checked finite by the caller) → next_latent.
+plResult plGuardLatent( plInstanceData* inst );
+// The numeric reset: frame t+1 again as a first frame with a zero latent (splits its work over the context's workers).
+plResult plStepFromReset( plInstanceData* inst, const plStepPose* pose, double dt_s, int read_back );
+// The commit: history, latent, weights, skinning matrices, and the copies to the caller's output spans.
+void plCommit( plInstanceData* inst, int networks_ran, int reset, float dt_s, int read_back, const plStepOutput* output );
+// The step's result after its commit (NUMERIC_RESET, CLAMPED or OK), with its log line.
+plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpdate* update, float dt_s );
+
 // Normals of inst->positions into inst->normals on the calling thread (face normals, then the gather), for the rest
 // pose at creation. PLEAT_RESULT_INTERNAL_ERROR as plDeformCpu.
 plResult plNormalsSerial( plInstanceData* inst );

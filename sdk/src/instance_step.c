@@ -14,14 +14,6 @@
 #include <math.h>
 #include <string.h>
 
-// The pose of frame t+1 as the jobs read it: per asset joint, checked and normalised.
-typedef struct plStepPose
-{
-	double joint_quats[PLEAT_MAX_JOINTS][4]; // local rotations (x, y, z, w), identity where the joint map has −1
-	double root_rotation[4];                 // Q_root (x, y, z, w); all zero was taken as identity
-	double root_translation[3];              // t_root, metres
-} plStepPose;
-
 // ---- validate: arguments, then the pose (non-finite, quaternion lengths, dt), as the numpy reference ----
 
 static int plValidQuatLength( const double q[4], double* out_length )
@@ -54,7 +46,7 @@ static plResult plValidateOutput( const plStepOutput* output, uint32_t vertex_co
 
 // Checks the step's arguments in the documented order (pleat.h, plInstance_Step) and gathers the pose into asset
 // joint order. Changes nothing in the instance.
-static plResult plValidateStep( const plInstanceData* inst, const plFrameInput* input, const plStepOutput* output,
+plResult plValidateStep( const plInstanceData* inst, const plFrameInput* input, const plStepOutput* output,
 								plStepPose* pose )
 {
 	const plAssetData* a = inst->asset;
@@ -179,7 +171,7 @@ static plResult plValidateStep( const plInstanceData* inst, const plFrameInput* 
 
 // ---- forward kinematics: frame t+1 into the scratch frame and the scratch skinning matrices ----
 
-static plResult plRunForwardKinematics( plInstanceData* inst, const plStepPose* pose, double dt_s, double previous_yaw )
+plResult plRunForwardKinematics( plInstanceData* inst, const plStepPose* pose, double dt_s, double previous_yaw )
 {
 	const plAssetData* a = inst->asset;
 	plPoseFrame* now = &inst->next_frame;
@@ -222,14 +214,11 @@ static plResult plRunNetwork( plInstanceData* inst, plOrtMlp* ort, const plLayer
 	return plMlpJob_Run( &mlp ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 }
 
-// Z_t+1 into next_latent and w into next_weights from the history (NULL = a first frame: frame t+1 stands in for t
-// and t−1) and Z_t. *out_finite = 0 if f_LP's output, the weights or the skinning matrices are not all finite.
-static plResult plEvaluateNetworks( plInstanceData* inst, const plPoseFrame* frame_t, const plPoseFrame* frame_tm1,
-									const float* latent, int* out_finite )
+plResult plAssembleNetworkInput( plInstanceData* inst, const plPoseFrame* frame_t, const plPoseFrame* frame_tm1,
+								 const float* latent )
 {
 	const plAssetData* a = inst->asset;
 	const plPoseFrame* now = &inst->next_frame;
-	*out_finite = 0;
 	plInputAssemblyJob assembly = { { now, frame_t != NULL ? frame_t : now, frame_tm1 != NULL ? frame_tm1 : now },
 									latent,
 									a->latent_count,
@@ -247,7 +236,34 @@ static plResult plEvaluateNetworks( plInstanceData* inst, const plPoseFrame* fra
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_INPUT );
-	plResult r = plRunNetwork( inst, inst->ort_lp, a->lp, a->lp_layer_count, a->lp_activation, inst->x,
+	return PLEAT_RESULT_OK;
+}
+
+plResult plGuardLatent( plInstanceData* inst )
+{
+	const plAssetData* a = inst->asset;
+	plLatentGuardJob guard = { plMakeConstSpan( inst->y, a->latent_count, 4 ),
+							   a->z_mean,
+							   a->z_std,
+							   a->z_min,
+							   a->z_max,
+							   plMakeSpan( inst->next_latent, a->latent_count, 4 ) };
+	return plLatentGuardJob_Run( &guard ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
+}
+
+// Z_t+1 into next_latent and w into next_weights from the history (NULL = a first frame: frame t+1 stands in for t
+// and t−1) and Z_t. *out_finite = 0 if f_LP's output, the weights or the skinning matrices are not all finite.
+static plResult plEvaluateNetworks( plInstanceData* inst, const plPoseFrame* frame_t, const plPoseFrame* frame_tm1,
+									const float* latent, int* out_finite )
+{
+	const plAssetData* a = inst->asset;
+	*out_finite = 0;
+	plResult r = plAssembleNetworkInput( inst, frame_t, frame_tm1, latent );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
+	}
+	r = plRunNetwork( inst, inst->ort_lp, a->lp, a->lp_layer_count, a->lp_activation, inst->x,
 							   a->input_count, inst->y, a->latent_count );
 	if ( r != PLEAT_RESULT_OK )
 	{
@@ -259,15 +275,10 @@ static plResult plEvaluateNetworks( plInstanceData* inst, const plPoseFrame* fra
 		return PLEAT_RESULT_OK; // before the guard: its clamp would turn an overflow into a bound
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_GUARDS );
-	plLatentGuardJob guard = { plMakeConstSpan( inst->y, a->latent_count, 4 ),
-							   a->z_mean,
-							   a->z_std,
-							   a->z_min,
-							   a->z_max,
-							   plMakeSpan( inst->next_latent, a->latent_count, 4 ) };
-	if ( plLatentGuardJob_Run( &guard ) != PLEAT_RESULT_OK )
+	r = plGuardLatent( inst );
+	if ( r != PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INTERNAL_ERROR;
+		return r;
 	}
 	r = plRunNetwork( inst, inst->ort_dec, a->dec, a->dec_layer_count, a->dec_activation, inst->next_latent,
 					  a->latent_count, inst->next_weights, a->blend_count );
@@ -341,7 +352,7 @@ static plResult plStepFromHistory( plInstanceData* inst, const plNetworkUpdate* 
 // networks give nothing usable even from there — non-finite, or an ONNX Runtime error, which is not returned because
 // the first attempt may already have left non-finite positions on the CPU path — the body is dressed without the
 // learned deformation: zero latent and weights.
-static plResult plStepFromReset( plInstanceData* inst, const plStepPose* pose, double dt_s, int read_back )
+plResult plStepFromReset( plInstanceData* inst, const plStepPose* pose, double dt_s, int read_back )
 {
 	const plAssetData* a = inst->asset;
 	memset( inst->next_latent, 0, a->latent_count * sizeof( float ) );
@@ -398,7 +409,7 @@ static void plCopyOut( float* dst, uint32_t stride_bytes, const float* src, uint
 
 // After a network update: t−1 ← t (or t+1 on a first frame or after a reset), t ← t+1, Z_t ← Z_t+1, w ← w_next.
 // Between updates only the pose-dependent outputs change, and the time since the update grows.
-static void plCommit( plInstanceData* inst, int networks_ran, int reset, float dt_s, int read_back,
+void plCommit( plInstanceData* inst, int networks_ran, int reset, float dt_s, int read_back,
 					  const plStepOutput* output )
 {
 	const plAssetData* a = inst->asset;
@@ -428,6 +439,21 @@ static void plCommit( plInstanceData* inst, int networks_ran, int reset, float d
 		plCopyOut( output->normals, output->normal_stride_bytes, inst->normals, a->vertex_count );
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_COMMIT );
+}
+
+plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpdate* update, float dt_s )
+{
+	if ( reset )
+	{
+		plLog( inst->ctx, PLEAT_LOG_LEVEL_WARNING, PLEAT_LOG_INSTANCE_NUMERIC_RESET, NULL );
+		return PLEAT_RESULT_NUMERIC_RESET;
+	}
+	if ( update->dt_clamped )
+	{
+		plLog( inst->ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_INSTANCE_INPUT_CLAMPED, "dt_s %g", dt_s );
+		return PLEAT_RESULT_CLAMPED;
+	}
+	return PLEAT_RESULT_OK;
 }
 
 plResult plInstance_Step( plInstance handle, const plFrameInput* input, const plStepOutput* output )
@@ -470,17 +496,7 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 		{
 			return r;
 		}
-		plLog( inst->ctx, PLEAT_LOG_LEVEL_WARNING, PLEAT_LOG_INSTANCE_NUMERIC_RESET, NULL );
 	}
 	plCommit( inst, update.run || reset, reset, input->dt_s, read_back, output );
-	if ( reset )
-	{
-		return PLEAT_RESULT_NUMERIC_RESET;
-	}
-	if ( update.dt_clamped )
-	{
-		plLog( inst->ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_INSTANCE_INPUT_CLAMPED, "dt_s %g", input->dt_s );
-		return PLEAT_RESULT_CLAMPED;
-	}
-	return PLEAT_RESULT_OK;
+	return plStepResult( inst, reset, &update, input->dt_s );
 }

@@ -18,6 +18,8 @@ typedef struct plLayer
 // Activation on the hidden layers (asset CONF lp_activation / dec_activation).
 #define PLEAT_ACTIVATION_RELU 1
 #define PLEAT_ACTIVATION_SILU 2
+// y[r] = activation(y[r]) for r < count (mlp.c; the MLP job and its batched twin share it).
+void plApplyActivation( float* y, uint32_t count, uint32_t activation );
 
 // out[r] = bias[r] + Σ_c W[r][c] · x[c] for rows [row_begin, row_end); W is [rows][in] row-major, fp32 or fp16.
 typedef void plMatVecFn( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,

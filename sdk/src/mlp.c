@@ -40,6 +40,14 @@ static float plActivate( float v, uint32_t activation )
 	return v / ( 1.0f + expf( -v ) );
 }
 
+void plApplyActivation( float* y, uint32_t count, uint32_t activation )
+{
+	for ( uint32_t r = 0; r < count; ++r )
+	{
+		y[r] = plActivate( y[r], activation );
+	}
+}
+
 typedef struct plMatVecTask
 {
 	const plKernels* kernels;
@@ -107,10 +115,7 @@ plResult plMlpJob_Run( const plMlpJob* job )
 		plRunTask( job->runner, plMatVecTaskRun, layer->out_count, 64, &task );
 		if ( !last )
 		{
-			for ( uint32_t r = 0; r < layer->out_count; ++r )
-			{
-				y[r] = plActivate( y[r], job->activation );
-			}
+			plApplyActivation( y, layer->out_count, job->activation );
 		}
 		x = y;
 	}

@@ -86,6 +86,23 @@
 // held weights. The first step, and the first after plInstance_Reset, always runs the networks.
 //
 // ==================================================================================================================
+// CROWDS: MANY INSTANCES IN ONE CALL (docs/scene-budget.md)
+// ==================================================================================================================
+// plStepInstances( context, instances, inputs, outputs, results, count ) steps a whole crowd: instance i gets inputs[i]
+// and outputs[i], exactly as plInstance_Step( instances[i], &inputs[i], &outputs[i] ) would give it — the same checks,
+// results, outputs and state, bit for bit, whatever the crowd's size, order or worker count. Instances of the same
+// asset (CPU path, the SDK's MLP backend) are evaluated together in groups of up to 64: f_LP and f_dec become
+// matrix-matrix products and the blend shapes a small GEMM, so each network weight and blend shape is read once per
+// group instead of once per instance (a single step is bound by streaming them: 12 MB per fp32 step at the
+// reference size). Every instance's dot products keep the single kernels' summation order, which is what makes the
+// results identical. The work goes through the task hooks: workers take whole instances for the per-instance stages
+// (validation, forward kinematics, X_c, skinning, normals, commit) and rows or vertex ranges of the batched stages.
+// Instances in a GPU mode or on the ONNX Runtime backend are stepped one by one inside the call.
+//     plInstance crowd[64]; plFrameInput poses[64]; plStepOutput vbos[64]; plResult results[64];
+//     ... fill poses[i] and vbos[i] as for plInstance_Step ...
+//     plStepInstances( context, crowd, poses, vbos, results, 64 );    // results[i] as plInstance_Step's
+//
+// ==================================================================================================================
 // MEMORY
 // ==================================================================================================================
 // Every allocation goes through the context's allocator hooks (alloc/free, both or neither; default: the C runtime).
@@ -558,6 +575,17 @@ PLEAT_API int plInstance_IsValid( plInstance instance );
 /// partial result of that step (keeping a second GPU copy to roll back to would cost 2 × N × 32 bytes of GPU memory
 /// and a copy per step); the next successful step rewrites every vertex.
 PLEAT_API plResult plInstance_Step( plInstance instance, const plFrameInput* input, const plStepOutput* output );
+/// Step count instances of one context in one call (CROWDS above): instance i exactly as
+/// plInstance_Step( instances[i], &inputs[i], outputs != NULL ? &outputs[i] : NULL ) would step it, bit for bit, with
+/// the networks and blend shapes of instances that share an asset evaluated together. instances, inputs: [count];
+/// outputs: [count] or NULL; out_results: [count] or NULL, instance i's own result (INVALID_HANDLE for a null or stale
+/// handle or one of another context). An instance whose step fails is left exactly as it was and the others still
+/// step; an instance listed twice is stepped twice, in list order. Returns INVALID_HANDLE (context) or
+/// INVALID_ARGUMENT (instances or inputs NULL while count > 0) having changed nothing; else the first error in list
+/// order, else the first note (CLAMPED, NUMERIC_RESET), else OK (also for count 0). Allocates nothing; thread rules as
+/// for plInstance_Step, for every instance listed.
+PLEAT_API plResult plStepInstances( plContext context, const plInstance* instances, const plFrameInput* inputs,
+									const plStepOutput* outputs, plResult* out_results, uint32_t count );
 /// Forget the pose history and latent: the next step is a first frame.
 PLEAT_API plResult plInstance_Reset( plInstance instance );
 /// Change how often the networks run (Hz; 0 = every step): plInstanceDef.network_rate_hz, e.g. lower for a character

@@ -1,0 +1,440 @@
+// plStepInstances: many instances stepped in one call. Instances of the same asset are gathered into groups of up to
+// PLEAT_BATCH_MAX and each group runs plInstance_Step's row of jobs with the two memory-bound stages batched:
+//
+//     per instance (workers take whole instances):  validate → network rate decision → forward kinematics → X_c
+//     per group (workers take rows / vertices):      f_LP  →  [latent guard per instance]  →  f_dec  →  blend shapes
+//     per instance (workers take whole instances):  skinning → normals → guards → commit
+//
+// f_LP and f_dec become matrix-matrix products and the blend a small GEMM (jobs_batch.h), so each weight and each
+// blend shape is read once per group instead of once per instance. Every stage is the single step's own (the same
+// jobs and instance_step.c's validation, forward kinematics, reset and commit), and the batched kernels do per
+// instance exactly the single kernels' arithmetic, so every instance ends bit-identical to stepping it alone
+// (test_batch_step_matches_single). What the batch does not batch it hands to plInstance_Step unchanged: instances in
+// a GPU mode or on the ONNX Runtime backend, and the numeric-reset retry (rare; it runs on the calling thread after
+// the group, before that instance's commit, exactly as inside plInstance_Step).
+#include "instance.h"
+
+#include "jobs_batch.h"
+
+#include <stdatomic.h>
+#include <string.h>
+
+// Instances looked at together when forming groups (a bitmap of this many bits on the stack).
+#define PLEAT_BATCH_WINDOW 1024
+
+typedef struct plBatchEntry
+{
+	plInstanceData* inst;
+	const plFrameInput* input;
+	const plStepOutput* output;
+	plNetworkUpdate update;
+	plResult result;   // < 0: the instance's error (nothing of it changed); else its result once finished
+	int needs_reset;   // a non-finite value appeared: the numeric reset runs for it on the calling thread
+	int blend;         // the blend stage writes its T_def this step
+} plBatchEntry;
+
+typedef struct plBatchGroup
+{
+	plContextData* ctx;
+	const plAssetData* asset;
+	const plBatchKernels* kernels;
+	plBatchEntry entries[PLEAT_BATCH_MAX];
+	uint32_t count;
+	// The instances a batched stage takes (indices into entries) and their spans.
+	uint32_t members[PLEAT_BATCH_MAX];
+	uint32_t member_count;
+	plConstSpan in_spans[PLEAT_BATCH_MAX];
+	plSpan out_spans[PLEAT_BATCH_MAX];
+	plSpan scratch_spans[PLEAT_BATCH_MAX];
+	atomic_int blend_result; // a blend job's error, from whichever worker saw it
+} plBatchGroup;
+
+// ---- per instance, before the networks: what plInstance_Step does up to X_c ----
+
+static void plPrepareEntry( plBatchEntry* e )
+{
+	plInstanceData* inst = e->inst;
+	const plAssetData* a = inst->asset;
+	plStepPose pose;
+	e->result = plValidateStep( inst, e->input, e->output, &pose );
+	if ( e->result != PLEAT_RESULT_OK )
+	{
+		return;
+	}
+	e->update = plDecideNetworkUpdate( inst->network_interval_s, inst->network_pending_s, e->input->dt_s,
+									   !inst->history_valid, a->dt_min_s, a->dt_max_s );
+	e->result = plRunForwardKinematics( inst, &pose, e->update.dt_s, inst->history_valid ? inst->history[0].yaw : 0.0 );
+	if ( e->result != PLEAT_RESULT_OK || !e->update.run )
+	{
+		return;
+	}
+	int history = inst->history_valid;
+	e->result = plAssembleNetworkInput( inst, history ? &inst->history[0] : NULL, history ? &inst->history[1] : NULL,
+										inst->latent );
+}
+
+static void plPrepareTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plBatchGroup* g = (plBatchGroup*)context;
+	for ( uint32_t i = begin; i < end; ++i )
+	{
+		plPrepareEntry( &g->entries[i] );
+	}
+}
+
+// ---- per group: the networks and the blend, batched ----
+
+// f_LP (lp = 1) or f_dec over the members: inputs X (normalised) or Z_t+1, outputs y or w, in each instance's buffers.
+static plResult plRunBatchedNetwork( plBatchGroup* g, int lp )
+{
+	const plAssetData* a = g->asset;
+	for ( uint32_t m = 0; m < g->member_count; ++m )
+	{
+		plInstanceData* inst = g->entries[g->members[m]].inst;
+		g->in_spans[m] = lp ? plMakeConstSpan( inst->x, a->input_count, 4 )
+							: plMakeConstSpan( inst->next_latent, a->latent_count, 4 );
+		g->out_spans[m] = lp ? plMakeSpan( inst->y, a->latent_count, 4 ) : plMakeSpan( inst->next_weights, a->blend_count, 4 );
+		g->scratch_spans[m] = plMakeSpan( inst->mlp_scratch, inst->mlp_scratch_count, 4 );
+	}
+	plMlpBatchJob job = { lp ? a->lp : a->dec,
+						  lp ? a->lp_layer_count : a->dec_layer_count,
+						  lp ? a->lp_activation : a->dec_activation,
+						  g->member_count,
+						  g->in_spans,
+						  g->out_spans,
+						  g->scratch_spans,
+						  g->kernels,
+						  &g->ctx->runner };
+	return plMlpBatchJob_Run( &job ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
+}
+
+static void plBlendTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plBatchGroup* g = (plBatchGroup*)context;
+	const plAssetData* a = g->asset;
+	plConstSpan templates[PLEAT_BATCH_MAX], weights[PLEAT_BATCH_MAX];
+	plSpan outputs[PLEAT_BATCH_MAX];
+	for ( uint32_t m = 0; m < g->member_count; ++m )
+	{
+		plInstanceData* inst = g->entries[g->members[m]].inst;
+		templates[m] = plMakeConstSpan( inst->shaped_template, a->vertex_count, 12 );
+		weights[m] = plMakeConstSpan( inst->next_weights, a->blend_count, 4 );
+		outputs[m] = plMakeSpan( inst->deformed, a->vertex_count, 12 );
+	}
+	plBlendShapesBatchJob job = { g->member_count, templates,     weights, outputs, a->blend_shapes, a->blend_shapes_fp16,
+								  a->vertex_count, begin,         end,     g->kernels };
+	if ( plBlendShapesBatchJob_Run( &job ) != PLEAT_RESULT_OK )
+	{
+		atomic_store_explicit( &g->blend_result, (int)PLEAT_RESULT_INTERNAL_ERROR, memory_order_relaxed );
+	}
+}
+
+// Members = the entries that passed so far and satisfy want (run the networks, or blend).
+static void plSelectMembers( plBatchGroup* g, int networks )
+{
+	g->member_count = 0;
+	for ( uint32_t i = 0; i < g->count; ++i )
+	{
+		const plBatchEntry* e = &g->entries[i];
+		if ( e->result == PLEAT_RESULT_OK && !e->needs_reset && ( networks ? e->update.run : e->blend ) )
+		{
+			g->members[g->member_count++] = i;
+		}
+	}
+}
+
+static void plFailMembers( plBatchGroup* g, plResult r )
+{
+	for ( uint32_t m = 0; m < g->member_count; ++m )
+	{
+		g->entries[g->members[m]].result = r;
+	}
+}
+
+// The networks of plInstance_Step's first attempt (plEvaluateNetworks) for every member at once: f_LP, the finite
+// check of y and the latent guard per instance, f_dec, the finite check of the weights and skinning matrices.
+static void plRunNetworks( plBatchGroup* g )
+{
+	const plAssetData* a = g->asset;
+	plSelectMembers( g, 1 );
+	if ( g->member_count == 0 )
+	{
+		return;
+	}
+	plResult r = plRunBatchedNetwork( g, 1 );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		plFailMembers( g, r );
+		return;
+	}
+	for ( uint32_t m = 0; m < g->member_count; ++m )
+	{
+		plBatchEntry* e = &g->entries[g->members[m]];
+		if ( !plAllFiniteFloats( e->inst->y, a->latent_count ) )
+		{
+			e->needs_reset = 1; // before the guard, as in the single step: the clamp would hide an overflow
+			continue;
+		}
+		e->result = plGuardLatent( e->inst );
+	}
+	plSelectMembers( g, 1 );
+	if ( g->member_count == 0 )
+	{
+		return;
+	}
+	r = plRunBatchedNetwork( g, 0 );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		plFailMembers( g, r );
+		return;
+	}
+	for ( uint32_t m = 0; m < g->member_count; ++m )
+	{
+		plBatchEntry* e = &g->entries[g->members[m]];
+		e->needs_reset = !( plAllFiniteFloats( e->inst->next_weights, a->blend_count ) &&
+							plAllFiniteFloats( e->inst->next_skin_matrices, (size_t)a->joint_count * 12 ) );
+	}
+}
+
+// Which instances blend this step (plDeform's rule): after a network update always; between updates (the held
+// weights) only when T_def is not already the committed one.
+static void plRunBlend( plBatchGroup* g )
+{
+	const plAssetData* a = g->asset;
+	for ( uint32_t i = 0; i < g->count; ++i )
+	{
+		plBatchEntry* e = &g->entries[i];
+		if ( e->result != PLEAT_RESULT_OK || e->needs_reset )
+		{
+			continue;
+		}
+		plInstanceData* inst = e->inst;
+		if ( !e->update.run )
+		{
+			memcpy( inst->next_weights, inst->blend_weights, a->blend_count * sizeof( float ) );
+		}
+		e->blend = e->update.run || !inst->deformed_is_committed;
+		if ( e->blend )
+		{
+			inst->deformed_is_committed = 0; // until this step commits
+		}
+	}
+	plSelectMembers( g, 0 );
+	if ( g->member_count == 0 )
+	{
+		return;
+	}
+	atomic_init( &g->blend_result, (int)PLEAT_RESULT_OK );
+	plRunTask( &g->ctx->runner, plBlendTask, a->vertex_count, 256, g );
+	if ( atomic_load_explicit( &g->blend_result, memory_order_relaxed ) != (int)PLEAT_RESULT_OK )
+	{
+		plFailMembers( g, PLEAT_RESULT_INTERNAL_ERROR );
+	}
+}
+
+// ---- per instance, after the blend: skinning, normals, guards, commit ----
+
+static void plFinishEntry( plBatchEntry* e )
+{
+	if ( e->result != PLEAT_RESULT_OK || e->needs_reset )
+	{
+		return;
+	}
+	plInstanceData* inst = e->inst;
+	const plAssetData* a = inst->asset;
+	uint32_t n = a->vertex_count;
+	// This worker's whole instance, so the jobs run unsplit here (their results do not depend on the split).
+	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ), a->skin_indices,   a->skin_weights,
+						   a->influence_count,                    inst->next_skin_matrices, a->joint_count,
+						   plMakeSpan( inst->positions, n, 12 ),  0,                  n,
+						   &inst->ctx->kernels };
+	if ( plSkinningJob_Run( &skin ) != PLEAT_RESULT_OK || plNormalsSerial( inst ) != PLEAT_RESULT_OK )
+	{
+		e->result = PLEAT_RESULT_INTERNAL_ERROR;
+		return;
+	}
+	size_t n3 = (size_t)n * 3;
+	if ( !( plAllFiniteFloats( inst->positions, n3 ) && plAllFiniteFloats( inst->normals, n3 ) ) )
+	{
+		e->needs_reset = 1;
+		return;
+	}
+	plCommit( inst, e->update.run, 0, e->input->dt_s, 1, e->output );
+	e->result = plStepResult( inst, 0, &e->update, e->input->dt_s );
+}
+
+static void plFinishTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plBatchGroup* g = (plBatchGroup*)context;
+	for ( uint32_t i = begin; i < end; ++i )
+	{
+		plFinishEntry( &g->entries[i] );
+	}
+}
+
+// The numeric reset of plInstance_Step, on the calling thread (it splits its own work over the workers).
+static void plResetEntry( plBatchEntry* e )
+{
+	plInstanceData* inst = e->inst;
+	plStepPose pose;
+	plResult r = plValidateStep( inst, e->input, e->output, &pose ); // passed before: the same pose again
+	if ( r == PLEAT_RESULT_OK )
+	{
+		r = plStepFromReset( inst, &pose, e->update.dt_s, 1 );
+	}
+	if ( r != PLEAT_RESULT_OK )
+	{
+		e->result = r;
+		return;
+	}
+	plCommit( inst, 1, 1, e->input->dt_s, 1, e->output );
+	e->result = plStepResult( inst, 1, &e->update, e->input->dt_s );
+}
+
+static void plRunGroup( plBatchGroup* g )
+{
+	plRunTask( &g->ctx->runner, plPrepareTask, g->count, 1, g );
+	plRunNetworks( g );
+	plRunBlend( g );
+	plRunTask( &g->ctx->runner, plFinishTask, g->count, 1, g );
+	for ( uint32_t i = 0; i < g->count; ++i )
+	{
+		if ( g->entries[i].result == PLEAT_RESULT_OK && g->entries[i].needs_reset )
+		{
+			plResetEntry( &g->entries[i] );
+		}
+	}
+}
+
+// ---- the call ----
+
+// The instance behind a handle of this context, or NULL.
+static plInstanceData* plLookup( plContext context, plInstance handle )
+{
+	if ( handle.context.index1 != context.index1 || handle.context.generation != context.generation )
+	{
+		return NULL;
+	}
+	return plGetInstanceData( handle );
+}
+
+static int plBatchable( const plInstanceData* inst )
+{
+	return inst->gl == NULL && inst->ort_lp == NULL && inst->ort_dec == NULL;
+}
+
+typedef struct plBatchOutcome
+{
+	uint32_t error_index, note_index; // lowest list index with an error / a note (UINT32_MAX: none)
+	plResult error, note;
+} plBatchOutcome;
+
+static void plRecord( plBatchOutcome* outcome, plResult* out_results, uint32_t index, plResult r )
+{
+	if ( out_results != NULL )
+	{
+		out_results[index] = r;
+	}
+	if ( r < 0 && index < outcome->error_index )
+	{
+		outcome->error_index = index;
+		outcome->error = r;
+	}
+	else if ( r > 0 && index < outcome->note_index )
+	{
+		outcome->note_index = index;
+		outcome->note = r;
+	}
+}
+
+plResult plStepInstances( plContext context, const plInstance* instances, const plFrameInput* inputs,
+						  const plStepOutput* outputs, plResult* out_results, uint32_t count )
+{
+	plContextData* ctx = plGetContext( context );
+	if ( ctx == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	if ( count == 0 )
+	{
+		return PLEAT_RESULT_OK;
+	}
+	if ( instances == NULL || inputs == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plBatchKernels kernels;
+	int batched_kernels = plSelectBatchKernels( &ctx->kernels, &kernels );
+	plBatchOutcome outcome = { UINT32_MAX, UINT32_MAX, PLEAT_RESULT_OK, PLEAT_RESULT_OK };
+	plBatchGroup group;
+	group.ctx = ctx;
+	group.kernels = &kernels;
+	for ( uint32_t w0 = 0; w0 < count; w0 += PLEAT_BATCH_WINDOW )
+	{
+		uint32_t w1 = count - w0 > PLEAT_BATCH_WINDOW ? w0 + PLEAT_BATCH_WINDOW : count;
+		uint8_t done[PLEAT_BATCH_WINDOW / 8];
+		memset( done, 0, sizeof( done ) );
+#define PLEAT_DONE_( i ) ( done[( ( i ) - w0 ) >> 3] & ( 1u << ( ( ( i ) - w0 ) & 7u ) ) )
+#define PLEAT_MARK_( i ) ( done[( ( i ) - w0 ) >> 3] |= (uint8_t)( 1u << ( ( ( i ) - w0 ) & 7u ) ) )
+		for ( uint32_t s = w0; s < w1; ++s )
+		{
+			if ( PLEAT_DONE_( s ) )
+			{
+				continue;
+			}
+			PLEAT_MARK_( s );
+			plInstanceData* first = plLookup( context, instances[s] );
+			const plStepOutput* out = outputs != NULL ? &outputs[s] : NULL;
+			if ( first == NULL )
+			{
+				plRecord( &outcome, out_results, s, PLEAT_RESULT_INVALID_HANDLE );
+				continue;
+			}
+			if ( !batched_kernels || !plBatchable( first ) )
+			{
+				plRecord( &outcome, out_results, s, plInstance_Step( instances[s], &inputs[s], out ) );
+				continue;
+			}
+			// A group: this instance and the next unprocessed ones of the same asset, each at most once (a second
+			// listing of an instance waits for a later group, so it is stepped after the first, in list order).
+			group.asset = first->asset;
+			group.count = 0;
+			uint32_t indices[PLEAT_BATCH_MAX];
+			for ( uint32_t t = s; t < w1 && group.count < PLEAT_BATCH_MAX; ++t )
+			{
+				plInstanceData* inst = t == s ? first : ( PLEAT_DONE_( t ) ? NULL : plLookup( context, instances[t] ) );
+				if ( inst == NULL || inst->asset != group.asset || !plBatchable( inst ) )
+				{
+					continue;
+				}
+				int duplicate = 0;
+				for ( uint32_t k = 0; k < group.count && !duplicate; ++k )
+				{
+					duplicate = group.entries[k].inst == inst;
+				}
+				if ( duplicate )
+				{
+					continue;
+				}
+				PLEAT_MARK_( t );
+				plBatchEntry* e = &group.entries[group.count];
+				memset( e, 0, sizeof( *e ) );
+				e->inst = inst;
+				e->input = &inputs[t];
+				e->output = outputs != NULL ? &outputs[t] : NULL;
+				indices[group.count++] = t;
+			}
+			plRunGroup( &group );
+			for ( uint32_t k = 0; k < group.count; ++k )
+			{
+				plRecord( &outcome, out_results, indices[k], group.entries[k].result );
+			}
+		}
+#undef PLEAT_DONE_
+#undef PLEAT_MARK_
+	}
+	return outcome.error_index != UINT32_MAX ? outcome.error : outcome.note;
+}

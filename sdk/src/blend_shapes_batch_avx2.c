@@ -1,0 +1,144 @@
+// AVX2 + FMA (+ F16C) twin of plBlendShapesBatch_Scalar, and the batched twin of plBlendShapes_Avx2: per element it
+// performs plBlendShapes_Avx2's arithmetic exactly — the base, then fma(w_j, D_j, ·) for j ascending, one rounding per
+// shape (that kernel's vector lanes and its fmaf tail agree, so any element may take either path here too).
+//
+// The single-instance kernel streams the blend shapes four at a time over the whole vertex range (memory-bound). Here
+// a tile of 16 elements (two vectors) × 4 instances keeps 8 accumulators in registers while j runs over all D shapes:
+// per shape 2 shape loads and 4 weight broadcasts feed 8 FMAs, and the tile's column of every shape (D cache lines) is
+// read from memory once, then from L1 for the other instances of the batch. The next tile's lines are prefetched
+// while the first instances of a tile run, since D strided streams are more than the hardware prefetchers follow.
+#include "kernels_batch.h"
+
+#include <immintrin.h>
+#include <math.h>
+
+static inline __m256 plLoad8( const void* p, int fp16, size_t index )
+{
+	if ( fp16 )
+	{
+		return _mm256_cvtph_ps( _mm_loadu_si128( (const __m128i*)( (const uint16_t*)p + index ) ) );
+	}
+	return _mm256_loadu_ps( (const float*)p + index );
+}
+
+static inline float plLoad1( const void* p, int fp16, size_t index )
+{
+	return fp16 ? plHalfToFloat( ( (const uint16_t*)p )[index] ) : ( (const float*)p )[index];
+}
+
+static inline void plPrefetchColumn( const void* shapes, int fp16, size_t plane, uint32_t blend_count, size_t i )
+{
+	size_t element_bytes = fp16 ? 2 : 4;
+	const char* p = (const char*)shapes + i * element_bytes;
+	for ( uint32_t j = 0; j < blend_count; ++j )
+	{
+		_mm_prefetch( p + (size_t)j * plane * element_bytes, _MM_HINT_T0 );
+	}
+}
+
+// Elements [i, i + 16) of four instances.
+static inline void plBlendTile16x4( float* const* out, const float* const* base, const float* const* weights,
+									const void* shapes, int fp16, uint32_t blend_count, size_t plane, size_t i )
+{
+	const float *w0 = weights[0], *w1 = weights[1], *w2 = weights[2], *w3 = weights[3];
+	__m256 a0 = _mm256_loadu_ps( base[0] + i ), a1 = _mm256_loadu_ps( base[0] + i + 8 );
+	__m256 b0 = _mm256_loadu_ps( base[1] + i ), b1 = _mm256_loadu_ps( base[1] + i + 8 );
+	__m256 c0 = _mm256_loadu_ps( base[2] + i ), c1 = _mm256_loadu_ps( base[2] + i + 8 );
+	__m256 d0 = _mm256_loadu_ps( base[3] + i ), d1 = _mm256_loadu_ps( base[3] + i + 8 );
+	size_t o = i;
+	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
+	{
+		__m256 s0 = plLoad8( shapes, fp16, o ), s1 = plLoad8( shapes, fp16, o + 8 );
+		__m256 w = _mm256_broadcast_ss( w0 + j );
+		a0 = _mm256_fmadd_ps( w, s0, a0 );
+		a1 = _mm256_fmadd_ps( w, s1, a1 );
+		w = _mm256_broadcast_ss( w1 + j );
+		b0 = _mm256_fmadd_ps( w, s0, b0 );
+		b1 = _mm256_fmadd_ps( w, s1, b1 );
+		w = _mm256_broadcast_ss( w2 + j );
+		c0 = _mm256_fmadd_ps( w, s0, c0 );
+		c1 = _mm256_fmadd_ps( w, s1, c1 );
+		w = _mm256_broadcast_ss( w3 + j );
+		d0 = _mm256_fmadd_ps( w, s0, d0 );
+		d1 = _mm256_fmadd_ps( w, s1, d1 );
+	}
+	_mm256_storeu_ps( out[0] + i, a0 );
+	_mm256_storeu_ps( out[0] + i + 8, a1 );
+	_mm256_storeu_ps( out[1] + i, b0 );
+	_mm256_storeu_ps( out[1] + i + 8, b1 );
+	_mm256_storeu_ps( out[2] + i, c0 );
+	_mm256_storeu_ps( out[2] + i + 8, c1 );
+	_mm256_storeu_ps( out[3] + i, d0 );
+	_mm256_storeu_ps( out[3] + i + 8, d1 );
+}
+
+// Elements [i, i + 16) of one instance.
+static inline void plBlendTile16x1( float* out, const float* base, const float* w, const void* shapes, int fp16,
+									uint32_t blend_count, size_t plane, size_t i )
+{
+	__m256 a0 = _mm256_loadu_ps( base + i ), a1 = _mm256_loadu_ps( base + i + 8 );
+	size_t o = i;
+	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
+	{
+		__m256 wj = _mm256_broadcast_ss( w + j );
+		a0 = _mm256_fmadd_ps( wj, plLoad8( shapes, fp16, o ), a0 );
+		a1 = _mm256_fmadd_ps( wj, plLoad8( shapes, fp16, o + 8 ), a1 );
+	}
+	_mm256_storeu_ps( out + i, a0 );
+	_mm256_storeu_ps( out + i + 8, a1 );
+}
+
+// Elements [i, end) of one instance, fewer than 16: 8 at a time, then one at a time.
+static inline void plBlendRest( float* out, const float* base, const float* w, const void* shapes, int fp16,
+								uint32_t blend_count, size_t plane, size_t i, size_t end )
+{
+	for ( ; i + 8 <= end; i += 8 )
+	{
+		__m256 a = _mm256_loadu_ps( base + i );
+		size_t o = i;
+		for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
+		{
+			a = _mm256_fmadd_ps( _mm256_broadcast_ss( w + j ), plLoad8( shapes, fp16, o ), a );
+		}
+		_mm256_storeu_ps( out + i, a );
+	}
+	for ( ; i < end; ++i )
+	{
+		float a = base[i];
+		size_t o = i;
+		for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
+		{
+			a = fmaf( w[j], plLoad1( shapes, fp16, o ), a );
+		}
+		out[i] = a;
+	}
+}
+
+void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const float* const* weights,
+							  uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
+							  uint32_t vertex_count, uint32_t v_begin, uint32_t v_end )
+{
+	size_t plane = (size_t)vertex_count * 3;
+	size_t start = (size_t)v_begin * 3, end = (size_t)v_end * 3;
+	size_t i = start;
+	for ( ; i + 16 <= end; i += 16 )
+	{
+		if ( i + 32 <= end )
+		{
+			plPrefetchColumn( shapes, shapes_fp16, plane, blend_count, i + 32 );
+		}
+		uint32_t b = 0;
+		for ( ; b + 4 <= batch_count; b += 4 )
+		{
+			plBlendTile16x4( out + b, base + b, weights + b, shapes, shapes_fp16, blend_count, plane, i );
+		}
+		for ( ; b < batch_count; ++b )
+		{
+			plBlendTile16x1( out[b], base[b], weights[b], shapes, shapes_fp16, blend_count, plane, i );
+		}
+	}
+	for ( uint32_t b = 0; b < batch_count && i < end; ++b )
+	{
+		plBlendRest( out[b], base[b], weights[b], shapes, shapes_fp16, blend_count, plane, i, end );
+	}
+}

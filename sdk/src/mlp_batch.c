@@ -1,0 +1,131 @@
+// The batched MLP job: f_LP or f_dec for many instances of one asset, layer by layer, each layer a matrix-matrix
+// product whose weights are read once for the whole batch (kernels_batch.h). plMatMat_Scalar is the specification: per
+// (instance, row) exactly plMatVec_Scalar's sum. The activation between layers is the single job's (plApplyActivation).
+#include "jobs_batch.h"
+
+void plMatMat_Scalar( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
+					  int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end )
+{
+	for ( uint32_t r = row_begin; r < row_end; ++r )
+	{
+		for ( uint32_t b = 0; b < batch_count; ++b )
+		{
+			const float* xb = x[b];
+			float sum = 0.0f;
+			if ( weight_fp16 )
+			{
+				const uint16_t* w = (const uint16_t*)weight + (size_t)r * in_count;
+				for ( uint32_t c = 0; c < in_count; ++c )
+				{
+					sum += plHalfToFloat( w[c] ) * xb[c];
+				}
+			}
+			else
+			{
+				const float* w = (const float*)weight + (size_t)r * in_count;
+				for ( uint32_t c = 0; c < in_count; ++c )
+				{
+					sum += w[c] * xb[c];
+				}
+			}
+			out[b][r] = sum + bias[r];
+		}
+	}
+}
+
+typedef struct plMatMatTask
+{
+	const plBatchKernels* kernels;
+	float* const* out;
+	const float* const* x;
+	uint32_t batch_count;
+	const plLayer* layer;
+} plMatMatTask;
+
+static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	const plMatMatTask* t = (const plMatMatTask*)context;
+	t->kernels->mat_mat( t->out, t->x, t->batch_count, t->layer->weight, t->layer->weight_fp16, t->layer->bias,
+						 t->layer->in_count, begin, end );
+}
+
+static uint32_t plWidestHidden( const plLayer* layers, uint32_t layer_count )
+{
+	uint32_t widest = 0;
+	for ( uint32_t i = 0; i + 1 < layer_count; ++i )
+	{
+		widest = layers[i].out_count > widest ? layers[i].out_count : widest;
+	}
+	return widest;
+}
+
+int plMlpBatchJob_Validate( const plMlpBatchJob* job )
+{
+	if ( job == NULL || job->layers == NULL || job->layer_count == 0 || job->layer_count > PLEAT_MAX_LAYERS ||
+		 job->kernels == NULL || job->kernels->mat_mat == NULL || job->batch_count == 0 ||
+		 job->batch_count > PLEAT_BATCH_MAX || job->inputs == NULL || job->outputs == NULL || job->scratch == NULL ||
+		 ( job->activation != PLEAT_ACTIVATION_RELU && job->activation != PLEAT_ACTIVATION_SILU ) )
+	{
+		return 0;
+	}
+	for ( uint32_t i = 0; i < job->layer_count; ++i )
+	{
+		const plLayer* l = &job->layers[i];
+		if ( l->weight == NULL || l->bias == NULL || l->in_count == 0 || l->out_count == 0 ||
+			 ( i > 0 && l->in_count != job->layers[i - 1].out_count ) )
+		{
+			return 0;
+		}
+	}
+	uint32_t widest = plWidestHidden( job->layers, job->layer_count );
+	uint32_t in_count = job->layers[0].in_count, out_count = job->layers[job->layer_count - 1].out_count;
+	for ( uint32_t b = 0; b < job->batch_count; ++b )
+	{
+		if ( !PLEAT_SPAN_HOLDS( job->inputs[b], 4, in_count ) || job->inputs[b].stride_bytes != 4 ||
+			 !PLEAT_SPAN_HOLDS( job->outputs[b], 4, out_count ) || job->outputs[b].stride_bytes != 4 ||
+			 ( widest != 0 &&
+			   ( !PLEAT_SPAN_HOLDS( job->scratch[b], 4, 2 * widest ) || job->scratch[b].stride_bytes != 4 ) ) )
+		{
+			return 0;
+		}
+	}
+	return 1;
+}
+
+plResult plMlpBatchJob_Run( const plMlpBatchJob* job )
+{
+	if ( !plMlpBatchJob_Validate( job ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	uint32_t n = job->batch_count, widest = plWidestHidden( job->layers, job->layer_count );
+	const float* x[PLEAT_BATCH_MAX];
+	float* y[PLEAT_BATCH_MAX];
+	for ( uint32_t b = 0; b < n; ++b )
+	{
+		x[b] = (const float*)job->inputs[b].ptr;
+	}
+	for ( uint32_t i = 0; i < job->layer_count; ++i )
+	{
+		const plLayer* layer = &job->layers[i];
+		int last = i + 1 == job->layer_count;
+		for ( uint32_t b = 0; b < n; ++b )
+		{
+			// The single job's ping-pong in each instance's own scratch: layer i writes ping on even i, pong on odd.
+			float* ping = (float*)job->scratch[b].ptr;
+			y[b] = last ? (float*)job->outputs[b].ptr : ( ( i & 1u ) ? ping + widest : ping );
+		}
+		plMatMatTask task = { job->kernels, y, x, n, layer };
+		plRunTask( job->runner, plMatMatTaskRun, layer->out_count, 64, &task );
+		for ( uint32_t b = 0; b < n; ++b )
+		{
+			if ( !last )
+			{
+				plApplyActivation( y[b], layer->out_count, job->activation );
+			}
+			x[b] = y[b];
+		}
+	}
+	return PLEAT_RESULT_OK;
+}
