@@ -375,6 +375,32 @@ static void plFuzzCheckAsset( plAsset asset, const plAssetInfo* info )
 	PLEAT_FUZZ_REQUIRE( plAsset_GetJointName( asset, info->joint_count, &none ) < 0 );
 }
 
+// The rest poses: parents as the loader checked them (root first, parents before children), a capacity one short
+// refused, and for β = 0 the instance's J(β) is the asset's mean-body pose exactly.
+static void plFuzzCheckRestPose( plAsset asset, plInstance instance, const plAssetInfo* info, const float* beta )
+{
+	plRestJoint mean[PLEAT_MAX_JOINTS], shaped[PLEAT_MAX_JOINTS];
+	uint32_t J = info->joint_count;
+	PLEAT_FUZZ_REQUIRE( plAsset_GetRestPose( asset, mean, J ) == PLEAT_RESULT_OK );
+	PLEAT_FUZZ_REQUIRE( plInstance_GetRestPose( instance, shaped, J ) == PLEAT_RESULT_OK );
+	PLEAT_FUZZ_REQUIRE( plInstance_GetRestPose( instance, shaped, J - 1 ) == PLEAT_RESULT_BUFFER_TOO_SMALL );
+	int beta_zero = 1;
+	for ( uint32_t b = 0; b < info->beta_count; ++b )
+	{
+		beta_zero &= beta[b] == 0.0f;
+	}
+	for ( uint32_t k = 0; k < J; ++k )
+	{
+		PLEAT_FUZZ_REQUIRE( k == 0 ? mean[k].parent == -1 : ( mean[k].parent >= 0 && mean[k].parent < (int32_t)k ) );
+		PLEAT_FUZZ_REQUIRE( shaped[k].parent == mean[k].parent );
+		if ( beta_zero )
+		{
+			PLEAT_FUZZ_REQUIRE( shaped[k].position.x == mean[k].position.x && shaped[k].position.y == mean[k].position.y &&
+								shaped[k].position.z == mean[k].position.z );
+		}
+	}
+}
+
 static void plFuzzCheckShape( plInstance instance, const plAssetInfo* info, const float* expected_beta,
 							  const float* expected_material )
 {
@@ -599,6 +625,7 @@ static void plFuzzScenario( const plFuzzControl* c, const uint8_t* block, size_t
 		goto done;
 	}
 	plFuzzCheckShape( instance, &info, clamped_beta, clamped_material );
+	plFuzzCheckRestPose( asset, instance, &info, clamped_beta );
 	{
 		// Before the first step the positions are the shaped rest template.
 		const float* positions = NULL;
@@ -652,6 +679,7 @@ static void plFuzzScenario( const plFuzzControl* c, const uint8_t* block, size_t
 					PLEAT_FUZZ_REQUIRE( r == ( any_clamped ? PLEAT_RESULT_CLAMPED : PLEAT_RESULT_OK ) );
 				}
 				plFuzzCheckShape( instance, &info, clamped_beta, clamped_material );
+				plFuzzCheckRestPose( asset, instance, &info, clamped_beta );
 			}
 			else if ( kind == 1 )
 			{
