@@ -645,9 +645,10 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 	{
 		return result;
 	}
-	if ( out_avx2 != NULL )
+	plKernelSet kernel_set = PLEAT_KERNEL_SET_SCALAR;
+	if ( out_avx2 != NULL && plContext_GetKernelSet( context, &kernel_set ) == PLEAT_RESULT_OK )
 	{
-		plContext_UsesAvx2( context, out_avx2 );
+		*out_avx2 = kernel_set == PLEAT_KERNEL_SET_AVX2;
 	}
 	plAssetDef adef = plDefaultAssetDef();
 	adef.data = config->asset_bytes;

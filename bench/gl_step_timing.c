@@ -7,7 +7,7 @@
 //    J = 24: the CPU jobs (blend_shapes.c, skinning.c, normals.c through the context's kernel choice, one thread) vs
 //    plGlDeformer_Run in headless mode with positions and normals read back (the read-back makes the GL time include
 //    the GPU work; without it Run only queues commands).
-// 2. With an asset: plInstance_Step with gpu_mode PLEAT_GPU_NONE vs PLEAT_GPU_HEADLESS over the same motion, stepped
+// 2. With an asset: plInstance_Step with gpu_mode PLEAT_GPU_MODE_NONE vs PLEAT_GPU_MODE_HEADLESS over the same motion, stepped
 //    alternately, plus the largest CPU/GL output difference.
 #include "jobs.h"
 #include "gl/gl_internal.h"
@@ -163,7 +163,7 @@ static int plTimeInstances( const char* path, uint32_t frames )
 	{
 		plInstanceDef def = plDefaultInstanceDef();
 		def.asset = asset;
-		def.gpu_mode = i == 0 ? PLEAT_GPU_NONE : PLEAT_GPU_HEADLESS;
+		def.gpu_mode = i == 0 ? PLEAT_GPU_MODE_NONE : PLEAT_GPU_MODE_HEADLESS;
 		plResult result = plCreateInstance( context, &def, &instances[i] );
 		if ( result != PLEAT_RESULT_OK )
 		{

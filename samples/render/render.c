@@ -310,14 +310,14 @@ int main( int argc, char** argv )
 		if ( renderGl_Version( gl ) >= 43 )
 		{
 			// Zero-copy: the SDK's compute shaders write the vertex buffers this renderer draws from.
-			idef.gpu_mode = PLEAT_GPU_HOST_CONTEXT;
+			idef.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT;
 			garment_position_buffer = renderGl_CreateVec4Buffer( gl, info.vertex_count );
 			garment_normal_buffer = renderGl_CreateVec4Buffer( gl, info.vertex_count );
 			idef.host_position_buffer = garment_position_buffer;
 			idef.host_normal_buffer = garment_normal_buffer;
 		}
 		else
-			idef.gpu_mode = PLEAT_GPU_HEADLESS;
+			idef.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
 	}
 	plInstance instance;
 	if ( ( r = plCreateInstance( context, &idef, &instance ) ) != PLEAT_RESULT_OK )

@@ -15,43 +15,47 @@
 
 plContextTable g_plContextTable;
 
+typedef struct plResultInfo
+{
+	plResult result;
+	const char* name;        // "PLEAT_RESULT_" + the name in PLEAT_RESULTS
+	const char* description; // the description there
+} plResultInfo;
+
+// The entry of PLEAT_RESULTS for result, or NULL for a value not listed.
+static const plResultInfo* plFindResult( plResult result )
+{
+	static const plResultInfo table[] = {
+#define PLEAT_RESULT_INFO_( name, value, description ) { PLEAT_RESULT_##name, "PLEAT_RESULT_" #name, description },
+		PLEAT_RESULTS( PLEAT_RESULT_INFO_ )
+#undef PLEAT_RESULT_INFO_
+	};
+	for ( size_t i = 0; i < sizeof( table ) / sizeof( table[0] ); ++i )
+	{
+		if ( table[i].result == result )
+		{
+			return &table[i];
+		}
+	}
+	return NULL;
+}
+
 const char* plResultString( plResult result )
 {
-	switch ( result )
-	{
-#define PLEAT_CASE_( name )                                                                                            \
-	case name:                                                                                                         \
-		return #name;
-		PLEAT_CASE_( PLEAT_RESULT_OK )
-		PLEAT_CASE_( PLEAT_RESULT_CLAMPED )
-		PLEAT_CASE_( PLEAT_RESULT_NUMERIC_RESET )
-		PLEAT_CASE_( PLEAT_RESULT_INVALID_ARGUMENT )
-		PLEAT_CASE_( PLEAT_RESULT_INVALID_DEF )
-		PLEAT_CASE_( PLEAT_RESULT_INVALID_HANDLE )
-		PLEAT_CASE_( PLEAT_RESULT_OUT_OF_MEMORY )
-		PLEAT_CASE_( PLEAT_RESULT_NON_FINITE_INPUT )
-		PLEAT_CASE_( PLEAT_RESULT_INVALID_DT )
-		PLEAT_CASE_( PLEAT_RESULT_INVALID_QUATERNION )
-		PLEAT_CASE_( PLEAT_RESULT_JOINT_COUNT_MISMATCH )
-		PLEAT_CASE_( PLEAT_RESULT_BUFFER_TOO_SMALL )
-		PLEAT_CASE_( PLEAT_RESULT_IO_ERROR )
-		PLEAT_CASE_( PLEAT_RESULT_TRUNCATED )
-		PLEAT_CASE_( PLEAT_RESULT_BAD_MAGIC )
-		PLEAT_CASE_( PLEAT_RESULT_LEGACY_VERSION )
-		PLEAT_CASE_( PLEAT_RESULT_UNSUPPORTED_VERSION )
-		PLEAT_CASE_( PLEAT_RESULT_CHECKSUM_MISMATCH )
-		PLEAT_CASE_( PLEAT_RESULT_MALFORMED_ASSET )
-		PLEAT_CASE_( PLEAT_RESULT_INVALID_ASSET_DATA )
-		PLEAT_CASE_( PLEAT_RESULT_BACKEND_UNAVAILABLE )
-		PLEAT_CASE_( PLEAT_RESULT_GL_UNAVAILABLE )
-		PLEAT_CASE_( PLEAT_RESULT_GL_ERROR )
-		PLEAT_CASE_( PLEAT_RESULT_ASSET_IN_USE )
-		PLEAT_CASE_( PLEAT_RESULT_NOT_FOUND )
-		PLEAT_CASE_( PLEAT_RESULT_CAPACITY_EXCEEDED )
-		PLEAT_CASE_( PLEAT_RESULT_INTERNAL_ERROR )
-#undef PLEAT_CASE_
-	}
-	return "PLEAT_RESULT_UNKNOWN";
+	const plResultInfo* info = plFindResult( result );
+	return info != NULL ? info->name : "PLEAT_RESULT_UNKNOWN";
+}
+
+const char* plResultDescription( plResult result )
+{
+	const plResultInfo* info = plFindResult( result );
+	return info != NULL ? info->description : "unknown result";
+}
+
+plVersion plGetVersion( void )
+{
+	plVersion version = { PLEAT_VERSION_MAJOR, PLEAT_VERSION_MINOR, PLEAT_VERSION_PATCH, PLEAT_ASSET_VERSION_MAJOR };
+	return version;
 }
 
 const char* plLogItemString( plLogItem item )
@@ -199,14 +203,16 @@ plResult plCreateContext( const plContextDef* def, plContext* out_context )
 	ctx->runner.worker_count = def->enqueue_task != NULL ? ( def->worker_count == 0 ? 1 : def->worker_count ) : 1;
 	ctx->log = def->log;
 	ctx->log_context = def->log_context;
-	ctx->uses_avx2 = plSelectKernels( &ctx->kernels, def->force_scalar );
+	int avx2 = plSelectKernels( &ctx->kernels, def->force_scalar );
+	ctx->kernel_set = avx2 ? PLEAT_KERNEL_SET_AVX2 : PLEAT_KERNEL_SET_SCALAR;
 	g_plContextTable.generations[slot] += 1;
 	g_plContextTable.contexts[slot] = ctx;
 	ctx->handle.index1 = slot + 1;
 	ctx->handle.generation = g_plContextTable.generations[slot];
 	*out_context = ctx->handle;
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_CONTEXT_CREATED, "%u workers", ctx->runner.worker_count );
-	plLog( ctx, PLEAT_LOG_LEVEL_INFO, ctx->uses_avx2 ? PLEAT_LOG_KERNELS_AVX2 : PLEAT_LOG_KERNELS_SCALAR, NULL );
+	plLog( ctx, PLEAT_LOG_LEVEL_INFO,
+		   ctx->kernel_set == PLEAT_KERNEL_SET_AVX2 ? PLEAT_LOG_KERNELS_AVX2 : PLEAT_LOG_KERNELS_SCALAR, NULL );
 	return PLEAT_RESULT_OK;
 }
 
@@ -266,19 +272,32 @@ plResult plContext_GetLiveBytes( plContext context, uint64_t* out_bytes )
 	return PLEAT_RESULT_OK;
 }
 
-plResult plContext_UsesAvx2( plContext context, int* out_avx2 )
+plResult plContext_GetKernelSet( plContext context, plKernelSet* out_kernel_set )
 {
-	plContextData* ctx = plGetContext( context );
-	if ( out_avx2 == NULL )
+	if ( out_kernel_set == NULL )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
+	*out_kernel_set = PLEAT_KERNEL_SET_SCALAR;
+	plContextData* ctx = plGetContext( context );
 	if ( ctx == NULL )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	*out_avx2 = ctx->uses_avx2;
+	*out_kernel_set = ctx->kernel_set;
 	return PLEAT_RESULT_OK;
+}
+
+plResult plContext_UsesAvx2( plContext context, int* out_avx2 )
+{
+	if ( out_avx2 == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plKernelSet kernel_set;
+	plResult r = plContext_GetKernelSet( context, &kernel_set );
+	*out_avx2 = kernel_set == PLEAT_KERNEL_SET_AVX2;
+	return r;
 }
 
 uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object, plDestroyObjectFn* destroy )

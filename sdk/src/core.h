@@ -52,7 +52,7 @@ struct plContextData
 	void* log_context;
 
 	plKernels kernels;
-	int uses_avx2;
+	plKernelSet kernel_set; // which variants kernels holds
 
 	plSlotTable assets;
 	plSlotTable instances;

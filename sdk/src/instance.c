@@ -21,7 +21,7 @@ plInstanceDef plDefaultInstanceDef( void )
 	plInstanceDef def;
 	memset( &def, 0, sizeof( def ) );
 	def.mlp_backend = PLEAT_MLP_BACKEND_PLEAT;
-	def.gpu_mode = PLEAT_GPU_NONE;
+	def.gpu_mode = PLEAT_GPU_MODE_NONE;
 	def.internal_cookie = PLEAT_DEF_COOKIE;
 	return def;
 }
@@ -150,11 +150,12 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 			return r;
 		}
 	}
-	if ( def->gpu_mode != PLEAT_GPU_NONE )
+	if ( def->gpu_mode != PLEAT_GPU_MODE_NONE )
 	{
 		plGlDeformerDesc desc;
 		memset( &desc, 0, sizeof( desc ) );
-		desc.mode = def->gpu_mode == PLEAT_GPU_HOST_CONTEXT ? PLEAT_GL_DEFORMER_HOST_CONTEXT : PLEAT_GL_DEFORMER_HEADLESS;
+		desc.mode = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? PLEAT_GL_DEFORMER_HOST_CONTEXT
+																: PLEAT_GL_DEFORMER_HEADLESS;
 		desc.vertex_count = a->vertex_count;
 		desc.face_count = a->face_count;
 		desc.blend_count = a->blend_count;
@@ -168,8 +169,8 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 		desc.faces = a->faces;
 		desc.adjacency_offsets = a->adjacency_offsets;
 		desc.adjacency_faces = a->adjacency_faces;
-		desc.host_position_buffer = def->gpu_mode == PLEAT_GPU_HOST_CONTEXT ? def->host_position_buffer : 0;
-		desc.host_normal_buffer = def->gpu_mode == PLEAT_GPU_HOST_CONTEXT ? def->host_normal_buffer : 0;
+		desc.host_position_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_position_buffer : 0;
+		desc.host_normal_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_normal_buffer : 0;
 		// Headless: the SDK picks the platform and device itself, so it says which it got (a GPU machine silently
 		// running on a software rasteriser is the failure this makes visible).
 		char report[448];
@@ -184,7 +185,7 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 				   report[0] != '\0' ? ": " : "", report );
 			return r;
 		}
-		if ( def->gpu_mode == PLEAT_GPU_HEADLESS )
+		if ( def->gpu_mode == PLEAT_GPU_MODE_HEADLESS )
 		{
 			plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_GL_HEADLESS_CONTEXT, "%s", report );
 		}
@@ -228,7 +229,8 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 			   (int)def->mlp_backend );
 		return PLEAT_RESULT_INVALID_DEF;
 	}
-	if ( def->gpu_mode != PLEAT_GPU_NONE && def->gpu_mode != PLEAT_GPU_HOST_CONTEXT && def->gpu_mode != PLEAT_GPU_HEADLESS )
+	if ( def->gpu_mode != PLEAT_GPU_MODE_NONE && def->gpu_mode != PLEAT_GPU_MODE_HOST_CONTEXT &&
+		 def->gpu_mode != PLEAT_GPU_MODE_HEADLESS )
 	{
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "gpu_mode %d is not a plGpuMode",
 			   (int)def->gpu_mode );
@@ -338,7 +340,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 						 n3,
 						 n3,
 						 (size_t)a->face_count * 4 * sizeof( float ),
-						 def->gpu_mode != PLEAT_GPU_NONE ? n3 : 0 };
+						 def->gpu_mode != PLEAT_GPU_MODE_NONE ? n3 : 0 };
 	size_t total = 0;
 	for ( int i = 0; i < 13; ++i )
 	{
@@ -640,10 +642,20 @@ plResult plInstance_GetAsset( plInstance handle, plAsset* out_asset )
 	return PLEAT_RESULT_OK;
 }
 
-void* plInstance_GetUserData( plInstance handle )
+plResult plInstance_GetUserData( plInstance handle, void** out_user_data )
 {
+	if ( out_user_data == NULL )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	*out_user_data = NULL;
 	plInstanceData* inst = plGetInstanceData( handle );
-	return inst != NULL ? inst->user_data : NULL;
+	if ( inst == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	*out_user_data = inst->user_data;
+	return PLEAT_RESULT_OK;
 }
 
 plResult plInstance_GetRestPose( plInstance handle, plRestJoint* out_joints, uint32_t joint_capacity )

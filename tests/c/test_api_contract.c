@@ -16,21 +16,43 @@ static void test_result_and_log_item_names_are_stable( void** state )
 	assert_string_equal( plResultString( PLEAT_RESULT_NUMERIC_RESET ), "PLEAT_RESULT_NUMERIC_RESET" );
 	assert_string_equal( plResultString( PLEAT_RESULT_CHECKSUM_MISMATCH ), "PLEAT_RESULT_CHECKSUM_MISMATCH" );
 	assert_string_equal( plResultString( PLEAT_RESULT_ASSET_IN_USE ), "PLEAT_RESULT_ASSET_IN_USE" );
+	assert_string_equal( plResultString( PLEAT_RESULT_INTERNAL_ERROR ), "PLEAT_RESULT_INTERNAL_ERROR" );
 	assert_string_equal( plResultString( (plResult)12345 ), "PLEAT_RESULT_UNKNOWN" );
-	// Every code from −23 to 2 has its own name.
-	for ( int a = -23; a <= 2; ++a )
+	assert_string_equal( plResultDescription( PLEAT_RESULT_INVALID_DT ), "dt_s <= 0 or dt_s > 1 s" );
+	assert_string_equal( plResultDescription( (plResult)12345 ), "unknown result" );
+	// Every code from −24 to 2 has its own name and a description, and the values are those of the list.
+	for ( int a = -24; a <= 2; ++a )
 	{
 		assert_string_not_equal( plResultString( (plResult)a ), "PLEAT_RESULT_UNKNOWN" );
+		assert_string_not_equal( plResultDescription( (plResult)a ), "unknown result" );
 		for ( int b = a + 1; b <= 2; ++b )
 		{
 			assert_string_not_equal( plResultString( (plResult)a ), plResultString( (plResult)b ) );
 		}
 	}
+	// The names come from PLEAT_RESULTS itself: "PLEAT_RESULT_" + name for each entry, at its value.
+#define PLEAT_CHECK_RESULT_( name, value, description )                                                                \
+	assert_int_equal( PLEAT_RESULT_##name, value );                                                                    \
+	assert_string_equal( plResultString( PLEAT_RESULT_##name ), "PLEAT_RESULT_" #name );                               \
+	assert_string_equal( plResultDescription( PLEAT_RESULT_##name ), description );
+	PLEAT_RESULTS( PLEAT_CHECK_RESULT_ )
+#undef PLEAT_CHECK_RESULT_
 	assert_true( PLEAT_RESULT_CLAMPED > 0 && PLEAT_RESULT_NUMERIC_RESET > 0 );
 	assert_true( PLEAT_RESULT_INVALID_ARGUMENT < 0 && PLEAT_RESULT_ASSET_IN_USE < 0 );
 	assert_int_equal( PLEAT_LOG_ASSET_LOADED, 10 );
 	assert_string_equal( plLogItemString( PLEAT_LOG_ASSET_LOADED ), "asset loaded" );
 	assert_string_equal( plLogItemString( (plLogItem)9999 ), "unknown item" );
+}
+
+// The library's version is the header's (this test links the library it was built with), the asset major included.
+static void test_runtime_version_matches_the_header( void** state )
+{
+	(void)state;
+	plVersion version = plGetVersion();
+	assert_int_equal( version.major, PLEAT_VERSION_MAJOR );
+	assert_int_equal( version.minor, PLEAT_VERSION_MINOR );
+	assert_int_equal( version.patch, PLEAT_VERSION_PATCH );
+	assert_int_equal( version.asset_major, PLEAT_ASSET_VERSION_MAJOR );
 }
 
 static void test_defs_not_from_default_are_rejected( void** state )
@@ -96,7 +118,9 @@ static void test_null_and_stale_handles_are_rejected( void** state )
 	assert_int_equal( plInstance_GetSkinMatrices( no_inst, f, 1 ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_int_equal( plInstance_GetLatent( no_inst, f, 16 ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_int_equal( plInstance_GetBlendWeights( no_inst, f, 16 ), PLEAT_RESULT_INVALID_HANDLE );
-	assert_null( plInstance_GetUserData( no_inst ) );
+	void* user_data = &user_data;
+	assert_int_equal( plInstance_GetUserData( no_inst, &user_data ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_null( user_data ); // zeroed on failure
 
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	plTestAsset* model = plTestAsset_Create( &p );
@@ -108,7 +132,9 @@ static void test_null_and_stale_handles_are_rejected( void** state )
 	idef.user_data = &user;
 	plInstance inst;
 	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_OK );
-	assert_ptr_equal( plInstance_GetUserData( inst ), &user );
+	assert_int_equal( plInstance_GetUserData( inst, &user_data ), PLEAT_RESULT_OK );
+	assert_ptr_equal( user_data, &user );
+	assert_int_equal( plInstance_GetUserData( inst, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
 	plAsset back;
 	assert_int_equal( plInstance_GetAsset( inst, &back ), PLEAT_RESULT_OK );
 	assert_memory_equal( &back, &rig.asset, sizeof( back ) );
@@ -353,6 +379,7 @@ int main( void )
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_result_and_log_item_names_are_stable ),
+		cmocka_unit_test( test_runtime_version_matches_the_header ),
 		cmocka_unit_test( test_defs_not_from_default_are_rejected ),
 		cmocka_unit_test( test_null_and_stale_handles_are_rejected ),
 		cmocka_unit_test( test_find_joint_and_info ),

@@ -104,7 +104,7 @@ static void test_headless_instance_logs_platform_device_and_renderer( void** sta
 
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = asset;
-	idef.gpu_mode = PLEAT_GPU_HEADLESS;
+	idef.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
 	plInstance instance;
 	plResult result = plCreateInstance( context, &idef, &instance );
 	if ( result == PLEAT_RESULT_GL_UNAVAILABLE )

@@ -1,5 +1,5 @@
-// Instance level: plInstance_Step with PLEAT_GPU_HEADLESS and PLEAT_GPU_HOST_CONTEXT gives the same positions and
-// normals as PLEAT_GPU_NONE (the CPU path) on the same asset and motion, over 40 frames, on Mesa llvmpipe.
+// Instance level: plInstance_Step with PLEAT_GPU_MODE_HEADLESS and PLEAT_GPU_MODE_HOST_CONTEXT gives the same positions and
+// normals as PLEAT_GPU_MODE_NONE (the CPU path) on the same asset and motion, over 40 frames, on Mesa llvmpipe.
 // The asset comes from the core's C test asset builder (tests/c/test_asset_builder.h): a 79 × 56 = 4,424-vertex sheet,
 // 24 joints, K = 4, D = 64 random blend shapes of ±3 cm, small random networks. The MLPs run on the CPU in every mode,
 // so blend weights and skin matrices are identical and only the deformation differs.
@@ -122,7 +122,7 @@ static void plCompareWithCpu( plInstanceFixture* fixture, plGpuMode mode, uint32
 	{
 		plInstanceDef def = plDefaultInstanceDef();
 		def.asset = fixture->asset;
-		def.gpu_mode = i == 0 ? PLEAT_GPU_NONE : mode;
+		def.gpu_mode = i == 0 ? PLEAT_GPU_MODE_NONE : mode;
 		def.host_position_buffer = i == 0 ? 0 : host_position_buffer;
 		def.host_normal_buffer = i == 0 ? 0 : host_normal_buffer;
 		assert_int_equal( plCreateInstance( fixture->context, &def, &instances[i] ), PLEAT_RESULT_OK );
@@ -160,7 +160,7 @@ static void plCompareWithCpu( plInstanceFixture* fixture, plGpuMode mode, uint32
 		}
 	}
 	print_message( "%s: max |cpu - gl| position %.3g m, normal %.3g over %d frames\n",
-				   mode == PLEAT_GPU_HEADLESS ? "headless" : "host context", worst_position, worst_normal,
+				   mode == PLEAT_GPU_MODE_HEADLESS ? "headless" : "host context", worst_position, worst_normal,
 				   PLEAT_TEST_FRAMES );
 	assert_true( worst_position <= PLEAT_TEST_POSITION_TOLERANCE_M );
 	assert_true( worst_normal <= PLEAT_TEST_NORMAL_TOLERANCE );
@@ -183,7 +183,7 @@ static void test_headless_instance_matches_cpu_instance( void** state )
 {
 	plInstanceFixture* fixture = *state;
 	plRequireGl( fixture );
-	plCompareWithCpu( fixture, PLEAT_GPU_HEADLESS, 0, 0 );
+	plCompareWithCpu( fixture, PLEAT_GPU_MODE_HEADLESS, 0, 0 );
 	assert_ptr_equal( eglGetCurrentContext(), EGL_NO_CONTEXT );
 }
 
@@ -200,7 +200,7 @@ static void test_host_context_instance_matches_cpu_instance( void** state )
 		glBufferData( GL_ARRAY_BUFFER, (GLsizeiptr)( 16 * fixture->info.vertex_count ), NULL, GL_DYNAMIC_DRAW );
 	}
 	glBindBuffer( GL_ARRAY_BUFFER, 0 );
-	plCompareWithCpu( fixture, PLEAT_GPU_HOST_CONTEXT, buffers[0], buffers[1] );
+	plCompareWithCpu( fixture, PLEAT_GPU_MODE_HOST_CONTEXT, buffers[0], buffers[1] );
 	assert_ptr_equal( eglGetCurrentContext(), fixture->engine.context );
 	assert_int_equal( glGetError(), GL_NO_ERROR );
 	glDeleteBuffers( 2, buffers );
@@ -213,7 +213,7 @@ static void test_host_context_instance_without_current_context_fails_cleanly( vo
 	plRequireGl( fixture );
 	plInstanceDef def = plDefaultInstanceDef();
 	def.asset = fixture->asset;
-	def.gpu_mode = PLEAT_GPU_HOST_CONTEXT;
+	def.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT;
 	plInstance instance;
 	memset( &instance, 0, sizeof( instance ) );
 	assert_int_equal( plCreateInstance( fixture->context, &def, &instance ), PLEAT_RESULT_GL_UNAVAILABLE );

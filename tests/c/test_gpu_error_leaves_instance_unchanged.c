@@ -40,7 +40,7 @@ static void test_gl_error_in_step_changes_nothing( void** state )
 	glBindBuffer( GL_ARRAY_BUFFER, 0 );
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = rig.asset;
-	idef.gpu_mode = PLEAT_GPU_HOST_CONTEXT;
+	idef.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT;
 	idef.host_position_buffer = buffers[0];
 	idef.host_normal_buffer = buffers[1];
 	plInstance inst;
@@ -136,7 +136,7 @@ static void test_gl_error_in_set_shape_changes_nothing( void** state )
 	uint32_t n = rig.info.vertex_count;
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = rig.asset;
-	idef.gpu_mode = PLEAT_GPU_HOST_CONTEXT;
+	idef.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT;
 	plInstance failed, twin;
 	plResult r = plCreateInstance( rig.context, &idef, &failed );
 	if ( r == PLEAT_RESULT_GL_UNAVAILABLE )

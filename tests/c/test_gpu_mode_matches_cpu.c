@@ -1,4 +1,4 @@
-// An instance in PLEAT_GPU_HEADLESS mode (blend shapes, skinning and normals in GL compute, Mesa llvmpipe here) gives
+// An instance in PLEAT_GPU_MODE_HEADLESS mode (blend shapes, skinning and normals in GL compute, Mesa llvmpipe here) gives
 // the CPU instance's output when the step asks for read-backs. Skips (exit 77) when no GL 4.3 context can be made or
 // the SDK was built without PLEAT_GL.
 //
@@ -27,7 +27,7 @@ static void plCompareGpuWithCpu( float network_rate_hz )
 	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = rig.asset;
-	idef.gpu_mode = PLEAT_GPU_HEADLESS;
+	idef.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
 	idef.network_rate_hz = network_rate_hz;
 	plInstance gpu, cpu;
 	plResult r = plCreateInstance( rig.context, &idef, &gpu );

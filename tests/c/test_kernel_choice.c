@@ -39,6 +39,7 @@ static void plRecordKernels( plLogLevel level, plLogItem item, const char* messa
 	log->avx2_items += item == PLEAT_LOG_KERNELS_AVX2;
 }
 
+// The kernel set a context with this def reports; the deprecated plContext_UsesAvx2 must say the same.
 static int plContextUsesAvx2( int force_scalar, plKernelLog* log )
 {
 	plContextDef def = plDefaultContextDef();
@@ -47,10 +48,25 @@ static int plContextUsesAvx2( int force_scalar, plKernelLog* log )
 	def.log_context = log;
 	plContext context;
 	assert_int_equal( plCreateContext( &def, &context ), PLEAT_RESULT_OK );
+	plKernelSet kernel_set = (plKernelSet)-1;
+	assert_int_equal( plContext_GetKernelSet( context, &kernel_set ), PLEAT_RESULT_OK );
+	assert_true( kernel_set == PLEAT_KERNEL_SET_SCALAR || kernel_set == PLEAT_KERNEL_SET_AVX2 );
 	int avx2 = -1;
+#if defined( __GNUC__ )
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+#endif
 	assert_int_equal( plContext_UsesAvx2( context, &avx2 ), PLEAT_RESULT_OK );
+#if defined( __GNUC__ )
+#pragma GCC diagnostic pop
+#endif
+	assert_int_equal( avx2, kernel_set == PLEAT_KERNEL_SET_AVX2 );
 	assert_int_equal( plDestroyContext( context ), PLEAT_RESULT_OK );
-	return avx2 != 0;
+	// A destroyed context reports nothing, and a missing out parameter is rejected.
+	assert_int_equal( plContext_GetKernelSet( context, &kernel_set ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( kernel_set, PLEAT_KERNEL_SET_SCALAR );
+	assert_int_equal( plContext_GetKernelSet( context, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	return avx2;
 }
 
 static void test_default_context_uses_avx2_exactly_when_built_and_supported( void** state )

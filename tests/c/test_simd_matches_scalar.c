@@ -427,11 +427,11 @@ static void test_pipeline_avx2_matches_scalar( void** state )
 		plTestRig fast, slow;
 		assert_int_equal( plTestRig_Init( &fast, model, NULL ), PLEAT_RESULT_OK );
 		assert_int_equal( plTestRig_Init( &slow, model, &scalar_def ), PLEAT_RESULT_OK );
-		int uses = -1;
-		assert_int_equal( plContext_UsesAvx2( fast.context, &uses ), PLEAT_RESULT_OK );
-		assert_int_equal( uses, 1 );
-		assert_int_equal( plContext_UsesAvx2( slow.context, &uses ), PLEAT_RESULT_OK );
-		assert_int_equal( uses, 0 );
+		plKernelSet kernel_set;
+		assert_int_equal( plContext_GetKernelSet( fast.context, &kernel_set ), PLEAT_RESULT_OK );
+		assert_int_equal( kernel_set, PLEAT_KERNEL_SET_AVX2 );
+		assert_int_equal( plContext_GetKernelSet( slow.context, &kernel_set ), PLEAT_RESULT_OK );
+		assert_int_equal( kernel_set, PLEAT_KERNEL_SET_SCALAR );
 		assert_int_equal( fast.info.weights_fp16, fp16 );
 		plInstance a, b;
 		assert_int_equal( plTestRig_Instance( &fast, &a ), PLEAT_RESULT_OK );

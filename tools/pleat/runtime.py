@@ -88,8 +88,13 @@ class _StepOutput(C.Structure):
                 ("normal_stride_bytes", C.c_uint32), ("vertex_capacity", C.c_uint32)]
 
 
-BACKENDS = {"pleat": 0, "onnxruntime": 1}
-GPU_MODES = {"none": 0, "host_context": 1, "headless": 2}
+class _Version(C.Structure):
+    _fields_ = [("major", C.c_uint32), ("minor", C.c_uint32), ("patch", C.c_uint32), ("asset_major", C.c_uint32)]
+
+
+BACKENDS = {"pleat": 0, "onnxruntime": 1}          # plMlpBackend
+GPU_MODES = {"none": 0, "host_context": 1, "headless": 2}   # plGpuMode
+KERNEL_SETS = {0: "scalar", 1: "avx2"}             # plKernelSet
 RESULT_CLAMPED, RESULT_NUMERIC_RESET = 1, 2
 
 
@@ -130,11 +135,12 @@ def load_library(path=None):
     P = C.POINTER
     sig = {
         "plResultString": (C.c_char_p, [C.c_int]),
+        "plGetVersion": (_Version, []),
         "plDefaultContextDef": (_ContextDef, []),
         "plCreateContext": (C.c_int, [P(_ContextDef), P(_Context)]),
         "plDestroyContext": (C.c_int, [_Context]),
         "plContext_GetLiveBytes": (C.c_int, [_Context, P(C.c_uint64)]),
-        "plContext_UsesAvx2": (C.c_int, [_Context, P(C.c_int)]),
+        "plContext_GetKernelSet": (C.c_int, [_Context, P(C.c_int)]),
         "plDefaultAssetDef": (_AssetDef, []),
         "plLoadAsset": (C.c_int, [_Context, P(_AssetDef), P(_Handle)]),
         "plDestroyAsset": (C.c_int, [_Handle]),
@@ -160,6 +166,12 @@ def load_library(path=None):
     if path is None or _lib is None:
         _lib = lib
     return lib
+
+
+def library_version(path=None):
+    """(major, minor, patch, asset_major) of the loaded library (plGetVersion)."""
+    v = load_library(path).plGetVersion()
+    return v.major, v.minor, v.patch, v.asset_major
 
 
 def _check(lib, result, what):
@@ -201,10 +213,15 @@ class Context:
         return n.value
 
     @property
-    def uses_avx2(self):
+    def kernel_set(self):
+        """The CPU kernels the context runs: "scalar" or "avx2" (plContext_GetKernelSet)."""
         n = C.c_int()
-        _check(self.lib, self.lib.plContext_UsesAvx2(self.handle, C.byref(n)), "plContext_UsesAvx2")
-        return bool(n.value)
+        _check(self.lib, self.lib.plContext_GetKernelSet(self.handle, C.byref(n)), "plContext_GetKernelSet")
+        return KERNEL_SETS[n.value]
+
+    @property
+    def uses_avx2(self):
+        return self.kernel_set == "avx2"
 
     def load_asset(self, source, skip_checksum=False):
         """source: bytes or a path."""

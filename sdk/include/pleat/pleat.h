@@ -135,7 +135,9 @@
 // before the call (the next output is bit-identical to that of an instance that never saw the failed call; in the GPU
 // modes the GPU-side vertex buffers are the one documented exception, see plInstance_Step). Handles are
 // written through out parameters and are zero (null) on failure. Nothing aborts, prints or exits; details go to the
-// optional log callback with stable item ids (PLEAT_LOG_ITEMS).
+// optional log callback with stable item ids (PLEAT_LOG_ITEMS). The codes are one X-macro list too (PLEAT_RESULTS):
+// plResultString names a code, plResultDescription says what it means. plGetVersion gives the library's own version,
+// to compare with the header's PLEAT_VERSION_* when the shared library may come from another build.
 //
 // ==================================================================================================================
 // HANDLES
@@ -179,6 +181,17 @@ extern "C" {
 #define PLEAT_API
 #endif
 
+/// Marks an entry point kept only for source compatibility; the message names its replacement.
+#if defined( __cplusplus ) && __cplusplus >= 201402L
+#define PLEAT_DEPRECATED( message ) [[deprecated( message )]]
+#elif defined( __GNUC__ )
+#define PLEAT_DEPRECATED( message ) __attribute__( ( deprecated( message ) ) )
+#elif defined( _MSC_VER )
+#define PLEAT_DEPRECATED( message ) __declspec( deprecated( message ) )
+#else
+#define PLEAT_DEPRECATED( message )
+#endif
+
 /// Version of this header (major.minor.patch).
 #define PLEAT_VERSION_MAJOR 0
 #define PLEAT_VERSION_MINOR 1
@@ -198,72 +211,77 @@ extern "C" {
 // Results
 // ------------------------------------------------------------------------------------------------------------------
 
-/// Result of every entry point. 0 = OK, > 0 = success with a note, < 0 = error (nothing changed).
+/// The one list of result codes: X( name, value, description ). 0 = OK, > 0 = success with a note, < 0 = error
+/// (nothing changed). Values never change meaning; new codes get new values.
+#define PLEAT_RESULTS( X )                                                                                             \
+	X( OK, 0, "success" )                                                                                             \
+	X( CLAMPED, 1, "success: an input was clamped to its documented range (beta, material, dt)" )                     \
+	X( NUMERIC_RESET, 2,                                                                                              \
+	   "success: a non-finite value appeared inside the step; history and latent were reset and the output "         \
+	   "recomputed" )                                                                                                 \
+	X( INVALID_ARGUMENT, -1, "a pointer is NULL, a count is zero or a value is outside what the function accepts" ) \
+	X( INVALID_DEF, -2,                                                                                               \
+	   "a def was not made by plDefault...Def() (cookie missing) or has an inconsistent field" )                     \
+	X( INVALID_HANDLE, -3, "a handle is null, stale (destroyed) or from another context" )                           \
+	X( OUT_OF_MEMORY, -4, "an allocation failed" )                                                                    \
+	X( NON_FINITE_INPUT, -5, "a pose, root or dt value is NaN or infinite" )                                          \
+	X( INVALID_DT, -6, "dt_s <= 0 or dt_s > 1 s" )                                                                    \
+	X( INVALID_QUATERNION, -7, "a quaternion's length is not within 1e-3 of one" )                                    \
+	X( JOINT_COUNT_MISMATCH, -8,                                                                                      \
+	   "the frame's joint count differs from the instance's engine_joint_count (or a joint map entry is out of "     \
+	   "range)" )                                                                                                     \
+	X( BUFFER_TOO_SMALL, -9, "an output buffer or span is smaller than required" )                                   \
+	X( IO_ERROR, -10, "the asset file could not be opened or read" )                                                  \
+	X( TRUNCATED, -11, "the asset data is shorter than its header says" )                                             \
+	X( BAD_MAGIC, -12, "the asset data does not start with \"PLEATAST\"" )                                            \
+	X( LEGACY_VERSION, -13, "the asset's major version is older than this runtime reads" )                           \
+	X( UNSUPPORTED_VERSION, -14, "the asset's major version is newer than this runtime reads" )                      \
+	X( CHECKSUM_MISMATCH, -15, "the asset's CRC-32 does not match its contents" )                                     \
+	X( MALFORMED_ASSET, -16,                                                                                          \
+	   "the asset's structure is broken (header fields, section table, bounds, alignment, sizes, overlap)" )         \
+	X( INVALID_ASSET_DATA, -17,                                                                                       \
+	   "the asset's structure is sound but its content is not (missing section, wrong dims, index out of range, "    \
+	   "non-finite float, non-positive std, skin weights not summing to one, parent order), or an embedded ONNX "    \
+	   "model is not well-formed or reaches outside the asset (external tensor data, ONNX Runtime session options; " \
+	   "log item ASSET_ONNX_REACHES_OUTSIDE)" )                                                                       \
+	X( BACKEND_UNAVAILABLE, -18, "the requested MLP backend (ONNX Runtime) or the asset's ONNX sections are not "   \
+								  "available" )                                                                       \
+	X( GL_UNAVAILABLE, -19,                                                                                           \
+	   "the GPU path was requested but no GL 4.3 context could be used (or the SDK was built without PLEAT_GL)" )    \
+	X( GL_ERROR, -20, "a GL call failed" )                                                                            \
+	X( ASSET_IN_USE, -21, "plDestroyAsset was called while instances still use the asset" )                          \
+	X( NOT_FOUND, -22, "a lookup (joint name) found nothing" )                                                        \
+	X( CAPACITY_EXCEEDED, -23, "the context's object table is full (too many contexts, assets or instances)" )       \
+	X( INTERNAL_ERROR, -24,                                                                                           \
+	   "a runtime job rejected the buffers the SDK built for it: a defect of the SDK, not of the call (please "      \
+	   "report it); plInstance_Step stops before its commit (history, latent, weights and skinning matrices "        \
+	   "unchanged), but on the CPU path the positions and normals may be partly written" )
+
+/// Result of every entry point (PLEAT_RESULT_ + name in PLEAT_RESULTS).
 typedef enum plResult
 {
-	PLEAT_RESULT_OK = 0,
-	/// Success: an input was clamped to its documented range (β, material, dt).
-	PLEAT_RESULT_CLAMPED = 1,
-	/// Success: a non-finite value appeared inside the step; history and latent were reset and the output recomputed.
-	PLEAT_RESULT_NUMERIC_RESET = 2,
-
-	/// A pointer is NULL, a count is zero or a value is outside what the function accepts.
-	PLEAT_RESULT_INVALID_ARGUMENT = -1,
-	/// A def was not made by plDefault...Def() (cookie missing) or has an inconsistent field.
-	PLEAT_RESULT_INVALID_DEF = -2,
-	/// A handle is null, stale (destroyed) or from another context.
-	PLEAT_RESULT_INVALID_HANDLE = -3,
-	/// An allocation failed.
-	PLEAT_RESULT_OUT_OF_MEMORY = -4,
-	/// A pose, root or dt value is NaN or infinite.
-	PLEAT_RESULT_NON_FINITE_INPUT = -5,
-	/// dt_s <= 0 or dt_s > 1 s.
-	PLEAT_RESULT_INVALID_DT = -6,
-	/// A quaternion's length is not within 1e-3 of one.
-	PLEAT_RESULT_INVALID_QUATERNION = -7,
-	/// The frame's joint count differs from the instance's engine_joint_count (or a joint map entry is out of range).
-	PLEAT_RESULT_JOINT_COUNT_MISMATCH = -8,
-	/// An output buffer or span is smaller than required.
-	PLEAT_RESULT_BUFFER_TOO_SMALL = -9,
-	/// The asset file could not be opened or read.
-	PLEAT_RESULT_IO_ERROR = -10,
-	/// The asset data is shorter than its header says.
-	PLEAT_RESULT_TRUNCATED = -11,
-	/// The asset data does not start with "PLEATAST".
-	PLEAT_RESULT_BAD_MAGIC = -12,
-	/// The asset's major version is older than this runtime reads.
-	PLEAT_RESULT_LEGACY_VERSION = -13,
-	/// The asset's major version is newer than this runtime reads.
-	PLEAT_RESULT_UNSUPPORTED_VERSION = -14,
-	/// The asset's CRC-32 does not match its contents.
-	PLEAT_RESULT_CHECKSUM_MISMATCH = -15,
-	/// The asset's structure is broken (header fields, section table, bounds, alignment, sizes, overlap).
-	PLEAT_RESULT_MALFORMED_ASSET = -16,
-	/// The asset's structure is sound but its content is not (missing section, wrong dims, index out of range,
-	/// non-finite float, non-positive std, skin weights not summing to one, parent order), or an embedded ONNX model
-	/// is not well-formed or reaches outside the asset: tensor data in external files (data_location = EXTERNAL,
-	/// external_data location), ONNX Runtime session options in its metadata (log item ASSET_ONNX_REACHES_OUTSIDE).
-	PLEAT_RESULT_INVALID_ASSET_DATA = -17,
-	/// The requested MLP backend (ONNX Runtime) or the asset's ONNX sections are not available.
-	PLEAT_RESULT_BACKEND_UNAVAILABLE = -18,
-	/// The GPU path was requested but no GL 4.3 context could be used (or the SDK was built without PLEAT_GL).
-	PLEAT_RESULT_GL_UNAVAILABLE = -19,
-	/// A GL call failed.
-	PLEAT_RESULT_GL_ERROR = -20,
-	/// plDestroyAsset was called while instances still use the asset.
-	PLEAT_RESULT_ASSET_IN_USE = -21,
-	/// A lookup (joint name) found nothing.
-	PLEAT_RESULT_NOT_FOUND = -22,
-	/// The context's object table is full (too many contexts, assets or instances).
-	PLEAT_RESULT_CAPACITY_EXCEEDED = -23,
-	/// A runtime job rejected the buffers the SDK built for it: a defect of the SDK, not of the call (please report
-	/// it). plInstance_Step stops before its commit (history, latent, weights and skinning matrices unchanged), but
-	/// on the CPU path the positions and normals may be partly written.
-	PLEAT_RESULT_INTERNAL_ERROR = -24,
+#define PLEAT_RESULT_ENUM_( name, value, description ) PLEAT_RESULT_##name = value,
+	PLEAT_RESULTS( PLEAT_RESULT_ENUM_ )
+#undef PLEAT_RESULT_ENUM_
 } plResult;
 
 /// Stable name of a result code, e.g. "PLEAT_RESULT_CLAMPED"; "PLEAT_RESULT_UNKNOWN" for values not listed.
 PLEAT_API const char* plResultString( plResult result );
+/// What a result code means (its description in PLEAT_RESULTS); "unknown result" for values not listed.
+PLEAT_API const char* plResultDescription( plResult result );
+
+/// Version of the library itself, which may differ from the header's PLEAT_VERSION_* when an application runs with
+/// another build of the shared library than it was compiled against (compare the major versions).
+typedef struct plVersion
+{
+	uint32_t major;       ///< PLEAT_VERSION_MAJOR of the library's build
+	uint32_t minor;       ///< PLEAT_VERSION_MINOR
+	uint32_t patch;       ///< PLEAT_VERSION_PATCH
+	uint32_t asset_major; ///< PLEAT_ASSET_VERSION_MAJOR: the asset format major version it reads
+} plVersion;
+
+/// The library's version (cannot fail; callable before any context exists).
+PLEAT_API plVersion plGetVersion( void );
 
 // ------------------------------------------------------------------------------------------------------------------
 // Log
@@ -396,7 +414,17 @@ PLEAT_API int plContext_IsValid( plContext context );
 /// allocator hooks but is not counted: the value is exactly 0 right after plCreateContext and again whenever no asset
 /// or instance is alive, so a leak test compares it with 0.
 PLEAT_API plResult plContext_GetLiveBytes( plContext context, uint64_t* out_bytes );
-/// Non-zero in *out_avx2 if the context uses the AVX2 + FMA + F16C kernels, zero for scalar.
+/// The CPU kernels a context chose at creation (log items KERNELS_SCALAR / KERNELS_AVX2 say the same).
+typedef enum plKernelSet
+{
+	PLEAT_KERNEL_SET_SCALAR = 0, ///< the scalar kernels (the specification; PLEAT_FORCE_SCALAR builds, force_scalar)
+	PLEAT_KERNEL_SET_AVX2 = 1,   ///< AVX2 + FMA + F16C variants, bit-identical to scalar
+} plKernelSet;
+
+/// The kernel set the context uses, in *out_kernel_set (PLEAT_KERNEL_SET_SCALAR on failure).
+PLEAT_API plResult plContext_GetKernelSet( plContext context, plKernelSet* out_kernel_set );
+/// Deprecated: plContext_GetKernelSet. Non-zero in *out_avx2 if the kernel set is PLEAT_KERNEL_SET_AVX2.
+PLEAT_DEPRECATED( "use plContext_GetKernelSet" )
 PLEAT_API plResult plContext_UsesAvx2( plContext context, int* out_avx2 );
 
 // ------------------------------------------------------------------------------------------------------------------
@@ -488,10 +516,14 @@ typedef enum plMlpBackend
 /// Where blend shapes, skinning and normals run.
 typedef enum plGpuMode
 {
-	PLEAT_GPU_NONE = 0,         ///< CPU (default)
-	PLEAT_GPU_HOST_CONTEXT = 1, ///< GL 4.3 compute in the engine's context, current on the calling thread
-	PLEAT_GPU_HEADLESS = 2,     ///< GL 4.3 compute in a headless context the SDK creates (EGL, OSMesa fallback)
+	PLEAT_GPU_MODE_NONE = 0,         ///< CPU (default)
+	PLEAT_GPU_MODE_HOST_CONTEXT = 1, ///< GL 4.3 compute in the engine's context, current on the calling thread
+	PLEAT_GPU_MODE_HEADLESS = 2,     ///< GL 4.3 compute in a headless context the SDK creates (EGL, OSMesa fallback)
 } plGpuMode;
+/// Deprecated spellings of the plGpuMode constants (before they took the PLEAT_<TYPE>_ prefix of every other enum).
+#define PLEAT_GPU_NONE PLEAT_GPU_MODE_NONE
+#define PLEAT_GPU_HOST_CONTEXT PLEAT_GPU_MODE_HOST_CONTEXT
+#define PLEAT_GPU_HEADLESS PLEAT_GPU_MODE_HEADLESS
 
 /// Instance definition: get one from plDefaultInstanceDef(), change fields, pass to plCreateInstance.
 typedef struct plInstanceDef
@@ -506,7 +538,7 @@ typedef struct plInstanceDef
 	const float* material;             ///< [4] initial (areal density m kg/m², μ N/m, λ N/m, bending k J), NULL = asset default
 	plMlpBackend mlp_backend;          ///< PLEAT_MLP_BACKEND_PLEAT (default) or _ONNXRUNTIME
 	const char* onnxruntime_library;   ///< path of libonnxruntime (NULL = search, see ort_backend)
-	plGpuMode gpu_mode;                ///< PLEAT_GPU_NONE (default), _HOST_CONTEXT or _HEADLESS
+	plGpuMode gpu_mode;                ///< PLEAT_GPU_MODE_NONE (default), _HOST_CONTEXT or _HEADLESS
 	uint32_t host_position_buffer;     ///< host-context mode: GL buffer name for positions (vec4 per vertex), 0 = own
 	uint32_t host_normal_buffer;       ///< host-context mode: GL buffer name for normals (vec4 per vertex), 0 = own
 	float network_rate_hz;             ///< run the networks at most this often (Hz, e.g. the asset's train_fps under a
@@ -614,8 +646,8 @@ PLEAT_API plResult plInstance_GetBlendWeights( plInstance instance, float* out, 
 PLEAT_API plResult plInstance_GetShape( plInstance instance, float* out_beta, uint32_t beta_count, float out_material[4] );
 /// The asset the instance was created from.
 PLEAT_API plResult plInstance_GetAsset( plInstance instance, plAsset* out_asset );
-/// The def's user_data.
-PLEAT_API void* plInstance_GetUserData( plInstance instance );
+/// The def's user_data, in *out_user_data (NULL on failure).
+PLEAT_API plResult plInstance_GetUserData( plInstance instance, void** out_user_data );
 
 // ------------------------------------------------------------------------------------------------------------------
 // Skeleton and rest pose (SKELETON AND REST POSE above)
