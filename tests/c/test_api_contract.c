@@ -365,7 +365,7 @@ static void test_unavailable_backends_are_reported( void** state )
 	idef.network_rate_hz = NAN;
 	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
 	idef.network_rate_hz = 0.0f;
-	idef.gpu_mode = PLEAT_GPU_HOST_CONTEXT; // no GL context is current in this test
+	idef.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT; // no GL context is current in this test
 	plResult r = plCreateInstance( rig.context, &idef, &inst );
 	assert_true( r == PLEAT_RESULT_GL_UNAVAILABLE || r == PLEAT_RESULT_GL_ERROR );
 	plContext_GetLiveBytes( rig.context, &after );
