@@ -13,12 +13,16 @@ OUT=out/bench
 PY="$PWD/.venv/bin/python"
 
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPLEAT_BUILD_TESTS=OFF -DPLEAT_PYTHON="$PY" >/dev/null
-cmake --build "$BUILD_DIR" --target pleat_bench_step pleat_bench_phases >/dev/null
+cmake --build "$BUILD_DIR" --target pleat_bench_step pleat_bench_phases pleat_bench_crowd >/dev/null
 
 mkdir -p "$OUT"
 if [ ! -f "$OUT/asset_fp32.pleat" ] || [ ! -f "$OUT/asset_fp16.pleat" ] || [ ! -f "$OUT/case.bin" ] \
    || [ bench/make_assets.py -nt "$OUT/case.bin" ]; then
   "$PY" bench/make_assets.py "$OUT" --vertices 4424 --frames 300
+fi
+
+if [ ! -f "$OUT/tshirt_fp32.pleat" ] || [ ! -f "$OUT/tshirt_fp16.pleat" ] || [ assets/tshirt.pleat -nt "$OUT/tshirt_fp32.pleat" ]; then
+  "$PY" bench/make_crowd_assets.py assets/tshirt.pleat "$OUT"
 fi
 
 ORT_LIB=${PLEAT_ONNXRUNTIME_LIBRARY:-$("$PY" - <<'PY' 2>/dev/null || true
@@ -37,10 +41,18 @@ ort_args=()
 "$BUILD_DIR/bench/pleat_bench_phases" --phases --asset "$OUT/asset_fp32.pleat" --asset-fp16 "$OUT/asset_fp16.pleat" \
   --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" --clock "${CLOCK:-wall}" \
   --out "$OUT/phases.json"
-"$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" <<'PY'
+# Crowds (issue 13, docs/scene-budget.md): plStepInstances against one-by-one plInstance_Step, per instance, for 1, 8,
+# 64 and 256 instances of the shipped t-shirt and of the reference-size assets, 1 and 2 workers; merged in as "crowd".
+"$BUILD_DIR/bench/pleat_bench_crowd" --case "$OUT/case.bin" \
+  --asset tshirt_fp32="$OUT/tshirt_fp32.pleat" --asset tshirt_fp16="$OUT/tshirt_fp16.pleat" \
+  --asset reference_fp32="$OUT/asset_fp32.pleat" --asset reference_fp16="$OUT/asset_fp16.pleat" \
+  --counts "${CROWD_COUNTS:-1,8,64,256}" --workers 1,2 --seconds "${CROWD_SECONDS:-0.5}" --clock "${CROWD_CLOCK:-wall}" \
+  --out "$OUT/crowd.json"
+"$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" "$OUT/crowd.json" <<'PY'
 import json, sys
 step = json.load(open(sys.argv[1]))
 step["phase_us"] = json.load(open(sys.argv[2]))
+step["crowd"] = json.load(open(sys.argv[3]))
 json.dump(step, open(sys.argv[1], "w"), indent=2)
 PY
 cat "${OUT_JSON:-$OUT/step.json}"

@@ -243,19 +243,15 @@ static void plFinishEntry( plBatchEntry* e )
 		return;
 	}
 	plInstanceData* inst = e->inst;
-	const plAssetData* a = inst->asset;
-	uint32_t n = a->vertex_count;
-	// This worker's whole instance, so the jobs run unsplit here (their results do not depend on the split).
-	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ), a->skin_indices,   a->skin_weights,
-						   a->influence_count,                    inst->next_skin_matrices, a->joint_count,
-						   plMakeSpan( inst->positions, n, 12 ),  0,                  n,
-						   &inst->ctx->kernels };
-	if ( plSkinningJob_Run( &skin ) != PLEAT_RESULT_OK || plNormalsSerial( inst ) != PLEAT_RESULT_OK )
+	// The blend already wrote T_def; skinning and normals of this worker's whole instance run unsplit here (their
+	// results do not depend on the split).
+	plResult r = plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, 0, NULL );
+	if ( r != PLEAT_RESULT_OK )
 	{
-		e->result = PLEAT_RESULT_INTERNAL_ERROR;
+		e->result = r;
 		return;
 	}
-	size_t n3 = (size_t)n * 3;
+	size_t n3 = (size_t)inst->asset->vertex_count * 3;
 	if ( !( plAllFiniteFloats( inst->positions, n3 ) && plAllFiniteFloats( inst->normals, n3 ) ) )
 	{
 		e->needs_reset = 1;
@@ -426,6 +422,13 @@ plResult plStepInstances( plContext context, const plInstance* instances, const 
 				e->input = &inputs[t];
 				e->output = outputs != NULL ? &outputs[t] : NULL;
 				indices[group.count++] = t;
+			}
+			if ( group.count == 1 )
+			{
+				// Nothing to share: the single step itself (the same result; its kernels stream a lone instance's
+				// weights faster than the batched ones, which are built for many).
+				plRecord( &outcome, out_results, s, plInstance_Step( instances[s], &inputs[s], out ) );
+				continue;
 			}
 			plRunGroup( &group );
 			for ( uint32_t k = 0; k < group.count; ++k )

@@ -5,8 +5,9 @@
 // The single-instance kernel streams the blend shapes four at a time over the whole vertex range (memory-bound). Here
 // a tile of 16 elements (two vectors) × 4 instances keeps 8 accumulators in registers while j runs over all D shapes:
 // per shape 2 shape loads and 4 weight broadcasts feed 8 FMAs, and the tile's column of every shape (D cache lines) is
-// read from memory once, then from L1 for the other instances of the batch. The next tile's lines are prefetched
-// while the first instances of a tile run, since D strided streams are more than the hardware prefetchers follow.
+// read from memory once, then from L1 for the other instances of the batch. The shapes' lines four tiles ahead, and
+// each instance's base and output lines, are prefetched in software: D strided streams plus two per instance are far
+// more than the hardware prefetchers follow.
 #include "kernels_batch.h"
 
 #include <immintrin.h>
@@ -36,11 +37,25 @@ static inline void plPrefetchColumn( const void* shapes, int fp16, size_t plane,
 	}
 }
 
+// An instance's base and output a few tiles ahead of element i: its two sequential streams are 2 of the batch's many
+// interleaved ones, more than the hardware prefetchers follow (measured ~30 % faster at N = 4,424, 64 instances).
+// Prefetches never fault, so running past the end of the arrays is harmless.
+#define PLEAT_BLEND_PREFETCH_ELEMENTS 128
+static inline void plPrefetchInstance( const float* base, float* out, size_t i )
+{
+	_mm_prefetch( (const char*)( base + i + PLEAT_BLEND_PREFETCH_ELEMENTS ), _MM_HINT_T0 );
+	__builtin_prefetch( out + i + PLEAT_BLEND_PREFETCH_ELEMENTS, 1, 3 );
+}
+
 // Elements [i, i + 16) of four instances.
 static inline void plBlendTile16x4( float* const* out, const float* const* base, const float* const* weights,
 									const void* shapes, int fp16, uint32_t blend_count, size_t plane, size_t i )
 {
 	const float *w0 = weights[0], *w1 = weights[1], *w2 = weights[2], *w3 = weights[3];
+	for ( int k = 0; k < 4; ++k )
+	{
+		plPrefetchInstance( base[k], out[k], i );
+	}
 	__m256 a0 = _mm256_loadu_ps( base[0] + i ), a1 = _mm256_loadu_ps( base[0] + i + 8 );
 	__m256 b0 = _mm256_loadu_ps( base[1] + i ), b1 = _mm256_loadu_ps( base[1] + i + 8 );
 	__m256 c0 = _mm256_loadu_ps( base[2] + i ), c1 = _mm256_loadu_ps( base[2] + i + 8 );
@@ -76,6 +91,7 @@ static inline void plBlendTile16x4( float* const* out, const float* const* base,
 static inline void plBlendTile16x1( float* out, const float* base, const float* w, const void* shapes, int fp16,
 									uint32_t blend_count, size_t plane, size_t i )
 {
+	plPrefetchInstance( base, out, i );
 	__m256 a0 = _mm256_loadu_ps( base + i ), a1 = _mm256_loadu_ps( base + i + 8 );
 	size_t o = i;
 	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
@@ -123,9 +139,9 @@ void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const
 	size_t i = start;
 	for ( ; i + 16 <= end; i += 16 )
 	{
-		if ( i + 32 <= end )
+		if ( i + 80 <= end )
 		{
-			plPrefetchColumn( shapes, shapes_fp16, plane, blend_count, i + 32 );
+			plPrefetchColumn( shapes, shapes_fp16, plane, blend_count, i + 64 );
 		}
 		uint32_t b = 0;
 		for ( ; b + 4 <= batch_count; b += 4 )

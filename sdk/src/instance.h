@@ -69,9 +69,11 @@ typedef struct plInstanceData
 plInstanceData* plGetInstanceData( plInstance handle );
 
 // CPU path: T_def = shaped template + Σ_j w_j D_j (unless blend is 0: deformed already holds T_def for these weights),
-// then skinning with skin_matrices into positions, then normals, split over the context's workers.
+// then skinning with skin_matrices into positions, then normals, split over runner's workers (the context's for a
+// step; NULL = all on this thread, as plStepInstances's workers run whole instances). The results do not depend on it.
 // PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
-plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend );
+plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend,
+					  const plTaskRunner* runner );
 // ---- instance_step.c: the stages of plInstance_Step that plStepInstances (batch.c) runs too ----
 // The batch runs them in the same order for each instance, with f_LP, f_dec and the blend batched in between, so the
 // two paths share every line that decides what a step does (pleat.h: batch = single, bit for bit).

@@ -91,9 +91,9 @@ static plResult plDeformTask_Result( plDeformTask* task )
 			   : PLEAT_RESULT_INTERNAL_ERROR;
 }
 
-plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend )
+plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend,
+					  const plTaskRunner* runner )
 {
-	const plTaskRunner* runner = &inst->ctx->runner;
 	const plAssetData* a = inst->asset;
 	plDeformTask task;
 	plDeformTask_Init( &task, inst, blend_weights, skin_matrices, blend );

@@ -314,7 +314,7 @@ static plResult plDeform( plInstanceData* inst, int read_back, int reuse_deforme
 	{
 		inst->deformed_is_committed = 0; // until this step commits
 	}
-	plResult r = plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, blend );
+	plResult r = plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, blend, &inst->ctx->runner );
 	if ( r != PLEAT_RESULT_OK )
 	{
 		return r;

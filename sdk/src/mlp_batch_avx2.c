@@ -4,10 +4,11 @@
 // then + bias), so a batch gives what each instance's own step gives, bit for bit.
 //
 // A single-instance mat-vec is bound by how fast the weights stream in (docs/benchmarks.md); with a batch each weight
-// vector, once loaded, feeds several instances. The register tile is 2 rows × 3 instances: per 16 columns 4 weight
-// loads and 6 input loads feed 12 FMAs into 12 accumulators (the two chains of 6 dot products), so the loop runs near
-// the FMA units' rate rather than the memory's. A row's weights (in_count · 4 bytes) stay in L1 while every instance
-// of the batch passes over them, so each weight is read from memory once per call.
+// vector, once loaded, feeds several instances. The register tile is 3 rows × 3 instances, one of the two chains at a
+// time (9 accumulators: with both chains, 12 or more accumulators made GCC spill one to the stack, a store and a load
+// in a chain's every step): per 8 columns 3 weight loads and 3 input loads feed 9 FMAs, so the loop runs near the FMA
+// units' rate rather than the memory's. The tile's rows (3 · in_count · 4 bytes) stay in L1 while every instance of
+// the batch passes over them, so each weight is read from memory once per call.
 #include "kernels_batch.h"
 
 #include <immintrin.h>
@@ -36,7 +37,8 @@ static inline float plHorizontalSum( __m256 v )
 	return _mm_cvtss_f32( s );
 }
 
-// The end of one dot product: the two chains summed, the horizontal sum, the scalar tail from column c.
+// The end of one dot product: the two chains summed, the horizontal sum, the scalar tail from column c (the first
+// column no 8-wide step covered).
 static inline float plFinishDot( __m256 even, __m256 odd, const float* x, const void* weight, int weight_fp16,
 								 size_t base, uint32_t c, uint32_t in_count )
 {
@@ -89,86 +91,84 @@ static inline void plDot2x1( const float* x, const void* weight, int weight_fp16
 	*sum1 = plFinishDot( e1, o1, x, weight, weight_fp16, base1, c, in_count );
 }
 
-// Two rows × three instances: 12 accumulators (rows r, instances 0..2, even/odd chains).
-static inline void plDot2x3( const float* x0, const float* x1, const float* x2, const void* weight, int weight_fp16,
-							 size_t base0, size_t base1, uint32_t in_count, float sum[2][3] )
+// One of the two FMA chains of three rows × three instances (9 accumulators, so nothing spills out of the 16 vector
+// registers): offset 0 = the even 8-blocks of each 16-step plus the final 8-wide step, offset 8 = the odd 8-blocks.
+// The two chains of a dot product are independent, so computing one after the other changes no operation.
+static inline void plChain3x3( const float* const x[3], const void* weight, int weight_fp16, const size_t base[3],
+							   uint32_t in_count, uint32_t offset, __m256 acc[3][3] )
 {
-	__m256 e00 = _mm256_setzero_ps(), e01 = _mm256_setzero_ps(), e02 = _mm256_setzero_ps();
-	__m256 e10 = _mm256_setzero_ps(), e11 = _mm256_setzero_ps(), e12 = _mm256_setzero_ps();
-	__m256 o00 = _mm256_setzero_ps(), o01 = _mm256_setzero_ps(), o02 = _mm256_setzero_ps();
-	__m256 o10 = _mm256_setzero_ps(), o11 = _mm256_setzero_ps(), o12 = _mm256_setzero_ps();
-	uint32_t c = 0;
-	for ( ; c + 16 <= in_count; c += 16 )
+	__m256 a00 = _mm256_setzero_ps(), a01 = _mm256_setzero_ps(), a02 = _mm256_setzero_ps();
+	__m256 a10 = _mm256_setzero_ps(), a11 = _mm256_setzero_ps(), a12 = _mm256_setzero_ps();
+	__m256 a20 = _mm256_setzero_ps(), a21 = _mm256_setzero_ps(), a22 = _mm256_setzero_ps();
+	const float *x0 = x[0] + offset, *x1 = x[1] + offset, *x2 = x[2] + offset;
+	size_t b0 = base[0] + offset, b1 = base[1] + offset, b2 = base[2] + offset;
+	uint32_t steps = in_count / 16 + ( offset == 0 && in_count % 16 >= 8 ? 1u : 0u );
+	for ( uint32_t k = 0, c = 0; k < steps; ++k, c += 16 )
 	{
-		__m256 w0 = plLoadWeights8( weight, weight_fp16, base0 + c );
-		__m256 w1 = plLoadWeights8( weight, weight_fp16, base1 + c );
+		__m256 w0 = plLoadWeights8( weight, weight_fp16, b0 + c );
+		__m256 w1 = plLoadWeights8( weight, weight_fp16, b1 + c );
+		__m256 w2 = plLoadWeights8( weight, weight_fp16, b2 + c );
 		__m256 xv = _mm256_loadu_ps( x0 + c );
-		e00 = _mm256_fmadd_ps( w0, xv, e00 );
-		e10 = _mm256_fmadd_ps( w1, xv, e10 );
+		a00 = _mm256_fmadd_ps( w0, xv, a00 );
+		a10 = _mm256_fmadd_ps( w1, xv, a10 );
+		a20 = _mm256_fmadd_ps( w2, xv, a20 );
 		xv = _mm256_loadu_ps( x1 + c );
-		e01 = _mm256_fmadd_ps( w0, xv, e01 );
-		e11 = _mm256_fmadd_ps( w1, xv, e11 );
+		a01 = _mm256_fmadd_ps( w0, xv, a01 );
+		a11 = _mm256_fmadd_ps( w1, xv, a11 );
+		a21 = _mm256_fmadd_ps( w2, xv, a21 );
 		xv = _mm256_loadu_ps( x2 + c );
-		e02 = _mm256_fmadd_ps( w0, xv, e02 );
-		e12 = _mm256_fmadd_ps( w1, xv, e12 );
-		w0 = plLoadWeights8( weight, weight_fp16, base0 + c + 8 );
-		w1 = plLoadWeights8( weight, weight_fp16, base1 + c + 8 );
-		xv = _mm256_loadu_ps( x0 + c + 8 );
-		o00 = _mm256_fmadd_ps( w0, xv, o00 );
-		o10 = _mm256_fmadd_ps( w1, xv, o10 );
-		xv = _mm256_loadu_ps( x1 + c + 8 );
-		o01 = _mm256_fmadd_ps( w0, xv, o01 );
-		o11 = _mm256_fmadd_ps( w1, xv, o11 );
-		xv = _mm256_loadu_ps( x2 + c + 8 );
-		o02 = _mm256_fmadd_ps( w0, xv, o02 );
-		o12 = _mm256_fmadd_ps( w1, xv, o12 );
+		a02 = _mm256_fmadd_ps( w0, xv, a02 );
+		a12 = _mm256_fmadd_ps( w1, xv, a12 );
+		a22 = _mm256_fmadd_ps( w2, xv, a22 );
 	}
-	for ( ; c + 8 <= in_count; c += 8 )
+	acc[0][0] = a00, acc[0][1] = a01, acc[0][2] = a02;
+	acc[1][0] = a10, acc[1][1] = a11, acc[1][2] = a12;
+	acc[2][0] = a20, acc[2][1] = a21, acc[2][2] = a22;
+}
+
+// Three rows × three instances: the even chains, then the odd ones, then each dot product finished as plDotRow2.
+static inline void plDot3x3( const float* const x[3], const void* weight, int weight_fp16, const size_t base[3],
+							 uint32_t in_count, float sum[3][3] )
+{
+	__m256 even[3][3], odd[3][3];
+	plChain3x3( x, weight, weight_fp16, base, in_count, 0, even );
+	plChain3x3( x, weight, weight_fp16, base, in_count, 8, odd );
+	uint32_t tail = in_count - in_count % 8;
+	for ( int r = 0; r < 3; ++r )
 	{
-		__m256 w0 = plLoadWeights8( weight, weight_fp16, base0 + c );
-		__m256 w1 = plLoadWeights8( weight, weight_fp16, base1 + c );
-		__m256 xv = _mm256_loadu_ps( x0 + c );
-		e00 = _mm256_fmadd_ps( w0, xv, e00 );
-		e10 = _mm256_fmadd_ps( w1, xv, e10 );
-		xv = _mm256_loadu_ps( x1 + c );
-		e01 = _mm256_fmadd_ps( w0, xv, e01 );
-		e11 = _mm256_fmadd_ps( w1, xv, e11 );
-		xv = _mm256_loadu_ps( x2 + c );
-		e02 = _mm256_fmadd_ps( w0, xv, e02 );
-		e12 = _mm256_fmadd_ps( w1, xv, e12 );
+		for ( int b = 0; b < 3; ++b )
+		{
+			sum[r][b] = plFinishDot( even[r][b], odd[r][b], x[b], weight, weight_fp16, base[r], tail, in_count );
+		}
 	}
-	sum[0][0] = plFinishDot( e00, o00, x0, weight, weight_fp16, base0, c, in_count );
-	sum[0][1] = plFinishDot( e01, o01, x1, weight, weight_fp16, base0, c, in_count );
-	sum[0][2] = plFinishDot( e02, o02, x2, weight, weight_fp16, base0, c, in_count );
-	sum[1][0] = plFinishDot( e10, o10, x0, weight, weight_fp16, base1, c, in_count );
-	sum[1][1] = plFinishDot( e11, o11, x1, weight, weight_fp16, base1, c, in_count );
-	sum[1][2] = plFinishDot( e12, o12, x2, weight, weight_fp16, base1, c, in_count );
 }
 
 void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
 					int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end )
 {
 	uint32_t r = row_begin;
-	for ( ; r + 2 <= row_end; r += 2 )
+	for ( ; r + 3 <= row_end; r += 3 )
 	{
-		size_t base0 = (size_t)r * in_count, base1 = base0 + in_count;
+		size_t base[3] = { (size_t)r * in_count, (size_t)( r + 1 ) * in_count, (size_t)( r + 2 ) * in_count };
 		uint32_t b = 0;
 		for ( ; b + 3 <= batch_count; b += 3 )
 		{
-			float sum[2][3];
-			plDot2x3( x[b], x[b + 1], x[b + 2], weight, weight_fp16, base0, base1, in_count, sum );
+			float sum[3][3];
+			plDot3x3( x + b, weight, weight_fp16, base, in_count, sum );
 			for ( uint32_t k = 0; k < 3; ++k )
 			{
 				out[b + k][r] = sum[0][k] + bias[r];
 				out[b + k][r + 1] = sum[1][k] + bias[r + 1];
+				out[b + k][r + 2] = sum[2][k] + bias[r + 2];
 			}
 		}
 		for ( ; b < batch_count; ++b )
 		{
 			float sum0, sum1;
-			plDot2x1( x[b], weight, weight_fp16, base0, base1, in_count, &sum0, &sum1 );
+			plDot2x1( x[b], weight, weight_fp16, base[0], base[1], in_count, &sum0, &sum1 );
 			out[b][r] = sum0 + bias[r];
 			out[b][r + 1] = sum1 + bias[r + 1];
+			out[b][r + 2] = plDot1x1( x[b], weight, weight_fp16, base[2], in_count ) + bias[r + 2];
 		}
 	}
 	for ( ; r < row_end; ++r )
