@@ -470,7 +470,8 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
     batched = batched_path(c1)
     if batched:     # K windows per iteration through one graph (batching.py; the same losses, tested)
         from pleat.train import batching
-        ddp = wrap_ddp(batching.BatchedStage1(model), world, dev)
+        net = batching.BatchedStage1(model)
+        ddp = wrap_ddp(batching.compiled(net) if c1.get("compile") else net, world, dev)
         source = batching.WindowSource(setup, clips, rng, c1.get("windows_per_iteration", 1),
                                        worker=bool(c1.get("data_worker", False)))
     else:
