@@ -6,7 +6,7 @@ from pleat import asset as pa
 from pleat.reference import (Instance, StepError, assemble_inputs, forward_kinematics, mlp, normals, skinning)
 from pleat.reference.golden import random_motion, random_weights
 from pleat.reference.normals import face_normals, normals_gather, normals_scatter
-from pleat.rotations import axis_angle_to_matrix, matrix_to_6d, matrix_to_quat, sixd_to_matrix
+from pleat.rotations import axis_angle_to_matrix, matrix_to_6d, matrix_to_quat, rotation_between, sixd_to_matrix
 
 
 def quat(axis, angle):
@@ -109,6 +109,24 @@ def test_sixd_round_trip_and_layout():
     np.testing.assert_allclose(sixd_to_matrix(d6), R, atol=1e-12)
 
 
+def test_rotation_between_takes_a_onto_b_by_the_smallest_rotation():
+    rng = np.random.default_rng(4)
+    a, b = rng.standard_normal((50, 3)), rng.standard_normal((50, 3))
+    a[0], b[0] = [0.0, 2.0, 0.0], [0.0, -1.0, 0.0]                   # opposite: a half turn
+    a[1], b[1] = [1.0, 0.0, 0.0], [3.0, 0.0, 0.0]                    # the same direction: identity
+    R = rotation_between(a, b)
+    unit = lambda v: v / np.linalg.norm(v, axis=-1, keepdims=True)
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", R, unit(a)), unit(b), atol=1e-12)
+    # (the closed form loses digits as the directions approach opposite: 1 / (1 + a·b))
+    np.testing.assert_allclose(R @ np.swapaxes(R, -1, -2), np.broadcast_to(np.eye(3), R.shape), atol=1e-10)
+    np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-10)
+    np.testing.assert_allclose(R[1], np.eye(3), atol=1e-15)
+    # smallest: the rotation angle is the angle between the directions (π for the opposite pair)
+    angle = np.arccos(np.clip((np.trace(R, axis1=-2, axis2=-1) - 1) / 2, -1, 1))
+    np.testing.assert_allclose(angle, np.arccos(np.clip(np.sum(unit(a) * unit(b), -1), -1, 1)), atol=1e-6)
+    np.testing.assert_allclose(rotation_between(a[5], b[5]), R[5], atol=1e-15)  # one pair, no batch axis
+
+
 def test_mlp_relu_and_silu_by_hand():
     w0, b0 = np.array([[1.0, -1.0], [2.0, 0.0]]), np.array([0.0, -3.0])
     w1, b1 = np.array([[1.0, 1.0]]), np.array([0.5])
@@ -126,6 +144,13 @@ def test_input_count_matches_the_formula(asset):
     x = assemble_inputs(asset, *clip(5))
     L, Jin, B = 6, 19, 10
     assert x.shape == (5, L + 8 + 3 * (6 * Jin + 6) + 9 * Jin + B + 4) == (5, L + 553)
+    # the layout's blocks, back to back in the documented order (docs/inputs.md "X_c layout")
+    layout = pa.input_layout(L, Jin, B)
+    assert list(layout) == ["latent", "root_velocities", "rotations", "positions", "beta", "material"]
+    # 6 + 8 = 14; 3·(6·19 + 6) = 360; 9·19 = 171; then β (10) and the material (4): 559 = L + 553
+    assert [(s.start, s.stop) for s in layout.values()] == [(0, 6), (6, 14), (14, 374), (374, 545), (545, 555),
+                                                            (555, 559)]
+    assert pa.input_count(L, Jin, B) == x.shape[1]
 
 
 def test_first_frame_velocities_are_zero(asset):

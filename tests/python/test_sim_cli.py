@@ -55,6 +55,6 @@ def test_pleat_sim_cli_writes_positions_and_a_truthful_summary(tmp_path):
     body_speed = np.linalg.norm(body_v[1] - body_v[0], axis=1).max()
     assert np.linalg.norm(x[1] - x[0], axis=1).max() < body_speed + 0.05
     # the summary's penetration is what an independent query of the stored frames finds, and within tolerance
-    depth_mm = 1000.0 * max(0.0, -BodyCollider(body_v[1], body.faces).signed_distance(x[1]).min())
+    depth_mm = 1000.0 * max(0.0, -BodyCollider(body_v[1], body.faces).plane_distance(x[1]).min())
     assert depth_mm <= summary["penetration_tolerance_mm"]
     assert abs(depth_mm - summary["per_frame"]["penetration_after_projection_mm"][0]) < 0.05

@@ -62,9 +62,24 @@ class AssetError(ValueError):
         self.code = code
 
 
+def input_layout(latent_count, input_joint_count, beta_count):
+    """The blocks of X_c in order (docs/inputs.md "X_c layout"), as slices: latent Z_t [L]; root_velocities [8] (v and
+    ω of t+1 and t); rotations [3·(6·Jin + 6)] (6D of the input joints and the pelvis tilt, frames t+1, t, t−1);
+    positions [9·Jin] (heading-frame joint positions, 3 frames); beta [B]; material [4]. The one Python definition
+    (pleat.reference.input_assembly builds X_c in this order); the C twin is plInputCountFormula in
+    sdk/src/input_assembly.c."""
+    sizes = (("latent", latent_count), ("root_velocities", 8), ("rotations", 3 * (6 * input_joint_count + 6)),
+             ("positions", 9 * input_joint_count), ("beta", beta_count), ("material", 4))
+    layout, start = {}, 0
+    for name, size in sizes:
+        layout[name] = slice(start, start + size)
+        start += size
+    return layout
+
+
 def input_count(latent_count, input_joint_count, beta_count):
-    """I of docs/inputs.md: L + 8 + 3·(6·Jin + 6) + 9·Jin + B + 4."""
-    return latent_count + 8 + 3 * (6 * input_joint_count + 6) + 9 * input_joint_count + beta_count + 4
+    """I of docs/inputs.md: L + 8 + 3·(6·Jin + 6) + 9·Jin + B + 4, the end of input_layout."""
+    return input_layout(latent_count, input_joint_count, beta_count)["material"].stop
 
 
 def normal_adjacency(faces, vertex_count):

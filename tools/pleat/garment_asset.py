@@ -17,17 +17,16 @@ import sys
 
 import numpy as np
 
+from pleat.asset import input_count
 from pleat.cli import add_quiet, command
+# Material (m areal density kg/m², μ N/m, λ N/m, bending k J): the paper's training ranges and HOOD's default, defined
+# once in pleat.physics.materials; garment_asset.MATERIAL_* for the callers that read them here.
+from pleat.physics.materials import MATERIAL_DEFAULT, MATERIAL_MAX, MATERIAL_MIN  # noqa: F401
 
 # Joints left out of X_c (docs/inputs.md): the pelvis (its motion is the root velocity and tilt), wrists and hands
 # (the paper: minimal impact on the garment).
 EXCLUDED_INPUT_JOINTS = ("pelvis", "left_wrist", "right_wrist", "left_hand", "right_hand")
 
-# Material (m areal density kg/m², μ N/m, λ N/m, bending k J): the paper's training ranges (section 4.1). The default is HOOD's
-# default cotton-like material, which lies inside those ranges.
-MATERIAL_MIN = (4.34e-2, 15909.0, 3535.41, 6.37e-8)
-MATERIAL_MAX = (7.0e-1, 63636.0, 93333.73, 1.31e-3)
-MATERIAL_DEFAULT = (0.20022, 23600.0, 44400.0, 3.9625e-5)
 BETA_RANGE = (-4.0, 4.0)
 DT_RANGE_S = (1.0 / 240.0, 1.0 / 15.0)
 LBS_ONLY_MODEL = "lbs-only placeholder, untrained"
@@ -84,8 +83,8 @@ def lbs_only_network(vertex_count, input_count_without_latent):
 
 
 def input_count_without_latent(input_joint_count, beta_count):
-    """I − L of docs/inputs.md: root velocity 8, rotations 3·(6·Jin + 6), positions 9·Jin, β, material 4."""
-    return 8 + 3 * (6 * input_joint_count + 6) + 9 * input_joint_count + beta_count + 4
+    """I − L of docs/inputs.md (pleat.asset.input_count without the latent block)."""
+    return input_count(0, input_joint_count, beta_count)
 
 
 def weights_from_garment(garment, body, network=None, metadata=None, name=None):

@@ -102,50 +102,6 @@ def write_motion_file(path, joint_names, fps, rotations, root_translation, root_
         f.write(np.ascontiguousarray(frames, dtype="<f4").tobytes())
 
 
-def read_body_file(path):
-    with open(path, "rb") as f:
-        data = f.read()
-    if data[:8] != BODY_MAGIC:
-        raise ValueError(f"{path} is not a PLBODY01 file")
-    version, V, F, J, K, B = struct.unpack_from("<6I", data, 8)
-    offset = 32
-    out = {"version": version}
-
-    def take(dtype, count):
-        nonlocal offset
-        a = np.frombuffer(data, dtype=dtype, count=count, offset=offset)
-        offset += a.nbytes
-        return a
-    out["beta"] = take("<f4", B)
-    names = take("u1", J * NAME_BYTES).reshape(J, NAME_BYTES)
-    out["joint_names"] = [bytes(n).split(b"\0")[0].decode() for n in names]
-    out["joints"] = take("<f4", J * 3).reshape(J, 3)
-    out["vertices"] = take("<f4", V * 3).reshape(V, 3)
-    out["faces"] = take("<u4", F * 3).reshape(F, 3)
-    out["skin_indices"] = take("<u4", V * K).reshape(V, K)
-    out["skin_weights"] = take("<f4", V * K).reshape(V, K)
-    if offset != len(data):
-        raise ValueError(f"{path}: {len(data) - offset} trailing bytes")
-    return out
-
-
-def read_motion_file(path):
-    with open(path, "rb") as f:
-        data = f.read()
-    if data[:8] != MOTION_MAGIC:
-        raise ValueError(f"{path} is not a PLMOTION file")
-    version, T, J, fps = struct.unpack_from("<3If", data, 8)
-    offset = 24
-    names = np.frombuffer(data, "u1", J * NAME_BYTES, offset).reshape(J, NAME_BYTES)
-    offset += J * NAME_BYTES
-    frames = np.frombuffer(data, "<f4", T * (4 * J + 7), offset).reshape(T, 4 * J + 7)
-    if offset + frames.nbytes != len(data):
-        raise ValueError(f"{path}: size does not match its counts")
-    return {"version": version, "fps": fps, "joint_names": [bytes(n).split(b"\0")[0].decode() for n in names],
-            "rotations": frames[:, :4 * J].reshape(T, J, 4), "root_translation": frames[:, 4 * J:4 * J + 3],
-            "root_rotation": frames[:, 4 * J + 3:]}
-
-
 def _read_asset(asset_path):
     from pleat.asset import read_asset
     with open(asset_path, "rb") as f:

@@ -23,11 +23,6 @@ def quat_multiply(a, b):
     ], axis=-1)
 
 
-def quat_conjugate(q):
-    q = np.asarray(q, dtype=np.float64)
-    return q * np.array([-1.0, -1.0, -1.0, 1.0])
-
-
 def quat_to_matrix(q):
     x, y, z, w = np.moveaxis(quat_normalize(q), -1, 0)
     m = np.empty(np.shape(x) + (3, 3))
@@ -82,12 +77,25 @@ def axis_angle_to_matrix(aa):
     return quat_to_matrix(q)
 
 
-def matrix_to_axis_angle(m):
-    q = matrix_to_quat(m)
-    vec = q[..., :3]
-    s = np.linalg.norm(vec, axis=-1, keepdims=True)
-    angle = 2 * np.arctan2(s, q[..., 3:4])
-    return np.where(s < 1e-12, 2 * vec, vec / np.where(s < 1e-12, 1.0, s) * angle)
+def rotation_between(a, b):
+    """Smallest rotation taking direction a to direction b (arrays [..., 3], any length) → [..., 3, 3]. Opposite
+    directions (no unique smallest rotation) get the half turn about an axis perpendicular to a."""
+    a = np.asarray(a, np.float64)
+    b = np.asarray(b, np.float64)
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    v = np.cross(a, b)
+    c = np.sum(a * b, axis=-1)[..., None, None]
+    vx = np.zeros(v.shape[:-1] + (3, 3))
+    vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    vx = vx - np.swapaxes(vx, -1, -2)
+    opposite = c < -1 + 1e-9
+    smallest = np.eye(3) + vx + vx @ vx / np.where(opposite, 1.0, 1.0 + c)
+    axis = np.cross(a, [1.0, 0.0, 0.0])
+    axis = np.where(np.linalg.norm(axis, axis=-1, keepdims=True) < 1e-6, np.cross(a, [0.0, 1.0, 0.0]), axis)
+    axis = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
+    half_turn = 2 * axis[..., :, None] * axis[..., None, :] - np.eye(3)
+    return np.where(opposite, half_turn, smallest)
 
 
 def matrix_to_6d(m):

@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from pleat.body.model import SMPL_JOINT_NAMES, SMPL_PARENTS
+from pleat.rotations import rotation_between
 
 # anny (Z up, facing −Y, left = +X) → Pleat (Y up, facing +Z, left = +X): (x, y, z) ↦ (x, z, −y)
 ANNY_TO_PLEAT = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -48,18 +49,6 @@ PHENOTYPE_SIGMA = 0.15
 HEIGHT_SIGMA = 0.08
 
 
-def _rotation_between(a, b):
-    """Smallest rotation taking direction a to direction b (arrays [..., 3]) → [..., 3, 3]."""
-    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    v = np.cross(a, b)
-    c = np.sum(a * b, axis=-1)[..., None, None]
-    vx = np.zeros(v.shape[:-1] + (3, 3))
-    vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    vx = vx - np.swapaxes(vx, -1, -2)
-    return np.eye(3) + vx + vx @ vx / (1.0 + c)
-
-
 def _subtree(parents, root):
     out = {root}
     for k, p in enumerate(parents):
@@ -81,13 +70,13 @@ def bake_arm_pose(verts, heads, dense_w, labels, parents, arm_angle_deg):
         fa_tree = _subtree(parents, fa)
         ua_only = [b for b in _subtree(parents, ua) if b not in fa_tree]
         # upper arm: rotate the subtree about the shoulder
-        R1 = _rotation_between(heads[:, fa] - heads[:, ua], target)           # [N,3,3]
+        R1 = rotation_between(heads[:, fa] - heads[:, ua], target)           # [N,3,3]
         p1 = heads[:, ua]
         move1 = lambda x: np.einsum("nij,n...j->n...i", R1, x - p1[:, None]) + p1[:, None]
         elbow1 = move1(heads[:, fa][:, None])[:, 0]
         wrist1 = move1(heads[:, wr][:, None])[:, 0]
         # forearm: straighten onto the same line, about the (moved) elbow
-        R2 = _rotation_between(wrist1 - elbow1, target)
+        R2 = rotation_between(wrist1 - elbow1, target)
         move2 = lambda x: np.einsum("nij,n...j->n...i", R2, move1(x) - elbow1[:, None]) + elbow1[:, None]
         w1 = dense_w[:, ua_only].sum(axis=1)                                 # [V]
         w2 = dense_w[:, fa_tree].sum(axis=1)

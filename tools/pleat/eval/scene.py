@@ -182,10 +182,10 @@ def posed_body(body, clip, beta=None):
 
 def signed_distances(body_vertices, body_faces, garment_positions):
     """[T, N] signed distance of each garment vertex to the posed body at the same frame (negative inside), from the
-    simulator's own collider (nearest body vertex and its normal), so penetration means what the simulator means."""
-    from pleat.sim import BodyCollider
+    simulator's contact measure (BodyCollider.plane_distance: the tangent plane at the nearest body vertex), so
+    penetration means what the simulator means."""
+    from pleat.body import BodyCollider
     out = np.empty(garment_positions.shape[:2])
     for t in range(len(garment_positions)):
-        out[t] = BodyCollider(body_vertices[t], body_faces).signed_distance(
-            np.asarray(garment_positions[t], np.float64))
+        out[t] = BodyCollider(body_vertices[t], body_faces).plane_distance(np.asarray(garment_positions[t], np.float64))
     return out

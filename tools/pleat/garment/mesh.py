@@ -1,6 +1,9 @@
 """Triangle-mesh helpers for garment making: level-set cuts, components, boundary loops, checks, OBJ reading."""
 import numpy as np
 
+# Area-weighted unit vertex normals: the runtime's, defined once (pleat.reference.normals); M.vertex_normals for callers.
+from pleat.reference.normals import normals_scatter as vertex_normals  # noqa: F401
+
 
 def cut_mesh(vertices, faces, level):
     """Keep the part of the mesh where `level` ≥ 0, splitting the triangles the zero level crosses.
@@ -160,15 +163,6 @@ def check_manifold(faces, n_vertices, allow_unreferenced=False):
     if not allow_unreferenced and len(np.unique(f)) != n_vertices:
         problems.append("unreferenced vertices")
     return problems
-
-
-def vertex_normals(vertices, faces):
-    v = np.asarray(vertices, np.float64)
-    fn = np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]])
-    n = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(n, faces[:, k], fn)
-    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
 
 
 def adjacency(faces, n_vertices):

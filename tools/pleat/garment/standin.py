@@ -7,6 +7,7 @@ two shape directions: girth (β0, 1.5 cm outward per unit) and height (β1, 3 % 
 import numpy as np
 
 from ..body.model import SMPL_JOINT_NAMES, SMPL_PARENTS, BodyModel
+from ..reference.normals import face_normals, normals_scatter
 
 _JOINTS = np.array([
     (0.0, 0.95, 0.0), (0.09, 0.87, 0.0), (-0.09, 0.87, 0.0), (0.0, 1.05, 0.0), (0.10, 0.50, 0.0),
@@ -61,7 +62,7 @@ def standin_body(voxel_m=0.02):
     verts, faces, _, _ = marching_cubes(vol, 0.0, spacing=(voxel_m,) * 3, allow_degenerate=False)
     verts = verts + lo
     # marching cubes orients faces towards increasing field (outside) in its own index order; make them outward
-    fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
+    fn = face_normals(verts, faces)
     center_out = verts[faces].mean(1) - np.array([0, 1.0, 0])
     if np.sum(np.einsum("ij,ij->i", fn, center_out)) < 0:
         faces = faces[:, ::-1]
@@ -90,8 +91,7 @@ def standin_body(voxel_m=0.02):
     bone_k = np.argmin(dist, axis=1)
     shapedirs = np.zeros((len(verts), 3, 10))
     # girth: outward from the nearest bone (away from the bone point) – approximated by the vertex normal direction
-    from ..body.model import vertex_normals
-    nrm = vertex_normals(verts, faces)
+    nrm = normals_scatter(verts, faces)
     shapedirs[:, :, 0] = 0.015 * nrm * np.clip(bone_d / 0.1, 0.3, 1.0)[:, None]
     shapedirs[:, 1, 1] = 0.03 * verts[:, 1]
     del bone_k

@@ -21,7 +21,7 @@ import numpy as np
 
 from pleat.body.model import BodyModel
 from pleat.motion.clip import Clip, _canonical
-from pleat.rotations import matrix_to_quat, quat_to_matrix, yaw_matrix, quat_slerp
+from pleat.rotations import matrix_to_quat, quat_slerp, quat_to_matrix, rotation_between, yaw_matrix
 
 LIMB_CHILD = {"left_hip": "left_knee", "right_hip": "right_knee", "left_knee": "left_ankle",
               "right_knee": "right_ankle", "left_shoulder": "left_elbow", "right_shoulder": "right_elbow",
@@ -44,21 +44,6 @@ class SourceMotion:
         for s, p in enumerate(self.parents):
             W[:, s] = self.local_rotations[:, s] if p < 0 else W[:, p] @ self.local_rotations[:, s]
         return W
-
-
-def _rotation_between(a, b):
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    v = np.cross(a, b)
-    c = float(np.dot(a, b))
-    if c < -1 + 1e-9:
-        axis = np.cross(a, [1.0, 0.0, 0.0])
-        if np.linalg.norm(axis) < 1e-6:
-            axis = np.cross(a, [0.0, 1.0, 0.0])
-        axis /= np.linalg.norm(axis)
-        return 2 * np.outer(axis, axis) - np.eye(3)
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1 + c)
 
 
 def _leg_length(pos, hip, knee, ankle):
@@ -102,7 +87,7 @@ def retarget(src, mapping, body, spread=None, root_scale=None, ground=True, beta
         d_src = rest[sc] - rest[s]
         d_body = J[names.index(c)] - J[names.index(k)]
         if np.linalg.norm(d_src) > 1e-9:
-            offsets[k] = _rotation_between(d_body, d_src)
+            offsets[k] = rotation_between(d_body, d_src)
 
     T = W.shape[0]
     G = np.empty((T, len(names), 3, 3))

@@ -19,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pleat.asset import input_count, read_asset, write_asset
+from pleat.asset import input_count, input_layout, read_asset, write_asset
+from pleat.body.model import SMPL_JOINT_NAMES, SMPL_PARENTS  # noqa: F401 (also imported from here by tests)
+from pleat import garment_asset
 from pleat.cli import add_quiet, command
 from pleat.fileio import atomic_write
 from pleat.reference.input_assembly import assemble_inputs
@@ -27,11 +29,6 @@ from pleat.reference.instance import Instance
 from pleat.reference.mlp import mlp
 from pleat.rotations import axis_angle_to_matrix, matrix_to_quat
 
-SMPL_JOINT_NAMES = [
-    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2", "left_ankle", "right_ankle",
-    "spine3", "left_foot", "right_foot", "neck", "left_collar", "right_collar", "head", "left_shoulder",
-    "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_hand", "right_hand"]
-SMPL_PARENTS = [-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19, 20, 21]
 # Rest joint locations (m, +Y up, SMPL's left = +X), a plausible adult standing on y = 0.
 SMPL_JOINT_TEMPLATE = np.array([
     [0.00, 0.95, 0.00], [0.09, 0.87, 0.00], [-0.09, 0.87, 0.00], [0.00, 1.06, -0.01], [0.10, 0.50, 0.01],
@@ -39,11 +36,10 @@ SMPL_JOINT_TEMPLATE = np.array([
     [0.11, 0.03, 0.10], [-0.11, 0.03, 0.10], [0.00, 1.47, -0.01], [0.07, 1.38, 0.00], [-0.07, 1.38, 0.00],
     [0.00, 1.55, 0.04], [0.18, 1.40, -0.01], [-0.18, 1.40, -0.01], [0.44, 1.40, -0.02], [-0.44, 1.40, -0.02],
     [0.70, 1.40, -0.01], [-0.70, 1.40, -0.01], [0.78, 1.40, -0.01], [-0.78, 1.40, -0.01]])
-# All joints but the pelvis, wrists and hands (docs/inputs.md).
-SMPL_INPUT_JOINTS = [k for k in range(24) if SMPL_JOINT_NAMES[k] not in
-                     ("pelvis", "left_wrist", "right_wrist", "left_hand", "right_hand")]
-MATERIAL_MIN = np.array([4.34e-2, 15909.0, 3535.41, 6.37e-8])    # paper, section 4.1
-MATERIAL_MAX = np.array([7e-1, 63636.0, 93333.73, 1.31e-3])
+# All joints but the pelvis, wrists and hands (docs/inputs.md), as for a garment on the shipped body.
+SMPL_INPUT_JOINTS = [k for k, name in enumerate(SMPL_JOINT_NAMES) if name not in garment_asset.EXCLUDED_INPUT_JOINTS]
+MATERIAL_MIN = np.array(garment_asset.MATERIAL_MIN)    # the paper's training ranges (section 4.1)
+MATERIAL_MAX = np.array(garment_asset.MATERIAL_MAX)
 TUBE_Y = (0.72, 1.42)
 TUBE_RADIUS = (0.17, 0.12)   # x, z
 
@@ -194,9 +190,9 @@ def random_weights(vertices=4424, latent=128, blend=128, lp_hidden=(512, 512, 51
     xs = assemble_inputs(stats_asset, *clip, beta=np.zeros(betas))
     x_mean, x_std = xs.mean(0), np.maximum(xs.std(0), 0.05)
     x_mean[:latent], x_std[:latent] = w["z_mean"], w["z_std"]
-    b0 = latent + 8 + 3 * (6 * Jin + 6) + 9 * Jin
-    x_mean[b0:b0 + betas], x_std[b0:b0 + betas] = 0.0, np.sqrt(3.0)
-    x_mean[b0 + betas:], x_std[b0 + betas:] = 0.0, 1.0
+    layout = input_layout(latent, Jin, betas)
+    x_mean[layout["beta"]], x_std[layout["beta"]] = 0.0, np.sqrt(3.0)
+    x_mean[layout["material"]], x_std[layout["material"]] = 0.0, 1.0
     w["x_mean"], w["x_std"] = x_mean, x_std
 
     def make_mlp(prefix, sizes):

@@ -11,15 +11,16 @@ import numpy as np
 
 
 def _normalize(sums):
-    length = np.linalg.norm(sums, axis=1, keepdims=True)
+    length = np.linalg.norm(sums, axis=-1, keepdims=True)
     return np.where(length > 0, sums / np.where(length > 0, length, 1.0), 0.0)
 
 
 def face_normals(positions, faces):
-    """positions [N, 3]; faces [F, 3] → unnormalised cross(x_b − x_a, x_c − x_a) [F, 3]."""
+    """positions [..., N, 3]; faces [F, 3] → unnormalised cross(x_b − x_a, x_c − x_a) [..., F, 3]."""
     x = np.asarray(positions, np.float64)
     f = np.asarray(faces, np.int64)
-    return np.cross(x[f[:, 1]] - x[f[:, 0]], x[f[:, 2]] - x[f[:, 0]])
+    a = x[..., f[:, 0], :]
+    return np.cross(x[..., f[:, 1], :] - a, x[..., f[:, 2], :] - a)
 
 
 def normals_gather(face_normals, adjacency_offsets, adjacency_faces):
@@ -34,13 +35,16 @@ def normals_gather(face_normals, adjacency_offsets, adjacency_faces):
 
 
 def normals_scatter(positions, faces):
-    """positions [N, 3]; faces [F, 3] → unit normals [N, 3], each face added to its vertices in face order."""
-    sums = np.zeros(np.shape(positions))
-    corners = np.asarray(faces, np.int64)
-    per_face = face_normals(positions, corners)
-    for k in range(3):
-        np.add.at(sums, corners[:, k], per_face)
-    return _normalize(sums)
+    """positions [..., N, 3]; faces [F, 3] → unit normals [..., N, 3]: each face added to its vertices in ascending
+    face order (bincount sums in input order), as plNormalsScatter_Scalar. The vertex normals of every tool (body,
+    garment, simulator collider) are these."""
+    x = np.asarray(positions, np.float64)
+    corners = np.asarray(faces, np.int64).reshape(-1)              # face 0's corners, then face 1's, ...
+    per_corner = np.repeat(face_normals(x, faces).reshape(-1, np.shape(faces)[0], 3), 3, axis=1)
+    n = x.shape[-2]
+    sums = np.stack([np.stack([np.bincount(corners, weights=fn[:, k], minlength=n) for k in range(3)], axis=-1)
+                     for fn in per_corner])
+    return _normalize(sums.reshape(x.shape))
 
 
 def normals(positions, faces, adjacency_offsets, adjacency_faces):

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..physics import Material, cloth_rest
-from .collider import BodyCollider
+from pleat.body.model import BodyCollider
 from .solver import ClothSolver, SolverSettings
 
 

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..physics import energies as en
-from .collider import BodyCollider
+from pleat.body.model import BodyCollider
 
 try:
     from . import blocksparse as _bs
