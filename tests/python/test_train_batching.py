@@ -90,7 +90,7 @@ def test_stage1_batch_has_the_per_window_loss_terms_normaliser_and_gradients(tin
     ref_grads = _grads(model)
     model.zero_grad()
     objective, loss, scale, terms = batching.stage1_loss(setup, batching.BatchedStage1(model),
-                                                         batching.prepare(batching.kinematics(setup), picks),
+                                                         batching.prepare(batching.kinematics(setup), picks, STEPS),
                                                          STEPS, w, "lbs", 1.0)
     objective.backward()
     np.testing.assert_allclose(loss.detach().numpy(), ref_loss, rtol=1e-5)
@@ -133,7 +133,7 @@ def test_ablation_batch_has_the_per_window_objective_gradients_and_latent_range(
 
     class Fixed:                  # a WindowSource that hands out these picks
         def next(self, steps, next_steps=None):
-            return batching._Prepared(batching.kinematics(setup), clips, setup.asset_stub)(picks, static=True)
+            return batching._Prepared(batching.kinematics(setup), clips, setup.asset_stub)(picks, True, steps)
 
     for p in picks:
         p["clip_index"] = next(i for i, c in enumerate(clips) if c is p["clip"])
@@ -185,6 +185,8 @@ def test_data_worker_prepares_the_same_windows_as_the_trainer_would(tiny):
             b = here.next(steps)
             for key in ("A", "body", "static", "beta", "material"):
                 np.testing.assert_array_equal(a[key], b[key])
+            for key in core.LOSS_TERMS:
+                np.testing.assert_array_equal(a["lbs_terms"][key], b["lbs_terms"][key])
             assert a["A"].shape[1] == steps + 3
             assert len(a["trees"]) == 2 and len(a["trees"][0]) == steps + 3
     finally:

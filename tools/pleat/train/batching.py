@@ -15,14 +15,15 @@ KD-trees, features and losses at a time. This module computes the same quantitie
 - body proximity: one KD-tree per window frame, queried once per garment state (the per-window path queried the
   same state twice: for the loss of frame f and for the features predicting f + 1);
 - the equation-4 terms (`terms`) per window, [K] each, written like `pleat.physics` with a leading window axis;
-- the LBS-only normaliser (`lbs_scales`) of all windows and all steps in one call: the zero-network rollout is LBS,
-  so it needs no step-by-step loop.
+- the LBS-only normaliser (`lbs_terms`, numpy float64, with the kinematics: in the data worker when there is one)
+  of all windows and all steps in one call: the zero-network rollout is LBS, so it needs no step-by-step loop.
 
 The model and its parameters are the same (`core.Stage1Model`, `core.AblationModel`; checkpoints are unchanged),
 and so are the losses: `tests/python/test_train_batching.py` checks that every window's loss, terms, LBS normaliser
 and the gradients equal the per-window path's on fixed windows. With K windows an iteration's loss is the mean
 over its windows of loss / LBS loss; K = 1 is the paper's batch of one.
 """
+import contextlib
 import time
 
 import numpy as np
@@ -33,7 +34,7 @@ from scipy.spatial import cKDTree
 from pleat import reference
 from pleat import rotations as rot
 from pleat.physics.energies import GRAVITY_M_S2, _dihedral, _huber, _wrap_angle
-from pleat.physics.xp import _TorchOps, cross, dot
+from pleat.physics.xp import _TorchOps, dot, namespace
 from pleat.train.model import skin
 
 LOSS_TERMS = ("bending", "stretching", "inertia", "gravity", "friction", "collision")
@@ -71,6 +72,7 @@ class Kinematics:
         self.body_rest_normals = setup.body_rest_normals
         self.body_collide = setup.body_collide
         self.topology = RestTopology(setup.energies.rest.faces, setup.energies.rest.hinges)
+        self.mesh = Mesh(setup.energies)
 
     def shaped(self, betas):
         """T + G_S(β) for betas [K, B] → [K, N, 3]."""
@@ -178,17 +180,19 @@ class RestTopology:
                 "vertex_area": vertex_area}
 
 
-def prepare(kin, picks, trees=True):
+def prepare(kin, picks, lbs_steps=None):
     """Everything about K picks that does not depend on the network (numpy): kinematics, shaped template, rest
-    geometry and, with `trees`, the KD-tree of the body in every frame. Cheap to send to another process."""
+    geometry, the KD-tree of the body in every frame and, with `lbs_steps`, the LBS-only terms of rollouts of that
+    many steps (`lbs_terms`). Cheap to send to another process."""
     win = pose_windows(kin, picks)
     shaped = kin.shaped(win["beta"])
     win["shaped"] = shaped
     win["rest"] = kin.topology.geometry(shaped)
     win["material"] = np.stack([p["material"] for p in picks])
     win["material01"] = np.stack([p["material01"] for p in picks])
-    if trees:
-        win["trees"] = [[cKDTree(b) for b in frames] for frames in win["body"]]
+    win["trees"] = [[cKDTree(b) for b in frames] for frames in win["body"]]
+    if lbs_steps:
+        win["lbs_terms"] = lbs_terms(kin, win, lbs_steps)
     return win
 
 
@@ -198,9 +202,9 @@ class _Prepared:
     def __init__(self, kin, clips, asset_stub=None):
         self.kin, self.clips, self.asset_stub = kin, clips, asset_stub
 
-    def __call__(self, picks, static=False):
+    def __call__(self, picks, static=False, lbs_steps=None):
         picks = [dict(p, clip=self.clips[p["clip_index"]]) for p in picks]
-        win = prepare(self.kin, picks)
+        win = prepare(self.kin, picks, lbs_steps)
         if static:
             win["static"] = np.stack([static_inputs(self.asset_stub, p) for p in picks])
         return win
@@ -220,13 +224,13 @@ def _worker_loop(prepared, conn):
         msg = conn.recv()
         if msg is None:
             break
-        picks, static = msg
-        conn.send(prepared(picks, static))
+        picks, static, steps = msg
+        conn.send(prepared(picks, static, steps))
 
 
 class WindowSource:
     """K windows per call, drawn from `rng` in the order `core.sample_window` draws them, prepared (kinematics,
-    rest geometry, KD-trees, optionally X_c rows) here or, with `worker=True`, in a forked process one call ahead:
+    rest geometry, KD-trees, LBS-only terms, optionally X_c rows) here or, with `worker=True`, in a forked process one call ahead:
     while torch trains on iteration i, the worker prepares the windows of iteration i + 1 (numpy/scipy only; it
     never touches torch). `steps` is guessed one call ahead by `next_steps`; when a guess misses (the rollout
     schedule moved on, 4 times a run), the prepared windows are dropped and new ones drawn and prepared here."""
@@ -259,10 +263,10 @@ class WindowSource:
             if pend_steps != steps:
                 win = None
         if win is None:
-            win = self.prepared(self._picks(steps), self.static)
+            win = self.prepared(self._picks(steps), self.static, steps)
         if self.proc is not None:
             n = steps if next_steps is None else next_steps
-            self.conn.send((self._picks(n), self.static))
+            self.conn.send((self._picks(n), self.static, n))
             self.pending = n
         return win
 
@@ -301,7 +305,7 @@ class WindowBatch:
         self.rest = {k: _f32(v, d) for k, v in win["rest"].items()}
         self.material = _f32(win["material"], d)
         self.material01 = _f32(win["material01"], d)
-        self.trees = win.get("trees") or [[cKDTree(b) for b in frames] for frames in self.body]
+        self.trees = win["trees"]
         self.near = {}
         self.kidx = torch.arange(self.K, device=d)
         self.rest_edges = []
@@ -367,7 +371,7 @@ class WindowBatch:
         _, idx = self.nearest(f)
         idx = torch.as_tensor(idx, device=self.device)
         k = self.kidx[:, None]
-        return terms(self.setup.energies, x, x_t, x_tm1, self.material, self.dt2[:, f], self.body_t[k, f, idx],
+        return terms(torch_mesh(self.setup), x, x_t, x_tm1, self.material, self.dt2[:, f], self.body_t[k, f, idx],
                      self.body_n[k, f, idx], self.body_t[k, f - 1, idx], self.rest, collision_weight)
 
 
@@ -380,20 +384,43 @@ def vertex_normals(x, faces):
     return n / n.norm(dim=-1, keepdim=True).clamp_min(1e-12)
 
 
-def terms(energies, x, x_t, x_tm1, material, dt2, body_points, body_normals, body_points_t, rest, collision_weight):
-    """`sources.Energies.terms` (the pleat.physics energies) with a leading window axis: x [K, N, 3], material
-    [K, 4], dt2 [K] (dt² per window), rest geometry [K, …] → {term: [K]}."""
-    xp = _TorchOps
+class Mesh:
+    """What the equation-4 terms need besides positions: face and hinge indices (numpy, or torch on a device) and
+    the constants of `sources.Energies` (collision margin ε, friction μ_f and its Huber ε_u)."""
+
+    def __init__(self, energies, device=None):
+        rest = energies.rest
+        if device is None:
+            self.faces, self.hinges = np.asarray(rest.faces, np.int64), np.asarray(rest.hinges, np.int64)
+        else:
+            self.faces = torch.as_tensor(rest.faces, device=device)
+            self.hinges = torch.as_tensor(rest.hinges, device=device)
+        self.eps, self.friction_mu, self.friction_eps = energies.eps, energies.friction_mu, energies.friction_eps
+
+
+def torch_mesh(setup):
+    if "_torch_mesh" not in setup.__dict__:
+        setup._torch_mesh = Mesh(setup.energies, setup.device)
+    return setup._torch_mesh
+
+
+def terms(mesh, x, x_t, x_tm1, material, dt2, body_points, body_normals, body_points_t, rest, collision_weight):
+    """`sources.Energies.terms` (the pleat.physics energies) with a leading window axis, for torch tensors (the
+    rollout, with autograd) or numpy arrays (the LBS-only normaliser in `prepare`): x [K, N, 3], material [K, 4],
+    dt2 [K] (dt² per window), rest geometry [K, …] → {term: [K]}."""
+    xp = namespace(x)
+    torch_side = xp is _TorchOps
     m, mu, lam, k = (material[:, i, None] for i in range(4))
     mass = m * rest["vertex_area"]
-    eps = energies.eps
-    gap = torch.relu(eps - dot(x - body_points, body_normals))
+    eps = mesh.eps
+    gap = xp.relu(eps - dot(x - body_points, body_normals))
     collision = (1.0 * gap * gap * gap).sum(-1)
-    with torch.no_grad():  # lagged normal force of the collision penalty (held fixed in the step)
-        g = torch.relu(eps - ((x - body_points) * body_normals).sum(-1))
+    with torch.no_grad() if torch_side else contextlib.nullcontext():
+        # lagged normal force of the collision penalty (held fixed in the step)
+        g = xp.relu(eps - ((x - body_points) * body_normals).sum(-1))
         normal_force = 3.0 * g * g * float(collision_weight)
     # stretching (StVK)
-    faces, di = energies.faces, rest["dm_inv"]
+    faces, di = mesh.faces, rest["dm_inv"]
     x0 = x[:, faces[:, 0]]
     d1 = x[:, faces[:, 1]] - x0
     d2 = x[:, faces[:, 2]] - x0
@@ -406,27 +433,22 @@ def terms(energies, x, x_t, x_tm1, material, dt2, body_points, body_normals, bod
     psi = mu * (e00 * e00 + e11 * e11 + 2.0 * e01 * e01) + 0.5 * lam * tr * tr
     stretching = (rest["face_area"] * psi).sum(-1)
     # bending (wrap=True, as training always measures it)
-    h = hinge_index(energies, x.device)
+    h = mesh.hinges
     dtheta = _wrap_angle(_dihedral(x[:, h[:, 0]], x[:, h[:, 1]], x[:, h[:, 2]], x[:, h[:, 3]], xp)
                          - rest["hinge_angle"], xp)
     bending = (0.5 * k * rest["hinge_weight"] * dtheta * dtheta).sum(-1)
     # inertia, gravity (relative to the previous state)
     d = x - (2 * x_t - x_tm1)
     inertia = (0.5 * mass / dt2[:, None] * dot(d, d)).sum(-1)
-    gravity = (mass * GRAVITY_M_S2 * x[..., 1]).sum(-1) - (mass * GRAVITY_M_S2 * x_t[..., 1]).sum(-1).detach()
+    before = (mass * GRAVITY_M_S2 * x_t[..., 1]).sum(-1)
+    gravity = (mass * GRAVITY_M_S2 * x[..., 1]).sum(-1) - (before.detach() if torch_side else before)
     # friction
     u = (x - x_t) - (body_points - body_points_t)
     ut = u - dot(u, body_normals)[..., None] * body_normals
-    y = torch.sqrt(torch.clamp(dot(ut, ut), min=1e-30))
-    friction = (energies.friction_mu * normal_force * _huber(y, energies.friction_eps, xp)).sum(-1)
+    y = xp.sqrt(xp.clamp_min(dot(ut, ut), 1e-30))
+    friction = (mesh.friction_mu * normal_force * _huber(y, mesh.friction_eps, xp)).sum(-1)
     return {"stretching": stretching, "bending": bending, "inertia": inertia, "gravity": gravity,
             "friction": friction, "collision": collision}
-
-
-def hinge_index(energies, device):
-    if getattr(energies, "_hinges_t", None) is None or energies._hinges_t.device != device:
-        energies._hinges_t = torch.as_tensor(energies.rest.hinges, device=device)
-    return energies._hinges_t
 
 
 def _weighted(t, w):
@@ -448,35 +470,40 @@ def rollout(batch, steps, w, predict):
     return total / steps, acc
 
 
-@torch.no_grad()
-def lbs_scales(batch, steps, w, floor):
-    """core.lbs_scale for K windows: the zero-network rollout is the LBS of the shaped template in every frame, so
-    all steps of all windows are one call. Returns scales [K] (numpy) and the terms {term: [K]} averaged over
-    steps."""
-    K, s, d = batch.K, batch.setup, batch.device
-    lbs = skin(batch.A[:, :steps + 3], batch.shaped[:, None])             # [K, steps+3, N, 3]
+def lbs_terms(kin, win, steps):
+    """The equation-4 terms of the zero-network rollout of each window (the LBS of the shaped template in every
+    frame: no step depends on a network, so all steps of all windows are one call), in numpy float64, averaged over
+    steps as core.rollout_loss averages them. The friction term is given per unit collision weight (it is linear in
+    it: the lagged normal force is 3·gap²·w_c), so the weights of the iteration that uses it need not be known."""
+    A, shaped = win["A"][:, :steps + 3], win["shaped"]
+    K = len(A)
+    lbs = np.einsum("kfnab,knb->kfna", A[..., :3], shaped) + A[..., 3]           # [K, steps+3, N, 3]
     frames = np.arange(3, 3 + steps)
-    idx = np.stack([np.stack([batch.trees[k][f].query(lbs[k, f].cpu().numpy())[1] for f in frames])
-                    for k in range(K)])                                   # [K, steps, N]
-    idx = torch.as_tensor(idx, device=d)
-    fr = torch.as_tensor(frames, device=d)
-    kk = batch.kidx[:, None, None]
-    ff = fr[None, :, None]
+    idx = np.stack([np.stack([win["trees"][k][f].query(lbs[k, f])[1] for f in frames]) for k in range(K)])
+    kk, ff = np.arange(K)[:, None, None], frames[None, :, None]
 
     def flat(a):
         return a.reshape((K * steps,) + a.shape[2:])
 
-    rest = {k: flat(v[:, None].expand((K, steps) + v.shape[1:])) for k, v in batch.rest.items()}
-    t = terms(s.energies, flat(lbs[:, 3:]), flat(lbs[:, 2:-1]), flat(lbs[:, 1:-2]),
-              flat(batch.material[:, None].expand(K, steps, 4)), flat(batch.dt2[:, 3:3 + steps]),
-              flat(batch.body_t[kk, ff, idx]), flat(batch.body_n[kk, ff, idx]), flat(batch.body_t[kk, ff - 1, idx]),
-              rest, w["collision"])
+    rest = {k: flat(np.broadcast_to(v[:, None], (K, steps) + v.shape[1:])) for k, v in win["rest"].items()}
+    t = terms(kin.mesh, flat(lbs[:, 3:]), flat(lbs[:, 2:-1]), flat(lbs[:, 1:-2]),
+              flat(np.broadcast_to(win["material"][:, None], (K, steps, 4))),
+              flat(win["dt"][:, 3:3 + steps] * win["dt"][:, 3:3 + steps]),
+              flat(win["body"][kk, ff, idx]), flat(win["body_normals"][kk, ff, idx]),
+              flat(win["body"][kk, ff - 1, idx]), rest, 1.0)
     acc = {k: np.zeros(K) for k in LOSS_TERMS}
     for i in range(steps):     # the per-window path's order: a running sum over steps of term / steps
         for k in LOSS_TERMS:
-            acc[k] += t[k].reshape(K, steps)[:, i].cpu().numpy().astype(np.float64) / steps
-    scale = np.maximum(sum(w[k] * acc[k] for k in _SCALE_TERMS), float(floor))
-    return scale, acc
+            acc[k] += t[k].reshape(K, steps)[:, i] / steps
+    return acc
+
+
+def lbs_scales(win, w, floor):
+    """core.lbs_scale of the prepared windows (`prepare(..., lbs_steps=steps)`) at the loss weights w: scales [K]
+    and the LBS-only terms {term: [K]}."""
+    acc = dict(win["lbs_terms"])
+    acc["friction"] = acc["friction"] * float(w["collision"])
+    return np.maximum(sum(w[k] * acc[k] for k in _SCALE_TERMS), float(floor)), acc
 
 
 # ---- Φ over K windows ----------------------------------------------------------------------------------------
@@ -604,7 +631,7 @@ def stage1_loss(setup, net, win, steps, w, loss_norm, floor):
     batch = WindowBatch(setup, win)
     scale = np.ones(batch.K)
     if loss_norm == "lbs":
-        scale, _ = lbs_scales(batch, steps, w, floor)
+        scale, _ = lbs_scales(win, w, floor)
     graph = block_graph(setup, batch.K)
 
     def predict(f):
@@ -636,8 +663,9 @@ def validate_stage1(setup, model, clips, rng, w, c1):
     ratios and terms, and the LBS-only terms, as lists."""
     n, steps = c1["validation_windows"], c1["rollout_max"]
     picks = [sample_pick(setup, clips, rng, steps + 3) for _ in range(n)]
-    batch = WindowBatch(setup, prepare(kinematics(setup), picks))
-    scale, lbs_terms = lbs_scales(batch, steps, w, c1.get("loss_norm_floor", 1.0))
+    win = prepare(kinematics(setup), picks, steps)
+    batch = WindowBatch(setup, win)
+    scale, lbs = lbs_scales(win, w, c1.get("loss_norm_floor", 1.0))
     net, graph = BatchedStage1(model), block_graph(setup, n)
 
     def predict(f):
@@ -647,7 +675,7 @@ def validate_stage1(setup, model, clips, rng, w, c1):
     loss, terms = rollout(batch, steps, w, predict)
     losses = [float(v) for v in loss.cpu().numpy()]
     return (losses, [l / sc for l, sc in zip(losses, scale)], {k: list(v) for k, v in terms.items()},
-            {k: list(v) for k, v in lbs_terms.items()})
+            {k: list(v) for k, v in lbs.items()})
 
 
 def ablation_iteration(setup, model, source, c1, steps, w, z_lo, z_hi, next_steps=None):
@@ -658,7 +686,7 @@ def ablation_iteration(setup, model, source, c1, steps, w, z_lo, z_hi, next_step
     batch = WindowBatch(setup, win)
     scale = np.ones(batch.K)
     if c1.get("loss_norm") == "lbs":
-        scale, _ = lbs_scales(batch, steps, w, c1.get("loss_norm_floor", 1.0))
+        scale, _ = lbs_scales(win, w, c1.get("loss_norm_floor", 1.0))
     static = _f32(win["static"], batch.device)                          # [K, W, I]
     state = {"z": torch.zeros(batch.K, setup.L, device=batch.device)}
 
