@@ -21,9 +21,10 @@ import numpy as np
 
 from pleat.asset import input_count, input_layout, read_asset, write_asset
 from pleat.body.model import SMPL_JOINT_NAMES, SMPL_PARENTS  # noqa: F401 (also imported from here by tests)
-from pleat import garment_asset
 from pleat.cli import add_quiet, command
 from pleat.fileio import atomic_write
+from pleat.garment_asset import input_joint_indices
+from pleat.physics import materials as physics_materials
 from pleat.reference.input_assembly import assemble_inputs
 from pleat.reference.instance import Instance
 from pleat.reference.mlp import mlp
@@ -36,10 +37,10 @@ SMPL_JOINT_TEMPLATE = np.array([
     [0.11, 0.03, 0.10], [-0.11, 0.03, 0.10], [0.00, 1.47, -0.01], [0.07, 1.38, 0.00], [-0.07, 1.38, 0.00],
     [0.00, 1.55, 0.04], [0.18, 1.40, -0.01], [-0.18, 1.40, -0.01], [0.44, 1.40, -0.02], [-0.44, 1.40, -0.02],
     [0.70, 1.40, -0.01], [-0.70, 1.40, -0.01], [0.78, 1.40, -0.01], [-0.78, 1.40, -0.01]])
-# All joints but the pelvis, wrists and hands (docs/inputs.md), as for a garment on the shipped body.
-SMPL_INPUT_JOINTS = [k for k, name in enumerate(SMPL_JOINT_NAMES) if name not in garment_asset.EXCLUDED_INPUT_JOINTS]
-MATERIAL_MIN = np.array(garment_asset.MATERIAL_MIN)    # the paper's training ranges (section 4.1)
-MATERIAL_MAX = np.array(garment_asset.MATERIAL_MAX)
+# All joints but the pelvis, wrists and hands (docs/inputs.md): the rule of a garment asset on the shipped body.
+SMPL_INPUT_JOINTS = [int(k) for k in input_joint_indices(SMPL_JOINT_NAMES)]
+MATERIAL_MIN = np.array(physics_materials.MATERIAL_MIN)    # the paper's training ranges (section 4.1)
+MATERIAL_MAX = np.array(physics_materials.MATERIAL_MAX)
 TUBE_Y = (0.72, 1.42)
 TUBE_RADIUS = (0.17, 0.12)   # x, z
 
