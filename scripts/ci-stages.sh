@@ -101,6 +101,15 @@ fi
 if [ -n "${STAGES// /}" ] && [ "$STAGES" != default ]; then
   scripts/setup.sh # Debian packages and the venv; quick when present (stage_default runs it itself)
 fi
+# CPU seconds (user + sys) of this shell's finished children so far: with the wall time it shows how much of a
+# stage's time was its own work on a shared machine.
+# (`times` runs in this shell, not in a $(...) subshell, whose children would be its own.)
+times_file=$(mktemp)
+trap 'rm -f "$times_file"' EXIT
+cpu_seconds() { # sets CPU
+  times >"$times_file"
+  CPU=$(tail -1 "$times_file" | awk '{ split($1, u, /[ms]/); split($2, s, /[ms]/); printf "%d", u[1] * 60 + u[2] + s[1] * 60 + s[2] }')
+}
 summary=""
 failed=""
 for stage in $STAGES; do
@@ -110,12 +119,17 @@ for stage in $STAGES; do
   fi
   echo "=== stage $stage"
   start=$(date +%s)
+  cpu_seconds
+  cpu_start=$CPU
   status=0
   PLEAT_CI_RUN_STAGE=$stage bash "$SELF" || status=$?
   elapsed=$(( $(date +%s) - start ))
+  cpu_seconds
+  cpu=$(( CPU - cpu_start ))
   verdict=passed
   if [ "$status" -ne 0 ]; then verdict="FAILED (exit $status)"; failed="$failed $stage"; fi
-  line=$(printf "%-8s %3d:%02d  %s" "$stage" $((elapsed / 60)) $((elapsed % 60)) "$verdict")
+  line=$(printf "%-8s wall %3d:%02d  cpu %3d:%02d  %s" "$stage" $((elapsed / 60)) $((elapsed % 60)) \
+    $((cpu / 60)) $((cpu % 60)) "$verdict")
   echo "=== $line"
   summary="$summary$line"$'\n'
 done
