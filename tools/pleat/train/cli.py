@@ -9,9 +9,11 @@ from pleat.cli import add_quiet, command
 
 def build_parser():
     p = argparse.ArgumentParser(prog="pleat-train", description=__doc__)
-    p.add_argument("command", choices=["stage1", "stage2", "ablation", "pack", "all", "simsup", "simsup-tiers"],
+    p.add_argument("command", choices=["stage1", "stage2", "ablation", "pack", "all", "simsup", "simsup-tiers",
+                                        "simsup-contact"],
                    help="simsup: the simulator-supervised recipe (simulate, fit, pack; docs/training.md); "
-                        "simsup-tiers: cheaper tiers distilled from the simsup model in --out")
+                        "simsup-tiers: cheaper tiers distilled from the simsup model in --out; "
+                        "simsup-contact: the contact-aware fine-tune of the simsup model in --out")
     p.add_argument("--preset", default="tiny", help="configs/<preset>.json (tiny, default)")
     p.add_argument("--config", default=None, help="a config file instead of the preset")
     p.add_argument("--set", action="append", default=[], metavar="KEY=JSON",
@@ -34,6 +36,8 @@ def build_parser():
     p.add_argument("--cache-dir", default=None, help="simsup: simulation cache (default out/cache/sim)")
     p.add_argument("--tiers", nargs="+", default=["medium", "small", "xsmall"],
                    help="simsup-tiers: tier names (pleat.eval.tiers; default medium small xsmall)")
+    p.add_argument("--contact-iterations", type=int, default=None,
+                   help="simsup-contact: fine-tune iterations (default the run's simsup.contact_iterations or 1500)")
     p.add_argument("--tier-dir", default=None, help="simsup-tiers: folder for <garment>_<tier>.pleat (default --out)")
     p.add_argument("--data", default=None, help="simsup: a dataset npz written by --export (no simulation)")
     p.add_argument("--export", default=None, help="simsup: write the simulated dataset to this npz")
@@ -80,6 +84,11 @@ def main(argv=None):
         simsup.train(cfg, args.garment, args.out, args.workers, args.max_minutes, args.device, progress,
                      args.cache_dir, args.data, args.export, user_sims=args.user_sim,
                      user_only=args.user_sim_only)
+    if args.command == "simsup-contact":
+        from pleat.train import simsup
+        if not args.data:
+            p.error("simsup-contact needs --data (the datasets the model was fitted on)")
+        simsup.contact_tune(args.out, args.data, args.contact_iterations, progress=progress)
     if args.command == "simsup-tiers":
         from pleat.train import simsup
         if not args.data:

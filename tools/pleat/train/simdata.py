@@ -171,7 +171,12 @@ def sequence(setup, clip, beta, material, positions):
     static = setup.static_inputs(win, beta, material)
     disp = unskin(win["A"], np.asarray(positions[:T], np.float64)) - setup.shaped(beta)[None]
     disp[:, setup.pinned] = 0.0
-    return {"static": static.astype(np.float64), "disp": disp}
+    from pleat import reference
+    M = reference.pose_features(setup.parents, setup.joints_of(beta), setup.input_joints, win["quats"],
+                                win["root_translation"], win["root_rotation"])["skin_matrices"]
+    # M (joint skinning matrices) and β let a contact-aware fit pose garment and body again (pleat.train.contact)
+    return {"static": static.astype(np.float64), "disp": disp, "M": M.astype(np.float32),
+            "beta": np.asarray(beta, np.float64)}
 
 
 def load_sequences(setup, done, clips_by_name):

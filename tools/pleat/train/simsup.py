@@ -335,3 +335,68 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True)
         if progress:
             print(f"simsup tiers: {name} → {path} in {rep['fit_wall_s']:.0f} s", file=sys.stderr)
     return reports
+
+
+# ---- contact-aware fine-tune ---------------------------------------------------------------------------------------
+@torch.no_grad()
+def own_latents(lp, seqs, setup_latent):
+    """Per sequence: X_c rows with the model's latent block and the model's own free-running latents from a reset
+    (where the runtime's latent is at each frame): what the fine-tune's windows start from."""
+    L = int(lp.z_mean.shape[0])
+    out = []
+    for s in seqs:
+        rows = np.concatenate([np.zeros((len(s["static"]), L)), s["static"][:, setup_latent:]], 1)
+        z = torch.zeros(L)
+        zs = []
+        for row in torch.as_tensor(rows, dtype=torch.float32):
+            _, z = lp(z, row)
+            zs.append(z)
+        out.append({"static": rows, "z": torch.stack(zs).double().numpy()})
+    return out
+
+
+def contact_tune(run_dir, data, iterations=None, progress=True):
+    """pleat.train.contact on the simsup model in `run_dir`, on the sequences of `data`; rewrites simsup.pt (the
+    fitted model is kept as simsup_fit.pt) and the packed asset, and prints the verdict again."""
+    from pleat.train import contact
+    run_dir = Path(run_dir)
+    lp, block, norms, shim, setup = load_model(run_dir)
+    cfg, c = setup.cfg, setup.cfg["simsup"]
+    train_clips = _named(_clips("train", cfg["fps"], setup.body))
+    val_clips = _named(_clips("validation", cfg["fps"], setup.body))
+    seqs, val = [], None
+    for part in str(data).split(","):
+        _, q, v = import_dataset(part, setup, train_clips, val_clips, c["validation_frames"])
+        seqs, val = seqs + q, val or v
+    before = posed_errors(lp, block, val, setup.L)
+    t0 = time.time()
+    tensors = contact.prepare(setup, seqs)
+    train = own_latents(lp, seqs, setup.L)
+    run = core.Run(run_dir, "contact", cfg, 0)
+    if progress:
+        print(f"contact: {len(seqs)} sequences prepared in {time.time() - t0:.0f} s", file=sys.stderr)
+
+    def log(rec):
+        run.log(rec)
+        if progress:
+            print(f"contact: {rec}", file=sys.stderr)
+    rep = contact.finetune(lp, block, train, tensors, iterations or int(c.get("contact_iterations", 1500)),
+                           lr=float(c.get("contact_lr", 1e-4)), w_contact=float(c.get("contact_weight", 30.0)),
+                           eps_m=float(c.get("contact_eps_m", 2e-3)), log=log)
+    after = posed_errors(lp, block, val, setup.L)
+    state = torch.load(run_dir / "simsup.pt", weights_only=False)
+    if not (run_dir / "simsup_fit.pt").exists():
+        torch.save(state, run_dir / "simsup_fit.pt")
+    state.update(lp=lp.state_dict(), block=block.state_dict(), contact=rep)
+    torch.save(state, run_dir / "simsup.pt")
+    summary = json.loads((run_dir / "simsup_summary.json").read_text())
+    summary.update(contact=rep, validation_before_contact=before, validation=after,
+                   cpu_hours=summary["cpu_hours"] + rep["time_s"] * max(1, torch.get_num_threads()) / 3600.0)
+    (run_dir / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
+    path = run_dir / f"{setup.name}.pleat"
+    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(state["report"], tier=c["tier"]),
+                      cfg["fps"], fp16=c.get("fp16", True), teacher="reference simulator",
+                      model="pleat simulator-supervised: inference block fitted to the reference simulator, "
+                            "contact-aware fine-tune", training=summary, onnx=bool(c.get("onnx", False)))
+    print(verdict(after))
+    return path, rep
