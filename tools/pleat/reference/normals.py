@@ -24,13 +24,13 @@ def face_normals(positions, faces):
 
 
 def normals_gather(face_normals, adjacency_offsets, adjacency_faces):
-    """face_normals [F, 3]; adjacency_offsets [N + 1], adjacency_faces [3F] (CSR) → unit normals [N, 3]."""
+    """face_normals [..., F, 3]; adjacency_offsets [N + 1], adjacency_faces [3F] (CSR) → unit normals [..., N, 3]."""
     offsets = np.asarray(adjacency_offsets, np.int64)
-    gathered = np.asarray(face_normals, np.float64)[np.asarray(adjacency_faces, np.int64)]
-    sums = np.zeros((len(offsets) - 1, 3))
+    gathered = np.asarray(face_normals, np.float64)[..., np.asarray(adjacency_faces, np.int64), :]
+    sums = np.zeros(gathered.shape[:-2] + (len(offsets) - 1, 3))
     has = np.diff(offsets) > 0
-    if gathered.shape[0]:
-        sums[has] = np.add.reduceat(gathered, offsets[:-1][has], axis=0)
+    if gathered.shape[-2]:
+        sums[..., has, :] = np.add.reduceat(gathered, offsets[:-1][has], axis=-2)
     return _normalize(sums)
 
 
@@ -48,5 +48,5 @@ def normals_scatter(positions, faces):
 
 
 def normals(positions, faces, adjacency_offsets, adjacency_faces):
-    """face_normals, then normals_gather: the normals of plInstance_Step and of the GL path."""
+    """face_normals, then normals_gather: the normals of plInstance_Step and of the GL path. positions [..., N, 3]."""
     return normals_gather(face_normals(positions, faces), adjacency_offsets, adjacency_faces)
