@@ -247,7 +247,8 @@ plResult plDestroyContext( plContext context )
 		plLog( ctx, PLEAT_LOG_LEVEL_WARNING, PLEAT_LOG_CONTEXT_DESTROYED_WITH_LIVE_OBJECTS, "%u assets, %u instances",
 			   ctx->assets.live_count, ctx->instances.live_count );
 	}
-	// Instances first: they hold references to assets.
+	// Scenes first (they own instances), then instances: they hold references to assets.
+	plSlotTable_Free( ctx, &ctx->scenes );
 	plSlotTable_Free( ctx, &ctx->instances );
 	plSlotTable_Free( ctx, &ctx->assets );
 	g_plContextTable.contexts[context.index1 - 1u] = NULL; // the generation stays: the next context gets the one after

@@ -56,6 +56,7 @@ struct plContextData
 
 	plSlotTable assets;
 	plSlotTable instances;
+	plSlotTable scenes; // scenes own instances of their characters (scene.c)
 	plContext handle; // this context's own handle, written into the handles of its assets and instances
 };
 

@@ -103,6 +103,27 @@
 //     plStepInstances( context, crowd, poses, vbos, results, 64 );    // results[i] as plInstance_Step's
 //
 // ==================================================================================================================
+// SCENE BUDGET: TIERS, RATES AND LBS-ONLY UNDER A PER-FRAME BUDGET (docs/scene-budget.md)
+// ==================================================================================================================
+// A scene (plCreateScene) dresses characters in one garment that comes in several tiers — assets of the same garment
+// from the most accurate and costly down (e.g. tshirt, tshirt_medium, tshirt_small, tshirt_xsmall) — and decides every
+// frame, from a budget in µs and each character's importance (screen coverage, distance: any weight ≥ 0), which
+// detail each character gets: a tier at a network rate, or LBS-only (the garment skinned with no learned deformation).
+// The policy spends the budget where it removes the most error per µs, weighted by importance, with hysteresis and a
+// minimum time between switches (SCENE BUDGET in docs/scene-budget.md). The engine reads every choice
+// (plScene_GetDetail) and can override any (plScene_SetOverride). Costs and errors per tier come from the def
+// (measure them: scripts/bench.sh's crowd keys, pleat-eval), or are estimated from each tier's sizes.
+// A switch does not pop: the new detail starts from a reset latent and the outputs cross-fade from the old detail to
+// the new over plSceneDef.crossfade_frames frames (both are stepped meanwhile). Outputs are on the display mesh,
+// tiers[0]'s vertices and faces; a tier on another mesh is carried over by a barycentric map built at creation.
+// plScene_Step steps every character through plStepInstances (tiers batched) and writes each character's outputs.
+//     plSceneDef sdef = plDefaultSceneDef();
+//     sdef.tiers = tiers; sdef.tier_count = 4; sdef.budget_us = 2000.0f; sdef.character_capacity = 100;
+//     plScene scene; plCreateScene( context, &sdef, &scene );
+//     plCharacterDef cdef = plDefaultCharacterDef(); cdef.beta = ...; uint32_t id; plScene_AddCharacter( scene, &cdef, &id );
+//     each frame: plScene_SetImportance( scene, id, coverage ); ...; plScene_Step( scene, poses, vbos, results, count );
+//
+// ==================================================================================================================
 // MEMORY
 // ==================================================================================================================
 // Every allocation goes through the context's allocator hooks (alloc/free, both or neither; default: the C runtime).
@@ -311,7 +332,9 @@ PLEAT_API plVersion plGetVersion( void );
 	X( BACKEND_UNAVAILABLE, 30, "ONNX Runtime backend unavailable" )                                                  \
 	X( GL_UNAVAILABLE, 31, "GL deformer unavailable" )                                                                \
 	X( GL_HEADLESS_CONTEXT, 32, "headless GL context created" )                                                       \
-	X( OUT_OF_MEMORY, 40, "allocation failed" )
+	X( OUT_OF_MEMORY, 40, "allocation failed" )                                                                       \
+	X( SCENE_BAD_DEF, 50, "scene or character def rejected" )                                                         \
+	X( SCENE_CREATED, 51, "scene created" )
 
 /// Log item ids (PLEAT_LOG_ + name in PLEAT_LOG_ITEMS).
 typedef enum plLogItem
@@ -672,6 +695,130 @@ PLEAT_API plResult plAsset_GetRestPose( plAsset asset, plRestJoint* out_joints, 
 /// joints the instance's forward kinematics uses. Changes with plInstance_SetShape (rebuild a retarget then: bone
 /// directions move a little with β). Same layout and capacity rule as plAsset_GetRestPose.
 PLEAT_API plResult plInstance_GetRestPose( plInstance instance, plRestJoint* out_joints, uint32_t joint_capacity );
+
+// ------------------------------------------------------------------------------------------------------------------
+// Scene budget (SCENE BUDGET above)
+// ------------------------------------------------------------------------------------------------------------------
+
+/// Hard limits of a scene.
+#define PLEAT_MAX_TIERS 8
+#define PLEAT_MAX_NETWORK_RATES 4
+
+/// A scene handle (as plInstance: slot index + 1, generation, context; all zero = null).
+typedef struct plScene
+{
+	uint32_t index1;     ///< slot index + 1 in the context's scene table (0 = null)
+	uint32_t generation; ///< the slot's generation when the scene was created (>= 1)
+	plContext context;   ///< the context the scene was created in
+} plScene;
+
+/// One level of detail of a character.
+typedef struct plDetail
+{
+	int32_t tier;          ///< index into plSceneDef.tiers, or -1: LBS-only (skinning only, on the display mesh)
+	float network_rate_hz; ///< the tier's network rate (Hz; 0 = every step, else one of plSceneDef.network_rates_hz)
+} plDetail;
+
+/// Scene definition: get one from plDefaultSceneDef(), change fields, pass to plCreateScene.
+typedef struct plSceneDef
+{
+	const plAsset* tiers;              ///< [tier_count] one garment, most accurate (and costly) first (required). Same
+	                                   ///< skeleton in every tier; tiers[0]'s mesh is the display mesh
+	uint32_t tier_count;               ///< 1..PLEAT_MAX_TIERS
+	const float* tier_cost_us;         ///< [tier_count] µs per character for a step with the networks, stepped in a
+	                                   ///< crowd (plStepInstances); NULL = estimated from each tier's sizes
+	const float* tier_skin_cost_us;    ///< [tier_count] µs per character for a step between network updates (skinning
+	                                   ///< and normals); NULL = estimated
+	const float* tier_stream_cost_us;  ///< [tier_count] µs per frame for reading a tier's weights and blend shapes
+	                                   ///< once, paid by a tier that any character uses; NULL = estimated
+	const float* tier_error_mm;        ///< [tier_count] mean error of each tier (mm, e.g. pleat-eval against the
+	                                   ///< simulator); NULL = ranks: tier t counts (t + 1) / (tier_count + 1) of LBS
+	float lbs_cost_us;                 ///< µs per character for LBS-only; 0 = estimated
+	float lbs_error_mm;                ///< mean error of LBS-only (mm); 0 = 1 (then the errors are relative)
+	const float* network_rates_hz;     ///< [network_rate_count] reduced network rates the policy may pick (Hz, each
+	                                   ///< below frame_rate_hz), e.g. { 30, 15 }; every tier also has its full rate
+	const float* network_rate_error_mm; ///< [network_rate_count] error added at that rate (mm); NULL = a small penalty
+	                                   ///< (2 % of the tier's error per halving) so spare budget goes to full rates
+	uint32_t network_rate_count;       ///< 0..PLEAT_MAX_NETWORK_RATES
+	float frame_rate_hz;               ///< the game's frame rate (Hz; 0 = 60): what a reduced rate saves
+	float budget_us;                   ///< per-frame budget for the whole scene (µs); 0 = unlimited
+	float hysteresis;                  ///< a character keeps its detail unless another use of the budget is worth this
+	                                   ///< fraction more (0 = default 0.25; negative = none)
+	uint32_t min_frames_between_switches; ///< a character keeps a new detail at least this long while the budget
+	                                   ///< allows (frames; 0 = default 30)
+	uint32_t crossfade_frames;         ///< frames a switch blends from the old detail to the new (0 = default 8)
+	uint32_t character_capacity;       ///< the most characters at once (0 = default 64); everything is allocated at
+	                                   ///< creation and plScene_AddCharacter (one instance per tier per character)
+	int32_t internal_cookie;           ///< set by plDefaultSceneDef; do not touch
+} plSceneDef;
+
+/// A character of a scene: the fields of plInstanceDef that every tier's instance of it shares.
+typedef struct plCharacterDef
+{
+	const int32_t* joint_map;        ///< as plInstanceDef.joint_map (the tiers share one skeleton)
+	uint32_t joint_map_count;        ///< as plInstanceDef
+	uint32_t engine_joint_count;     ///< as plInstanceDef
+	const float* beta;               ///< [beta_count] body shape β (unitless), NULL = zeros
+	uint32_t beta_count;             ///< entries in beta
+	const float* material;           ///< [4] as plInstanceDef.material, NULL = each tier's default
+	float importance;                ///< initial importance (>= 0, e.g. screen coverage)
+	void* user_data;                 ///< yours, returned by plScene_GetCharacterUserData
+	int32_t internal_cookie;         ///< set by plDefaultCharacterDef; do not touch
+} plCharacterDef;
+
+/// What the policy planned for the last step.
+typedef struct plScenePlan
+{
+	float cost_us;          ///< the planned per-frame cost of the scene (µs, from the def's or estimated costs)
+	float budget_us;        ///< the budget it was planned for (µs; 0 = unlimited)
+	float weighted_error_mm; ///< Σ importance · error / Σ importance of the planned details (mm, from the def)
+	uint32_t switches;      ///< characters whose detail changed on that step
+	uint32_t fading;        ///< characters cross-fading after that step
+} plScenePlan;
+
+/// A scene def with defaults and the validity cookie.
+PLEAT_API plSceneDef plDefaultSceneDef( void );
+/// A character def with defaults and the validity cookie.
+PLEAT_API plCharacterDef plDefaultCharacterDef( void );
+/// Create a scene over tier assets of one context (they must outlive it). Builds the levels, their costs and errors and
+/// the map from each tier's mesh to the display mesh. INVALID_DEF names the field in the log.
+PLEAT_API plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_scene );
+/// Destroy a scene and its characters' instances.
+PLEAT_API plResult plDestroyScene( plScene scene );
+/// Non-zero if the handle names a live scene.
+PLEAT_API int plScene_IsValid( plScene scene );
+/// Add a character (one instance per tier is created now); its id (< character_capacity) in *out_character.
+/// CAPACITY_EXCEEDED when the scene is full. It starts on the policy's choice at its first plScene_Step, with no fade.
+PLEAT_API plResult plScene_AddCharacter( plScene scene, const plCharacterDef* def, uint32_t* out_character );
+/// Remove a character (its id may be given to a later plScene_AddCharacter).
+PLEAT_API plResult plScene_RemoveCharacter( plScene scene, uint32_t character );
+/// Set a character's importance (>= 0, finite; 0 = the cheapest detail whenever the budget is short).
+PLEAT_API plResult plScene_SetImportance( plScene scene, uint32_t character, float importance );
+/// Change the budget (µs per frame, >= 0; 0 = unlimited).
+PLEAT_API plResult plScene_SetBudget( plScene scene, float budget_us );
+/// Fix a character's detail (the policy plans the others around it), or detail = NULL to hand it back to the policy.
+/// INVALID_ARGUMENT if the tier or rate is not one of the scene's.
+PLEAT_API plResult plScene_SetOverride( plScene scene, uint32_t character, const plDetail* detail );
+/// A character's current detail; during a cross-fade also the detail it fades from and how far (0..1; 1 = done).
+/// out_from and out_fade may be NULL.
+PLEAT_API plResult plScene_GetDetail( plScene scene, uint32_t character, plDetail* out_detail, plDetail* out_from,
+									 float* out_fade );
+/// Plan, switch and step every character: inputs[c] is character c's pose (as plInstance_Step's), outputs[c] its
+/// destination on the display mesh (or outputs NULL), out_results[c] its result (or NULL); count must exceed the
+/// highest live character id (entries of free ids are not read). Returns the first error in id order, else the first
+/// note, else OK. A character whose input is rejected keeps its last outputs.
+PLEAT_API plResult plScene_Step( plScene scene, const plFrameInput* inputs, const plStepOutput* outputs,
+								 plResult* out_results, uint32_t count );
+/// The last step's plan.
+PLEAT_API plResult plScene_GetPlan( plScene scene, plScenePlan* out_plan );
+/// A character's last outputs on the display mesh, [N][3] positions (metres) / unit normals, owned by the scene, valid
+/// until its next step or removal (before its first step: the shaped rest template of tiers[0]).
+PLEAT_API plResult plScene_GetPositions( plScene scene, uint32_t character, const float** out_positions,
+										 uint32_t* out_count );
+PLEAT_API plResult plScene_GetNormals( plScene scene, uint32_t character, const float** out_normals,
+									   uint32_t* out_count );
+/// The def's user_data of a character, in *out_user_data.
+PLEAT_API plResult plScene_GetCharacterUserData( plScene scene, uint32_t character, void** out_user_data );
 
 #ifdef __cplusplus
 }
