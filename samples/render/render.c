@@ -4,6 +4,8 @@
 //     pleat-render --asset assets/tshirt.pleat --body out/demo/body.bin --clip out/demo/walk.bin --out out/demo
 //                  [--beta b0,b1,...] [--material m,mu,lambda,k] [--size 640x480] [--frames A:B[:step]]
 //                  [--path cpu|gl] [--sheet N]
+//     pleat-render --crowd N --tiers T0.pleat,.. --bodies B0.bin,.. --clips C0.bin,.. [--budget-us B] ...
+//                  (render_crowd.c: N characters dressed by one plScene under a budget)
 //
 // The body file (PLBODY01) and the clip file (PLMOTION) are written by `python -m pleat.render_export`; their
 // formats are in docs/demo.md. Exit status: 0 = done, 1 = failed, 2 = bad options, 77 = no usable GL (no EGL
@@ -11,6 +13,7 @@
 // step-th frame is rendered. The body is skinned here with the instance's own skinning matrices
 // (plInstance_GetSkinMatrices), so body and garment always share one skeleton.
 #define _POSIX_C_SOURCE 200809L
+#include "render_crowd.h"
 #include "render_files.h"
 #include "render_gl.h"
 #include "render_image.h"
@@ -144,7 +147,7 @@ static double nowSeconds( void )
 }
 
 // x' = Σ_k w_k M_k x with M [J][3][4] row-major, the same LBS the SDK applies to the garment.
-static void skinBody( const RenderBody* body, const int32_t* body_to_asset, const float* matrices, float* positions )
+void skinBody( const RenderBody* body, const int32_t* body_to_asset, const float* matrices, float* positions )
 {
 	uint32_t k_count = body->influence_count;
 	for ( uint32_t v = 0; v < body->vertex_count; ++v )
@@ -165,7 +168,7 @@ static void skinBody( const RenderBody* body, const int32_t* body_to_asset, cons
 }
 
 // Area-weighted vertex normals (the same definition as the SDK's normals job).
-static void vertexNormals( const float* positions, uint32_t vertex_count, const uint32_t* faces, uint32_t face_count,
+void vertexNormals( const float* positions, uint32_t vertex_count, const uint32_t* faces, uint32_t face_count,
 						   float* normals )
 {
 	memset( normals, 0, (size_t)vertex_count * 3 * sizeof( float ) );
@@ -230,6 +233,8 @@ static int fail( const char* what, plResult result )
 
 int main( int argc, char** argv )
 {
+	if ( renderCrowd_Requested( argc, argv ) )
+		return renderCrowd_Main( argc, argv ); // many characters under a budget (render_crowd.c)
 	Options o;
 	if ( parseOptions( argc, argv, &o ) != 0 )
 	{

@@ -635,6 +635,23 @@ plResult plScene_GetNormals( plScene handle, uint32_t character, const float** o
 	return plGetOutput( handle, character, 1, out_normals, out_count );
 }
 
+plResult plScene_GetSkinMatrices( plScene handle, uint32_t character, float* out, uint32_t joint_count )
+{
+	plSceneData* s = plGetSceneData( handle );
+	plSceneCharacter* c = plGetCharacter( s, character );
+	if ( c == NULL || out == NULL )
+	{
+		return s == NULL ? PLEAT_RESULT_INVALID_HANDLE : PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	uint32_t j = s->tiers[0].asset->joint_count;
+	if ( joint_count < j )
+	{
+		return PLEAT_RESULT_BUFFER_TOO_SMALL;
+	}
+	memcpy( out, c->skin_matrices, (size_t)j * 12 * sizeof( float ) );
+	return PLEAT_RESULT_OK;
+}
+
 plResult plScene_GetCharacterUserData( plScene handle, uint32_t character, void** out_user_data )
 {
 	plSceneData* s = plGetSceneData( handle );
@@ -973,13 +990,17 @@ plResult plScene_Step( plScene handle, const plFrameInput* inputs, const plStepO
 		}
 		const plStepOutput* out = outputs != NULL ? &outputs[id] : NULL;
 		// The new outputs go to the back buffers; the front ones are the last frame's, to measure the jump against.
+		uint32_t joints = s->tiers[0].asset->joint_count;
 		if ( result >= 0 && tier < 0 )
 		{
 			result = plStepLbs( s, c, &inputs[id], c->back_positions, c->back_normals );
+			memcpy( c->skin_matrices, plGetInstanceData( c->instances[0] )->next_skin_matrices,
+					(size_t)joints * 12 * sizeof( float ) );
 		}
 		else if ( result >= 0 )
 		{
 			plShowTier( s, c, tier, c->back_positions, c->back_normals );
+			plInstance_GetSkinMatrices( c->instances[tier], c->skin_matrices, joints );
 		}
 		if ( result >= 0 && fade )
 		{

@@ -105,6 +105,7 @@ typedef struct plSceneCharacter
 	float* normals;              // [N0][3]
 	float* back_positions;       // [N0][3] the next outputs while a step assembles them (then swapped)
 	float* back_normals;
+	float skin_matrices[PLEAT_MAX_JOINTS * 12]; // the last step's, of the detail shown
 } plSceneCharacter;
 
 typedef struct plSceneData

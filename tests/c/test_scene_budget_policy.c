@@ -402,6 +402,13 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 	{
 		assert_true( isfinite( positions[v] ) );
 	}
+	float skin[64 * 12];
+	assert_int_equal( plScene_GetSkinMatrices( scene, 7, skin, rig.models[0]->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
+	assert_int_equal( plScene_GetSkinMatrices( scene, 7, skin, rig.models[0]->J ), PLEAT_RESULT_OK );
+	for ( uint32_t i = 0; i < rig.models[0]->J * 12; ++i )
+	{
+		assert_true( isfinite( skin[i] ) );
+	}
 	assert_int_equal( plScene_RemoveCharacter( scene, 3 ), PLEAT_RESULT_OK );
 	assert_int_equal( plScene_SetImportance( scene, 3, 1.0f ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plScene_SetImportance( scene, 4, -1.0f ), PLEAT_RESULT_INVALID_ARGUMENT );

@@ -817,6 +817,9 @@ PLEAT_API plResult plScene_GetPositions( plScene scene, uint32_t character, cons
 										 uint32_t* out_count );
 PLEAT_API plResult plScene_GetNormals( plScene scene, uint32_t character, const float** out_normals,
 									   uint32_t* out_count );
+/// Copy a character's skinning matrices of its last step, [J][3][4] row-major (rest space → output space, metres), as
+/// plInstance_GetSkinMatrices: what the engine skins the body with. joint_count must be the tiers' J.
+PLEAT_API plResult plScene_GetSkinMatrices( plScene scene, uint32_t character, float* out, uint32_t joint_count );
 /// The def's user_data of a character, in *out_user_data.
 PLEAT_API plResult plScene_GetCharacterUserData( plScene scene, uint32_t character, void** out_user_data );
 
