@@ -38,6 +38,8 @@ def build_parser():
                    help="simsup-tiers: tier names (pleat.eval.tiers; default medium small xsmall)")
     p.add_argument("--contact-iterations", type=int, default=None,
                    help="simsup-contact: fine-tune iterations (default the run's simsup.contact_iterations or 1500)")
+    p.add_argument("--from-asset", default=None,
+                   help="simsup-contact: start from this packed simsup asset (rebuilds --out/simsup.pt from it)")
     p.add_argument("--tier-dir", default=None, help="simsup-tiers: folder for <garment>_<tier>.pleat (default --out)")
     p.add_argument("--data", default=None, help="simsup: a dataset npz written by --export (no simulation)")
     p.add_argument("--export", default=None, help="simsup: write the simulated dataset to this npz")
@@ -88,7 +90,10 @@ def main(argv=None):
         from pleat.train import simsup
         if not args.data:
             p.error("simsup-contact needs --data (the datasets the model was fitted on)")
-        simsup.contact_tune(args.out, args.data, args.contact_iterations, progress=progress)
+        if args.from_asset:
+            simsup.run_from_asset(args.from_asset, args.garment, cfg, args.out)
+        simsup.contact_tune(args.out, args.data, args.contact_iterations, progress=progress,
+                            settings=cfg.get("simsup"))
     if args.command == "simsup-tiers":
         from pleat.train import simsup
         if not args.data:

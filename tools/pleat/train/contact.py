@@ -117,10 +117,12 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
         torch.nn.utils.clip_grad_norm_(lp.parameters(), 1.0)
         opt.step()
         if log is not None and (it % 50 == 0 or it == iterations - 1):
-            log({"contact_iteration": it, "error_mm2": float(err.detach()), "penetration_mm2": float(pen.detach()),
-                 "inside_share": float(inside), "time_s": round(time.time() - t0, 1)})
+            log({"contact_iteration": it, "error_mm2": float(err.detach()),
+                 "penetration_mm2": float(pen.detach()), "inside_share": float(inside),
+                 "time_s": round(time.time() - t0, 1)})
     lp.eval()
     block.blend_shapes.requires_grad_(False)
-    return {"iterations": iterations, "final_error_mm2": float(err.detach()), "final_penetration_mm2": float(pen.detach()),
+    return {"iterations": iterations, "final_error_mm2": float(err.detach()),
+            "final_penetration_mm2": float(pen.detach()),
             "final_inside_share": float(inside.detach()), "w_contact": w_contact, "eps_m": eps_m,
             "time_s": time.time() - t0}

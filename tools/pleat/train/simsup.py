@@ -227,6 +227,8 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     run.log({"summary": summary})
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     print(verdict(val_err))
+    if int(c.get("contact_iterations", 0)) > 0:      # the last step: the contact-aware fine-tune (rewrites the asset)
+        path, _ = contact_tune(out, None, progress=progress, settings=c, sequences=(seqs, val))
     return path, summary
 
 
@@ -355,17 +357,19 @@ def own_latents(lp, seqs, setup_latent):
     return out
 
 
-def contact_tune(run_dir, data, iterations=None, progress=True):
+def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, sequences=None):
     """pleat.train.contact on the simsup model in `run_dir`, on the sequences of `data`; rewrites simsup.pt (the
     fitted model is kept as simsup_fit.pt) and the packed asset, and prints the verdict again."""
     from pleat.train import contact
     run_dir = Path(run_dir)
     lp, block, norms, shim, setup = load_model(run_dir)
-    cfg, c = setup.cfg, setup.cfg["simsup"]
+    cfg = setup.cfg
+    # the contact_* settings of this call (--set simsup.contact_weight=…) win over the run's own
+    c = dict(cfg["simsup"], **{k: v for k, v in (settings or {}).items() if k.startswith("contact_")})
     train_clips = _named(_clips("train", cfg["fps"], setup.body))
     val_clips = _named(_clips("validation", cfg["fps"], setup.body))
-    seqs, val = [], None
-    for part in str(data).split(","):
+    seqs, val = sequences or ([], None)
+    for part in (str(data).split(",") if sequences is None else []):
         _, q, v = import_dataset(part, setup, train_clips, val_clips, c["validation_frames"])
         seqs, val = seqs + q, val or v
     before = posed_errors(lp, block, val, setup.L)
@@ -390,7 +394,9 @@ def contact_tune(run_dir, data, iterations=None, progress=True):
     state.update(lp=lp.state_dict(), block=block.state_dict(), contact=rep)
     torch.save(state, run_dir / "simsup.pt")
     summary = json.loads((run_dir / "simsup_summary.json").read_text())
-    summary.update(contact=rep, validation_before_contact=before, validation=after,
+    summary.setdefault("contact_rounds", []).append(rep)
+    summary.update(contact=rep, validation_before_contact=summary.get("validation_before_contact", before),
+                   validation=after,
                    cpu_hours=summary["cpu_hours"] + rep["time_s"] * max(1, torch.get_num_threads()) / 3600.0)
     (run_dir / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     path = run_dir / f"{setup.name}.pleat"
@@ -400,3 +406,36 @@ def contact_tune(run_dir, data, iterations=None, progress=True):
                             "contact-aware fine-tune", training=summary, onnx=bool(c.get("onnx", False)))
     print(verdict(after))
     return path, rep
+
+
+def run_from_asset(asset, garment, cfg, run_dir):
+    """A simsup run folder (simsup.pt, simsup_summary.json) rebuilt from a packed simulator-supervised asset, so a
+    model trained elsewhere (its checkpoint not at hand) can be fine-tuned here. Weights come back at the asset's
+    precision (fp16 matrices)."""
+    from pleat.eval import scene as S
+    from pleat.eval.tiers import tier
+    from pleat.train.model import InferenceBlock, linear_layers
+    _, w = S.read_weights(asset)
+    meta = json.loads(w.get("metadata_json") or "{}")
+    setup = core.Setup(cfg, garment, "cpu")
+    spec = tier(cfg["simsup"]["tier"])
+    norms = {k: np.asarray(w[k], np.float64) for k in ("x_mean", "x_std", "z_mean", "z_std", "z_min", "z_max")}
+    L, D = len(norms["z_mean"]), int(w["blend_shapes"].shape[0])
+    shim = distill._shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
+    lp = core.LatentPredictor(shim, norms)
+    block = InferenceBlock(shim.cfg["model"], setup.N, free_mask=setup.free_mask)
+    with torch.no_grad():
+        for prefix, seq in (("lp", lp.lp), ("dec", block.decoder)):
+            for i, lin in enumerate(linear_layers(seq)):
+                lin.weight.copy_(torch.as_tensor(np.asarray(w[f"{prefix}.{i}.weight"], np.float32)))
+                lin.bias.copy_(torch.as_tensor(np.asarray(w[f"{prefix}.{i}.bias"], np.float32)))
+        block.blend_shapes.copy_(torch.as_tensor(np.asarray(w["blend_shapes"], np.float32)))
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    training = meta.get("training", {})
+    report = dict(meta.get("distillation", {}), source_asset=str(asset))
+    torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
+                "config": cfg, "garment": garment}, run_dir / "simsup.pt")
+    (run_dir / "simsup_summary.json").write_text(json.dumps(dict(training, source_asset=str(asset)), indent=1,
+                                                            default=str))
+    return run_dir

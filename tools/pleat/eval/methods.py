@@ -1,0 +1,132 @@
+"""Every method on one chart: error against time per frame, log time axis (docs/pareto.md, "Methods").
+
+    PLEAT_LIBRARY=build/eval/libpleat.so python -m pleat.eval.methods --suite out/suite.json [more.json ...] \
+        [--label PATH=NAME ...] --out docs/methods.png [--json out/methods.json]
+
+Inputs are pleat-eval-suite reports (`pleat.eval.suite`, run with --reference-spread) so that every number is
+measured the same way on the same clips and bodies:
+- each asset: its median step time (the C runtime, one thread) and its mean vertex error over the runs, with
+  error bars from the runs' spread (min and max over clips and β);
+- LBS-only: the same garment with the zero network, scored in the same runs;
+- the reference simulator: its CPU time per frame (from the cached simulations' own summaries) and, as its error,
+  the reference spread (a second simulation started 1 µm away, scored against the first): the floor under which
+  no error means anything;
+- Φ, the stage-1 network, timed per frame in torch (one thread) on the same garment: speed only (its error is that
+  of the two-stage recipe's teacher, not measured here).
+"""
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+from pleat.cli import add_quiet, command
+from pleat.fileio import save_figure, write_text
+
+
+def phi_seconds_per_frame(preset="default", garment="tshirt", frames=20):
+    """Φ's forward pass per frame (graph features, encoder, processor, compressor, decoder, blend shapes) in torch,
+    one thread, random weights (time does not depend on them), on a window of a training clip."""
+    import torch
+    from pleat.train import core, sources
+    torch.set_num_threads(1)
+    cfg = core.load_config(preset)
+    setup = core.Setup(cfg, garment)
+    model = core.Stage1Model(setup).eval()
+    clip = sources.clips("train", cfg["fps"], 1, None, setup.body)[0]
+    rng = np.random.default_rng(0)
+    win, beta, mat, mat01 = core.sample_window(setup, [clip], rng, frames + 3)
+    window = core.Window(setup, win, beta, mat, mat01)
+    times = []
+    with torch.no_grad():
+        for f in range(3, len(win["dt"])):
+            t0 = time.perf_counter()
+            node, edges, body, recv = window.features(f)
+            _, disp = model(node, edges, body, recv, setup.levels)
+            window.advance(f, disp)
+            times.append(time.perf_counter() - t0)
+    return float(np.median(times[2:] or times))
+
+
+def rows_from_suites(paths, labels=None):
+    labels = labels or {}
+    rows, lbs, ref = [], [], []
+    for p in paths:
+        with open(p) as fh:
+            suite = json.load(fh)
+        for asset, r in suite.items():
+            runs = r["runs"]
+            e = np.array([x["pleat"]["mean_mm"] for x in runs])
+            rows.append(dict(name=labels.get(asset, asset), kind="asset", asset=asset,
+                             us=float(np.median([x["pleat"]["step_us"] for x in runs])), mean_mm=float(e.mean()),
+                             lo=float(e.min()), hi=float(e.max()), runs=len(runs)))
+            lbs.append((float(np.median([x["lbs"]["step_us"] for x in runs])),
+                        np.array([x["lbs"]["mean_mm"] for x in runs])))
+            for x in runs:
+                s = x["reference"].get("summary") or {}
+                spread = (x.get("reference_spread") or {}).get("mean_mm")
+                ref.append((s.get("cpu_seconds_per_frame"), spread))
+    if lbs:
+        e = lbs[0][1]
+        rows.append(dict(name="LBS-only", kind="lbs", us=float(np.median([u for u, _ in lbs])),
+                         mean_mm=float(e.mean()), lo=float(e.min()), hi=float(e.max()), runs=len(e)))
+    secs = [s for s, _ in ref if s]
+    spreads = [d for _, d in ref if d is not None]
+    if secs and spreads:
+        rows.append(dict(name="reference simulator (error: its own spread)", kind="reference",
+                         us=1e6 * float(np.median(secs)), mean_mm=float(np.mean(spreads)), lo=float(np.min(spreads)),
+                         hi=float(np.max(spreads)), runs=len(spreads)))
+    return rows
+
+
+def plot(rows, path, phi_us=None):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(8, 4.8))
+    colors = {"asset": "tab:blue", "lbs": "tab:gray", "reference": "tab:red"}
+    for i, r in enumerate(rows):
+        ax.errorbar(r["us"], r["mean_mm"], yerr=[[r["mean_mm"] - r["lo"]], [r["hi"] - r["mean_mm"]]], fmt="o",
+                    color=colors.get(r["kind"], "tab:blue"), capsize=3, ms=6, zorder=3)
+        ax.annotate(r["name"], (r["us"], r["mean_mm"]), textcoords="offset points",
+                    xytext=(6, 6 + 10 * (i % 3)), fontsize=7)
+    if phi_us:
+        ax.axvline(phi_us, color="tab:green", ls=":", lw=1)
+        ax.annotate("Φ, stage-1 network (torch, speed only)", (phi_us, 0.97), xycoords=("data", "axes fraction"),
+                    rotation=90, va="top", ha="right", fontsize=7, color="tab:green")
+    ax.set_xscale("log")
+    ax.set_xlabel("time per frame on one CPU core (µs, log)")
+    ax.set_ylabel("mean vertex error vs reference (mm)\n(bars: min–max over clips and bodies)")
+    ax.set_title("Error against cost: every method, measured on the same runs")
+    ax.set_ylim(0, 1.15 * max(r["hi"] for r in rows))
+    fig.tight_layout()
+    save_figure(fig, path, dpi=90)
+    plt.close(fig)
+
+
+@command("pleat-methods")
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m pleat.eval.methods", description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap.add_argument("--suite", nargs="+", required=True, help="pleat-eval-suite JSON reports")
+    ap.add_argument("--label", action="append", default=[], metavar="ASSET=NAME", help="a row's name (repeatable)")
+    ap.add_argument("--no-phi", action="store_true", help="do not time Φ (needs torch)")
+    ap.add_argument("--out", required=True, help="output file: the chart (PNG)")
+    ap.add_argument("--json", default=None, help="output file: the rows as JSON")
+    add_quiet(ap)
+    args = ap.parse_args(argv)
+    rows = rows_from_suites(args.suite, dict(x.split("=", 1) for x in args.label))
+    phi_us = None if args.no_phi else 1e6 * phi_seconds_per_frame()
+    plot(rows, args.out, phi_us)
+    if args.json:
+        write_text(args.json, json.dumps({"rows": rows, "phi_us": phi_us}, indent=1))
+    for r in rows:
+        print(f"{r['name']}: {r['us']:.1f} µs/frame, {r['mean_mm']:.1f} mm ({r['lo']:.1f}–{r['hi']:.1f})")
+    if phi_us:
+        print(f"Φ (torch, 1 thread): {phi_us:.0f} µs/frame")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
