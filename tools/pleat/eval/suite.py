@@ -39,14 +39,16 @@ def summarise(rows):
     """Aggregate rows of one asset (dicts with pleat / lbs / reference_spread reports)."""
     p = np.array([r["pleat"]["mean_mm"] for r in rows])
     lbs = np.array([r["lbs"]["mean_mm"] for r in rows])
-    out = {"runs": len(rows), "mean_mm": float(p.mean()), "p95_mm": float(np.mean([r["pleat"]["p95_mm"] for r in rows])),
+    out = {"runs": len(rows), "mean_mm": float(p.mean()),
+           "p95_mm": float(np.mean([r["pleat"]["p95_mm"] for r in rows])),
            "lbs_mean_mm": float(lbs.mean()), "lbs_p95_mm": float(np.mean([r["lbs"]["p95_mm"] for r in rows])),
            "ratio_to_lbs": float(p.mean() / lbs.mean()), "ratio_to_lbs_paired": float(np.mean(p / lbs)),
            "worst_ratio_to_lbs": float(np.max(p / lbs)),
            "clips_worse_than_lbs": [r["clip"] for r in rows if r["pleat"]["mean_mm"] > r["lbs"]["mean_mm"]],
            "penetration_pct": float(np.mean([r["pleat"]["penetration_pct"] for r in rows])),
            "lbs_penetration_pct": float(np.mean([r["lbs"]["penetration_pct"] for r in rows])),
-           "reference_penetration_pct": float(np.mean([r["reference"]["penetration"]["penetration_pct"] for r in rows])),
+           "reference_penetration_pct": float(np.mean([r["reference"]["penetration"]["penetration_pct"]
+                                                      for r in rows])),
            "jitter": float(np.mean([r["pleat"]["jitter"] for r in rows])),
            "lbs_jitter": float(np.mean([r["lbs"]["jitter"] for r in rows])),
            "step_us": float(np.median([r["pleat"]["step_us"] for r in rows]))}

@@ -7,8 +7,8 @@ rerun or a resumed run never simulates a segment twice, and a time budget only d
 
 A simulated frame becomes a training target by un-skinning it: LBS is an invertible affine map per vertex
 (x = A·v + a with A = Σ_k w_k R_k), so d = A⁻¹(x − a) − (T + G_S(β)) is exactly the rest-frame displacement the
-runtime's blend shapes must add for the runtime to reproduce the simulated frame. A user's own offline simulation
-(`pleat.train.pointcache`) becomes segments of the same kind.
+runtime's blend shapes must add for the runtime to reproduce the simulated frame. A user's own offline
+simulation (`pleat.train.pointcache`) becomes segments of the same kind.
 """
 import os
 import time
