@@ -35,6 +35,7 @@ from pleat import reference
 from pleat import rotations as rot
 from pleat.physics.energies import GRAVITY_M_S2, _dihedral, _huber, _wrap_angle
 from pleat.physics.xp import _TorchOps, dot, namespace
+from pleat.train.data import vertex_normals
 from pleat.train.model import skin
 
 LOSS_TERMS = ("bending", "stretching", "inertia", "gravity", "friction", "collision")
@@ -86,20 +87,6 @@ def kinematics(setup):
     return setup._kinematics
 
 
-def body_normals(positions, faces, adjacency_offsets, adjacency_faces):
-    """`pleat.reference.normals` for positions [..., V, 3] (every frame at once, the same sums in the same order)."""
-    x = np.asarray(positions, np.float64)
-    face_normals = np.cross(x[..., faces[:, 1], :] - x[..., faces[:, 0], :], x[..., faces[:, 2], :] - x[..., faces[:, 0], :])
-    offsets = np.asarray(adjacency_offsets, np.int64)
-    gathered = face_normals[..., np.asarray(adjacency_faces, np.int64), :]
-    summed = np.zeros_like(x)
-    has = np.diff(offsets) > 0
-    if gathered.shape[-2]:
-        summed[..., has, :] = np.add.reduceat(gathered, offsets[:-1][has], axis=-2)
-    length = np.linalg.norm(summed, axis=-1, keepdims=True)
-    return np.where(length > 0, summed / np.where(length > 0, length, 1.0), 0.0)
-
-
 def pose_windows(kin, picks):
     """`Setup.pose_window` for K picks of equal length, stacked: A [K, W, N, 3, 4], body / body_normals
     [K, W, Vc, 3], dt [K, W], Hinv [K, W, 3, 3], p0 [K, W, 3] (float64), plus the picks' β [K, B]."""
@@ -124,7 +111,7 @@ def pose_windows(kin, picks):
     Ab = np.moveaxis(Ab.reshape(-1, K, W, 3, 4), 0, 2)                                         # [K, W, V, 3, 4]
     body = np.einsum("kwvab,kvb->kwva", Ab[..., :3], shaped_body) + Ab[..., 3]
     if kin.body_faces is not None:
-        normals = body_normals(body, kin.body_faces, *kin.body_adjacency)
+        normals = reference.normals(body, kin.body_faces, *kin.body_adjacency)    # every frame at once
     else:
         normals = np.einsum("kwvab,vb->kwva", Ab[..., :3], kin.body_rest_normals)
         normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
@@ -373,15 +360,6 @@ class WindowBatch:
         k = self.kidx[:, None]
         return terms(torch_mesh(self.setup), x, x_t, x_tm1, self.material, self.dt2[:, f], self.body_t[k, f, idx],
                      self.body_n[k, f, idx], self.body_t[k, f - 1, idx], self.rest, collision_weight)
-
-
-def vertex_normals(x, faces):
-    """core.vertex_normals for x [K, N, 3]."""
-    fn = torch.cross(x[:, faces[:, 1]] - x[:, faces[:, 0]], x[:, faces[:, 2]] - x[:, faces[:, 0]], dim=-1)
-    n = torch.zeros_like(x)
-    for c in range(3):
-        n = n.index_add(1, faces[:, c], fn)
-    return n / n.norm(dim=-1, keepdim=True).clamp_min(1e-12)
 
 
 class Mesh:

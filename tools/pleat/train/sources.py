@@ -1,37 +1,25 @@
-"""Where training gets the body, garment, motion, energies, forward kinematics and X_c from.
-
-The real modules (pleat.body, pleat.garment, pleat.motion, pleat.physics, pleat.reference) are used whenever they
-import; `pleat.train.standins` fills in only for missing ones. `used` records which was taken; it is written into the
-run config and the asset's META, so a stand-in never goes unnoticed.
+"""Where training gets the body, garment, motion and energies from: pleat.body, pleat.garment, pleat.motion and
+pleat.physics, nothing else. A missing module, body file or clip is an error, never a silent substitute. `used`
+records what was read (paths, garment spec, loaders); it is written into the run config and the asset's META.
 """
-import importlib
 from pathlib import Path
 
 import numpy as np
 
 from pleat import REPO_ROOT
-from pleat.train import standins
 
 used = {}
 
 
-def _try(module):
-    try:
-        return importlib.import_module(module)
-    except Exception:
-        return None
-
-
 def body(path="assets/body.npz"):
+    from pleat.body import BodyModel
     p = Path(path)
     if not p.is_absolute():
         p = REPO_ROOT / p
-    mod = _try("pleat.body")
-    if mod is not None and hasattr(mod, "BodyModel") and p.exists():
-        used["body"] = str(p)
-        return mod.BodyModel.load(str(p))
-    used["body"] = "standin"
-    return standins.StandinBody()
+    if not p.exists():
+        raise FileNotFoundError(f"{p}: no body model (docs/body.md: fetch or build assets/body.npz)")
+    used["body"] = str(p)
+    return BodyModel.load(str(p))
 
 
 def garment(spec, body_model, vertices):
@@ -40,16 +28,9 @@ def garment(spec, body_model, vertices):
         with np.load(spec, allow_pickle=False) as data:
             used["garment"] = str(spec)
             return {k: data[k] for k in data.files}
-    mod = _try("pleat.garment")
-    if mod is not None and spec != "standin":
-        for name in ("make_garment", "generate", "build_garment"):
-            fn = getattr(mod, name, None)
-            if fn is not None:
-                used["garment"] = f"pleat.garment.{name}({spec!r}, vertices={vertices})"
-                g = fn(spec, vertices=vertices, body=body_model)
-                return g
-    used["garment"] = "standin"
-    return standins.StandinGarment(body_model, vertices)
+    from pleat.garment import make_garment
+    used["garment"] = f"pleat.garment.make_garment({spec!r}, vertices={vertices})"
+    return make_garment(spec, vertices=vertices, body=body_model)
 
 
 def field(obj, name, default=None):
@@ -79,19 +60,8 @@ def clips(split, fps, count_limit=None, frames_limit=None, body_model=None):
 
 
 def _load_clips(split, fps, count_limit, body_model):
-    mod = _try("pleat.motion")
-    out = None
-    if mod is not None:
-        try:
-            out = _motion_clips(mod, split, fps, body_model, count_limit)
-            used[f"motion_{split}"] = "pleat.motion"
-        except Exception as exc:  # noqa: BLE001 - any loader failure falls back, and is recorded
-            used[f"motion_{split}"] = f"standin ({type(exc).__name__}: {exc})"
-            out = None
-    if out is None:
-        used.setdefault(f"motion_{split}", "standin")
-        out = standins.standin_clips(fps=fps, frames=150, count=4 if split == "train" else 2,
-                                     seed=0 if split == "train" else 1)
+    out = _motion_clips(split, fps, body_model, count_limit)
+    used[f"motion_{split}"] = "pleat.motion"
     return out[:count_limit] if count_limit else out
 
 
@@ -101,13 +71,13 @@ class _Clip:
         self.rotations, self.root_translation, self.root_rotation = rotations, root_translation, root_rotation
 
 
-def _motion_clips(mod, split, fps, body_model=None, count_limit=None):
-    split_mod = importlib.import_module("pleat.motion.split")
-    names = split_mod.TRAINING if split == "train" else split_mod.VALIDATION
+def _motion_clips(split, fps, body_model=None, count_limit=None):
+    from pleat.motion import load_clip, split as motion_split
+    names = motion_split.TRAINING if split == "train" else motion_split.VALIDATION
     names = names[:count_limit] if count_limit else names
     result = []
     for name in names:
-        clip = mod.load_clip(name, body=body_model).resample(fps)
+        clip = load_clip(name, body=body_model).resample(fps)
         result.append(_Clip(clip.name, clip.fps, clip.local_rotations, clip.root_translation, clip.root_rotation))
     return result
 

@@ -1,0 +1,112 @@
+"""The ablation (paper 4.3): f_LP → f_dec → D trained together on stage 1's physics losses, with X_c normalised by
+statistics of the training poses."""
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from pleat.train.config import (LOSS_TERMS, Budget, batched_path, loss_weights, make_optimizer, rollout_steps,
+                                run_fraction)
+from pleat.train.data import Setup, Window, physics_clips, sample_window, to_t
+from pleat.train.ddp import device_for, dist_info, stop_everywhere, wrap_ddp
+from pleat.train.models import AblationModel
+from pleat.train.run import Run
+from pleat.train.stage1 import lbs_scale, rollout_loss
+
+
+def pose_statistics(setup, clips, rng, samples=8):
+    rows = []
+    for _ in range(samples):
+        clip = clips[rng.integers(len(clips))]
+        beta = setup.sample_beta(rng)
+        mat, _ = setup.sample_material(rng)
+        win = setup.pose_window(clip, 0, len(clip.rotations), beta)
+        rows.append(setup.static_inputs(win, beta, mat)[2:])
+    x = np.concatenate(rows)
+    mean, std = x.mean(0), x.std(0)
+    std = np.where(std > 1e-6, std, 1.0)
+    mean[:setup.L], std[:setup.L] = 0.0, 1.0
+    mean[-4:], std[-4:] = 0.0, 1.0
+    L = setup.L
+    return {"x_mean": mean, "x_std": std, "z_mean": np.zeros(L), "z_std": np.ones(L),
+            "z_min": np.full(L, -1e3), "z_max": np.full(L, 1e3)}
+
+
+def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True, max_minutes=None):
+    rank, world = dist_info()
+    dev = device_for(device, rank)
+    torch.manual_seed(cfg["seed"])
+    setup = Setup(cfg, garment, dev)
+    clips = physics_clips(cfg, setup.body)
+    rng = np.random.default_rng([cfg["seed"], 3, rank])
+    norms = pose_statistics(setup, clips, rng)
+    model = AblationModel(setup, norms).to(dev)
+    ca, c1 = cfg["ablation"], cfg["stage1"]
+    opt = make_optimizer(model, ca["lr"], c1.get("blend_lr_scale", 1.0))
+    run = Run(out, "ablation", cfg, rank)
+    start, elapsed = 0, 0.0
+    if resume and (state := run.resume()) is not None:
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optimizer"])
+        start, elapsed = state["iteration"], state.get("elapsed_s", 0.0)
+    budget = Budget(max_minutes, elapsed)
+    ddp = wrap_ddp(model, world, dev)
+    z_lo = np.full(setup.L, np.inf)
+    z_hi = np.full(setup.L, -np.inf)
+    sched = dict(c1, iterations=ca["iterations"])
+    batched = batched_path(c1)
+    if batched:     # the batch's windows through the model together (batching.py; the same losses, tested)
+        from pleat.train import batching
+        source = batching.WindowSource(setup, clips, rng, ca["batch"], static=True,
+                                       worker=bool(c1.get("data_worker", False)))
+    bar = tqdm(range(start, ca["iterations"]), disable=not progress or rank != 0, desc="ablation")
+    for it in bar:
+        s = run_fraction(sched, it, budget.elapsed(), budget.budget_s)
+        steps = rollout_steps(sched, it, s)
+        w = loss_weights(sched, it, s)
+        loss = 0.0
+        acc = {k: 0.0 for k in LOSS_TERMS}
+        if batched:
+            s_next = run_fraction(sched, it + 1, budget.elapsed(), budget.budget_s)
+            loss, acc = batching.ablation_iteration(setup, ddp, source, c1, steps, w, z_lo, z_hi,
+                                                    rollout_steps(sched, it + 1, s_next))
+            acc.pop("loss")
+        for _ in range(0 if batched else ca["batch"]):
+            win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
+            window = Window(setup, win, beta, mat, mat01)
+            static = to_t(setup.static_inputs(win, beta, mat), dev)
+            zbox = [torch.zeros(setup.L, device=dev)]
+
+            def predictor(f, static=static, zbox=zbox):
+                z, disp = ddp(zbox[0], static[f])
+                zbox[0] = z
+                with torch.no_grad():
+                    zn = z.detach().cpu().numpy()
+                    np.minimum(z_lo, zn, out=z_lo)
+                    np.maximum(z_hi, zn, out=z_hi)
+                return disp
+
+            scale = 1.0
+            if c1.get("loss_norm") == "lbs":
+                scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1.get("loss_norm_floor", 1.0))
+            l, terms = rollout_loss(setup, None, window, steps, w, predictor)
+            loss = loss + l / scale / ca["batch"]
+            for k in LOSS_TERMS:
+                acc[k] += terms[k] / ca["batch"]
+        opt.zero_grad()
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
+        opt.step()
+        run.log({"iteration": it + 1, "loss": loss.item(), "steps": steps, "fraction": s, **acc})
+        bar.set_postfix(loss=f"{loss.item():.4g}")
+        stop = stop_everywhere(world, budget.spent(), dev)
+        if (it + 1) % ca["checkpoint_every"] == 0 or it + 1 == ca["iterations"] or stop:
+            run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
+                            "config": cfg, "garment": garment, "z_min": z_lo, "z_max": z_hi,
+                            "elapsed_s": budget.elapsed()})
+        if stop:
+            run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
+                     "elapsed_s": budget.elapsed()})
+            break
+    if batched:
+        source.close()
+    return model, setup

@@ -1,0 +1,98 @@
+"""Training configuration and schedules: the preset (configs/*.json with --set overrides), the loss terms and their
+weights over the run, the rollout length, the optimiser, threads and the wall-clock budget."""
+import json
+import math
+import time
+from pathlib import Path
+
+import torch
+
+from pleat import REPO_ROOT
+
+
+LOSS_TERMS = ("bending", "stretching", "inertia", "gravity", "friction", "collision")
+
+
+def load_config(preset=None, path=None, overrides=None):
+    src = Path(path) if path else REPO_ROOT / "configs" / f"{preset}.json"
+    cfg = json.loads(src.read_text())
+    for key, value in (overrides or {}).items():
+        node = cfg
+        parts = key.split(".")
+        for p in parts[:-1]:
+            node = node[p]
+        node[parts[-1]] = value
+    return cfg
+
+
+def lerp(a, b, s):
+    return a + (b - a) * min(max(s, 0.0), 1.0)
+
+
+def run_fraction(cfg1, it, elapsed_s=None, budget_s=None):
+    """How far through the run iteration `it` is, in [0, 1]: by iteration count, or by wall clock when a time
+    budget (--max-minutes) would end the run first, so that a budget-stopped run still goes through the whole
+    rollout and collision-weight schedule."""
+    s = it / max(cfg1["iterations"] - 1, 1)
+    if budget_s and elapsed_s is not None:
+        s = max(s, elapsed_s / budget_s)
+    return min(max(s, 0.0), 1.0)
+
+
+def loss_weights(cfg1, it, s=None):
+    s = run_fraction(cfg1, it) if s is None else s
+    c0, c1 = cfg1["collision_ramp"]
+    w_c = cfg1["w_collision"][0] + (cfg1["w_collision"][1] - cfg1["w_collision"][0]) * \
+        min(max((s - c0) / max(c1 - c0, 1e-9), 0.0), 1.0)
+    return {"bending": cfg1["w_bending"], "stretching": cfg1["w_stretching"],
+            "inertia": lerp(*cfg1["w_inertia"], s), "gravity": lerp(*cfg1["w_gravity"], s),
+            "friction": cfg1["w_friction"], "collision": w_c}
+
+
+def rollout_steps(cfg1, it, s=None):
+    """1 step at first, one more every `rollout_every` of the run (the paper: every 5,000 of 120,000), at most
+    `rollout_max`."""
+    s = run_fraction(cfg1, it) if s is None else s
+    return int(min(cfg1["rollout_max"], 1 + math.floor(s / cfg1["rollout_every"] + 1e-9)))
+
+
+def weighted(terms, w):
+    return sum(w[k] * terms[k] for k in LOSS_TERMS)
+
+
+def make_optimizer(model, lr, blend_lr_scale=1.0):
+    """Adam; the blend shapes D (per-vertex parameters) at `blend_lr_scale` × lr. Adam moves every parameter by
+    about lr per step whatever its gradient's size, so on a 4.4k-vertex garment an lr that suits the networks
+    moves each vertex of each of the D shapes independently by that much: at 5·10⁻⁴ m per step the shirt's 1.5 cm
+    edges were torn apart within ten iterations (stretching 10³ → 10⁷ J)."""
+    blend = [p for n, p in model.named_parameters() if n.endswith("blend_shapes")]
+    rest = [p for n, p in model.named_parameters() if not n.endswith("blend_shapes")]
+    return torch.optim.Adam([{"params": rest, "lr": lr}, {"params": blend, "lr": lr * blend_lr_scale}])
+
+
+def set_threads(threads=None):
+    """Torch intra-op threads; default 1. The graphs here are small (hundreds to a few thousand vertices, widths
+    32-64), so extra threads mostly synchronise: on the shared 2-core machine (load ≈ 5) one tiny stage-1
+    iteration took 0.48 s with 1 thread and 1.98 s with 2 (docs/training.md). Give more with --threads on an
+    idle many-core machine."""
+    torch.set_num_threads(max(1, int(threads or 1)))
+
+
+class Budget:
+    """Wall-clock budget of one stage (--max-minutes), counted across resumes."""
+
+    def __init__(self, minutes, elapsed_s=0.0):
+        self.budget_s = None if not minutes else 60.0 * float(minutes)
+        self.t0 = time.time() - float(elapsed_s or 0.0)
+
+    def elapsed(self):
+        return time.time() - self.t0
+
+    def spent(self):
+        return self.budget_s is not None and self.elapsed() >= self.budget_s
+
+
+def batched_path(c1):
+    """Whether the physics-loss stages run the batched path (batching.py; default) or the per-window one
+    (`--set stage1.batched=false`, kept for the A/B comparison in bench/train_throughput.py)."""
+    return bool(c1.get("batched", True))

@@ -1,0 +1,50 @@
+"""A training run's bookkeeping: its config and sources written once, the metrics log, checkpoints (written
+atomically) and resume, and the hardware it ran on."""
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+import torch
+
+from pleat.train import sources
+
+
+class Run:
+    def __init__(self, out, stage, cfg, rank):
+        self.out, self.stage, self.rank = Path(out), stage, rank
+        self.t0 = time.time()
+        if rank == 0:
+            self.out.mkdir(parents=True, exist_ok=True)
+            (self.out / f"config_{stage}.json").write_text(json.dumps(
+                {"config": cfg, "sources": sources.used, "hardware": hardware()}, indent=2, default=str))
+            self.metrics = open(self.out / f"metrics_{stage}.jsonl", "a")
+
+    def log(self, record):
+        if self.rank == 0:
+            record = {"stage": self.stage, "time_s": round(time.time() - self.t0, 3), **record}
+            self.metrics.write(json.dumps(record) + "\n")
+            self.metrics.flush()
+
+    def checkpoint(self, state):
+        if self.rank == 0:
+            tmp = self.out / f"{self.stage}.pt.tmp"
+            torch.save(state, tmp)
+            os.replace(tmp, self.out / f"{self.stage}.pt")
+
+    def resume(self):
+        p = self.out / f"{self.stage}.pt"
+        return torch.load(p, weights_only=False) if p.exists() else None
+
+
+def hardware():
+    info = {"machine": platform.machine(), "processor": platform.processor() or platform.machine(),
+            "cpu_count": os.cpu_count(), "torch": torch.__version__, "threads": torch.get_num_threads()}
+    if torch.cuda.is_available():
+        info["gpu"] = torch.cuda.get_device_name(0)
+    return info
+
+
+def _rng_state():
+    return {"torch": torch.get_rng_state()}
