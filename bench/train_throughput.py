@@ -10,13 +10,14 @@ Stages and variants (the training loops' own steps: draw windows, LBS normaliser
 clipping, Adam):
   stage1    per-window (core: Window / rollout_loss / lbs_scale, one window per iteration — the old path),
             batched K = 1 (the same iteration through batching.py), batched K = --windows (K windows per
-            iteration), and the same with the data worker process (--worker)
+            iteration), the same with the data worker process (--worker), through torch.compile (--compile) and
+            as two DDP processes with K/2 windows each (--ddp: the same iteration on both cores)
   ablation  per-window loop over its batch of windows (the old path) against the batched one
   record    stage 2's recording of Φ's latents: per sequence (old) against groups of sequences; per frame
   stage2    one stage-2 iteration (f_LP on recorded latents, unchanged: for reference)
 
 usage: PYTHONPATH=tools .venv/bin/python bench/train_throughput.py [--preset default] [--garment tshirt]
-           [--rounds 5] [--iterations 3] [--steps 5] [--windows 8] [--worker] [--compile 1,8] [--threads 1]
+           [--rounds 5] [--iterations 3] [--steps 5] [--windows 8] [--worker] [--compile 1,8] [--ddp] [--threads 1]
            [--stages stage1,ablation,record,stage2]
            [--json out/bench/train_throughput.json]
 """
@@ -37,19 +38,71 @@ from pleat.train import batching, core  # noqa: E402
 
 
 class Variant:
-    def __init__(self, name, windows, step, close=None):
-        self.name, self.windows, self.step, self.close = name, windows, step, close
+    def __init__(self, name, windows, step, close=None, cpu_clock=time.process_time):
+        self.name, self.windows, self.step, self.close, self.cpu_clock = name, windows, step, close, cpu_clock
         self.wall, self.cpu = [], []
 
     def measure(self, iterations):
-        w0, c0 = time.perf_counter(), time.process_time()
+        w0, c0 = time.perf_counter(), self.cpu_clock()
         for _ in range(iterations):
             self.step()
         self.wall.append((time.perf_counter() - w0) / iterations)
-        self.cpu.append((time.process_time() - c0) / iterations)
+        self.cpu.append((self.cpu_clock() - c0) / iterations)
 
 
-def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=()):
+def _ddp_rank(rank, world, port, setup, clips, cfg, steps, windows, w, conn):
+    """One rank of the two-process variant: what `torchrun --nproc_per_node=2 -m pleat.train.cli stage1 --device
+    cpu` runs (gloo), one iteration per message; replies with this process's CPU time so far."""
+    os.environ.update(MASTER_ADDR="127.0.0.1", MASTER_PORT=str(port))
+    torch.distributed.init_process_group("gloo", rank=rank, world_size=world)
+    torch.set_num_threads(1)
+    c1 = cfg["stage1"]
+    torch.manual_seed(0)
+    model = core.Stage1Model(setup)
+    opt = core.make_optimizer(model, c1["lr"], c1.get("blend_lr_scale", 1.0))
+    net = torch.nn.parallel.DistributedDataParallel(batching.BatchedStage1(model))
+    source = batching.WindowSource(setup, clips, np.random.default_rng([1, rank]), windows)
+    while conn.recv() is not None:
+        objective, _ = batching.stage1_iteration(setup, net, source, c1, steps, w, steps)
+        opt.zero_grad()
+        objective.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
+        opt.step()
+        conn.send(time.process_time())
+    torch.distributed.destroy_process_group()
+
+
+def ddp_variant(setup, clips, cfg, steps, windows, w):
+    import multiprocessing as mp
+    import socket
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    ctx = mp.get_context("fork")
+    conns, procs, cpu = [], [], [0.0, 0.0]
+    for rank in range(2):
+        parent, child = ctx.Pipe()
+        p = ctx.Process(target=_ddp_rank, args=(rank, 2, port, setup, clips, cfg, steps, windows // 2, w, child),
+                        daemon=True)
+        p.start()
+        conns.append(parent)
+        procs.append(p)
+
+    def step():
+        for c in conns:
+            c.send(1)
+        for i, c in enumerate(conns):
+            cpu[i] = c.recv()
+
+    def close():
+        for c in conns:
+            c.send(None)
+        for p in procs:
+            p.join(timeout=30)
+    return Variant(f"2 processes x K={windows // 2} (DDP)", 2 * (windows // 2), step, close, lambda: sum(cpu))
+
+
+def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(), ddp=False):
     c1 = cfg["stage1"]
     w = core.loss_weights(c1, 0, 0.6)            # rollouts of `steps`, collision weight on its ramp
     floor = c1.get("loss_norm_floor", 1.0)
@@ -98,6 +151,8 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
         out.append(batched(windows, True))
     for k in compile_windows:
         out.append(batched(k, worker, True))
+    if ddp:
+        out.append(ddp_variant(setup, clips, cfg, steps, windows, w))
     return out
 
 
@@ -217,6 +272,8 @@ def main():
     p.add_argument("--worker", action="store_true", help="also measure the batched variants with the data worker")
     p.add_argument("--compile", default="", help="stage 1: also measure torch.compile at these K (e.g. 1,8); "
                    "compilation happens in the warm-up and is timed")
+    p.add_argument("--ddp", action="store_true", help="stage 1: also measure two processes (DDP, gloo) with "
+                   "--windows/2 windows each, i.e. --windows per iteration in all")
     p.add_argument("--threads", type=int, default=1, help="torch threads (the trainer's default is 1)")
     p.add_argument("--stages", default="stage1,ablation,record,stage2")
     p.add_argument("--json", default=None, help="also write the results here")
@@ -229,7 +286,7 @@ def main():
     stages = args.stages.split(",")
     if "stage1" in stages:
         groups["stage1"] = stage1_variants(setup, clips, cfg, args.steps, args.windows, args.worker,
-                                           [int(k) for k in args.compile.split(",") if k])
+                                           [int(k) for k in args.compile.split(",") if k], args.ddp)
     if "ablation" in stages:
         groups["ablation"] = ablation_variants(setup, clips, cfg, args.steps, args.worker)
     if "record" in stages:
