@@ -222,14 +222,16 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=(), re
               "per mesh: the tiers on a coarser remesh have their own LBS row and their own reference simulation, "
               "so their error is measured against the reference on *their* mesh)."]
     if trained:
-        lines += ["- Rows `tier …` are the shipped tier assets (`Tier.asset`). `large` is the default asset itself, "
-                  "trained by the two stages; the smaller tiers are **distilled from large's stage-1 teacher Φ** "
-                  "(`pleat.train.distill`): a tier is a smaller inference block trained to reproduce Φ — the "
-                  "paper's stage 2 generalised. Φ is rolled out (no gradients) over training clips with random β and "
-                  "material; the tier's D' blend shapes are the top-D' principal components of Φ's per-frame "
-                  "garment displacements (transferred by barycentric interpolation for a tier on a coarser remesh), "
-                  "its latent Z' the top-L' principal coefficients, f_dec' maps Z' to the D' coefficients and f_LP' "
-                  "is trained on X_c exactly as stage 2 trains f_LP (Z_0 = 0, windows fed its own predictions)."]
+        lines += ["- Rows `tier …` are the shipped tier assets (`Tier.asset`). `large` is the default asset itself; "
+                  "the smaller tiers are **distilled from a teacher** named in each asset's META (`teacher`): a "
+                  "tier is a smaller inference block trained to reproduce the teacher's garment — the paper's stage 2 "
+                  "generalised. For a simulator-supervised `large` the teacher is that model rolled out from a reset "
+                  "over its training sequences (`pleat-train simsup-tiers`); for a two-stage one, its stage-1 "
+                  "network Φ (`pleat.train.distill`). The tier's D' blend shapes are the top-D' principal "
+                  "components of the teacher's per-frame garment displacements (transferred by barycentric "
+                  "interpolation for a tier on a coarser remesh), its latent Z' the top-L' principal coefficients, "
+                  "f_dec' maps Z' to the D' coefficients and f_LP' is trained on X_c as stage 2 trains f_LP (Z_0 = 0, "
+                  "windows fed its own predictions)."]
     if any(r["kind"] == "tier-random" for r in rows):
         lines += ["- Rows of kind `random weights, untrained` have the tier's sizes but random weights: their speed "
                   "is what a trained tier of that size costs; they have no error."]
@@ -238,10 +240,10 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=(), re
     dist = [r for r in trained if r.get("distillation")]
     if dist:
         lines += ["", "Distillation of each tier (`pleat.train.distill`; RMS per-coordinate displacement error in the "
-                  "rest frame against the teacher Φ on held-out validation rollouts, the tier free-running from "
-                  "Z'_0 = 0 as the runtime runs it; `zero` = what LBS alone scores against Φ, `projection` = Φ's "
+                  "rest frame against the teacher on held-out validation rollouts, the tier free-running from "
+                  "Z'_0 = 0 as the runtime runs it; `zero` = what LBS alone scores against the teacher, `projection` = its "
                   "displacement projected on the tier's blend shapes, the best any f_LP' could do):", "",
-                  "| tier | N | PCA energy kept | train frames | RMS vs Φ (mm) | zero (mm) | projection (mm) | "
+                  "| tier | N | PCA energy kept | train frames | RMS vs teacher (mm) | zero (mm) | projection (mm) | "
                   "train time (s) |", "|---|---|---|---|---|---|---|---|"]
         for r in dist:
             d = r["distillation"]
