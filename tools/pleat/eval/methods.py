@@ -1,6 +1,6 @@
 """Every method on one chart: error against time per frame, log time axis (docs/pareto.md, "Methods").
 
-    PLEAT_LIBRARY=build/eval/libpleat.so python -m pleat.eval.methods --suite out/suite.json [more.json ...] \
+    PLEAT_LIBRARY=build/eval/libpleat.so pleat-methods --suite out/suite.json [more.json ...] \
         [--label PATH=NAME ...] --out docs/methods.png [--json out/methods.json]
 
 Inputs are pleat-eval-suite reports (`pleat.eval.suite`, run with --reference-spread) so that every number is
@@ -109,7 +109,7 @@ def plot(rows, path, phi_us=None):
 
 @command("pleat-methods")
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m pleat.eval.methods", description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(prog="pleat-methods", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--suite", nargs="+", required=True, help="pleat-eval-suite JSON reports")
     ap.add_argument("--label", action="append", default=[], metavar="ASSET=NAME", help="a row's name (repeatable)")

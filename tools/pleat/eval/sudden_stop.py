@@ -1,6 +1,6 @@
 """A sudden stop: does the garment keep moving and settle, as the simulated one does? (docs/stability.md)
 
-    PLEAT_LIBRARY=build/eval/libpleat.so python -m pleat.eval.sudden_stop --asset A.pleat \
+    PLEAT_LIBRARY=build/eval/libpleat.so pleat-sudden-stop --asset A.pleat \
         [--motion deepmimic_github/humanoid3d_jog] [--move 20] [--hold 40] --out out/stop.json [--plot stop.png]
 
 The body plays the first `--move` frames of a clip, then holds its last pose (root included) for `--hold` frames.
@@ -86,7 +86,7 @@ def plot(report, path):
 
 @command("pleat-sudden-stop")
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m pleat.eval.sudden_stop", description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(prog="pleat-sudden-stop", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--asset", required=True, help="the .pleat asset")
     ap.add_argument("--motion", default="deepmimic_github/humanoid3d_jog", help="clip name or file")

@@ -1,6 +1,6 @@
 """Assets scored on a set of clips and bodies in one run: the numbers of docs/training.md's recipe table.
 
-    PLEAT_LIBRARY=build/eval/libpleat.so python -m pleat.eval.suite --assets A.pleat [B.pleat ...] \
+    PLEAT_LIBRARY=build/eval/libpleat.so pleat-eval-suite --assets A.pleat [B.pleat ...] \
         [--clips validation | CLIP ...] [--betas 0 | "0;1.5,-1;..."] [--max-frames 60] [--reference-spread] \
         --out out/suite.json
 
@@ -85,7 +85,7 @@ def run(assets, clips, betas, max_frames, reference_spread, progress=False):
 
 @command("pleat-eval-suite")
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m pleat.eval.suite", description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(prog="pleat-eval-suite", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--assets", nargs="+", required=True, help="the .pleat assets to score")
     ap.add_argument("--clips", nargs="+", default=["validation"],
@@ -93,7 +93,7 @@ def main(argv=None):
     ap.add_argument("--betas", default=None, help="';'-separated β vectors (comma-separated; '0' = the mean body)")
     ap.add_argument("--max-frames", type=int, default=60, help="frames scored per clip (default 60)")
     ap.add_argument("--reference-spread", action="store_true", help="also score a second reference 1 µm apart")
-    ap.add_argument("--out", required=True, help="output JSON")
+    ap.add_argument("--out", required=True, help="output file: the JSON report")
     add_quiet(ap)
     args = ap.parse_args(argv)
     res = run(args.assets, _clips(args.clips), _betas(args.betas), args.max_frames, args.reference_spread,
