@@ -309,8 +309,8 @@ def main():
                 v.measure(args.iterations)
         print(f"round {r + 1}/{args.rounds} done, load {open('/proc/loadavg').read().split()[0]}", flush=True)
     report = {"preset": args.preset, "garment_vertices": setup.N, "steps": args.steps, "rounds": args.rounds,
-              "iterations": args.iterations, "threads": args.threads, "first_iteration_s": warmup, "load_after": open("/proc/loadavg").read().strip(),
-              "stages": {}}
+              "iterations": args.iterations, "threads": args.threads, "first_iteration_s": warmup,
+              "load_after": open("/proc/loadavg").read().strip(), "stages": {}}
     for stage, variants in groups.items():
         base = variants[0]
         print(f"\n{stage}: {'variant':28s} {'it/s wall':>10s} {'win/s wall':>10s} {'win/s cpu':>10s} "

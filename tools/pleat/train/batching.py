@@ -217,9 +217,9 @@ def _worker_loop(prepared, conn):
 
 class WindowSource:
     """K windows per call, drawn from `rng` in the order `core.sample_window` draws them, prepared (kinematics,
-    rest geometry, KD-trees, LBS-only terms, optionally X_c rows) here or, with `worker=True`, in a forked process one call ahead:
-    while torch trains on iteration i, the worker prepares the windows of iteration i + 1 (numpy/scipy only; it
-    never touches torch). `steps` is guessed one call ahead by `next_steps`; when a guess misses (the rollout
+    rest geometry, KD-trees, LBS-only terms, optionally X_c rows) here or, with `worker=True`, in a forked process
+    one call ahead: while torch trains on iteration i, the worker prepares the windows of iteration i + 1
+    (numpy/scipy only; it never touches torch). `steps` is guessed one call ahead by `next_steps`; when a guess misses (the rollout
     schedule moved on, 4 times a run), the prepared windows are dropped and new ones drawn and prepared here."""
 
     def __init__(self, setup, clips, rng, windows, static=False, worker=False):
