@@ -4,6 +4,17 @@
 //
 // usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [--asset LABEL=PATH ...] [--counts 1,8,64,256]
 //                          [--workers 1,2] [--seconds S] [--clock wall|cpu] [--out crowd.json]
+//        pleat_bench_crowd --scene --case case.bin --tier T0.pleat [--tier T1.pleat ...] --tier-errors e0,..,lbs
+//                          --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] [--out scene.json]
+//
+// --scene (docs/scene-budget.md): a plScene of N characters at distances 2..40 m (importance 1 / distance²) on one
+// thread, 60 fps. First the calibration, in the same run: per character µs (mean frame) of every tier at its full rate and at 15 Hz
+// (giving the cost between network updates) and of LBS-only, all characters on that detail, and of one lone character
+// (the tier's stream cost: what a group pays once); then for each budget a scene with those costs and the given errors
+// (mm, e.g. pleat.eval.suite's mean per tier and its LBS-only mean), 60 untimed frames and F timed ones, every frame's
+// measured cost reported back with --report-costs (plScene_ReportFrameCost, as an engine could): the median
+// and p90 frame time against the budget, the plan's cost, its importance-weighted and plain mean error, and how many
+// characters ended on each detail. Budget 0 = unlimited.
 //
 // For every asset, worker count and instance count n: a context (two workers = this thread + one helper thread,
 // bench_support.c), two sets of n instances of the asset with different β, each instance on its own phase of the
@@ -162,8 +173,291 @@ static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t worke
 	return ok;
 }
 
+
+// ---- --scene: the budget policy on a scene of many characters (docs/scene-budget.md) ----
+
+#define SCENE_MAX_TIERS 8
+#define SCENE_MAX_BUDGETS 12
+
+// --report-costs: every frame's measured cost goes back to the scene (plScene_ReportFrameCost), which then corrects
+// its cost model on the fly; without it the scene plans with the calibrated costs as they are.
+static int g_reportCosts = 0;
+
+typedef struct SceneRig
+{
+	plContext context;
+	plAsset tiers[SCENE_MAX_TIERS];
+	uint32_t tier_count;
+	plScene scene;
+	uint32_t characters;
+	plFrameInput* inputs;
+} SceneRig;
+
+// A context with the tiers loaded (one thread: the budget is "µs of one core").
+static int SceneRig_Load( SceneRig* rig, const char* const* paths, uint32_t tier_count )
+{
+	memset( rig, 0, sizeof( *rig ) );
+	plContextDef def = plDefaultContextDef();
+	if ( plCreateContext( &def, &rig->context ) != PLEAT_RESULT_OK )
+		return 0;
+	rig->tier_count = tier_count;
+	for ( uint32_t t = 0; t < tier_count; ++t )
+	{
+		plAssetDef adef = plDefaultAssetDef();
+		adef.path = paths[t];
+		if ( plLoadAsset( rig->context, &adef, &rig->tiers[t] ) != PLEAT_RESULT_OK )
+			return 0;
+	}
+	return 1;
+}
+
+// A scene of n characters (β spread, distances 2..40 m: importance = 1 / distance², screen coverage).
+static int SceneRig_Scene( SceneRig* rig, const plSceneDef* def_in, const BenchMotion* motion, uint32_t n )
+{
+	plSceneDef def = *def_in;
+	def.tiers = rig->tiers;
+	def.tier_count = rig->tier_count;
+	def.character_capacity = n;
+	if ( plCreateScene( rig->context, &def, &rig->scene ) != PLEAT_RESULT_OK )
+		return 0;
+	rig->characters = n;
+	for ( uint32_t i = 0; i < n; ++i )
+	{
+		float beta[PLEAT_MAX_BETAS];
+		memcpy( beta, motion->beta, sizeof( beta ) );
+		beta[0] += -1.5f + 3.0f * (float)( ( i * 37 ) % n ) / (float)( n > 1 ? n - 1 : 1 );
+		plCharacterDef cdef = plDefaultCharacterDef();
+		cdef.beta = beta;
+		cdef.beta_count = motion->beta_count;
+		cdef.engine_joint_count = motion->joint_count;
+		float distance = 2.0f + 38.0f * (float)i / (float)( n > 1 ? n - 1 : 1 );
+		cdef.importance = 1.0f / ( distance * distance );
+		uint32_t id;
+		if ( plScene_AddCharacter( rig->scene, &cdef, &id ) < 0 )
+			return 0;
+	}
+	rig->inputs = (plFrameInput*)calloc( n, sizeof( plFrameInput ) );
+	return rig->inputs != NULL;
+}
+
+// Steps the scene `frames` times (after 60 untimed frames: the first switches and the cost correction settle); per-frame µs into samples. Returns 0 on a failed step.
+static int SceneRig_Run( SceneRig* rig, const BenchMotion* motion, uint32_t frames, double* samples,
+						 plScenePlan* out_plan )
+{
+	for ( uint32_t f = 0; f < frames + 60; ++f )
+	{
+		for ( uint32_t i = 0; i < rig->characters; ++i )
+		{
+			rig->inputs[i] = BenchMotionFrame( motion, ( f + 37u * i ) % motion->frame_count );
+			rig->inputs[i].dt_s = 1.0f / 60.0f;
+		}
+		double t0 = BenchNowUs();
+		if ( plScene_Step( rig->scene, rig->inputs, NULL, NULL, rig->characters ) < 0 )
+			return 0;
+		double us = BenchNowUs() - t0;
+		if ( g_reportCosts )
+			plScene_ReportFrameCost( rig->scene, (float)us ); // the engine's feedback: the plan follows this machine
+		if ( f >= 60 )
+			samples[f - 60] = us;
+	}
+	plScene_GetPlan( rig->scene, out_plan );
+	return 1;
+}
+
+static void SceneRig_Free( SceneRig* rig )
+{
+	plDestroyContext( rig->context );
+	free( rig->inputs );
+}
+
+// One detail for every character: the measured µs per character (the calibration of the scene's costs).
+static double MeasureDetail( const char* const* paths, uint32_t tier_count, const BenchMotion* motion, uint32_t n,
+							 uint32_t frames, plDetail detail, const float* rates, uint32_t rate_count )
+{
+	SceneRig rig;
+	plSceneDef def = plDefaultSceneDef();
+	def.network_rates_hz = rates;
+	def.network_rate_count = rate_count;
+	double result = -1.0;
+	double* samples = (double*)calloc( frames, sizeof( double ) );
+	plScenePlan plan;
+	if ( SceneRig_Load( &rig, paths, tier_count ) && SceneRig_Scene( &rig, &def, motion, n ) )
+	{
+		for ( uint32_t i = 0; i < n; ++i )
+			plScene_SetOverride( rig.scene, i, &detail );
+		if ( SceneRig_Run( &rig, motion, frames, samples, &plan ) )
+		{
+			// The mean, not the median: at a reduced rate one frame in k runs the networks, so the median frame would
+			// be a cheap one; the plan budgets the average cost per frame.
+			double sum = 0.0;
+			for ( uint32_t f = 0; f < frames; ++f )
+				sum += samples[f];
+			result = sum / frames / n;
+		}
+	}
+	free( samples );
+	SceneRig_Free( &rig );
+	return result;
+}
+
+static int RunScene( int argc, char** argv )
+{
+	const char* case_path = NULL;
+	const char* out_path = NULL;
+	const char* tier_paths[SCENE_MAX_TIERS];
+	uint32_t tier_count = 0, characters = 100, frames = 120, budget_count = 0;
+	float errors[SCENE_MAX_TIERS + 1] = { 0 };
+	uint32_t error_count = 0;
+	double budgets[SCENE_MAX_BUDGETS];
+	for ( int i = 1; i + 1 < argc; i += 2 )
+	{
+		if ( strcmp( argv[i], "--scene" ) == 0 || strcmp( argv[i], "--report-costs" ) == 0 )
+		{
+			g_reportCosts = g_reportCosts || argv[i][2] == 'r';
+			i -= 1; // a flag without a value
+			continue;
+		}
+		if ( strcmp( argv[i], "--case" ) == 0 )
+			case_path = argv[i + 1];
+		else if ( strcmp( argv[i], "--out" ) == 0 )
+			out_path = argv[i + 1];
+		else if ( strcmp( argv[i], "--tier" ) == 0 && tier_count < SCENE_MAX_TIERS )
+			tier_paths[tier_count++] = argv[i + 1];
+		else if ( strcmp( argv[i], "--characters" ) == 0 )
+			characters = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
+		else if ( strcmp( argv[i], "--frames" ) == 0 )
+			frames = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
+		else if ( strcmp( argv[i], "--clock" ) == 0 )
+			g_benchClock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
+		else if ( strcmp( argv[i], "--tier-errors" ) == 0 )
+		{
+			char* p = argv[i + 1];
+			while ( *p != '\0' && error_count <= SCENE_MAX_TIERS )
+			{
+				errors[error_count++] = strtof( p, &p );
+				p += *p == ',';
+			}
+		}
+		else if ( strcmp( argv[i], "--budgets" ) == 0 )
+		{
+			char* p = argv[i + 1];
+			while ( *p != '\0' && budget_count < SCENE_MAX_BUDGETS )
+			{
+				budgets[budget_count++] = strtod( p, &p );
+				p += *p == ',';
+			}
+		}
+		else
+		{
+			fprintf( stderr, "pleat_bench_crowd --scene: unknown option %s\n", argv[i] );
+			return 2;
+		}
+	}
+	BenchMotion motion;
+	if ( case_path == NULL || tier_count == 0 || characters == 0 || frames == 0 || budget_count == 0 ||
+		 error_count != tier_count + 1 || !BenchReadMotion( case_path, &motion ) )
+	{
+		fprintf( stderr, "usage: pleat_bench_crowd --scene --case case.bin --tier T0.pleat [--tier T1.pleat ...] "
+						 "--tier-errors e0,..,lbs --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] "
+						 "[--out scene.json]\n" );
+		return 2;
+	}
+	// Calibration: each tier at its full rate and at the lowest rate, and LBS-only, on this machine, in this run.
+	const float rates[2] = { 30.0f, 15.0f };
+	float cost[SCENE_MAX_TIERS], skin[SCENE_MAX_TIERS], stream[SCENE_MAX_TIERS];
+	uint32_t calibration_frames = frames / 2 > 20 ? frames / 2 : 20;
+	for ( uint32_t t = 0; t < tier_count; ++t )
+	{
+		double full = MeasureDetail( tier_paths, tier_count, &motion, characters, calibration_frames,
+									 ( plDetail ){ (int32_t)t, 0.0f }, rates, 2 );
+		double slow = MeasureDetail( tier_paths, tier_count, &motion, characters, calibration_frames,
+									 ( plDetail ){ (int32_t)t, 15.0f }, rates, 2 );
+		double lone = MeasureDetail( tier_paths, tier_count, &motion, 1, calibration_frames * 4,
+									 ( plDetail ){ (int32_t)t, 0.0f }, rates, 2 );
+		if ( full <= 0.0 || slow <= 0.0 || lone <= 0.0 )
+			return 1;
+		cost[t] = (float)full;
+		// cost(15 Hz at 60 fps) = ¼ full + ¾ skin
+		skin[t] = (float)( ( slow - 0.25 * full ) / 0.75 > 1.0 ? ( slow - 0.25 * full ) / 0.75 : 1.0 );
+		stream[t] = (float)( lone > full ? lone - full : 0.0 );
+	}
+	double lbs = MeasureDetail( tier_paths, tier_count, &motion, characters, calibration_frames,
+								( plDetail ){ -1, 0.0f }, rates, 2 );
+	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
+	if ( out == NULL || lbs <= 0.0 )
+		return 1;
+	fprintf( out, "{\n  \"clock\": \"%s\",\n  \"characters\": %u,\n  \"frames\": %u,\n  \"calibration\": {\n",
+			 g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", characters, frames );
+	for ( uint32_t t = 0; t < tier_count; ++t )
+		fprintf( out, "    \"tier%u\": {\"path\": \"%s\", \"cost_us\": %.2f, \"skin_cost_us\": %.2f, "
+					  "\"stream_cost_us\": %.2f, \"error_mm\": %.2f},\n",
+				 t, tier_paths[t], cost[t], skin[t], stream[t], errors[t] );
+	fprintf( out, "    \"lbs\": {\"cost_us\": %.2f, \"error_mm\": %.2f}\n  },\n  \"budgets\": [\n", lbs,
+			 errors[tier_count] );
+	double* samples = (double*)calloc( frames, sizeof( double ) );
+	int failed = 0;
+	for ( uint32_t b = 0; b < budget_count; ++b )
+	{
+		SceneRig rig;
+		plSceneDef def = plDefaultSceneDef();
+		def.tier_cost_us = cost;
+		def.tier_skin_cost_us = skin;
+		def.tier_stream_cost_us = stream;
+		def.tier_error_mm = errors;
+		def.lbs_cost_us = (float)lbs;
+		def.lbs_error_mm = errors[tier_count];
+		def.network_rates_hz = rates;
+		def.network_rate_count = 2;
+		def.budget_us = (float)budgets[b];
+		plScenePlan plan;
+		memset( &plan, 0, sizeof( plan ) );
+		int ok = SceneRig_Load( &rig, tier_paths, tier_count ) && SceneRig_Scene( &rig, &def, &motion, characters ) &&
+				 SceneRig_Run( &rig, &motion, frames, samples, &plan );
+		// The details the plan ended on, and the plain (unweighted) mean error over the characters.
+		uint32_t counts[SCENE_MAX_TIERS + 1] = { 0 }, reduced = 0;
+		double mean_error = 0.0;
+		for ( uint32_t i = 0; ok && i < characters; ++i )
+		{
+			plDetail d;
+			plScene_GetDetail( rig.scene, i, &d, NULL, NULL );
+			counts[d.tier < 0 ? tier_count : (uint32_t)d.tier] += 1;
+			reduced += d.tier >= 0 && d.network_rate_hz > 0.0f;
+			mean_error += d.tier < 0 ? errors[tier_count] : errors[d.tier];
+		}
+		double p90 = 0.0, median = 0.0;
+		if ( ok )
+		{
+			median = BenchMedian( samples, frames );
+			p90 = samples[(size_t)( 0.9 * ( frames - 1 ) )];
+		}
+		fprintf( out, "%s    {\"budget_us\": %.0f, \"frame_median_us\": %.1f, \"frame_p90_us\": %.1f, "
+					  "\"planned_us\": %.1f, \"cost_scale\": %.3f, \"within_budget\": %s, \"weighted_error_mm\": %.2f, \"mean_error_mm\": %.2f, "
+					  "\"details\": [",
+				 b ? ",\n" : "", budgets[b], median, p90, plan.cost_us, plan.cost_scale,
+				 budgets[b] <= 0.0 || median <= budgets[b] ? "true" : "false", plan.weighted_error_mm,
+				 mean_error / characters );
+		for ( uint32_t t = 0; t <= tier_count; ++t )
+			fprintf( out, "%s%u", t ? ", " : "", counts[t] );
+		fprintf( out, "], \"reduced_rate\": %u, \"ok\": %s}", reduced, ok ? "true" : "false" );
+		fflush( out );
+		failed |= !ok;
+		SceneRig_Free( &rig );
+	}
+	fprintf( out, "\n  ]\n}\n" );
+	if ( out != stdout )
+		fclose( out );
+	free( samples );
+	BenchFreeMotion( &motion );
+	return failed;
+}
+
 int main( int argc, char** argv )
 {
+	for ( int i = 1; i < argc; ++i )
+	{
+		if ( strcmp( argv[i], "--scene" ) == 0 )
+			return RunScene( argc, argv );
+	}
 	const char* case_path = NULL;
 	const char* out_path = NULL;
 	const char* labels[CROWD_MAX_ASSETS];

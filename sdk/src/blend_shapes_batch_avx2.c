@@ -47,9 +47,13 @@ static inline void plPrefetchInstance( const float* base, float* out, size_t i )
 	__builtin_prefetch( out + i + PLEAT_BLEND_PREFETCH_ELEMENTS, 1, 3 );
 }
 
-// Elements [i, i + 16) of four instances.
+// fp16 shapes of up to this many blend shapes are widened per tile into a 16 KB stack buffer.
+#define PLEAT_BLEND_WIDEN_SHAPES 256
+
+// Elements [i, i + 16) of four instances; the shapes' elements start at shape_i, plane apart.
 static inline void plBlendTile16x4( float* const* out, const float* const* base, const float* const* weights,
-									const void* shapes, int fp16, uint32_t blend_count, size_t plane, size_t i )
+									const void* shapes, int fp16, uint32_t blend_count, size_t plane, size_t shape_i,
+									size_t i )
 {
 	const float *w0 = weights[0], *w1 = weights[1], *w2 = weights[2], *w3 = weights[3];
 	for ( int k = 0; k < 4; ++k )
@@ -60,7 +64,7 @@ static inline void plBlendTile16x4( float* const* out, const float* const* base,
 	__m256 b0 = _mm256_loadu_ps( base[1] + i ), b1 = _mm256_loadu_ps( base[1] + i + 8 );
 	__m256 c0 = _mm256_loadu_ps( base[2] + i ), c1 = _mm256_loadu_ps( base[2] + i + 8 );
 	__m256 d0 = _mm256_loadu_ps( base[3] + i ), d1 = _mm256_loadu_ps( base[3] + i + 8 );
-	size_t o = i;
+	size_t o = shape_i;
 	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
 	{
 		__m256 s0 = plLoad8( shapes, fp16, o ), s1 = plLoad8( shapes, fp16, o + 8 );
@@ -89,11 +93,11 @@ static inline void plBlendTile16x4( float* const* out, const float* const* base,
 
 // Elements [i, i + 16) of one instance.
 static inline void plBlendTile16x1( float* out, const float* base, const float* w, const void* shapes, int fp16,
-									uint32_t blend_count, size_t plane, size_t i )
+									uint32_t blend_count, size_t plane, size_t shape_i, size_t i )
 {
 	plPrefetchInstance( base, out, i );
 	__m256 a0 = _mm256_loadu_ps( base + i ), a1 = _mm256_loadu_ps( base + i + 8 );
-	size_t o = i;
+	size_t o = shape_i;
 	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
 	{
 		__m256 wj = _mm256_broadcast_ss( w + j );
@@ -136,6 +140,9 @@ void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const
 {
 	size_t plane = (size_t)vertex_count * 3;
 	size_t start = (size_t)v_begin * 3, end = (size_t)v_end * 3;
+	// fp16 shapes: the tile's column of every shape widened to fp32 once (exact) instead of once per instance group.
+	float widened[PLEAT_BLEND_WIDEN_SHAPES * 16];
+	int widen = shapes_fp16 && blend_count <= PLEAT_BLEND_WIDEN_SHAPES && batch_count > 4;
 	size_t i = start;
 	for ( ; i + 16 <= end; i += 16 )
 	{
@@ -143,14 +150,30 @@ void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const
 		{
 			plPrefetchColumn( shapes, shapes_fp16, plane, blend_count, i + 64 );
 		}
+		const void* tile_shapes = shapes;
+		int tile_fp16 = shapes_fp16;
+		size_t tile_plane = plane, tile_i = i;
+		if ( widen )
+		{
+			const uint16_t* s16 = (const uint16_t*)shapes;
+			for ( uint32_t j = 0; j < blend_count; ++j )
+			{
+				const __m128i* src = (const __m128i*)( s16 + (size_t)j * plane + i );
+				_mm256_storeu_ps( widened + j * 16, _mm256_cvtph_ps( _mm_loadu_si128( src ) ) );
+				_mm256_storeu_ps( widened + j * 16 + 8, _mm256_cvtph_ps( _mm_loadu_si128( src + 1 ) ) );
+			}
+			tile_shapes = widened, tile_fp16 = 0, tile_plane = 16, tile_i = 0;
+		}
 		uint32_t b = 0;
 		for ( ; b + 4 <= batch_count; b += 4 )
 		{
-			plBlendTile16x4( out + b, base + b, weights + b, shapes, shapes_fp16, blend_count, plane, i );
+			plBlendTile16x4( out + b, base + b, weights + b, tile_shapes, tile_fp16, blend_count, tile_plane, tile_i,
+							 i );
 		}
 		for ( ; b < batch_count; ++b )
 		{
-			plBlendTile16x1( out[b], base[b], weights[b], shapes, shapes_fp16, blend_count, plane, i );
+			plBlendTile16x1( out[b], base[b], weights[b], tile_shapes, tile_fp16, blend_count, tile_plane, tile_i,
+							 i );
 		}
 	}
 	for ( uint32_t b = 0; b < batch_count && i < end; ++b )

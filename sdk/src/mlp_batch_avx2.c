@@ -143,18 +143,47 @@ static inline void plDot3x3( const float* const x[3], const void* weight, int we
 	}
 }
 
+// fp16 rows of up to this many columns are widened to fp32 once per row triple (a 12 KB stack buffer) instead of once
+// per instance triple: the same values (the conversion is exact), a third or less of the conversions.
+#define PLEAT_MAT_MAT_WIDEN_COLUMNS 1024
+
 void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
 					int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end )
 {
+	float widened[3 * PLEAT_MAT_MAT_WIDEN_COLUMNS];
+	int widen = weight_fp16 && in_count <= PLEAT_MAT_MAT_WIDEN_COLUMNS && batch_count > 3;
 	uint32_t r = row_begin;
 	for ( ; r + 3 <= row_end; r += 3 )
 	{
 		size_t base[3] = { (size_t)r * in_count, (size_t)( r + 1 ) * in_count, (size_t)( r + 2 ) * in_count };
+		const void* tile_weight = weight;
+		int tile_fp16 = weight_fp16;
+		size_t tile_base[3] = { base[0], base[1], base[2] };
+		if ( widen )
+		{
+			const uint16_t* w16 = (const uint16_t*)weight;
+			for ( uint32_t k = 0; k < 3; ++k )
+			{
+				uint32_t c = 0;
+				for ( ; c + 8 <= in_count; c += 8 )
+				{
+					_mm256_storeu_ps( widened + k * in_count + c,
+									  _mm256_cvtph_ps( _mm_loadu_si128( (const __m128i*)( w16 + base[k] + c ) ) ) );
+				}
+				for ( ; c < in_count; ++c )
+				{
+					widened[k * in_count + c] = plHalfToFloat( w16[base[k] + c] );
+				}
+				tile_base[k] = (size_t)k * in_count;
+			}
+			tile_weight = widened;
+			tile_fp16 = 0;
+		}
 		uint32_t b = 0;
 		for ( ; b + 3 <= batch_count; b += 3 )
 		{
 			float sum[3][3];
-			plDot3x3( x + b, weight, weight_fp16, base, in_count, sum );
+			plDot3x3( x + b, tile_weight, tile_fp16, tile_base, in_count, sum );
 			for ( uint32_t k = 0; k < 3; ++k )
 			{
 				out[b + k][r] = sum[0][k] + bias[r];
@@ -165,10 +194,10 @@ void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_cou
 		for ( ; b < batch_count; ++b )
 		{
 			float sum0, sum1;
-			plDot2x1( x[b], weight, weight_fp16, base[0], base[1], in_count, &sum0, &sum1 );
+			plDot2x1( x[b], tile_weight, tile_fp16, tile_base[0], tile_base[1], in_count, &sum0, &sum1 );
 			out[b][r] = sum0 + bias[r];
 			out[b][r + 1] = sum1 + bias[r + 1];
-			out[b][r + 2] = plDot1x1( x[b], weight, weight_fp16, base[2], in_count ) + bias[r + 2];
+			out[b][r + 2] = plDot1x1( x[b], tile_weight, tile_fp16, tile_base[2], in_count ) + bias[r + 2];
 		}
 	}
 	for ( ; r < row_end; ++r )

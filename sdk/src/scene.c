@@ -164,6 +164,10 @@ static void plDestroyCharacter( plSceneData* s, plSceneCharacter* c )
 	c->back_positions = back_positions, c->back_normals = back_normals;
 }
 
+// The share of the budget a plan may fill: 5 % headroom for the frame-to-frame spread of the costs (a reduced network
+// rate makes one frame in k heavier) and for the lag of the cost correction (plScene_ReportFrameCost).
+#define PLEAT_SCENE_BUDGET_SHARE 0.9f
+
 // The scene table's destroy callback, also what plDestroyScene frees with.
 static void plSceneData_Destroy( plContextData* ctx, void* object )
 {
@@ -376,6 +380,7 @@ plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_s
 	s->hysteresis = def->hysteresis == 0.0f ? 0.25f : ( def->hysteresis < 0.0f ? 0.0f : def->hysteresis );
 	s->min_frames_between_switches = def->min_frames_between_switches != 0 ? def->min_frames_between_switches : 30;
 	s->crossfade_frames = def->crossfade_frames != 0 ? def->crossfade_frames : 8;
+	s->cost_scale = 1.0f;
 	r = plGatherTiers( ctx, s, def );
 	if ( r == PLEAT_RESULT_OK )
 	{
@@ -609,6 +614,26 @@ plResult plScene_GetPlan( plScene handle, plScenePlan* out_plan )
 	return PLEAT_RESULT_OK;
 }
 
+plResult plScene_ReportFrameCost( plScene handle, float measured_us )
+{
+	plSceneData* s = plGetSceneData( handle );
+	if ( s == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	if ( !( measured_us > 0.0f && isfinite( measured_us ) ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	if ( s->model_cost_us > 0.0f )
+	{
+		float ratio = measured_us / s->model_cost_us;
+		float scale = 0.9f * s->cost_scale + 0.1f * ratio;
+		s->cost_scale = scale < 0.25f ? 0.25f : ( scale > 4.0f ? 4.0f : scale );
+	}
+	return PLEAT_RESULT_OK;
+}
+
 static plResult plGetOutput( plScene handle, uint32_t character, int normals, const float** out, uint32_t* out_count )
 {
 	plSceneData* s = plGetSceneData( handle );
@@ -693,14 +718,16 @@ static plResult plPlan( plSceneData* s, uint32_t* live, uint32_t live_count )
 							 s->pinned,
 							 s->held,
 							 s->extra_cost_us,
-							 s->budget_us > 0.0f ? s->budget_us : INFINITY,
+							 s->budget_us > 0.0f ? PLEAT_SCENE_BUDGET_SHARE * s->budget_us / s->cost_scale : INFINITY,
 							 s->hysteresis,
 							 s->budget_scratch,
 							 s->budget_scratch_bytes,
 							 s->planned,
 							 &cost };
 	plResult r = plSceneBudgetJob_Run( &job );
-	s->plan.cost_us = cost;
+	s->model_cost_us = cost;
+	s->plan.cost_us = cost * s->cost_scale;
+	s->plan.cost_scale = s->cost_scale;
 	s->plan.budget_us = s->budget_us;
 	return r == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 }

@@ -402,6 +402,18 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 	{
 		assert_true( isfinite( positions[v] ) );
 	}
+	// Measured frame costs feed a correction of the cost model, bounded to ×4.
+	assert_int_equal( plScene_ReportFrameCost( scene, -1.0f ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plScene_ReportFrameCost( scene, NAN ), PLEAT_RESULT_INVALID_ARGUMENT );
+	for ( int i = 0; i < 200; ++i )
+	{
+		assert_int_equal( plScene_ReportFrameCost( scene, 1e9f ), PLEAT_RESULT_OK );
+	}
+	assert_int_equal( plScene_SetBudget( scene, sdef.budget_us ), PLEAT_RESULT_OK );
+	assert_true( plScene_Step( scene, inputs, NULL, results, 8 ) >= 0 );
+	plScenePlan corrected;
+	assert_int_equal( plScene_GetPlan( scene, &corrected ), PLEAT_RESULT_OK );
+	assert_true( corrected.cost_scale == 4.0f );
 	float skin[64 * 12];
 	assert_int_equal( plScene_GetSkinMatrices( scene, 7, skin, rig.models[0]->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
 	assert_int_equal( plScene_GetSkinMatrices( scene, 7, skin, rig.models[0]->J ), PLEAT_RESULT_OK );

@@ -769,7 +769,9 @@ typedef struct plCharacterDef
 /// What the policy planned for the last step.
 typedef struct plScenePlan
 {
-	float cost_us;          ///< the planned per-frame cost of the scene (µs, from the def's or estimated costs)
+	float cost_us;          ///< the planned per-frame cost of the scene (µs: the def's or estimated costs, times the
+	                        ///< correction plScene_ReportFrameCost keeps)
+	float cost_scale;       ///< that correction (1 until costs are reported)
 	float budget_us;        ///< the budget it was planned for (µs; 0 = unlimited)
 	float weighted_error_mm; ///< Σ importance · error / Σ importance of the planned details (mm, from the def)
 	uint32_t switches;      ///< characters whose detail changed on that step
@@ -811,6 +813,11 @@ PLEAT_API plResult plScene_Step( plScene scene, const plFrameInput* inputs, cons
 								 plResult* out_results, uint32_t count );
 /// The last step's plan.
 PLEAT_API plResult plScene_GetPlan( plScene scene, plScenePlan* out_plan );
+/// Tell the scene what its last plScene_Step really cost (µs, measured by the engine on its own clock, > 0): the
+/// scene keeps a running correction of its cost model (measured / modelled, averaged over ~10 frames, within ×0.25..4)
+/// and plans the next frames with it, so the budget holds on the machine it runs on even when the def's costs were
+/// measured elsewhere or the load changes. Never called: the def's costs are taken as they are.
+PLEAT_API plResult plScene_ReportFrameCost( plScene scene, float measured_us );
 /// A character's last outputs on the display mesh, [N][3] positions (metres) / unit normals, owned by the scene, valid
 /// until its next step or removal (before its first step: the shaped rest template of tiers[0]).
 PLEAT_API plResult plScene_GetPositions( plScene scene, uint32_t character, const float** out_positions,
