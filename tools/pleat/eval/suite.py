@@ -56,6 +56,11 @@ def summarise(rows):
     if len(spread) == len(rows):
         out["spread_mean_mm"] = float(np.mean(spread))
         out["ratio_to_spread"] = float(p.mean() / np.mean(spread))
+    if all(r.get("against_reference_mean") for r in rows):
+        pm = np.array([r["against_reference_mean"]["pleat"] for r in rows])
+        lm = np.array([r["against_reference_mean"]["lbs"] for r in rows])
+        out.update(mean_vs_reference_mean_mm=float(pm.mean()), lbs_vs_reference_mean_mm=float(lm.mean()),
+                   ratio_to_lbs_vs_reference_mean=float(pm.mean() / lm.mean()))
     return out
 
 
