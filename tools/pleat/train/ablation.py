@@ -43,11 +43,7 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
     ca, c1 = cfg["ablation"], cfg["stage1"]
     opt = make_optimizer(model, ca["lr"], c1.get("blend_lr_scale", 1.0))
     run = Run(out, "ablation", cfg, rank)
-    start, elapsed = 0, 0.0
-    if resume and (state := run.resume()) is not None:
-        model.load_state_dict(state["model"])
-        opt.load_state_dict(state["optimizer"])
-        start, elapsed = state["iteration"], state.get("elapsed_s", 0.0)
+    start, elapsed = run.restore(model, opt) if resume else (0, 0.0)
     budget = Budget(max_minutes, elapsed)
     ddp = wrap_ddp(model, world, dev)
     z_lo = np.full(setup.L, np.inf)
@@ -104,8 +100,7 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
                             "config": cfg, "garment": garment, "z_min": z_lo, "z_max": z_hi,
                             "elapsed_s": budget.elapsed()})
         if stop:
-            run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
-                     "elapsed_s": budget.elapsed()})
+            run.log_stopped(it + 1, max_minutes, budget)
             break
     if batched:
         source.close()

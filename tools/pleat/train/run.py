@@ -37,6 +37,21 @@ class Run:
         p = self.out / f"{self.stage}.pt"
         return torch.load(p, weights_only=False) if p.exists() else None
 
+    def restore(self, model, optimizer, elapsed_s=0.0):
+        """Continue from this stage's checkpoint, if there is one: model and optimizer state loaded. Returns (the
+        iteration to start at, the wall time already spent), (0, elapsed_s) without a checkpoint."""
+        state = self.resume()
+        if state is None:
+            return 0, elapsed_s
+        model.load_state_dict(state["model"])
+        optimizer.load_state_dict(state["optimizer"])
+        return state["iteration"], state.get("elapsed_s", elapsed_s)
+
+    def log_stopped(self, iteration, max_minutes, budget):
+        """The record a loop leaves when its time budget (--max-minutes) ends it."""
+        self.log({"iteration": iteration, "stopped": "time budget", "max_minutes": max_minutes,
+                  "elapsed_s": budget.elapsed()})
+
 
 def hardware():
     info = {"machine": platform.machine(), "processor": platform.processor() or platform.machine(),

@@ -26,11 +26,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
     c1 = cfg["stage1"]
     opt = make_optimizer(model, c1["lr"], c1.get("blend_lr_scale", 1.0))
     run = Run(out, "stage1", cfg, rank)
-    start, elapsed = 0, 0.0
-    if resume and (state := run.resume()) is not None:
-        model.load_state_dict(state["model"])
-        opt.load_state_dict(state["optimizer"])
-        start, elapsed = state["iteration"], state.get("elapsed_s", 0.0)
+    start, elapsed = run.restore(model, opt) if resume else (0, 0.0)
     if start == 0:
         run.log({"iteration": 0, "validation": validate_stage1(setup, model, cfg)})
     budget = Budget(max_minutes, elapsed)
@@ -79,8 +75,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
         if every and (it + 1) % every == 0 and not stop and it + 1 != c1["iterations"]:
             run.log({"iteration": it + 1, "validation": validate_stage1(setup, model, cfg)})
         if stop:
-            run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
-                     "elapsed_s": budget.elapsed()})
+            run.log_stopped(it + 1, max_minutes, budget)
             break
     if batched:
         source.close()

@@ -125,10 +125,8 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True, max_minut
     model = LatentPredictor(setup, norms).to(dev)
     opt = torch.optim.Adam(model.parameters(), lr=c2["lr"])
     start, elapsed = 0, time.time() - t_rec
-    if resume and (state := run.resume()) is not None:
-        model.load_state_dict(state["model"])
-        opt.load_state_dict(state["optimizer"])
-        start, elapsed = state["iteration"], state.get("elapsed_s", elapsed)
+    if resume:
+        start, elapsed = run.restore(model, opt, elapsed)
     budget = Budget(max_minutes, elapsed)
     ddp = wrap_ddp(model, world, dev)
     lengths, static, target = padded_sequences(seqs, dev)
@@ -148,8 +146,7 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True, max_minut
             run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
                             "norms": norms, "config": cfg, "elapsed_s": budget.elapsed()})
         if stop:
-            run.log({"iteration": it + 1, "stopped": "time budget", "max_minutes": max_minutes,
-                     "elapsed_s": budget.elapsed()})
+            run.log_stopped(it + 1, max_minutes, budget)
             break
     val_metrics = validate_stage2(model, val, dev)
     run.log({"iteration": it + 1, "validation": val_metrics})
