@@ -81,7 +81,7 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     path2, summary2 = simsup.train(cfg, "tshirt", tmp_path / "b", progress=False, data=str(data))
     assert summary2["frames"] == 16
     printed = capsys.readouterr().out
-    assert printed.count("verdict: ") >= 3 and "than LBS-only on 1 validation clips" in printed
+    assert printed.count("verdict: ") == 2 and "than LBS-only on 1 validation clips" in printed   # one per run
     from pleat.asset import read_asset
     w = read_asset(path2.read_bytes())
     meta = json.loads(w["metadata_json"])

@@ -226,9 +226,10 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                       training=summary, onnx=bool(c.get("onnx", False)))
     run.log({"summary": summary})
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
-    print(verdict(val_err))
-    if int(c.get("contact_iterations", 0)) > 0:      # the last step: the contact-aware fine-tune (rewrites the asset)
-        path, _ = contact_tune(out, None, progress=progress, settings=c, sequences=(seqs, val))
+    if int(c.get("contact_iterations", 0)) > 0:      # the last step: the contact-aware fine-tune (rewrites the asset
+        path, _ = contact_tune(out, None, progress=progress, settings=c, sequences=(seqs, val))   # and says the verdict)
+    else:
+        print(verdict(val_err))
     return path, summary
 
 
