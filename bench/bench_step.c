@@ -34,6 +34,7 @@
 #include "pleat/pleat.h"
 
 #include "asset.h"
+#include "bench_support.h"
 #include "jobs.h"
 #include "kernels.h"
 #include "ort_backend.h"
@@ -44,123 +45,16 @@
 #define BENCH_HAVE_AVX2_STREAM 1
 #endif
 #include <math.h>
-#include <pthread.h>
-#include <sched.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
-#include <time.h>
 
 // ---- small helpers ----
-
-// CLOCK_MONOTONIC (wall time, default) or CLOCK_THREAD_CPUTIME_ID (--clock cpu: this thread's CPU time, which leaves
-// out the time the shared machine's scheduler gives to other jobs; cache pollution by them still counts).
-static clockid_t g_clock = CLOCK_MONOTONIC;
-
-static double NowUs( void )
-{
-	struct timespec ts;
-	clock_gettime( g_clock, &ts );
-	return (double)ts.tv_sec * 1e6 + (double)ts.tv_nsec * 1e-3;
-}
-
-static int CompareDoubles( const void* a, const void* b )
-{
-	double x = *(const double*)a;
-	double y = *(const double*)b;
-	return ( x > y ) - ( x < y );
-}
-
-static double Median( double* values, size_t count )
-{
-	if ( count == 0 )
-	{
-		return NAN;
-	}
-	qsort( values, count, sizeof( double ), CompareDoubles );
-	return count % 2 ? values[count / 2] : 0.5 * ( values[count / 2 - 1] + values[count / 2] );
-}
-
-// The file in one 64-byte aligned block (plAssetData_Parse reads in place).
-static uint8_t* ReadAligned( const char* path, size_t* out_size )
-{
-	FILE* file = fopen( path, "rb" );
-	if ( file == NULL )
-	{
-		return NULL;
-	}
-	fseek( file, 0, SEEK_END );
-	long length = ftell( file );
-	fseek( file, 0, SEEK_SET );
-	uint8_t* bytes = NULL;
-	if ( length > 0 )
-	{
-		bytes = (uint8_t*)aligned_alloc( 64, ( (size_t)length + 63 ) / 64 * 64 );
-	}
-	if ( bytes != NULL && fread( bytes, 1, (size_t)length, file ) != (size_t)length )
-	{
-		free( bytes );
-		bytes = NULL;
-	}
-	fclose( file );
-	*out_size = (size_t)length;
-	return bytes;
-}
 
 static int Fail( const char* what, plResult result )
 {
 	fprintf( stderr, "pleat_bench_step: %s: %s\n", what, plResultString( result ) );
-	return 1;
-}
-
-// ---- motion from case.bin (docs in tools/pleat/reference/golden.py) ----
-
-typedef struct Motion
-{
-	uint32_t frame_count;
-	uint32_t joint_count;
-	float* rotations; // [frame][J][4]
-	float* root;      // [frame][3 translation + 4 rotation + dt]
-	float beta[PLEAT_MAX_BETAS];
-	uint32_t beta_count;
-	float material[4];
-} Motion;
-
-static int ReadMotion( const char* path, Motion* motion )
-{
-	size_t size = 0;
-	uint8_t* bytes = ReadAligned( path, &size );
-	if ( bytes == NULL || size < 32 || memcmp( bytes, "PLGOLDEN", 8 ) != 0 )
-	{
-		free( bytes );
-		return 0;
-	}
-	uint32_t header[6];
-	memcpy( header, bytes + 8, sizeof( header ) ); // version, frames, J, N, B, L (little-endian host)
-	uint32_t frames = header[1], joints = header[2], vertices = header[3], betas = header[4], latents = header[5];
-	size_t per_frame = 4 * ( (size_t)joints * 4 + 3 + 4 + 1 + latents + (size_t)vertices * 6 );
-	size_t offset = 32 + 4 * ( (size_t)betas + 4 );
-	if ( betas > PLEAT_MAX_BETAS || frames == 0 || size < offset + per_frame * frames )
-	{
-		free( bytes );
-		return 0;
-	}
-	motion->frame_count = frames;
-	motion->joint_count = joints;
-	motion->beta_count = betas;
-	memcpy( motion->beta, bytes + 32, 4 * (size_t)betas );
-	memcpy( motion->material, bytes + 32 + 4 * (size_t)betas, 16 );
-	motion->rotations = (float*)malloc( 16 * (size_t)joints * frames );
-	motion->root = (float*)malloc( 32 * (size_t)frames );
-	for ( uint32_t f = 0; f < frames; ++f )
-	{
-		const uint8_t* p = bytes + offset + per_frame * f;
-		memcpy( motion->rotations + (size_t)f * joints * 4, p, 16 * (size_t)joints );
-		memcpy( motion->root + (size_t)f * 8, p + 16 * (size_t)joints, 32 );
-	}
-	free( bytes );
 	return 1;
 }
 
@@ -258,7 +152,7 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 			int pleat_turn = ( turn == 0 ) == ( it % 2 == 0 );
 			if ( pleat_turn )
 			{
-				double t0 = NowUs();
+				double t0 = BenchNowUs();
 				plResult r = PleatMlp( &kernels, asset->lp, asset->lp_layer_count, asset->lp_activation, x, scratch,
 									   scratch_count, latent_pleat );
 				if ( r == PLEAT_RESULT_OK )
@@ -266,14 +160,14 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 								  scratch, scratch_count, weights_pleat );
 				if ( r != PLEAT_RESULT_OK )
 					times->pleat_result = r;
-				t_pleat = NowUs() - t0;
+				t_pleat = BenchNowUs() - t0;
 			}
 			else if ( times->have_ort )
 			{
-				double t0 = NowUs();
+				double t0 = BenchNowUs();
 				plOrtMlp_Run( ort_lp, x, latent_ort );
 				plOrtMlp_Run( ort_dec, latent_ort, weights_ort );
-				t_ort = NowUs() - t0;
+				t_ort = BenchNowUs() - t0;
 			}
 		}
 		if ( it >= warmup )
@@ -291,8 +185,8 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 			times->max_abs_diff = d > times->max_abs_diff ? d : times->max_abs_diff;
 		}
 	}
-	times->pleat_us = Median( pleat_us, iterations );
-	times->ort_us = times->have_ort ? Median( ort_us, iterations ) : NAN;
+	times->pleat_us = BenchMedian( pleat_us, iterations );
+	times->ort_us = times->have_ort ? BenchMedian( ort_us, iterations ) : NAN;
 	plOrtMlp_Destroy( ort_lp );
 	plOrtMlp_Destroy( ort_dec );
 	free( pleat_us );
@@ -328,13 +222,13 @@ static double TimePleatMlpOnly( const plAssetData* asset, uint32_t warmup, uint3
 	double* us = (double*)malloc( sizeof( double ) * iterations );
 	for ( uint32_t it = 0; it < warmup + iterations; ++it )
 	{
-		double t0 = NowUs();
+		double t0 = BenchNowUs();
 		PleatMlp( &kernels, asset->lp, asset->lp_layer_count, asset->lp_activation, x, scratch, 2048, latent );
 		PleatMlp( &kernels, asset->dec, asset->dec_layer_count, asset->dec_activation, latent, scratch, 2048, weights );
 		if ( it >= warmup )
-			us[it - warmup] = NowUs() - t0;
+			us[it - warmup] = BenchNowUs() - t0;
 	}
-	double median = Median( us, iterations );
+	double median = BenchMedian( us, iterations );
 	free( us );
 	free( buffers );
 	return median;
@@ -355,119 +249,17 @@ static double TimeBlendOnly( const plAssetData* asset, uint32_t warmup, uint32_t
 	double* us = (double*)malloc( sizeof( double ) * iterations );
 	for ( uint32_t it = 0; it < warmup + iterations; ++it )
 	{
-		double t0 = NowUs();
+		double t0 = BenchNowUs();
 		kernels.blend_shapes( out, asset->template_positions, asset->blend_shapes, asset->blend_shapes_fp16, weights,
 							  asset->blend_count, asset->vertex_count, 0, asset->vertex_count );
 		if ( it >= warmup )
-			us[it - warmup] = NowUs() - t0;
+			us[it - warmup] = BenchNowUs() - t0;
 	}
-	double median = Median( us, iterations );
+	double median = BenchMedian( us, iterations );
 	free( us );
 	free( out );
 	free( weights );
 	return median;
-}
-
-// ---- a two-worker task system (the host's side of plContextDef.enqueue_task/finish_task) ----
-// One persistent helper thread plus the calling thread share each task's range in chunks, claimed through one atomic
-// word (generation << 32 | next chunk): whoever is running claims the next chunk. The calling thread claims chunks
-// itself right after posting, so when the helper is descheduled (a busy, shared machine) the caller simply runs every
-// chunk and never waits for a thread that has not started; finish waits only for chunks the helper already claimed.
-// The helper spins briefly (a step posts ~10 short tasks back to back), then yields. One task in flight at a time,
-// which is how the SDK uses it (enqueue, then finish at once).
-
-#define TWO_WORKERS_CHUNKS 4u
-
-typedef struct TwoWorkers
-{
-	pthread_t thread;
-	_Atomic uint64_t claim;  // generation << 32 | next chunk index
-	atomic_uint done;        // chunks of the current generation completed
-	atomic_int quit;
-	uint32_t generation;     // written by the calling thread only
-	plTaskFn* task;          // stable while any chunk of the current generation is claimed and not done
-	void* task_context;
-	uint32_t item_count, chunk_size, chunk_count;
-} TwoWorkers;
-
-// Claims and runs chunks of generation `generation` until none is left; returns the number run.
-static uint32_t TwoWorkersRunChunks( TwoWorkers* pool, uint32_t generation, uint32_t worker )
-{
-	uint32_t ran = 0;
-	uint64_t word = atomic_load_explicit( &pool->claim, memory_order_acquire );
-	for ( ;; )
-	{
-		if ( (uint32_t)( word >> 32 ) != generation )
-			return ran;
-		uint32_t chunk = (uint32_t)word;
-		if ( chunk >= pool->chunk_count )
-			return ran;
-		if ( !atomic_compare_exchange_weak_explicit( &pool->claim, &word, word + 1, memory_order_acq_rel,
-													 memory_order_acquire ) )
-			continue;
-		uint32_t begin = chunk * pool->chunk_size;
-		uint32_t end = begin + pool->chunk_size < pool->item_count ? begin + pool->chunk_size : pool->item_count;
-		pool->task( begin, end, worker, pool->task_context );
-		atomic_fetch_add_explicit( &pool->done, 1u, memory_order_acq_rel );
-		ran += 1;
-		word = atomic_load_explicit( &pool->claim, memory_order_acquire );
-	}
-}
-
-static void* TwoWorkersMain( void* arg )
-{
-	TwoWorkers* pool = (TwoWorkers*)arg;
-	uint32_t seen = 0;
-	for ( ;; )
-	{
-		unsigned spins = 0;
-		uint64_t word;
-		while ( (uint32_t)( ( word = atomic_load_explicit( &pool->claim, memory_order_acquire ) ) >> 32 ) == seen )
-		{
-			if ( atomic_load_explicit( &pool->quit, memory_order_relaxed ) )
-				return NULL;
-			if ( ++spins > 20000 )
-				sched_yield();
-		}
-		seen = (uint32_t)( word >> 32 );
-		TwoWorkersRunChunks( pool, seen, 1 );
-	}
-}
-
-static void* TwoWorkersEnqueue( plTaskFn* task, uint32_t item_count, uint32_t min_range, void* task_context,
-								void* user_context )
-{
-	TwoWorkers* pool = (TwoWorkers*)user_context;
-	uint32_t chunk_size = ( item_count + TWO_WORKERS_CHUNKS - 1 ) / TWO_WORKERS_CHUNKS;
-	chunk_size = chunk_size < min_range ? min_range : chunk_size;
-	if ( chunk_size >= item_count )
-	{
-		task( 0, item_count, 0, task_context );
-		return NULL;
-	}
-	pool->task = task;
-	pool->task_context = task_context;
-	pool->item_count = item_count;
-	pool->chunk_size = chunk_size;
-	pool->chunk_count = ( item_count + chunk_size - 1 ) / chunk_size;
-	atomic_store_explicit( &pool->done, 0u, memory_order_relaxed );
-	pool->generation += 1;
-	atomic_store_explicit( &pool->claim, (uint64_t)pool->generation << 32, memory_order_release );
-	TwoWorkersRunChunks( pool, pool->generation, 0 );
-	return pool;
-}
-
-static void TwoWorkersFinish( void* user_task, void* user_context )
-{
-	(void)user_context;
-	TwoWorkers* pool = (TwoWorkers*)user_task;
-	unsigned spins = 0;
-	// Every chunk is claimed by now (the caller ran out of chunks); wait for the ones the helper is still running.
-	while ( atomic_load_explicit( &pool->done, memory_order_acquire ) != pool->chunk_count )
-	{
-		if ( ++spins > 20000 )
-			sched_yield();
-	}
 }
 
 // ---- the memory floor: a pure streaming read of the bytes a step must read ----
@@ -567,12 +359,12 @@ static double TimeStreamFloor( const uint8_t* asset_bytes, size_t asset_size, in
 	size_t bytes = 0;
 	for ( uint32_t it = 0; it < warmup + iterations; ++it )
 	{
-		double t0 = NowUs();
+		double t0 = BenchNowUs();
 		g_stream_sink ^= StreamStepBytes( &asset, &bytes );
 		if ( it >= warmup )
-			us[it - warmup] = NowUs() - t0;
+			us[it - warmup] = BenchNowUs() - t0;
 	}
-	double median = Median( us, iterations );
+	double median = BenchMedian( us, iterations );
 	free( us );
 	free( copy );
 	*out_mb = (double)bytes / 1e6;
@@ -596,7 +388,7 @@ typedef struct StepConfig
 	int force_scalar;
 	plMlpBackend backend;
 	const char* ort_library;
-	TwoWorkers* workers; // NULL = serial
+	BenchTwoWorkers* workers; // NULL = serial
 	int small_pages;     // host allocator hooks without huge pages (see BenchAlloc)
 	float network_rate_hz; // plInstanceDef.network_rate_hz (0 = the networks every step)
 	float dt_s;            // > 0: every step's dt instead of the motion's (a game loop's fixed rate)
@@ -608,21 +400,7 @@ typedef struct StepConfig
 // 2 MiB and more (the asset) in transparent huge pages on Linux (context.c).
 static int g_small_pages;
 
-static plFrameInput MotionFrame( const Motion* motion, uint32_t f )
-{
-	const float* root = motion->root + (size_t)f * 8;
-	plFrameInput in;
-	memset( &in, 0, sizeof( in ) );
-	in.joint_rotations = motion->rotations + (size_t)f * motion->joint_count * 4;
-	in.joint_count = motion->joint_count;
-	in.joint_stride_bytes = 16;
-	in.root_translation = ( plVec3 ){ root[0], root[1], root[2] };
-	in.root_rotation = ( plQuat ){ root[3], root[4], root[5], root[6] };
-	in.dt_s = root[7];
-	return in;
-}
-
-static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint32_t warmup, uint32_t iterations,
+static plResult TimeSteps( const StepConfig* config, const BenchMotion* motion, uint32_t warmup, uint32_t iterations,
 						   double* out_median_us, int* out_avx2 )
 {
 	plContextDef cdef = plDefaultContextDef();
@@ -634,10 +412,7 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 	}
 	if ( config->workers != NULL )
 	{
-		cdef.enqueue_task = TwoWorkersEnqueue;
-		cdef.finish_task = TwoWorkersFinish;
-		cdef.task_context = config->workers;
-		cdef.worker_count = 2;
+		BenchTwoWorkers_Install( config->workers, &cdef );
 	}
 	plContext context;
 	plResult result = plCreateContext( &cdef, &context );
@@ -671,7 +446,7 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 	}
 	double* step_us = (double*)malloc( sizeof( double ) * iterations );
 #if defined( PLEAT_STEP_PHASES )
-	g_plStepPhaseClock = (int)g_clock;
+	g_plStepPhaseClock = (int)g_benchClock;
 #endif
 	for ( uint32_t it = 0; result >= 0 && it < warmup + iterations; ++it )
 	{
@@ -680,7 +455,7 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 		{
 			plInstance_Reset( instance );
 		}
-		plFrameInput in = MotionFrame( motion, f );
+		plFrameInput in = BenchMotionFrame( motion, f );
 		if ( config->dt_s > 0.0f )
 		{
 			in.dt_s = config->dt_s;
@@ -688,9 +463,9 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 #if defined( PLEAT_STEP_PHASES )
 		plStepPhaseReset();
 #endif
-		double t0 = NowUs();
+		double t0 = BenchNowUs();
 		plResult step = plInstance_Step( instance, &in, NULL );
-		double t1 = NowUs();
+		double t1 = BenchNowUs();
 		if ( step < 0 )
 		{
 			result = step;
@@ -714,7 +489,7 @@ static plResult TimeSteps( const StepConfig* config, const Motion* motion, uint3
 				sum += step_us[i];
 			*config->out_mean_us = sum / iterations;
 		}
-		*out_median_us = Median( step_us, iterations );
+		*out_median_us = BenchMedian( step_us, iterations );
 		result = PLEAT_RESULT_OK;
 	}
 	free( step_us );
@@ -731,7 +506,7 @@ typedef struct Fp16Cost
 	double max_normal_angle_deg; // max angle between the two normals
 } Fp16Cost;
 
-static plResult CreateStepper( const uint8_t* bytes, size_t size, const Motion* motion, plContext* context,
+static plResult CreateStepper( const uint8_t* bytes, size_t size, const BenchMotion* motion, plContext* context,
 							   plInstance* instance )
 {
 	plContextDef cdef = plDefaultContextDef();
@@ -756,7 +531,7 @@ static plResult CreateStepper( const uint8_t* bytes, size_t size, const Motion* 
 }
 
 static plResult MeasureFp16Cost( const uint8_t* fp32_bytes, size_t fp32_size, const uint8_t* fp16_bytes,
-								 size_t fp16_size, const Motion* motion, Fp16Cost* cost )
+								 size_t fp16_size, const BenchMotion* motion, Fp16Cost* cost )
 {
 	plContext c32 = { 0, 0 }, c16 = { 0, 0 };
 	plInstance i32, i16;
@@ -768,7 +543,7 @@ static plResult MeasureFp16Cost( const uint8_t* fp32_bytes, size_t fp32_size, co
 	size_t count = 0;
 	for ( uint32_t f = 0; result == PLEAT_RESULT_OK && f < motion->frame_count; ++f )
 	{
-		plFrameInput in = MotionFrame( motion, f );
+		plFrameInput in = BenchMotionFrame( motion, f );
 		plResult a = plInstance_Step( i32, &in, NULL );
 		plResult b = plInstance_Step( i16, &in, NULL );
 		if ( a < 0 || b < 0 )
@@ -861,7 +636,7 @@ int main( int argc, char** argv )
 		else if ( strcmp( argv[i], "--onnxruntime" ) == 0 )
 			ort_library = argv[i + 1];
 		else if ( strcmp( argv[i], "--clock" ) == 0 )
-			g_clock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
+			g_benchClock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
 		else if ( strcmp( argv[i], "--out" ) == 0 )
 			out_path = argv[i + 1];
 		else if ( strcmp( argv[i], "--iterations" ) == 0 )
@@ -887,7 +662,7 @@ int main( int argc, char** argv )
 	}
 
 	size_t asset_size = 0;
-	uint8_t* asset_bytes = ReadAligned( asset_path, &asset_size );
+	uint8_t* asset_bytes = BenchReadFile( asset_path, &asset_size );
 	if ( asset_bytes == NULL )
 	{
 		fprintf( stderr, "pleat_bench_step: cannot read %s\n", asset_path );
@@ -899,9 +674,9 @@ int main( int argc, char** argv )
 	{
 		return Fail( asset_path, result );
 	}
-	Motion motion;
+	BenchMotion motion;
 	memset( &motion, 0, sizeof( motion ) );
-	if ( !ReadMotion( case_path, &motion ) || motion.joint_count != asset.joint_count )
+	if ( !BenchReadMotion( case_path, &motion ) || motion.joint_count != asset.joint_count )
 	{
 		fprintf( stderr, "pleat_bench_step: %s is not a golden case for this asset\n", case_path );
 		return 1;
@@ -918,7 +693,7 @@ int main( int argc, char** argv )
 		{
 			const char* path = which == 0 ? asset_path : fp16_path;
 			size_t size = 0;
-			uint8_t* bytes = which == 0 ? asset_bytes : ( path != NULL ? ReadAligned( path, &size ) : NULL );
+			uint8_t* bytes = which == 0 ? asset_bytes : ( path != NULL ? BenchReadFile( path, &size ) : NULL );
 			if ( bytes == NULL )
 				continue;
 			StepConfig config = { bytes, which == 0 ? asset_size : size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL,
@@ -931,7 +706,7 @@ int main( int argc, char** argv )
 			double sum = 0.0;
 			for ( int p = 0; p < PLEAT_PHASE_COUNT; ++p )
 			{
-				double m = Median( g_phase_samples + (size_t)p * iterations, iterations );
+				double m = BenchMedian( g_phase_samples + (size_t)p * iterations, iterations );
 				sum += m;
 				fprintf( out, ", \"%s\": %.1f", k_phase_names[p], m );
 			}
@@ -954,16 +729,12 @@ int main( int argc, char** argv )
 		StepConfig only = { asset_bytes, asset_size, 0, PLEAT_MLP_BACKEND_PLEAT, NULL, NULL, g_small_pages, 0.0f, 0.0f,
 							NULL };
 		double only_us = NAN;
-		TwoWorkers helper;
-		memset( &helper, 0, sizeof( helper ) );
-		int with_helper = step_only_workers == 2 && pthread_create( &helper.thread, NULL, TwoWorkersMain, &helper ) == 0;
+		BenchTwoWorkers helper;
+		int with_helper = step_only_workers == 2 && BenchTwoWorkers_Start( &helper );
 		only.workers = with_helper ? &helper : NULL;
 		result = TimeSteps( &only, &motion, warmup, iterations, &only_us, NULL );
 		if ( with_helper )
-		{
-			atomic_store( &helper.quit, 1 );
-			pthread_join( helper.thread, NULL );
-		}
+			BenchTwoWorkers_Stop( &helper );
 		printf( "{ \"pleat_step_us\": %.2f }\n", only_us );
 		return result == PLEAT_RESULT_OK ? 0 : 1;
 	}
@@ -1013,9 +784,8 @@ int main( int argc, char** argv )
 	config.dt_s = 0.0f;
 	config.out_mean_us = NULL;
 	double step_2w_us = NAN, step_fp16_2w_us = NAN;
-	TwoWorkers pool;
-	memset( &pool, 0, sizeof( pool ) );
-	int have_pool = pthread_create( &pool.thread, NULL, TwoWorkersMain, &pool ) == 0;
+	BenchTwoWorkers pool;
+	int have_pool = BenchTwoWorkers_Start( &pool );
 	if ( have_pool )
 	{
 		config.workers = &pool;
@@ -1045,7 +815,7 @@ int main( int argc, char** argv )
 	if ( fp16_path != NULL )
 	{
 		size_t fp16_size = 0;
-		fp16_bytes = ReadAligned( fp16_path, &fp16_size );
+		fp16_bytes = BenchReadFile( fp16_path, &fp16_size );
 		if ( fp16_bytes != NULL )
 		{
 			config.asset_bytes = fp16_bytes;
@@ -1083,10 +853,7 @@ int main( int argc, char** argv )
 	}
 
 	if ( have_pool )
-	{
-		atomic_store( &pool.quit, 1 );
-		pthread_join( pool.thread, NULL );
-	}
+		BenchTwoWorkers_Stop( &pool );
 
 	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
 	if ( out == NULL )
@@ -1100,7 +867,7 @@ int main( int argc, char** argv )
 			 asset.input_count, asset.lp_layer_count, asset.latent_count, asset.dec_layer_count, asset.blend_count,
 			 asset.influence_count, asset.input_joint_count );
 	fprintf( out, "  \"isa\": \"%s\",\n", avx2 ? "avx2+fma+f16c" : "scalar" );
-	fprintf( out, "  \"clock\": \"%s\",\n", g_clock == CLOCK_MONOTONIC ? "wall" : "thread-cpu" );
+	fprintf( out, "  \"clock\": \"%s\",\n", g_benchClock == CLOCK_MONOTONIC ? "wall" : "thread-cpu" );
 	fprintf( out, "  \"iterations\": %u,\n", iterations );
 	fprintf( out, "  \"warmup\": %u,\n", warmup );
 	PrintJsonNumber( out, "pleat_mlp_us", mlp.pleat_us, 0 );
@@ -1133,8 +900,7 @@ int main( int argc, char** argv )
 	fprintf( out, "}\n" );
 	if ( out != stdout )
 		fclose( out );
-	free( motion.rotations );
-	free( motion.root );
+	BenchFreeMotion( &motion );
 	free( asset_bytes );
 	free( fp16_bytes );
 	return 0;

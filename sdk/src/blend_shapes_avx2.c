@@ -3,23 +3,7 @@
 // Short per-chunk streams (128 shapes × a few KB) measured ~30 % slower stand-alone and ~15 % per step
 // (docs/benchmarks.md). Per element the FMAs run in ascending j, as in the scalar kernel and for any vertex split.
 #include "kernels.h"
-
-#include <immintrin.h>
-#include <math.h>
-
-static inline __m256 plLoad8( const void* p, int fp16, size_t index )
-{
-	if ( fp16 )
-	{
-		return _mm256_cvtph_ps( _mm_loadu_si128( (const __m128i*)( (const uint16_t*)p + index ) ) );
-	}
-	return _mm256_loadu_ps( (const float*)p + index );
-}
-
-static inline float plLoad1( const void* p, int fp16, size_t index )
-{
-	return fp16 ? plHalfToFloat( ( (const uint16_t*)p )[index] ) : ( (const float*)p )[index];
-}
+#include "simd_avx2.h"
 
 void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
 						 uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end )

@@ -9,23 +9,7 @@
 // each instance's base and output lines, are prefetched in software: D strided streams plus two per instance are far
 // more than the hardware prefetchers follow.
 #include "kernels_batch.h"
-
-#include <immintrin.h>
-#include <math.h>
-
-static inline __m256 plLoad8( const void* p, int fp16, size_t index )
-{
-	if ( fp16 )
-	{
-		return _mm256_cvtph_ps( _mm_loadu_si128( (const __m128i*)( (const uint16_t*)p + index ) ) );
-	}
-	return _mm256_loadu_ps( (const float*)p + index );
-}
-
-static inline float plLoad1( const void* p, int fp16, size_t index )
-{
-	return fp16 ? plHalfToFloat( ( (const uint16_t*)p )[index] ) : ( (const float*)p )[index];
-}
+#include "simd_avx2.h"
 
 static inline void plPrefetchColumn( const void* shapes, int fp16, size_t plane, uint32_t blend_count, size_t i )
 {

@@ -518,19 +518,21 @@ plResult plInstance_SetMaterial( plInstance handle, const float material[4] )
 	return clamped ? PLEAT_RESULT_CLAMPED : PLEAT_RESULT_OK;
 }
 
-plResult plInstance_GetPositions( plInstance handle, const float** out_positions, uint32_t* out_count )
+// The two getters that lend the instance's last per-vertex output ([N][3], valid until the next step or destroy):
+// which picks positions (0) or normals (1).
+static plResult plLendVertexArray( plInstance handle, int which, const float** out_array, uint32_t* out_count )
 {
-	if ( out_positions == NULL )
+	if ( out_array == NULL )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	*out_positions = NULL;
+	*out_array = NULL;
 	plInstanceData* inst = plGetInstanceData( handle );
 	if ( inst == NULL )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	*out_positions = inst->positions;
+	*out_array = which == 0 ? inst->positions : inst->normals;
 	if ( out_count != NULL )
 	{
 		*out_count = inst->asset->vertex_count;
@@ -538,24 +540,14 @@ plResult plInstance_GetPositions( plInstance handle, const float** out_positions
 	return PLEAT_RESULT_OK;
 }
 
+plResult plInstance_GetPositions( plInstance handle, const float** out_positions, uint32_t* out_count )
+{
+	return plLendVertexArray( handle, 0, out_positions, out_count );
+}
+
 plResult plInstance_GetNormals( plInstance handle, const float** out_normals, uint32_t* out_count )
 {
-	if ( out_normals == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	*out_normals = NULL;
-	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	*out_normals = inst->normals;
-	if ( out_count != NULL )
-	{
-		*out_count = inst->asset->vertex_count;
-	}
-	return PLEAT_RESULT_OK;
+	return plLendVertexArray( handle, 1, out_normals, out_count );
 }
 
 // The getters that copy one of the instance's float arrays out: the caller's capacity must hold all of it.

@@ -7,55 +7,7 @@
 // interleaving *adjacent* rows (streams that skip over each other's rows) had measured slower in round 1. Each row's
 // arithmetic (plDotRow2) does not depend on the block split, so a row's result is the same for any worker split.
 #include "kernels.h"
-
-#include <immintrin.h>
-#include <math.h>
-
-
-static inline __m256 plLoadWeights8( const void* w, int fp16, size_t index )
-{
-	if ( fp16 )
-	{
-		return _mm256_cvtph_ps( _mm_loadu_si128( (const __m128i*)( (const uint16_t*)w + index ) ) );
-	}
-	return _mm256_loadu_ps( (const float*)w + index );
-}
-
-static inline float plLoadWeight1( const void* w, int fp16, size_t index )
-{
-	return fp16 ? plHalfToFloat( ( (const uint16_t*)w )[index] ) : ( (const float*)w )[index];
-}
-
-static inline float plHorizontalSum( __m256 v )
-{
-	__m128 s = _mm_add_ps( _mm256_castps256_ps128( v ), _mm256_extractf128_ps( v, 1 ) );
-	s = _mm_add_ps( s, _mm_movehl_ps( s, s ) );
-	s = _mm_add_ss( s, _mm_movehdup_ps( s ) );
-	return _mm_cvtss_f32( s );
-}
-
-// Per-row arithmetic of the blocked kernel: two 8-wide accumulators over 16-element steps, then an 8-wide tail step,
-// the horizontal sum, a scalar fmaf tail. plDotRowQuad computes exactly this for each of its four rows.
-static inline float plDotRow2( const float* x, const void* weight, int weight_fp16, size_t base, uint32_t in_count )
-{
-	__m256 a0 = _mm256_setzero_ps(), a1 = _mm256_setzero_ps();
-	uint32_t c = 0;
-	for ( ; c + 16 <= in_count; c += 16 )
-	{
-		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c ), _mm256_loadu_ps( x + c ), a0 );
-		a1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c + 8 ), _mm256_loadu_ps( x + c + 8 ), a1 );
-	}
-	for ( ; c + 8 <= in_count; c += 8 )
-	{
-		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c ), _mm256_loadu_ps( x + c ), a0 );
-	}
-	float sum = plHorizontalSum( _mm256_add_ps( a0, a1 ) );
-	for ( ; c < in_count; ++c )
-	{
-		sum = fmaf( plLoadWeight1( weight, weight_fp16, base + c ), x[c], sum );
-	}
-	return sum;
-}
+#include "simd_avx2.h"
 
 // Four rows from four contiguous row blocks at once (four sequential streams, each walking its block in address
 // order, like eight-stream reads that measured fastest), sharing the x loads; per row exactly plDotRow2.
@@ -68,22 +20,22 @@ static inline void plDotRowQuad( const float* x, const void* weight, int weight_
 	for ( ; c + 16 <= in_count; c += 16 )
 	{
 		__m256 x0 = _mm256_loadu_ps( x + c ), x1 = _mm256_loadu_ps( x + c + 8 );
-		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[0] + c ), x0, a0 );
-		a1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[0] + c + 8 ), x1, a1 );
-		b0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[1] + c ), x0, b0 );
-		b1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[1] + c + 8 ), x1, b1 );
-		c0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[2] + c ), x0, c0 );
-		c1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[2] + c + 8 ), x1, c1 );
-		d0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[3] + c ), x0, d0 );
-		d1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[3] + c + 8 ), x1, d1 );
+		a0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[0] + c ), x0, a0 );
+		a1 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[0] + c + 8 ), x1, a1 );
+		b0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[1] + c ), x0, b0 );
+		b1 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[1] + c + 8 ), x1, b1 );
+		c0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[2] + c ), x0, c0 );
+		c1 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[2] + c + 8 ), x1, c1 );
+		d0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[3] + c ), x0, d0 );
+		d1 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[3] + c + 8 ), x1, d1 );
 	}
 	for ( ; c + 8 <= in_count; c += 8 )
 	{
 		__m256 x0 = _mm256_loadu_ps( x + c );
-		a0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[0] + c ), x0, a0 );
-		b0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[1] + c ), x0, b0 );
-		c0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[2] + c ), x0, c0 );
-		d0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base[3] + c ), x0, d0 );
+		a0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[0] + c ), x0, a0 );
+		b0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[1] + c ), x0, b0 );
+		c0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[2] + c ), x0, c0 );
+		d0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base[3] + c ), x0, d0 );
 	}
 	sum[0] = plHorizontalSum( _mm256_add_ps( a0, a1 ) );
 	sum[1] = plHorizontalSum( _mm256_add_ps( b0, b1 ) );
@@ -94,7 +46,7 @@ static inline void plDotRowQuad( const float* x, const void* weight, int weight_
 		float xc = x[c];
 		for ( int k = 0; k < 4; ++k )
 		{
-			sum[k] = fmaf( plLoadWeight1( weight, weight_fp16, base[k] + c ), xc, sum[k] );
+			sum[k] = fmaf( plLoad1( weight, weight_fp16, base[k] + c ), xc, sum[k] );
 		}
 	}
 }

@@ -1,5 +1,5 @@
 // AVX2 + FMA (+ F16C) twin of plMatMat_Scalar, and the batched twin of plMatVec_Avx2: for every (instance, row) it
-// performs plMatVec_Avx2's per-row arithmetic exactly (mlp_avx2.c, plDotRow2: an FMA chain over the even 8-blocks of
+// performs plMatVec_Avx2's per-row arithmetic exactly (simd_avx2.h, plDotRow2: an FMA chain over the even 8-blocks of
 // each 16-step plus the final 8-step, one over the odd 8-blocks, their sum, the horizontal sum, a scalar fmaf tail,
 // then + bias), so a batch gives what each instance's own step gives, bit for bit.
 //
@@ -10,32 +10,7 @@
 // units' rate rather than the memory's. The tile's rows (3 · in_count · 4 bytes) stay in L1 while every instance of
 // the batch passes over them, so each weight is read from memory once per call.
 #include "kernels_batch.h"
-
-#include <immintrin.h>
-#include <math.h>
-
-static inline __m256 plLoadWeights8( const void* w, int fp16, size_t index )
-{
-	if ( fp16 )
-	{
-		return _mm256_cvtph_ps( _mm_loadu_si128( (const __m128i*)( (const uint16_t*)w + index ) ) );
-	}
-	return _mm256_loadu_ps( (const float*)w + index );
-}
-
-static inline float plLoadWeight1( const void* w, int fp16, size_t index )
-{
-	return fp16 ? plHalfToFloat( ( (const uint16_t*)w )[index] ) : ( (const float*)w )[index];
-}
-
-// The same reduction as mlp_avx2.c's plHorizontalSum.
-static inline float plHorizontalSum( __m256 v )
-{
-	__m128 s = _mm_add_ps( _mm256_castps256_ps128( v ), _mm256_extractf128_ps( v, 1 ) );
-	s = _mm_add_ps( s, _mm_movehl_ps( s, s ) );
-	s = _mm_add_ss( s, _mm_movehdup_ps( s ) );
-	return _mm_cvtss_f32( s );
-}
+#include "simd_avx2.h"
 
 // The end of one dot product: the two chains summed, the horizontal sum, the scalar tail from column c (the first
 // column no 8-wide step covered).
@@ -45,26 +20,9 @@ static inline float plFinishDot( __m256 even, __m256 odd, const float* x, const 
 	float sum = plHorizontalSum( _mm256_add_ps( even, odd ) );
 	for ( ; c < in_count; ++c )
 	{
-		sum = fmaf( plLoadWeight1( weight, weight_fp16, base + c ), x[c], sum );
+		sum = fmaf( plLoad1( weight, weight_fp16, base + c ), x[c], sum );
 	}
 	return sum;
-}
-
-// One row, one instance: plDotRow2 itself.
-static inline float plDot1x1( const float* x, const void* weight, int weight_fp16, size_t base, uint32_t in_count )
-{
-	__m256 e = _mm256_setzero_ps(), o = _mm256_setzero_ps();
-	uint32_t c = 0;
-	for ( ; c + 16 <= in_count; c += 16 )
-	{
-		e = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c ), _mm256_loadu_ps( x + c ), e );
-		o = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c + 8 ), _mm256_loadu_ps( x + c + 8 ), o );
-	}
-	for ( ; c + 8 <= in_count; c += 8 )
-	{
-		e = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base + c ), _mm256_loadu_ps( x + c ), e );
-	}
-	return plFinishDot( e, o, x, weight, weight_fp16, base, c, in_count );
 }
 
 // Two rows (base0, base1), one instance.
@@ -76,16 +34,16 @@ static inline void plDot2x1( const float* x, const void* weight, int weight_fp16
 	for ( ; c + 16 <= in_count; c += 16 )
 	{
 		__m256 xe = _mm256_loadu_ps( x + c ), xo = _mm256_loadu_ps( x + c + 8 );
-		e0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base0 + c ), xe, e0 );
-		e1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base1 + c ), xe, e1 );
-		o0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base0 + c + 8 ), xo, o0 );
-		o1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base1 + c + 8 ), xo, o1 );
+		e0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base0 + c ), xe, e0 );
+		e1 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base1 + c ), xe, e1 );
+		o0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base0 + c + 8 ), xo, o0 );
+		o1 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base1 + c + 8 ), xo, o1 );
 	}
 	for ( ; c + 8 <= in_count; c += 8 )
 	{
 		__m256 xe = _mm256_loadu_ps( x + c );
-		e0 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base0 + c ), xe, e0 );
-		e1 = _mm256_fmadd_ps( plLoadWeights8( weight, weight_fp16, base1 + c ), xe, e1 );
+		e0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base0 + c ), xe, e0 );
+		e1 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base1 + c ), xe, e1 );
 	}
 	*sum0 = plFinishDot( e0, o0, x, weight, weight_fp16, base0, c, in_count );
 	*sum1 = plFinishDot( e1, o1, x, weight, weight_fp16, base1, c, in_count );
@@ -105,9 +63,9 @@ static inline void plChain3x3( const float* const x[3], const void* weight, int 
 	uint32_t steps = in_count / 16 + ( offset == 0 && in_count % 16 >= 8 ? 1u : 0u );
 	for ( uint32_t k = 0, c = 0; k < steps; ++k, c += 16 )
 	{
-		__m256 w0 = plLoadWeights8( weight, weight_fp16, b0 + c );
-		__m256 w1 = plLoadWeights8( weight, weight_fp16, b1 + c );
-		__m256 w2 = plLoadWeights8( weight, weight_fp16, b2 + c );
+		__m256 w0 = plLoad8( weight, weight_fp16, b0 + c );
+		__m256 w1 = plLoad8( weight, weight_fp16, b1 + c );
+		__m256 w2 = plLoad8( weight, weight_fp16, b2 + c );
 		__m256 xv = _mm256_loadu_ps( x0 + c );
 		a00 = _mm256_fmadd_ps( w0, xv, a00 );
 		a10 = _mm256_fmadd_ps( w1, xv, a10 );
@@ -197,14 +155,14 @@ void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_cou
 			plDot2x1( x[b], tile_weight, tile_fp16, tile_base[0], tile_base[1], in_count, &sum0, &sum1 );
 			out[b][r] = sum0 + bias[r];
 			out[b][r + 1] = sum1 + bias[r + 1];
-			out[b][r + 2] = plDot1x1( x[b], tile_weight, tile_fp16, tile_base[2], in_count ) + bias[r + 2];
+			out[b][r + 2] = plDotRow2( x[b], tile_weight, tile_fp16, tile_base[2], in_count ) + bias[r + 2];
 		}
 	}
 	for ( ; r < row_end; ++r )
 	{
 		for ( uint32_t b = 0; b < batch_count; ++b )
 		{
-			out[b][r] = plDot1x1( x[b], weight, weight_fp16, (size_t)r * in_count, in_count ) + bias[r];
+			out[b][r] = plDotRow2( x[b], weight, weight_fp16, (size_t)r * in_count, in_count ) + bias[r];
 		}
 	}
 }

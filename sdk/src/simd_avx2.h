@@ -1,0 +1,63 @@
+// Internal: the AVX2 + FMA (+ F16C) helpers that the single-instance kernels and their batched twins share
+// (mlp_avx2.c / mlp_batch_avx2.c, blend_shapes_avx2.c / blend_shapes_batch_avx2.c). One definition each, so a batched
+// kernel performs its single-instance twin's per-element arithmetic by construction (kernels_batch.h). Include only
+// from sources compiled with -mavx2 -mfma -mf16c.
+#ifndef PLEAT_SIMD_AVX2_H
+#define PLEAT_SIMD_AVX2_H
+#include "kernels.h"
+
+#include <immintrin.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+
+// Eight consecutive elements from index of an fp32 or fp16 (F16C-converted) array.
+static inline __m256 plLoad8( const void* p, int fp16, size_t index )
+{
+	if ( fp16 )
+	{
+		return _mm256_cvtph_ps( _mm_loadu_si128( (const __m128i*)( (const uint16_t*)p + index ) ) );
+	}
+	return _mm256_loadu_ps( (const float*)p + index );
+}
+
+// One element of an fp32 or fp16 array (the scalar tail of the 8-wide loops).
+static inline float plLoad1( const void* p, int fp16, size_t index )
+{
+	return fp16 ? plHalfToFloat( ( (const uint16_t*)p )[index] ) : ( (const float*)p )[index];
+}
+
+// The sum of the eight lanes: halves added, then pairs, then the last two (one fixed order).
+static inline float plHorizontalSum( __m256 v )
+{
+	__m128 s = _mm_add_ps( _mm256_castps256_ps128( v ), _mm256_extractf128_ps( v, 1 ) );
+	s = _mm_add_ps( s, _mm_movehl_ps( s, s ) );
+	s = _mm_add_ss( s, _mm_movehdup_ps( s ) );
+	return _mm_cvtss_f32( s );
+}
+
+// The per-row arithmetic of plMatVec_Avx2 (one row, one input vector): two 8-wide accumulators over 16-element steps,
+// then an 8-wide tail step into the first, their sum, the horizontal sum, a scalar fmaf tail. The blocked and batched
+// kernels compute exactly this for each of their rows.
+static inline float plDotRow2( const float* x, const void* weight, int weight_fp16, size_t base, uint32_t in_count )
+{
+	__m256 a0 = _mm256_setzero_ps(), a1 = _mm256_setzero_ps();
+	uint32_t c = 0;
+	for ( ; c + 16 <= in_count; c += 16 )
+	{
+		a0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base + c ), _mm256_loadu_ps( x + c ), a0 );
+		a1 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base + c + 8 ), _mm256_loadu_ps( x + c + 8 ), a1 );
+	}
+	for ( ; c + 8 <= in_count; c += 8 )
+	{
+		a0 = _mm256_fmadd_ps( plLoad8( weight, weight_fp16, base + c ), _mm256_loadu_ps( x + c ), a0 );
+	}
+	float sum = plHorizontalSum( _mm256_add_ps( a0, a1 ) );
+	for ( ; c < in_count; ++c )
+	{
+		sum = fmaf( plLoad1( weight, weight_fp16, base + c ), x[c], sum );
+	}
+	return sum;
+}
+
+#endif
