@@ -50,6 +50,14 @@ class Variant:
         self.cpu.append((self.cpu_clock() - c0) / iterations)
 
 
+def optimizer_step(model, opt, objective, grad_clip):
+    """One update as the trainers make it: gradients of objective, clipped to grad_clip, then the optimizer step."""
+    opt.zero_grad()
+    objective.backward()
+    torch.nn.utils.clip_grad_norm_(model.parameters(), grad_clip)
+    opt.step()
+
+
 def _ddp_rank(rank, world, port, setup, clips, cfg, steps, windows, w, conn):
     """One rank of the two-process variant: what `torchrun --nproc_per_node=2 -m pleat.train.cli stage1 --device
     cpu` runs (gloo), one iteration per message; replies with this process's CPU time so far."""
@@ -64,10 +72,7 @@ def _ddp_rank(rank, world, port, setup, clips, cfg, steps, windows, w, conn):
     source = batching.WindowSource(setup, clips, np.random.default_rng([1, rank]), windows)
     while conn.recv() is not None:
         objective, _ = batching.stage1_iteration(setup, net, source, c1, steps, w, steps)
-        opt.zero_grad()
-        objective.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
-        opt.step()
+        optimizer_step(model, opt, objective, c1["grad_clip"])
         conn.send(time.process_time())
     torch.distributed.destroy_process_group()
 
@@ -112,12 +117,6 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
         model = core.Stage1Model(setup)
         return model, core.make_optimizer(model, c1["lr"], c1.get("blend_lr_scale", 1.0))
 
-    def finish(model, opt, objective):
-        opt.zero_grad()
-        objective.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
-        opt.step()
-
     def per_window():
         model, opt = model_and_opt()
         rng = np.random.default_rng(1)
@@ -128,7 +127,7 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
             if c1.get("loss_norm") == "lbs":
                 scale, _ = core.lbs_scale(setup, win, beta, mat, mat01, steps, w, floor)
             loss, _ = core.rollout_loss(setup, model, core.Window(setup, win, beta, mat, mat01), steps, w)
-            finish(model, opt, loss / scale)
+            optimizer_step(model, opt, loss / scale, c1["grad_clip"])
         return Variant("per-window (old)", 1, step)
 
     def batched(k, use_worker, use_compile=False):
@@ -140,7 +139,7 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
 
         def step():                       # core.train_stage1 (the default)
             objective, _ = batching.stage1_iteration(setup, net, source, c1, steps, w, steps)
-            finish(model, opt, objective)
+            optimizer_step(model, opt, objective, c1["grad_clip"])
         return Variant(f"batched K={k}" + (" + worker" if use_worker else "") + (" + compile" if use_compile else ""),
                        k, step, source.close)
 
@@ -166,12 +165,6 @@ def ablation_variants(setup, clips, cfg, steps, worker):
         torch.manual_seed(0)
         model = core.AblationModel(setup, norms)
         return model, core.make_optimizer(model, ca["lr"], c1.get("blend_lr_scale", 1.0))
-
-    def finish(model, opt, objective):
-        opt.zero_grad()
-        objective.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
-        opt.step()
 
     def per_window():
         model, opt = model_and_opt()
@@ -199,7 +192,7 @@ def ablation_variants(setup, clips, cfg, steps, worker):
                     scale, _ = core.lbs_scale(setup, win, beta, mat, mat01, steps, w, floor)
                 l, _ = core.rollout_loss(setup, None, window, steps, w, predictor)
                 loss = loss + l / scale / ca["batch"]
-            finish(model, opt, loss)
+            optimizer_step(model, opt, loss, c1["grad_clip"])
         return Variant("per-window (old)", ca["batch"], step)
 
     def batched(use_worker):
@@ -210,7 +203,7 @@ def ablation_variants(setup, clips, cfg, steps, worker):
 
         def step():                       # core.train_ablation (the default)
             objective, _ = batching.ablation_iteration(setup, model, source, c1, steps, w, z_lo, z_hi, steps)
-            finish(model, opt, objective)
+            optimizer_step(model, opt, objective, c1["grad_clip"])
         return Variant("batched" + (" + worker" if use_worker else ""), ca["batch"], step, source.close)
 
     out = [per_window(), batched(False)]
