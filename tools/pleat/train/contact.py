@@ -86,7 +86,7 @@ def terms(data, seq, frame, disp_pred, eps_m):
 
 
 def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_contact=30.0, eps_m=2e-3,
-             gen=None, log=None):
+             gen=None, log=None, deadline=None):
     """Trains f_LP, f_dec and the blend shapes (at 0.1× lr) on the posed error plus the contact term, on windows
     that start at a recorded latent and are fed their own predictions (as stage 2). `train`: the distillation's
     sequences (X_c rows and latent targets), in the order of `data`."""
@@ -99,7 +99,11 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
     block.blend_shapes.requires_grad_(True)
     opt = torch.optim.Adam(params)
     t0 = time.time()
+    done = 0
     for it in range(iterations):
+        if deadline is not None and time.time() > deadline:      # --max-minutes: stop where the budget ends
+            break
+        done = it + 1
         idx = torch.randint(len(lengths), (batch,), generator=gen)
         n = lengths[idx]
         starts = (torch.rand(batch, generator=gen) * (n - window).clamp_min(0).add(1)).long()
@@ -122,7 +126,7 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
                  "time_s": round(time.time() - t0, 1)})
     lp.eval()
     block.blend_shapes.requires_grad_(False)
-    return {"iterations": iterations, "final_error_mm2": float(err.detach()),
+    return {"iterations": done, "final_error_mm2": float(err.detach()),
             "final_penetration_mm2": float(pen.detach()),
             "final_inside_share": float(inside.detach()), "w_contact": w_contact, "eps_m": eps_m,
             "time_s": time.time() - t0}

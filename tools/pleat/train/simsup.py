@@ -207,7 +207,8 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     t_fit = time.time()
     lp, block, norms, shim, g, report = distill.distill(
         seqs, setup, spec, val, None, cfg["seed"], c["iterations"], c["dec_iterations"], c["lr"], c["batch"],
-        c["window"], progress, device=dev, weight_by_energy=bool(c.get("weight_by_energy", False)))
+        c["window"], progress, device=dev, weight_by_energy=bool(c.get("weight_by_energy", False)),
+        deadline=None if budget_s is None else t_start + 0.85 * budget_s)
     fit_s = time.time() - t_fit
     torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
                 "config": cfg, "garment": garment}, out / "simsup.pt")
@@ -227,7 +228,8 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     run.log({"summary": summary})
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     if int(c.get("contact_iterations", 0)) > 0:      # the last step: the contact-aware fine-tune (rewrites the asset
-        path, _ = contact_tune(out, None, progress=progress, settings=c, sequences=(seqs, val))   # and says the verdict)
+        path, _ = contact_tune(out, None, progress=progress, settings=c, sequences=(seqs, val),   # and says the verdict)
+                               deadline=None if budget_s is None else t_start + budget_s)
     else:
         print(verdict(val_err))
     return path, summary
@@ -358,7 +360,7 @@ def own_latents(lp, seqs, setup_latent):
     return out
 
 
-def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, sequences=None):
+def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, sequences=None, deadline=None):
     """pleat.train.contact on the simsup model in `run_dir`, on the sequences of `data`; rewrites simsup.pt (the
     fitted model is kept as simsup_fit.pt) and the packed asset, and prints the verdict again."""
     from pleat.train import contact
@@ -387,7 +389,7 @@ def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, s
             print(f"contact: {rec}", file=sys.stderr)
     rep = contact.finetune(lp, block, train, tensors, iterations or int(c.get("contact_iterations", 1500)),
                            lr=float(c.get("contact_lr", 1e-4)), w_contact=float(c.get("contact_weight", 30.0)),
-                           eps_m=float(c.get("contact_eps_m", 2e-3)), log=log)
+                           eps_m=float(c.get("contact_eps_m", 2e-3)), log=log, deadline=deadline)
     after = posed_errors(lp, block, val, setup.L)
     state = torch.load(run_dir / "simsup.pt", weights_only=False)
     if not (run_dir / "simsup_fit.pt").exists():
