@@ -28,7 +28,7 @@ def test_a_simulated_segment_is_reproduced_by_skinning_its_targets(tiny_setup, t
     """The targets are exactly what the runtime's blend shapes must add: LBS of (T + G_S(β) + d) gives back the
     simulated frames, so the runtime's skinning and the simulator's pinned LBS are the same map."""
     setup = tiny_setup
-    clips = simsup._named(simsup._clips("train", 30.0, setup.body))
+    clips = simsup._clips("train", 30.0, setup.body)
     name = sorted(clips)[0]
     beta = np.zeros(setup.B)
     beta[0] = 1.5

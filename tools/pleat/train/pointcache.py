@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from pleat.cli import InputError
+from pleat.train import simdata
 
 PC2_SIGNATURE = b"POINTCACHE2\0"
 PC2_VERSION = 1
@@ -359,20 +360,18 @@ def _resample(clip, positions, fps):
     return replace(clip, fps=float(fps), local_rotations=q, root_translation=tr, root_rotation=r), pos
 
 
-def _skinned(setup, clip, beta, frames):
-    from types import SimpleNamespace
-    c = SimpleNamespace(rotations=clip.local_rotations, root_translation=clip.root_translation,
-                        root_rotation=clip.root_rotation, fps=clip.fps)
-    win = setup.pose_window(c, 0, frames, beta)
+def _skinned(setup, M, beta):
+    """(per-vertex LBS transforms, β-shaped template, the template skinned) for joint matrices M [T, J, 3, 4]."""
+    A = simdata.blend_matrices(setup, M)
     shaped = setup.shaped(beta)
-    return win["A"], shaped, np.einsum("tnab,nb->tna", win["A"][..., :3], shaped) + win["A"][..., 3]
+    return A, shaped, np.einsum("tnab,nb->tna", A[..., :3], shaped) + A[..., 3]
 
 
 def _check_follows(sim, setup, clip, beta, cache, pos0):
     """The cache's first sample must be near the garment skinned onto the motion's first frame; if it is not, try
     the other units and up axes and say which would fit."""
     from pleat.garment.meshio import UNITS_M, to_pleat_axes
-    _, _, lbs = _skinned(setup, clip, beta, 1)
+    _, _, lbs = _skinned(setup, simdata.joint_matrices(setup, clip, beta, 1), beta)
     err = float(np.linalg.norm(pos0 - lbs[0], axis=1).mean())
     if err <= FOLLOW_LIMIT_M:
         return err
@@ -393,7 +392,6 @@ def load_user_sim(setup, sim, fps):
     """One user simulation → (sequence dict for simdata / posed_errors, info dict)."""
     from pleat import garment_asset as ga
     from pleat.garment.meshio import to_pleat_axes
-    from pleat.train import simdata
     cache = read_cache(sim.cache)
     if cache.points != setup.N:
         raise InputError(sim.cache, f"has {cache.points} points; the garment {setup.name} has {setup.N} vertices: "
@@ -431,7 +429,7 @@ def load_user_sim(setup, sim, fps):
         raise InputError(sim.cache, f"covers {len(positions)} frame at {fps:g} fps; a sequence needs at least 2")
     follow = _check_follows(sim, setup, seg, beta, cache, positions[0])
     s = simdata.sequence(setup, seg, beta, material, positions)
-    A, shaped, lbs = _skinned(setup, seg, beta, len(positions))
+    A, shaped, lbs = _skinned(setup, s["M"], beta)
     lbs_mm = 1e3 * float(np.linalg.norm(positions - lbs, axis=-1).mean())
     if sim.role == "validation":
         s.update(A=A, shaped=shaped, positions=positions, name=sim.name)

@@ -160,23 +160,40 @@ def unskin(A, x):
     return np.linalg.solve(A[..., :3], (x - A[..., 3])[..., None])[..., 0]
 
 
-def sequence(setup, clip, beta, material, positions):
-    """One training sequence from a simulated clip: X_c rows [T, I] (latent block zero; row t predicts frame t
-    from a reset at frame 0, as the runtime does) and the rest-frame displacement targets [T, N, 3]."""
-    from types import SimpleNamespace
-    c = SimpleNamespace(rotations=clip.local_rotations, root_translation=clip.root_translation,
-                        root_rotation=clip.root_rotation, fps=clip.fps)
-    T = min(len(positions), clip.num_frames)
-    win = setup.pose_window(c, 0, T, beta)
-    static = setup.static_inputs(win, beta, material)
-    disp = unskin(win["A"], np.asarray(positions[:T], np.float64)) - setup.shaped(beta)[None]
-    disp[:, setup.pinned] = 0.0
+def blend_matrices(setup, M):
+    """Per-vertex LBS transforms A_i = Σ_k w_ik M_k [T, N, 3, 4] from joint skinning matrices M [T, J, 3, 4]."""
+    return np.einsum("nk,wnkab->wnab", setup.skin_weights, np.asarray(M, np.float64)[:, setup.skin_indices])
+
+
+def joint_matrices(setup, clip, beta, frames=None):
+    """Joint skinning matrices M [T, J, 3, 4] (rest → world) of the first `frames` frames of a Clip at β."""
     from pleat import reference
-    M = reference.pose_features(setup.parents, setup.joints_of(beta), setup.input_joints, win["quats"],
-                                win["root_translation"], win["root_rotation"])["skin_matrices"]
-    # M (joint skinning matrices) and β let a contact-aware fit pose garment and body again (pleat.train.contact)
-    return {"static": static.astype(np.float64), "disp": disp, "M": M.astype(np.float32),
-            "beta": np.asarray(beta, np.float64)}
+    T = clip.num_frames if frames is None else frames
+    return reference.pose_features(setup.parents, setup.joints_of(beta), setup.input_joints,
+                                   np.asarray(clip.local_rotations[:T], np.float64),
+                                   np.asarray(clip.root_translation[:T], np.float64),
+                                   np.asarray(clip.root_rotation[:T], np.float64))["skin_matrices"]
+
+
+def sequence(setup, clip, beta, material, positions=None):
+    """One training sequence from a simulated clip: X_c rows [T, I] (latent block zero; row t predicts frame t
+    from a reset at frame 0, as the runtime does), the joint skinning matrices M [T, J, 3, 4] and β (so garment and
+    body can be posed again: pleat.train.contact, blend_matrices) and, given the simulated positions [T, N, 3], the
+    rest-frame displacement targets [T, N, 3]. Only the garment's kinematics are computed (no body posing)."""
+    from pleat import reference
+    T = clip.num_frames if positions is None else min(len(positions), clip.num_frames)
+    q = np.asarray(clip.local_rotations[:T], np.float64)
+    tr = np.asarray(clip.root_translation[:T], np.float64)
+    rq = np.asarray(clip.root_rotation[:T], np.float64)
+    dt = np.full(T, 1.0 / float(clip.fps))
+    M = joint_matrices(setup, clip, beta, T)
+    static = reference.assemble_inputs(setup.asset_stub, q, tr, rq, dt, beta, material)
+    s = {"static": static.astype(np.float64), "M": M, "beta": np.asarray(beta, np.float64)}
+    if positions is not None:
+        disp = unskin(blend_matrices(setup, M), np.asarray(positions[:T], np.float64)) - setup.shaped(beta)[None]
+        disp[:, setup.pinned] = 0.0
+        s["disp"] = disp
+    return s
 
 
 def load_sequences(setup, done, clips_by_name):

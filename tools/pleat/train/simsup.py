@@ -16,7 +16,6 @@ import json
 import sys
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import torch
@@ -25,43 +24,63 @@ from pleat.train import core, distill, simdata, sources
 
 
 def _clips(split, fps, body):
+    """{split name: the pleat.motion Clip at `fps`, named by its split name} for the training or validation split."""
+    from dataclasses import replace
+
     from pleat.motion import load_clip
     from pleat.motion.split import TRAINING, VALIDATION
-    names = TRAINING if split == "train" else VALIDATION
-    return {n: SimpleNamespace(clip=load_clip(n, body=body).resample(fps), name=n) for n in names}
+    return {n: replace(load_clip(n, body=body).resample(fps), name=n)
+            for n in (TRAINING if split == "train" else VALIDATION)}
 
 
-def _named(clips):
-    out = {}
-    for name, c in clips.items():
-        c.clip.name = name
-        out[name] = c.clip
-    return out
+def load_datasets(setup, data, train_clips, val_clips, validation_frames):
+    """Several exported datasets ("a.npz,b.npz") as one: (done, training sequences, the first file's validation
+    sequences, simulation CPU s summed, validation CPU s) — the CPU times from each file's .json when present."""
+    done, seqs, val, sim_cpu, val_cpu = [], [], None, 0.0, 0.0
+    for part in str(data).split(","):
+        d, q, v = import_dataset(part, setup, train_clips, val_clips, validation_frames)
+        done, seqs, val = done + d, seqs + q, val or v
+        info = Path(part).with_suffix(".json")
+        prev = json.loads(info.read_text()) if info.exists() else {}
+        sim_cpu += prev.get("simulation_cpu_s", 0.0)
+        val_cpu = val_cpu or prev.get("validation_cpu_s", 0.0)
+    return done, seqs, val, sim_cpu, val_cpu
+
+
+@torch.no_grad()
+def free_run(lp, static, setup_latent):
+    """The model from a reset (Z_0 = 0, as the runtime runs it) over a sequence's X_c rows [T, I]: (the rows with
+    the model's own latent block in place of the `setup_latent`-wide one they were assembled with, the latents it
+    predicts [T, L])."""
+    L = int(lp.z_mean.shape[0])
+    rows = np.concatenate([np.zeros((len(static), L)), static[:, setup_latent:]], 1)
+    z = torch.zeros(L)
+    zs = []
+    for row in torch.as_tensor(rows, dtype=torch.float32):
+        _, z = lp(z, row)
+        zs.append(z)
+    return rows, torch.stack(zs)
+
+
+@torch.no_grad()
+def displacements(block, z, dtype=torch.float32):
+    """The blend-shape displacement [T, N, 3] (rest frame) for latents z [T, L], summed in `dtype`."""
+    return torch.einsum("td,dnc->tnc", block.decoder(z).to(dtype), block.exported_blend_shapes().to(dtype))
 
 
 @torch.no_grad()
 def posed_errors(lp, block, seqs, setup_latent):
-    """Free-running from a reset (Z_0 = 0, as the runtime does) on sequences with their skinning "A" and simulated
-    "positions": mean per-vertex distance to the simulation (mm) of the model and of LBS-only, per sequence.
-    setup_latent: the size of the latent block the sequences' X_c rows were assembled with (replaced by the
-    model's own)."""
-    B = block.exported_blend_shapes().double()
-    L = int(lp.z_mean.shape[0])
+    """Free-running from a reset on sequences with their skinning "A" and simulated "positions": mean per-vertex
+    distance to the simulation (mm) of the model and of LBS-only, per sequence."""
     out = []
     for s in seqs:
-        rows = np.concatenate([np.zeros((len(s["static"]), L)), s["static"][:, setup_latent:]], 1)
+        _, z = free_run(lp, s["static"], setup_latent)
         A = torch.as_tensor(s["A"])
         shaped = torch.as_tensor(s["shaped"])
         x_sim = torch.as_tensor(s["positions"], dtype=torch.float64)
-        z = torch.zeros(lp.z_mean.shape)
-        err = []
-        for k, row in enumerate(torch.as_tensor(rows, dtype=torch.float32)):
-            _, z = lp(z, row)
-            d = torch.einsum("d,dnc->nc", block.decoder(z).double(), B)
-            x = torch.einsum("nab,nb->na", A[k, :, :, :3], shaped + d) + A[k, :, :, 3]
-            err.append(float((x - x_sim[k]).norm(dim=-1).mean()))
+        x = torch.einsum("tnab,tnb->tna", A[..., :3], shaped + displacements(block, z, torch.float64)) + A[..., 3]
         lbs = torch.einsum("tnab,nb->tna", A[..., :3], shaped) + A[..., 3]
-        out.append({"clip": s.get("name", ""), "pleat_mm": 1e3 * float(np.mean(err)),
+        out.append({"clip": s.get("name", ""), "pleat_mm": 1e3 * float((x - x_sim).norm(dim=-1).mean()),
                     "lbs_mm": 1e3 * float((lbs - x_sim).norm(dim=-1).mean())})
     return out
 
@@ -112,8 +131,7 @@ def import_dataset(path, setup, train_clips, val_clips, validation_frames):
     seqs, o = [], 0
     for seg, T in zip(segs, lengths):
         clip = simdata.cut(simdata.variant_clip(train_clips[seg.clip], seg.variant), seg.start, seg.frames)
-        s = simdata.sequence(setup, clip, np.array(seg.beta), np.array(seg.material),
-                             np.zeros((T, setup.N, 3)))
+        s = simdata.sequence(setup, clip, np.array(seg.beta), np.array(seg.material))
         s["disp"] = disp[o:o + T].reshape(T, setup.N, 3)
         o += T
         seqs.append(s)
@@ -129,10 +147,7 @@ def _validation_sequence(setup, clip, pos):
     beta, mat = np.zeros(setup.B), np.array(simdata.ga.MATERIAL_DEFAULT)
     clip = simdata.cut(clip, 0, len(pos))
     s = simdata.sequence(setup, clip, beta, mat, pos)
-    c = SimpleNamespace(rotations=clip.local_rotations, root_translation=clip.root_translation,
-                        root_rotation=clip.root_rotation, fps=clip.fps)
-    s.update(A=setup.pose_window(c, 0, len(pos), beta)["A"], shaped=setup.shaped(beta), positions=pos,
-             name=clip.name)
+    s.update(A=simdata.blend_matrices(setup, s["M"]), shaped=setup.shaped(beta), positions=pos, name=clip.name)
     return s
 
 
@@ -156,8 +171,8 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                   file=sys.stderr)
 
     # 1. data
-    train_clips = _named(_clips("train", cfg["fps"], setup.body))
-    val_clips = _named(_clips("validation", cfg["fps"], setup.body))
+    train_clips = _clips("train", cfg["fps"], setup.body)
+    val_clips = _clips("validation", cfg["fps"], setup.body)
     if c.get("validation_limit"):
         val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
     segments = simdata.plan_segments(list(train_clips.values()), c, setup.B, cfg["seed"])
@@ -171,14 +186,8 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
             raise InputError(None, "--user-sim-only needs at least one --user-sim training simulation")
         segments, val_clips = [], ({} if user_val else val_clips)
     if data:
-        done, seqs, val, sim_cpu, val_cpu = [], [], None, 0.0, 0.0
-        for part in str(data).split(","):
-            d, q, v = import_dataset(part, setup, train_clips, val_clips, c["validation_frames"])
-            done, seqs, val = done + d, seqs + q, val or v
-            info = Path(part).with_suffix(".json")
-            prev = json.loads(info.read_text()) if info.exists() else {}
-            sim_cpu += prev.get("simulation_cpu_s", 0.0)
-            val_cpu = val_cpu or prev.get("validation_cpu_s", 0.0)
+        done, seqs, val, sim_cpu, val_cpu = load_datasets(setup, data, train_clips, val_clips,
+                                                          c["validation_frames"])
     else:
         val, val_cpu = [], 0.0
         if not c.get("skip_validation"):    # a second data machine need not simulate the validation clips again
@@ -262,23 +271,12 @@ def verdict(rows):
 
 
 # ---- tiers distilled from a simulator-supervised model ------------------------------------------------------------
-@torch.no_grad()
 def teacher_sequences(lp, block, seqs, setup_latent):
     """The model's own free-running garment (from a reset, as the runtime runs it) on each sequence's X_c rows:
     sequences {"static", "disp"} with the model's displacement as the target a tier learns."""
-    B = block.exported_blend_shapes()
-    L = int(lp.z_mean.shape[0])
-    out = []
-    for s in seqs:
-        rows = torch.as_tensor(np.concatenate([np.zeros((len(s["static"]), L)), s["static"][:, setup_latent:]], 1),
-                               dtype=torch.float32)
-        z = torch.zeros(L)
-        disp = []
-        for row in rows:
-            _, z = lp(z, row)
-            disp.append(torch.einsum("d,dnc->nc", block.decoder(z), B))
-        out.append({"static": s["static"], "disp": torch.stack(disp).double().numpy()})
-    return out
+    return [{"static": s["static"],
+             "disp": displacements(block, free_run(lp, s["static"], setup_latent)[1]).double().numpy()}
+            for s in seqs]
 
 
 def load_model(run_dir):
@@ -305,12 +303,9 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True)
     from pleat.eval.tiers import tier
     lp, block, _, _, setup = load_model(run_dir)
     cfg, c = setup.cfg, setup.cfg["simsup"]
-    train_clips = _named(_clips("train", cfg["fps"], setup.body))
-    val_clips = _named(_clips("validation", cfg["fps"], setup.body))
-    seqs, val = [], None
-    for part in str(data).split(","):
-        _, q, v = import_dataset(part, setup, train_clips, val_clips, c["validation_frames"])
-        seqs, val = seqs + q, val or v
+    train_clips = _clips("train", cfg["fps"], setup.body)
+    val_clips = _clips("validation", cfg["fps"], setup.body)
+    _, seqs, val, _, _ = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"])
     t0 = time.time()
     teacher = teacher_sequences(lp, block, seqs, setup.L)
     teacher_val = teacher_sequences(lp, block, val, setup.L)
@@ -343,20 +338,13 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True)
 
 
 # ---- contact-aware fine-tune ---------------------------------------------------------------------------------------
-@torch.no_grad()
 def own_latents(lp, seqs, setup_latent):
     """Per sequence: X_c rows with the model's latent block and the model's own free-running latents from a reset
     (where the runtime's latent is at each frame): what the fine-tune's windows start from."""
-    L = int(lp.z_mean.shape[0])
     out = []
     for s in seqs:
-        rows = np.concatenate([np.zeros((len(s["static"]), L)), s["static"][:, setup_latent:]], 1)
-        z = torch.zeros(L)
-        zs = []
-        for row in torch.as_tensor(rows, dtype=torch.float32):
-            _, z = lp(z, row)
-            zs.append(z)
-        out.append({"static": rows, "z": torch.stack(zs).double().numpy()})
+        rows, z = free_run(lp, s["static"], setup_latent)
+        out.append({"static": rows, "z": z.double().numpy()})
     return out
 
 
@@ -369,12 +357,11 @@ def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, s
     cfg = setup.cfg
     # the contact_* settings of this call (--set simsup.contact_weight=…) win over the run's own
     c = dict(cfg["simsup"], **{k: v for k, v in (settings or {}).items() if k.startswith("contact_")})
-    train_clips = _named(_clips("train", cfg["fps"], setup.body))
-    val_clips = _named(_clips("validation", cfg["fps"], setup.body))
-    seqs, val = sequences or ([], None)
-    for part in (str(data).split(",") if sequences is None else []):
-        _, q, v = import_dataset(part, setup, train_clips, val_clips, c["validation_frames"])
-        seqs, val = seqs + q, val or v
+    if sequences is None:
+        _, seqs, val, _, _ = load_datasets(setup, data, _clips("train", cfg["fps"], setup.body),
+                                           _clips("validation", cfg["fps"], setup.body), c["validation_frames"])
+    else:
+        seqs, val = sequences
     before = posed_errors(lp, block, val, setup.L)
     t0 = time.time()
     tensors = contact.prepare(setup, seqs)
