@@ -1,7 +1,15 @@
-"""Shared pytest configuration: tests marked `slow` run only with PLEAT_SLOW_TESTS=1 (the default run stays short)."""
+"""Shared pytest configuration: tests marked `slow` run only with PLEAT_SLOW_TESTS=1 (the default run stays short);
+the shipped body as a session fixture (`body`)."""
 import os
 
 import pytest
+
+
+@pytest.fixture(scope="session")
+def body():
+    """The shipped body (assets/body.npz); loading it fails with the command that builds it when it is missing."""
+    from pleat.sim.scene import load_body
+    return load_body()
 
 
 def pytest_configure(config):

@@ -7,17 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pleat.body import BodyCollider, BodyModel, SMPL_JOINT_NAMES, SMPL_PARENTS
+from pleat.body import BodyCollider, SMPL_JOINT_NAMES, SMPL_PARENTS
 from pleat.body.smpl import load_smpl
 from pleat.rotations import axis_angle_to_matrix
 
 REPO = Path(__file__).resolve().parents[2]
 BODY_NPZ = REPO / "assets" / "body.npz"
-
-
-@pytest.fixture(scope="module")
-def body():
-    return BodyModel.load(BODY_NPZ)
 
 
 def test_npz_has_smpl_keys_dtypes_and_size():

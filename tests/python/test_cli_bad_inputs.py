@@ -408,6 +408,8 @@ def _other_cases(d):
         ("pleat-show", show.main, ["--garment", "tshirt", "--sim", str(d), "--out", str(out / "s.png")], d,
          "no sim.npz in it"),
         ("pleat-body", body_cli.main, ["info", str(junk)], junk, "not a body npz"),
+        ("pleat-sim", sim_cli.main, ["--garment", "tshirt", "--motion", str(clip), "--body", str(d / "absent.npz"),
+                                     "--out", str(out / "s")], d / "absent.npz", "no such body file"),
         ("pleat-garment", garment_cli.main, ["--from-obj", str(d / "absent.obj"), "--out", str(out / "g.npz")],
          d / "absent.obj", "no such OBJ file"),
         ("pleat-garment-asset", garment_asset.main, ["--garment", str(junk), "--out", str(out / "g.pleat")], junk,
@@ -417,6 +419,29 @@ def _other_cases(d):
         ("pleat-motion", motion_cli.main, ["convert", str(clip), "--joint-map", str(d / "absent.json"), "--out",
                                            str(out / "c.npz")], d / "absent.json", "joint map file not found"),
     ]
+
+
+def test_a_missing_shipped_body_is_an_error_that_names_the_command_that_builds_it(tmp_path, monkeypatch, capsys):
+    """No stand-in body: without assets/body.npz every command that needs the body stops with one line naming
+    `pleat-body export`."""
+    from pleat import paths
+    from pleat.cli import InputError
+    from pleat.sim.scene import load_body
+    absent = tmp_path / "assets" / "body.npz"
+    monkeypatch.setattr(paths, "BODY_PATH", absent)
+    with pytest.raises(InputError, match="pleat-body export"):
+        load_body()
+    (tmp_path / "out").mkdir()
+    clip = tmp_path / "walk.bvh"
+    clip.write_text(bvh())
+    before = _listing(tmp_path)
+    for cli, main, argv in [("pleat-sim", sim_cli.main, ["--garment", "tshirt", "--motion", str(clip), "--out",
+                                                         str(tmp_path / "out" / "s")]),
+                            ("pleat-show", show.main, ["--garment", "tshirt", "--out", str(tmp_path / "out" / "s.png")])]:
+        assert main(argv) == 1
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        assert len(lines) == 1 and lines[0].startswith(f"{cli}: error: {absent}: ") and "pleat-body export" in lines[0]
+    assert _listing(tmp_path) == before
 
 
 def test_other_bad_inputs_give_one_line_and_no_output(tmp_path, capsys):

@@ -1,5 +1,5 @@
 """Procedural garments: vertex count, manifold and outward orientation, edge uniformity, clearance for β ∈ {−3,0,3},
-skin weights and pinned sets. Small garments (≈ 800 vertices) on the shipped body (the stand-in if it is absent)."""
+skin weights and pinned sets. Small garments (≈ 800 vertices) on the shipped body."""
 import numpy as np
 import pytest
 
@@ -7,12 +7,6 @@ from pleat.garment import GARMENT_NAMES, Garment, make_garment
 from pleat.garment import mesh as M
 
 N_TEST = 800
-
-
-@pytest.fixture(scope="module")
-def body():
-    from pleat.sim.scene import load_body
-    return load_body()
 
 
 @pytest.fixture(scope="module")

@@ -23,12 +23,6 @@ N_TEST = 500
 
 
 @pytest.fixture(scope="module")
-def body():
-    from pleat.sim.scene import load_body
-    return load_body()
-
-
-@pytest.fixture(scope="module")
 def shirt(body):
     return make_garment("tshirt", vertices=N_TEST, body=body)
 

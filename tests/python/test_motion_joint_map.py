@@ -2,24 +2,16 @@
 table after namespace stripping; a skeleton with other names converts with `--joint-map FILE`; `pleat-motion joints`
 and `convert` report which joints matched; bad joint maps are one-line errors."""
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from pleat.body import BodyModel
 from pleat.motion import load_clip
 from pleat.motion import cli as motion_cli
 from pleat.motion.clip import Clip
 from pleat.motion.joint_map import MIXAMO_TO_BODY, match_joints, strip_namespace
 
-REPO = Path(__file__).resolve().parents[2]
 ROT = "CHANNELS 3 Zrotation Yrotation Xrotation"          # Mixamo's order
-
-
-@pytest.fixture(scope="module")
-def body():
-    return BodyModel.load(REPO / "assets" / "body.npz")
 
 
 def _joint(name, offset, children=(), channels=ROT):

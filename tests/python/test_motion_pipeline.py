@@ -1,19 +1,13 @@
 """pleat.motion: real DeepMimic clips, retargeting onto the body, augmentation, split, and the BVH / ASF-AMC /
 AMASS loaders on small synthetic files."""
-import os
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from pleat.body import BodyModel
 from pleat.motion import concatenate, load_clip
 from pleat.motion import split as split_mod
 from pleat.motion.clip import Clip
 from pleat.motion.loaders import list_clips, load_amass, load_asf_amc, load_bvh, motion_dirs
 from pleat.motion.retarget import lowest_point_heights
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 def _motion_dir():
@@ -28,11 +22,6 @@ needs_clips = pytest.mark.skipif(_motion_dir() is None, reason="no motion folder
 # machines), so tests of those clips, and of the full set, need that folder.
 needs_github_clips = pytest.mark.skipif(_motion_dir() is None or not (_motion_dir() / "deepmimic_github").is_dir(),
                                         reason="the DeepMimic GitHub clips are not present (GitHub unreachable)")
-
-
-@pytest.fixture(scope="module")
-def body():
-    return BodyModel.load(REPO / "assets" / "body.npz")
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,4 @@
 """A garment on a body playing a clip: what pleat-sim simulates and pleat-show draws."""
-import sys
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -12,16 +11,16 @@ from .solver import ClothSolver, SolverSettings
 
 
 def load_body(path=None):
-    """The shipped body (assets/body.npz); the capsule stand-in, with a note on stderr, while it is missing."""
+    """The body npz at `path`, else the shipped body (assets/body.npz). A missing file is an InputError that names
+    the command that builds the shipped body; there is no stand-in body."""
     from ..body import BodyModel, default_body_path
+    from ..cli import InputError
     p = Path(path) if path else default_body_path()
-    if p.exists():
-        return BodyModel.load(p)
-    if path:
-        raise FileNotFoundError(p)
-    from ..garment.standin import standin_body
-    print(f"note: {p} not found, using the capsule stand-in body", file=sys.stderr)
-    return standin_body()
+    if not p.is_file():
+        raise InputError(p, "no such body file" if path else
+                         "the shipped body is missing: `pleat-body export` builds it (needs `pip install -e "
+                         "'tools[body]'`, a few minutes; docs/body.md), or pass --body FILE")
+    return BodyModel.load(p)
 
 
 def load_garment_spec(spec, body):
