@@ -122,10 +122,8 @@ static void test_null_and_stale_handles_are_rejected( void** state )
 	assert_int_equal( plInstance_GetUserData( no_inst, &user_data ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_null( user_data ); // zeroed on failure
 
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Create( &rig, NULL, NULL ), PLEAT_RESULT_OK );
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = rig.asset;
 	int user = 42;
@@ -146,7 +144,6 @@ static void test_null_and_stale_handles_are_rejected( void** state )
 	assert_int_equal( plInstance_Reset( inst ), PLEAT_RESULT_INVALID_HANDLE );
 	plTestRig_Free( &rig );
 	assert_false( plAsset_IsValid( rig.asset ) );
-	plTestAsset_Destroy( model );
 }
 
 static void test_find_joint_and_info( void** state )
@@ -190,47 +187,43 @@ static void test_find_joint_and_info( void** state )
 // the asset's block in place; bad arguments and stale handles are rejected with zeroed outputs.
 static void test_faces_and_template_come_from_the_asset( void** state )
 {
-	(void)state;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
-	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plTestRig* rig = *state;
 	const uint32_t* faces = NULL;
 	uint32_t face_count = 0;
-	assert_int_equal( plAsset_GetFaces( rig.asset, &faces, &face_count ), PLEAT_RESULT_OK );
-	assert_int_equal( face_count, model->F );
-	assert_memory_equal( faces, model->faces, (size_t)model->F * 3 * sizeof( uint32_t ) );
+	assert_int_equal( plAsset_GetFaces( rig->asset, &faces, &face_count ), PLEAT_RESULT_OK );
+	assert_int_equal( face_count, rig->model->F );
+	assert_memory_equal( faces, rig->model->faces, (size_t)rig->model->F * 3 * sizeof( uint32_t ) );
 	const float* rest = NULL;
 	uint32_t vertex_count = 0;
-	assert_int_equal( plAsset_GetTemplatePositions( rig.asset, &rest, &vertex_count ), PLEAT_RESULT_OK );
-	assert_int_equal( vertex_count, model->N );
-	assert_memory_equal( rest, model->template_positions, (size_t)model->N * 3 * sizeof( float ) );
+	assert_int_equal( plAsset_GetTemplatePositions( rig->asset, &rest, &vertex_count ), PLEAT_RESULT_OK );
+	assert_int_equal( vertex_count, rig->model->N );
+	assert_memory_equal( rest, rig->model->template_positions, (size_t)rig->model->N * 3 * sizeof( float ) );
 	// Before its first step a β = 0 instance's positions are the template.
 	plInstance inst;
-	assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( rig, &inst ), PLEAT_RESULT_OK );
 	const float* positions = NULL;
 	assert_int_equal( plInstance_GetPositions( inst, &positions, NULL ), PLEAT_RESULT_OK );
-	assert_memory_equal( positions, model->template_positions, (size_t)model->N * 3 * sizeof( float ) );
+	assert_memory_equal( positions, rig->model->template_positions, (size_t)rig->model->N * 3 * sizeof( float ) );
 	assert_int_equal( plDestroyInstance( inst ), PLEAT_RESULT_OK );
 
 	// Loaded in place: the pointers are inside the caller's buffer.
 	plAssetDef adef = plDefaultAssetDef();
-	adef.data = rig.bytes;
-	adef.size = rig.size;
+	adef.data = rig->bytes;
+	adef.size = rig->size;
 	adef.flags = PLEAT_ASSET_FLAG_USE_IN_PLACE;
 	plAsset in_place;
-	assert_int_equal( plLoadAsset( rig.context, &adef, &in_place ), PLEAT_RESULT_OK );
+	assert_int_equal( plLoadAsset( rig->context, &adef, &in_place ), PLEAT_RESULT_OK );
 	assert_int_equal( plAsset_GetFaces( in_place, &faces, &face_count ), PLEAT_RESULT_OK );
-	assert_ptr_equal( (const uint8_t*)faces, rig.bytes + plTestAsset_SectionOffset( rig.bytes, "FACE" ) );
+	assert_ptr_equal( (const uint8_t*)faces, rig->bytes + plTestAsset_SectionOffset( rig->bytes, "FACE" ) );
 	assert_int_equal( plAsset_GetTemplatePositions( in_place, &rest, &vertex_count ), PLEAT_RESULT_OK );
-	assert_ptr_equal( (const uint8_t*)rest, rig.bytes + plTestAsset_SectionOffset( rig.bytes, "TMPL" ) );
+	assert_ptr_equal( (const uint8_t*)rest, rig->bytes + plTestAsset_SectionOffset( rig->bytes, "TMPL" ) );
 	assert_int_equal( plDestroyAsset( in_place ), PLEAT_RESULT_OK );
 
 	// Bad arguments, stale and null handles.
-	assert_int_equal( plAsset_GetFaces( rig.asset, NULL, &face_count ), PLEAT_RESULT_INVALID_ARGUMENT );
-	assert_int_equal( plAsset_GetFaces( rig.asset, &faces, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
-	assert_int_equal( plAsset_GetTemplatePositions( rig.asset, NULL, &vertex_count ), PLEAT_RESULT_INVALID_ARGUMENT );
-	assert_int_equal( plAsset_GetTemplatePositions( rig.asset, &rest, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plAsset_GetFaces( rig->asset, NULL, &face_count ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plAsset_GetFaces( rig->asset, &faces, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plAsset_GetTemplatePositions( rig->asset, NULL, &vertex_count ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plAsset_GetTemplatePositions( rig->asset, &rest, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
 	plAsset null_asset = { 0, 0, { 0, 0 } };
 	assert_int_equal( plAsset_GetFaces( null_asset, &faces, &face_count ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_null( faces );
@@ -240,33 +233,27 @@ static void test_faces_and_template_come_from_the_asset( void** state )
 	assert_int_equal( plAsset_GetTemplatePositions( in_place, &rest, &vertex_count ), PLEAT_RESULT_INVALID_HANDLE );
 	assert_null( rest );
 	assert_int_equal( vertex_count, 0 );
-	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
 }
 
 // An engine skeleton in a different order (reversed, plus two joints the asset does not have) through the joint map
 // gives exactly the output of the asset-order instance.
 static void test_joint_map_reorders_engine_joints( void** state )
 {
-	(void)state;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
-	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
-	uint32_t J = model->J, E = J + 2;
+	plTestRig* rig = *state;
+	uint32_t J = rig->model->J, E = J + 2;
 	int32_t map[64];
 	for ( uint32_t j = 0; j < J; ++j )
 	{
 		map[j] = (int32_t)( E - 1 - j );
 	}
 	plInstanceDef idef = plDefaultInstanceDef();
-	idef.asset = rig.asset;
+	idef.asset = rig->asset;
 	idef.joint_map = map;
 	idef.joint_map_count = J;
 	idef.engine_joint_count = E;
 	plInstance mapped, plain;
-	assert_int_equal( plCreateInstance( rig.context, &idef, &mapped ), PLEAT_RESULT_OK );
-	assert_int_equal( plTestRig_Instance( &rig, &plain ), PLEAT_RESULT_OK );
+	assert_int_equal( plCreateInstance( rig->context, &idef, &mapped ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( rig, &plain ), PLEAT_RESULT_OK );
 	float q[64 * 4], engine[66 * 8];
 	for ( uint32_t t = 0; t < 5; ++t )
 	{
@@ -297,10 +284,8 @@ static void test_joint_map_reorders_engine_joints( void** state )
 		const float *pa, *pb;
 		plInstance_GetPositions( mapped, &pa, NULL );
 		plInstance_GetPositions( plain, &pb, NULL );
-		assert_memory_equal( pa, pb, model->N * 3 * sizeof( float ) );
+		assert_memory_equal( pa, pb, rig->model->N * 3 * sizeof( float ) );
 	}
-	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
 }
 
 typedef struct plLogRecord
@@ -326,53 +311,44 @@ static void test_log_callback_receives_stable_items( void** state )
 	plContextDef def = plDefaultContextDef();
 	def.log = plRecordLog;
 	def.log_context = &record;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Create( &rig, NULL, &def ), PLEAT_RESULT_OK );
 	assert_true( record.saw_loaded );
 	plInstance inst;
 	assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
 	float q[64 * 4];
-	plFrameInput in = plTestMotion( 0, model->J, q );
+	plFrameInput in = plTestMotion( 0, rig.model->J, q );
 	in.dt_s = -1.0f;
 	assert_int_equal( plInstance_Step( inst, &in, NULL ), PLEAT_RESULT_INVALID_DT );
 	assert_int_equal( record.last_item, PLEAT_LOG_INSTANCE_BAD_INPUT );
 	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
 }
 
 // Backends not built or not available: the instance is refused with the documented code, nothing leaks.
 static void test_unavailable_backends_are_reported( void** state )
 {
-	(void)state;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
-	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plTestRig* rig = *state;
 	uint64_t before = 0, after = 1;
-	plContext_GetLiveBytes( rig.context, &before );
+	plContext_GetLiveBytes( rig->context, &before );
 	plInstanceDef idef = plDefaultInstanceDef();
-	idef.asset = rig.asset;
+	idef.asset = rig->asset;
 	idef.mlp_backend = PLEAT_MLP_BACKEND_ONNXRUNTIME; // the test asset has no OXLP/OXDC sections
 	plInstance inst;
-	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_BACKEND_UNAVAILABLE );
+	assert_int_equal( plCreateInstance( rig->context, &idef, &inst ), PLEAT_RESULT_BACKEND_UNAVAILABLE );
 	idef.mlp_backend = (plMlpBackend)7;
-	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
+	assert_int_equal( plCreateInstance( rig->context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
 	idef.mlp_backend = PLEAT_MLP_BACKEND_PLEAT;
 	idef.network_rate_hz = -1.0f; // a network rate must be finite and >= 0
-	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
+	assert_int_equal( plCreateInstance( rig->context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
 	idef.network_rate_hz = NAN;
-	assert_int_equal( plCreateInstance( rig.context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
+	assert_int_equal( plCreateInstance( rig->context, &idef, &inst ), PLEAT_RESULT_INVALID_DEF );
 	idef.network_rate_hz = 0.0f;
 	idef.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT; // no GL context is current in this test
-	plResult r = plCreateInstance( rig.context, &idef, &inst );
+	plResult r = plCreateInstance( rig->context, &idef, &inst );
 	assert_true( r == PLEAT_RESULT_GL_UNAVAILABLE || r == PLEAT_RESULT_GL_ERROR );
-	plContext_GetLiveBytes( rig.context, &after );
+	plContext_GetLiveBytes( rig->context, &after );
 	assert_int_equal( before, after );
-	assert_int_equal( plDestroyAsset( rig.asset ), PLEAT_RESULT_OK ); // no instance kept a reference
-	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
+	assert_int_equal( plDestroyAsset( rig->asset ), PLEAT_RESULT_OK ); // no instance kept a reference
 }
 
 int main( void )
@@ -383,10 +359,10 @@ int main( void )
 		cmocka_unit_test( test_defs_not_from_default_are_rejected ),
 		cmocka_unit_test( test_null_and_stale_handles_are_rejected ),
 		cmocka_unit_test( test_find_joint_and_info ),
-		cmocka_unit_test( test_faces_and_template_come_from_the_asset ),
-		cmocka_unit_test( test_joint_map_reorders_engine_joints ),
+		PLEAT_TEST_WITH_RIG( test_faces_and_template_come_from_the_asset ),
+		PLEAT_TEST_WITH_RIG( test_joint_map_reorders_engine_joints ),
 		cmocka_unit_test( test_log_callback_receives_stable_items ),
-		cmocka_unit_test( test_unavailable_backends_are_reported ),
+		PLEAT_TEST_WITH_RIG( test_unavailable_backends_are_reported ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

@@ -1,7 +1,9 @@
-// Test helper: a context + asset + instance fixture over plTestAsset, and a deterministic little motion.
+// Test helpers: a context + asset fixture over plTestAsset (a cmocka setup/teardown pair on the default asset), a
+// counting host allocator, a log recorder, and a deterministic little motion.
 #ifndef PLEAT_TEST_COMMON_H
 #define PLEAT_TEST_COMMON_H
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -15,6 +17,7 @@ typedef struct plTestRig
 	uint8_t* bytes;
 	size_t size;
 	plAssetInfo info;
+	plTestAsset* model; // the rig's own model (plTestRig_Create), destroyed by plTestRig_Free; NULL after plTestRig_Init
 } plTestRig;
 
 // Loads a written test asset into a fresh context (def may be NULL = defaults). Returns the load result.
@@ -39,10 +42,45 @@ static inline plResult plTestRig_Init( plTestRig* rig, plTestAsset* model, const
 	return r;
 }
 
+// Builds a model from params (NULL = plTestAsset_DefaultParams()) and loads it as plTestRig_Init does; the rig owns
+// the model (rig->model).
+static inline plResult plTestRig_Create( plTestRig* rig, const plTestAssetParams* params, const plContextDef* def )
+{
+	plTestAssetParams p = params != NULL ? *params : plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	plResult r = plTestRig_Init( rig, model, def );
+	rig->model = model;
+	return r;
+}
+
 static inline void plTestRig_Free( plTestRig* rig )
 {
 	plDestroyContext( rig->context );
 	plTestAsset_FreeBytes( rig->bytes );
+	plTestAsset_Destroy( rig->model );
+}
+
+// cmocka fixture (PLEAT_TEST_WITH_RIG( test ) in the test table): *state is a rig on the default test asset in a
+// default context.
+#define PLEAT_TEST_WITH_RIG( test ) cmocka_unit_test_setup_teardown( test, plTestRig_Setup, plTestRig_Teardown )
+
+static inline int plTestRig_Setup( void** state )
+{
+	plTestRig* rig = (plTestRig*)malloc( sizeof( plTestRig ) );
+	if ( rig == NULL )
+	{
+		return -1;
+	}
+	*state = rig;
+	return plTestRig_Create( rig, NULL, NULL ) == PLEAT_RESULT_OK ? 0 : -1;
+}
+
+static inline int plTestRig_Teardown( void** state )
+{
+	plTestRig* rig = (plTestRig*)*state;
+	plTestRig_Free( rig );
+	free( rig );
+	return 0;
 }
 
 static inline plResult plTestRig_Instance( plTestRig* rig, plInstance* out )
@@ -50,6 +88,86 @@ static inline plResult plTestRig_Instance( plTestRig* rig, plInstance* out )
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = rig->asset;
 	return plCreateInstance( rig->context, &idef, out );
+}
+
+// A counting host allocator for plContextDef (plCountingHost_ContextDef): the bytes and blocks live as the host sees
+// them, the allocations made, alignments that were not a power of two >= 16, and an optional point after which every
+// allocation fails (out-of-memory tests).
+typedef struct plCountingHost
+{
+	int64_t live_bytes;
+	int64_t live_blocks;
+	int64_t allocations;
+	int64_t bad_alignments;
+	int64_t fail_after; // allocations that succeed before every later one fails; < 0: never fail
+} plCountingHost;
+
+static inline void* plCountingHost_Alloc( size_t size, size_t align, void* user )
+{
+	plCountingHost* h = (plCountingHost*)user;
+	if ( h->fail_after >= 0 && h->allocations >= h->fail_after )
+	{
+		return NULL;
+	}
+	h->allocations++;
+	if ( align < 16 || ( align & ( align - 1 ) ) != 0 )
+	{
+		h->bad_alignments++;
+		return NULL;
+	}
+	void* p = aligned_alloc( align, ( size + align - 1 ) & ~( align - 1 ) );
+	if ( p != NULL )
+	{
+		h->live_bytes += (int64_t)size;
+		h->live_blocks++;
+	}
+	return p;
+}
+
+static inline void plCountingHost_Free( void* ptr, size_t size, void* user )
+{
+	plCountingHost* h = (plCountingHost*)user;
+	h->live_bytes -= (int64_t)size;
+	h->live_blocks--;
+	free( ptr );
+}
+
+// Zeroes the host (never failing) and returns a default context def that allocates through it.
+static inline plContextDef plCountingHost_ContextDef( plCountingHost* host )
+{
+	memset( host, 0, sizeof( *host ) );
+	host->fail_after = -1;
+	plContextDef def = plDefaultContextDef();
+	def.alloc = plCountingHost_Alloc;
+	def.free = plCountingHost_Free;
+	def.allocator_context = host;
+	return def;
+}
+
+// A log recorder for plContextDef.log (log_context = the record): the message count, the last message and the last
+// error.
+typedef struct plTestLog
+{
+	int count;
+	plLogLevel level;
+	plLogItem item;
+	char message[512];
+	plLogItem last_error_item;
+	char last_error[512];
+} plTestLog;
+
+static inline void plTestLog_Record( plLogLevel level, plLogItem item, const char* message, void* user )
+{
+	plTestLog* log = (plTestLog*)user;
+	log->count++;
+	log->level = level;
+	log->item = item;
+	snprintf( log->message, sizeof( log->message ), "%s", message != NULL ? message : "" );
+	if ( level == PLEAT_LOG_LEVEL_ERROR )
+	{
+		log->last_error_item = item;
+		snprintf( log->last_error, sizeof( log->last_error ), "%s", log->message );
+	}
 }
 
 // Frame `frame` of a smooth motion: every joint swings about an axis, the root walks and turns. quats: [J][4].

@@ -153,36 +153,30 @@ static void test_non_finite_even_from_reset_dresses_the_body_without_learned_def
 // clamped dt directly. Reset forgets the history: a reset instance equals a fresh one.
 static void test_dt_is_clamped_to_asset_range( void** state )
 {
-	(void)state;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
-	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plTestRig* rig = *state;
 	plInstance a, b;
-	assert_int_equal( plTestRig_Instance( &rig, &a ), PLEAT_RESULT_OK );
-	assert_int_equal( plTestRig_Instance( &rig, &b ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( rig, &a ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( rig, &b ), PLEAT_RESULT_OK );
 	float q[64 * 4];
 	const float requested[4] = { 1e-5f, 0.5f, 1.0f, 1.0f / 60.0f };
-	const float effective[4] = { model->dt_min_s, model->dt_max_s, model->dt_max_s, 1.0f / 60.0f };
+	const float effective[4] = { rig->model->dt_min_s, rig->model->dt_max_s, rig->model->dt_max_s, 1.0f / 60.0f };
 	const plResult expected[4] = { PLEAT_RESULT_CLAMPED, PLEAT_RESULT_CLAMPED, PLEAT_RESULT_CLAMPED, PLEAT_RESULT_OK };
 	for ( int i = 0; i < 4; ++i )
 	{
-		plFrameInput in = plTestMotion( (uint32_t)i, model->J, q );
+		plFrameInput in = plTestMotion( (uint32_t)i, rig->model->J, q );
 		in.dt_s = requested[i];
 		assert_int_equal( plInstance_Step( a, &in, NULL ), expected[i] );
 		in.dt_s = effective[i];
 		assert_int_equal( plInstance_Step( b, &in, NULL ), PLEAT_RESULT_OK );
-		plExpectSameOutput( a, b, model->N );
+		plExpectSameOutput( a, b, rig->model->N );
 	}
 	plInstance c;
-	assert_int_equal( plTestRig_Instance( &rig, &c ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( rig, &c ), PLEAT_RESULT_OK );
 	assert_int_equal( plInstance_Reset( a ), PLEAT_RESULT_OK );
-	plFrameInput in = plTestMotion( 9, model->J, q );
+	plFrameInput in = plTestMotion( 9, rig->model->J, q );
 	assert_int_equal( plInstance_Step( a, &in, NULL ), PLEAT_RESULT_OK );
 	assert_int_equal( plInstance_Step( c, &in, NULL ), PLEAT_RESULT_OK );
-	plExpectSameOutput( a, c, model->N );
-	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
+	plExpectSameOutput( a, c, rig->model->N );
 }
 
 int main( void )
@@ -191,7 +185,7 @@ int main( void )
 		cmocka_unit_test( test_latent_is_clamped_to_training_range ),
 		cmocka_unit_test( test_non_finite_inside_step_resets_history_and_latent ),
 		cmocka_unit_test( test_non_finite_even_from_reset_dresses_the_body_without_learned_deformation ),
-		cmocka_unit_test( test_dt_is_clamped_to_asset_range ),
+		PLEAT_TEST_WITH_RIG( test_dt_is_clamped_to_asset_range ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

@@ -11,35 +11,54 @@
 
 #define PI_F 3.14159265358979f
 
+// A test asset with zero network weights, zero blend shapes and no β (its output is the skinned template), an
+// instance on it, and a 30 Hz frame of identity joint rotations with zero root translation.
+typedef struct plSkinningOnly
+{
+	plTestRig rig;
+	plInstance inst;
+	float quats[64 * 4];
+	plFrameInput in; // joint_rotations = quats
+} plSkinningOnly;
+
+// influence_count: influences per vertex (0: the default).
+static void plSkinningOnly_Init( plSkinningOnly* s, uint32_t influence_count )
+{
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	p.weight_scale = 0.0f;
+	p.blend_scale = 0.0f;
+	p.beta_count = 0;
+	if ( influence_count != 0 )
+	{
+		p.influence_count = influence_count;
+	}
+	assert_int_equal( plTestRig_Create( &s->rig, &p, NULL ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( &s->rig, &s->inst ), PLEAT_RESULT_OK );
+	memset( s->quats, 0, sizeof( s->quats ) );
+	for ( uint32_t j = 0; j < s->rig.model->J; ++j )
+	{
+		s->quats[j * 4 + 3] = 1.0f;
+	}
+	memset( &s->in, 0, sizeof( s->in ) );
+	s->in.joint_rotations = s->quats;
+	s->in.joint_count = s->rig.model->J;
+	s->in.dt_s = 1.0f / 30.0f;
+}
+
 // Zero network weights and zero blend shapes, identity pose: the output is the template (+ root translation),
 // exactly: every skinning matrix is [I | t] and the skin weights of a vertex sum to 1 (1 − f/2 + f/2, exact for
 // these dyadic fractions up to one rounding, hence the 1e-6 tolerance).
 static void test_identity_pose_and_zero_weights_give_template( void** state )
 {
 	(void)state;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	p.weight_scale = 0.0f;
-	p.blend_scale = 0.0f;
-	p.beta_count = 0;
-	plTestAsset* model = plTestAsset_Create( &p );
-	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
-	plInstance inst;
-	assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
-	float quats[64 * 4] = { 0 };
-	for ( uint32_t j = 0; j < model->J; ++j )
-	{
-		quats[j * 4 + 3] = 1.0f;
-	}
-	plFrameInput in;
-	memset( &in, 0, sizeof( in ) );
-	in.joint_rotations = quats;
-	in.joint_count = model->J;
-	in.root_translation = ( plVec3 ){ 1.0f, 2.0f, 3.0f };
-	in.dt_s = 1.0f / 30.0f;
+	plSkinningOnly s;
+	plSkinningOnly_Init( &s, 0 );
+	const plTestAsset* model = s.rig.model;
+	plInstance inst = s.inst;
+	s.in.root_translation = ( plVec3 ){ 1.0f, 2.0f, 3.0f };
 	for ( int step = 0; step < 3; ++step )
 	{
-		assert_int_equal( plInstance_Step( inst, &in, NULL ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( inst, &s.in, NULL ), PLEAT_RESULT_OK );
 	}
 	const float *positions, *normals;
 	uint32_t count;
@@ -62,8 +81,7 @@ static void test_identity_pose_and_zero_weights_give_template( void** state )
 	{
 		assert_float_equal( latent[i], 0.0f, 0.0 );
 	}
-	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
+	plTestRig_Free( &s.rig );
 }
 
 // One influence per vertex; joint 2 (rest position (0, 0.5, 0)) rotated 90° about +Z. Vertices bound to joints 0 and 1
@@ -71,29 +89,13 @@ static void test_identity_pose_and_zero_weights_give_template( void** state )
 static void test_rotating_one_joint_90_degrees_moves_its_vertices( void** state )
 {
 	(void)state;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	p.weight_scale = 0.0f;
-	p.blend_scale = 0.0f;
-	p.beta_count = 0;
-	p.influence_count = 1;
-	plTestAsset* model = plTestAsset_Create( &p );
-	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
-	plInstance inst;
-	assert_int_equal( plTestRig_Instance( &rig, &inst ), PLEAT_RESULT_OK );
-	float quats[64 * 4] = { 0 };
-	for ( uint32_t j = 0; j < model->J; ++j )
-	{
-		quats[j * 4 + 3] = 1.0f;
-	}
-	quats[2 * 4 + 2] = sinf( PI_F / 4.0f );
-	quats[2 * 4 + 3] = cosf( PI_F / 4.0f );
-	plFrameInput in;
-	memset( &in, 0, sizeof( in ) );
-	in.joint_rotations = quats;
-	in.joint_count = model->J;
-	in.dt_s = 1.0f / 30.0f;
-	assert_int_equal( plInstance_Step( inst, &in, NULL ), PLEAT_RESULT_OK );
+	plSkinningOnly s;
+	plSkinningOnly_Init( &s, 1 );
+	const plTestAsset* model = s.rig.model;
+	plInstance inst = s.inst;
+	s.quats[2 * 4 + 2] = sinf( PI_F / 4.0f );
+	s.quats[2 * 4 + 3] = cosf( PI_F / 4.0f );
+	assert_int_equal( plInstance_Step( inst, &s.in, NULL ), PLEAT_RESULT_OK );
 	const float* positions;
 	assert_int_equal( plInstance_GetPositions( inst, &positions, NULL ), PLEAT_RESULT_OK );
 	int moved = 0, stayed = 0;
@@ -125,8 +127,7 @@ static void test_rotating_one_joint_90_degrees_moves_its_vertices( void** state 
 		assert_float_equal( m[2 * 12 + e], expected[e], 1e-6 );
 	}
 	assert_int_equal( plInstance_GetSkinMatrices( inst, m, model->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
-	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
+	plTestRig_Free( &s.rig );
 }
 
 // The normals of positions through both algorithms (jobs.h): face normals + gather into gathered, scatter into

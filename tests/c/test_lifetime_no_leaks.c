@@ -9,52 +9,13 @@
 
 #include "test_common.h"
 
-typedef struct plCountingHost
-{
-	int64_t live_bytes;
-	int64_t live_blocks;
-	int64_t allocations;
-	int64_t fail_after; // < 0: never fail
-} plCountingHost;
-
-static void* plHostAlloc( size_t size, size_t align, void* user )
-{
-	plCountingHost* h = (plCountingHost*)user;
-	if ( h->fail_after >= 0 && h->allocations >= h->fail_after )
-	{
-		return NULL;
-	}
-	h->allocations++;
-	assert_true( align >= 16 && ( align & ( align - 1 ) ) == 0 );
-	void* p = aligned_alloc( align, ( size + align - 1 ) & ~( align - 1 ) );
-	if ( p != NULL )
-	{
-		h->live_bytes += (int64_t)size;
-		h->live_blocks++;
-	}
-	return p;
-}
-
-static void plHostFree( void* ptr, size_t size, void* user )
-{
-	plCountingHost* h = (plCountingHost*)user;
-	h->live_bytes -= (int64_t)size;
-	h->live_blocks--;
-	free( ptr );
-}
-
 static void test_thousand_instances_leave_no_leak( void** state )
 {
 	(void)state;
-	plCountingHost host = { 0, 0, 0, -1 };
-	plContextDef def = plDefaultContextDef();
-	def.alloc = plHostAlloc;
-	def.free = plHostFree;
-	def.allocator_context = &host;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
+	plCountingHost host;
+	plContextDef def = plCountingHost_ContextDef( &host );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Create( &rig, NULL, &def ), PLEAT_RESULT_OK );
 	uint64_t with_asset = 0;
 	assert_int_equal( plContext_GetLiveBytes( rig.context, &with_asset ), PLEAT_RESULT_OK );
 	assert_true( with_asset >= rig.size ); // the asset was copied (not in place): at least its bytes are live
@@ -71,7 +32,7 @@ static void test_thousand_instances_leave_no_leak( void** state )
 		assert_int_equal( plTestRig_Instance( &rig, inst ), PLEAT_RESULT_OK );
 		for ( uint32_t t = 0; t < 3; ++t )
 		{
-			plFrameInput in = plTestMotion( t + (uint32_t)i, model->J, q );
+			plFrameInput in = plTestMotion( t + (uint32_t)i, rig.model->J, q );
 			assert_int_equal( plInstance_Step( *inst, &in, NULL ), PLEAT_RESULT_OK );
 		}
 	}
@@ -97,23 +58,18 @@ static void test_thousand_instances_leave_no_leak( void** state )
 	assert_int_equal( plDestroyContext( rig.context ), PLEAT_RESULT_OK );
 	assert_int_equal( host.live_bytes, 0 );
 	assert_int_equal( host.live_blocks, 0 );
-	plTestAsset_FreeBytes( rig.bytes );
-	plTestAsset_Destroy( model );
+	assert_int_equal( host.bad_alignments, 0 );
+	plTestRig_Free( &rig ); // the context is gone already: the asset bytes and the model
 }
 
 // Destroying a context with live assets and instances frees them all.
 static void test_destroying_context_frees_everything( void** state )
 {
 	(void)state;
-	plCountingHost host = { 0, 0, 0, -1 };
-	plContextDef def = plDefaultContextDef();
-	def.alloc = plHostAlloc;
-	def.free = plHostFree;
-	def.allocator_context = &host;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
+	plCountingHost host;
+	plContextDef def = plCountingHost_ContextDef( &host );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Create( &rig, NULL, &def ), PLEAT_RESULT_OK );
 	plInstance inst;
 	for ( int i = 0; i < 20; ++i )
 	{
@@ -125,8 +81,8 @@ static void test_destroying_context_frees_everything( void** state )
 	assert_false( plInstance_IsValid( inst ) );
 	assert_false( plAsset_IsValid( rig.asset ) );
 	assert_int_equal( host.live_bytes, 0 );
-	plTestAsset_FreeBytes( rig.bytes );
-	plTestAsset_Destroy( model );
+	assert_int_equal( host.bad_alignments, 0 );
+	plTestRig_Free( &rig ); // the context is gone already: the asset bytes and the model
 }
 
 // pleat.h: live bytes are exactly 0 right after plCreateContext and whenever no asset or instance is alive, however
@@ -134,15 +90,10 @@ static void test_destroying_context_frees_everything( void** state )
 static void test_live_bytes_are_zero_whenever_nothing_is_alive( void** state )
 {
 	(void)state;
-	plCountingHost host = { 0, 0, 0, -1 };
-	plContextDef def = plDefaultContextDef();
-	def.alloc = plHostAlloc;
-	def.free = plHostFree;
-	def.allocator_context = &host;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
+	plCountingHost host;
+	plContextDef def = plCountingHost_ContextDef( &host );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Create( &rig, NULL, &def ), PLEAT_RESULT_OK );
 	assert_int_equal( plDestroyAsset( rig.asset ), PLEAT_RESULT_OK );
 	uint64_t live = 1;
 	assert_int_equal( plContext_GetLiveBytes( rig.context, &live ), PLEAT_RESULT_OK );
@@ -183,8 +134,8 @@ static void test_live_bytes_are_zero_whenever_nothing_is_alive( void** state )
 	assert_int_equal( plDestroyContext( rig.context ), PLEAT_RESULT_OK );
 	assert_int_equal( host.live_bytes, 0 );
 	assert_int_equal( host.live_blocks, 0 );
-	plTestAsset_FreeBytes( rig.bytes );
-	plTestAsset_Destroy( model );
+	assert_int_equal( host.bad_alignments, 0 );
+	plTestRig_Free( &rig ); // the context is gone already: the asset bytes and the model
 }
 
 // Allocation failure at the k-th allocation, for every k that creation reaches: OUT_OF_MEMORY, null handle, no leak.
@@ -198,11 +149,9 @@ static void test_allocation_failures_are_reported_without_leaks( void** state )
 	int succeeded = 0;
 	for ( int64_t k = 0; k < 64 && !succeeded; ++k )
 	{
-		plCountingHost host = { 0, 0, 0, k };
-		plContextDef def = plDefaultContextDef();
-		def.alloc = plHostAlloc;
-		def.free = plHostFree;
-		def.allocator_context = &host;
+		plCountingHost host;
+		plContextDef def = plCountingHost_ContextDef( &host );
+		host.fail_after = k;
 		plContext ctx;
 		plResult r = plCreateContext( &def, &ctx );
 		if ( r == PLEAT_RESULT_OK )
@@ -215,7 +164,7 @@ static void test_allocation_failures_are_reported_without_leaks( void** state )
 			if ( r == PLEAT_RESULT_OK )
 			{
 				plInstance inst;
-				r = plTestRig_Instance( &( plTestRig ){ ctx, asset, NULL, 0, { 0 } }, &inst );
+				r = plTestRig_Instance( &( plTestRig ){ .context = ctx, .asset = asset }, &inst );
 				if ( r == PLEAT_RESULT_OK )
 				{
 					succeeded = 1;
@@ -236,6 +185,7 @@ static void test_allocation_failures_are_reported_without_leaks( void** state )
 			assert_int_equal( r, PLEAT_RESULT_OUT_OF_MEMORY );
 		}
 		assert_int_equal( host.live_bytes, 0 );
+		assert_int_equal( host.bad_alignments, 0 );
 	}
 	assert_true( succeeded );
 	plTestAsset_FreeBytes( bytes );

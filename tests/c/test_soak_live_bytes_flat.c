@@ -14,34 +14,6 @@
 
 static uint32_t s_steps = 3000;
 
-typedef struct plSoakHost
-{
-	int64_t live_bytes;
-	int64_t live_blocks;
-	int64_t allocations;
-} plSoakHost;
-
-static void* plSoakAlloc( size_t size, size_t align, void* user )
-{
-	plSoakHost* h = (plSoakHost*)user;
-	h->allocations++;
-	void* p = aligned_alloc( align, ( size + align - 1 ) & ~( align - 1 ) );
-	if ( p != NULL )
-	{
-		h->live_bytes += (int64_t)size;
-		h->live_blocks++;
-	}
-	return p;
-}
-
-static void plSoakFree( void* ptr, size_t size, void* user )
-{
-	plSoakHost* h = (plSoakHost*)user;
-	h->live_bytes -= (int64_t)size;
-	h->live_blocks--;
-	free( ptr );
-}
-
 static int plFinite( const float* v, size_t count )
 {
 	for ( size_t i = 0; i < count; ++i )
@@ -57,11 +29,8 @@ static int plFinite( const float* v, size_t count )
 static void test_live_bytes_stay_flat_over_a_long_run( void** state )
 {
 	(void)state;
-	plSoakHost host = { 0, 0, 0 };
-	plContextDef def = plDefaultContextDef();
-	def.alloc = plSoakAlloc;
-	def.free = plSoakFree;
-	def.allocator_context = &host;
+	plCountingHost host;
+	plContextDef def = plCountingHost_ContextDef( &host );
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	p.grid_x = 20;
 	p.grid_y = 15;
@@ -69,9 +38,9 @@ static void test_live_bytes_stay_flat_over_a_long_run( void** state )
 	p.dec_hidden[0] = 48;
 	p.latent_count = 16;
 	p.blend_count = 12;
-	plTestAsset* model = plTestAsset_Create( &p );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Create( &rig, &p, &def ), PLEAT_RESULT_OK );
+	const plTestAsset* model = rig.model;
 	plInstance instance;
 	assert_int_equal( plTestRig_Instance( &rig, &instance ), PLEAT_RESULT_OK );
 
@@ -162,8 +131,8 @@ static void test_live_bytes_stay_flat_over_a_long_run( void** state )
 	plTestRig_Free( &rig );
 	assert_int_equal( host.live_bytes, 0 );
 	assert_int_equal( host.live_blocks, 0 );
+	assert_int_equal( host.bad_alignments, 0 );
 	free( span );
-	plTestAsset_Destroy( model );
 }
 
 int main( int argc, char** argv )

@@ -101,19 +101,15 @@ static void test_handles_of_a_destroyed_context_name_nothing_in_the_context_that
 // first handle of the slot must stay invalid throughout (it named the 65,535th object of the slot before the fix).
 static void test_destroyed_instance_handle_stays_invalid_past_16_bit_generation_wrap( void** state )
 {
-	(void)state;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
-	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plTestRig* rig = *state;
 	plInstance first;
-	assert_int_equal( plTestRig_Instance( &rig, &first ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( rig, &first ), PLEAT_RESULT_OK );
 	assert_int_equal( plDestroyInstance( first ), PLEAT_RESULT_OK );
 	uint32_t same_slot = 0;
 	for ( uint32_t cycle = 0; cycle < PLEAT_TEST_CYCLES_PAST_16_BIT_WRAP; ++cycle )
 	{
 		plInstance next;
-		assert_int_equal( plTestRig_Instance( &rig, &next ), PLEAT_RESULT_OK );
+		assert_int_equal( plTestRig_Instance( rig, &next ), PLEAT_RESULT_OK );
 		same_slot += next.index1 == first.index1;
 		if ( plInstance_IsValid( first ) || plSameInstance( next, first ) )
 		{
@@ -123,8 +119,6 @@ static void test_destroyed_instance_handle_stays_invalid_past_16_bit_generation_
 	}
 	assert_int_equal( same_slot, PLEAT_TEST_CYCLES_PAST_16_BIT_WRAP ); // the wrap needs one slot reused throughout
 	assert_int_equal( plDestroyInstance( first ), PLEAT_RESULT_INVALID_HANDLE );
-	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
 }
 
 // Contexts too: the process-wide table had 16-bit generations as well.
@@ -156,15 +150,11 @@ static void test_destroyed_context_handle_stays_invalid_past_16_bit_generation_w
 // (plSlotTable) and are checked the same way.
 static void test_object_slot_retires_at_its_last_generation_instead_of_wrapping( void** state )
 {
-	(void)state;
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
-	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
-	plContextData* ctx = plGetContext( rig.context );
+	plTestRig* rig = *state;
+	plContextData* ctx = plGetContext( rig->context );
 	assert_non_null( ctx );
 	plInstance first;
-	assert_int_equal( plTestRig_Instance( &rig, &first ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( rig, &first ), PLEAT_RESULT_OK );
 	assert_int_equal( first.generation, 1 );
 	assert_int_equal( plDestroyInstance( first ), PLEAT_RESULT_OK );
 	ctx->instances.slots[first.index1 - 1].generation = PLEAT_GENERATION_LAST - 2; // as if 2^32 − 3 objects had lived there
@@ -172,7 +162,7 @@ static void test_object_slot_retires_at_its_last_generation_instead_of_wrapping(
 	plInstance last_two[2];
 	for ( int i = 0; i < 2; ++i )
 	{
-		assert_int_equal( plTestRig_Instance( &rig, &last_two[i] ), PLEAT_RESULT_OK );
+		assert_int_equal( plTestRig_Instance( rig, &last_two[i] ), PLEAT_RESULT_OK );
 		assert_int_equal( last_two[i].index1, first.index1 );
 		assert_int_equal( last_two[i].generation, PLEAT_GENERATION_LAST - 1 + (uint32_t)i );
 		assert_int_equal( plDestroyInstance( last_two[i] ), PLEAT_RESULT_OK );
@@ -180,7 +170,7 @@ static void test_object_slot_retires_at_its_last_generation_instead_of_wrapping(
 	for ( uint32_t cycle = 0; cycle < 4; ++cycle )
 	{
 		plInstance next;
-		assert_int_equal( plTestRig_Instance( &rig, &next ), PLEAT_RESULT_OK );
+		assert_int_equal( plTestRig_Instance( rig, &next ), PLEAT_RESULT_OK );
 		assert_int_not_equal( next.index1, first.index1 ); // the retired slot is skipped
 		assert_true( plInstance_IsValid( next ) );
 		assert_false( plInstance_IsValid( first ) );
@@ -198,25 +188,23 @@ static void test_object_slot_retires_at_its_last_generation_instead_of_wrapping(
 	assert_int_equal( ctx->instances.slots[first.index1 - 1].generation, PLEAT_GENERATION_LAST );
 
 	// An asset slot, the same way.
-	plAsset asset = rig.asset;
+	plAsset asset = rig->asset;
 	assert_int_equal( plDestroyAsset( asset ), PLEAT_RESULT_OK );
 	ctx->assets.slots[asset.index1 - 1].generation = PLEAT_GENERATION_LAST - 1;
 	plAssetDef adef = plDefaultAssetDef();
-	adef.data = rig.bytes;
-	adef.size = rig.size;
+	adef.data = rig->bytes;
+	adef.size = rig->size;
 	plAsset last_asset, next_asset;
-	assert_int_equal( plLoadAsset( rig.context, &adef, &last_asset ), PLEAT_RESULT_OK );
+	assert_int_equal( plLoadAsset( rig->context, &adef, &last_asset ), PLEAT_RESULT_OK );
 	assert_int_equal( last_asset.index1, asset.index1 );
 	assert_int_equal( last_asset.generation, PLEAT_GENERATION_LAST );
 	assert_int_equal( plDestroyAsset( last_asset ), PLEAT_RESULT_OK );
-	assert_int_equal( plLoadAsset( rig.context, &adef, &next_asset ), PLEAT_RESULT_OK );
+	assert_int_equal( plLoadAsset( rig->context, &adef, &next_asset ), PLEAT_RESULT_OK );
 	assert_int_not_equal( next_asset.index1, asset.index1 );
 	assert_false( plAsset_IsValid( asset ) );
 	assert_false( plAsset_IsValid( last_asset ) );
 	assert_true( plAsset_IsValid( next_asset ) );
-	rig.asset = next_asset;
-	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
+	rig->asset = next_asset;
 }
 
 // The last generation of a context slot: the context that gets it is the slot's last; the slot then stays empty for
@@ -257,9 +245,9 @@ int main( void )
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_handles_of_a_destroyed_context_name_nothing_in_the_context_that_reuses_its_slot ),
-		cmocka_unit_test( test_destroyed_instance_handle_stays_invalid_past_16_bit_generation_wrap ),
+		PLEAT_TEST_WITH_RIG( test_destroyed_instance_handle_stays_invalid_past_16_bit_generation_wrap ),
 		cmocka_unit_test( test_destroyed_context_handle_stays_invalid_past_16_bit_generation_wrap ),
-		cmocka_unit_test( test_object_slot_retires_at_its_last_generation_instead_of_wrapping ),
+		PLEAT_TEST_WITH_RIG( test_object_slot_retires_at_its_last_generation_instead_of_wrapping ),
 		cmocka_unit_test( test_context_slot_retires_at_its_last_generation_instead_of_wrapping ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
