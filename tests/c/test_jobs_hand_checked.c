@@ -16,6 +16,7 @@
 typedef struct plSkinningOnly
 {
 	plTestRig rig;
+	const plTestAsset* model; // rig.model
 	plInstance inst;
 	float quats[64 * 4];
 	plFrameInput in; // joint_rotations = quats
@@ -33,6 +34,7 @@ static void plSkinningOnly_Init( plSkinningOnly* s, uint32_t influence_count )
 		p.influence_count = influence_count;
 	}
 	assert_int_equal( plTestRig_Create( &s->rig, &p, NULL ), PLEAT_RESULT_OK );
+	s->model = s->rig.model;
 	assert_int_equal( plTestRig_Instance( &s->rig, &s->inst ), PLEAT_RESULT_OK );
 	memset( s->quats, 0, sizeof( s->quats ) );
 	for ( uint32_t j = 0; j < s->rig.model->J; ++j )
@@ -53,31 +55,29 @@ static void test_identity_pose_and_zero_weights_give_template( void** state )
 	(void)state;
 	plSkinningOnly s;
 	plSkinningOnly_Init( &s, 0 );
-	const plTestAsset* model = s.rig.model;
-	plInstance inst = s.inst;
 	s.in.root_translation = ( plVec3 ){ 1.0f, 2.0f, 3.0f };
 	for ( int step = 0; step < 3; ++step )
 	{
-		assert_int_equal( plInstance_Step( inst, &s.in, NULL ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( s.inst, &s.in, NULL ), PLEAT_RESULT_OK );
 	}
 	const float *positions, *normals;
 	uint32_t count;
-	assert_int_equal( plInstance_GetPositions( inst, &positions, &count ), PLEAT_RESULT_OK );
-	assert_int_equal( count, model->N );
-	assert_int_equal( plInstance_GetNormals( inst, &normals, NULL ), PLEAT_RESULT_OK );
-	for ( uint32_t v = 0; v < model->N; ++v )
+	assert_int_equal( plInstance_GetPositions( s.inst, &positions, &count ), PLEAT_RESULT_OK );
+	assert_int_equal( count, s.model->N );
+	assert_int_equal( plInstance_GetNormals( s.inst, &normals, NULL ), PLEAT_RESULT_OK );
+	for ( uint32_t v = 0; v < s.model->N; ++v )
 	{
-		assert_float_equal( positions[v * 3 + 0], model->template_positions[v * 3 + 0] + 1.0f, 1e-6 );
-		assert_float_equal( positions[v * 3 + 1], model->template_positions[v * 3 + 1] + 2.0f, 1e-6 );
-		assert_float_equal( positions[v * 3 + 2], model->template_positions[v * 3 + 2] + 3.0f, 1e-6 );
+		assert_float_equal( positions[v * 3 + 0], s.model->template_positions[v * 3 + 0] + 1.0f, 1e-6 );
+		assert_float_equal( positions[v * 3 + 1], s.model->template_positions[v * 3 + 1] + 2.0f, 1e-6 );
+		assert_float_equal( positions[v * 3 + 2], s.model->template_positions[v * 3 + 2] + 3.0f, 1e-6 );
 		// The sheet lies in z = 0.1 with counter-clockwise triangles seen from +Z: normal +Z.
 		assert_float_equal( normals[v * 3 + 0], 0.0f, 1e-6 );
 		assert_float_equal( normals[v * 3 + 1], 0.0f, 1e-6 );
 		assert_float_equal( normals[v * 3 + 2], 1.0f, 1e-6 );
 	}
 	float latent[64];
-	assert_int_equal( plInstance_GetLatent( inst, latent, 64 ), PLEAT_RESULT_OK );
-	for ( uint32_t i = 0; i < model->L; ++i )
+	assert_int_equal( plInstance_GetLatent( s.inst, latent, 64 ), PLEAT_RESULT_OK );
+	for ( uint32_t i = 0; i < s.model->L; ++i )
 	{
 		assert_float_equal( latent[i], 0.0f, 0.0 );
 	}
@@ -91,19 +91,17 @@ static void test_rotating_one_joint_90_degrees_moves_its_vertices( void** state 
 	(void)state;
 	plSkinningOnly s;
 	plSkinningOnly_Init( &s, 1 );
-	const plTestAsset* model = s.rig.model;
-	plInstance inst = s.inst;
 	s.quats[2 * 4 + 2] = sinf( PI_F / 4.0f );
 	s.quats[2 * 4 + 3] = cosf( PI_F / 4.0f );
-	assert_int_equal( plInstance_Step( inst, &s.in, NULL ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_Step( s.inst, &s.in, NULL ), PLEAT_RESULT_OK );
 	const float* positions;
-	assert_int_equal( plInstance_GetPositions( inst, &positions, NULL ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_GetPositions( s.inst, &positions, NULL ), PLEAT_RESULT_OK );
 	int moved = 0, stayed = 0;
-	for ( uint32_t v = 0; v < model->N; ++v )
+	for ( uint32_t v = 0; v < s.model->N; ++v )
 	{
-		const float* x = model->template_positions + v * 3;
+		const float* x = s.model->template_positions + v * 3;
 		float ex = x[0], ey = x[1], ez = x[2];
-		if ( model->skin_indices[v] >= 2 )
+		if ( s.model->skin_indices[v] >= 2 )
 		{
 			ex = -( x[1] - 0.5f );
 			ey = x[0] + 0.5f;
@@ -119,14 +117,14 @@ static void test_rotating_one_joint_90_degrees_moves_its_vertices( void** state 
 	}
 	assert_true( moved > 0 && stayed > 0 );
 	float m[64 * 12];
-	assert_int_equal( plInstance_GetSkinMatrices( inst, m, model->J ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_GetSkinMatrices( s.inst, m, s.model->J ), PLEAT_RESULT_OK );
 	// M_2 = T(J_2) · Rz(90°) · T(−J_2): rotation rows (0 −1 0), (1 0 0), (0 0 1); translation Rz·(−J_2) + J_2 = (0.5, 0.5, 0).
 	const float expected[12] = { 0, -1, 0, 0.5f, 1, 0, 0, 0.5f, 0, 0, 1, 0 };
 	for ( int e = 0; e < 12; ++e )
 	{
 		assert_float_equal( m[2 * 12 + e], expected[e], 1e-6 );
 	}
-	assert_int_equal( plInstance_GetSkinMatrices( inst, m, model->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
+	assert_int_equal( plInstance_GetSkinMatrices( s.inst, m, s.model->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
 	plTestRig_Free( &s.rig );
 }
 

@@ -9,13 +9,30 @@
 
 #include "test_common.h"
 
+// A rig on the default test asset whose context allocates through host.
+static void plCountingRig_Create( plCountingHost* host, plTestRig* rig )
+{
+	plContextDef def = plCountingHost_ContextDef( host );
+	assert_int_equal( plTestRig_Create( rig, NULL, &def ), PLEAT_RESULT_OK );
+}
+
+// Destroys the rig's context (and with it whatever the test left alive): the host gets every byte and block back, and
+// every alignment asked for was a power of two >= 16. Frees the rest of the rig (asset bytes, model).
+static void plExpectEverythingReturned( const plCountingHost* host, plTestRig* rig )
+{
+	assert_int_equal( plDestroyContext( rig->context ), PLEAT_RESULT_OK );
+	assert_int_equal( host->live_bytes, 0 );
+	assert_int_equal( host->live_blocks, 0 );
+	assert_int_equal( host->bad_alignments, 0 );
+	plTestRig_Free( rig );
+}
+
 static void test_thousand_instances_leave_no_leak( void** state )
 {
 	(void)state;
 	plCountingHost host;
-	plContextDef def = plCountingHost_ContextDef( &host );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Create( &rig, NULL, &def ), PLEAT_RESULT_OK );
+	plCountingRig_Create( &host, &rig );
 	uint64_t with_asset = 0;
 	assert_int_equal( plContext_GetLiveBytes( rig.context, &with_asset ), PLEAT_RESULT_OK );
 	assert_true( with_asset >= rig.size ); // the asset was copied (not in place): at least its bytes are live
@@ -55,11 +72,7 @@ static void test_thousand_instances_leave_no_leak( void** state )
 	// pleat.h: exactly 0 once no asset or instance is alive (the grown handle tables are the context's own).
 	assert_int_equal( live, 0 );
 	assert_true( host.live_bytes > 0 ); // ... but they are still the host's until the context goes
-	assert_int_equal( plDestroyContext( rig.context ), PLEAT_RESULT_OK );
-	assert_int_equal( host.live_bytes, 0 );
-	assert_int_equal( host.live_blocks, 0 );
-	assert_int_equal( host.bad_alignments, 0 );
-	plTestRig_Free( &rig ); // the context is gone already: the asset bytes and the model
+	plExpectEverythingReturned( &host, &rig );
 }
 
 // Destroying a context with live assets and instances frees them all.
@@ -67,9 +80,8 @@ static void test_destroying_context_frees_everything( void** state )
 {
 	(void)state;
 	plCountingHost host;
-	plContextDef def = plCountingHost_ContextDef( &host );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Create( &rig, NULL, &def ), PLEAT_RESULT_OK );
+	plCountingRig_Create( &host, &rig );
 	plInstance inst;
 	for ( int i = 0; i < 20; ++i )
 	{
@@ -77,12 +89,9 @@ static void test_destroying_context_frees_everything( void** state )
 	}
 	assert_int_equal( plDestroyAsset( rig.asset ), PLEAT_RESULT_ASSET_IN_USE );
 	assert_true( plAsset_IsValid( rig.asset ) );
-	assert_int_equal( plDestroyContext( rig.context ), PLEAT_RESULT_OK );
+	plExpectEverythingReturned( &host, &rig );
 	assert_false( plInstance_IsValid( inst ) );
 	assert_false( plAsset_IsValid( rig.asset ) );
-	assert_int_equal( host.live_bytes, 0 );
-	assert_int_equal( host.bad_alignments, 0 );
-	plTestRig_Free( &rig ); // the context is gone already: the asset bytes and the model
 }
 
 // pleat.h: live bytes are exactly 0 right after plCreateContext and whenever no asset or instance is alive, however
@@ -91,9 +100,8 @@ static void test_live_bytes_are_zero_whenever_nothing_is_alive( void** state )
 {
 	(void)state;
 	plCountingHost host;
-	plContextDef def = plCountingHost_ContextDef( &host );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Create( &rig, NULL, &def ), PLEAT_RESULT_OK );
+	plCountingRig_Create( &host, &rig );
 	assert_int_equal( plDestroyAsset( rig.asset ), PLEAT_RESULT_OK );
 	uint64_t live = 1;
 	assert_int_equal( plContext_GetLiveBytes( rig.context, &live ), PLEAT_RESULT_OK );
@@ -131,11 +139,7 @@ static void test_live_bytes_are_zero_whenever_nothing_is_alive( void** state )
 		assert_int_equal( live, 0 );
 		assert_true( host.live_bytes > 0 ); // the context block and its tables
 	}
-	assert_int_equal( plDestroyContext( rig.context ), PLEAT_RESULT_OK );
-	assert_int_equal( host.live_bytes, 0 );
-	assert_int_equal( host.live_blocks, 0 );
-	assert_int_equal( host.bad_alignments, 0 );
-	plTestRig_Free( &rig ); // the context is gone already: the asset bytes and the model
+	plExpectEverythingReturned( &host, &rig );
 }
 
 // Allocation failure at the k-th allocation, for every k that creation reaches: OUT_OF_MEMORY, null handle, no leak.
