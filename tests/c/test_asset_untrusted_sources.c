@@ -49,39 +49,19 @@ static void plRecordingFree( void* ptr, size_t size, void* user )
 	free( ptr );
 }
 
-// ---- log capture ----
-
-typedef struct plLogCapture
-{
-	int count;
-	plLogItem last_error_item;
-	char last_error[512];
-} plLogCapture;
-
-static void plCaptureLog( plLogLevel level, plLogItem item, const char* message, void* user )
-{
-	plLogCapture* c = (plLogCapture*)user;
-	c->count += 1;
-	if ( level == PLEAT_LOG_LEVEL_ERROR )
-	{
-		c->last_error_item = item;
-		snprintf( c->last_error, sizeof( c->last_error ), "%s", message );
-	}
-}
-
 // ---- defect 4: a directory is not an asset file ----
 
 static void test_loading_a_directory_is_io_error_without_a_huge_allocation( void** state )
 {
 	(void)state;
 	plLargestRequest host = { 0, 0 };
-	plLogCapture log;
+	plTestLog log;
 	memset( &log, 0, sizeof( log ) );
 	plContextDef cdef = plDefaultContextDef();
 	cdef.alloc = plRecordingAlloc;
 	cdef.free = plRecordingFree;
 	cdef.allocator_context = &host;
-	cdef.log = plCaptureLog;
+	cdef.log = plTestLog_Record;
 	cdef.log_context = &log;
 	plContext context;
 	assert_int_equal( plCreateContext( &cdef, &context ), PLEAT_RESULT_OK );
@@ -386,10 +366,10 @@ static plOnnxLoad plLoadWithOnnx( const plPb* lp, const plPb* dec )
 		model->onnx_dec = dec->bytes;
 		model->onnx_dec_size = dec->size;
 	}
-	plLogCapture log;
+	plTestLog log;
 	memset( &log, 0, sizeof( log ) );
 	plContextDef cdef = plDefaultContextDef();
-	cdef.log = plCaptureLog;
+	cdef.log = plTestLog_Record;
 	cdef.log_context = &log;
 	plTestRig rig;
 	plOnnxLoad load;

@@ -10,30 +10,11 @@
 
 #include "test_common.h"
 
-#include <stdio.h>
-
-typedef struct plCapturedLog
-{
-	int count;
-	plLogLevel level;
-	plLogItem item;
-	char message[512];
-} plCapturedLog;
-
-static void plCaptureLog( plLogLevel level, plLogItem item, const char* message, void* user )
-{
-	plCapturedLog* log = (plCapturedLog*)user;
-	log->count++;
-	log->level = level;
-	log->item = item;
-	snprintf( log->message, sizeof( log->message ), "%s", message != NULL ? message : "" );
-}
-
 typedef struct plLogRig
 {
 	plTestAsset* model;
 	plTestRig rig;
-	plCapturedLog log;
+	plTestLog log;
 } plLogRig;
 
 static plLogRig* plLogRig_Create( const void* onnx_payload, size_t onnx_size )
@@ -49,7 +30,7 @@ static plLogRig* plLogRig_Create( const void* onnx_payload, size_t onnx_size )
 	r->model->onnx_dec = onnx_payload;
 	r->model->onnx_dec_size = onnx_size;
 	plContextDef cdef = plDefaultContextDef();
-	cdef.log = plCaptureLog;
+	cdef.log = plTestLog_Record;
 	cdef.log_context = &r->log;
 	assert_int_equal( plTestRig_Init( &r->rig, r->model, &cdef ), PLEAT_RESULT_OK );
 	return r;
@@ -63,7 +44,7 @@ static void plLogRig_Destroy( plLogRig* r )
 }
 
 // The one message the call logged, or a failure naming what came instead.
-static void plExpectLogged( const plCapturedLog* log, int count_before, plLogLevel level, plLogItem item,
+static void plExpectLogged( const plTestLog* log, int count_before, plLogLevel level, plLogItem item,
 							const char* needle )
 {
 	assert_int_equal( log->count, count_before + 1 );
@@ -79,6 +60,17 @@ static void plExpectLogged( const plCapturedLog* log, int count_before, plLogLev
 }
 
 enum { PL_ENGINE_JOINTS = 8 };
+
+// An instance def on the rig's asset (5 joints) driven through map from an engine skeleton of PL_ENGINE_JOINTS.
+static plInstanceDef plMappedDef( const plLogRig* r, const int32_t* map )
+{
+	plInstanceDef def = plDefaultInstanceDef();
+	def.asset = r->rig.asset;
+	def.joint_map = map;
+	def.joint_map_count = 5;
+	def.engine_joint_count = PL_ENGINE_JOINTS;
+	return def;
+}
 
 typedef struct plBadDefCase
 {
@@ -132,11 +124,7 @@ static void test_create_failures_name_the_def_field( void** state )
 		float material[4] = { r->rig.info.material_default[0], r->rig.info.material_default[1],
 							  r->rig.info.material_default[2], r->rig.info.material_default[3] };
 		float beta[10] = { 0 };
-		plInstanceDef def = plDefaultInstanceDef();
-		def.asset = r->rig.asset;
-		def.joint_map = map;
-		def.joint_map_count = 5;
-		def.engine_joint_count = PL_ENGINE_JOINTS;
+		plInstanceDef def = plMappedDef( r, map );
 		plMutate( i, &def, map, material, beta );
 		int before = r->log.count;
 		plInstance inst;
@@ -147,11 +135,7 @@ static void test_create_failures_name_the_def_field( void** state )
 	}
 	// The out-of-range entry also names the asset joint and the range it must lie in.
 	int32_t map[5] = { 1, 2, 3, PL_ENGINE_JOINTS, -1 };
-	plInstanceDef def = plDefaultInstanceDef();
-	def.asset = r->rig.asset;
-	def.joint_map = map;
-	def.joint_map_count = 5;
-	def.engine_joint_count = PL_ENGINE_JOINTS;
+	plInstanceDef def = plMappedDef( r, map );
 	plInstance inst;
 	assert_int_equal( plCreateInstance( r->rig.context, &def, &inst ), PLEAT_RESULT_JOINT_COUNT_MISMATCH );
 	assert_non_null( strstr( r->log.message, r->model->joint_names[3] ) );
@@ -165,11 +149,7 @@ static void test_bad_rotation_names_the_engine_joint( void** state )
 	plLogRig* r = plLogRig_Create( NULL, 0 );
 	// Asset joint k is driven by engine joint 7 − k (the engine stores its joints in reverse), engine joint 2 unused.
 	int32_t map[5] = { 7, 6, 5, 4, 3 };
-	plInstanceDef def = plDefaultInstanceDef();
-	def.asset = r->rig.asset;
-	def.joint_map = map;
-	def.joint_map_count = 5;
-	def.engine_joint_count = PL_ENGINE_JOINTS;
+	plInstanceDef def = plMappedDef( r, map );
 	plInstance inst;
 	assert_int_equal( plCreateInstance( r->rig.context, &def, &inst ), PLEAT_RESULT_OK );
 	float engine[PL_ENGINE_JOINTS][4];
