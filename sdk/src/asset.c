@@ -366,6 +366,78 @@ static plResult plParseLayers( const uint8_t* data, const plSectionTable* table,
 	return PLEAT_RESULT_OK;
 }
 
+// Skin rows [N][K]: finite, non-negative weights summing to 1 ± 1e-3, joints < J.
+static int plSkinRowsValid( const uint16_t* indices, const float* weights, uint32_t N, uint32_t K, uint32_t J )
+{
+	for ( uint32_t v = 0; v < N; ++v )
+	{
+		double sum = 0.0;
+		for ( uint32_t k = 0; k < K; ++k )
+		{
+			float w = weights[(size_t)v * K + k];
+			if ( !isfinite( w ) || w < 0.0f || indices[(size_t)v * K + k] >= J )
+			{
+				return 0;
+			}
+			sum += w;
+		}
+		if ( fabs( sum - 1.0 ) > 1e-3 )
+		{
+			return 0;
+		}
+	}
+	return 1;
+}
+
+// The optional body-contact block (asset 1.1): BANC, BASH, BANN, BASI, BASW, all or none.
+static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* table, plAssetData* a )
+{
+	static const char* const tags[5] = { "BANC", "BASH", "BANN", "BASI", "BASW" };
+	int present = 0;
+	for ( int t = 0; t < 5; ++t )
+	{
+		present += plFindSection( table, tags[t] ) != NULL;
+	}
+	if ( present == 0 )
+	{
+		return PLEAT_RESULT_OK;
+	}
+	const plSection* basi = plFindSection( table, "BASI" );
+	if ( present != 5 || basi->rank != 2 || basi->dims[1] < 1 || basi->dims[1] > PLEAT_MAX_INFLUENCES )
+	{
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	uint32_t N = a->vertex_count, B = a->beta_count, Ka = basi->dims[1];
+	a->body_anchors = (const float*)plRequire( data, table, "BANC", PLEAT_DTYPE_F32, 2, N, 3, 1 );
+	a->body_anchor_shape = (const float*)plRequire( data, table, "BASH", PLEAT_DTYPE_F32, 3, B, N, 3 );
+	a->body_anchor_normals = (const float*)plRequire( data, table, "BANN", PLEAT_DTYPE_F32, 2, N, 3, 1 );
+	a->body_anchor_skin_indices = (const uint16_t*)plRequire( data, table, "BASI", PLEAT_DTYPE_U16, 2, N, Ka, 1 );
+	a->body_anchor_skin_weights = (const float*)plRequire( data, table, "BASW", PLEAT_DTYPE_F32, 2, N, Ka, 1 );
+	if ( a->body_anchors == NULL || a->body_anchor_shape == NULL || a->body_anchor_normals == NULL ||
+		 a->body_anchor_skin_indices == NULL || a->body_anchor_skin_weights == NULL ||
+		 !plAllFiniteFloats( a->body_anchors, (uint64_t)N * 3 ) ||
+		 !plAllFiniteFloats( a->body_anchor_shape, (uint64_t)B * N * 3 ) ||
+		 !plAllFiniteFloats( a->body_anchor_normals, (uint64_t)N * 3 ) ||
+		 !plSkinRowsValid( a->body_anchor_skin_indices, a->body_anchor_skin_weights, N, Ka, a->joint_count ) )
+	{
+		a->body_anchors = NULL;
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
+	}
+	// Each normal is a unit vector (± 1e-3, as pleat-pack writes it) or zero (no anchor for that vertex).
+	for ( uint32_t v = 0; v < N; ++v )
+	{
+		const float* n = a->body_anchor_normals + (size_t)v * 3;
+		double len = sqrt( (double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2] );
+		if ( len != 0.0 && fabs( len - 1.0 ) > 1e-3 )
+		{
+			a->body_anchors = NULL;
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+	}
+	a->body_anchor_influence_count = Ka;
+	return PLEAT_RESULT_OK;
+}
+
 static plResult plParseContent( const uint8_t* data, const plSectionTable* table, uint32_t flags, plAssetData* a )
 {
 	const uint8_t* conf = (const uint8_t*)plRequire( data, table, "CONF", PLEAT_DTYPE_U8, 1, PLEAT_CONF_SIZE, 1, 1 );
@@ -566,22 +638,9 @@ static plResult plParseContent( const uint8_t* data, const plSectionTable* table
 			}
 		}
 	}
-	for ( uint32_t v = 0; v < N; ++v )
+	if ( !plSkinRowsValid( a->skin_indices, a->skin_weights, N, K, J ) )
 	{
-		double sum = 0.0;
-		for ( uint32_t k = 0; k < K; ++k )
-		{
-			float w = a->skin_weights[(size_t)v * K + k];
-			if ( !isfinite( w ) || w < 0.0f || a->skin_indices[(size_t)v * K + k] >= J )
-			{
-				return PLEAT_RESULT_INVALID_ASSET_DATA;
-			}
-			sum += w;
-		}
-		if ( fabs( sum - 1.0 ) > 1e-3 )
-		{
-			return PLEAT_RESULT_INVALID_ASSET_DATA;
-		}
+		return PLEAT_RESULT_INVALID_ASSET_DATA;
 	}
 	// Networks and blend shapes.
 	plResult r = plParseLayers( data, table, flags, 'L', 'P', 'P', a->lp_layer_count, a->input_count, L, a->lp );
@@ -615,6 +674,11 @@ static plResult plParseContent( const uint8_t* data, const plSectionTable* table
 				return PLEAT_RESULT_INVALID_ASSET_DATA;
 			}
 		}
+	}
+	r = plParseBodyContact( data, table, a );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
 	}
 	const plSection* oxlp = plFindSection( table, "OXLP" );
 	const plSection* oxdc = plFindSection( table, "OXDC" );
@@ -942,6 +1006,7 @@ plResult plAsset_GetInfo( plAsset handle, plAssetInfo* out_info )
 	out_info->has_onnx_lp = a->onnx_lp != NULL;
 	out_info->has_onnx_decoder = a->onnx_dec != NULL;
 	out_info->pinned_count = a->pinned_count;
+	out_info->has_body_contact = a->body_anchors != NULL;
 	return PLEAT_RESULT_OK;
 }
 

@@ -48,6 +48,14 @@ typedef struct plAssetData
 	const void* blend_shapes; // [D][N][3] fp32 or fp16
 	int blend_shapes_fp16;
 	const uint32_t* pinned; // [P] or NULL
+	// Body contact (asset 1.1, optional, all or none): per vertex the rest anchor, its shape directions, its unit
+	// normal (zero = no anchor) and the body's skinning there (docs/asset-format.md "Body contact").
+	const float* body_anchors;          // [N][3] or NULL
+	const float* body_anchor_shape;     // [B][N][3]
+	const float* body_anchor_normals;   // [N][3]
+	const uint16_t* body_anchor_skin_indices; // [N][Ka]
+	const float* body_anchor_skin_weights;    // [N][Ka]
+	uint32_t body_anchor_influence_count;     // Ka (1..8), 0 without anchors
 	uint32_t pinned_count;
 	const void* onnx_lp;    // OXLP or NULL
 	size_t onnx_lp_size;

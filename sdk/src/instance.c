@@ -22,6 +22,8 @@ plInstanceDef plDefaultInstanceDef( void )
 	memset( &def, 0, sizeof( def ) );
 	def.mlp_backend = PLEAT_MLP_BACKEND_PLEAT;
 	def.gpu_mode = PLEAT_GPU_MODE_NONE;
+	def.body_contact = 1;
+	def.body_contact_offset_m = PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M;
 	def.internal_cookie = PLEAT_DEF_COOKIE;
 	return def;
 }
@@ -72,8 +74,10 @@ static int plClampMaterial( const plAssetData* a, const float* material, float* 
 	return clamped;
 }
 
-// The shaped template T + G_S(β) of beta into out ([N][3]) and J(β) into out_joints ([J][3]).
-static plResult plApplyShape( const plAssetData* a, const float* beta, float* out, double* out_joints )
+// The shaped template T + G_S(β) of beta into out ([N][3]), J(β) into out_joints ([J][3]) and, for an asset with body
+// anchors, the anchors of β into out_anchors ([N][3]; the same shape blend with the body's directions).
+static plResult plApplyShape( const plAssetData* a, const float* beta, float* out, double* out_joints,
+							  float* out_anchors )
 {
 	plShapeBlendJob template_job = { plMakeConstSpan( a->template_positions, a->vertex_count, 12 ), a->shape_blend,
 									 plMakeConstSpan( beta, a->beta_count, 4 ), plMakeSpan( out, a->vertex_count, 12 ) };
@@ -83,7 +87,22 @@ static plResult plApplyShape( const plAssetData* a, const float* beta, float* ou
 	{
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
+	if ( a->body_anchors != NULL )
+	{
+		plShapeBlendJob anchor_job = { plMakeConstSpan( a->body_anchors, a->vertex_count, 12 ), a->body_anchor_shape,
+									   plMakeConstSpan( beta, a->beta_count, 4 ),
+									   plMakeSpan( out_anchors, a->vertex_count, 12 ) };
+		if ( out_anchors == NULL || plShapeBlendJob_Run( &anchor_job ) != PLEAT_RESULT_OK )
+		{
+			return PLEAT_RESULT_INTERNAL_ERROR;
+		}
+	}
 	return PLEAT_RESULT_OK;
+}
+
+static int plBodyContactOffsetValid( float offset_m )
+{
+	return isfinite( offset_m ) && offset_m >= 0.0f && offset_m <= PLEAT_BODY_CONTACT_MAX_OFFSET_M;
 }
 
 // ---- create / destroy ----
@@ -243,6 +262,13 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 			   def->beta == NULL ? " and beta is NULL" : "" );
 		return PLEAT_RESULT_INVALID_DEF;
 	}
+	if ( !plBodyContactOffsetValid( def->body_contact_offset_m ) )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+			   "body_contact_offset_m %g: must be finite and in 0 .. %g m", (double)def->body_contact_offset_m,
+			   (double)PLEAT_BODY_CONTACT_MAX_OFFSET_M );
+		return PLEAT_RESULT_INVALID_DEF;
+	}
 	if ( !( isfinite( def->network_rate_hz ) && def->network_rate_hz >= 0.0f ) )
 	{
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "network_rate_hz %g: must be finite and >= 0",
@@ -312,6 +338,8 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	inst->asset_handle = def->asset;
 	inst->user_data = def->user_data;
 	inst->network_interval_s = def->network_rate_hz > 0.0f ? 1.0 / def->network_rate_hz : 0.0;
+	inst->body_contact = def->body_contact != 0 && a->body_anchors != NULL;
+	inst->body_contact_offset_m = def->body_contact_offset_m;
 	inst->engine_joint_count = engine_joints;
 	for ( uint32_t j = 0; j < a->joint_count; ++j )
 	{
@@ -328,7 +356,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	}
 	inst->mlp_scratch_count = 2 * ( widest > 0 ? widest : 1 );
 	size_t n3 = (size_t)a->vertex_count * 3 * sizeof( float );
-	size_t sizes[13] = { n3,
+	size_t sizes[14] = { n3,
 						 a->latent_count * sizeof( float ),
 						 a->latent_count * sizeof( float ),
 						 a->input_count * sizeof( float ),
@@ -340,9 +368,10 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 						 n3,
 						 n3,
 						 (size_t)a->face_count * 4 * sizeof( float ),
-						 def->gpu_mode != PLEAT_GPU_MODE_NONE ? n3 : 0 };
+						 def->gpu_mode != PLEAT_GPU_MODE_NONE ? n3 : 0,
+						 a->body_anchors != NULL ? 2 * n3 : 0 };
 	size_t total = 0;
-	for ( int i = 0; i < 13; ++i )
+	for ( int i = 0; i < 14; ++i )
 	{
 		total += plAlign64( sizes[i] );
 	}
@@ -353,12 +382,12 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
 	inst->block_size = total;
-	float** targets[13] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
+	float** targets[14] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
 							&inst->y,               &inst->blend_weights, &inst->next_weights, &inst->mlp_scratch,
 							&inst->deformed,        &inst->positions,     &inst->normals,     &inst->face_normals,
-							&inst->gl_normals };
+							&inst->gl_normals,      &inst->shaped_anchors };
 	uint8_t* cursor = (uint8_t*)inst->block;
-	for ( int i = 0; i < 13; ++i )
+	for ( int i = 0; i < 14; ++i )
 	{
 		*targets[i] = sizes[i] != 0 ? (float*)cursor : NULL;
 		cursor += plAlign64( sizes[i] );
@@ -372,7 +401,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		float* m = inst->skin_matrices + j * 12;
 		m[0] = m[5] = m[10] = 1.0f;
 	}
-	plResult r = plApplyShape( a, inst->beta, inst->shaped_template, inst->rest_joints );
+	plResult r = plApplyShape( a, inst->beta, inst->shaped_template, inst->rest_joints, inst->shaped_anchors );
 	if ( r == PLEAT_RESULT_OK )
 	{
 		memcpy( inst->positions, inst->shaped_template, n3 );
@@ -451,6 +480,22 @@ plResult plInstance_SetNetworkRate( plInstance handle, float network_rate_hz )
 	return PLEAT_RESULT_OK;
 }
 
+plResult plInstance_SetBodyContact( plInstance handle, int enabled, float offset_m )
+{
+	plInstanceData* inst = plGetInstanceData( handle );
+	if ( inst == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	if ( !plBodyContactOffsetValid( offset_m ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	inst->body_contact = enabled != 0 && inst->asset->body_anchors != NULL;
+	inst->body_contact_offset_m = offset_m;
+	return PLEAT_RESULT_OK;
+}
+
 plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t beta_count )
 {
 	plInstanceData* inst = plGetInstanceData( handle );
@@ -476,7 +521,8 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 	// upload is one BufferSubData.
 	inst->deformed_is_committed = 0;
 	double rest_joints[PLEAT_MAX_JOINTS * 3];
-	plResult r = plApplyShape( a, clamped_beta, inst->deformed, rest_joints );
+	float* next_anchors = inst->shaped_anchors != NULL ? inst->shaped_anchors + (size_t)a->vertex_count * 3 : NULL;
+	plResult r = plApplyShape( a, clamped_beta, inst->deformed, rest_joints, next_anchors );
 	if ( r == PLEAT_RESULT_OK && inst->gl != NULL )
 	{
 		r = plGlDeformer_SetShapedTemplate( inst->gl, inst->deformed );
@@ -487,6 +533,10 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 	}
 	memcpy( inst->beta, clamped_beta, a->beta_count * sizeof( float ) );
 	memcpy( inst->shaped_template, inst->deformed, (size_t)a->vertex_count * 3 * sizeof( float ) );
+	if ( next_anchors != NULL )
+	{
+		memcpy( inst->shaped_anchors, next_anchors, (size_t)a->vertex_count * 3 * sizeof( float ) );
+	}
 	memcpy( inst->rest_joints, rest_joints, (size_t)a->joint_count * 3 * sizeof( double ) );
 	if ( clamped )
 	{

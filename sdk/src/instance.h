@@ -38,6 +38,9 @@ typedef struct plInstanceData
 	double network_pending_s;  // time since the last network update (steps that skipped it)
 	int deformed_is_committed; // CPU path: deformed holds T_def of the committed blend weights and current β
 
+	int body_contact;            // non-zero: the body-contact job runs after skinning (the asset has anchors)
+	float body_contact_offset_m; // its clearance (metres)
+
 	float skin_matrices[PLEAT_MAX_JOINTS * 12];      // last committed step
 	float next_skin_matrices[PLEAT_MAX_JOINTS * 12]; // scratch
 
@@ -57,6 +60,8 @@ typedef struct plInstanceData
 	float* positions;       // [N][3]
 	float* normals;         // [N][3]
 	float* face_normals;    // [F][4] scratch: unnormalised face normals (x, y, z, 0)
+	float* shaped_anchors;  // [2][N][3] assets with body anchors only (else NULL): the body anchors of the committed
+	                        // β, then scratch where plInstance_SetShape builds the next ones
 	float* gl_normals;      // [N][3] GPU modes only: normals read back here (positions into deformed, unused on the
 	                        // GPU path) and copied to normals/positions only when the whole step succeeded
 

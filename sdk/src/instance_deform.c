@@ -42,6 +42,21 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 						   a->influence_count, t->skin_matrices, a->joint_count, plMakeSpan( inst->positions, n, 12 ),
 						   begin, end, &inst->ctx->kernels };
 	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
+	if ( inst->body_contact )
+	{
+		plBodyContactJob contact = { plMakeSpan( inst->positions, n, 12 ),
+									 inst->shaped_anchors,
+									 a->body_anchor_normals,
+									 a->body_anchor_skin_indices,
+									 a->body_anchor_skin_weights,
+									 a->body_anchor_influence_count,
+									 t->skin_matrices,
+									 a->joint_count,
+									 inst->body_contact_offset_m,
+									 begin,
+									 end };
+		plDeformTask_Record( t, plBodyContactJob_Run( &contact ) );
+	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 }
 

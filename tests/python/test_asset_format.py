@@ -36,7 +36,7 @@ def refresh_crc(buf):
 
 def test_header_fields_follow_the_spec(data):
     magic, major, minor, header_size, file_size, count, flags, table, crc = struct.unpack_from("<8sHHIQIIQI", data, 0)
-    assert (magic, major, minor, header_size, flags, table) == (b"PLEATAST", 1, 0, 128, 0, 128)
+    assert (magic, major, minor, header_size, flags, table) == (b"PLEATAST", 1, 1, 128, 0, 128)
     assert file_size == len(data)
     assert data[44:128] == bytes(84)
     zeroed = bytearray(data)

@@ -30,6 +30,39 @@ def test_pack_writes_what_write_asset_writes(tmp_path, weights, weights_file):
     assert out.read_bytes() == pa.write_asset(None, weights, fp16=True)
 
 
+def test_repacking_an_asset_adds_body_anchors_and_keeps_everything_else(tmp_path):
+    """pleat-pack IN.pleat --body-contact: the anchors come from the body (nearest rest vertex, its normal, its own
+    top-4 skin weights); every other section is unchanged."""
+    from pleat.body import BodyModel
+    body = BodyModel.load()
+    w = random_weights(vertices=60, latent=4, blend=3, lp_hidden=(8,), dec_hidden=(6,), seed=2, body_contact=False)
+    # a garment on the body: the template is the body's own vertices pushed 1 cm out (or 9 cm: too far to anchor)
+    pick = np.linspace(0, body.num_vertices - 1, len(w["template"])).astype(int)
+    from pleat.body.model import vertex_normals
+    push = np.where(np.arange(len(pick)) % 5 == 0, 0.09, 0.01)
+    w["template"] = body.v_template[pick] + push[:, None] * vertex_normals(body.v_template, body.faces)[pick]
+    src, out = tmp_path / "in.pleat", tmp_path / "out.pleat"
+    pa.write_asset(src, w)
+    assert "body_anchor" not in pa.read_asset(src.read_bytes())
+    assert pack.main([str(src), "-o", str(out), "--body-contact"]) == 0
+    back, before = pa.read_asset(out.read_bytes()), pa.read_asset(src.read_bytes())
+    for key, value in before.items():
+        np.testing.assert_array_equal(np.asarray(back[key]), np.asarray(value), err_msg=key)
+    from scipy.spatial import cKDTree
+    gap, anchor = cKDTree(body.v_template).query(back["body_anchor"].astype(np.float64))
+    np.testing.assert_allclose(gap, 0.0, atol=1e-6)                    # every anchor is a body vertex …
+    to_anchor = np.linalg.norm(w["template"] - body.v_template[anchor], axis=1)
+    to_pick = np.linalg.norm(w["template"] - body.v_template[pick], axis=1)
+    assert np.all(to_anchor <= to_pick + 1e-9)                         # … at least as near as the one we pushed out
+    length = np.linalg.norm(back["body_anchor_normal"], axis=1)
+    near = to_anchor < 0.05
+    np.testing.assert_allclose(length[near], 1.0, atol=1e-6)
+    np.testing.assert_array_equal(length[~near], 0.0)
+    assert np.any(~near) and np.any(near)
+    top = np.argmax(body.weights[anchor], axis=1)
+    assert all(t in row for t, row in zip(top, back["body_anchor_skin_indices"]))
+
+
 def test_pack_name_and_metadata_override(tmp_path, weights_file):
     out = tmp_path / "a.pleat"
     assert pack.main([str(weights_file), "-o", str(out), "--name", "shirt", "--metadata", '{"loss": 0.5}']) == 0
@@ -44,7 +77,7 @@ def test_info_prints_header_sections_counts_and_meta(tmp_path, weights_file, cap
     capsys.readouterr()
     assert pack.main(["--info", str(out)]) == 0
     text = capsys.readouterr().out
-    for needle in ("Pleat asset 1.0", "CRC-32", "(ok)", "TMPL", "OXLP", "OXDC", "vertex_count=100", "latent_count=8",
+    for needle in ("Pleat asset 1.1", "CRC-32", "(ok)", "TMPL", "BANC", "BASW", "OXLP", "OXDC", "vertex_count=100", "latent_count=8",
                    "name: tee", "META:", "validation: ok"):
         assert needle in text, needle
     data = bytearray(out.read_bytes())

@@ -233,7 +233,7 @@ def test_instance_builds_the_same_inputs_as_assemble_inputs(asset):
 def test_instance_output_is_skinned_blend_shapes(asset):
     """Independent recomposition of one step from X_c: normalise, LP, clamp, decoder, blend, skin."""
     motion = clip(1, seed=4)
-    inst = Instance(asset)
+    inst = Instance(asset, body_contact=False)
     pos, nrm = inst.step(motion[0][0], motion[1][0], motion[2][0], motion[3][0])
     f = lambda k: np.asarray(asset[k], float)
     h = (inst.x_c - f("x_mean")) / f("x_std")
@@ -321,3 +321,32 @@ def test_random_weights_recurrence_is_contractive():
     for inst in (a, b):
         inst.step(*(m[1] for m in motion))
     assert np.linalg.norm(a.latent - b.latent) < 0.75 * gap
+
+
+def test_body_contact_moves_only_vertices_closer_than_the_offset_and_only_along_the_anchor_normal(asset):
+    """The contact job against its definition (pleat.h BODY CONTACT), recomputed here from the anchors: afterwards
+    every anchored vertex is at least offset_m in front of its posed tangent plane; vertices that were are untouched;
+    the others moved along n by exactly offset − d. The golden tube's blend shapes push many through the stand-in
+    body, so the test sees both kinds."""
+    motion = clip(6, seed=5)
+    offset = 0.002
+    plain, contact = Instance(asset, body_contact=False), Instance(asset, body_contact_offset_m=offset)
+    f = lambda k: np.asarray(asset[k], float)
+    anchors = f("body_anchor") + np.einsum("b,bnc->nc", plain.beta, f("body_anchor_shape"))
+    has_anchor = np.linalg.norm(f("body_anchor_normal"), axis=1) > 0
+    moved_total = 0
+    for k in range(6):
+        before, _ = plain.step(*(m[k] for m in motion))
+        after, _ = contact.step(*(m[k] for m in motion))
+        m = plain.skin_matrices[asset["body_anchor_skin_indices"].astype(int)]          # [N, K, 3, 4]
+        blend = np.einsum("nk,nkij->nij", f("body_anchor_skin_weights"), m)
+        a = np.einsum("nij,nj->ni", blend[..., :3], anchors) + blend[..., 3]
+        n = np.einsum("nij,nj->ni", blend[..., :3], f("body_anchor_normal"))
+        n[has_anchor] /= np.linalg.norm(n[has_anchor], axis=1, keepdims=True)
+        d = np.einsum("ni,ni->n", before - a, n)
+        moved = has_anchor & (d < offset)
+        moved_total += moved.sum()
+        np.testing.assert_array_equal(after[~moved], before[~moved])
+        np.testing.assert_allclose(after[moved], before[moved] + (offset - d[moved])[:, None] * n[moved], atol=1e-12)
+        assert np.all(np.einsum("ni,ni->n", after - a, n)[has_anchor] >= offset - 1e-12)
+    assert 0 < moved_total < 6 * len(anchors)

@@ -21,7 +21,7 @@ import numpy as np
 
 MAGIC = b"PLEATAST"
 VERSION_MAJOR = 1
-VERSION_MINOR = 0
+VERSION_MINOR = 1   # 1.1 adds the optional body-contact sections (BANC …)
 HEADER_SIZE = 128
 SECTION_ENTRY_SIZE = 48
 CONF_SIZE = 256
@@ -225,13 +225,8 @@ def validate_weights(weights, fp16=False):
         raise AssetError(f"skin_indices: expected [N={N}, K] with K in 1..{MAX_INFLUENCES}, got {skin_indices.shape}")
     K = skin_indices.shape[1]
     w["skin_indices"] = _ints(weights, "skin_indices", (N, K), 0, J)
-    sw = w["skin_weights"] = _floats(weights, "skin_weights", (N, K))
-    if np.any(sw < 0):
-        raise AssetError("skin_weights: negative weight")
-    sums = sw.astype(np.float64).sum(axis=1)
-    if np.any(np.abs(sums - 1.0) > SKIN_WEIGHT_SUM_TOLERANCE):
-        bad = int(np.argmax(np.abs(sums - 1.0)))
-        raise AssetError(f"skin_weights: vertex {bad} sums to {sums[bad]:.6f}, expected 1 ± {SKIN_WEIGHT_SUM_TOLERANCE}")
+    w["skin_weights"] = _floats(weights, "skin_weights", (N, K))
+    _skin_weights(w, "skin_weights", K)
 
     z_mean = np.asarray(weights.get("z_mean", np.zeros((0,))))
     L = z_mean.reshape(-1).shape[0]
@@ -301,10 +296,50 @@ def validate_weights(weights, fp16=False):
     if weights.get("pinned") is not None:
         p = np.asarray(weights["pinned"]).reshape(-1)
         w["pinned"] = _ints({"pinned": p}, "pinned", p.shape, 0, N)
+    _validate_body_contact(weights, w, N, B, J)
     w["counts"] = dict(vertex_count=N, face_count=F, joint_count=J, input_joint_count=Jin, influence_count=K,
                        beta_count=B, latent_count=L, blend_count=D, lp_layer_count=_layer_count(weights, "lp"),
                        dec_layer_count=_layer_count(weights, "dec"), input_count=I)
     return w
+
+
+BODY_CONTACT_KEYS = ("body_anchor", "body_anchor_shape", "body_anchor_normal", "body_anchor_skin_indices",
+                     "body_anchor_skin_weights")
+BODY_NORMAL_TOLERANCE = 1e-3
+BODY_CONTACT_SECTIONS = ("BANC", "BASH", "BANN", "BASI", "BASW")
+
+
+def _skin_weights(w, key, K):
+    """The skin weights under key, [N, K]: non-negative, each row summing to 1 ± SKIN_WEIGHT_SUM_TOLERANCE."""
+    sw = w[key]
+    if np.any(sw < 0):
+        raise AssetError(f"{key}: negative weight")
+    sums = sw.astype(np.float64).sum(axis=1)
+    if np.any(np.abs(sums - 1.0) > SKIN_WEIGHT_SUM_TOLERANCE):
+        bad = int(np.argmax(np.abs(sums - 1.0)))
+        raise AssetError(f"{key}: vertex {bad} sums to {sums[bad]:.6f}, expected 1 ± {SKIN_WEIGHT_SUM_TOLERANCE}")
+    return sw
+
+
+def _validate_body_contact(weights, w, N, B, J):
+    """The optional body-contact block (asset 1.1, docs/asset-format.md "Body contact"): all five keys or none."""
+    present = [k for k in BODY_CONTACT_KEYS if weights.get(k) is not None]
+    if not present:
+        return
+    if len(present) != len(BODY_CONTACT_KEYS):
+        raise AssetError(f"body contact: need all of {list(BODY_CONTACT_KEYS)} or none, got {present}")
+    w["body_anchor"] = _floats(weights, "body_anchor", (N, 3))
+    w["body_anchor_shape"] = _floats(weights, "body_anchor_shape", (B, N, 3))
+    n = w["body_anchor_normal"] = _floats(weights, "body_anchor_normal", (N, 3))
+    length = np.linalg.norm(n.astype(np.float64), axis=1)
+    if np.any((length != 0.0) & (np.abs(length - 1.0) > BODY_NORMAL_TOLERANCE)):
+        raise AssetError("body_anchor_normal: each row must be a unit vector, or zero for a vertex without an anchor")
+    idx = np.asarray(weights["body_anchor_skin_indices"])
+    if idx.ndim != 2 or idx.shape[0] != N or not 1 <= idx.shape[1] <= MAX_INFLUENCES:
+        raise AssetError(f"body_anchor_skin_indices: expected [N={N}, K] with K in 1..{MAX_INFLUENCES}, got {idx.shape}")
+    w["body_anchor_skin_indices"] = _ints(weights, "body_anchor_skin_indices", idx.shape, 0, J)
+    w["body_anchor_skin_weights"] = _floats(weights, "body_anchor_skin_weights", idx.shape)
+    _skin_weights(w, "body_anchor_skin_weights", idx.shape[1])
 
 
 def _to_fp16(a, key):
@@ -356,6 +391,10 @@ def _sections(w, onnx_models=None):
     out.append(("BLND", *f16_or_f32(w["blend_shapes"])))
     if "pinned" in w:
         out.append(("PINS", DTYPE_U32, w["pinned"]))
+    if "body_anchor" in w:
+        out += [("BANC", DTYPE_F32, w["body_anchor"]), ("BASH", DTYPE_F32, w["body_anchor_shape"]),
+                ("BANN", DTYPE_F32, w["body_anchor_normal"]),
+                ("BASI", DTYPE_U16, w["body_anchor_skin_indices"]), ("BASW", DTYPE_F32, w["body_anchor_skin_weights"])]
     for fourcc, model in (onnx_models or {}).items():
         out.append((fourcc, DTYPE_U8, np.frombuffer(model, dtype=np.uint8)))
     return out
@@ -442,7 +481,7 @@ def inspect_asset(data, verify_checksum=True):
         raise AssetError("header_size beyond the file", "TRUNCATED")
     if verify_checksum and checksum(data) != stored_crc:
         raise AssetError(f"CRC-32 {checksum(data):08x} != stored {stored_crc:08x}", "CHECKSUM_MISMATCH")
-    if major == VERSION_MAJOR and minor == 0 and flags & ~FLAG_FP16:
+    if major == VERSION_MAJOR and minor <= VERSION_MINOR and flags & ~FLAG_FP16:   # 1.1 adds no flags
         raise AssetError(f"unknown flags 0x{flags:x}", "MALFORMED_ASSET")
     if not 1 <= section_count <= 256:
         raise AssetError(f"section_count {section_count}", "MALFORMED_ASSET")
@@ -553,6 +592,17 @@ def read_asset(data, verify_checksum=True):
     w["blend_shapes"] = get("BLND", (DTYPE_F32, DTYPE_F16), (D, N, 3))
     if "PINS" in by:
         w["pinned"] = get("PINS", (DTYPE_U32,))
+    contact = [t for t in BODY_CONTACT_SECTIONS if t in by]
+    if contact:
+        if len(contact) != len(BODY_CONTACT_SECTIONS):
+            raise AssetError(f"body contact: sections {contact} without the rest of {list(BODY_CONTACT_SECTIONS)}",
+                             "INVALID_ASSET_DATA")
+        Ka = by["BASI"]["dims"][1] if len(by["BASI"]["dims"]) == 2 else 0
+        w["body_anchor"] = get("BANC", (DTYPE_F32,), (N, 3))
+        w["body_anchor_shape"] = get("BASH", (DTYPE_F32,), (B, N, 3))
+        w["body_anchor_normal"] = get("BANN", (DTYPE_F32,), (N, 3))
+        w["body_anchor_skin_indices"] = get("BASI", (DTYPE_U16,), (N, Ka))
+        w["body_anchor_skin_weights"] = get("BASW", (DTYPE_F32,), (N, Ka))
     w["dt_range_s"] = np.array(conf["dt_range_s"], dtype=np.float32)
     w["beta_range"] = np.array(conf["beta_range"], dtype=np.float32)
     for key in ("material_min", "material_max", "material_default"):

@@ -87,6 +87,41 @@ def input_count_without_latent(input_joint_count, beta_count):
     return input_count(0, input_joint_count, beta_count)
 
 
+# Body anchors (docs/asset-format.md "Body contact"): the body's own skinning at each anchor, truncated to this many
+# joints (the body has up to 7 per vertex; the dropped weights are < 2 % there) and renormalised.
+BODY_ANCHOR_INFLUENCES = 4
+# Garment vertices farther than this from the rest body get no anchor (zero normal): a tangent plane 5 cm away says
+# nothing about where the body is when the cloth hangs loose.
+BODY_ANCHOR_MAX_DISTANCE_M = 0.05
+
+
+def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance_m=BODY_ANCHOR_MAX_DISTANCE_M):
+    """The body-contact keys of the weights file for a garment template [N, 3] on the mean body: per vertex the
+    nearest rest body vertex (its position, shape directions [B, N, 3], unit normal, and its top `influences` skin
+    joints and weights, renormalised). The runtime keeps each posed garment vertex outside that vertex's tangent
+    plane (pleat.reference.body_contact), the same vertex-plane measure as the simulator's contact."""
+    from scipy.spatial import cKDTree
+
+    from pleat.body.model import vertex_normals
+    v_template = np.asarray(_field(body, "v_template"), np.float64)
+    faces = np.asarray(_field(body, "faces"), np.int64)
+    shapedirs = np.asarray(_field(body, "shapedirs"), np.float64)          # [V, 3, B]
+    skin = np.asarray(_field(body, "weights"), np.float64)                  # [V, J]
+    distance, anchor = cKDTree(v_template).query(np.asarray(template, np.float64))
+    normals = vertex_normals(v_template, faces)[anchor]
+    normals[distance > max_distance_m] = 0.0
+    k = min(influences, skin.shape[1])
+    top = np.argsort(-skin[anchor], axis=1, kind="stable")[:, :k]
+    top_weights = np.take_along_axis(skin[anchor], top, axis=1)
+    order = np.argsort(top, axis=1, kind="stable")                          # joints ascending, as the garment skin
+    top, top_weights = np.take_along_axis(top, order, axis=1), np.take_along_axis(top_weights, order, axis=1)
+    return {"body_anchor": v_template[anchor].astype(np.float32),
+            "body_anchor_shape": np.ascontiguousarray(shapedirs[anchor].transpose(2, 0, 1)).astype(np.float32),
+            "body_anchor_normal": normals.astype(np.float32),
+            "body_anchor_skin_indices": top.astype(np.int64),
+            "body_anchor_skin_weights": (top_weights / top_weights.sum(axis=1, keepdims=True)).astype(np.float32)}
+
+
 def weights_from_garment(garment, body, network=None, metadata=None, name=None):
     """The weights dict pleat-pack / pleat.asset.write_asset reads (docs/asset-format.md key names).
 
@@ -128,6 +163,8 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None):
     pinned = _field(garment, "pinned", None)
     if pinned is not None and len(pinned) > 0:
         weights["pinned"] = np.asarray(pinned, dtype=np.int64)
+    if _field(body, "faces") is not None and _field(body, "weights") is not None:   # a body with a surface
+        weights.update(body_anchors(template, body))
 
     meta = {"garment": garment_name, "vertices": int(template.shape[0]), "faces": int(weights["faces"].shape[0])}
     body_source = _field(body, "source", None)

@@ -1,6 +1,8 @@
 """pleat-pack: weights file (.npz / .safetensors) → Pleat asset (.pleat), and asset inspection. No PyTorch.
 
     pleat-pack WEIGHTS.npz --out OUT.pleat [--fp16] [--onnx] [--name NAME] [--metadata JSON] [--export-onnx DIR]
+               [--body-contact [BODY.npz]]
+    pleat-pack IN.pleat --out OUT.pleat --body-contact      # repack an asset, adding its body anchors
     pleat-pack --info FILE.pleat
 """
 import argparse
@@ -59,7 +61,8 @@ def info(path, out=None):
 
 def build_parser():
     p = argparse.ArgumentParser(prog="pleat-pack", description="Pack a Pleat weights file into a .pleat asset.")
-    p.add_argument("weights", nargs="?", help="weights file (.npz or .safetensors), keys per docs/asset-format.md")
+    p.add_argument("weights", nargs="?",
+                   help="weights file (.npz or .safetensors, keys per docs/asset-format.md), or a .pleat to repack")
     p.add_argument("-o", "--out", "--output", dest="output",
                    help="output file: the asset (.pleat); --output is the older name")
     p.add_argument("--fp16", action="store_true", help="store LP/decoder weight matrices and BLND as fp16")
@@ -67,6 +70,9 @@ def build_parser():
     p.add_argument("--name", help="garment name (overrides garment_name)")
     p.add_argument("--metadata", help="META JSON: inline JSON text or a path to a .json file (overrides metadata_json)")
     p.add_argument("--export-onnx", metavar="DIR", help="also write latent_predictor.onnx and decoder.onnx to DIR")
+    p.add_argument("--body-contact", nargs="?", const="", default=None, metavar="BODY",
+                   help="add body anchors (asset 1.1 body contact) computed against this body npz (default: the "
+                        "shipped body, assets/body.npz)")
     p.add_argument("--info", metavar="FILE", help="print header, sections, counts and META of an asset and exit")
     add_quiet(p)
     return p
@@ -84,13 +90,23 @@ def main(argv=None):
     if not a.weights or not (a.output or a.export_onnx):
         p.error("need WEIGHTS and -o OUT.pleat (or --export-onnx DIR), or --info FILE")
     try:
-        weights = pa.load_weights(a.weights)
+        if Path(a.weights).suffix == ".pleat":
+            weights = pa.read_asset(Path(a.weights).read_bytes())
+            weights = {k: v for k, v in weights.items() if not k.startswith("onnx_")}   # --onnx rebuilds them
+        else:
+            weights = pa.load_weights(a.weights)
+    except pa.AssetError as e:
+        raise InputError(a.weights, f"not a valid Pleat asset ({e.code}: {e})") from None
     except Exception as e:   # noqa: BLE001 - numpy and safetensors raise many kinds on a bad file
         if isinstance(e, OSError) and e.filename is not None:
             raise
         if Path(a.weights).suffix == ".safetensors":
             raise InputError(a.weights, f"not a safetensors weights file ({type(e).__name__}: {e})") from None
         raise not_npz(a.weights, e, "a weights file") from None
+    if a.body_contact is not None:
+        from pleat.body import BodyModel
+        from pleat.garment_asset import body_anchors
+        weights.update(body_anchors(weights["template"], BodyModel.load(a.body_contact or None)))
     if a.name is not None:
         weights["garment_name"] = a.name
     if a.metadata is not None:

@@ -55,7 +55,7 @@ class _AssetInfo(C.Structure):
         ("beta_max", C.c_float), ("material_min", C.c_float * 4), ("material_max", C.c_float * 4),
         ("material_default", C.c_float * 4), ("train_fps", C.c_float), ("name", C.c_char * 65),
         ("meta_json", C.c_void_p), ("meta_json_size", C.c_size_t), ("has_onnx_lp", C.c_int),
-        ("has_onnx_decoder", C.c_int), ("pinned_count", C.c_uint32)]
+        ("has_onnx_decoder", C.c_int), ("pinned_count", C.c_uint32), ("has_body_contact", C.c_int)]
 
 
 class _InstanceDef(C.Structure):
@@ -63,7 +63,8 @@ class _InstanceDef(C.Structure):
                 ("engine_joint_count", C.c_uint32), ("beta", C.c_void_p), ("beta_count", C.c_uint32),
                 ("material", C.c_void_p), ("mlp_backend", C.c_int), ("onnxruntime_library", C.c_char_p),
                 ("gpu_mode", C.c_int), ("host_position_buffer", C.c_uint32), ("host_normal_buffer", C.c_uint32),
-                ("network_rate_hz", C.c_float), ("user_data", C.c_void_p), ("internal_cookie", C.c_int32)]
+                ("network_rate_hz", C.c_float), ("body_contact", C.c_int), ("body_contact_offset_m", C.c_float),
+                ("user_data", C.c_void_p), ("internal_cookie", C.c_int32)]
 
 
 class _Vec3(C.Structure):
@@ -152,6 +153,7 @@ def load_library(path=None):
         "plInstance_Step": (C.c_int, [_Handle, P(_FrameInput), P(_StepOutput)]),
         "plInstance_Reset": (C.c_int, [_Handle]),
         "plInstance_SetNetworkRate": (C.c_int, [_Handle, C.c_float]),
+        "plInstance_SetBodyContact": (C.c_int, [_Handle, C.c_int, C.c_float]),
         "plInstance_SetShape": (C.c_int, [_Handle, C.c_void_p, C.c_uint32]),
         "plInstance_SetMaterial": (C.c_int, [_Handle, C.c_void_p]),
         "plInstance_GetSkinMatrices": (C.c_int, [_Handle, C.c_void_p, C.c_uint32]),
@@ -282,7 +284,8 @@ class Instance:
     """A C instance. step(...) returns float32 numpy copies of positions and normals [N, 3]."""
 
     def __init__(self, context, asset, beta=None, material=None, backend="pleat", onnxruntime_library=None,
-                 gpu="none", network_rate_hz=0.0):
+                 gpu="none", network_rate_hz=0.0, body_contact=True, body_contact_offset_m=None):
+        """body_contact / body_contact_offset_m: plInstanceDef's (None = the SDK's default clearance)."""
         self.context, self.asset, lib = context, asset, context.lib
         self.lib = lib
         d = lib.plDefaultInstanceDef()
@@ -301,6 +304,9 @@ class Instance:
             d.onnxruntime_library = os.fsencode(str(onnxruntime_library))
         d.gpu_mode = GPU_MODES[gpu]
         d.network_rate_hz = float(network_rate_hz)
+        d.body_contact = int(bool(body_contact))
+        if body_contact_offset_m is not None:
+            d.body_contact_offset_m = float(body_contact_offset_m)
         self.handle = _Handle()
         _check(lib, lib.plCreateInstance(context.handle, C.byref(d), C.byref(self.handle)), "plCreateInstance")
         self.vertex_count = asset.info["vertex_count"]
@@ -349,6 +355,10 @@ class Instance:
     def set_network_rate(self, network_rate_hz):
         _check(self.lib, self.lib.plInstance_SetNetworkRate(self.handle, float(network_rate_hz)),
                "plInstance_SetNetworkRate")
+
+    def set_body_contact(self, enabled, offset_m):
+        _check(self.lib, self.lib.plInstance_SetBodyContact(self.handle, int(bool(enabled)), float(offset_m)),
+               "plInstance_SetBodyContact")
 
     def set_shape(self, beta):
         b = _f32(beta, -1)

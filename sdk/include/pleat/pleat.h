@@ -86,6 +86,18 @@
 // held weights. The first step, and the first after plInstance_Reset, always runs the networks.
 //
 // ==================================================================================================================
+// BODY CONTACT (docs/asset-format.md, "Body contact")
+// ==================================================================================================================
+// An asset 1.1 may carry a body anchor per garment vertex: the nearest point of the rest body, its normal and the
+// body's own skin weights there. After skinning, each vertex that lies closer than body_contact_offset_m to the
+// anchor's posed tangent plane (or behind it, inside the body) is moved out along the anchor's normal to that
+// distance; the normals are computed after. This is the simulator's vertex–plane contact measure, applied as a
+// projection: it removes most of the body–garment interpenetration a network leaves on motion it never saw, at the
+// cost of one more blended matrix per vertex. On by default where the asset has anchors (plAssetInfo.
+// has_body_contact); plInstanceDef.body_contact = 0 or plInstance_SetBodyContact turns it off. It is continuous in
+// the position, so a vertex never jumps when it starts or stops touching.
+//
+// ==================================================================================================================
 // CROWDS: MANY INSTANCES IN ONE CALL (docs/scene-budget.md)
 // ==================================================================================================================
 // plStepInstances( context, instances, inputs, outputs, results, count ) steps a whole crowd: instance i gets inputs[i]
@@ -215,7 +227,7 @@ extern "C" {
 
 /// Version of this header (major.minor.patch).
 #define PLEAT_VERSION_MAJOR 0
-#define PLEAT_VERSION_MINOR 1
+#define PLEAT_VERSION_MINOR 2
 #define PLEAT_VERSION_PATCH 0
 /// Asset format major version this runtime reads.
 #define PLEAT_ASSET_VERSION_MAJOR 1
@@ -227,6 +239,9 @@ extern "C" {
 #define PLEAT_MAX_LAYERS 10
 #define PLEAT_JOINT_NAME_SIZE 32
 #define PLEAT_MATERIAL_COUNT 4
+/// Body contact (BODY CONTACT below): the default clearance and the largest accepted (metres).
+#define PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M 0.001f
+#define PLEAT_BODY_CONTACT_MAX_OFFSET_M 0.05f
 
 // ------------------------------------------------------------------------------------------------------------------
 // Results
@@ -498,6 +513,7 @@ typedef struct plAssetInfo
 	int has_onnx_lp;            ///< non-zero if the OXLP section (ONNX latent predictor) exists
 	int has_onnx_decoder;       ///< non-zero if the OXDC section (ONNX decoder) exists
 	uint32_t pinned_count;      ///< number of pinned vertices (PINS, information), 0 if absent
+	int has_body_contact;       ///< non-zero if the asset carries body anchors (BANC … sections, BODY CONTACT above)
 } plAssetInfo;
 
 /// An asset def with defaults and the validity cookie.
@@ -567,6 +583,10 @@ typedef struct plInstanceDef
 	float network_rate_hz;             ///< run the networks at most this often (Hz, e.g. the asset's train_fps under a
 	                                   ///< 60–120 fps game loop); steps in between skin the last learned deformation
 	                                   ///< with the new pose (UPDATE RATE above). 0 = every step (default)
+	int body_contact;                  ///< non-zero (default): keep vertices outside the body where the asset carries
+	                                   ///< body anchors (BODY CONTACT above); 0 = plain skinning
+	float body_contact_offset_m;       ///< clearance kept from the body (metres, 0 .. PLEAT_BODY_CONTACT_MAX_OFFSET_M;
+	                                   ///< default PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M = 1 mm)
 	void* user_data;                   ///< yours, returned by plInstance_GetUserData
 	int32_t internal_cookie;           ///< set by plDefaultInstanceDef; do not touch
 } plInstanceDef;
@@ -647,6 +667,10 @@ PLEAT_API plResult plInstance_Reset( plInstance instance );
 /// far from the camera. The time already gathered since the last network update is kept. INVALID_ARGUMENT if not
 /// finite or negative (nothing changes).
 PLEAT_API plResult plInstance_SetNetworkRate( plInstance instance, float network_rate_hz );
+/// Turn body contact on or off and set its clearance (BODY CONTACT above; plInstanceDef.body_contact and
+/// body_contact_offset_m). Applies from the next step. INVALID_ARGUMENT if offset_m is not finite or outside
+/// 0 .. 0.05 m (nothing changes); turning it on for an asset without body anchors is OK and changes nothing.
+PLEAT_API plResult plInstance_SetBodyContact( plInstance instance, int enabled, float offset_m );
 /// Set the body shape β ([beta_count] unitless, missing entries 0); recomputes the shaped template and J(β) once.
 /// Values outside [beta_min, beta_max] are clamped (PLEAT_RESULT_CLAMPED). GPU modes upload the new template first:
 /// a GL error (GL_ERROR, GL_UNAVAILABLE) leaves β, J(β) and the template, on the CPU and on the GPU, as they were.

@@ -29,11 +29,13 @@ def read_weights(source):
     return bytes(data), read_asset(data)
 
 
-def lbs_only_weights(weights):
+def lbs_only_weights(weights, body_contact=False):
     """The same garment, skeleton and ranges with the zero network: the LBS-only baseline, run through the same
-    runtime path as the trained model."""
+    runtime path as the trained model. Plain skinning unless body_contact (then the asset's body anchors stay)."""
+    from pleat.asset import BODY_CONTACT_KEYS
     w = {k: v for k, v in weights.items()
-         if k not in NETWORK_KEYS and not k.startswith(("lp.", "dec.", "onnx_"))}
+         if k not in NETWORK_KEYS and not k.startswith(("lp.", "dec.", "onnx_"))
+         and (body_contact or k not in BODY_CONTACT_KEYS)}
     N = len(w["template"])
     B = len(w["shape_blend"])
     Jin = len(w["input_joints"])
@@ -41,8 +43,8 @@ def lbs_only_weights(weights):
     return w
 
 
-def lbs_only_bytes(weights):
-    return write_asset(None, lbs_only_weights(weights))
+def lbs_only_bytes(weights, body_contact=False):
+    return write_asset(None, lbs_only_weights(weights, body_contact))
 
 
 def is_lbs_only(weights):

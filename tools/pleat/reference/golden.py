@@ -143,12 +143,14 @@ def random_motion(frames, joint_count=24, seed=0, fps=30.0, dt_jitter=0.15):
 
 def random_weights(vertices=4424, latent=128, blend=128, lp_hidden=(512, 512, 512), dec_hidden=(512, 512),
                    influences=4, betas=10, seed=0, activation="relu", garment_name="golden-tube",
-                   blend_rms_m=0.03, latent_gain=0.5):
+                   blend_rms_m=0.03, latent_gain=0.5, body_contact=True):
     """A weights dict for write_asset with random but well-behaved contents (float64 arrays; the writer rounds).
 
     The skeleton is always the 24 SMPL-named joints with 19 input joints. latent_gain bounds the Lipschitz constant
     of Z_t → Z_t+1 measured at sample points (the recurrence is contractive, so rollouts stay bounded);
-    blend_rms_m is the RMS learned displacement for typical latents."""
+    blend_rms_m is the RMS learned displacement for typical latents. body_contact adds body anchors (asset 1.1) on a
+    stand-in body, the tube 1 cm further in, skinned like the tube, with every seventh vertex left without an anchor:
+    the blend shapes push many vertices through it, so the contact job has work on most frames."""
     rng = np.random.default_rng(seed)
     J = len(SMPL_JOINT_NAMES)
     verts, faces, coords = tube_mesh(vertices)
@@ -225,6 +227,11 @@ def random_weights(vertices=4424, latent=128, blend=128, lp_hidden=(512, 512, 51
     disp = np.einsum("sd,dnc->snc", weights_out, fields)
     w["blend_shapes"] = fields * (blend_rms_m / np.sqrt(np.mean(np.sum(disp ** 2, -1))))
     w["pinned"] = np.arange(0, min(N, 3 * (N // 50 + 1)), 3)[: max(1, N // 150)]
+    if body_contact:
+        normal = radial.copy()
+        normal[::7] = 0.0
+        w.update(body_anchor=verts - 0.01 * radial, body_anchor_shape=shape.copy(), body_anchor_normal=normal,
+                 body_anchor_skin_indices=skin_indices, body_anchor_skin_weights=skin_weights)
     return w
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from pleat.asset import normal_adjacency
 from pleat.reference.blend_shapes import blend_shapes
+from pleat.reference.body_contact import BODY_CONTACT_OFFSET_M, body_contact
 from pleat.reference.input_assembly import (clamp_beta, clamp_material, input_assembly, normalize_quaternions,
                                             pose_features)
 from pleat.reference.input_normalisation import input_normalisation
@@ -67,8 +68,16 @@ class Instance:
     step(rotations [J, 4], root_translation [3], root_rotation [4], dt_s) → (positions [N, 3], normals [N, 3]).
     `last_result` is "ok", "clamped" or "numeric_reset" after each call that changes state."""
 
-    def __init__(self, asset, beta=None, material=None, network_rate_hz=0.0):
+    def __init__(self, asset, beta=None, material=None, network_rate_hz=0.0, body_contact=True,
+                 body_contact_offset_m=BODY_CONTACT_OFFSET_M):
         self.asset = asset
+        # plInstanceDef.body_contact / body_contact_offset_m: on where the asset carries body anchors (asset 1.1)
+        self.body_contact = bool(body_contact) and asset.get("body_anchor") is not None
+        self.body_contact_offset_m = float(np.float32(body_contact_offset_m))
+        if self.body_contact:
+            self.anchor_normals = np.asarray(asset["body_anchor_normal"], np.float64)
+            self.anchor_skin_indices = np.asarray(asset["body_anchor_skin_indices"], np.int64)
+            self.anchor_skin_weights = np.asarray(asset["body_anchor_skin_weights"], np.float64)
         self.parents = np.asarray(asset["joint_parents"], np.int64)
         self.input_joints = np.asarray(asset["input_joints"], np.int64)
         self.faces = np.asarray(asset["faces"], np.int64)
@@ -102,6 +111,8 @@ class Instance:
         self.beta, clamped = clamp_beta(self.asset, beta)
         self.shaped_template = shape_blend(self.asset["template"], self.asset["shape_blend"], self.beta)
         self.joints = shaped_joints(self.asset["joint_template"], self.asset["joint_shapedirs"], self.beta)
+        if self.body_contact:
+            self.shaped_anchors = shape_blend(self.asset["body_anchor"], self.asset["body_anchor_shape"], self.beta)
         return clamped
 
     def set_material(self, material):
@@ -191,6 +202,9 @@ class Instance:
         with np.errstate(all="ignore"):
             deformed = blend_shapes(self.shaped_template, self.blend, blend_weights)
             positions = skinning(deformed, self.skin_indices, self.skin_weights, skin_matrices)
+            if self.body_contact:
+                positions = body_contact(positions, self.shaped_anchors, self.anchor_normals, self.anchor_skin_indices,
+                                         self.anchor_skin_weights, skin_matrices, self.body_contact_offset_m)
             vertex_normals = normals(positions, self.faces, self.adjacency_offsets, self.adjacency_faces)
         return positions, vertex_normals, bool(np.all(np.isfinite(positions)) and np.all(np.isfinite(vertex_normals)))
 
