@@ -24,22 +24,69 @@ static float plRand( void )
 	return (float)( s_rng >> 8 ) / 8388608.0f - 1.0f;
 }
 
+// The next number of the LCG that picks indices (faces, adjacency, joints).
+static uint32_t plRandIndex( void )
+{
+	s_rng = s_rng * 1103515245u + 12345u;
+	return s_rng >> 16;
+}
+
 static int plHaveAvx2( void )
 {
 	plKernels k;
 	return plSelectKernels( &k, 0 );
 }
 
-static void test_mat_vec_avx2_matches_scalar( void** state )
+// The AVX2 and the scalar kernel tables; skips the test where this CPU or build has no AVX2 kernels.
+static void plRequireAvx2Kernels( plKernels* simd, plKernels* scalar )
 {
-	(void)state;
-	if ( !plHaveAvx2() )
+	if ( !plSelectKernels( simd, 0 ) )
 	{
 		skip();
 	}
+	plSelectKernels( scalar, 1 );
+}
+
+// count weights scale · U(−1, 1) and their fp16 encodings; with fp16 the fp32 copy holds the decoded halves, so that
+// the magnitudes of the bound are those of the numbers the kernels read.
+static void plRandomWeights( float* w, uint16_t* w16, size_t count, float scale, int fp16 )
+{
+	for ( size_t i = 0; i < count; ++i )
+	{
+		w[i] = scale * plRand();
+		w16[i] = plFloatToHalf( w[i] );
+		if ( fp16 )
+		{
+			w[i] = plHalfToFloat( w16[i] );
+		}
+	}
+}
+
+// The bound on |simd − scalar| for an fp32 sum of `terms` terms whose absolute values add up to magnitude (see top).
+static double plSumBound( uint32_t terms, double magnitude )
+{
+	return 4.0 * terms * 6e-8 * magnitude + 1e-30;
+}
+
+// n random points, `stride` bytes apart; the block ends at the last point's z.
+static float* plRandomPositions( uint32_t n, uint32_t stride )
+{
+	float* positions = (float*)malloc( (size_t)( n - 1 ) * stride + 12 );
+	for ( uint32_t v = 0; v < n; ++v )
+	{
+		float* p = (float*)( (uint8_t*)positions + (size_t)v * stride );
+		p[0] = plRand();
+		p[1] = plRand();
+		p[2] = plRand();
+	}
+	return positions;
+}
+
+static void test_mat_vec_avx2_matches_scalar( void** state )
+{
+	(void)state;
 	plKernels simd, scalar;
-	plSelectKernels( &simd, 0 );
-	plSelectKernels( &scalar, 1 );
+	plRequireAvx2Kernels( &simd, &scalar );
 	const uint32_t ins[] = { 1, 7, 8, 9, 15, 16, 17, 31, 33, 681 };
 	const uint32_t outs[] = { 1, 2, 3, 4, 5, 7, 13, 512 };
 	for ( int fp16 = 0; fp16 < 2; ++fp16 )
@@ -49,21 +96,10 @@ static void test_mat_vec_avx2_matches_scalar( void** state )
 			for ( size_t b = 0; b < sizeof( outs ) / sizeof( outs[0] ); ++b )
 			{
 				uint32_t in = ins[a], out = outs[b];
-				float* w = (float*)malloc( (size_t)in * out * sizeof( float ) );
+				float* w = (float*)malloc( ( (size_t)in * out + in + 3 * (size_t)out ) * sizeof( float ) );
+				float *x = w + (size_t)in * out, *bias = x + in, *ys = bias + out, *yv = ys + out;
 				uint16_t* w16 = (uint16_t*)malloc( (size_t)in * out * sizeof( uint16_t ) );
-				float* x = (float*)malloc( in * sizeof( float ) );
-				float* bias = (float*)malloc( out * sizeof( float ) );
-				float* ys = (float*)malloc( out * sizeof( float ) );
-				float* yv = (float*)malloc( out * sizeof( float ) );
-				for ( size_t i = 0; i < (size_t)in * out; ++i )
-				{
-					w[i] = plRand();
-					w16[i] = plFloatToHalf( w[i] );
-					if ( fp16 )
-					{
-						w[i] = plHalfToFloat( w16[i] );
-					}
-				}
+				plRandomWeights( w, w16, (size_t)in * out, 1.0f, fp16 );
 				for ( uint32_t i = 0; i < in; ++i )
 				{
 					x[i] = plRand() * 3.0f;
@@ -84,18 +120,13 @@ static void test_mat_vec_avx2_matches_scalar( void** state )
 					{
 						magnitude += fabs( (double)w[(size_t)r * in + c] * x[c] );
 					}
-					double bound = 4.0 * ( in + 1 ) * 6e-8 * magnitude + 1e-30;
-					if ( fabs( (double)ys[r] - yv[r] ) > bound )
+					if ( fabs( (double)ys[r] - yv[r] ) > plSumBound( in + 1, magnitude ) )
 					{
 						fail_msg( "fp16=%d in=%u out=%u row %u: scalar %.9g simd %.9g", fp16, in, out, r, ys[r], yv[r] );
 					}
 				}
 				free( w );
 				free( w16 );
-				free( x );
-				free( bias );
-				free( ys );
-				free( yv );
 			}
 		}
 	}
@@ -104,13 +135,8 @@ static void test_mat_vec_avx2_matches_scalar( void** state )
 static void test_blend_shapes_avx2_matches_scalar( void** state )
 {
 	(void)state;
-	if ( !plHaveAvx2() )
-	{
-		skip();
-	}
 	plKernels simd, scalar;
-	plSelectKernels( &simd, 0 );
-	plSelectKernels( &scalar, 1 );
+	plRequireAvx2Kernels( &simd, &scalar );
 	const uint32_t ns[] = { 1, 3, 5, 256, 257, 1000 };
 	const uint32_t ds[] = { 1, 2, 3, 128 };
 	for ( int fp16 = 0; fp16 < 2; ++fp16 )
@@ -121,21 +147,10 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 			{
 				uint32_t n = ns[a], d = ds[b];
 				size_t plane = (size_t)n * 3;
-				float* shapes = (float*)malloc( plane * d * sizeof( float ) );
+				float* shapes = (float*)calloc( plane * d + 3 * plane + d, sizeof( float ) ); // outputs zeroed
+				float *base = shapes + plane * d, *os = base + plane, *ov = os + plane, *w = ov + plane;
 				uint16_t* shapes16 = (uint16_t*)malloc( plane * d * sizeof( uint16_t ) );
-				float* base = (float*)malloc( plane * sizeof( float ) );
-				float* w = (float*)malloc( d * sizeof( float ) );
-				float* os = (float*)calloc( plane, sizeof( float ) );
-				float* ov = (float*)calloc( plane, sizeof( float ) );
-				for ( size_t i = 0; i < plane * d; ++i )
-				{
-					shapes[i] = 0.01f * plRand();
-					shapes16[i] = plFloatToHalf( shapes[i] );
-					if ( fp16 )
-					{
-						shapes[i] = plHalfToFloat( shapes16[i] );
-					}
-				}
+				plRandomWeights( shapes, shapes16, plane * d, 0.01f, fp16 );
 				for ( size_t i = 0; i < plane; ++i )
 				{
 					base[i] = plRand();
@@ -160,18 +175,13 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 					{
 						magnitude += fabs( (double)w[j] * shapes[j * plane + i] );
 					}
-					double bound = 4.0 * ( d + 1 ) * 6e-8 * magnitude + 1e-30;
-					if ( fabs( (double)os[i] - ov[i] ) > bound )
+					if ( fabs( (double)os[i] - ov[i] ) > plSumBound( d + 1, magnitude ) )
 					{
 						fail_msg( "fp16=%d n=%u d=%u float %zu: scalar %.9g simd %.9g", fp16, n, d, i, os[i], ov[i] );
 					}
 				}
 				free( shapes );
 				free( shapes16 );
-				free( base );
-				free( w );
-				free( os );
-				free( ov );
 			}
 		}
 	}
@@ -182,13 +192,8 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 static void test_skinning_avx2_matches_scalar( void** state )
 {
 	(void)state;
-	if ( !plHaveAvx2() )
-	{
-		skip();
-	}
 	plKernels simd, scalar;
-	plSelectKernels( &simd, 0 );
-	plSelectKernels( &scalar, 1 );
+	plRequireAvx2Kernels( &simd, &scalar );
 	const uint32_t joint_count = 7, n = 37, in_stride = 16, out_stride = 28; // bytes
 	float matrices[7 * 12];
 	for ( uint32_t i = 0; i < joint_count * 12; ++i )
@@ -206,7 +211,7 @@ static void test_skinning_avx2_matches_scalar( void** state )
 		float weights[37 * 8];
 		for ( uint32_t i = 0; i < n * K; ++i )
 		{
-			indices[i] = (uint16_t)( ( s_rng = s_rng * 1103515245u + 12345u ) >> 16 ) % ( joint_count + 1 );
+			indices[i] = (uint16_t)plRandIndex() % ( joint_count + 1 );
 			weights[i] = 0.5f * ( plRand() + 1.0f );
 		}
 		float os[37 * 7], ov[37 * 7];
@@ -239,8 +244,7 @@ static void test_skinning_avx2_matches_scalar( void** state )
 						}
 					}
 				}
-				double bound = 4.0 * ( K + 4 ) * 6e-8 * magnitude + 1e-30;
-				if ( fabs( (double)a - b ) > bound )
+				if ( fabs( (double)a - b ) > plSumBound( K + 4, magnitude ) )
 				{
 					fail_msg( "K=%u vertex %u row %u: scalar %.9g simd %.9g", K, v, e, a, b );
 				}
@@ -255,28 +259,16 @@ static void test_skinning_avx2_matches_scalar( void** state )
 static void test_normals_avx2_are_bit_identical_to_scalar( void** state )
 {
 	(void)state;
-	if ( !plHaveAvx2() )
-	{
-		skip();
-	}
 	plKernels simd, scalar;
-	plSelectKernels( &simd, 0 );
-	plSelectKernels( &scalar, 1 );
+	plRequireAvx2Kernels( &simd, &scalar );
 	const uint32_t n = 53, f = 97;
 	for ( uint32_t stride = 12; stride <= 20; stride += 8 )
 	{
-		float* positions = (float*)malloc( (size_t)( n - 1 ) * stride + 12 );
-		for ( uint32_t v = 0; v < n; ++v )
-		{
-			float* p = (float*)( (uint8_t*)positions + (size_t)v * stride );
-			p[0] = plRand();
-			p[1] = plRand();
-			p[2] = plRand();
-		}
+		float* positions = plRandomPositions( n, stride );
 		uint32_t faces[97 * 3];
 		for ( uint32_t i = 0; i < f * 3; ++i )
 		{
-			faces[i] = ( s_rng = s_rng * 1103515245u + 12345u ) >> 16;
+			faces[i] = plRandIndex();
 			faces[i] %= i % 41 == 0 ? n + 3 : n; // a few out of range
 		}
 		faces[( f - 1 ) * 3] = n - 1; // the last vertex is read
@@ -287,7 +279,7 @@ static void test_normals_avx2_are_bit_identical_to_scalar( void** state )
 		}
 		for ( uint32_t e = 0; e < f * 3; ++e )
 		{
-			adjacency[e] = ( ( s_rng = s_rng * 1103515245u + 12345u ) >> 16 ) % ( f + 2 );
+			adjacency[e] = plRandIndex() % ( f + 2 );
 		}
 		float fs[97 * 4], fv[97 * 4];
 		memset( fs, 0xAB, sizeof( fs ) );
@@ -321,12 +313,11 @@ static void test_normals_scatter_is_bit_identical_to_gather( void** state )
 	uint32_t faces[113 * 3];
 	for ( uint32_t t = 0; t < f; ++t )
 	{
-		uint32_t a = ( s_rng = s_rng * 1103515245u + 12345u ) >> 16, b, c;
-		a %= n;
-		b = ( a + 1 + ( ( s_rng = s_rng * 1103515245u + 12345u ) >> 16 ) % ( n - 1 ) ) % n;
+		uint32_t a = plRandIndex() % n, b, c;
+		b = ( a + 1 + plRandIndex() % ( n - 1 ) ) % n;
 		do
 		{
-			c = ( ( s_rng = s_rng * 1103515245u + 12345u ) >> 16 ) % n;
+			c = plRandIndex() % n;
 		} while ( c == a || c == b );
 		faces[t * 3 + 0] = a;
 		faces[t * 3 + 1] = b;
@@ -358,14 +349,7 @@ static void test_normals_scatter_is_bit_identical_to_gather( void** state )
 	}
 	for ( uint32_t stride = 12; stride <= 20; stride += 8 )
 	{
-		float* positions = (float*)malloc( (size_t)( n - 1 ) * stride + 12 );
-		for ( uint32_t v = 0; v < n; ++v )
-		{
-			float* p = (float*)( (uint8_t*)positions + (size_t)v * stride );
-			p[0] = plRand();
-			p[1] = plRand();
-			p[2] = plRand();
-		}
+		float* positions = plRandomPositions( n, stride );
 		float face_normals[113 * 4], sums_scalar[61 * 4], sums_simd[61 * 4];
 		float gathered[61 * 5], scattered[61 * 5], scattered_simd[61 * 5];
 		memset( gathered, 0, sizeof( gathered ) );
