@@ -15,20 +15,26 @@
 #include "test_common.h"
 #include "test_gl_support.h"
 
-static void test_gl_error_in_step_changes_nothing( void** state )
+// The engine's GL context, made current, and a rig on the default test asset; skips without an EGL surfaceless
+// desktop GL 4.3 core context.
+static void plEngineRig_Create( plTestEglContext* engine, plTestRig* rig )
 {
-	(void)state;
-	plTestEglContext engine;
-	if ( !plTestEgl_Create( &engine ) )
+	if ( !plTestEgl_Create( engine ) )
 	{
 		print_message( "SKIP: no EGL surfaceless desktop GL 4.3 core context\n" );
 		skip();
 	}
-	assert_true( plTestEgl_MakeCurrent( &engine ) );
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
+	assert_true( plTestEgl_MakeCurrent( engine ) );
+	assert_int_equal( plTestRig_Create( rig, NULL, NULL ), PLEAT_RESULT_OK );
+}
+
+static void test_gl_error_in_step_changes_nothing( void** state )
+{
+	(void)state;
+	plTestEglContext engine;
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plEngineRig_Create( &engine, &rig );
+	const plTestAsset* model = rig.model;
 	uint32_t n = rig.info.vertex_count;
 	GLuint buffers[2];
 	glGenBuffers( 2, buffers );
@@ -49,7 +55,6 @@ static void test_gl_error_in_step_changes_nothing( void** state )
 	{
 		glDeleteBuffers( 2, buffers );
 		plTestRig_Free( &rig );
-		plTestAsset_Destroy( model );
 		plTestEgl_Destroy( &engine );
 		skip();
 	}
@@ -110,7 +115,6 @@ static void test_gl_error_in_step_changes_nothing( void** state )
 	free( out_positions );
 	free( out_normals );
 	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
 	plTestEgl_Release( &engine );
 	plTestEgl_Destroy( &engine );
 }
@@ -122,17 +126,10 @@ static void test_gl_error_in_set_shape_changes_nothing( void** state )
 {
 	(void)state;
 	plTestEglContext engine, other;
-	if ( !plTestEgl_Create( &engine ) )
-	{
-		print_message( "SKIP: no EGL surfaceless desktop GL 4.3 core context\n" );
-		skip();
-	}
-	assert_true( plTestEgl_Create( &other ) ); // a second context of the same kind, sharing nothing with the first
-	assert_true( plTestEgl_MakeCurrent( &engine ) );
-	plTestAssetParams p = plTestAsset_DefaultParams();
-	plTestAsset* model = plTestAsset_Create( &p );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	plEngineRig_Create( &engine, &rig );
+	assert_true( plTestEgl_Create( &other ) ); // a second context of the same kind, sharing nothing with the first
+	const plTestAsset* model = rig.model;
 	uint32_t n = rig.info.vertex_count;
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = rig.asset;
@@ -142,7 +139,6 @@ static void test_gl_error_in_set_shape_changes_nothing( void** state )
 	if ( r == PLEAT_RESULT_GL_UNAVAILABLE )
 	{
 		plTestRig_Free( &rig );
-		plTestAsset_Destroy( model );
 		plTestEgl_Destroy( &other );
 		plTestEgl_Destroy( &engine );
 		skip();
@@ -205,7 +201,6 @@ static void test_gl_error_in_set_shape_changes_nothing( void** state )
 	free( out_failed );
 	free( out_twin );
 	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
 	plTestEgl_Release( &engine );
 	plTestEgl_Destroy( &other );
 	plTestEgl_Destroy( &engine );

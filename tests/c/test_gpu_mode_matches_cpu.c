@@ -22,9 +22,9 @@ static void plCompareGpuWithCpu( float network_rate_hz )
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	p.grid_x = 17;
 	p.grid_y = 19;
-	plTestAsset* model = plTestAsset_Create( &p );
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Create( &rig, &p, NULL ), PLEAT_RESULT_OK );
+	const plTestAsset* model = rig.model;
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = rig.asset;
 	idef.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
@@ -34,7 +34,6 @@ static void plCompareGpuWithCpu( float network_rate_hz )
 	if ( r == PLEAT_RESULT_GL_UNAVAILABLE )
 	{
 		plTestRig_Free( &rig );
-		plTestAsset_Destroy( model );
 		skip();
 	}
 	assert_int_equal( r, PLEAT_RESULT_OK );
@@ -76,7 +75,6 @@ static void plCompareGpuWithCpu( float network_rate_hz )
 	free( positions );
 	free( normals );
 	plTestRig_Free( &rig );
-	plTestAsset_Destroy( model );
 }
 
 static void test_headless_gpu_instance_matches_cpu_instance( void** state )
