@@ -86,6 +86,19 @@ static plAllocator MakeAllocator( CountingAllocator* counter )
 	return allocator;
 }
 
+// plOrtMlp_Create must fail with `expected`, set the handle to NULL and keep no memory.
+static void ExpectCreateFails( const char* library, const void* model, size_t model_size, uint32_t input_count,
+							   uint32_t output_count, plResult expected )
+{
+	CountingAllocator counter;
+	plAllocator allocator = MakeAllocator( &counter );
+	plOrtMlp* mlp = (plOrtMlp*)&counter; // must be overwritten with NULL
+	assert_int_equal( plOrtMlp_Create( library, model, model_size, input_count, output_count, &allocator, &mlp ),
+					  expected );
+	assert_null( mlp );
+	assert_int_equal( counter.live_bytes, 0 );
+}
+
 // ---- test data ----
 
 typedef struct OrtCase
@@ -375,8 +388,6 @@ static void wrong_library_path_is_backend_unavailable( void** state )
 {
 	(void)state;
 	REQUIRE_DATA();
-	CountingAllocator counter;
-	plAllocator allocator = MakeAllocator( &counter );
 	const char* wrong_paths[] = {
 		"/nonexistent/libonnxruntime.so", // no such file
 		"libm.so.6",                      // a real library that is not ONNX Runtime
@@ -384,23 +395,15 @@ static void wrong_library_path_is_backend_unavailable( void** state )
 	};
 	for ( size_t i = 0; i < sizeof( wrong_paths ) / sizeof( wrong_paths[0] ); ++i )
 	{
-		plOrtMlp* mlp = (plOrtMlp*)&counter; // must be overwritten with NULL
-		assert_int_equal( plOrtMlp_Create( wrong_paths[i], g_lp.model, g_lp.model_size, g_lp.input_count,
-										   g_lp.output_count, &allocator, &mlp ),
-						  PLEAT_RESULT_BACKEND_UNAVAILABLE );
-		assert_null( mlp );
+		ExpectCreateFails( wrong_paths[i], g_lp.model, g_lp.model_size, g_lp.input_count, g_lp.output_count,
+						   PLEAT_RESULT_BACKEND_UNAVAILABLE );
 	}
-	assert_int_equal( counter.live_bytes, 0 );
 }
 
 static void corrupt_model_is_invalid_asset_data( void** state )
 {
 	(void)state;
 	REQUIRE_DATA();
-	CountingAllocator counter;
-	plAllocator allocator = MakeAllocator( &counter );
-	plOrtMlp* mlp = NULL;
-
 	unsigned char garbage[512];
 	uint32_t seed = 12345u;
 	for ( size_t i = 0; i < sizeof( garbage ); ++i )
@@ -408,40 +411,24 @@ static void corrupt_model_is_invalid_asset_data( void** state )
 		seed = seed * 1664525u + 1013904223u;
 		garbage[i] = (unsigned char)( seed >> 24 );
 	}
-	assert_int_equal( plOrtMlp_Create( g_library, garbage, sizeof( garbage ), g_lp.input_count, g_lp.output_count,
-									   &allocator, &mlp ),
-					  PLEAT_RESULT_INVALID_ASSET_DATA );
-	assert_null( mlp );
-
+	ExpectCreateFails( g_library, garbage, sizeof( garbage ), g_lp.input_count, g_lp.output_count,
+					   PLEAT_RESULT_INVALID_ASSET_DATA );
 	// Cut inside the weights: the protobuf is incomplete.
-	assert_int_equal( plOrtMlp_Create( g_library, g_lp.model, g_lp.model_size / 2, g_lp.input_count,
-									   g_lp.output_count, &allocator, &mlp ),
-					  PLEAT_RESULT_INVALID_ASSET_DATA );
-	assert_null( mlp );
-	assert_int_equal( counter.live_bytes, 0 );
+	ExpectCreateFails( g_library, g_lp.model, g_lp.model_size / 2, g_lp.input_count, g_lp.output_count,
+					   PLEAT_RESULT_INVALID_ASSET_DATA );
 }
 
 static void model_with_other_tensor_sizes_is_invalid_asset_data( void** state )
 {
 	(void)state;
 	REQUIRE_DATA();
-	CountingAllocator counter;
-	plAllocator allocator = MakeAllocator( &counter );
-	plOrtMlp* mlp = NULL;
-	assert_int_equal( plOrtMlp_Create( g_library, g_lp.model, g_lp.model_size, g_lp.input_count + 1,
-									   g_lp.output_count, &allocator, &mlp ),
-					  PLEAT_RESULT_INVALID_ASSET_DATA );
-	assert_null( mlp );
-	assert_int_equal( plOrtMlp_Create( g_library, g_lp.model, g_lp.model_size, g_lp.input_count,
-									   g_lp.output_count - 1, &allocator, &mlp ),
-					  PLEAT_RESULT_INVALID_ASSET_DATA );
-	assert_null( mlp );
+	ExpectCreateFails( g_library, g_lp.model, g_lp.model_size, g_lp.input_count + 1, g_lp.output_count,
+					   PLEAT_RESULT_INVALID_ASSET_DATA );
+	ExpectCreateFails( g_library, g_lp.model, g_lp.model_size, g_lp.input_count, g_lp.output_count - 1,
+					   PLEAT_RESULT_INVALID_ASSET_DATA );
 	// The decoder model given the latent predictor's sizes.
-	assert_int_equal( plOrtMlp_Create( g_library, g_dec.model, g_dec.model_size, g_lp.input_count,
-									   g_lp.output_count, &allocator, &mlp ),
-					  PLEAT_RESULT_INVALID_ASSET_DATA );
-	assert_null( mlp );
-	assert_int_equal( counter.live_bytes, 0 );
+	ExpectCreateFails( g_library, g_dec.model, g_dec.model_size, g_lp.input_count, g_lp.output_count,
+					   PLEAT_RESULT_INVALID_ASSET_DATA );
 }
 
 static void invalid_arguments_are_rejected( void** state )
@@ -592,50 +579,69 @@ static void ort_matches_pleat_mlp_kernels( void** state )
 	}
 }
 
-static plResult CreateInstanceWithBackend( plContext context, plAsset asset, plMlpBackend backend,
-										   plInstance* out )
+// The instance test's asset (OXLP/OXDC sections) in a context that allocates through the counter.
+typedef struct LoadedAsset
 {
-	plInstanceDef def = plDefaultInstanceDef();
-	def.asset = asset;
-	def.beta = g_instance.beta;
-	def.beta_count = 10;
-	def.material = g_instance.material;
-	def.mlp_backend = backend;
-	def.onnxruntime_library = g_library;
-	return plCreateInstance( context, &def, out );
-}
+	CountingAllocator counter;
+	plContext context;
+	plAsset asset;
+} LoadedAsset;
 
-static void ort_backend_instance_matches_pleat_backend_over_motion( void** state )
+// Skips without the instance test's data.
+static void LoadInstanceAsset( LoadedAsset* loaded )
 {
-	(void)state;
 	REQUIRE_DATA();
 	if ( !g_have_instance )
 	{
 		print_message( "skipped: no instance.pleat (pleat tools not importable by PLEAT_PYTHON?)\n" );
 		skip();
 	}
-	CountingAllocator counter;
-	MakeAllocator( &counter );
+	MakeAllocator( &loaded->counter );
 	plContextDef cdef = plDefaultContextDef();
 	cdef.alloc = CountingAlloc;
 	cdef.free = CountingFree;
-	cdef.allocator_context = &counter;
-	plContext context;
-	assert_int_equal( plCreateContext( &cdef, &context ), PLEAT_RESULT_OK );
+	cdef.allocator_context = &loaded->counter;
+	assert_int_equal( plCreateContext( &cdef, &loaded->context ), PLEAT_RESULT_OK );
 	plAssetDef adef = plDefaultAssetDef();
 	adef.data = g_instance.asset;
 	adef.size = g_instance.asset_size;
-	plAsset asset;
-	assert_int_equal( plLoadAsset( context, &adef, &asset ), PLEAT_RESULT_OK );
+	assert_int_equal( plLoadAsset( loaded->context, &adef, &loaded->asset ), PLEAT_RESULT_OK );
+}
+
+// Destroys the asset and the context: everything, ORT sessions included, must have come back to the host.
+static void UnloadInstanceAsset( const LoadedAsset* loaded )
+{
+	assert_int_equal( plDestroyAsset( loaded->asset ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyContext( loaded->context ), PLEAT_RESULT_OK );
+	assert_int_equal( loaded->counter.live_bytes, 0 );
+}
+
+static plResult CreateInstanceWithBackend( const LoadedAsset* loaded, plMlpBackend backend, plInstance* out )
+{
+	plInstanceDef def = plDefaultInstanceDef();
+	def.asset = loaded->asset;
+	def.beta = g_instance.beta;
+	def.beta_count = 10;
+	def.material = g_instance.material;
+	def.mlp_backend = backend;
+	def.onnxruntime_library = g_library;
+	return plCreateInstance( loaded->context, &def, out );
+}
+
+static void ort_backend_instance_matches_pleat_backend_over_motion( void** state )
+{
+	(void)state;
+	LoadedAsset loaded;
+	LoadInstanceAsset( &loaded );
 	plAssetInfo info;
-	assert_int_equal( plAsset_GetInfo( asset, &info ), PLEAT_RESULT_OK );
+	assert_int_equal( plAsset_GetInfo( loaded.asset, &info ), PLEAT_RESULT_OK );
 	assert_true( info.has_onnx_lp && info.has_onnx_decoder );
 	assert_int_equal( info.joint_count, g_instance.joint_count );
 
 	plInstance pleat_instance;
 	plInstance ort_instance;
-	assert_true( CreateInstanceWithBackend( context, asset, PLEAT_MLP_BACKEND_PLEAT, &pleat_instance ) >= 0 );
-	assert_true( CreateInstanceWithBackend( context, asset, PLEAT_MLP_BACKEND_ONNXRUNTIME, &ort_instance ) >= 0 );
+	assert_true( CreateInstanceWithBackend( &loaded, PLEAT_MLP_BACKEND_PLEAT, &pleat_instance ) >= 0 );
+	assert_true( CreateInstanceWithBackend( &loaded, PLEAT_MLP_BACKEND_ONNXRUNTIME, &ort_instance ) >= 0 );
 
 	float latent_pleat[64];
 	float latent_ort[64];
@@ -703,43 +709,22 @@ static void ort_backend_instance_matches_pleat_backend_over_motion( void** state
 	free( reference_start );
 	assert_int_equal( plDestroyInstance( ort_instance ), PLEAT_RESULT_OK );
 	assert_int_equal( plDestroyInstance( pleat_instance ), PLEAT_RESULT_OK );
-	assert_int_equal( plDestroyAsset( asset ), PLEAT_RESULT_OK );
-	assert_int_equal( plDestroyContext( context ), PLEAT_RESULT_OK );
-	assert_int_equal( counter.live_bytes, 0 ); // everything, ORT sessions included, came back to the host
+	UnloadInstanceAsset( &loaded );
 }
 
 static void ort_backend_instance_with_wrong_library_is_backend_unavailable( void** state )
 {
 	(void)state;
-	REQUIRE_DATA();
-	if ( !g_have_instance )
-	{
-		print_message( "skipped: no instance.pleat\n" );
-		skip();
-	}
-	CountingAllocator counter;
-	MakeAllocator( &counter );
-	plContextDef cdef = plDefaultContextDef();
-	cdef.alloc = CountingAlloc;
-	cdef.free = CountingFree;
-	cdef.allocator_context = &counter;
-	plContext context;
-	assert_int_equal( plCreateContext( &cdef, &context ), PLEAT_RESULT_OK );
-	plAssetDef adef = plDefaultAssetDef();
-	adef.data = g_instance.asset;
-	adef.size = g_instance.asset_size;
-	plAsset asset;
-	assert_int_equal( plLoadAsset( context, &adef, &asset ), PLEAT_RESULT_OK );
+	LoadedAsset loaded;
+	LoadInstanceAsset( &loaded );
 	plInstanceDef def = plDefaultInstanceDef();
-	def.asset = asset;
+	def.asset = loaded.asset;
 	def.mlp_backend = PLEAT_MLP_BACKEND_ONNXRUNTIME;
 	def.onnxruntime_library = "/nonexistent/libonnxruntime.so";
 	plInstance instance;
-	assert_int_equal( plCreateInstance( context, &def, &instance ), PLEAT_RESULT_BACKEND_UNAVAILABLE );
+	assert_int_equal( plCreateInstance( loaded.context, &def, &instance ), PLEAT_RESULT_BACKEND_UNAVAILABLE );
 	assert_false( plInstance_IsValid( instance ) );
-	assert_int_equal( plDestroyAsset( asset ), PLEAT_RESULT_OK );
-	assert_int_equal( plDestroyContext( context ), PLEAT_RESULT_OK );
-	assert_int_equal( counter.live_bytes, 0 ); // everything, ORT sessions included, came back to the host
+	UnloadInstanceAsset( &loaded );
 }
 
 #endif // PLEAT_HAVE_ORT_HEADER
@@ -749,14 +734,8 @@ static void missing_backend_is_backend_unavailable( void** state )
 {
 	(void)state;
 	static const unsigned char not_a_model[16] = { 1, 2, 3 };
-	CountingAllocator counter;
-	plAllocator allocator = MakeAllocator( &counter );
-	plOrtMlp* mlp = (plOrtMlp*)&counter;
-	assert_int_equal( plOrtMlp_Create( "/nonexistent/dir/libonnxruntime.so.1", not_a_model, sizeof( not_a_model ), 4,
-									   4, &allocator, &mlp ),
-					  PLEAT_RESULT_BACKEND_UNAVAILABLE );
-	assert_null( mlp );
-	assert_int_equal( counter.live_bytes, 0 );
+	ExpectCreateFails( "/nonexistent/dir/libonnxruntime.so.1", not_a_model, sizeof( not_a_model ), 4, 4,
+					   PLEAT_RESULT_BACKEND_UNAVAILABLE );
 #if !PLEAT_HAVE_ORT_HEADER
 	float x[4] = { 0 };
 	assert_int_equal( plOrtMlp_Run( NULL, x, x ), PLEAT_RESULT_BACKEND_UNAVAILABLE );
