@@ -337,15 +337,22 @@ static void PrepareData( const char* python, const char* script, const char* dat
 
 #if PLEAT_HAVE_ORT_HEADER
 
+// A session on the case's model; its memory comes through allocator, which must outlive it.
+static plOrtMlp* CreateCaseMlp( const OrtCase* c, const plAllocator* allocator )
+{
+	plOrtMlp* mlp = NULL;
+	assert_int_equal( plOrtMlp_Create( g_library, c->model, c->model_size, c->input_count, c->output_count,
+									   allocator, &mlp ),
+					  PLEAT_RESULT_OK );
+	assert_non_null( mlp );
+	return mlp;
+}
+
 static void CheckMatchesReference( const OrtCase* c )
 {
 	CountingAllocator counter;
 	plAllocator allocator = MakeAllocator( &counter );
-	plOrtMlp* mlp = NULL;
-	assert_int_equal( plOrtMlp_Create( g_library, c->model, c->model_size, c->input_count, c->output_count,
-									   &allocator, &mlp ),
-					  PLEAT_RESULT_OK );
-	assert_non_null( mlp );
+	plOrtMlp* mlp = CreateCaseMlp( c, &allocator );
 	float* output = (float*)malloc( 4 * (size_t)c->output_count );
 	double worst = 0.0;
 	double largest = 0.0;
@@ -540,10 +547,7 @@ static void ort_matches_pleat_mlp_kernels( void** state )
 			const OrtCase* c = cases[m];
 			CountingAllocator counter;
 			plAllocator allocator = MakeAllocator( &counter );
-			plOrtMlp* mlp = NULL;
-			assert_int_equal( plOrtMlp_Create( g_library, c->model, c->model_size, c->input_count, c->output_count,
-											   &allocator, &mlp ),
-							  PLEAT_RESULT_OK );
+			plOrtMlp* mlp = CreateCaseMlp( c, &allocator );
 			float* ort_out = (float*)malloc( 4 * (size_t)c->output_count );
 			float* pleat_out = (float*)malloc( 4 * (size_t)c->output_count );
 			float* scratch = (float*)aligned_alloc( 32, 4 * 256 );
