@@ -18,6 +18,8 @@ layout(std140, binding = 0) uniform plGlDeformParams
 	uint influence_count; // K
 	uint joint_count;     // J
 	uint face_count;      // F
+	uint anchor_influence_count; // Ka (body_contact.comp)
+	float body_contact_offset_m; // (body_contact.comp)
 };
 
 layout(std430, binding = 0) restrict readonly buffer ShapedTemplate { vec4 shaped_template[]; }; // [N] xyz, w = 1

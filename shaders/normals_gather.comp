@@ -15,6 +15,8 @@ layout(std140, binding = 0) uniform plGlDeformParams
 	uint influence_count; // K
 	uint joint_count;     // J
 	uint face_count;      // F
+	uint anchor_influence_count; // Ka (body_contact.comp)
+	float body_contact_offset_m; // (body_contact.comp)
 };
 
 layout(std430, binding = 9) restrict readonly buffer AdjacencyOffsets { uint adjacency_offsets[]; }; // [N + 1]

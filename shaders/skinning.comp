@@ -13,6 +13,8 @@ layout(std140, binding = 0) uniform plGlDeformParams
 	uint influence_count; // K
 	uint joint_count;     // J
 	uint face_count;      // F
+	uint anchor_influence_count; // Ka (body_contact.comp)
+	float body_contact_offset_m; // (body_contact.comp)
 };
 
 layout(std430, binding = 3) restrict readonly buffer Deformed { vec4 deformed[]; };         // [N] T_def, w = 1

@@ -37,6 +37,13 @@ typedef struct plGlDeformerDesc
 	const uint32_t* faces;              // [F][3]
 	const uint32_t* adjacency_offsets;  // [N + 1] CSR into adjacency_faces
 	const uint32_t* adjacency_faces;    // [3F]
+	// Body contact (optional; NULL body_anchors = the asset has none): the anchors of the current β and the asset's
+	// anchor normals and skinning (pleat.h BODY CONTACT).
+	const float* body_anchors;              // [N][3]
+	const float* body_anchor_normals;       // [N][3]
+	const uint16_t* body_anchor_skin_indices; // [N][Ka]
+	const float* body_anchor_skin_weights;    // [N][Ka]
+	uint32_t body_anchor_influence_count;     // Ka
 	// Host-context mode only, optional (0 = the deformer owns its output buffers): GL buffer names the engine renders
 	// from; the deformer writes one vec4 per vertex (xyz, w = 1 for positions, 0 for normals).
 	uint32_t host_position_buffer;
@@ -48,8 +55,11 @@ typedef struct plGlDeformerDesc
 } plGlDeformerDesc;
 
 plResult plGlDeformer_Create( const plGlDeformerDesc* desc, const plAllocator* allocator, plGlDeformer** out );
-// Called when β changes (the shaped template is recomputed on the CPU once, then uploaded).
-plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template );
+// Called when β changes (the shaped template and, with body anchors, the anchors of β are recomputed on the CPU once,
+// then uploaded in one BufferSubData: a GL error leaves both as they were). body_anchors: [N][3], NULL without.
+plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template, const float* body_anchors );
+// Body contact for the following Runs (a deformer made without body anchors ignores it). offset_m: metres, >= 0.
+plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float offset_m );
 // blend_weights: [D]; skin_matrices: [J][3][4] row-major (rest space → output space).
 // positions / normals: optional [N][3] read-backs (NULL = leave the result on the GPU only).
 plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, const float* skin_matrices,

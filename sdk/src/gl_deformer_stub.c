@@ -12,10 +12,19 @@ plResult plGlDeformer_Create( const plGlDeformerDesc* desc, const plAllocator* a
 	return PLEAT_RESULT_GL_UNAVAILABLE;
 }
 
-plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template )
+plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template, const float* body_anchors )
 {
 	(void)deformer;
 	(void)shaped_template;
+	(void)body_anchors;
+	return PLEAT_RESULT_GL_UNAVAILABLE;
+}
+
+plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float offset_m )
+{
+	(void)deformer;
+	(void)enabled;
+	(void)offset_m;
 	return PLEAT_RESULT_GL_UNAVAILABLE;
 }
 

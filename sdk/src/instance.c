@@ -188,6 +188,14 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 		desc.faces = a->faces;
 		desc.adjacency_offsets = a->adjacency_offsets;
 		desc.adjacency_faces = a->adjacency_faces;
+		if ( a->body_anchors != NULL )
+		{
+			desc.body_anchors = inst->shaped_anchors;
+			desc.body_anchor_normals = a->body_anchor_normals;
+			desc.body_anchor_skin_indices = a->body_anchor_skin_indices;
+			desc.body_anchor_skin_weights = a->body_anchor_skin_weights;
+			desc.body_anchor_influence_count = a->body_anchor_influence_count;
+		}
 		desc.host_position_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_position_buffer : 0;
 		desc.host_normal_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_normal_buffer : 0;
 		// Headless: the SDK picks the platform and device itself, so it says which it got (a GPU machine silently
@@ -207,6 +215,11 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 		if ( def->gpu_mode == PLEAT_GPU_MODE_HEADLESS )
 		{
 			plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_GL_HEADLESS_CONTEXT, "%s", report );
+		}
+		r = plGlDeformer_SetBodyContact( inst->gl, inst->body_contact, inst->body_contact_offset_m );
+		if ( r != PLEAT_RESULT_OK )
+		{
+			return r;
 		}
 	}
 	return PLEAT_RESULT_OK;
@@ -491,6 +504,14 @@ plResult plInstance_SetBodyContact( plInstance handle, int enabled, float offset
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
+	if ( inst->gl != NULL ) // first, so a GL error leaves both paths as they were
+	{
+		plResult r = plGlDeformer_SetBodyContact( inst->gl, enabled, offset_m );
+		if ( r != PLEAT_RESULT_OK )
+		{
+			return r;
+		}
+	}
 	inst->body_contact = enabled != 0 && inst->asset->body_anchors != NULL;
 	inst->body_contact_offset_m = offset_m;
 	return PLEAT_RESULT_OK;
@@ -525,7 +546,7 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 	plResult r = plApplyShape( a, clamped_beta, inst->deformed, rest_joints, next_anchors );
 	if ( r == PLEAT_RESULT_OK && inst->gl != NULL )
 	{
-		r = plGlDeformer_SetShapedTemplate( inst->gl, inst->deformed );
+		r = plGlDeformer_SetShapedTemplate( inst->gl, inst->deformed, next_anchors );
 	}
 	if ( r != PLEAT_RESULT_OK )
 	{

@@ -219,12 +219,43 @@ plTestAsset* plTestAsset_Create( const plTestAssetParams* p )
 	return a;
 }
 
+int plTestAsset_AddBodyAnchors( plTestAsset* a, float depth_m )
+{
+	size_t n3 = (size_t)a->N * 3, nk = (size_t)a->N * a->K;
+	a->body_anchors = (float*)malloc( n3 * sizeof( float ) );
+	a->body_anchor_shape = (float*)malloc( ( a->B > 0 ? a->B : 1 ) * n3 * sizeof( float ) );
+	a->body_anchor_normals = (float*)calloc( n3, sizeof( float ) );
+	a->body_anchor_skin_indices = (uint16_t*)malloc( nk * sizeof( uint16_t ) );
+	a->body_anchor_skin_weights = (float*)malloc( nk * sizeof( float ) );
+	if ( a->body_anchors == NULL || a->body_anchor_shape == NULL || a->body_anchor_normals == NULL ||
+		 a->body_anchor_skin_indices == NULL || a->body_anchor_skin_weights == NULL )
+	{
+		return 0;
+	}
+	for ( uint32_t v = 0; v < a->N; ++v )
+	{
+		a->body_anchors[3 * v] = a->template_positions[3 * v];
+		a->body_anchors[3 * v + 1] = a->template_positions[3 * v + 1];
+		a->body_anchors[3 * v + 2] = a->template_positions[3 * v + 2] - depth_m;
+		a->body_anchor_normals[3 * v + 2] = v % 5 == 0 ? 0.0f : 1.0f;
+	}
+	memcpy( a->body_anchor_shape, a->shape_blend, (size_t)a->B * n3 * sizeof( float ) );
+	memcpy( a->body_anchor_skin_indices, a->skin_indices, nk * sizeof( uint16_t ) );
+	memcpy( a->body_anchor_skin_weights, a->skin_weights, nk * sizeof( float ) );
+	return 1;
+}
+
 void plTestAsset_Destroy( plTestAsset* a )
 {
 	if ( a == NULL )
 	{
 		return;
 	}
+	free( a->body_anchors );
+	free( a->body_anchor_shape );
+	free( a->body_anchor_normals );
+	free( a->body_anchor_skin_indices );
+	free( a->body_anchor_skin_weights );
 	for ( uint32_t i = 0; i < a->lp_count; ++i )
 	{
 		free( a->lp[i].weight );
@@ -399,6 +430,14 @@ uint8_t* plTestAsset_Write( const plTestAsset* a, size_t* out_size )
 	}
 	plAddSection( sections, &count, "BLND", a->fp16 ? 2 : 1, a->blend_shapes, 3, a->D, a->N, 3 )->widen_to_half =
 		a->fp16;
+	if ( a->body_anchors != NULL )
+	{
+		plAddSection( sections, &count, "BANC", 1, a->body_anchors, 2, a->N, 3, 1 );
+		plAddSection( sections, &count, "BASH", 1, a->body_anchor_shape, 3, a->B, a->N, 3 );
+		plAddSection( sections, &count, "BANN", 1, a->body_anchor_normals, 2, a->N, 3, 1 );
+		plAddSection( sections, &count, "BASI", 4, a->body_anchor_skin_indices, 2, a->N, a->K, 1 );
+		plAddSection( sections, &count, "BASW", 1, a->body_anchor_skin_weights, 2, a->N, a->K, 1 );
+	}
 	if ( a->onnx_lp != NULL )
 	{
 		plAddSection( sections, &count, "OXLP", 6, a->onnx_lp, 1, (uint32_t)a->onnx_lp_size, 1, 1 );

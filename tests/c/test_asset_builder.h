@@ -56,12 +56,21 @@ typedef struct plTestAsset
 	uint16_t version_major, version_minor;
 	const void* onnx_lp; size_t onnx_lp_size; // optional OXLP payload
 	const void* onnx_dec; size_t onnx_dec_size;
+	// Optional body anchors (asset 1.1 BANC/BASH/BANN/BASI/BASW), NULL = none: see plTestAsset_AddBodyAnchors.
+	float* body_anchors;             // [N][3]
+	float* body_anchor_shape;        // [B][N][3]
+	float* body_anchor_normals;      // [N][3]
+	uint16_t* body_anchor_skin_indices; // [N][K]
+	float* body_anchor_skin_weights;    // [N][K]
 } plTestAsset;
 
 plTestAssetParams plTestAsset_DefaultParams( void );
 // Returns NULL on allocation failure.
 plTestAsset* plTestAsset_Create( const plTestAssetParams* params );
 void plTestAsset_Destroy( plTestAsset* asset );
+// Gives the sheet a stand-in body: a parallel plane depth_m behind it (normal +Z), shaped and skinned like the sheet,
+// every fifth vertex without an anchor. Blend shapes larger than depth_m push vertices through it. 0 on failure.
+int plTestAsset_AddBodyAnchors( plTestAsset* asset, float depth_m );
 // Serialises into a 64-byte aligned block (free with plTestAsset_FreeBytes). Returns NULL on failure.
 uint8_t* plTestAsset_Write( const plTestAsset* asset, size_t* out_size );
 void plTestAsset_FreeBytes( uint8_t* bytes );

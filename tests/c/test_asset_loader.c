@@ -25,6 +25,10 @@ static int plLoaderSetup( void** state )
 	plLoaderFixture* f = (plLoaderFixture*)calloc( 1, sizeof( plLoaderFixture ) );
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	f->model = plTestAsset_Create( &p );
+	if ( f->model == NULL || !plTestAsset_AddBodyAnchors( f->model, 0.002f ) ) // the optional 1.1 block, checked too
+	{
+		return -1;
+	}
 	f->bytes = plTestAsset_Write( f->model, &f->size );
 	plContextDef def = plDefaultContextDef();
 	if ( plCreateContext( &def, &f->context ) != PLEAT_RESULT_OK )
@@ -347,6 +351,11 @@ static void test_broken_content_is_invalid_asset_data( void** state )
 		{ "CONF", 40, 3 },           // unknown activation
 		{ "CONF", 52, zero },        // dt_min 0
 		{ "LPB0", 0, nan_bits },     // non-finite bias
+		{ "BANN", 12, half },        // body anchor normal of vertex 1 not unit length (0.5, 0, 1)
+		{ "BASI", 0, 0x00FF00FFu },  // body anchor joint index out of range
+		{ "BASW", 4, minus_one },    // negative body anchor skin weight
+		{ "BANC", 8, nan_bits },     // non-finite body anchor
+		{ "BASH", 0, nan_bits },     // non-finite body anchor shape direction
 		{ "JNAM", 0, 0x41414141u },  // (valid: name still NUL-terminated) — checked below to load
 	};
 	for ( size_t i = 0; i + 1 < sizeof( edits ) / sizeof( edits[0] ); ++i )
@@ -357,7 +366,13 @@ static void test_broken_content_is_invalid_asset_data( void** state )
 			fail_msg( "edit %zu (%s): %s", i, edits[i].fourcc, plResultString( r ) );
 		}
 	}
-	assert_int_equal( plLoadEdited( f, f->size, plEditContent, (void*)&edits[17], 1, 0 ), PLEAT_RESULT_OK );
+	assert_int_equal( plLoadEdited( f, f->size, plEditContent, (void*)&edits[sizeof( edits ) / sizeof( edits[0] ) - 1],
+									1, 0 ),
+					  PLEAT_RESULT_OK );
+	// The body-contact block is all or none: one of its five sections missing (renamed away) is invalid.
+	plFieldEdit drop_basw = { "BASW", 0, 0, 4 };
+	memcpy( &drop_basw.value, "BASX", 4 );
+	assert_int_equal( plLoadEdited( f, f->size, plEditField, &drop_basw, 1, 0 ), PLEAT_RESULT_INVALID_ASSET_DATA );
 	// A missing required section (TMPL renamed to an unknown fourcc, which a 1.x reader ignores).
 	plFieldEdit rename = { "TMPL", 0, 0, 4 };
 	memcpy( &rename.value, "TMPX", 4 );

@@ -262,12 +262,12 @@ static void test_set_shaped_template_moves_the_output( void** state )
 		mesh->shaped_template[3 * i] *= 1.1f;
 		mesh->shaped_template[3 * i + 2] *= 1.1f;
 	}
-	assert_int_equal( plGlDeformer_SetShapedTemplate( deformer, mesh->shaped_template ), PLEAT_RESULT_OK );
+	assert_int_equal( plGlDeformer_SetShapedTemplate( deformer, mesh->shaped_template, NULL ), PLEAT_RESULT_OK );
 	double position_error, normal_error;
 	plRunMotion( fixture, deformer, 0, 2, &position_error, &normal_error );
 	memcpy( mesh->shaped_template, original, sizeof( float ) * values );
 	free( original );
-	assert_int_equal( plGlDeformer_SetShapedTemplate( deformer, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plGlDeformer_SetShapedTemplate( deformer, NULL, NULL ), PLEAT_RESULT_INVALID_ARGUMENT );
 	plGlDeformer_Destroy( deformer );
 	plExpectNoLeak( fixture );
 }

@@ -5,6 +5,10 @@
 // With a network rate (plInstanceDef.network_rate_hz) the steps between network updates skin the held deformation:
 // the GPU re-blends it, the CPU reuses its T_def; both must still agree.
 //
+// With body anchors (asset 1.1, pleat.h BODY CONTACT) body_contact.comp runs after skinning on the GPU and
+// plBodyContactJob on the CPU: the stand-in body is a plane 2 mm behind the sheet and the blend shapes (±1 cm) push
+// many vertices through it, so both paths move vertices; they must agree, and differ from contact off.
+//
 // Tolerance: 1e-5 m for positions, 1e-3 for normals — the GPU sums in a different order and with its own rounding
 // (the GL engineer's test_gl_deformer measures ~1e-6 m and ~1e-4); a wrong matrix layout or weight gives centimetres.
 #include <setjmp.h>
@@ -17,13 +21,21 @@
 
 #include "test_common.h"
 
-static void plCompareGpuWithCpu( float network_rate_hz )
+static void plCompareGpuWithCpu( float network_rate_hz, int body_anchors )
 {
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	p.grid_x = 17;
 	p.grid_y = 19;
+	plTestAsset* built = plTestAsset_Create( &p );
+	assert_non_null( built );
+	if ( body_anchors )
+	{
+		assert_true( plTestAsset_AddBodyAnchors( built, 0.002f ) );
+	}
 	plTestRig rig;
-	assert_int_equal( plTestRig_Create( &rig, &p, NULL ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Init( &rig, built, NULL ), PLEAT_RESULT_OK );
+	rig.model = built;
+	assert_int_equal( rig.info.has_body_contact, body_anchors );
 	const plTestAsset* model = rig.model;
 	plInstanceDef idef = plDefaultInstanceDef();
 	idef.asset = rig.asset;
@@ -49,8 +61,15 @@ static void plCompareGpuWithCpu( float network_rate_hz )
 	out.positions = positions;
 	out.normals = normals;
 	out.vertex_capacity = model->N;
+	plInstance plain = { 0 }; // contact off: the contact must change something for the comparison to mean anything
+	plInstanceDef pdef = plDefaultInstanceDef();
+	pdef.asset = rig.asset;
+	pdef.body_contact = 0;
+	assert_int_equal( plCreateInstance( rig.context, &pdef, &plain ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_SetNetworkRate( plain, network_rate_hz ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_SetShape( plain, beta, 2 ), PLEAT_RESULT_OK );
 	float q[64 * 4];
-	double worst_p = 0, worst_n = 0;
+	double worst_p = 0, worst_n = 0, contact_moved = 0;
 	for ( uint32_t t = 0; t < 10; ++t )
 	{
 		plFrameInput in = plTestMotion( t, model->J, q );
@@ -61,6 +80,14 @@ static void plCompareGpuWithCpu( float network_rate_hz )
 		const float *cp, *cn;
 		plInstance_GetPositions( cpu, &cp, NULL );
 		plInstance_GetNormals( cpu, &cn, NULL );
+		const float* pp;
+		assert_int_equal( plInstance_Step( plain, &in, NULL ), on_gpu );
+		plInstance_GetPositions( plain, &pp, NULL );
+		for ( uint32_t i = 0; i < model->N * 3; ++i )
+		{
+			double moved = fabs( (double)pp[i] - cp[i] );
+			contact_moved = moved > contact_moved ? moved : contact_moved;
+		}
 		for ( uint32_t i = 0; i < model->N * 3; ++i )
 		{
 			double ep = fabs( (double)positions[i] - cp[i] ), en = fabs( (double)normals[i] - cn[i] );
@@ -68,10 +95,19 @@ static void plCompareGpuWithCpu( float network_rate_hz )
 			worst_n = en > worst_n ? en : worst_n;
 		}
 	}
-	print_message( "GPU vs CPU instance, network rate %g Hz: max position error %.3g m, max normal error %.3g\n",
-				   network_rate_hz, worst_p, worst_n );
+	print_message( "GPU vs CPU instance, network rate %g Hz, body anchors %d: max position error %.3g m, max normal "
+				   "error %.3g (body contact moved vertices by up to %.3g m)\n",
+				   network_rate_hz, body_anchors, worst_p, worst_n, contact_moved );
 	assert_true( worst_p <= 1e-5 );
 	assert_true( worst_n <= 1e-3 );
+	if ( body_anchors )
+	{
+		assert_true( contact_moved > 1e-3 );
+	}
+	else
+	{
+		assert_true( contact_moved == 0.0 );
+	}
 	free( positions );
 	free( normals );
 	plTestRig_Free( &rig );
@@ -80,19 +116,26 @@ static void plCompareGpuWithCpu( float network_rate_hz )
 static void test_headless_gpu_instance_matches_cpu_instance( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 0.0f );
+	plCompareGpuWithCpu( 0.0f, 0 );
+}
+
+static void test_headless_gpu_instance_matches_cpu_instance_with_body_contact( void** state )
+{
+	(void)state;
+	plCompareGpuWithCpu( 0.0f, 1 );
 }
 
 static void test_headless_gpu_instance_matches_cpu_instance_between_network_updates( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 12.0f ); // steps of 1/30 s: the networks run on every third step
+	plCompareGpuWithCpu( 12.0f, 1 ); // steps of 1/30 s: the networks run on every third step
 }
 
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance ),
+		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_body_contact ),
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_between_network_updates ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );

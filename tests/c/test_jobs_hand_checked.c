@@ -523,6 +523,43 @@ static void test_input_normalisation_and_latent_guard_by_hand( void** state )
 // The rate decision (docs/inputs.md "Network update rate"), dt range [1/64, 1/16] s, binary-exact values:
 // no rate: always run with the step's dt; 16 Hz under 64 fps: run when 4 × 1/64 have gathered, with dt 1/16;
 // a first frame always runs; a gathered 1/8 is clamped to 1/16; a step dt below the range is clamped up.
+// Body contact: joint 0 is the identity, joint 1 a 90° rotation about +Z then a shift of +1 m in x. Anchors at the
+// origin with normal +Y:
+//   v0 (joint 0): x = (0, −0.005, 0) is 5 mm behind the plane y = 0 → moved to y = offset = 0.002 → (0, 0.002, 0).
+//   v1 (joint 0): x = (0.3, 0.010, 0) is 10 mm in front (> offset) → untouched.
+//   v2 (joint 1): the anchor goes to M·(0,0,0,1) = (1, 0, 0) and n = R·(0,1,0) = (−1, 0, 0); x = (1.001, 0.5, 0) has
+//       d = (x − a)·n = −0.001 → moved by offset − d = 0.003 along (−1, 0, 0) → (0.998, 0.5, 0).
+//   v3: zero normal (no anchor) and deep behind → untouched.
+//   v4 (half joint 0, half joint 1): M = (I + M1)/2 = [[0.5, −0.5, 0, 0.5], [0.5, 0.5, 0, 0], [0, 0, 1, 0]];
+//       a = (0.5, 0, 0), n = normalize(M·(0,1,0)) = normalize(−0.5, 0.5, 0) = (−√½, √½, 0);
+//       x = (0.5, 0, 0) is on the plane (d = 0) → moved by 0.002·n = (0.5 − 0.001414, 0.001414, 0).
+static void test_body_contact_by_hand( void** state )
+{
+	(void)state;
+	float positions[5 * 3] = { 0, -0.005f, 0, 0.3f, 0.010f, 0, 1.001f, 0.5f, 0, 0, -1.0f, 0, 0.5f, 0, 0 };
+	const float anchors[5 * 3] = { 0 };
+	const float normals[5 * 3] = { 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0 };
+	const uint16_t indices[5 * 2] = { 0, 1, 0, 1, 1, 0, 0, 1, 0, 1 };
+	const float weights[5 * 2] = { 1, 0, 1, 0, 1, 0, 1, 0, 0.5f, 0.5f };
+	const float matrices[2 * 12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, /* joint 1: */ 0, -1, 0, 1, 1, 0, 0, 0, 0, 0, 1, 0 };
+	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), anchors, normals, indices, weights, 2, matrices, 2,
+							 0.002f, 0, 5 };
+	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
+	const float expected[5 * 3] = { 0, 0.002f, 0, 0.3f, 0.010f, 0, 0.998f, 0.5f, 0, 0, -1.0f, 0,
+									0.5f - 0.00141421356f, 0.00141421356f, 0 };
+	for ( int i = 0; i < 15; ++i )
+	{
+		assert_float_equal( positions[i], expected[i], 1e-6f );
+	}
+	// A vertex range leaves the rest alone; a negative or non-finite offset is refused.
+	positions[1] = -0.005f;
+	job.vertex_begin = 1;
+	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
+	assert_float_equal( positions[1], -0.005f, 0.0f );
+	job.offset_m = -0.001f;
+	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+}
+
 static void test_network_rate_decision_by_hand( void** state )
 {
 	(void)state;
@@ -558,6 +595,7 @@ int main( void )
 		cmocka_unit_test( test_shape_blend_and_shaped_joints_by_hand ),
 		cmocka_unit_test( test_input_normalisation_and_latent_guard_by_hand ),
 		cmocka_unit_test( test_network_rate_decision_by_hand ),
+		cmocka_unit_test( test_body_contact_by_hand ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

@@ -669,7 +669,8 @@ PLEAT_API plResult plInstance_Reset( plInstance instance );
 PLEAT_API plResult plInstance_SetNetworkRate( plInstance instance, float network_rate_hz );
 /// Turn body contact on or off and set its clearance (BODY CONTACT above; plInstanceDef.body_contact and
 /// body_contact_offset_m). Applies from the next step. INVALID_ARGUMENT if offset_m is not finite or outside
-/// 0 .. 0.05 m (nothing changes); turning it on for an asset without body anchors is OK and changes nothing.
+/// 0 .. 0.05 m (nothing changes); turning it on for an asset without body anchors is OK and changes nothing. GPU
+/// modes: a GL error (GL_ERROR, GL_UNAVAILABLE) leaves the setting as it was.
 PLEAT_API plResult plInstance_SetBodyContact( plInstance instance, int enabled, float offset_m );
 /// Set the body shape β ([beta_count] unitless, missing entries 0); recomputes the shaped template and J(β) once.
 /// Values outside [beta_min, beta_max] are clamped (PLEAT_RESULT_CLAMPED). GPU modes upload the new template first:

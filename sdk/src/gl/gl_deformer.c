@@ -1,8 +1,10 @@
-// The GL compute path: blend_shapes.comp → skinning.comp → face_normals.comp → normals_gather.comp over GPU-resident
+// The GL compute path: blend_shapes.comp → skinning.comp (→ body_contact.comp) → face_normals.comp → normals_gather.comp
+// over GPU-resident
 // asset data. See
 // sdk/src/gl_deformer.h for the contract and docs/gpu.md for the buffers, the saved state and the measurements.
 #include "gl_internal.h"
 #include "gl_shaders.h"
+#include <stddef.h>
 #include <string.h>
 
 enum
@@ -11,6 +13,7 @@ enum
 	PLEAT_GL_PROGRAM_SKINNING,
 	PLEAT_GL_PROGRAM_FACE_NORMALS,
 	PLEAT_GL_PROGRAM_NORMALS_GATHER,
+	PLEAT_GL_PROGRAM_BODY_CONTACT, // assets with body anchors only (0 otherwise)
 	PLEAT_GL_PROGRAM_COUNT
 };
 
@@ -26,6 +29,9 @@ struct plGlDeformer
 	uint32_t blend_count;     // D
 	uint32_t influence_count; // K
 	uint32_t joint_count;     // J
+	uint32_t anchor_influence_count; // Ka, 0 without body anchors
+	int body_contact;                // the contact pass runs (anchors present and enabled)
+	float body_contact_offset_m;     // the clearance the params buffer holds
 
 	GLuint programs[PLEAT_GL_PROGRAM_COUNT];
 	GLuint params_buffer;                    // plGlDeformParams
@@ -154,6 +160,18 @@ static plResult plValidateDesc( const plGlDeformerDesc* desc )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	if ( desc->mode == PLEAT_GL_DEFORMER_HEADLESS && ( desc->host_position_buffer != 0 || desc->host_normal_buffer != 0 ) )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
+	if ( desc->body_anchors != NULL )
+	{
+		if ( desc->body_anchor_normals == NULL || desc->body_anchor_skin_indices == NULL ||
+			 desc->body_anchor_skin_weights == NULL || desc->body_anchor_influence_count == 0 ||
+			 desc->body_anchor_influence_count > 8 )
+			return PLEAT_RESULT_INVALID_ARGUMENT;
+		for ( size_t e = 0; e < (size_t)desc->vertex_count * desc->body_anchor_influence_count; ++e )
+		{
+			if ( desc->body_anchor_skin_indices[e] >= desc->joint_count )
+				return PLEAT_RESULT_INVALID_ARGUMENT;
+		}
+	}
 	// The shaders index with these values unchecked, so they are checked once here (an out-of-range GPU read is
 	// undefined behaviour without robust buffer access).
 	for ( size_t e = 0; e < (size_t)desc->vertex_count * desc->influence_count; ++e )
@@ -193,14 +211,34 @@ static GLuint plCreateBuffer( plGlDeformer* deformer, plGlBinding binding, size_
 	return buffer;
 }
 
-static void plUploadShapedTemplate( plGlDeformer* deformer, const float* shaped_template )
+// [N][3] → vec4 rows (w = w_value).
+static void plToVec4( plGlVec4* rows, const float* xyz, uint32_t count, float w_value )
+{
+	for ( uint32_t i = 0; i < count; ++i )
+		rows[i] = ( plGlVec4 ){ xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], w_value };
+}
+
+// The shaped template, then (with body anchors) the anchors of the same β in rows N..2N−1: one BufferSubData.
+static void plUploadShapedTemplate( plGlDeformer* deformer, const float* shaped_template, const float* body_anchors )
 {
 	const plGlApi* api = &deformer->api;
 	plGlVec4* rows = deformer->staging;
-	for ( uint32_t i = 0; i < deformer->vertex_count; ++i )
-		rows[i] = ( plGlVec4 ){ shaped_template[3 * i], shaped_template[3 * i + 1], shaped_template[3 * i + 2], 1.0f };
+	uint32_t n = deformer->vertex_count;
+	plToVec4( rows, shaped_template, n, 1.0f );
+	int anchors = deformer->anchor_influence_count > 0;
+	if ( anchors )
+		plToVec4( rows + n, body_anchors, n, 1.0f );
 	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, deformer->bindings[PLEAT_GL_BINDING_SHAPED_TEMPLATE] );
-	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)deformer->vertex_count * 16, rows );
+	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)n * 16 * ( anchors ? 2 : 1 ), rows );
+}
+
+// Rewrites the two body-contact fields of the params buffer (the rest never changes).
+static void plUploadContactParams( plGlDeformer* deformer )
+{
+	const plGlApi* api = &deformer->api;
+	float offset = deformer->body_contact_offset_m;
+	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
+	api->BufferSubData( GL_UNIFORM_BUFFER, (GLintptr)offsetof( plGlDeformParams, body_contact_offset_m ), 4, &offset );
 }
 
 // [D][N][3] → [D][N] vec4 (fp32) or plGlHalf4 (fp16), one blend shape at a time through the staging block.
@@ -265,21 +303,24 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	deformer->programs[PLEAT_GL_PROGRAM_SKINNING] = plCompileProgram( api, plGlShaderSource_skinning, "" );
 	deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] = plCompileProgram( api, plGlShaderSource_face_normals, "" );
 	deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] = plCompileProgram( api, plGlShaderSource_normals_gather, "" );
+	uint32_t Ka = deformer->anchor_influence_count;
+	if ( Ka > 0 )
+		deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] = plCompileProgram( api, plGlShaderSource_body_contact, "" );
 	for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
 	{
-		if ( deformer->programs[p] == 0 )
+		if ( deformer->programs[p] == 0 && ( p != PLEAT_GL_PROGRAM_BODY_CONTACT || Ka > 0 ) )
 			return PLEAT_RESULT_GL_ERROR;
 	}
 
 	size_t n = desc->vertex_count;
-	plGlDeformParams params = { desc->vertex_count, desc->blend_count,  desc->influence_count,
-								desc->joint_count,  desc->face_count, { 0, 0, 0 } };
+	plGlDeformParams params = { desc->vertex_count, desc->blend_count, desc->influence_count,   desc->joint_count,
+								desc->face_count,   Ka,                deformer->body_contact_offset_m, 0 };
 	api->GenBuffers( 1, &deformer->params_buffer );
 	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
 	api->BufferData( GL_UNIFORM_BUFFER, sizeof( params ), &params, GL_STATIC_DRAW );
 
-	plCreateBuffer( deformer, PLEAT_GL_BINDING_SHAPED_TEMPLATE, n * 16, NULL, GL_DYNAMIC_DRAW );
-	plUploadShapedTemplate( deformer, desc->shaped_template );
+	plCreateBuffer( deformer, PLEAT_GL_BINDING_SHAPED_TEMPLATE, n * 16 * ( Ka > 0 ? 2 : 1 ), NULL, GL_DYNAMIC_DRAW );
+	plUploadShapedTemplate( deformer, desc->shaped_template, desc->body_anchors );
 	plUploadBlendShapes( deformer, desc->blend_shapes, desc->blend_shapes_fp16 );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BLEND_WEIGHTS, (size_t)desc->blend_count * 4, NULL, GL_STREAM_DRAW );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_DEFORMED, n * 16, NULL, GL_DYNAMIC_COPY );
@@ -310,6 +351,24 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	else
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_NORMALS, n * 16, NULL, GL_DYNAMIC_COPY );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_FACE_NORMALS, (size_t)desc->face_count * 16, NULL, GL_DYNAMIC_COPY );
+	if ( Ka > 0 )
+	{
+		plGlVec4* rows = deformer->staging;
+		plToVec4( rows, desc->body_anchor_normals, desc->vertex_count, 0.0f );
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_NORMALS, n * 16, rows, GL_STATIC_DRAW );
+		uint32_t* indices = deformer->staging; // u16 → the shader's uint
+		for ( size_t e = 0; e < n * Ka; ++e )
+			indices[e] = desc->body_anchor_skin_indices[e];
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES, n * Ka * 4, indices, GL_STATIC_DRAW );
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS, n * Ka * 4, desc->body_anchor_skin_weights,
+						GL_STATIC_DRAW );
+	}
+	else
+	{
+		// Nothing reads them, but every binding point gets a buffer, as the shaders' other buffers do.
+		for ( int b = PLEAT_GL_BINDING_ANCHOR_NORMALS; b <= PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS; ++b )
+			plCreateBuffer( deformer, (plGlBinding)b, 16, NULL, GL_STATIC_DRAW );
+	}
 	return plCheckErrors( api );
 }
 
@@ -362,8 +421,15 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	deformer->blend_count = desc->blend_count;
 	deformer->influence_count = desc->influence_count;
 	deformer->joint_count = desc->joint_count;
+	deformer->anchor_influence_count = desc->body_anchors != NULL ? desc->body_anchor_influence_count : 0;
+	deformer->body_contact = deformer->anchor_influence_count > 0;
+	deformer->body_contact_offset_m = PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M;
 	size_t n = desc->vertex_count;
-	deformer->staging_bytes = n * 16 > n * 4 * desc->influence_count ? n * 16 : n * 4 * desc->influence_count;
+	// Staging holds the largest upload: 2N vec4 rows (template + anchors), N vec4 rows, or [N][K] / [N][Ka] uints.
+	size_t rows = n * 16 * ( deformer->anchor_influence_count > 0 ? 2 : 1 );
+	size_t widest_skin = desc->influence_count > deformer->anchor_influence_count ? desc->influence_count
+																				 : deformer->anchor_influence_count;
+	deformer->staging_bytes = rows > n * 4 * widest_skin ? rows : n * 4 * widest_skin;
 	deformer->staging = plAlloc( allocator, deformer->staging_bytes, 64 );
 	if ( deformer->staging == NULL )
 	{
@@ -435,15 +501,15 @@ plGlHeadlessPlatform plGlDeformer_Platform( const plGlDeformer* deformer )
 	return deformer->context != NULL ? plGlContext_Platform( deformer->context ) : PLEAT_GL_PLATFORM_NONE;
 }
 
-plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template )
+plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template, const float* body_anchors )
 {
-	if ( deformer == NULL || shaped_template == NULL )
+	if ( deformer == NULL || shaped_template == NULL || ( deformer->anchor_influence_count > 0 && body_anchors == NULL ) )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	plResult result = plBegin( deformer );
 	if ( result != PLEAT_RESULT_OK )
 		return result;
 	plCheckErrors( &deformer->api ); // an error the engine left pending is not ours to report
-	plUploadShapedTemplate( deformer, shaped_template );
+	plUploadShapedTemplate( deformer, shaped_template, body_anchors );
 	result = plCheckErrors( &deformer->api );
 	plEnd( deformer );
 	return result;
@@ -462,6 +528,32 @@ static void plReadBack( plGlDeformer* deformer, GLuint buffer, float* out )
 		out[3 * i + 1] = rows[i].y;
 		out[3 * i + 2] = rows[i].z;
 	}
+}
+
+plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float offset_m )
+{
+	if ( deformer == NULL || !( offset_m >= 0.0f && offset_m <= PLEAT_BODY_CONTACT_MAX_OFFSET_M ) )
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	int active = enabled != 0 && deformer->anchor_influence_count > 0;
+	if ( offset_m == deformer->body_contact_offset_m || deformer->anchor_influence_count == 0 )
+	{
+		deformer->body_contact = active;
+		return PLEAT_RESULT_OK;
+	}
+	plResult result = plBegin( deformer );
+	if ( result != PLEAT_RESULT_OK )
+		return result;
+	plCheckErrors( &deformer->api ); // an error the engine left pending is not ours to report
+	float previous = deformer->body_contact_offset_m;
+	deformer->body_contact_offset_m = offset_m;
+	plUploadContactParams( deformer );
+	result = plCheckErrors( &deformer->api );
+	if ( result == PLEAT_RESULT_OK )
+		deformer->body_contact = active;
+	else
+		deformer->body_contact_offset_m = previous; // GL ignored the upload: nothing changed
+	plEnd( deformer );
+	return result;
 }
 
 plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, const float* skin_matrices,
@@ -492,6 +584,12 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_SKINNING] );
 	api->DispatchCompute( groups, 1, 1 );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	if ( deformer->body_contact )
+	{
+		api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] );
+		api->DispatchCompute( groups, 1, 1 );
+		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	}
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
 	api->DispatchCompute( face_groups, 1, 1 );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );

@@ -6,5 +6,6 @@ extern const char plGlShaderSource_blend_shapes[];
 extern const char plGlShaderSource_skinning[];
 extern const char plGlShaderSource_face_normals[];
 extern const char plGlShaderSource_normals_gather[];
+extern const char plGlShaderSource_body_contact[];
 
 #endif

@@ -12,7 +12,9 @@ typedef struct plGlDeformParams
 	uint32_t influence_count; // K
 	uint32_t joint_count;     // J
 	uint32_t face_count;      // F
-	uint32_t pad[3];          // the buffer is bound whole: its size a multiple of the 16-byte std140 vec4 row
+	uint32_t anchor_influence_count; // Ka: body anchors' skin influences (0: the asset has no body anchors)
+	float body_contact_offset_m;     // body_contact.comp's clearance (metres)
+	uint32_t pad;             // the buffer is bound whole: its size a multiple of the 16-byte std140 vec4 row
 } plGlDeformParams;
 _Static_assert( sizeof( plGlDeformParams ) == 32, "std140 plGlDeformParams is 32 bytes" );
 
@@ -36,7 +38,7 @@ _Static_assert( sizeof( plGlHalf4 ) == 8, "two std430 uints" );
 // Shader storage buffer bindings (the `binding = n` of each buffer block in shaders/*.comp).
 typedef enum plGlBinding
 {
-	PLEAT_GL_BINDING_SHAPED_TEMPLATE = 0,   // vec4 [N]            blend_shapes.comp
+	PLEAT_GL_BINDING_SHAPED_TEMPLATE = 0,   // vec4 [N] (+ [N] body anchors of β) blend_shapes.comp, body_contact.comp
 	PLEAT_GL_BINDING_BLEND_SHAPES = 1,      // vec4 or plGlHalf4 [D][N]
 	PLEAT_GL_BINDING_BLEND_WEIGHTS = 2,     // float [D]
 	PLEAT_GL_BINDING_DEFORMED = 3,          // vec4 [N] T_def      blend_shapes.comp → skinning.comp
@@ -49,7 +51,10 @@ typedef enum plGlBinding
 	PLEAT_GL_BINDING_ADJACENCY_FACES = 10,  // uint [3F]
 	PLEAT_GL_BINDING_NORMALS = 11,          // vec4 [N]
 	PLEAT_GL_BINDING_FACE_NORMALS = 12,     // vec4 [F]            face_normals.comp → normals_gather.comp
-	PLEAT_GL_BINDING_COUNT = 13,
+	PLEAT_GL_BINDING_ANCHOR_NORMALS = 13,   // vec4 [N]            body_contact.comp (assets with body anchors)
+	PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES = 14, // uint [N][Ka]
+	PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS = 15, // float [N][Ka]
+	PLEAT_GL_BINDING_COUNT = 16,
 } plGlBinding;
 
 // Workgroup size of every shader (layout(local_size_x = 64)); dispatch ceil(N / 64) groups (ceil(F / 64) for
