@@ -15,6 +15,7 @@ from pleat import show
 from pleat.eval import cli as eval_cli
 from pleat.motion import cli as motion_cli
 from pleat.sim import cli as sim_cli
+from synthetic_asf import asf_text
 
 REPO = Path(__file__).resolve().parents[2]
 ASSET = REPO / "assets" / "tshirt_xsmall.pleat"
@@ -70,39 +71,15 @@ def bvh_deep(levels):
             + "MOTION\nFrames: 2\nFrame Time: 0.04\n" + ("0 " * (6 + 3 * levels) + "\n") * 2)
 
 
-ASF = """:version 1.10
-:name test
-:units
-  length 1.0
-  angle deg
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-{bones}
-:hierarchy
- begin
-  root lhipjoint rhipjoint
-  lhipjoint lfemur
-  rhipjoint rfemur
-  lfemur ltibia
-  ltibia lfoot
-  rfemur rtibia
-  rtibia rfoot
- end
-"""
-BONES = [("lhipjoint", "1 -0.5 0", 9), ("rhipjoint", "-1 -0.5 0", 9), ("lfemur", "0 -1 0", 42),
-         ("ltibia", "0 -1 0", 41), ("lfoot", "0 0 1", 12),
-         ("rfemur", "0 -1 0", 42), ("rtibia", "0 -1 0", 41), ("rfoot", "0 0 1", 12)]
+BONES = [("lhipjoint", "1 -0.5 0", 9, "0 0 0"), ("rhipjoint", "-1 -0.5 0", 9, "0 0 0"),
+         ("lfemur", "0 -1 0", 42, "0 0 0"), ("ltibia", "0 -1 0", 41, "0 0 0"), ("lfoot", "0 0 1", 12, "0 0 0"),
+         ("rfemur", "0 -1 0", 42, "0 0 0"), ("rtibia", "0 -1 0", 41, "0 0 0"), ("rfoot", "0 0 1", 12, "0 0 0")]
+HIERARCHY = ["root lhipjoint rhipjoint", "lhipjoint lfemur", "rhipjoint rfemur", "lfemur ltibia", "ltibia lfoot",
+             "rfemur rtibia", "rtibia rfoot"]
 
 
-def asf(bones=BONES, hierarchy_extra=""):
-    text = "\n".join(f" begin\n  id {i + 1}\n  name {n}\n  direction {d}\n  length {l}\n  axis 0 0 0 XYZ\n"
-                     f"  dof rx ry rz\n end" for i, (n, d, l) in enumerate(bones))
-    return ASF.format(bones=text).replace(" end\n", hierarchy_extra + " end\n") if hierarchy_extra else \
-        ASF.format(bones=text)
+def asf(hierarchy_extra=()):
+    return asf_text(BONES, HIERARCHY + list(hierarchy_extra))
 
 
 def amc(frames=12, bad=None):
@@ -266,7 +243,7 @@ CASES = [
     ("amc-unknown-bone", {"m.amc": amc(bad=("ltibia 0 0 0", "lknee 0 0 0")), "m.asf": asf()}, "'lknee' is not in"),
     ("amc-too-few-values", {"m.amc": amc(bad=("ltibia 0 0 0", "ltibia 0 0")), "m.asf": asf()}, "needs 3 numbers"),
     ("amc-word-value", {"m.amc": amc(bad=("ltibia 0 0 0", "ltibia 0 x 0")), "m.asf": asf()}, "are not numbers"),
-    ("asf-undefined-bone", {"m.amc": amc(), "m.asf": asf(hierarchy_extra="  lfoot ltoes\n")}, "does not define",
+    ("asf-undefined-bone", {"m.amc": amc(), "m.asf": asf(hierarchy_extra=["lfoot ltoes"])}, "does not define",
      "m.asf"),
     ("asf-empty", {"m.amc": amc(), "m.asf": ""}, "is empty", "m.asf"),
     ("asf-nan-direction", {"m.amc": amc(), "m.asf": asf().replace("direction 1 -0.5 0", "direction 1 nan 0")},
@@ -435,9 +412,10 @@ def test_a_missing_shipped_body_is_an_error_that_names_the_command_that_builds_i
     clip = tmp_path / "walk.bvh"
     clip.write_text(bvh())
     before = _listing(tmp_path)
+    out = tmp_path / "out"
     for cli, main, argv in [("pleat-sim", sim_cli.main, ["--garment", "tshirt", "--motion", str(clip), "--out",
-                                                         str(tmp_path / "out" / "s")]),
-                            ("pleat-show", show.main, ["--garment", "tshirt", "--out", str(tmp_path / "out" / "s.png")])]:
+                                                         str(out / "s")]),
+                            ("pleat-show", show.main, ["--garment", "tshirt", "--out", str(out / "s.png")])]:
         assert main(argv) == 1
         lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
         assert len(lines) == 1 and lines[0].startswith(f"{cli}: error: {absent}: ") and "pleat-body export" in lines[0]

@@ -8,6 +8,7 @@ from pleat.motion import split as split_mod
 from pleat.motion.clip import Clip
 from pleat.motion.loaders import list_clips, load_amass, load_asf_amc, load_bvh, motion_dirs
 from pleat.motion.retarget import lowest_point_heights
+from synthetic_asf import asf_text
 
 
 def _motion_dir():
@@ -197,41 +198,10 @@ def test_bvh_loader_retargets_knee_flexion(body, tmp_path):
     assert 0.4 < p[1, 2] - p[0, 2] < 0.65 and abs(p[1, 0] - p[0, 0]) < 1e-6
 
 
-ASF = """# synthetic Acclaim skeleton, Y up, facing +Z, left = +X
-:version 1.10
-:name test
-:units
-  mass 1.0
-  length 1.0
-  angle deg
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-{bones}
-:hierarchy
- begin
-  root lhipjoint rhipjoint lowerback
-  lhipjoint lfemur
-  lfemur ltibia
-  ltibia lfoot
-  rhipjoint rfemur
-  rfemur rtibia
-  rtibia rfoot
-  lowerback upperback
-  upperback thorax
-  thorax lowerneck lclavicle rclavicle
-  lowerneck head
-  lclavicle lhumerus
-  lhumerus lradius
-  lradius lwrist
-  rclavicle rhumerus
-  rhumerus rradius
-  rradius rwrist
- end
-"""
+HIERARCHY = ["root lhipjoint rhipjoint lowerback", "lhipjoint lfemur", "lfemur ltibia", "ltibia lfoot",
+             "rhipjoint rfemur", "rfemur rtibia", "rtibia rfoot", "lowerback upperback", "upperback thorax",
+             "thorax lowerneck lclavicle rclavicle", "lowerneck head", "lclavicle lhumerus", "lhumerus lradius",
+             "lradius lwrist", "rclavicle rhumerus", "rhumerus rradius", "rradius rwrist"]
 BONES = [("lhipjoint", "1 -0.5 0", 9, "0 0 0"), ("lfemur", "0 -1 0", 42, "0 0 0"), ("ltibia", "0 -1 0", 41, "0 0 90"),
          ("lfoot", "0 0 1", 12, "0 0 0"), ("rhipjoint", "-1 -0.5 0", 9, "0 0 0"), ("rfemur", "0 -1 0", 42, "0 0 0"),
          ("rtibia", "0 -1 0", 41, "0 0 0"), ("rfoot", "0 0 1", 12, "0 0 0"), ("lowerback", "0 1 0", 12, "0 0 0"),
@@ -242,9 +212,7 @@ BONES = [("lhipjoint", "1 -0.5 0", 9, "0 0 0"), ("lfemur", "0 -1 0", 42, "0 0 0"
 
 
 def test_asf_amc_loader_uses_the_bone_axes(body, tmp_path):
-    bones = "\n".join(f" begin\n  id {i + 1}\n  name {n}\n  direction {d}\n  length {l}\n  axis {a} XYZ\n"
-                      f"  dof rx ry rz\n end" for i, (n, d, l, a) in enumerate(BONES))
-    (tmp_path / "s.asf").write_text(ASF.format(bones=bones))
+    (tmp_path / "s.asf").write_text(asf_text(BONES, HIERARCHY))
     frames = []
     for i, ry in enumerate([0, -90]):
         frames.append(f"{i + 1}\nroot 0 90 {i * 30} 0 0 0\n" + "\n".join(
