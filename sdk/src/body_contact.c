@@ -3,8 +3,7 @@
 //     M_a = Σ_k w_ak M_{j_ak},  a = M_a · (anchor, 1),  n = normalize(M_a[:, :3] · n_rest),  d = (x − a) · n
 //     x ← x + max(0, offset − d) · n
 // The anchor is skinned with the body's own weights (not the garment's diffused ones), so a and n are where the body
-// surface is. Same loop as shaders/body_contact.comp and tools/pleat/reference/body_contact.py. Scalar only: it costs
-// one blended matrix per vertex, a few per cent of a step.
+// surface is. Same loop as shaders/body_contact.comp and tools/pleat/reference/body_contact.py.
 #include "jobs.h"
 
 #include <math.h>
@@ -14,7 +13,7 @@ int plBodyContactJob_Validate( const plBodyContactJob* job )
 	if ( job == NULL || job->shaped_anchors == NULL || job->anchor_normals == NULL ||
 		 job->anchor_skin_indices == NULL || job->anchor_skin_weights == NULL || job->skin_matrices == NULL ||
 		 job->influence_count < 1 || job->influence_count > PLEAT_MAX_INFLUENCES || job->joint_count == 0 ||
-		 !( job->offset_m >= 0.0f && job->offset_m <= 1.0f ) )
+		 !( job->offset_m >= 0.0f && job->offset_m <= PLEAT_BODY_CONTACT_MAX_OFFSET_M ) )
 	{
 		return 0;
 	}
@@ -22,16 +21,15 @@ int plBodyContactJob_Validate( const plBodyContactJob* job )
 	return job->vertex_begin <= job->vertex_end && job->vertex_end <= n && PLEAT_SPAN_HOLDS( job->positions, 12, n );
 }
 
-plResult plBodyContactJob_Run( const plBodyContactJob* job )
+void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
+						   const float* anchor_normals, const uint16_t* anchor_skin_indices,
+						   const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
+						   uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end )
 {
-	if ( !plBodyContactJob_Validate( job ) )
+	uint32_t K = influence_count;
+	for ( uint32_t v = v_begin; v < v_end; ++v )
 	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	uint32_t K = job->influence_count;
-	for ( uint32_t v = job->vertex_begin; v < job->vertex_end; ++v )
-	{
-		const float* rest_normal = job->anchor_normals + (size_t)v * 3;
+		const float* rest_normal = anchor_normals + (size_t)v * 3;
 		if ( rest_normal[0] == 0.0f && rest_normal[1] == 0.0f && rest_normal[2] == 0.0f )
 		{
 			continue; // no anchor: the vertex is far from the rest body
@@ -39,20 +37,20 @@ plResult plBodyContactJob_Run( const plBodyContactJob* job )
 		float m[12] = { 0 };
 		for ( uint32_t k = 0; k < K; ++k )
 		{
-			uint32_t joint = job->anchor_skin_indices[(size_t)v * K + k];
-			float w = job->anchor_skin_weights[(size_t)v * K + k];
-			if ( joint >= job->joint_count )
+			uint32_t joint = anchor_skin_indices[(size_t)v * K + k];
+			float w = anchor_skin_weights[(size_t)v * K + k];
+			if ( joint >= joint_count )
 			{
 				joint = 0; // the asset loader rejects this; never read out of bounds even so
 				w = 0.0f;
 			}
-			const float* mj = job->skin_matrices + (size_t)joint * 12;
+			const float* mj = skin_matrices + (size_t)joint * 12;
 			for ( int e = 0; e < 12; ++e )
 			{
 				m[e] += w * mj[e];
 			}
 		}
-		const float* r = job->shaped_anchors + (size_t)v * 3;
+		const float* r = shaped_anchors + (size_t)v * 3;
 		float ax = m[0] * r[0] + m[1] * r[1] + m[2] * r[2] + m[3];
 		float ay = m[4] * r[0] + m[5] * r[1] + m[6] * r[2] + m[7];
 		float az = m[8] * r[0] + m[9] * r[1] + m[10] * r[2] + m[11];
@@ -67,15 +65,28 @@ plResult plBodyContactJob_Run( const plBodyContactJob* job )
 		nx /= length;
 		ny /= length;
 		nz /= length;
-		float* x = (float*)( (uint8_t*)job->positions.ptr + (size_t)v * job->positions.stride_bytes );
+		float* x = (float*)( (uint8_t*)positions + (size_t)v * position_stride_bytes );
 		float d = ( x[0] - ax ) * nx + ( x[1] - ay ) * ny + ( x[2] - az ) * nz;
-		if ( d < job->offset_m )
+		if ( d < offset_m )
 		{
-			float push = job->offset_m - d;
+			float push = offset_m - d;
 			x[0] += push * nx;
 			x[1] += push * ny;
 			x[2] += push * nz;
 		}
 	}
+}
+
+plResult plBodyContactJob_Run( const plBodyContactJob* job )
+{
+	if ( !plBodyContactJob_Validate( job ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plBodyContactFn* kernel = job->kernels != NULL && job->kernels->body_contact != NULL ? job->kernels->body_contact
+																						  : plBodyContact_Scalar;
+	kernel( (float*)job->positions.ptr, job->positions.stride_bytes, job->shaped_anchors, job->anchor_normals,
+			job->anchor_skin_indices, job->anchor_skin_weights, job->influence_count, job->skin_matrices,
+			job->joint_count, job->offset_m, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }

@@ -54,7 +54,8 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 									 a->joint_count,
 									 inst->body_contact_offset_m,
 									 begin,
-									 end };
+									 end,
+									 &inst->ctx->kernels };
 		plDeformTask_Record( t, plBodyContactJob_Run( &contact ) );
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );

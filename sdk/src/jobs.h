@@ -230,6 +230,7 @@ typedef struct plBodyContactJob
 	uint32_t joint_count;              // J
 	float offset_m;                    // clearance (metres, >= 0)
 	uint32_t vertex_begin, vertex_end;
+	const plKernels* kernels;          // optional: NULL = the scalar kernel
 } plBodyContactJob;
 
 int plBodyContactJob_Validate( const plBodyContactJob* job );

@@ -54,6 +54,14 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 								 uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
 								 uint32_t face_count, float* sums4 );
 
+// Body contact for vertices [v_begin, v_end) (pleat.h BODY CONTACT, body_contact.c): each vertex closer than offset_m
+// to its anchor's posed tangent plane moves out along the anchor's normal; positions strided (bytes), anchors and
+// normals [N][3], anchor skin [N][K]; a zero rest normal = no anchor; joint indices >= joint_count count as weight 0.
+typedef void plBodyContactFn( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
+							  const float* anchor_normals, const uint16_t* anchor_skin_indices,
+							  const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
+							  uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end );
+
 typedef struct plKernels
 {
 	plMatVecFn* mat_vec;
@@ -62,12 +70,14 @@ typedef struct plKernels
 	plFaceNormalsFn* face_normals;
 	plNormalsGatherFn* normals_gather;
 	plNormalsScatterFn* normals_scatter;
+	plBodyContactFn* body_contact;
 } plKernels;
 
 // The variants, declared through the kernel types so that their signatures cannot drift apart.
 plMatVecFn plMatVec_Scalar;
 plBlendShapesFn plBlendShapes_Scalar;
 plSkinningFn plSkinning_Scalar;
+plBodyContactFn plBodyContact_Scalar;
 plFaceNormalsFn plFaceNormals_Scalar;
 plNormalsGatherFn plNormalsGather_Scalar;
 plNormalsScatterFn plNormalsScatter_Scalar;
@@ -75,6 +85,7 @@ plNormalsScatterFn plNormalsScatter_Scalar;
 plMatVecFn plMatVec_Avx2;
 plBlendShapesFn plBlendShapes_Avx2;
 plSkinningFn plSkinning_Avx2;
+plBodyContactFn plBodyContact_Avx2;
 plFaceNormalsFn plFaceNormals_Avx2;
 plNormalsGatherFn plNormalsGather_Avx2;
 plNormalsScatterFn plNormalsScatter_Avx2;

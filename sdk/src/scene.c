@@ -796,7 +796,7 @@ static plResult plStepLbs( plSceneData* s, plSceneCharacter* c, const plFrameInp
 									 a->body_anchor_skin_weights,     a->body_anchor_influence_count,
 									 inst->next_skin_matrices,        a->joint_count,
 									 inst->body_contact_offset_m,     0,
-									 n };
+									 n,                               &s->ctx->kernels };
 		if ( plBodyContactJob_Run( &contact ) != PLEAT_RESULT_OK )
 		{
 			return PLEAT_RESULT_INTERNAL_ERROR;

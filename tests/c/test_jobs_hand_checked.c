@@ -543,7 +543,7 @@ static void test_body_contact_by_hand( void** state )
 	const float weights[5 * 2] = { 1, 0, 1, 0, 1, 0, 1, 0, 0.5f, 0.5f };
 	const float matrices[2 * 12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, /* joint 1: */ 0, -1, 0, 1, 1, 0, 0, 0, 0, 0, 1, 0 };
 	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), anchors, normals, indices, weights, 2, matrices, 2,
-							 0.002f, 0, 5 };
+							 0.002f, 0, 5, NULL };
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
 	const float expected[5 * 3] = { 0, 0.002f, 0, 0.3f, 0.010f, 0, 0.998f, 0.5f, 0, 0, -1.0f, 0,
 									0.5f - 0.00141421356f, 0.00141421356f, 0 };

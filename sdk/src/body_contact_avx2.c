@@ -1,0 +1,85 @@
+// AVX2 + FMA twin of plBodyContact_Scalar, laid out like plSkinning_Avx2: the J skinning matrices rearranged into
+// columns once per call, two registers per joint, (c0 | c1) and (c2 | c3) with c_i = (m0i, m1i, m2i, 0). Per vertex
+// the anchor's blended matrix is 2 FMAs per influence; the posed anchor c0·r_x + c1·r_y + c2·r_z + c3 and the
+// unnormalised normal c0·n_x + c1·n_y + c2·n_z come from the same two registers without horizontal adds. The plane
+// test and the push are the scalar kernel's float expressions. Agrees with the scalar kernel to rounding (the sums
+// are grouped differently), which test_simd_matches_scalar bounds.
+#include "kernels.h"
+
+#include <immintrin.h>
+#include <math.h>
+
+#define PLEAT_CONTACT_MAX_JOINTS 64 // PLEAT_MAX_JOINTS (pleat.h); the asset loader enforces it
+
+void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
+						 const float* anchor_normals, const uint16_t* anchor_skin_indices,
+						 const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
+						 uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end )
+{
+	_Alignas( 32 ) float columns[( PLEAT_CONTACT_MAX_JOINTS + 1 ) * 16];
+	uint32_t J = joint_count < PLEAT_CONTACT_MAX_JOINTS ? joint_count : PLEAT_CONTACT_MAX_JOINTS;
+	for ( uint32_t j = 0; j < J; ++j )
+	{
+		const float* m = skin_matrices + (size_t)j * 12;
+		float* c = columns + (size_t)j * 16;
+		for ( int col = 0; col < 4; ++col )
+		{
+			c[col * 4 + 0] = m[col];
+			c[col * 4 + 1] = m[4 + col];
+			c[col * 4 + 2] = m[8 + col];
+			c[col * 4 + 3] = 0.0f;
+		}
+	}
+	for ( int e = 0; e < 16; ++e )
+	{
+		columns[(size_t)J * 16 + e] = 0.0f; // an index >= joint_count reads zeros (weight × 0)
+	}
+	uint32_t K = influence_count;
+	for ( uint32_t v = v_begin; v < v_end; ++v )
+	{
+		const float* rn = anchor_normals + (size_t)v * 3;
+		if ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f )
+		{
+			continue; // no anchor
+		}
+		__m256 a = _mm256_setzero_ps(), b = _mm256_setzero_ps();
+		const uint16_t* idx = anchor_skin_indices + (size_t)v * K;
+		const float* wt = anchor_skin_weights + (size_t)v * K;
+		for ( uint32_t k = 0; k < K; ++k )
+		{
+			uint32_t joint = idx[k] < J ? idx[k] : J;
+			const float* c = columns + (size_t)joint * 16;
+			__m256 w = _mm256_broadcast_ss( wt + k );
+			a = _mm256_fmadd_ps( w, _mm256_load_ps( c ), a );
+			b = _mm256_fmadd_ps( w, _mm256_load_ps( c + 8 ), b );
+		}
+		const float* r = shaped_anchors + (size_t)v * 3;
+		__m256 rxy = _mm256_set_m128( _mm_broadcast_ss( r + 1 ), _mm_broadcast_ss( r + 0 ) );
+		__m256 rz1 = _mm256_set_m128( _mm_set1_ps( 1.0f ), _mm_broadcast_ss( r + 2 ) );
+		__m256 sa = _mm256_fmadd_ps( b, rz1, _mm256_mul_ps( a, rxy ) );
+		__m256 nxy = _mm256_set_m128( _mm_broadcast_ss( rn + 1 ), _mm_broadcast_ss( rn + 0 ) );
+		__m256 nz0 = _mm256_set_m128( _mm_setzero_ps(), _mm_broadcast_ss( rn + 2 ) );
+		__m256 sn = _mm256_fmadd_ps( b, nz0, _mm256_mul_ps( a, nxy ) );
+		_Alignas( 16 ) float anchor[4], normal[4];
+		_mm_store_ps( anchor, _mm_add_ps( _mm256_castps256_ps128( sa ), _mm256_extractf128_ps( sa, 1 ) ) );
+		_mm_store_ps( normal, _mm_add_ps( _mm256_castps256_ps128( sn ), _mm256_extractf128_ps( sn, 1 ) ) );
+		float nx = normal[0], ny = normal[1], nz = normal[2];
+		float length = sqrtf( nx * nx + ny * ny + nz * nz );
+		if ( !( length > 1e-12f ) )
+		{
+			continue; // a degenerate blend has no direction to push along
+		}
+		nx /= length;
+		ny /= length;
+		nz /= length;
+		float* x = (float*)( (uint8_t*)positions + (size_t)v * position_stride_bytes );
+		float d = ( x[0] - anchor[0] ) * nx + ( x[1] - anchor[1] ) * ny + ( x[2] - anchor[2] ) * nz;
+		if ( d < offset_m )
+		{
+			float push = offset_m - d;
+			x[0] += push * nx;
+			x[1] += push * ny;
+			x[2] += push * nz;
+		}
+	}
+}
