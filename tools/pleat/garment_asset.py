@@ -122,6 +122,15 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
             "body_anchor_skin_weights": (top_weights / top_weights.sum(axis=1, keepdims=True)).astype(np.float32)}
 
 
+def body_contact_meta(anchors):
+    """The META entry that says how an asset's body anchors were made."""
+    anchored = int(np.count_nonzero(np.linalg.norm(anchors["body_anchor_normal"], axis=1)))
+    return {"anchors": "nearest rest body vertex per garment vertex, its normal and its own top-"
+                       f"{anchors['body_anchor_skin_indices'].shape[1]} skin weights",
+            "anchored_vertices": anchored, "vertices": int(len(anchors["body_anchor"])),
+            "max_distance_m": BODY_ANCHOR_MAX_DISTANCE_M}
+
+
 def weights_from_garment(garment, body, network=None, metadata=None, name=None):
     """The weights dict pleat-pack / pleat.asset.write_asset reads (docs/asset-format.md key names).
 
@@ -170,6 +179,8 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None):
     body_source = _field(body, "source", None)
     if body_source is not None:
         meta["body"] = str(np.asarray(body_source))
+    if "body_anchor" in weights:
+        meta["body_contact"] = body_contact_meta(weights)
     if network is None:
         weights.update(lbs_only_network(template.shape[0], input_count_without_latent(len(input_joints), beta_count)))
         meta["model"] = LBS_ONLY_MODEL
@@ -211,9 +222,8 @@ def build_parser():
     return parser
 
 
-@command("pleat-garment-asset")
-def main(argv=None):
-    args = build_parser().parse_args(argv)
+@command("pleat-garment-asset", build_parser)
+def main(args):
 
     from pleat.asset import write_asset
     from pleat.body import BodyModel

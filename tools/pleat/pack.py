@@ -105,8 +105,12 @@ def main(argv=None):
         raise not_npz(a.weights, e, "a weights file") from None
     if a.body_contact is not None:
         from pleat.body import BodyModel
-        from pleat.garment_asset import body_anchors
+        from pleat.garment_asset import body_anchors, body_contact_meta
         weights.update(body_anchors(weights["template"], BodyModel.load(a.body_contact or None)))
+        if weights.get("metadata_json") is not None:
+            meta = json.loads(str(weights["metadata_json"]))
+            meta["body_contact"] = body_contact_meta(weights)
+            weights["metadata_json"] = json.dumps(meta, sort_keys=True)
     if a.name is not None:
         weights["garment_name"] = a.name
     if a.metadata is not None:
