@@ -2,9 +2,10 @@
 
 - A bad input is reported as ONE line on stderr, `PROG: error: FILE: what is wrong`, with exit status 1, and the
   command writes nothing (outputs go through pleat.fileio, after all inputs are read and checked). Loaders raise
-  `InputError(path, problem)`; `command(prog)` wraps a `main(argv)` and turns it, and OS errors on a named file, into
-  that line. Any other exception is a bug: one line too, that says so (PLEAT_DEBUG=1 re-raises it for the
-  traceback). argparse's usage errors keep their own form and exit status 2.
+  `InputError(path, problem)`; `command(prog, build_parser)` makes the console script's `main(argv)` from a
+  `main(args)` and turns InputError, and OS errors on a named file, into that line. Any other exception is a bug: one
+  line too, that says so (PLEAT_DEBUG=1 re-raises it for the traceback). argparse's usage errors, and UsageError for
+  arguments that parse but do not go together, keep argparse's form and exit status 2.
 - The same flags: `--quiet` (no progress bars or progress messages; `--no-progress` is its deprecated alias), and
   `--out` for where the command's output goes (help text says whether a file or a folder).
 """
@@ -15,6 +16,10 @@ import sys
 
 EXIT_INPUT_ERROR = 1
 EXIT_INTERRUPTED = 130
+
+
+class UsageError(Exception):
+    """Arguments that parse but do not go together: reported as argparse reports its own (usage, exit status 2)."""
 
 
 class InputError(ValueError):
@@ -40,13 +45,25 @@ def error_message(exc):
     return one_line(exc) or type(exc).__name__
 
 
-def command(prog):
-    """Decorator for a console script's `main(argv=None)`: bad inputs → one line on stderr and exit status 1."""
+def command(prog, build_parser=None):
+    """Decorator for a console script's main: bad inputs → one line on stderr and exit status 1. With build_parser,
+    main(args) gets the parsed arguments (the wrapped script still takes argv) and may raise UsageError; without it,
+    main(argv) parses its own. A main that returns None exits with 0."""
     def wrap(main):
         @functools.wraps(main)
         def run(argv=None):
+            parser = None
             try:
-                return main(argv)
+                if build_parser is None:
+                    status = main(argv)
+                else:
+                    parser = build_parser()
+                    status = main(parser.parse_args(argv))
+                return 0 if status is None else status
+            except UsageError as exc:
+                if parser is None:
+                    raise
+                parser.error(str(exc))
             except BrokenPipeError:          # `pleat-motion list | head`: the reader left; not an error to report
                 os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
                 return EXIT_INPUT_ERROR
@@ -74,6 +91,12 @@ def not_npz(path, exc, what):
     if not zipfile.is_zipfile(path):
         return InputError(path, f"not {what}: not an npz file (not a zip archive)")
     return InputError(path, f"not {what} ({type(exc).__name__}: {exc})")
+
+
+def doc_parser(prog, doc):
+    """A parser whose description is the module docstring's first paragraph and whose epilog is all of it, verbatim."""
+    return argparse.ArgumentParser(prog=prog, description=doc.split("\n\n")[0],
+                                   formatter_class=argparse.RawDescriptionHelpFormatter, epilog=doc)
 
 
 def add_quiet(parser):

@@ -85,3 +85,12 @@ def save_figure(fig, path, **kw):
         fig.savefig(fh, **kw)
     return path
 
+
+def finish_figure(fig, path, **kw):
+    """The end of a chart: tight layout, save_figure, the figure closed. Returns the path."""
+    import matplotlib.pyplot as plt
+    fig.tight_layout()
+    path = save_figure(fig, path, **kw)
+    plt.close(fig)
+    return path
+

@@ -20,7 +20,7 @@ import sys
 
 import numpy as np
 
-from pleat.cli import add_quiet, command, positive_float
+from pleat.cli import UsageError, add_quiet, command, positive_float
 from pleat.rotations import quat_normalize
 
 NAME_BYTES = 32
@@ -242,25 +242,23 @@ def build_parser():
     return parser
 
 
-@command("pleat-render-export")
-def main(argv=None):
-    parser = build_parser()
-    args = parser.parse_args(argv)
+@command("pleat-render-export", build_parser)
+def main(args):
 
     if args.what == "body" and args.stick:
         if not args.asset:
-            parser.error("--stick needs --asset")
+            raise UsageError("--stick needs --asset")
         count = export_stick_body(args.asset, args.out, _floats(args.beta))
         print(f"wrote {args.out}: stick body with {count} vertices from {args.asset}")
         return 0
     if args.what == "motion" and args.random:
         if not args.asset:
-            parser.error("--random needs --asset")
+            raise UsageError("--random needs --asset")
         frames, fps = export_random_motion(args.asset, args.out, args.random, args.fps)
         print(f"wrote {args.out}: {frames} frames of random motion at {fps:g} fps")
         return 0
     if args.what == "motion" and not args.clip:
-        parser.error("motion needs --clip or --random")
+        raise UsageError("motion needs --clip or --random")
     if args.what == "body":
         from pleat.body import BodyModel
         body = BodyModel.load(args.body)           # None: pleat.paths' assets/body.npz

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pleat.cli import InputError, add_quiet, command
+from pleat.cli import InputError, UsageError, add_quiet, command
 from pleat.fileio import save_figure
 
 BODY_COLOR = (0.80, 0.70, 0.62)
@@ -119,15 +119,13 @@ def _read_sim(folder):
     return pos, body_v
 
 
-@command("pleat-show")
-def main(argv=None):
-    parser = build_parser()
-    args = parser.parse_args(argv)
+@command("pleat-show", build_parser)
+def main(args):
     try:
         frames = _frames(args.frames)
         beta = None if args.beta is None else np.array([float(b) for b in args.beta.split(",")])
     except ValueError as exc:
-        parser.error(str(exc))
+        raise UsageError(str(exc)) from None
     from .motion.loaders import load_clip_at
     from .sim.scene import load_body, load_garment_spec, posed_sequence
     body = load_body(args.body)

@@ -67,9 +67,8 @@ def build_parser():
     return ap
 
 
-@command("pleat-body")
-def main(argv=None):
-    args = build_parser().parse_args(argv)
+@command("pleat-body", build_parser)
+def main(args):
     (_export if args.cmd == "export" else _info)(args)
     return 0
 

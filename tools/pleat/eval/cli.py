@@ -14,7 +14,6 @@ Runs, on the same body, β, material and motion (resampled to 30 fps, cut at --m
 and scores each with pleat.eval.metrics: mean / p95 vertex error (mm), edge-strain error, jitter (m/s²), penetration
 (share of vertices inside the posed body, %, and the deepest, mm).
 """
-import argparse
 import json
 import sys
 import time
@@ -22,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pleat.cli import add_quiet, command, positive_float
+from pleat.cli import UsageError, add_quiet, command, doc_parser, positive_float
 from pleat.eval import metrics
 from pleat.eval import scene as S
-from pleat.fileio import save_figure, write_text
+from pleat.fileio import finish_figure, write_text
 
 METHODS = ("pleat", "lbs", "teacher")
 SPREAD_PERTURBATION_M = 1e-6     # --reference-spread: the second reference's start state, moved by 1 µm per vertex
@@ -193,16 +192,11 @@ def write_plots(report, out_dir):
     axes[1].set_xlabel("time (s)")
     axes[0].legend()
     axes[0].set_title(f"{report['garment']} ({report['model']}) on {report['clip']}")
-    fig.tight_layout()
-    path = out_dir / f"{stem}.png"
-    save_figure(fig, path, dpi=80)
-    plt.close(fig)
-    return path
+    return finish_figure(fig, out_dir / f"{stem}.png", dpi=80)
 
 
 def build_parser():
-    ap = argparse.ArgumentParser(prog="pleat-eval", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap = doc_parser("pleat-eval", __doc__)
     ap.add_argument("--asset", required=True, help="the .pleat asset to score")
     ap.add_argument("--motion", required=True, help="clip file or name (DeepMimic .txt, .bvh, .amc, AMASS .npz, "
                                                     "Pleat clip .npz)")
@@ -227,19 +221,17 @@ def build_parser():
     return ap
 
 
-@command("pleat-eval")
-def main(argv=None):
-    ap = build_parser()
-    args = ap.parse_args(argv)
+@command("pleat-eval", build_parser)
+def main(args):
     try:
         beta = parse_floats(args.beta, what="--beta")
         material = parse_floats(args.material, 4, "--material")
     except ValueError as exc:
-        ap.error(str(exc))
+        raise UsageError(str(exc)) from None
     if args.max_frames < 2:
-        ap.error("--max-frames must be at least 2")
+        raise UsageError("--max-frames must be at least 2")
     if not args.network_rate >= 0:
-        ap.error("--network-rate must be 0 (every step) or a positive rate in Hz")
+        raise UsageError("--network-rate must be 0 (every step) or a positive rate in Hz")
     report = evaluate(args.asset, args.motion, beta, material, args.max_frames, args.teacher, args.body,
                       args.cache_dir, not args.quiet, reference_spread=args.reference_spread, fps=args.fps,
                       network_rate_hz=args.network_rate)

@@ -14,15 +14,14 @@ measured the same way on the same clips and bodies:
 - Φ, the stage-1 network, timed per frame in torch (one thread) on the same garment: speed only (its error is that
   of the two-stage recipe's teacher, not measured here).
 """
-import argparse
 import json
 import sys
 import time
 
 import numpy as np
 
-from pleat.cli import add_quiet, command
-from pleat.fileio import save_figure, write_text
+from pleat.cli import add_quiet, command, doc_parser
+from pleat.fileio import finish_figure, write_text
 
 
 def phi_seconds_per_frame(preset="default", garment="tshirt", frames=20):
@@ -102,22 +101,22 @@ def plot(rows, path, phi_us=None):
     ax.set_ylabel("mean vertex error vs reference (mm)\n(bars: min–max over clips and bodies)")
     ax.set_title("Error against cost: every method, measured on the same runs")
     ax.set_ylim(0, 1.15 * max(r["hi"] for r in rows))
-    fig.tight_layout()
-    save_figure(fig, path, dpi=90)
-    plt.close(fig)
+    finish_figure(fig, path, dpi=90)
 
 
-@command("pleat-methods")
-def main(argv=None):
-    ap = argparse.ArgumentParser(prog="pleat-methods", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+def build_parser():
+    ap = doc_parser("pleat-methods", __doc__)
     ap.add_argument("--suite", nargs="+", required=True, help="pleat-eval-suite JSON reports")
     ap.add_argument("--label", action="append", default=[], metavar="ASSET=NAME", help="a row's name (repeatable)")
     ap.add_argument("--no-phi", action="store_true", help="do not time Φ (needs torch)")
     ap.add_argument("--out", required=True, help="output file: the chart (PNG)")
     ap.add_argument("--json", default=None, help="output file: the rows as JSON")
     add_quiet(ap)
-    args = ap.parse_args(argv)
+    return ap
+
+
+@command("pleat-methods", build_parser)
+def main(args):
     rows = rows_from_suites(args.suite, dict(x.split("=", 1) for x in args.label))
     phi_us = None if args.no_phi else 1e6 * phi_seconds_per_frame()
     plot(rows, args.out, phi_us)

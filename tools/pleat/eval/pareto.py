@@ -21,7 +21,7 @@ import numpy as np
 
 from pleat.cli import add_quiet, command
 from pleat.eval import scene as S
-from pleat.fileio import save_figure, write_text
+from pleat.fileio import finish_figure, write_text
 from pleat.eval import tiers as tiers_mod
 
 
@@ -173,9 +173,7 @@ def plot(rows, path):
         ax.set_ylim(0, 1.25 * max(r["mean_mm"] for r in scored))
     if front:
         ax.legend(fontsize=7, loc="upper right")
-    fig.tight_layout()
-    save_figure(fig, path, dpi=90)
-    plt.close(fig)
+    finish_figure(fig, path, dpi=90)
 
 
 def _fmt(v, digits=1):
@@ -284,9 +282,8 @@ def build_parser():
     return ap
 
 
-@command("pleat-pareto")
-def main(argv=None):
-    args = build_parser().parse_args(argv)
+@command("pleat-pareto", build_parser)
+def main(args):
     from pleat import runtime
     from pleat.motion.split import VALIDATION
     for m in args.motion:

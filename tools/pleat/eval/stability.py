@@ -22,7 +22,6 @@ Every case runs the asset and its LBS-only twin (same garment, zero network) thr
 (d) dt jitter: dt drawn uniformly from [1/120, 1/15] s, the poses sampled at the jittered times.
 (e) interpenetration: per-frame penetration of Pleat, LBS and (in the reference windows) the reference.
 """
-import argparse
 import json
 import sys
 import time
@@ -31,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pleat.cli import add_quiet, command
+from pleat.cli import add_quiet, command, doc_parser
 from pleat.eval import bounds
-from pleat.fileio import save_figure, write_text
+from pleat.fileio import finish_figure, write_text
 from pleat.eval import metrics
 from pleat.eval import scene as S
 
@@ -322,10 +321,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     d = report["long"]["drift"]
     ax[0].set_title(f"(a) long run, {tag}: drift ratio {d['ratio']:.3f}, slope {d['slope_mm_per_min']:.4f} mm/min",
                     fontsize=9)
-    fig.tight_layout()
-    paths.append(out_dir / f"stability_{prefix}long.png")
-    save_figure(fig, paths[-1], dpi=80)
-    plt.close(fig)
+    paths.append(finish_figure(fig, out_dir / f"stability_{prefix}long.png", dpi=80))
 
     fig, ax = plt.subplots(figsize=(7, 3.2))
     for name, dev in series["fast"].items():
@@ -334,10 +330,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     ax.set_ylabel("Pleat − LBS (mm)")
     ax.set_title(f"(b) fast motion, {tag}", fontsize=9)
     ax.legend(fontsize=6, ncol=2)
-    fig.tight_layout()
-    paths.append(out_dir / f"stability_{prefix}fast.png")
-    save_figure(fig, paths[-1], dpi=80)
-    plt.close(fig)
+    paths.append(finish_figure(fig, out_dir / f"stability_{prefix}fast.png", dpi=80))
 
     fig, ax = plt.subplots(figsize=(7, 3.2))
     names = list(report["bodies"])
@@ -352,10 +345,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     ax.set_xticks(x, names, rotation=60, fontsize=6)
     ax.set_title(f"(c) unusual bodies, {tag}", fontsize=9)
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    paths.append(out_dir / f"stability_{prefix}bodies.png")
-    save_figure(fig, paths[-1], dpi=80)
-    plt.close(fig)
+    paths.append(finish_figure(fig, out_dir / f"stability_{prefix}bodies.png", dpi=80))
 
     fig, ax = plt.subplots(2, 1, figsize=(7, 4), sharex=True)
     for name, s in series["dt"].items():
@@ -367,10 +357,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     ax[1].set_xlabel("time (s)")
     ax[0].set_title(f"(d) frame-time jitter, {tag}", fontsize=9)
     ax[0].legend(fontsize=6)
-    fig.tight_layout()
-    paths.append(out_dir / f"stability_{prefix}dt.png")
-    save_figure(fig, paths[-1], dpi=80)
-    plt.close(fig)
+    paths.append(finish_figure(fig, out_dir / f"stability_{prefix}dt.png", dpi=80))
 
     if "penetration" not in series:
         return paths
@@ -384,10 +371,7 @@ def plot_suite(report, series, out_dir, prefix=""):
     ax.set_ylabel("inside body (%)")
     ax.set_title(f"(e) interpenetration along the long run, {tag}", fontsize=9)
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    paths.append(out_dir / f"stability_{prefix}penetration.png")
-    save_figure(fig, paths[-1], dpi=80)
-    plt.close(fig)
+    paths.append(finish_figure(fig, out_dir / f"stability_{prefix}penetration.png", dpi=80))
     return paths
 
 
@@ -528,8 +512,7 @@ def _prefix(i, asset):
 
 
 def build_parser():
-    ap = argparse.ArgumentParser(prog="pleat-stability", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap = doc_parser("pleat-stability", __doc__)
     ap.add_argument("--asset", required=True, nargs="+",
                     help="one or more assets (one section each); tier:NAME = random weights at a tier's sizes")
     ap.add_argument("--out", required=True, help="output folder (stability.md and the stability_*.png plots)")
@@ -544,6 +527,7 @@ def build_parser():
 
 @command("pleat-stability")
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)     # the report quotes the command line
     args = build_parser().parse_args(argv)
     import shlex
     reports = []
@@ -552,7 +536,7 @@ def main(argv=None):
                                  log=(lambda m: None) if args.quiet else (lambda m: print(m, file=sys.stderr)),
                                  plot_prefix=_prefix(i, asset)))
         reports[-1]["plot_prefix"] = _prefix(i, asset)
-    cmdline = "pleat-stability " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
+    cmdline = "pleat-stability " + " ".join(shlex.quote(a) for a in argv)
     write_markdown(reports, Path(args.out) / "stability.md", cmdline)
     if args.json:
         write_text(args.json, json.dumps(reports, indent=1))

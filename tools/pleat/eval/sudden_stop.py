@@ -9,15 +9,14 @@ relative to the body (m/s; the body is still after the stop, so this is the clot
 the dynamics shows what the reference shows: speed carried past the stop, decaying over a few tenths of a second;
 LBS-only stops dead.
 """
-import argparse
 import json
 import sys
 from dataclasses import replace
 
 import numpy as np
 
-from pleat.cli import add_quiet, command
-from pleat.fileio import save_figure, write_text
+from pleat.cli import add_quiet, command, doc_parser
+from pleat.fileio import finish_figure, write_text
 
 
 def stop_clip(clip, move, hold):
@@ -79,15 +78,11 @@ def plot(report, path):
     ax.set_ylabel("mean garment vertex speed (m/s, log)")
     ax.set_title(f"sudden stop: {report['motion'].split('/')[-1]}")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=90)
-    plt.close(fig)
+    finish_figure(fig, path, dpi=90)
 
 
-@command("pleat-sudden-stop")
-def main(argv=None):
-    ap = argparse.ArgumentParser(prog="pleat-sudden-stop", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+def build_parser():
+    ap = doc_parser("pleat-sudden-stop", __doc__)
     ap.add_argument("--asset", required=True, help="the .pleat asset")
     ap.add_argument("--motion", default="deepmimic_github/humanoid3d_jog", help="clip name or file")
     ap.add_argument("--move", type=int, default=20, help="frames of motion before the stop")
@@ -95,7 +90,11 @@ def main(argv=None):
     ap.add_argument("--out", required=True, help="output file: the JSON report")
     ap.add_argument("--plot", default=None, help="output file: the speed plot (PNG)")
     add_quiet(ap)
-    args = ap.parse_args(argv)
+    return ap
+
+
+@command("pleat-sudden-stop", build_parser)
+def main(args):
     rep = run(args.asset, args.motion, args.move, args.hold, progress=not args.quiet)
     write_text(args.out, json.dumps(rep, indent=1))
     if args.plot:

@@ -10,13 +10,12 @@ vertex error (mm), the ratio to LBS-only (mean of the paired per-run ratios, and
 the reference's own spread (with --reference-spread), penetration (% of vertex-frames inside the body) and jitter;
 plus the worst run's ratio to LBS-only and every run's row.
 """
-import argparse
 import json
 import sys
 
 import numpy as np
 
-from pleat.cli import add_quiet, command
+from pleat.cli import add_quiet, command, doc_parser
 from pleat.fileio import write_text
 
 
@@ -88,10 +87,8 @@ def run(assets, clips, betas, max_frames, reference_spread, progress=False):
     return result
 
 
-@command("pleat-eval-suite")
-def main(argv=None):
-    ap = argparse.ArgumentParser(prog="pleat-eval-suite", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+def build_parser():
+    ap = doc_parser("pleat-eval-suite", __doc__)
     ap.add_argument("--assets", nargs="+", required=True, help="the .pleat assets to score")
     ap.add_argument("--clips", nargs="+", default=["validation"],
                     help="clip names or files; 'validation' = the held-out split (default)")
@@ -100,7 +97,11 @@ def main(argv=None):
     ap.add_argument("--reference-spread", action="store_true", help="also score a second reference 1 µm apart")
     ap.add_argument("--out", required=True, help="output file: the JSON report")
     add_quiet(ap)
-    args = ap.parse_args(argv)
+    return ap
+
+
+@command("pleat-eval-suite", build_parser)
+def main(args):
     res = run(args.assets, _clips(args.clips), _betas(args.betas), args.max_frames, args.reference_spread,
               progress=not args.quiet)
     write_text(args.out, json.dumps(res, indent=1, default=float))

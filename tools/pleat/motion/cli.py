@@ -55,9 +55,8 @@ def _info(path):
     return f"{len(frames):6d} frames  {1 / float(sorted(dt)[len(dt) // 2]):6.1f} fps  {dt.sum():7.2f} s"
 
 
-@command("pleat-motion")
-def main(argv=None):
-    args = build_parser().parse_args(argv)
+@command("pleat-motion", build_parser)
+def main(args):
 
     from pleat.body.model import BodyModel
     from pleat.motion import split as split_mod

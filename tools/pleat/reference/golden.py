@@ -344,9 +344,8 @@ def build_parser():
     return p
 
 
-@command("pleat-golden")
-def main(argv=None):
-    a = build_parser().parse_args(argv)
+@command("pleat-golden", build_parser)
+def main(a):
     start = time.perf_counter()
     _, latents, positions, _ = generate(a.out, a.frames, a.fp16, a.seed, a.vertices)
     if not a.quiet:

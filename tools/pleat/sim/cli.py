@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pleat.cli import add_quiet, command, positive_float
+from pleat.cli import UsageError, add_quiet, command, positive_float
 from pleat.fileio import save_npz, write_text
 
 
@@ -32,19 +32,17 @@ def build_parser():
     return parser
 
 
-@command("pleat-sim")
-def main(argv=None):
-    parser = build_parser()
-    args = parser.parse_args(argv)
+@command("pleat-sim", build_parser)
+def main(args):
     from ..physics import Material
     from .scene import HOLD_FRAMES, LEAD_IN_FRAMES, load_body, load_garment_spec, load_motion, simulate
     try:
         material = Material.parse(args.material) if args.material else Material()
         beta = None if args.beta is None else np.array([float(b) for b in args.beta.split(",")])
     except ValueError as e:
-        parser.error(str(e))
+        raise UsageError(str(e)) from None
     if args.frames is not None and args.frames < 1:
-        parser.error("--frames must be at least 1")
+        raise UsageError("--frames must be at least 1")
     body = load_body(args.body)
     clip = load_motion(args.motion, body, fps=args.fps)          # a bad clip fails here, before any work
     garment = load_garment_spec(args.garment, body)

@@ -38,8 +38,8 @@ import numpy as np
 try:
     from pleat.cli import add_quiet, command
 except ImportError:      # the newton side runs this file as a script in newton's own venv, where pleat is absent
-    def command(prog):
-        return lambda main: main
+    def command(prog, build_parser):
+        return lambda main: lambda argv=None: main(build_parser().parse_args(argv))
 
     def add_quiet(parser):
         return parser
@@ -463,10 +463,8 @@ def build_parser():
     return ap
 
 
-@command("pleat-crosscheck")
-def main(argv=None):
-    ap = build_parser()
-    args = ap.parse_args(argv)
+@command("pleat-crosscheck", build_parser)
+def main(args):
     if args.newton_forces:
         newton_forces(*args.newton_forces)
         return 0
