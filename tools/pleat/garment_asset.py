@@ -218,8 +218,7 @@ def build_parser():
     parser.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     parser.add_argument("--out", required=True, help="output file: the LBS-only .pleat asset")
     parser.add_argument("--name", default=None, help="garment name in the asset (default: the garment's)")
-    add_quiet(parser)
-    return parser
+    return add_quiet(parser)
 
 
 @command("pleat-garment-asset", build_parser)

@@ -100,8 +100,7 @@ def build_parser():
     parser.add_argument("--yaw", type=float, default=0.0, help="camera yaw about +Y, degrees (0 = from the front)")
     parser.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     parser.add_argument("--out", required=True, help="output file: the PNG")
-    add_quiet(parser)
-    return parser
+    return add_quiet(parser)
 
 
 def _read_sim(folder):

@@ -217,8 +217,7 @@ def build_parser():
                     help="frame rate of the clip, reference and steps (default 30)")
     ap.add_argument("--network-rate", type=float, default=0.0,
                     help="pleat's network update rate in Hz (plInstanceDef.network_rate_hz; default 0: every step)")
-    add_quiet(ap)
-    return ap
+    return add_quiet(ap)
 
 
 @command("pleat-eval", build_parser)

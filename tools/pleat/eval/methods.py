@@ -111,8 +111,7 @@ def build_parser():
     ap.add_argument("--no-phi", action="store_true", help="do not time Φ (needs torch)")
     ap.add_argument("--out", required=True, help="output file: the chart (PNG)")
     ap.add_argument("--json", default=None, help="output file: the rows as JSON")
-    add_quiet(ap)
-    return ap
+    return add_quiet(ap)
 
 
 @command("pleat-methods", build_parser)

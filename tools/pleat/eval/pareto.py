@@ -278,8 +278,7 @@ def build_parser():
     ap.add_argument("--json", default=None, help="also write the rows to this JSON file")
     ap.add_argument("--repeats", type=int, default=5, help="timing rounds (3 passes per asset each; the lowest median is kept)")
     ap.add_argument("--note", action="append", default=[], help="a line for the page's Notes section (repeatable)")
-    add_quiet(ap)
-    return ap
+    return add_quiet(ap)
 
 
 @command("pleat-pareto", build_parser)

@@ -521,8 +521,7 @@ def build_parser():
     ap.add_argument("--ref-window-s", type=float, default=None,
                     help="reference window length at the start and end of the long run (0: none)")
     ap.add_argument("--json", default=None, help="also write the full report to this JSON file")
-    add_quiet(ap)
-    return ap
+    return add_quiet(ap)
 
 
 @command("pleat-stability")

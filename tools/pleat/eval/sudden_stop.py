@@ -89,8 +89,7 @@ def build_parser():
     ap.add_argument("--hold", type=int, default=40, help="frames held after it")
     ap.add_argument("--out", required=True, help="output file: the JSON report")
     ap.add_argument("--plot", default=None, help="output file: the speed plot (PNG)")
-    add_quiet(ap)
-    return ap
+    return add_quiet(ap)
 
 
 @command("pleat-sudden-stop", build_parser)

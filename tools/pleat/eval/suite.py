@@ -96,8 +96,7 @@ def build_parser():
     ap.add_argument("--max-frames", type=int, default=60, help="frames scored per clip (default 60)")
     ap.add_argument("--reference-spread", action="store_true", help="also score a second reference 1 µm apart")
     ap.add_argument("--out", required=True, help="output file: the JSON report")
-    add_quiet(ap)
-    return ap
+    return add_quiet(ap)
 
 
 @command("pleat-eval-suite", build_parser)

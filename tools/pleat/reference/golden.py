@@ -340,8 +340,7 @@ def build_parser():
     p.add_argument("--fp16", action="store_true", help="store weight matrices and blend shapes as fp16")
     p.add_argument("--seed", type=int, default=0, help="seed of the random weights and motion")
     p.add_argument("--vertices", type=int, default=4424, help="garment vertex count of the random asset")
-    add_quiet(p)
-    return p
+    return add_quiet(p)
 
 
 @command("pleat-golden", build_parser)

@@ -28,8 +28,7 @@ def build_parser():
                              "from the garment skinned onto frame 0)")
     parser.add_argument("--hold", type=int, default=None, metavar="N",
                         help="frames the first pose is held after the lead-in (default 5)")
-    add_quiet(parser)
-    return parser
+    return add_quiet(parser)
 
 
 @command("pleat-sim", build_parser)

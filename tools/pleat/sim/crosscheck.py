@@ -459,8 +459,7 @@ def build_parser():
                          ".json) and pleat's equilibrium against beam theory with its hinge energy's D_eff")
     ap.add_argument("--first-step-iterations", default="1,10,100,1000,10000,50000",
                     help="with --static: VBD iteration counts of the one-substep test from pleat's equilibrium")
-    add_quiet(ap)
-    return ap
+    return add_quiet(ap)
 
 
 @command("pleat-crosscheck", build_parser)
