@@ -298,6 +298,18 @@ class BodyCollider:
         mag = np.minimum(d[..., 0], plane_d)
         return sign * mag, idx0, self.normals[idx0]
 
+    def push_out(self, points, clearance, iterations):
+        """A copy of points [P, 3] where those closer than clearance to the body (signed_distance with k = 8; inside
+        included) are moved out along the body normal, repeated up to `iterations` times while any is."""
+        x = np.array(points, dtype=np.float64)
+        for _ in range(iterations):
+            d, _, n = self.signed_distance(x, k=8)
+            low = d < clearance
+            if not low.any():
+                break
+            x[low] += (clearance - d[low])[:, None] * n[low]
+        return x
+
     def inside(self, points, tolerance=0.0):
         """True where a point is deeper than `tolerance` metres inside the body."""
         return self.signed_distance(points)[0] < -tolerance

@@ -138,18 +138,6 @@ def _remesh(v, f, n_target, iterations=10):
     return best
 
 
-def _push_out(x, collider, clearance, iterations=6, faces=None):
-    """Move vertices closer than `clearance` to the body out along the body normal; smooth the moved ones."""
-    x = x.copy()
-    for _ in range(iterations):
-        d, idx, n = collider.signed_distance(x, k=8)
-        low = d < clearance
-        if not low.any():
-            break
-        x[low] += (clearance - d[low])[:, None] * n[low]
-    return x
-
-
 def diffuse_from_body(x, faces, body, query_points=None, smooth_iterations=10, shape_smooth_iterations=3,
                       k_influences=4, beta_check=3.0):
     """(skin_indices [N,K], skin_weights [N,K], shape_blend [B,N,3]) from the nearest body vertices, smoothed over
@@ -220,7 +208,7 @@ def make_garment(name, vertices=None, body=None, offset_m=None):
     offset = OFFSET_M[name] if offset_m is None else offset_m
     x = v + offset * M.vertex_normals(v, f)
     collider = BodyCollider(body.v_template, body.faces)
-    x = _push_out(x, collider, MIN_CLEARANCE_M + offset * 0.5)
+    x = collider.push_out(x, MIN_CLEARANCE_M + offset * 0.5, iterations=6)
     query = None
     if skirt_top is not None:
         # skirt vertices follow the hips, not the nearest leg: look them up straight above, on the hip ring

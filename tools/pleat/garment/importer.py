@@ -61,14 +61,7 @@ def fit_to_body(x, faces, collider, margin_m, smooth_iterations=12, final_iterat
         spread = P @ disp
         grow = np.linalg.norm(0.5 * spread, axis=1) > np.linalg.norm(disp, axis=1)
         disp[grow] = 0.5 * spread[grow]
-    x = x0 + disp
-    for _ in range(final_iterations):
-        d, _, n = collider.signed_distance(x, k=8)
-        low = d < margin_m
-        if not low.any():
-            break
-        x[low] += (margin_m - d[low])[:, None] * n[low]
-    return x
+    return collider.push_out(x0 + disp, margin_m, final_iterations)
 
 
 def _outward_fraction(x, faces, collider):
