@@ -108,6 +108,22 @@ static int checkMagic( Reader* reader, const char* magic )
 	return 0;
 }
 
+// Reads the whole file and checks its magic and version: the block the reader walks (the caller frees it), or NULL
+// after saying why on stderr.
+static void* openReader( Reader* reader, const char* path, const char* magic )
+{
+	memset( reader, 0, sizeof( *reader ) );
+	reader->path = path;
+	void* block = readWholeFile( path, &reader->size );
+	reader->data = block;
+	if ( block != NULL && checkMagic( reader, magic ) != 0 )
+	{
+		free( block );
+		return NULL;
+	}
+	return block;
+}
+
 static void takeNames( Reader* reader, char names[][RENDER_NAME_BYTES], uint32_t count )
 {
 	const char* p = take( reader, count, RENDER_NAME_BYTES );
@@ -130,16 +146,24 @@ static int allFinite( const float* values, size_t count )
 	return 1;
 }
 
+// Says what is wrong with the file (problem NULL: already said), frees the body and returns -1.
+static int rejectBody( RenderBody* body, const char* path, const char* problem )
+{
+	if ( problem != NULL )
+	{
+		fprintf( stderr, "render: %s %s\n", path, problem );
+	}
+	renderBody_Free( body );
+	return -1;
+}
+
 int renderBody_Load( RenderBody* body, const char* path )
 {
 	memset( body, 0, sizeof( *body ) );
-	Reader reader = { 0 };
-	reader.path = path;
-	body->block = readWholeFile( path, &reader.size );
-	reader.data = body->block;
-	if ( body->block == NULL || checkMagic( &reader, "PLBODY01" ) != 0 )
+	Reader reader;
+	body->block = openReader( &reader, path, "PLBODY01" );
+	if ( body->block == NULL )
 	{
-		renderBody_Free( body );
 		return -1;
 	}
 	body->vertex_count = takeU32( &reader );
@@ -151,9 +175,7 @@ int renderBody_Load( RenderBody* body, const char* path )
 		 body->influence_count == 0 || body->influence_count > body->joint_count || body->vertex_count == 0 ||
 		 body->face_count == 0 )
 	{
-		fprintf( stderr, "render: %s has counts out of range\n", path );
-		renderBody_Free( body );
-		return -1;
+		return rejectBody( body, path, "has counts out of range" );
 	}
 	for ( uint32_t b = 0; b < body->beta_count; ++b )
 	{
@@ -168,33 +190,26 @@ int renderBody_Load( RenderBody* body, const char* path )
 	body->skin_weights = (float*)take( &reader, v * k, 4 );
 	if ( reader.failed )
 	{
-		renderBody_Free( body );
-		return -1;
+		return rejectBody( body, path, NULL );
 	}
 	for ( uint64_t i = 0; i < (uint64_t)body->face_count * 3; ++i )
 	{
 		if ( body->faces[i] >= body->vertex_count )
 		{
-			fprintf( stderr, "render: %s has a face index out of range\n", path );
-			renderBody_Free( body );
-			return -1;
+			return rejectBody( body, path, "has a face index out of range" );
 		}
 	}
 	for ( uint64_t i = 0; i < v * k; ++i )
 	{
 		if ( body->skin_indices[i] >= body->joint_count )
 		{
-			fprintf( stderr, "render: %s has a skin index out of range\n", path );
-			renderBody_Free( body );
-			return -1;
+			return rejectBody( body, path, "has a skin index out of range" );
 		}
 	}
 	if ( !allFinite( body->vertices, v * 3 ) || !allFinite( body->joints, body->joint_count * 3u ) ||
 		 !allFinite( body->skin_weights, v * k ) )
 	{
-		fprintf( stderr, "render: %s has non-finite values\n", path );
-		renderBody_Free( body );
-		return -1;
+		return rejectBody( body, path, "has non-finite values" );
 	}
 	return 0;
 }
@@ -208,13 +223,10 @@ void renderBody_Free( RenderBody* body )
 int renderMotion_Load( RenderMotion* motion, const char* path )
 {
 	memset( motion, 0, sizeof( *motion ) );
-	Reader reader = { 0 };
-	reader.path = path;
-	motion->block = readWholeFile( path, &reader.size );
-	reader.data = motion->block;
-	if ( motion->block == NULL || checkMagic( &reader, "PLMOTION" ) != 0 )
+	Reader reader;
+	motion->block = openReader( &reader, path, "PLMOTION" );
+	if ( motion->block == NULL )
 	{
-		renderMotion_Free( motion );
 		return -1;
 	}
 	motion->frame_count = takeU32( &reader );
