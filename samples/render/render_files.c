@@ -69,25 +69,27 @@ static const void* take( Reader* reader, uint64_t count, size_t element_size )
 	return p;
 }
 
-static uint32_t takeU32( Reader* reader )
+// The next 4 bytes into *out (left as it was if the file is too short).
+static void takeWord( Reader* reader, void* out )
 {
-	uint32_t value = 0;
 	const void* p = take( reader, 1, 4 );
 	if ( p != NULL )
 	{
-		memcpy( &value, p, 4 );
+		memcpy( out, p, 4 );
 	}
+}
+
+static uint32_t takeU32( Reader* reader )
+{
+	uint32_t value = 0;
+	takeWord( reader, &value );
 	return value;
 }
 
 static float takeF32( Reader* reader )
 {
 	float value = 0.0f;
-	const void* p = take( reader, 1, 4 );
-	if ( p != NULL )
-	{
-		memcpy( &value, p, 4 );
-	}
+	takeWord( reader, &value );
 	return value;
 }
 
