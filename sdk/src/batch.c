@@ -3,10 +3,12 @@
 //
 //     per instance (workers take whole instances):  validate → network rate decision → forward kinematics → X_c
 //     per group (workers take rows / vertices):      f_LP  →  [latent guard per instance]  →  f_dec  →  blend shapes
-//     per instance (workers take whole instances):  skinning → normals → guards → commit
+//     per lane group (workers take 8 instances):    skinning → normals, the instances as vector lanes
+//     per instance (workers take whole instances):  guards → commit
 //
 // f_LP and f_dec become matrix-matrix products and the blend a small GEMM (jobs_batch.h), so each weight and each
-// blend shape is read once per group instead of once per instance. Every stage is the single step's own (the same
+// blend shape is read once per group instead of once per instance; skinning and normals run one vector operation for
+// 8 instances where the single kernels spend their lanes on one vertex. Every stage is the single step's own (the same
 // jobs and instance_step.c's validation, forward kinematics, reset and commit), and the batched kernels do per
 // instance exactly the single kernels' arithmetic, so every instance ends bit-identical to stepping it alone
 // (test_batch_step_matches_single). What the batch does not batch it hands to plInstance_Step unchanged: instances in
@@ -31,6 +33,7 @@ typedef struct plBatchEntry
 	plResult result;   // < 0: the instance's error (nothing of it changed); else its result once finished
 	int needs_reset;   // a non-finite value appeared: the numeric reset runs for it on the calling thread
 	int blend;         // the blend stage writes its T_def this step
+	int geometry_done; // the batched skinning and normals wrote its positions and normals this step
 } plBatchEntry;
 
 typedef struct plBatchGroup
@@ -46,7 +49,7 @@ typedef struct plBatchGroup
 	plConstSpan in_spans[PLEAT_BATCH_MAX];
 	plSpan out_spans[PLEAT_BATCH_MAX];
 	plSpan scratch_spans[PLEAT_BATCH_MAX];
-	atomic_int blend_result; // a blend job's error, from whichever worker saw it
+	atomic_int blend_result; // a blend or geometry job's error, from whichever worker saw it
 } plBatchGroup;
 
 // ---- per instance, before the networks: what plInstance_Step does up to X_c ----
@@ -234,7 +237,149 @@ static void plRunBlend( plBatchGroup* g )
 	}
 }
 
-// ---- per instance, after the blend: skinning, normals, guards, commit ----
+// ---- per lane group, after the blend: skinning and normals with the instances as vector lanes ----
+
+// The context's scratch for the batched normals: blocks claimed per lane group (any thread may step a batch of its
+// own instances at the same time: a group that finds every block taken runs its normals per instance instead).
+void plReserveBatchScratch( plContextData* ctx, uint32_t vertex_count )
+{
+	plBatchKernels kernels;
+	if ( !plSelectBatchKernels( &ctx->kernels, &kernels ) || kernels.geometry_lanes <= 1 )
+	{
+		return; // the scalar set runs skinning and normals per instance
+	}
+	size_t floats = plNormalsBatchScratchFloats( vertex_count, kernels.geometry_lanes );
+	uint32_t slots = ctx->runner.worker_count < PLEAT_BATCH_SCRATCH_SLOTS ? ctx->runner.worker_count
+																		  : PLEAT_BATCH_SCRATCH_SLOTS;
+	if ( floats <= ctx->batch_scratch_floats && slots <= ctx->batch_scratch_slots )
+	{
+		return;
+	}
+	floats = floats > ctx->batch_scratch_floats ? floats : ctx->batch_scratch_floats;
+	plFreeBatchScratch( ctx );
+	for ( uint32_t i = 0; i < slots; ++i )
+	{
+		ctx->batch_scratch[i] = (float*)ctx->host_alloc( floats * sizeof( float ), 64, ctx->host_allocator_context );
+		if ( ctx->batch_scratch[i] == NULL )
+		{
+			plFreeBatchScratch( ctx );
+			return;
+		}
+		atomic_init( &ctx->batch_scratch_busy[i], 0 );
+		ctx->batch_scratch_slots = i + 1;
+		ctx->batch_scratch_floats = floats;
+	}
+}
+
+void plFreeBatchScratch( plContextData* ctx )
+{
+	for ( uint32_t i = 0; i < ctx->batch_scratch_slots; ++i )
+	{
+		ctx->host_free( ctx->batch_scratch[i], ctx->batch_scratch_floats * sizeof( float ),
+						ctx->host_allocator_context );
+		ctx->batch_scratch[i] = NULL;
+	}
+	ctx->batch_scratch_slots = 0;
+	ctx->batch_scratch_floats = 0;
+}
+
+// A free scratch block big enough for `floats` (its index), or -1.
+static int plClaimScratch( plContextData* ctx, size_t floats )
+{
+	if ( floats > ctx->batch_scratch_floats )
+	{
+		return -1;
+	}
+	for ( uint32_t i = 0; i < ctx->batch_scratch_slots; ++i )
+	{
+		int expected = 0;
+		if ( atomic_compare_exchange_strong_explicit( &ctx->batch_scratch_busy[i], &expected, 1, memory_order_acquire,
+													  memory_order_relaxed ) )
+		{
+			return (int)i;
+		}
+	}
+	return -1;
+}
+
+// Lane groups [begin, end) of the members: skinning of a lane group's instances at once, then their normals at once.
+// Every instance keeps its own positions and normals buffers; only the normals' lanes live in the context's scratch.
+static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plBatchGroup* g = (plBatchGroup*)context;
+	const plAssetData* a = g->asset;
+	uint32_t lanes = g->kernels->geometry_lanes;
+	for ( uint32_t lane_group = begin; lane_group < end; ++lane_group )
+	{
+		uint32_t m0 = lane_group * lanes;
+		uint32_t n = g->member_count - m0 < lanes ? g->member_count - m0 : lanes;
+		const float* in[PLEAT_BATCH_MAX];
+		const float* matrices[PLEAT_BATCH_MAX];
+		float* positions[PLEAT_BATCH_MAX];
+		float* normals[PLEAT_BATCH_MAX];
+		for ( uint32_t k = 0; k < n; ++k )
+		{
+			plInstanceData* inst = g->entries[g->members[m0 + k]].inst;
+			in[k] = inst->deformed;
+			matrices[k] = inst->next_skin_matrices;
+			positions[k] = inst->positions;
+			normals[k] = inst->normals;
+		}
+		g->kernels->skinning_batch( positions, in, n, a->skin_indices, a->skin_weights, a->influence_count, matrices,
+									a->joint_count, 0, a->vertex_count );
+		int slot = plClaimScratch( g->ctx, plNormalsBatchScratchFloats( a->vertex_count, lanes ) );
+		if ( slot >= 0 )
+		{
+			g->kernels->normals_batch( normals, (const float* const*)positions, n, a->vertex_count, a->faces,
+									   a->face_count, g->ctx->batch_scratch[slot] );
+			atomic_store_explicit( &g->ctx->batch_scratch_busy[slot], 0, memory_order_release );
+			continue;
+		}
+		for ( uint32_t k = 0; k < n; ++k )
+		{
+			// No scratch free: each instance's own normals (the single step's kernels, the same bits).
+			if ( plNormalsSerial( g->entries[g->members[m0 + k]].inst ) != PLEAT_RESULT_OK )
+			{
+				atomic_store_explicit( &g->blend_result, (int)PLEAT_RESULT_INTERNAL_ERROR, memory_order_relaxed );
+			}
+		}
+	}
+}
+
+// Members = the entries whose skinning and normals run batched: the batched kernels have lanes (not the scalar set),
+// and nothing runs between skinning and normals for them (an instance with body contact takes the single step's
+// deformation, plDeformCpu, in plFinishEntry).
+static void plRunGeometry( plBatchGroup* g )
+{
+	g->member_count = 0;
+	if ( g->kernels->geometry_lanes <= 1 )
+	{
+		return;
+	}
+	for ( uint32_t i = 0; i < g->count; ++i )
+	{
+		plBatchEntry* e = &g->entries[i];
+		if ( e->result == PLEAT_RESULT_OK && !e->needs_reset && !e->inst->body_contact )
+		{
+			g->members[g->member_count++] = i;
+			e->geometry_done = 1;
+		}
+	}
+	if ( g->member_count == 0 )
+	{
+		return;
+	}
+	uint32_t lanes = g->kernels->geometry_lanes;
+	atomic_init( &g->blend_result, (int)PLEAT_RESULT_OK );
+	plRunTask( &g->ctx->runner, plGeometryTask, ( g->member_count + lanes - 1 ) / lanes, 1, g );
+	if ( atomic_load_explicit( &g->blend_result, memory_order_relaxed ) != (int)PLEAT_RESULT_OK )
+	{
+		plFailMembers( g, PLEAT_RESULT_INTERNAL_ERROR );
+	}
+}
+
+// ---- per instance, after the geometry: guards, commit ----
 
 static void plFinishEntry( plBatchEntry* e )
 {
@@ -243,13 +388,16 @@ static void plFinishEntry( plBatchEntry* e )
 		return;
 	}
 	plInstanceData* inst = e->inst;
-	// The blend already wrote T_def; skinning and normals of this worker's whole instance run unsplit here (their
-	// results do not depend on the split).
-	plResult r = plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, 0, NULL );
-	if ( r != PLEAT_RESULT_OK )
+	if ( !e->geometry_done )
 	{
-		e->result = r;
-		return;
+		// The blend already wrote T_def; skinning (with body contact) and normals of this worker's whole instance run
+		// unsplit here (their results do not depend on the split).
+		plResult r = plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, 0, NULL );
+		if ( r != PLEAT_RESULT_OK )
+		{
+			e->result = r;
+			return;
+		}
 	}
 	size_t n3 = (size_t)inst->asset->vertex_count * 3;
 	if ( !( plAllFiniteFloats( inst->positions, n3 ) && plAllFiniteFloats( inst->normals, n3 ) ) )
@@ -295,6 +443,7 @@ static void plRunGroup( plBatchGroup* g )
 	plRunTask( &g->ctx->runner, plPrepareTask, g->count, 1, g );
 	plRunNetworks( g );
 	plRunBlend( g );
+	plRunGeometry( g );
 	plRunTask( &g->ctx->runner, plFinishTask, g->count, 1, g );
 	for ( uint32_t i = 0; i < g->count; ++i )
 	{

@@ -251,6 +251,7 @@ plResult plDestroyContext( plContext context )
 	plSlotTable_Free( ctx, &ctx->scenes );
 	plSlotTable_Free( ctx, &ctx->instances );
 	plSlotTable_Free( ctx, &ctx->assets );
+	plFreeBatchScratch( ctx );
 	g_plContextTable.contexts[context.index1 - 1u] = NULL; // the generation stays: the next context gets the one after
 	plFreeFn* host_free = ctx->host_free;
 	void* user = ctx->host_allocator_context;

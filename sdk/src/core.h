@@ -27,6 +27,9 @@ typedef struct plSlot
 
 typedef struct plContextData plContextData;
 
+// Scratch blocks for the batched normals a context keeps (one per worker, at most this many; batch.c).
+#define PLEAT_BATCH_SCRATCH_SLOTS 8
+
 // Frees an object a slot table holds (its owner's destroy, without the slot bookkeeping).
 typedef void plDestroyObjectFn( plContextData* ctx, void* object );
 
@@ -54,6 +57,14 @@ struct plContextData
 	plKernels kernels;
 	plKernelSet kernel_set; // which variants kernels holds
 
+	// plStepInstances's scratch for the batched normals (batch.c): one block per slot, claimed per lane group of
+	// instances, sized at instance creation for the largest mesh so far (plReserveBatchScratch). Context bookkeeping:
+	// through the host hooks, not counted in live_bytes, freed with the context.
+	float* batch_scratch[PLEAT_BATCH_SCRATCH_SLOTS];
+	size_t batch_scratch_floats; // of every block
+	uint32_t batch_scratch_slots;
+	atomic_int batch_scratch_busy[PLEAT_BATCH_SCRATCH_SLOTS];
+
 	plSlotTable assets;
 	plSlotTable instances;
 	plSlotTable scenes; // scenes own instances of their characters (scene.c)
@@ -68,6 +79,12 @@ typedef struct plContextTable
 	uint32_t generations[PLEAT_MAX_CONTEXTS]; // as plSlot.generation
 } plContextTable;
 extern plContextTable g_plContextTable;
+
+// plStepInstances's scratch (batch.c): grow the context's blocks to fit a mesh of vertex_count vertices (at instance
+// creation; on failure the batch runs that mesh's normals per instance, with the same results), and free them (at
+// context destruction).
+void plReserveBatchScratch( plContextData* ctx, uint32_t vertex_count );
+void plFreeBatchScratch( plContextData* ctx );
 
 // The live context a handle names (index and generation both match), or NULL. Asset and instance lookups go through
 // this with the context handle they carry.

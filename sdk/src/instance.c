@@ -425,6 +425,10 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	{
 		r = plCreateBackends( inst, def );
 	}
+	if ( r == PLEAT_RESULT_OK && inst->gl == NULL )
+	{
+		plReserveBatchScratch( ctx, a->vertex_count ); // optional: plStepInstances's batched normals for this mesh
+	}
 	uint32_t slot = UINT32_MAX;
 	if ( r == PLEAT_RESULT_OK )
 	{

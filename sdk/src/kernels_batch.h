@@ -11,11 +11,20 @@
 //                                                         sum, a scalar fmaf tail, then + bias
 //     plBlendShapesBatch_Scalar ↔ plBlendShapes_Scalar   per element base, then += w_j · D_j, j ascending (two roundings)
 //     plBlendShapesBatch_Avx2   ↔ plBlendShapes_Avx2     per element base, then fma(w_j, D_j, ·), j ascending
-// test_batched_kernels_match_single checks each pair bit for bit.
+//     plSkinningBatch_*         ↔ plSkinning_*           per vertex the blended matrix as an FMA chain over k (AVX2)
+//                                                         or mul + add (scalar), then the same transform expression
+//     plNormalsBatch_*          ↔ plNormalsScatter_*     per face the same cross product (separate roundings), per
+//                                                         vertex the same ascending-face sum and normalisation
+// The _Avx512 kernels (AVX-512 F/VL/BW/DQ, chosen at run time when the CPU has them) are further twins of the _Avx2
+// single-instance kernels — a 16-wide FMA whose low and high halves are plMatVec_Avx2's even and odd chains, 16-wide
+// blend tiles — never of a single-instance AVX-512 kernel: a context's single-instance kernels stay the AVX2 set, and a
+// batch on an AVX-512 CPU gives exactly what they give. The AVX-512 set keeps the 8-lane AVX2 skinning and normals.
+// test_batched_kernels_match_single checks each pair bit for bit, and every variant against the scalar specification.
 #ifndef PLEAT_KERNELS_BATCH_H
 #define PLEAT_KERNELS_BATCH_H
 #include "kernels.h"
 
+#include <stddef.h>
 #include <stdint.h>
 
 // The most instances one batched kernel call takes (the job and plStepInstances cut larger groups).
@@ -31,17 +40,48 @@ typedef void plBlendShapesBatchFn( float* const* out, const float* const* base, 
 								   uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
 								   uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 
+// Linear blend skinning of batch_count instances of one mesh for vertices [v_begin, v_end): out[b][v] =
+// (Σ_k w_vk M_b,{j_vk}) · (in[b][v], 1), in and out packed [N][3] (stride 12), skin_matrices[b] [J][3][4]; joint indices
+// >= joint_count count as weight 0, as in plSkinningFn.
+typedef void plSkinningBatchFn( float* const* out, const float* const* in, uint32_t batch_count,
+								const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
+								const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin,
+								uint32_t v_end );
+// Vertex normals of batch_count instances of one mesh, all vertices: what plNormalsScatterFn gives each instance
+// (positions[b] and normals[b] packed [N][3]). scratch: [plNormalsBatchScratchFloats(N, batch lanes)] floats, 64-byte
+// aligned, shared by the call (the SIMD twins keep the positions and the sums there with the instances as lanes).
+typedef void plNormalsBatchFn( float* const* normals, const float* const* positions, uint32_t batch_count,
+							   uint32_t vertex_count, const uint32_t* faces, uint32_t face_count, float* scratch );
+
 typedef struct plBatchKernels
 {
 	plMatMatFn* mat_mat;
 	plBlendShapesBatchFn* blend_shapes_batch;
+	plSkinningBatchFn* skinning_batch;
+	plNormalsBatchFn* normals_batch;
+	uint32_t geometry_lanes; // instances per skinning_batch / normals_batch call that fill its registers (1 = scalar)
+	const char* isa;         // "scalar", "avx2+fma+f16c" or "avx512f+vl+bw+dq" (for benchmark reports)
 } plBatchKernels;
+
+// Floats of scratch plNormalsBatchFn needs for N vertices and up to `lanes` instances per call: the positions and the
+// sums, [N][3][lanes] each, plus padding; for the scalar kernel (lanes = 1) the scatter's [N][4] sums.
+size_t plNormalsBatchScratchFloats( uint32_t vertex_count, uint32_t lanes );
 
 void plMatMat_Scalar( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
 					  int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end );
 void plBlendShapesBatch_Scalar( float* const* out, const float* const* base, const float* const* weights,
 								uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
 								uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
+plSkinningBatchFn plSkinningBatch_Scalar;
+plNormalsBatchFn plNormalsBatch_Scalar;
+#if defined( PLEAT_HAVE_AVX2 )
+plSkinningBatchFn plSkinningBatch_Avx2;
+plNormalsBatchFn plNormalsBatch_Avx2;
+#endif
+#if defined( PLEAT_HAVE_AVX512 )
+plMatMatFn plMatMat_Avx512;
+plBlendShapesBatchFn plBlendShapesBatch_Avx512;
+#endif
 #if defined( PLEAT_HAVE_AVX2 )
 void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
 					int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end );
@@ -50,8 +90,25 @@ void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const
 							  uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 #endif
 
+// The widest batched kernels plSelectBatchKernels may choose (tests and benchmarks compare the sets).
+typedef enum plBatchIsa
+{
+	PLEAT_BATCH_ISA_SCALAR = 0, // only with the scalar single-instance kernels
+	PLEAT_BATCH_ISA_AVX2 = 1,
+	PLEAT_BATCH_ISA_AVX512 = 2,
+} plBatchIsa;
+
 // The batched twins of the kernels a context chose (plSelectKernels): each entry matches the single-instance kernel in
-// the same slot, so a batch gives what stepping each instance alone gives. Returns 0 if a kernel has no twin.
+// the same slot, so a batch gives what stepping each instance alone gives on that context. Twins of the AVX2 kernels
+// are the AVX-512 ones when the build has them, the CPU runs them and g_plBatchIsaLimit allows them. Returns 0 if a
+// kernel has no twin.
 int plSelectBatchKernels( const plKernels* kernels, plBatchKernels* out );
+// The same with an explicit limit instead of g_plBatchIsaLimit.
+int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatchKernels* out );
+// The limit plSelectBatchKernels applies (default PLEAT_BATCH_ISA_AVX512: the best the CPU has). Internal, for the
+// crowd benchmark's AVX2-only comparison; set it before stepping, not while another thread steps.
+extern plBatchIsa g_plBatchIsaLimit;
+// Non-zero if this build has the AVX-512 batched kernels and this CPU (and OS) runs them.
+int plCpuHasAvx512Batch( void );
 
 #endif

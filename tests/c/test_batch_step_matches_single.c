@@ -1,6 +1,7 @@
 // plStepInstances steps every instance of a crowd exactly as plInstance_Step steps it alone: the same results and,
 // bit for bit, the same positions, normals, latent, blend weights, skinning matrices and copies to the caller's
-// strided outputs — on the scalar and the AVX2 kernels, fp32 and fp16 weights, one and three workers, over several
+// strided outputs — on the scalar and the AVX2 kernels (with the AVX2 and, where the CPU has them, the AVX-512 batched
+// kernels; with and without the batched normals' scratch), fp32 and fp16 weights, one and three workers, over several
 // frames of a crowd that has more instances of one asset than one group holds (64), three assets (ReLU and SiLU),
 // different β, network rates and dt, instances listed twice, a stale handle, an instance whose input is rejected on
 // one frame (it must stay unchanged while the others step) and an asset whose f_LP overflows whenever the root moves
@@ -11,6 +12,8 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "core.h"
+#include "kernels_batch.h"
 #include "test_common.h"
 #include "test_task_system.h"
 
@@ -162,12 +165,19 @@ static void plExpectSameInstance( plInstance a, plInstance b, const plTestAsset*
 	assert_memory_equal( ma, mb, model->J * 12 * sizeof( float ) );
 }
 
-static void plRunCrowd( int force_scalar, uint32_t workers, int fp16 )
+// scratch_taken: every block of the batch context's scratch is marked in use (as if other threads were stepping their
+// own batches), so the batched normals fall back to each instance's own.
+static void plRunCrowdWith( int force_scalar, uint32_t workers, int fp16, int scratch_taken )
 {
 	plTestAsset* models[3] = { plMakeModel( 0, fp16 ), plMakeModel( 1, fp16 ), plMakeModel( 2, fp16 ) };
 	plTestWorld batch, single;
 	plWorld_Init( &batch, models, force_scalar, workers );
 	plWorld_Init( &single, models, force_scalar, workers );
+	plContextData* batch_ctx = plGetContext( batch.context );
+	for ( uint32_t i = 0; scratch_taken && i < batch_ctx->batch_scratch_slots; ++i )
+	{
+		atomic_store( &batch_ctx->batch_scratch_busy[i], 1 );
+	}
 
 	static float quats[PLEAT_TEST_LIST][64 * 4];
 	static float out_batch[PLEAT_TEST_LIST][PLEAT_TEST_MAX_N * PLEAT_TEST_STRIDE_FLOATS * 2];
@@ -262,6 +272,11 @@ static void plRunCrowd( int force_scalar, uint32_t workers, int fp16 )
 	}
 }
 
+static void plRunCrowd( int force_scalar, uint32_t workers, int fp16 )
+{
+	plRunCrowdWith( force_scalar, workers, fp16, 0 );
+}
+
 static void test_crowd_equals_one_by_one_scalar( void** state )
 {
 	(void)state;
@@ -276,6 +291,25 @@ static void test_crowd_equals_one_by_one_simd( void** state )
 	plRunCrowd( 0, 1, 1 );
 	plRunCrowd( 0, 3, 0 );
 	plRunCrowd( 0, 3, 1 );
+}
+
+// The AVX2 batched kernels where the CPU would take the AVX-512 ones (the same crowd: the AVX2 set is what an AVX2-only
+// machine runs), and the fallback of the batched normals when no scratch block is free.
+static void test_crowd_equals_one_by_one_avx2_batch_and_no_scratch( void** state )
+{
+	(void)state;
+	plKernels k;
+	if ( !plSelectKernels( &k, 0 ) )
+	{
+		skip();
+	}
+	plBatchIsa limit = g_plBatchIsaLimit;
+	g_plBatchIsaLimit = PLEAT_BATCH_ISA_AVX2;
+	plRunCrowd( 0, 1, 0 );
+	plRunCrowd( 0, 3, 1 );
+	g_plBatchIsaLimit = limit;
+	plRunCrowdWith( 0, 1, 0, 1 );
+	plRunCrowdWith( 0, 3, 1, 1 );
 }
 
 static void test_batch_arguments( void** state )
@@ -316,6 +350,7 @@ int main( void )
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_crowd_equals_one_by_one_scalar ),
 		cmocka_unit_test( test_crowd_equals_one_by_one_simd ),
+		cmocka_unit_test( test_crowd_equals_one_by_one_avx2_batch_and_no_scratch ),
 		cmocka_unit_test( test_batch_arguments ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );

@@ -22,8 +22,11 @@ static float plRand( void )
 	return (float)( s_rng >> 8 ) / 8388608.0f - 1.0f;
 }
 
-// The kernel sets to compare: scalar always, AVX2 when this build and CPU have it.
-static uint32_t plKernelSets( plKernels sets[2], plBatchKernels batch[2] )
+// The kernel sets to compare: scalar always, AVX2 when this build and CPU have it, and the AVX2 single-instance
+// kernels with the AVX-512 batched ones when this build and CPU have those too (set 2). Each set's batched kernels are
+// held to the single-instance kernels of the same set.
+#define PLEAT_TEST_SETS 3
+static uint32_t plKernelSets( plKernels sets[PLEAT_TEST_SETS], plBatchKernels batch[PLEAT_TEST_SETS] )
 {
 	uint32_t count = 0;
 	for ( int scalar = 1; scalar >= 0; --scalar )
@@ -35,8 +38,26 @@ static uint32_t plKernelSets( plKernels sets[2], plBatchKernels batch[2] )
 			break;
 		}
 		sets[count] = k;
-		assert_true( plSelectBatchKernels( &k, &batch[count] ) );
+		assert_true( plSelectBatchKernelsUpTo( &k, PLEAT_BATCH_ISA_AVX2, &batch[count] ) );
 		count++;
+		if ( !scalar && plCpuHasAvx512Batch() )
+		{
+			sets[count] = k;
+			assert_true( plSelectBatchKernelsUpTo( &k, PLEAT_BATCH_ISA_AVX512, &batch[count] ) );
+			assert_string_equal( batch[count].isa, "avx512f+vl+bw+dq" );
+			count++;
+		}
+	}
+	static int reported = 0;
+	if ( !reported )
+	{
+		reported = 1;
+		print_message( "batched kernel sets tested:" );
+		for ( uint32_t i = 0; i < count; ++i )
+		{
+			print_message( " %s", batch[i].isa );
+		}
+		print_message( "\n" );
 	}
 	return count;
 }
@@ -44,12 +65,12 @@ static uint32_t plKernelSets( plKernels sets[2], plBatchKernels batch[2] )
 static void test_mat_mat_equals_mat_vec_per_instance( void** state )
 {
 	(void)state;
-	plKernels sets[2];
-	plBatchKernels batch[2];
+	plKernels sets[PLEAT_TEST_SETS];
+	plBatchKernels batch[PLEAT_TEST_SETS];
 	uint32_t set_count = plKernelSets( sets, batch );
-	const uint32_t ins[] = { 1, 7, 8, 9, 15, 16, 17, 31, 33, 128, 681 };
+	const uint32_t ins[] = { 1, 7, 8, 9, 15, 16, 17, 31, 33, 128, 681, 1030 };
 	const uint32_t outs[] = { 1, 2, 3, 5, 8, 13, 64 };
-	const uint32_t batches[] = { 1, 2, 3, 4, 5, 7, PLEAT_BATCH_MAX };
+	const uint32_t batches[] = { 1, 2, 3, 4, 5, 6, 7, 13, PLEAT_BATCH_MAX };
 	for ( uint32_t s = 0; s < set_count; ++s )
 	{
 		for ( int fp16 = 0; fp16 < 2; ++fp16 )
@@ -110,18 +131,20 @@ static void test_mat_mat_equals_mat_vec_per_instance( void** state )
 	}
 }
 
-static void test_mat_mat_avx2_within_rounding_of_scalar_spec( void** state )
+// Every SIMD set's batched mat-mat (AVX2, AVX-512) against the scalar specification.
+static void test_mat_mat_simd_within_rounding_of_scalar_spec( void** state )
 {
 	(void)state;
-	plKernels sets[2];
-	plBatchKernels batch[2];
-	if ( plKernelSets( sets, batch ) < 2 )
+	plKernels sets[PLEAT_TEST_SETS];
+	plBatchKernels batch[PLEAT_TEST_SETS];
+	uint32_t set_count = plKernelSets( sets, batch );
+	if ( set_count < 2 )
 	{
 		skip();
 	}
-	const uint32_t in = 681, out = 37, n = 5;
+	const uint32_t in = 681, out = 37, n = 7;
 	float* w = (float*)malloc( (size_t)in * out * sizeof( float ) );
-	float bias[37], xs[5 * 681], ys[5 * 37], yv[5 * 37];
+	float bias[37], xs[7 * 681], ys[7 * 37], yv[7 * 37];
 	for ( size_t i = 0; i < (size_t)in * out; ++i )
 	{
 		w[i] = plRand();
@@ -130,8 +153,8 @@ static void test_mat_mat_avx2_within_rounding_of_scalar_spec( void** state )
 	{
 		bias[i] = plRand();
 	}
-	const float* x[5];
-	float *y_scalar[5], *y_simd[5];
+	const float* x[7];
+	float *y_scalar[7], *y_simd[7];
 	for ( uint32_t b = 0; b < n; ++b )
 	{
 		for ( uint32_t c = 0; c < in; ++c )
@@ -143,17 +166,20 @@ static void test_mat_mat_avx2_within_rounding_of_scalar_spec( void** state )
 		y_simd[b] = yv + b * out;
 	}
 	batch[0].mat_mat( y_scalar, x, n, w, 0, bias, in, 0, out );
-	batch[1].mat_mat( y_simd, x, n, w, 0, bias, in, 0, out );
-	for ( uint32_t b = 0; b < n; ++b )
+	for ( uint32_t s = 1; s < set_count; ++s )
 	{
-		for ( uint32_t r = 0; r < out; ++r )
+		batch[s].mat_mat( y_simd, x, n, w, 0, bias, in, 0, out );
+		for ( uint32_t b = 0; b < n; ++b )
 		{
-			double magnitude = fabs( bias[r] );
-			for ( uint32_t c = 0; c < in; ++c )
+			for ( uint32_t r = 0; r < out; ++r )
 			{
-				magnitude += fabs( (double)w[(size_t)r * in + c] * x[b][c] );
+				double magnitude = fabs( bias[r] );
+				for ( uint32_t c = 0; c < in; ++c )
+				{
+					magnitude += fabs( (double)w[(size_t)r * in + c] * x[b][c] );
+				}
+				assert_true( fabs( (double)y_scalar[b][r] - y_simd[b][r] ) <= 4.0 * in * 6e-8 * magnitude + 1e-30 );
 			}
-			assert_true( fabs( (double)y_scalar[b][r] - y_simd[b][r] ) <= 4.0 * in * 6e-8 * magnitude + 1e-30 );
 		}
 	}
 	free( w );
@@ -162,12 +188,12 @@ static void test_mat_mat_avx2_within_rounding_of_scalar_spec( void** state )
 static void test_blend_batch_equals_blend_per_instance( void** state )
 {
 	(void)state;
-	plKernels sets[2];
-	plBatchKernels batch[2];
+	plKernels sets[PLEAT_TEST_SETS];
+	plBatchKernels batch[PLEAT_TEST_SETS];
 	uint32_t set_count = plKernelSets( sets, batch );
-	const uint32_t vertex_counts[] = { 1, 3, 5, 6, 11, 100, 1004 };
-	const uint32_t blend_counts[] = { 1, 3, 4, 5, 9, 32 };
-	const uint32_t batches[] = { 1, 3, 4, 5, 9, PLEAT_BATCH_MAX };
+	const uint32_t vertex_counts[] = { 1, 3, 5, 6, 11, 16, 17, 33, 100, 1004 };
+	const uint32_t blend_counts[] = { 1, 3, 4, 5, 9, 32, 130 };
+	const uint32_t batches[] = { 1, 3, 4, 5, 8, 9, 17, PLEAT_BATCH_MAX };
 	for ( uint32_t s = 0; s < set_count; ++s )
 	{
 		for ( int fp16 = 0; fp16 < 2; ++fp16 )
@@ -281,8 +307,8 @@ static void plTestNet_Init( plTestNet* net, const uint32_t widths[4], int fp16 )
 static void test_mlp_batch_job_equals_mlp_job_per_instance( void** state )
 {
 	(void)state;
-	plKernels sets[2];
-	plBatchKernels batch[2];
+	plKernels sets[PLEAT_TEST_SETS];
+	plBatchKernels batch[PLEAT_TEST_SETS];
 	uint32_t set_count = plKernelSets( sets, batch );
 	const uint32_t widths[4] = { 681 % 200 + 3, 130, 70, 19 };
 	enum
@@ -393,14 +419,184 @@ static void test_blend_batch_job_rejects_bad_spans( void** state )
 	assert_false( plBlendShapesBatchJob_Validate( &bad ) );
 }
 
+// Skinning: each instance of a batch gets what the single-instance kernel of the same set gives it, bit for bit — lane
+// groups full and ragged, vertex ranges that end inside a block of lanes, 1..8 influences, a joint index out of range
+// (weight 0) — and the SIMD sets stay within rounding of the scalar specification.
+static void plFillSkin( uint32_t n, uint32_t K, uint32_t J, uint16_t* indices, float* weights )
+{
+	for ( uint32_t v = 0; v < n; ++v )
+	{
+		float total = 0.0f;
+		for ( uint32_t k = 0; k < K; ++k )
+		{
+			indices[v * K + k] = (uint16_t)( ( v * 7u + k * 5u ) % ( J + 1u ) ); // J itself: out of range
+			weights[v * K + k] = 0.5f + 0.5f * plRand();
+			total += weights[v * K + k];
+		}
+		for ( uint32_t k = 0; k < K; ++k )
+		{
+			weights[v * K + k] /= total;
+		}
+	}
+}
+
+static void test_skinning_batch_equals_skinning_per_instance( void** state )
+{
+	(void)state;
+	plKernels sets[PLEAT_TEST_SETS];
+	plBatchKernels batch[PLEAT_TEST_SETS];
+	uint32_t set_count = plKernelSets( sets, batch );
+	const uint32_t vertex_counts[] = { 1, 7, 8, 9, 23, 100 };
+	const uint32_t batches[] = { 1, 3, 8, 9, 17, PLEAT_BATCH_MAX };
+	const uint32_t J = 24;
+	for ( uint32_t s = 0; s < set_count; ++s )
+	{
+		for ( uint32_t K = 1; K <= 8; K += ( K < 4 ? 1 : 4 ) )
+		{
+			for ( size_t vi = 0; vi < sizeof( vertex_counts ) / sizeof( vertex_counts[0] ); ++vi )
+			{
+				uint32_t nv = vertex_counts[vi];
+				uint16_t* indices = (uint16_t*)malloc( (size_t)nv * K * sizeof( uint16_t ) );
+				float* weights = (float*)malloc( (size_t)nv * K * sizeof( float ) );
+				plFillSkin( nv, K, J, indices, weights );
+				for ( size_t bi = 0; bi < sizeof( batches ) / sizeof( batches[0] ); ++bi )
+				{
+					uint32_t n = batches[bi];
+					float* ins = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
+					float* outs = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
+					float* mats = (float*)malloc( (size_t)n * J * 12 * sizeof( float ) );
+					float* single = (float*)malloc( (size_t)nv * 3 * sizeof( float ) );
+					const float *in[PLEAT_BATCH_MAX], *m[PLEAT_BATCH_MAX];
+					float* out[PLEAT_BATCH_MAX];
+					for ( uint32_t b = 0; b < n; ++b )
+					{
+						for ( size_t i = 0; i < (size_t)nv * 3; ++i )
+						{
+							ins[b * nv * 3 + i] = plRand();
+							outs[b * nv * 3 + i] = -7.0f; // outside the range: must stay untouched
+						}
+						for ( uint32_t e = 0; e < J * 12; ++e )
+						{
+							mats[(size_t)b * J * 12 + e] = 2.0f * plRand();
+						}
+						in[b] = ins + (size_t)b * nv * 3;
+						out[b] = outs + (size_t)b * nv * 3;
+						m[b] = mats + (size_t)b * J * 12;
+					}
+					uint32_t begin = nv > 2 ? 1 : 0, end = nv > 8 ? nv - 1 : nv;
+					batch[s].skinning_batch( out, in, n, indices, weights, K, m, J, begin, end );
+					for ( uint32_t b = 0; b < n; ++b )
+					{
+						for ( size_t i = 0; i < (size_t)nv * 3; ++i )
+						{
+							single[i] = -7.0f;
+						}
+						sets[s].skinning( single, 12, in[b], 12, indices, weights, K, m[b], J, begin, end );
+						assert_memory_equal( single, out[b], (size_t)nv * 3 * sizeof( float ) );
+						if ( s > 0 )
+						{
+							plSkinning_Scalar( single, 12, in[b], 12, indices, weights, K, m[b], J, begin, end );
+							for ( size_t i = (size_t)begin * 3; i < (size_t)end * 3; ++i )
+							{
+								assert_true( fabsf( single[i] - out[b][i] ) <= 1e-5f * ( 1.0f + fabsf( single[i] ) ) );
+							}
+						}
+					}
+					free( ins );
+					free( outs );
+					free( mats );
+					free( single );
+				}
+				free( indices );
+				free( weights );
+			}
+		}
+	}
+}
+
+// A strip of quads, faces in ascending order, plus a degenerate (zero-area) face and a face with an index out of
+// range (a zero normal for its in-range vertices, as the single kernels do).
+static uint32_t plStripMesh( uint32_t columns, uint32_t* faces )
+{
+	uint32_t f = 0;
+	for ( uint32_t c = 0; c + 1 < columns; ++c )
+	{
+		uint32_t a = c, b = c + 1, d = columns + c, e = columns + c + 1;
+		faces[3 * f] = a, faces[3 * f + 1] = b, faces[3 * f + 2] = d, ++f;
+		faces[3 * f] = b, faces[3 * f + 1] = e, faces[3 * f + 2] = d, ++f;
+	}
+	faces[3 * f] = 0, faces[3 * f + 1] = 0, faces[3 * f + 2] = 1, ++f;
+	faces[3 * f] = 1, faces[3 * f + 1] = 2 * columns + 5, faces[3 * f + 2] = 2, ++f;
+	return f;
+}
+
+static void test_normals_batch_equals_scatter_per_instance( void** state )
+{
+	(void)state;
+	plKernels sets[PLEAT_TEST_SETS];
+	plBatchKernels batch[PLEAT_TEST_SETS];
+	uint32_t set_count = plKernelSets( sets, batch );
+	const uint32_t column_counts[] = { 2, 4, 5, 12, 50 };
+	const uint32_t batches[] = { 1, 3, 8, 9, 17, PLEAT_BATCH_MAX };
+	for ( uint32_t s = 0; s < set_count; ++s )
+	{
+		for ( size_t ci = 0; ci < sizeof( column_counts ) / sizeof( column_counts[0] ); ++ci )
+		{
+			uint32_t columns = column_counts[ci], nv = 2 * columns;
+			uint32_t* faces = (uint32_t*)malloc( (size_t)( 2 * columns + 2 ) * 3 * sizeof( uint32_t ) );
+			uint32_t nf = plStripMesh( columns, faces );
+			float* scratch = (float*)aligned_alloc(
+				64, ( plNormalsBatchScratchFloats( nv, batch[s].geometry_lanes ) * sizeof( float ) + 63 ) & ~(size_t)63 );
+			float* sums4 = (float*)aligned_alloc( 64, (size_t)nv * 16 + 64 );
+			for ( size_t bi = 0; bi < sizeof( batches ) / sizeof( batches[0] ); ++bi )
+			{
+				uint32_t n = batches[bi];
+				float* ps = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
+				float* ns = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
+				float* single = (float*)malloc( (size_t)nv * 3 * sizeof( float ) );
+				const float* p[PLEAT_BATCH_MAX];
+				float* nrm[PLEAT_BATCH_MAX];
+				for ( uint32_t b = 0; b < n; ++b )
+				{
+					for ( size_t i = 0; i < (size_t)nv * 3; ++i )
+					{
+						ps[b * nv * 3 + i] = ( b % 5 == 4 ) ? 0.0f : plRand(); // every fifth: all zero-area faces
+					}
+					p[b] = ps + (size_t)b * nv * 3;
+					nrm[b] = ns + (size_t)b * nv * 3;
+				}
+				batch[s].normals_batch( nrm, p, n, nv, faces, nf, scratch );
+				for ( uint32_t b = 0; b < n; ++b )
+				{
+					sets[s].normals_scatter( single, 12, p[b], 12, nv, faces, nf, sums4 );
+					assert_memory_equal( single, nrm[b], (size_t)nv * 3 * sizeof( float ) );
+					if ( s > 0 )
+					{
+						plNormalsScatter_Scalar( single, 12, p[b], 12, nv, faces, nf, sums4 );
+						assert_memory_equal( single, nrm[b], (size_t)nv * 3 * sizeof( float ) ); // bit-identical too
+					}
+				}
+				free( ps );
+				free( ns );
+				free( single );
+			}
+			free( faces );
+			free( scratch );
+			free( sums4 );
+		}
+	}
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_mat_mat_equals_mat_vec_per_instance ),
-		cmocka_unit_test( test_mat_mat_avx2_within_rounding_of_scalar_spec ),
+		cmocka_unit_test( test_mat_mat_simd_within_rounding_of_scalar_spec ),
 		cmocka_unit_test( test_blend_batch_equals_blend_per_instance ),
 		cmocka_unit_test( test_mlp_batch_job_equals_mlp_job_per_instance ),
 		cmocka_unit_test( test_blend_batch_job_rejects_bad_spans ),
+		cmocka_unit_test( test_skinning_batch_equals_skinning_per_instance ),
+		cmocka_unit_test( test_normals_batch_equals_scatter_per_instance ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

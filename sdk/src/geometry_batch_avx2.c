@@ -1,0 +1,298 @@
+// AVX2 twins of plSkinning_Avx2 and plNormalsScatter_Avx2 over a batch: 8 instances of one mesh per vector, one lane
+// each, for plStepInstances (batch.c) on AVX2 and on AVX-512 CPUs alike (on the AVX-512 machine measured, an AMD
+// EPYC that executes 512-bit operations as two 256-bit halves, 16-lane versions were slower: twice the shuffles in the
+// transposes for the same load bandwidth).
+//
+// A single-instance kernel spends its vector lanes on one instance's vertex (x, y, z, 0 in four lanes, or one 3×4
+// matrix spread over eight) and then shuffles, broadcasts and sums across them. With many instances of one mesh the
+// lanes can be instances instead: every instance of a lane group reads the same skin indices and weights, the same
+// faces and adjacency, so one vector operation does one scalar operation of the single kernel for 8 instances at once
+// and nothing crosses lanes. Per lane the operations, operands and their order are exactly those of the single kernel,
+// so every instance gets the single kernel's bits:
+//   skinning  (plSkinning_Avx2)       per matrix element an FMA chain over the influences from 0, then per output
+//                                      component fma(m_i2, z, m_i0 · x) + fma(m_i3, 1, m_i1 · y)
+//   normals   (plNormalsScatter_Avx2) per face cross(x_b − x_a, x_c − x_a) as (e1y e2z − e1z e2y, ...) with separate
+//                                      roundings, added to its in-range vertices' sums in face order from 0; per
+//                                      vertex length = sqrt((x² + y²) + z²), scale = length > 0 ? 1 / length : 0
+// The instances' own buffers are [N][3] (AoS); blocks of 8 vertices are transposed into lanes and back (8×8
+// transposes in registers), through zero-padded copies at a ragged end. Contraction into FMA would change the bits of
+// the normals, so it is off here as in normals_avx2.c (GCC does not contract in ISO C mode; clang needs the pragma).
+#include "kernels_batch.h"
+
+#include <immintrin.h>
+#include <string.h>
+
+#if defined( __clang__ )
+#pragma STDC FP_CONTRACT OFF
+#endif
+
+#define PL_LANES 8
+typedef __m256 plVec;
+#define plVecZero() _mm256_setzero_ps()
+#define plVecSet1( f ) _mm256_set1_ps( f )
+#define plVecLoad( p ) _mm256_load_ps( p )
+#define plVecStore( p, v ) _mm256_store_ps( p, v )
+#define plVecLoadU( p ) _mm256_loadu_ps( p )
+#define plVecStoreU( p, v ) _mm256_storeu_ps( p, v )
+#define plVecAdd( a, b ) _mm256_add_ps( a, b )
+#define plVecSub( a, b ) _mm256_sub_ps( a, b )
+#define plVecMul( a, b ) _mm256_mul_ps( a, b )
+#define plVecFma( a, b, c ) _mm256_fmadd_ps( a, b, c )
+#define plVecSqrt( a ) _mm256_sqrt_ps( a )
+// length > 0 ? 1 / length : 0, as plNormalsScatter_Avx2 (a division, then the lanes whose length is not > 0 zeroed)
+#define plVecUnitScale( length )                                                                                       \
+	_mm256_and_ps( _mm256_div_ps( _mm256_set1_ps( 1.0f ), length ),                                                    \
+				   _mm256_cmp_ps( length, _mm256_setzero_ps(), _CMP_GT_OQ ) )
+
+// r[i][j] ↔ r[j][i] for an 8×8 block of floats in 8 registers.
+static inline void plTransposeLanes( __m256 r[8] )
+{
+	__m256 t[8], s[8];
+	for ( int i = 0; i < 4; ++i )
+	{
+		t[2 * i] = _mm256_unpacklo_ps( r[2 * i], r[2 * i + 1] );
+		t[2 * i + 1] = _mm256_unpackhi_ps( r[2 * i], r[2 * i + 1] );
+	}
+	for ( int g = 0; g < 2; ++g )
+	{
+		s[4 * g] = _mm256_shuffle_ps( t[4 * g], t[4 * g + 2], 0x44 );
+		s[4 * g + 1] = _mm256_shuffle_ps( t[4 * g], t[4 * g + 2], 0xEE );
+		s[4 * g + 2] = _mm256_shuffle_ps( t[4 * g + 1], t[4 * g + 3], 0x44 );
+		s[4 * g + 3] = _mm256_shuffle_ps( t[4 * g + 1], t[4 * g + 3], 0xEE );
+	}
+	for ( int c = 0; c < 4; ++c )
+	{
+		r[c] = _mm256_permute2f128_ps( s[c], s[4 + c], 0x20 );
+		r[4 + c] = _mm256_permute2f128_ps( s[c], s[4 + c], 0x31 );
+	}
+}
+
+
+// Lanes of a group beyond batch_count read this (zeros) and are never written back.
+static const float s_plZeroBlock[3 * PL_LANES] = { 0 };
+
+// Vertices [v0, v0 + count) of instances src[0..n) (AoS, packed) → dst[3 · PL_LANES][PL_LANES]: row 3i + c holds
+// component c of vertex v0 + i of every instance (zero rows past count, zero lanes past n).
+static inline void plToLanes( const float* const* src, uint32_t n, uint32_t v0, uint32_t count, float* dst )
+{
+	for ( int q = 0; q < 3; ++q )
+	{
+		plVec r[PL_LANES];
+		for ( uint32_t b = 0; b < PL_LANES; ++b )
+		{
+			const float* s = b < n ? src[b] + (size_t)v0 * 3 : s_plZeroBlock;
+			if ( count == PL_LANES || b >= n )
+			{
+				r[b] = plVecLoadU( s + q * PL_LANES );
+			}
+			else
+			{
+				float padded[3 * PL_LANES] = { 0 };
+				memcpy( padded, s, (size_t)count * 3 * sizeof( float ) );
+				r[b] = plVecLoadU( padded + q * PL_LANES );
+			}
+		}
+		plTransposeLanes( r );
+		for ( int t = 0; t < PL_LANES; ++t )
+		{
+			plVecStore( dst + (size_t)( q * PL_LANES + t ) * PL_LANES, r[t] );
+		}
+	}
+}
+
+// The lines of vertices [v, v + PL_LANES) of instances p[0..n) (AoS), for reading (write = 0) or writing. Each lane's
+// buffer is its own stream, more streams than the hardware prefetchers follow, and the buffers were last touched by an
+// earlier stage of the step (out in L3 by now).
+static inline void plPrefetchLanes( const float* const* p, uint32_t n, size_t v, size_t v_end, int write )
+{
+	if ( v >= v_end )
+	{
+		return;
+	}
+	for ( uint32_t b = 0; b < n; ++b )
+	{
+		const char* line = (const char*)( p[b] + v * 3 );
+		for ( int k = 0; k < 3 * PL_LANES * 4; k += 64 )
+		{
+			if ( write )
+			{
+				__builtin_prefetch( line + k, 1, 3 );
+			}
+			else
+			{
+				__builtin_prefetch( line + k, 0, 3 );
+			}
+		}
+	}
+}
+
+// The way back: src[3 · PL_LANES][PL_LANES] → vertices [v0, v0 + count) of instances dst[0..n) (AoS, packed).
+static inline void plFromLanes( const float* src, float* const* dst, uint32_t n, uint32_t v0, uint32_t count )
+{
+	for ( int q = 0; q < 3; ++q )
+	{
+		plVec r[PL_LANES];
+		for ( int t = 0; t < PL_LANES; ++t )
+		{
+			r[t] = plVecLoad( src + (size_t)( q * PL_LANES + t ) * PL_LANES );
+		}
+		plTransposeLanes( r );
+		for ( uint32_t b = 0; b < n; ++b )
+		{
+			float* d = dst[b] + (size_t)v0 * 3;
+			if ( count == PL_LANES )
+			{
+				plVecStoreU( d + q * PL_LANES, r[b] );
+			}
+			else
+			{
+				// A ragged end: only the floats of vertices below count, which may end inside this vector or before it.
+				float full[PL_LANES];
+				plVecStoreU( full, r[b] );
+				uint32_t first = (uint32_t)q * PL_LANES, total = count * 3;
+				if ( first < total )
+				{
+					uint32_t floats = total - first < PL_LANES ? total - first : PL_LANES;
+					memcpy( d + first, full, floats * sizeof( float ) );
+				}
+			}
+		}
+	}
+}
+
+void plSkinningBatch_Avx2( float* const* out, const float* const* in, uint32_t batch_count, const uint16_t* skin_indices,
+						const float* skin_weights, uint32_t influence_count, const float* const* skin_matrices,
+						uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
+{
+	enum
+	{
+		MAX_JOINTS = 64 // PLEAT_MAX_JOINTS; the asset loader enforces it
+	};
+	uint32_t J = joint_count < MAX_JOINTS ? joint_count : MAX_JOINTS;
+	// [J + 1][12][PL_LANES]: element e of joint j's matrix for every lane; the extra joint is all zero (an index out of
+	// range blends a zero matrix, as plSkinning_Avx2 does). Sized by J (a VLA: the SIMD files build with GCC and clang
+	// only): 9.6 KB of a worker's stack for 24 joints, 25 KB for the most.
+	_Alignas( 64 ) float lanes[( J + 1 ) * 12 * PL_LANES];
+	_Alignas( 64 ) float block_in[3 * PL_LANES * PL_LANES];
+	_Alignas( 64 ) float block_out[3 * PL_LANES * PL_LANES];
+	uint32_t K = influence_count;
+	const plVec one = plVecSet1( 1.0f );
+	for ( uint32_t b0 = 0; b0 < batch_count; b0 += PL_LANES )
+	{
+		uint32_t n = batch_count - b0 < PL_LANES ? batch_count - b0 : PL_LANES;
+		for ( uint32_t j = 0; j <= J; ++j )
+		{
+			for ( uint32_t e = 0; e < 12; ++e )
+			{
+				float* row = lanes + ( (size_t)j * 12 + e ) * PL_LANES;
+				for ( uint32_t l = 0; l < PL_LANES; ++l )
+				{
+					row[l] = j < J && l < n ? skin_matrices[b0 + l][(size_t)j * 12 + e] : 0.0f;
+				}
+			}
+		}
+		for ( uint32_t v0 = v_begin; v0 < v_end; v0 += PL_LANES )
+		{
+			uint32_t count = v_end - v0 < PL_LANES ? v_end - v0 : PL_LANES;
+			plPrefetchLanes( in + b0, n, (size_t)v0 + 4 * PL_LANES, v_end, 0 );
+			plPrefetchLanes( (const float* const*)( out + b0 ), n, (size_t)v0 + 4 * PL_LANES, v_end, 1 );
+			plToLanes( in + b0, n, v0, count, block_in );
+			for ( uint32_t i = 0; i < count; ++i )
+			{
+				uint32_t v = v0 + i;
+				plVec a0[3], a1[3], a2[3], a3[3]; // the blended matrix: columns 0..3 of rows 0..2
+				for ( int r = 0; r < 3; ++r )
+				{
+					a0[r] = a1[r] = a2[r] = a3[r] = plVecZero();
+				}
+				for ( uint32_t k = 0; k < K; ++k )
+				{
+					uint32_t joint = skin_indices[(size_t)v * K + k];
+					joint = joint < J ? joint : J;
+					const float* m = lanes + (size_t)joint * 12 * PL_LANES;
+					plVec w = plVecSet1( skin_weights[(size_t)v * K + k] );
+					for ( int r = 0; r < 3; ++r )
+					{
+						a0[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 0 ) * PL_LANES ), a0[r] );
+						a1[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 1 ) * PL_LANES ), a1[r] );
+						a2[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 2 ) * PL_LANES ), a2[r] );
+						a3[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 3 ) * PL_LANES ), a3[r] );
+					}
+				}
+				const float* p = block_in + (size_t)i * 3 * PL_LANES;
+				plVec x = plVecLoad( p ), y = plVecLoad( p + PL_LANES ), z = plVecLoad( p + 2 * PL_LANES );
+				float* q = block_out + (size_t)i * 3 * PL_LANES;
+				for ( int r = 0; r < 3; ++r )
+				{
+					plVec even = plVecFma( a2[r], z, plVecMul( a0[r], x ) );
+					plVec odd = plVecFma( a3[r], one, plVecMul( a1[r], y ) );
+					plVecStore( q + r * PL_LANES, plVecAdd( even, odd ) );
+				}
+			}
+			plFromLanes( block_out, out + b0, n, v0, count );
+		}
+	}
+}
+
+void plNormalsBatch_Avx2( float* const* normals, const float* const* positions, uint32_t batch_count,
+					   uint32_t vertex_count, const uint32_t* faces, uint32_t face_count, float* scratch )
+{
+	uint32_t N = vertex_count;
+	size_t plane = ( (size_t)N * 3 * PL_LANES + 15 ) & ~(size_t)15;
+	float* P = scratch;          // [N][3][PL_LANES] positions
+	float* S = scratch + plane;  // [N][3][PL_LANES] sums, then unit normals
+	for ( uint32_t b0 = 0; b0 < batch_count; b0 += PL_LANES )
+	{
+		uint32_t n = batch_count - b0 < PL_LANES ? batch_count - b0 : PL_LANES;
+		for ( uint32_t v0 = 0; v0 < N; v0 += PL_LANES )
+		{
+			plPrefetchLanes( positions + b0, n, (size_t)v0 + 4 * PL_LANES, N, 0 );
+			plToLanes( positions + b0, n, v0, N - v0 < PL_LANES ? N - v0 : PL_LANES, P + (size_t)v0 * 3 * PL_LANES );
+		}
+		memset( S, 0, (size_t)N * 3 * PL_LANES * sizeof( float ) );
+		for ( uint32_t f = 0; f < face_count; ++f )
+		{
+			const uint32_t* tri = faces + (size_t)f * 3;
+			plVec nx = plVecZero(), ny = plVecZero(), nz = plVecZero();
+			if ( tri[0] < N && tri[1] < N && tri[2] < N )
+			{
+				const float* a = P + (size_t)tri[0] * 3 * PL_LANES;
+				const float* b = P + (size_t)tri[1] * 3 * PL_LANES;
+				const float* c = P + (size_t)tri[2] * 3 * PL_LANES;
+				plVec ax = plVecLoad( a ), ay = plVecLoad( a + PL_LANES ), az = plVecLoad( a + 2 * PL_LANES );
+				plVec e1x = plVecSub( plVecLoad( b ), ax ), e1y = plVecSub( plVecLoad( b + PL_LANES ), ay );
+				plVec e1z = plVecSub( plVecLoad( b + 2 * PL_LANES ), az );
+				plVec e2x = plVecSub( plVecLoad( c ), ax ), e2y = plVecSub( plVecLoad( c + PL_LANES ), ay );
+				plVec e2z = plVecSub( plVecLoad( c + 2 * PL_LANES ), az );
+				nx = plVecSub( plVecMul( e1y, e2z ), plVecMul( e1z, e2y ) );
+				ny = plVecSub( plVecMul( e1z, e2x ), plVecMul( e1x, e2z ) );
+				nz = plVecSub( plVecMul( e1x, e2y ), plVecMul( e1y, e2x ) );
+			}
+			for ( int k = 0; k < 3; ++k )
+			{
+				if ( tri[k] < N )
+				{
+					float* s = S + (size_t)tri[k] * 3 * PL_LANES;
+					plVecStore( s, plVecAdd( plVecLoad( s ), nx ) );
+					plVecStore( s + PL_LANES, plVecAdd( plVecLoad( s + PL_LANES ), ny ) );
+					plVecStore( s + 2 * PL_LANES, plVecAdd( plVecLoad( s + 2 * PL_LANES ), nz ) );
+				}
+			}
+		}
+		for ( uint32_t v = 0; v < N; ++v )
+		{
+			float* s = S + (size_t)v * 3 * PL_LANES;
+			plVec x = plVecLoad( s ), y = plVecLoad( s + PL_LANES ), z = plVecLoad( s + 2 * PL_LANES );
+			plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( x, x ), plVecMul( y, y ) ), plVecMul( z, z ) ) );
+			plVec scale = plVecUnitScale( length );
+			plVecStore( s, plVecMul( x, scale ) );
+			plVecStore( s + PL_LANES, plVecMul( y, scale ) );
+			plVecStore( s + 2 * PL_LANES, plVecMul( z, scale ) );
+		}
+		for ( uint32_t v0 = 0; v0 < N; v0 += PL_LANES )
+		{
+			plPrefetchLanes( (const float* const*)( normals + b0 ), n, (size_t)v0 + 4 * PL_LANES, N, 1 );
+			plFromLanes( S + (size_t)v0 * 3 * PL_LANES, normals + b0, n, v0, N - v0 < PL_LANES ? N - v0 : PL_LANES );
+		}
+	}
+}
