@@ -47,7 +47,10 @@ def test_repacking_an_asset_adds_body_anchors_and_keeps_everything_else(tmp_path
     assert pack.main([str(src), "-o", str(out), "--body-contact"]) == 0
     back, before = pa.read_asset(out.read_bytes()), pa.read_asset(src.read_bytes())
     for key, value in before.items():
-        np.testing.assert_array_equal(np.asarray(back[key]), np.asarray(value), err_msg=key)
+        if key != "metadata_json":
+            np.testing.assert_array_equal(np.asarray(back[key]), np.asarray(value), err_msg=key)
+    meta, meta_before = json.loads(back["metadata_json"]), json.loads(before["metadata_json"])
+    assert meta.pop("body_contact")["vertices"] == len(pick) and meta == meta_before   # META says how, nothing else
     from scipy.spatial import cKDTree
     gap, anchor = cKDTree(body.v_template).query(back["body_anchor"].astype(np.float64))
     np.testing.assert_allclose(gap, 0.0, atol=1e-6)                    # every anchor is a body vertex …
