@@ -4,6 +4,8 @@
 // The same function as sdk/src/normals.c plFaceNormalsJob and tools/pleat/reference/normals.py face_normals. One
 // invocation per face; normals_gather.comp sums them per vertex after a barrier.
 
+// Batches (plStepInstances, sdk/src/gl/gl_deformer.c plGlDeformer_RunBatch): gl_WorkGroupID.y is the instance, and
+// every per-instance buffer holds one block per instance at that index; a single instance is instance 0.
 layout(local_size_x = 64) in;
 
 // C twin: plGlDeformParams (sdk/src/gl/gl_types.h).
@@ -27,8 +29,10 @@ void main()
 	uint f = gl_GlobalInvocationID.x;
 	if (f >= face_count)
 		return;
-	vec3 a = positions[faces[3u * f]].xyz;
-	vec3 b = positions[faces[3u * f + 1u]].xyz;
-	vec3 c = positions[faces[3u * f + 2u]].xyz;
-	face_normals[f] = vec4(cross(b - a, c - a), 0.0);
+	uint instance = gl_WorkGroupID.y;
+	uint p = instance * vertex_count;
+	vec3 a = positions[p + faces[3u * f]].xyz;
+	vec3 b = positions[p + faces[3u * f + 1u]].xyz;
+	vec3 c = positions[p + faces[3u * f + 2u]].xyz;
+	face_normals[instance * face_count + f] = vec4(cross(b - a, c - a), 0.0);
 }

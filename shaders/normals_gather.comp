@@ -5,6 +5,8 @@
 // and needs no atomics. The same function as sdk/src/normals.c plNormalsGatherJob and
 // tools/pleat/reference/normals.py normals_gather; a zero sum gives a zero normal.
 
+// Batches (plStepInstances, sdk/src/gl/gl_deformer.c plGlDeformer_RunBatch): gl_WorkGroupID.y is the instance, and
+// every per-instance buffer holds one block per instance at that index; a single instance is instance 0.
 layout(local_size_x = 64) in;
 
 // C twin: plGlDeformParams (sdk/src/gl/gl_types.h).
@@ -29,10 +31,12 @@ void main()
 	uint i = gl_GlobalInvocationID.x;
 	if (i >= vertex_count)
 		return;
+	uint instance = gl_WorkGroupID.y;
+	uint f0 = instance * face_count;
 	vec3 n = vec3(0.0);
 	uint end = adjacency_offsets[i + 1u];
 	for (uint e = adjacency_offsets[i]; e < end; ++e)
-		n += face_normals[adjacency_faces[e]].xyz;
+		n += face_normals[f0 + adjacency_faces[e]].xyz;
 	float length_sq = dot(n, n);
-	normals[i] = vec4(length_sq > 0.0 ? n * inversesqrt(length_sq) : vec3(0.0), 0.0);
+	normals[instance * vertex_count + i] = vec4(length_sq > 0.0 ? n * inversesqrt(length_sq) : vec3(0.0), 0.0);
 }

@@ -11,9 +11,11 @@
 // 8 instances where the single kernels spend their lanes on one vertex. Every stage is the single step's own (the same
 // jobs and instance_step.c's validation, forward kinematics, reset and commit), and the batched kernels do per
 // instance exactly the single kernels' arithmetic, so every instance ends bit-identical to stepping it alone
-// (test_batch_step_matches_single). What the batch does not batch it hands to plInstance_Step unchanged: instances in
-// a GPU mode or on the ONNX Runtime backend, and the numeric-reset retry (rare; it runs on the calling thread after
-// the group, before that instance's commit, exactly as inside plInstance_Step).
+// (test_batch_step_matches_single). Instances in a GPU mode form groups of their own (per asset and mode): their
+// networks run batched on the CPU as above, and then one plGlDeformer_RunBatch does the deformation of the whole group
+// with one dispatch per shader (gl_deformer.h). What the batch does not batch it hands to plInstance_Step unchanged:
+// instances on the ONNX Runtime backend, and the numeric-reset retry (rare; it runs on the calling thread after the
+// group, before that instance's commit, exactly as inside plInstance_Step).
 #include "instance.h"
 
 #include "jobs_batch.h"
@@ -34,6 +36,7 @@ typedef struct plBatchEntry
 	int needs_reset;   // a non-finite value appeared: the numeric reset runs for it on the calling thread
 	int blend;         // the blend stage writes its T_def this step
 	int geometry_done; // the batched skinning and normals wrote its positions and normals this step
+	int read_back;     // GPU modes: the outputs are wanted on the CPU (as plInstance_Step decides it)
 } plBatchEntry;
 
 typedef struct plBatchGroup
@@ -237,6 +240,55 @@ static void plRunBlend( plBatchGroup* g )
 	}
 }
 
+// ---- GPU modes: the group's deformation in one batch of dispatches ----
+
+// What plInstance_Step's plDeform does on the GPU path, for every member at once: the held weights between network
+// updates, then one plGlDeformer_RunBatch (read-backs into deformed and gl_normals, as Run's), then each commit.
+static void plRunGpu( plBatchGroup* g )
+{
+	const plAssetData* a = g->asset;
+	plGlBatchMember members[PLEAT_BATCH_MAX];
+	uint32_t count = 0;
+	for ( uint32_t i = 0; i < g->count; ++i )
+	{
+		plBatchEntry* e = &g->entries[i];
+		if ( e->result != PLEAT_RESULT_OK || e->needs_reset )
+		{
+			continue;
+		}
+		plInstanceData* inst = e->inst;
+		if ( !e->update.run )
+		{
+			memcpy( inst->next_weights, inst->blend_weights, a->blend_count * sizeof( float ) );
+		}
+		plGlBatchMember* m = &members[count];
+		m->deformer = inst->gl;
+		m->shaped_template = inst->shaped_template;
+		m->body_anchors = inst->shaped_anchors; // its first N rows: the anchors of the committed β
+		m->blend_weights = inst->next_weights;
+		m->skin_matrices = inst->next_skin_matrices;
+		m->positions = e->read_back ? inst->deformed : NULL;
+		m->normals = e->read_back ? inst->gl_normals : NULL;
+		g->members[count++] = i;
+	}
+	if ( count == 0 )
+	{
+		return;
+	}
+	plResult r = plGlDeformer_RunBatch( members[0].deformer, members, count );
+	for ( uint32_t k = 0; k < count; ++k )
+	{
+		plBatchEntry* e = &g->entries[g->members[k]];
+		if ( r != PLEAT_RESULT_OK )
+		{
+			e->result = r; // as plInstance_Step: the error, nothing committed
+			continue;
+		}
+		plCommit( e->inst, e->update.run, 0, e->input->dt_s, e->read_back, e->output );
+		e->result = plStepResult( e->inst, 0, &e->update, e->input->dt_s );
+	}
+}
+
 // ---- per lane group, after the blend: skinning and normals with the instances as vector lanes ----
 
 // The context's scratch for the batched normals: blocks claimed per lane group (any thread may step a batch of its
@@ -427,14 +479,14 @@ static void plResetEntry( plBatchEntry* e )
 	plResult r = plValidateStep( inst, e->input, e->output, &pose ); // passed before: the same pose again
 	if ( r == PLEAT_RESULT_OK )
 	{
-		r = plStepFromReset( inst, &pose, e->update.dt_s, 1 );
+		r = plStepFromReset( inst, &pose, e->update.dt_s, e->read_back );
 	}
 	if ( r != PLEAT_RESULT_OK )
 	{
 		e->result = r;
 		return;
 	}
-	plCommit( inst, 1, 1, e->input->dt_s, 1, e->output );
+	plCommit( inst, 1, 1, e->input->dt_s, e->read_back, e->output );
 	e->result = plStepResult( inst, 1, &e->update, e->input->dt_s );
 }
 
@@ -442,9 +494,16 @@ static void plRunGroup( plBatchGroup* g )
 {
 	plRunTask( &g->ctx->runner, plPrepareTask, g->count, 1, g );
 	plRunNetworks( g );
-	plRunBlend( g );
-	plRunGeometry( g );
-	plRunTask( &g->ctx->runner, plFinishTask, g->count, 1, g );
+	if ( g->asset != NULL && g->entries[0].inst->gl != NULL )
+	{
+		plRunGpu( g ); // a group is all CPU or all one GPU mode
+	}
+	else
+	{
+		plRunBlend( g );
+		plRunGeometry( g );
+		plRunTask( &g->ctx->runner, plFinishTask, g->count, 1, g );
+	}
 	for ( uint32_t i = 0; i < g->count; ++i )
 	{
 		if ( g->entries[i].result == PLEAT_RESULT_OK && g->entries[i].needs_reset )
@@ -468,7 +527,22 @@ static plInstanceData* plLookup( plContext context, plInstance handle )
 
 static int plBatchable( const plInstanceData* inst )
 {
-	return inst->gl == NULL && inst->ort_lp == NULL && inst->ort_dec == NULL;
+	return inst->ort_lp == NULL && inst->ort_dec == NULL;
+}
+
+// Non-zero if inst can join a group that first leads: the same asset, and both on the CPU or both in a GPU mode that
+// can share one batch of dispatches.
+static int plSameGroup( const plInstanceData* first, const plInstanceData* inst )
+{
+	if ( inst->asset != first->asset || !plBatchable( inst ) )
+	{
+		return 0;
+	}
+	if ( first->gl == NULL || inst->gl == NULL )
+	{
+		return first->gl == NULL && inst->gl == NULL;
+	}
+	return plGlDeformer_CanBatch( first->gl, inst->gl );
 }
 
 typedef struct plBatchOutcome
@@ -551,7 +625,7 @@ plResult plStepInstances( plContext context, const plInstance* instances, const 
 			for ( uint32_t t = s; t < w1 && group.count < PLEAT_BATCH_MAX; ++t )
 			{
 				plInstanceData* inst = t == s ? first : ( PLEAT_DONE_( t ) ? NULL : plLookup( context, instances[t] ) );
-				if ( inst == NULL || inst->asset != group.asset || !plBatchable( inst ) )
+				if ( inst == NULL || !plSameGroup( first, inst ) )
 				{
 					continue;
 				}
@@ -570,6 +644,8 @@ plResult plStepInstances( plContext context, const plInstance* instances, const 
 				e->inst = inst;
 				e->input = &inputs[t];
 				e->output = outputs != NULL ? &outputs[t] : NULL;
+				e->read_back = inst->gl == NULL || ( e->output != NULL && ( e->output->positions != NULL ||
+																			 e->output->normals != NULL ) );
 				indices[group.count++] = t;
 			}
 			if ( group.count == 1 )

@@ -66,4 +66,37 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 						   float* positions, float* normals );
 void plGlDeformer_Destroy( plGlDeformer* deformer );
 
+// ---- batches (plStepInstances): one dispatch per shader for many instances of one mesh ----
+
+// The most members one plGlDeformer_RunBatch takes (plStepInstances's group size, PLEAT_BATCH_MAX).
+#define PLEAT_GL_BATCH_MAX 64
+
+// One instance of a batch: its own deformer (its mode, host buffers, body-contact setting and shaped-template
+// generation) and what plGlDeformer_Run would get for it.
+typedef struct plGlBatchMember
+{
+	plGlDeformer* deformer;       // the instance's own; plGlDeformer_CanBatch( lead, deformer )
+	const float* shaped_template; // [N][3] T + G_S(β) of the β its deformer holds (uploaded when that changed)
+	const float* body_anchors;    // [N][3] anchors of the same β (meshes with body anchors; else NULL)
+	const float* blend_weights;   // [D]
+	const float* skin_matrices;   // [J][3][4]
+	float* positions;             // optional [N][3] read-back (NULL = none), as plGlDeformer_Run
+	float* normals;               // optional [N][3] read-back
+} plGlBatchMember;
+
+// Non-zero if member's instance can run in a batch that lead runs: the same mode and mesh sizes. (Host-context
+// deformers must also live in the context current for the call, as for Run.)
+int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member );
+// Runs count members (1..PLEAT_GL_BATCH_MAX) as plGlDeformer_Run runs each of them, with one dispatch per shader for
+// all of them: the lead's context runs blend_shapes → skinning (→ body_contact) → face_normals → normals_gather once,
+// with the member in gl_WorkGroupID.y, over per-instance buffers the lead keeps (made at its first batch, grown for a
+// larger one; a member's shaped template is uploaded only when the slot last held another). Each member's results
+// then go where its own Run puts them: its host vertex buffers (GPU copies) and the read-backs it asks for. The same
+// GLSL as Run, so results match per-instance runs (test_gl_batch_matches_single). An error may leave the members'
+// GPU outputs partly written, as Run's may; nothing on the CPU side changes.
+plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count );
+
+// Compute dispatches issued by every deformer since the process started (for tests: a batch issues one per shader).
+extern _Atomic uint64_t g_plGlDispatches;
+
 #endif

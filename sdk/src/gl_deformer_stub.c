@@ -43,3 +43,20 @@ void plGlDeformer_Destroy( plGlDeformer* deformer )
 {
 	(void)deformer;
 }
+
+_Atomic uint64_t g_plGlDispatches;
+
+int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member )
+{
+	(void)lead;
+	(void)member;
+	return 0;
+}
+
+plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count )
+{
+	(void)lead;
+	(void)members;
+	(void)count;
+	return PLEAT_RESULT_GL_UNAVAILABLE;
+}

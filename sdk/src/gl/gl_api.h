@@ -22,6 +22,7 @@
 	X( PFNGLBUFFERDATAPROC, BufferData )                                                                               \
 	X( PFNGLBUFFERSUBDATAPROC, BufferSubData )                                                                         \
 	X( PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData )                                                                   \
+	X( PFNGLCOPYBUFFERSUBDATAPROC, CopyBufferSubData )                                                                 \
 	X( PFNGLGETBUFFERPARAMETERI64VPROC, GetBufferParameteri64v )                                                       \
 	X( PFNGLCREATESHADERPROC, CreateShader )                                                                           \
 	X( PFNGLSHADERSOURCEPROC, ShaderSource )                                                                           \

@@ -1,11 +1,24 @@
 // The GL compute path: blend_shapes.comp → skinning.comp (→ body_contact.comp) → face_normals.comp → normals_gather.comp
-// over GPU-resident
-// asset data. See
-// sdk/src/gl_deformer.h for the contract and docs/gpu.md for the buffers, the saved state and the measurements.
+// over GPU-resident asset data, for one instance (plGlDeformer_Run) or for a batch of instances of one mesh with one
+// dispatch per shader (plGlDeformer_RunBatch). See sdk/src/gl_deformer.h for the contract and docs/gpu.md for the
+// buffers, the saved state and the measurements.
 #include "gl_internal.h"
 #include "gl_shaders.h"
+#include <stdatomic.h>
 #include <stddef.h>
 #include <string.h>
+
+_Atomic uint64_t g_plGlDispatches;
+
+// A deformer's identity for a batch's template cache (pointers are reused after a free; serials are not).
+static _Atomic uint64_t s_plGlDeformerSerial;
+
+// One dispatch, counted (tests check that a batch runs one per shader).
+static void plDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y )
+{
+	api->DispatchCompute( groups_x, groups_y, 1 );
+	atomic_fetch_add_explicit( &g_plGlDispatches, 1, memory_order_relaxed );
+}
 
 enum
 {
@@ -16,6 +29,18 @@ enum
 	PLEAT_GL_PROGRAM_BODY_CONTACT, // assets with body anchors only (0 otherwise)
 	PLEAT_GL_PROGRAM_COUNT
 };
+
+// The buffers a deformer keeps once it has led a batch (plGlDeformer_RunBatch): one block per member at each
+// per-instance binding; the mesh's own buffers are the deformer's.
+typedef struct plGlBatchBuffers
+{
+	uint32_t capacity;                       // members the buffers hold (0: no batch yet)
+	GLuint buffers[PLEAT_GL_BINDING_COUNT];  // per-instance bindings only (0 elsewhere)
+	GLuint contact_program;                  // body_contact.comp with PLEAT_BATCH 1 (body anchors only)
+	uint64_t* template_keys;                 // [capacity][2]: the (serial, template generation) each slot holds
+	void* staging;                           // [capacity] weights, matrices or contact rows on their way up
+	size_t staging_bytes;
+} plGlBatchBuffers;
 
 struct plGlDeformer
 {
@@ -41,6 +66,10 @@ struct plGlDeformer
 	void* staging; // conversions on upload and read-backs; staging_bytes = max(16 N, 4 N K)
 	size_t staging_bytes;
 
+	uint64_t serial;              // unique per deformer
+	uint64_t template_generation; // grows with every shaped-template upload
+	plGlBatchBuffers batch;
+
 	plGlSavedState saved; // host-context mode: the engine's state during one of our calls
 };
 
@@ -58,6 +87,8 @@ void plGlSaveState( const plGlApi* api, plGlSavedState* state )
 	api->GetIntegeri_v( GL_UNIFORM_BUFFER_BINDING, PLEAT_GL_PARAMS_BINDING, &state->uniform_binding );
 	api->GetInteger64i_v( GL_UNIFORM_BUFFER_START, PLEAT_GL_PARAMS_BINDING, &state->uniform_start );
 	api->GetInteger64i_v( GL_UNIFORM_BUFFER_SIZE, PLEAT_GL_PARAMS_BINDING, &state->uniform_size );
+	api->GetIntegerv( GL_COPY_READ_BUFFER_BINDING, &state->copy_read_buffer );
+	api->GetIntegerv( GL_COPY_WRITE_BUFFER_BINDING, &state->copy_write_buffer );
 }
 
 static void plRestoreIndexed( const plGlApi* api, GLenum target, GLuint index, GLint buffer, GLint64 start,
@@ -80,6 +111,8 @@ void plGlRestoreState( const plGlApi* api, const plGlSavedState* state )
 	// Indexed binds also set the generic binding, so the generic ones go last.
 	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, (GLuint)state->storage_buffer );
 	api->BindBuffer( GL_UNIFORM_BUFFER, (GLuint)state->uniform_buffer );
+	api->BindBuffer( GL_COPY_READ_BUFFER, (GLuint)state->copy_read_buffer );
+	api->BindBuffer( GL_COPY_WRITE_BUFFER, (GLuint)state->copy_write_buffer );
 	api->UseProgram( (GLuint)state->program );
 }
 
@@ -221,6 +254,7 @@ static void plToVec4( plGlVec4* rows, const float* xyz, uint32_t count, float w_
 // The shaped template, then (with body anchors) the anchors of the same β in rows N..2N−1: one BufferSubData.
 static void plUploadShapedTemplate( plGlDeformer* deformer, const float* shaped_template, const float* body_anchors )
 {
+	deformer->template_generation += 1; // a batch this deformer's instance joins uploads it again
 	const plGlApi* api = &deformer->api;
 	plGlVec4* rows = deformer->staging;
 	uint32_t n = deformer->vertex_count;
@@ -313,8 +347,14 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	}
 
 	size_t n = desc->vertex_count;
-	plGlDeformParams params = { desc->vertex_count, desc->blend_count, desc->influence_count,   desc->joint_count,
-								desc->face_count,   Ka,                deformer->body_contact_offset_m, 0 };
+	plGlDeformParams params = { desc->vertex_count,
+								desc->blend_count,
+								desc->influence_count,
+								desc->joint_count,
+								desc->face_count,
+								Ka,
+								deformer->body_contact_offset_m,
+								desc->vertex_count * ( Ka > 0 ? 2u : 1u ) };
 	api->GenBuffers( 1, &deformer->params_buffer );
 	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
 	api->BufferData( GL_UNIFORM_BUFFER, sizeof( params ), &params, GL_STATIC_DRAW );
@@ -369,6 +409,8 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		for ( int b = PLEAT_GL_BINDING_ANCHOR_NORMALS; b <= PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS; ++b )
 			plCreateBuffer( deformer, (plGlBinding)b, 16, NULL, GL_STATIC_DRAW );
 	}
+	// Read by batches only (plGlDeformer_RunBatch binds its own); a single Run binds this placeholder.
+	plCreateBuffer( deformer, PLEAT_GL_BINDING_BATCH_CONTACT, 16, NULL, GL_STATIC_DRAW );
 	return plCheckErrors( api );
 }
 
@@ -386,7 +428,14 @@ static void plDeleteGlObjects( plGlDeformer* deformer )
 	{
 		if ( deformer->owned[b] != 0 )
 			api->DeleteBuffers( 1, &deformer->owned[b] );
+		if ( deformer->batch.buffers[b] != 0 )
+			api->DeleteBuffers( 1, &deformer->batch.buffers[b] );
+		deformer->batch.buffers[b] = 0;
 	}
+	if ( deformer->batch.contact_program != 0 )
+		api->DeleteProgram( deformer->batch.contact_program );
+	deformer->batch.contact_program = 0;
+	deformer->batch.capacity = 0;
 }
 
 static void plFreeDeformer( plGlDeformer* deformer )
@@ -395,6 +444,8 @@ static void plFreeDeformer( plGlDeformer* deformer )
 	if ( deformer->context != NULL )
 		plGlContext_Destroy( deformer->context );
 	plFree( &allocator, deformer->staging, deformer->staging_bytes );
+	plFree( &allocator, deformer->batch.template_keys, (size_t)deformer->batch.capacity * 2 * sizeof( uint64_t ) );
+	plFree( &allocator, deformer->batch.staging, deformer->batch.staging_bytes );
 	plFree( &allocator, deformer, sizeof( *deformer ) );
 }
 
@@ -421,6 +472,7 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	deformer->blend_count = desc->blend_count;
 	deformer->influence_count = desc->influence_count;
 	deformer->joint_count = desc->joint_count;
+	deformer->serial = atomic_fetch_add_explicit( &s_plGlDeformerSerial, 1, memory_order_relaxed ) + 1;
 	deformer->anchor_influence_count = desc->body_anchors != NULL ? desc->body_anchor_influence_count : 0;
 	deformer->body_contact = deformer->anchor_influence_count > 0;
 	deformer->body_contact_offset_m = PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M;
@@ -579,22 +631,22 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 	GLuint groups = ( deformer->vertex_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
 	GLuint face_groups = ( deformer->face_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] );
-	api->DispatchCompute( groups, 1, 1 );
+	plDispatch( api, groups, 1 );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_SKINNING] );
-	api->DispatchCompute( groups, 1, 1 );
+	plDispatch( api, groups, 1 );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	if ( deformer->body_contact )
 	{
 		api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] );
-		api->DispatchCompute( groups, 1, 1 );
+		plDispatch( api, groups, 1 );
 		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	}
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
-	api->DispatchCompute( face_groups, 1, 1 );
+	plDispatch( api, face_groups, 1 );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] );
-	api->DispatchCompute( groups, 1, 1 );
+	plDispatch( api, groups, 1 );
 	// Whatever reads the outputs next: our read-back, or the engine's vertex fetch / shaders from its buffers.
 	api->MemoryBarrier( GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
 						GL_SHADER_STORAGE_BARRIER_BIT );
@@ -605,6 +657,243 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 		plReadBack( deformer, deformer->bindings[PLEAT_GL_BINDING_NORMALS], normals );
 	result = plCheckErrors( api );
 	plEnd( deformer );
+	return result;
+}
+
+// ---- batches: one dispatch per shader for many instances of one mesh ----
+
+int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member )
+{
+	return lead != NULL && member != NULL && lead->mode == member->mode && lead->vertex_count == member->vertex_count &&
+		   lead->face_count == member->face_count && lead->blend_count == member->blend_count &&
+		   lead->influence_count == member->influence_count && lead->joint_count == member->joint_count &&
+		   lead->anchor_influence_count == member->anchor_influence_count;
+}
+
+static GLuint plCreateBatchBuffer( const plGlApi* api, size_t bytes )
+{
+	GLuint buffer = 0;
+	api->GenBuffers( 1, &buffer );
+	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
+	api->BufferData( GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)bytes, NULL, GL_DYNAMIC_COPY );
+	return buffer;
+}
+
+// The per-instance buffers for `capacity` members (the first batch, or a larger one than before: the old ones go).
+// Between plBegin and plEnd.
+static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
+{
+	plGlBatchBuffers* batch = &lead->batch;
+	if ( capacity <= batch->capacity )
+		return PLEAT_RESULT_OK;
+	const plGlApi* api = &lead->api;
+	for ( int b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
+	{
+		if ( batch->buffers[b] != 0 )
+			api->DeleteBuffers( 1, &batch->buffers[b] );
+		batch->buffers[b] = 0;
+	}
+	plFree( &lead->allocator, batch->template_keys, (size_t)batch->capacity * 2 * sizeof( uint64_t ) );
+	plFree( &lead->allocator, batch->staging, batch->staging_bytes );
+	batch->template_keys = NULL;
+	batch->staging = NULL;
+	batch->capacity = 0;
+
+	size_t c = capacity, n = lead->vertex_count, f = lead->face_count;
+	size_t rows = n * ( lead->anchor_influence_count > 0 ? 2 : 1 );
+	size_t weights = c * lead->blend_count * 4, matrices = c * lead->joint_count * 48, contact = c * 16;
+	batch->staging_bytes = weights > matrices ? weights : matrices;
+	batch->staging_bytes = batch->staging_bytes > contact ? batch->staging_bytes : contact;
+	batch->staging = plAlloc( &lead->allocator, batch->staging_bytes, 64 );
+	batch->template_keys = plAllocZeroed( &lead->allocator, c * 2 * sizeof( uint64_t ), 16 );
+	if ( batch->staging == NULL || batch->template_keys == NULL )
+	{
+		plFree( &lead->allocator, batch->template_keys, c * 2 * sizeof( uint64_t ) );
+		plFree( &lead->allocator, batch->staging, batch->staging_bytes );
+		batch->template_keys = NULL;
+		batch->staging = NULL;
+		return PLEAT_RESULT_OUT_OF_MEMORY;
+	}
+	batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] = plCreateBatchBuffer( api, c * rows * 16 );
+	batch->buffers[PLEAT_GL_BINDING_BLEND_WEIGHTS] = plCreateBatchBuffer( api, weights );
+	batch->buffers[PLEAT_GL_BINDING_DEFORMED] = plCreateBatchBuffer( api, c * n * 16 );
+	batch->buffers[PLEAT_GL_BINDING_SKIN_MATRICES] = plCreateBatchBuffer( api, matrices );
+	batch->buffers[PLEAT_GL_BINDING_POSITIONS] = plCreateBatchBuffer( api, c * n * 16 );
+	batch->buffers[PLEAT_GL_BINDING_NORMALS] = plCreateBatchBuffer( api, c * n * 16 );
+	batch->buffers[PLEAT_GL_BINDING_FACE_NORMALS] = plCreateBatchBuffer( api, c * f * 16 );
+	batch->buffers[PLEAT_GL_BINDING_BATCH_CONTACT] = plCreateBatchBuffer( api, contact );
+	if ( lead->anchor_influence_count > 0 && batch->contact_program == 0 )
+	{
+		batch->contact_program = plCompileProgram( api, plGlShaderSource_body_contact, "#define PLEAT_BATCH 1\n" );
+		if ( batch->contact_program == 0 )
+			return PLEAT_RESULT_GL_ERROR;
+	}
+	plResult result = plCheckErrors( api );
+	if ( result == PLEAT_RESULT_OK )
+		batch->capacity = capacity; // else the keys stay unset and the next batch tries again
+	return result;
+}
+
+// Reads rows [first, first + N) of a vec4 buffer back into out [N][3].
+static void plReadBackRows( plGlDeformer* deformer, GLuint buffer, size_t first, float* out )
+{
+	const plGlApi* api = &deformer->api;
+	plGlVec4* rows = deformer->staging;
+	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
+	api->GetBufferSubData( GL_SHADER_STORAGE_BUFFER, (GLintptr)( first * 16 ), (GLsizeiptr)deformer->vertex_count * 16,
+						   rows );
+	for ( uint32_t i = 0; i < deformer->vertex_count; ++i )
+	{
+		out[3 * i] = rows[i].x;
+		out[3 * i + 1] = rows[i].y;
+		out[3 * i + 2] = rows[i].z;
+	}
+}
+
+// The batch's per-instance inputs: each member's shaped template (only where the slot holds another one), all blend
+// weights and skinning matrices (one upload each), the body-contact settings.
+static void plUploadBatchInputs( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count )
+{
+	const plGlApi* api = &lead->api;
+	plGlBatchBuffers* batch = &lead->batch;
+	uint32_t n = lead->vertex_count;
+	int anchors = lead->anchor_influence_count > 0;
+	size_t rows = (size_t)n * ( anchors ? 2 : 1 );
+	for ( uint32_t k = 0; k < count; ++k )
+	{
+		const plGlDeformer* own = members[k].deformer;
+		uint64_t* key = batch->template_keys + 2 * (size_t)k;
+		if ( key[0] == own->serial && key[1] == own->template_generation )
+			continue;
+		plGlVec4* staging = lead->staging; // holds 2N rows with anchors (plCreate sized it)
+		plToVec4( staging, members[k].shaped_template, n, 1.0f );
+		if ( anchors )
+			plToVec4( staging + n, members[k].body_anchors, n, 1.0f );
+		api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] );
+		api->BufferSubData( GL_SHADER_STORAGE_BUFFER, (GLintptr)( k * rows * 16 ), (GLsizeiptr)( rows * 16 ), staging );
+		key[0] = own->serial;
+		key[1] = own->template_generation;
+	}
+	float* weights = batch->staging;
+	for ( uint32_t k = 0; k < count; ++k )
+		memcpy( weights + (size_t)k * lead->blend_count, members[k].blend_weights, lead->blend_count * sizeof( float ) );
+	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_BLEND_WEIGHTS] );
+	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)count * lead->blend_count * 4, weights );
+	float* matrices = batch->staging;
+	for ( uint32_t k = 0; k < count; ++k )
+		memcpy( matrices + (size_t)k * lead->joint_count * 12, members[k].skin_matrices,
+				(size_t)lead->joint_count * 48 );
+	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_SKIN_MATRICES] );
+	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)count * lead->joint_count * 48, matrices );
+	if ( anchors )
+	{
+		plGlVec4* contact = batch->staging;
+		for ( uint32_t k = 0; k < count; ++k )
+		{
+			const plGlDeformer* own = members[k].deformer;
+			contact[k] = ( plGlVec4 ){ own->body_contact ? 1.0f : 0.0f, own->body_contact_offset_m, 0.0f, 0.0f };
+		}
+		api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_BATCH_CONTACT] );
+		api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)count * 16, contact );
+	}
+}
+
+// Every member's outputs where its own Run leaves them: host buffers (copied on the GPU) and the read-backs.
+static void plDeliverBatchOutputs( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count )
+{
+	const plGlApi* api = &lead->api;
+	const plGlBatchBuffers* batch = &lead->batch;
+	size_t bytes = (size_t)lead->vertex_count * 16;
+	for ( uint32_t k = 0; k < count; ++k )
+	{
+		const plGlDeformer* own = members[k].deformer;
+		const plGlBinding outputs[2] = { PLEAT_GL_BINDING_POSITIONS, PLEAT_GL_BINDING_NORMALS };
+		for ( int o = 0; o < 2; ++o )
+		{
+			if ( own->mode == PLEAT_GL_DEFORMER_HOST_CONTEXT && own->owned[outputs[o]] == 0 )
+			{
+				// The engine's vertex buffer (its contents are the engine's, so one whole-range copy per output).
+				api->BindBuffer( GL_COPY_READ_BUFFER, batch->buffers[outputs[o]] );
+				api->BindBuffer( GL_COPY_WRITE_BUFFER, own->bindings[outputs[o]] );
+				api->CopyBufferSubData( GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, (GLintptr)( k * bytes ), 0,
+										(GLsizeiptr)bytes );
+			}
+		}
+		if ( members[k].positions != NULL )
+			plReadBackRows( lead, batch->buffers[PLEAT_GL_BINDING_POSITIONS], (size_t)k * lead->vertex_count,
+							members[k].positions );
+		if ( members[k].normals != NULL )
+			plReadBackRows( lead, batch->buffers[PLEAT_GL_BINDING_NORMALS], (size_t)k * lead->vertex_count,
+							members[k].normals );
+	}
+}
+
+plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count )
+{
+	if ( lead == NULL || members == NULL || count == 0 || count > PLEAT_GL_BATCH_MAX )
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	for ( uint32_t k = 0; k < count; ++k )
+	{
+		const plGlBatchMember* m = &members[k];
+		if ( !plGlDeformer_CanBatch( lead, m->deformer ) || m->shaped_template == NULL || m->blend_weights == NULL ||
+			 m->skin_matrices == NULL || ( lead->anchor_influence_count > 0 && m->body_anchors == NULL ) )
+			return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plResult result = plBegin( lead );
+	if ( result != PLEAT_RESULT_OK )
+		return result;
+	const plGlApi* api = &lead->api;
+	plCheckErrors( api ); // an error the engine left pending is not ours to report
+	result = plReserveBatch( lead, count );
+	if ( result != PLEAT_RESULT_OK )
+	{
+		plCheckErrors( api );
+		plEnd( lead );
+		return result;
+	}
+	plUploadBatchInputs( lead, members, count );
+
+	api->BindBufferBase( GL_UNIFORM_BUFFER, PLEAT_GL_PARAMS_BINDING, lead->params_buffer );
+	for ( GLuint b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
+	{
+		GLuint buffer = lead->batch.buffers[b] != 0 ? lead->batch.buffers[b] : lead->bindings[b];
+		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, buffer );
+	}
+	int contact = 0;
+	for ( uint32_t k = 0; k < count; ++k )
+		contact |= members[k].deformer->body_contact;
+
+	// The single Run's dispatches with the members in y: one per shader for the whole batch.
+	GLuint groups = ( lead->vertex_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
+	GLuint face_groups = ( lead->face_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
+	api->UseProgram( lead->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] );
+	plDispatch( api, groups, count );
+	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	api->UseProgram( lead->programs[PLEAT_GL_PROGRAM_SKINNING] );
+	plDispatch( api, groups, count );
+	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	if ( contact )
+	{
+		api->UseProgram( lead->batch.contact_program );
+		plDispatch( api, groups, count );
+		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	}
+	api->UseProgram( lead->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
+	plDispatch( api, face_groups, count );
+	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	api->UseProgram( lead->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] );
+	plDispatch( api, groups, count );
+	api->MemoryBarrier( GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
+						GL_SHADER_STORAGE_BARRIER_BIT );
+
+	plDeliverBatchOutputs( lead, members, count );
+	result = plCheckErrors( api );
+	if ( result != PLEAT_RESULT_OK )
+	{
+		// The templates may not have arrived: upload them all again next time.
+		memset( lead->batch.template_keys, 0, (size_t)lead->batch.capacity * 2 * sizeof( uint64_t ) );
+	}
+	plEnd( lead );
 	return result;
 }
 

@@ -19,13 +19,15 @@ typedef struct plGlSavedState
 {
 	GLint program;                                      // GL_CURRENT_PROGRAM
 	GLint storage_buffer;                               // GL_SHADER_STORAGE_BUFFER_BINDING (generic)
-	GLint storage_buffers[PLEAT_GL_BINDING_COUNT];      // indexed GL_SHADER_STORAGE_BUFFER_BINDING 0..15
+	GLint storage_buffers[PLEAT_GL_BINDING_COUNT];      // indexed GL_SHADER_STORAGE_BUFFER_BINDING 0..16
 	GLint64 storage_starts[PLEAT_GL_BINDING_COUNT];     // GL_SHADER_STORAGE_BUFFER_START
 	GLint64 storage_sizes[PLEAT_GL_BINDING_COUNT];      // GL_SHADER_STORAGE_BUFFER_SIZE
 	GLint uniform_buffer;                               // GL_UNIFORM_BUFFER_BINDING (generic)
 	GLint uniform_binding;                              // indexed GL_UNIFORM_BUFFER_BINDING 0
 	GLint64 uniform_start;                              // GL_UNIFORM_BUFFER_START 0
 	GLint64 uniform_size;                               // GL_UNIFORM_BUFFER_SIZE 0
+	GLint copy_read_buffer;                             // GL_COPY_READ_BUFFER_BINDING (a batch's copies to host buffers)
+	GLint copy_write_buffer;                            // GL_COPY_WRITE_BUFFER_BINDING
 } plGlSavedState;
 
 void plGlSaveState( const plGlApi* api, plGlSavedState* state );

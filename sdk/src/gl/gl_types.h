@@ -14,7 +14,7 @@ typedef struct plGlDeformParams
 	uint32_t face_count;      // F
 	uint32_t anchor_influence_count; // Ka: body anchors' skin influences (0: the asset has no body anchors)
 	float body_contact_offset_m;     // body_contact.comp's clearance (metres)
-	uint32_t pad;             // the buffer is bound whole: its size a multiple of the 16-byte std140 vec4 row
+	uint32_t shaped_rows;            // rows of the shaped-template buffer per instance: N, or 2N with body anchors
 } plGlDeformParams;
 _Static_assert( sizeof( plGlDeformParams ) == 32, "std140 plGlDeformParams is 32 bytes" );
 
@@ -54,8 +54,14 @@ typedef enum plGlBinding
 	PLEAT_GL_BINDING_ANCHOR_NORMALS = 13,   // vec4 [N]            body_contact.comp (assets with body anchors)
 	PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES = 14, // uint [N][Ka]
 	PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS = 15, // float [N][Ka]
-	PLEAT_GL_BINDING_COUNT = 16,
+	PLEAT_GL_BINDING_BATCH_CONTACT = 16,    // vec4 [instances] (enabled, offset_m, 0, 0) body_contact.comp, batches only
+	PLEAT_GL_BINDING_COUNT = 17,
 } plGlBinding;
+
+// Batches (plGlDeformer_RunBatch): the buffers above marked per instance hold [instances] blocks of the size given
+// (shaped template [instances][shaped_rows], weights [instances][D], T_def, positions and normals [instances][N], skin
+// matrices [instances][J][3], face normals [instances][F]); gl_WorkGroupID.y of a dispatch is the instance. The mesh's
+// own buffers (blend shapes, skinning, faces, adjacency, anchors) are shared by the batch.
 
 // Workgroup size of every shader (layout(local_size_x = 64)); dispatch ceil(N / 64) groups (ceil(F / 64) for
 // face_normals.comp).
