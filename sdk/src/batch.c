@@ -354,8 +354,9 @@ static int plClaimScratch( plContextData* ctx, size_t floats )
 	return -1;
 }
 
-// Lane groups [begin, end) of the members: skinning of a lane group's instances at once, then their normals at once.
-// Every instance keeps its own positions and normals buffers; only the normals' lanes live in the context's scratch.
+// Lane groups [begin, end) of the members: skinning of a lane group's instances at once, body contact per instance,
+// then their normals at once. Every instance keeps its own positions and normals buffers; only the normals' lanes live
+// in the context's scratch.
 static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;
@@ -380,6 +381,15 @@ static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void*
 		}
 		g->kernels->skinning_batch( positions, in, n, a->skin_indices, a->skin_weights, a->influence_count, matrices,
 									a->joint_count, 0, a->vertex_count );
+		for ( uint32_t k = 0; k < n; ++k )
+		{
+			// what plDeformCpu runs between skinning and normals
+			plInstanceData* inst = g->entries[g->members[m0 + k]].inst;
+			if ( inst->body_contact && plRunBodyContact( inst, matrices[k], 0, a->vertex_count ) != PLEAT_RESULT_OK )
+			{
+				atomic_store_explicit( &g->blend_result, (int)PLEAT_RESULT_INTERNAL_ERROR, memory_order_relaxed );
+			}
+		}
 		int slot = plClaimScratch( g->ctx, plNormalsBatchScratchFloats( a->vertex_count, lanes ) );
 		if ( slot >= 0 )
 		{
@@ -399,9 +409,8 @@ static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void*
 	}
 }
 
-// Members = the entries whose skinning and normals run batched: the batched kernels have lanes (not the scalar set),
-// and nothing runs between skinning and normals for them (an instance with body contact takes the single step's
-// deformation, plDeformCpu, in plFinishEntry).
+// Members = the entries whose skinning and normals run batched (the batched kernels have lanes: not the scalar set);
+// body contact runs per instance in between, as in plDeformCpu.
 static void plRunGeometry( plBatchGroup* g )
 {
 	g->member_count = 0;
@@ -412,7 +421,7 @@ static void plRunGeometry( plBatchGroup* g )
 	for ( uint32_t i = 0; i < g->count; ++i )
 	{
 		plBatchEntry* e = &g->entries[i];
-		if ( e->result == PLEAT_RESULT_OK && !e->needs_reset && !e->inst->body_contact )
+		if ( e->result == PLEAT_RESULT_OK && !e->needs_reset )
 		{
 			g->members[g->member_count++] = i;
 			e->geometry_done = 1;

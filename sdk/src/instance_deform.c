@@ -44,21 +44,27 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
 	if ( inst->body_contact )
 	{
-		plBodyContactJob contact = { plMakeSpan( inst->positions, n, 12 ),
-									 inst->shaped_anchors,
-									 a->body_anchor_normals,
-									 a->body_anchor_skin_indices,
-									 a->body_anchor_skin_weights,
-									 a->body_anchor_influence_count,
-									 t->skin_matrices,
-									 a->joint_count,
-									 inst->body_contact_offset_m,
-									 begin,
-									 end,
-									 &inst->ctx->kernels };
-		plDeformTask_Record( t, plBodyContactJob_Run( &contact ) );
+		plDeformTask_Record( t, plRunBodyContact( inst, t->skin_matrices, begin, end ) );
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
+}
+
+plResult plRunBodyContact( plInstanceData* inst, const float* skin_matrices, uint32_t begin, uint32_t end )
+{
+	const plAssetData* a = inst->asset;
+	plBodyContactJob contact = { plMakeSpan( inst->positions, a->vertex_count, 12 ),
+								 inst->shaped_anchors,
+								 a->body_anchor_normals,
+								 a->body_anchor_skin_indices,
+								 a->body_anchor_skin_weights,
+								 a->body_anchor_influence_count,
+								 skin_matrices,
+								 a->joint_count,
+								 inst->body_contact_offset_m,
+								 begin,
+								 end,
+								 &inst->ctx->kernels };
+	return plBodyContactJob_Run( &contact );
 }
 
 static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )

@@ -4,8 +4,9 @@
 // kernels; with and without the batched normals' scratch), fp32 and fp16 weights, one and three workers, over several
 // frames of a crowd that has more instances of one asset than one group holds (64), three assets (ReLU and SiLU),
 // different β, network rates and dt, instances listed twice, a stale handle, an instance whose input is rejected on
-// one frame (it must stay unchanged while the others step) and an asset whose f_LP overflows whenever the root moves
-// along x (the numeric reset inside a batch).
+// one frame (it must stay unchanged while the others step), body contact on most instances of the big asset (off or
+// at another clearance on some) and an asset whose f_LP overflows whenever the root moves along x (the numeric reset
+// inside a batch).
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -69,6 +70,11 @@ static plTestAsset* plMakeModel( int which, int fp16 )
 		p.activation = 2; // SiLU passes ±inf and NaN on (a ReLU would turn an overflow's NaN into 0)
 	}
 	plTestAsset* model = plTestAsset_Create( &p );
+	if ( which == 0 )
+	{
+		// Body anchors 2 mm behind the sheet: body contact moves vertices between the batched skinning and normals.
+		assert_true( plTestAsset_AddBodyAnchors( model, 0.002f ) );
+	}
 	if ( which == 2 )
 	{
 		// As test_guards: X_c's root velocity x has x_std 1e-38 and f_LP weighs it with ±6e4 (within fp16's range),
@@ -112,6 +118,8 @@ static void plWorld_Init( plTestWorld* w, plTestAsset* models[3], int force_scal
 		idef.beta = beta;
 		idef.beta_count = 2;
 		idef.network_rate_hz = ( i % 3 == 1 ) ? 30.0f : ( i % 5 == 2 ? 20.0f : 0.0f );
+		idef.body_contact = i % 4 != 3; // asset A: contact on for most, off for every fourth
+		idef.body_contact_offset_m = i % 8 == 1 ? 0.004f : idef.body_contact_offset_m;
 		assert_int_equal( plCreateInstance( w->context, &idef, &w->instances[i] ), PLEAT_RESULT_OK );
 	}
 	plInstanceDef idef = plDefaultInstanceDef();
