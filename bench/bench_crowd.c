@@ -3,7 +3,7 @@
 // plInstance_Step, in the same run.
 //
 // usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [--asset LABEL=PATH ...] [--counts 1,8,64,256]
-//                          [--workers 1,2] [--seconds S] [--clock wall|cpu] [--out crowd.json]
+//                          [--workers 1,2] [--seconds S] [--clock wall|cpu] [--batch-isa best|avx2] [--out crowd.json]
 //        pleat_bench_crowd --scene --case case.bin --tier T0.pleat [--tier T1.pleat ...] --tier-errors e0,..,lbs
 //                          --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] [--out scene.json]
 //
@@ -23,11 +23,17 @@
 // and at least 5 iterations ran; each number is the median over the iterations of (the call's time) / n. Both sets
 // get the same inputs, so after the run their outputs are compared bit for bit ("bit_identical").
 // "batch_vs_single_step" divides the batch's per-instance time by the one-by-one time of n = 1 for the same asset and
-// workers (the single-instance step of the same run); the target is <= 0.25 at n = 64.
+// workers (the single-instance step of the same run); the target is <= 0.25 at n = 64. Two-worker entries
+// also divide by the one-worker single step of the same run ("batch_vs_single_step_1_worker", when --workers has 1
+// first). Each entry states the kernels: "single_isa" (the context's, plInstance_Step) and "batch_isa" (what
+// plStepInstances chose on this CPU; --batch-isa avx2 caps it at the AVX2 twins for a comparison), plus the median
+// and the minimum over the iterations (the minimum is the least disturbed by other processes) and the load average
+// before and after the run (/proc/loadavg).
 // --clock cpu is this thread's CPU time: with two workers it leaves out the helper's share, so wall (the default) is
 // the clock for every comparison here.
 #define _POSIX_C_SOURCE 200809L
 #include "bench_support.h"
+#include "kernels_batch.h"
 #include "pleat/pleat.h"
 
 #include <stdio.h>
@@ -42,7 +48,8 @@ typedef struct CrowdResult
 {
 	const char* label;
 	uint32_t workers, count, iterations;
-	double batch_us, single_us; // per instance, medians
+	double batch_us, single_us;         // per instance, medians
+	double batch_min_us, single_min_us; // per instance, minima
 	int bit_identical;
 	int all_ok;
 } CrowdResult;
@@ -161,8 +168,10 @@ static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t worke
 	result->workers = workers;
 	result->count = n;
 	result->iterations = iterations;
-	result->batch_us = BenchMedian( batch_samples, iterations );
+	result->batch_us = BenchMedian( batch_samples, iterations ); // sorts: [0] is the minimum then
 	result->single_us = BenchMedian( single_samples, iterations );
+	result->batch_min_us = iterations > 0 ? batch_samples[0] : 0.0;
+	result->single_min_us = iterations > 0 ? single_samples[0] : 0.0;
 	result->bit_identical = identical;
 	free( sets );
 	free( inputs );
@@ -466,6 +475,7 @@ int main( int argc, char** argv )
 	uint32_t counts[CROWD_MAX_COUNTS] = { 1, 8, 64, 256 }, count_count = 4;
 	uint32_t workers[2] = { 1, 2 }, worker_count = 2;
 	double seconds = 0.5;
+	const char* batch_isa_arg = "best";
 	for ( int i = 1; i + 1 < argc; i += 2 )
 	{
 		if ( strcmp( argv[i], "--case" ) == 0 )
@@ -480,6 +490,8 @@ int main( int argc, char** argv )
 			seconds = strtod( argv[i + 1], NULL );
 		else if ( strcmp( argv[i], "--clock" ) == 0 )
 			g_benchClock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
+		else if ( strcmp( argv[i], "--batch-isa" ) == 0 )
+			batch_isa_arg = argv[i + 1];
 		else if ( strcmp( argv[i], "--asset" ) == 0 && asset_count < CROWD_MAX_ASSETS )
 		{
 			char* eq = strchr( argv[i + 1], '=' );
@@ -502,7 +514,7 @@ int main( int argc, char** argv )
 	if ( case_path == NULL || asset_count == 0 || !BenchReadMotion( case_path, &motion ) )
 	{
 		fprintf( stderr, "usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [...] [--counts 1,8,64,256] "
-						 "[--workers 1,2] [--seconds S] [--clock wall|cpu] [--out crowd.json]\n" );
+						 "[--workers 1,2] [--seconds S] [--clock wall|cpu] [--batch-isa best|avx2] [--out crowd.json]\n" );
 		return 2;
 	}
 	for ( uint32_t w = 0; w < worker_count; ++w )
@@ -525,6 +537,14 @@ int main( int argc, char** argv )
 		plDestroyContext( probe );
 	}
 	const char* isa = kernel_set == PLEAT_KERNEL_SET_AVX2 ? "avx2+fma+f16c" : "scalar";
+	// The batched kernels plStepInstances picks for that set (internal: kernels_batch.h), AVX-512 where the CPU has it
+	// unless --batch-isa avx2.
+	g_plBatchIsaLimit = strcmp( batch_isa_arg, "avx2" ) == 0 ? PLEAT_BATCH_ISA_AVX2 : PLEAT_BATCH_ISA_AVX512;
+	plKernels single_kernels;
+	plBatchKernels batch_kernels;
+	plSelectKernels( &single_kernels, 0 );
+	const char* batch_isa = plSelectBatchKernels( &single_kernels, &batch_kernels ) ? batch_kernels.isa : "none";
+	double load_start = BenchLoadAverage();
 
 	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
 	if ( out == NULL )
@@ -532,11 +552,14 @@ int main( int argc, char** argv )
 		fprintf( stderr, "pleat_bench_crowd: cannot write %s\n", out_path );
 		return 1;
 	}
-	fprintf( out, "{\n  \"isa\": \"%s\",\n  \"clock\": \"%s\",\n  \"seconds_per_case\": %.2f,\n  \"results\": [\n", isa,
-			 g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", seconds );
+	fprintf( out,
+			 "{\n  \"isa\": \"%s\",\n  \"batch_isa\": \"%s\",\n  \"clock\": \"%s\",\n  \"seconds_per_case\": %.2f,\n"
+			 "  \"loadavg_start\": %.2f,\n  \"results\": [\n",
+			 isa, batch_isa, g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", seconds, load_start );
 	int first = 1, failed = 0;
 	for ( uint32_t a = 0; a < asset_count; ++a )
 	{
+		double single_step_1_worker_us = 0.0;
 		for ( uint32_t w = 0; w < worker_count; ++w )
 		{
 			// The helper thread only while two-worker cases run: idle, it spins and yields, which a one-worker
@@ -561,15 +584,24 @@ int main( int argc, char** argv )
 				if ( counts[c] == 1 )
 				{
 					single_step_us = r.single_us;
+					if ( workers[w] == 1 )
+					{
+						single_step_1_worker_us = r.single_us;
+					}
 				}
 				fprintf( out,
 						 "%s    {\"asset\": \"%s\", \"workers\": %u, \"instances\": %u, \"isa\": \"%s\", "
+						 "\"single_isa\": \"%s\", \"batch_isa\": \"%s\", "
 						 "\"batch_us_per_instance\": %.2f, \"one_by_one_us_per_instance\": %.2f, "
-						 "\"batch_vs_one_by_one\": %.3f, \"batch_vs_single_step\": %.3f, \"iterations\": %u, "
+						 "\"batch_us_per_instance_min\": %.2f, \"one_by_one_us_per_instance_min\": %.2f, "
+						 "\"batch_vs_one_by_one\": %.3f, \"batch_vs_single_step\": %.3f, "
+						 "\"batch_vs_single_step_1_worker\": %.3f, \"iterations\": %u, "
 						 "\"bit_identical\": %s, \"all_steps_ok\": %s}",
-						 first ? "" : ",\n", r.label, r.workers, r.count, isa, r.batch_us, r.single_us,
+						 first ? "" : ",\n", r.label, r.workers, r.count, isa, isa, r.count > 1 ? batch_isa : isa,
+						 r.batch_us, r.single_us, r.batch_min_us, r.single_min_us,
 						 r.single_us > 0.0 ? r.batch_us / r.single_us : 0.0,
-						 single_step_us > 0.0 ? r.batch_us / single_step_us : 0.0, r.iterations,
+						 single_step_us > 0.0 ? r.batch_us / single_step_us : 0.0,
+						 single_step_1_worker_us > 0.0 ? r.batch_us / single_step_1_worker_us : 0.0, r.iterations,
 						 r.bit_identical ? "true" : "false", r.all_ok ? "true" : "false" );
 				fflush( out );
 				first = 0;
@@ -581,7 +613,7 @@ int main( int argc, char** argv )
 			}
 		}
 	}
-	fprintf( out, "\n  ]\n}\n" );
+	fprintf( out, "\n  ],\n  \"loadavg_end\": %.2f\n}\n", BenchLoadAverage() );
 	if ( out != stdout )
 	{
 		fclose( out );

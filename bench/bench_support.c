@@ -226,3 +226,18 @@ void BenchTwoWorkers_Install( BenchTwoWorkers* pool, plContextDef* def )
 	def->task_context = pool;
 	def->worker_count = 2;
 }
+
+double BenchLoadAverage( void )
+{
+	double load = -1.0;
+	FILE* f = fopen( "/proc/loadavg", "r" );
+	if ( f != NULL )
+	{
+		if ( fscanf( f, "%lf", &load ) != 1 )
+		{
+			load = -1.0;
+		}
+		fclose( f );
+	}
+	return load;
+}

@@ -15,6 +15,8 @@ extern clockid_t g_benchClock;
 double BenchNowUs( void );
 // Sorts values in place; the median (0 for count 0).
 double BenchMedian( double* values, size_t count );
+// The 1-minute load average (/proc/loadavg), -1 where there is none.
+double BenchLoadAverage( void );
 // The whole file in a 64-byte aligned block (free with free()), NULL on failure.
 uint8_t* BenchReadFile( const char* path, size_t* out_size );
 

@@ -55,6 +55,8 @@ typedef struct plBatchGroup
 	atomic_int blend_result; // a blend or geometry job's error, from whichever worker saw it
 } plBatchGroup;
 
+int plClaimScratch( plContextData* ctx, size_t floats );
+
 // ---- per instance, before the networks: what plInstance_Step does up to X_c ----
 
 static void plPrepareEntry( plBatchEntry* e )
@@ -111,8 +113,27 @@ static plResult plRunBatchedNetwork( plBatchGroup* g, int lp )
 						  g->out_spans,
 						  g->scratch_spans,
 						  g->kernels,
-						  &g->ctx->runner };
-	return plMlpBatchJob_Run( &job ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
+						  &g->ctx->runner,
+						  NULL,
+						  0 };
+	int slot = -1;
+	if ( g->kernels->mat_mat_lanes != NULL )
+	{
+		// the transposed chain's scratch (without it the job runs the row-tile kernels: the same results)
+		size_t floats = plMlpBatchLanesFloats( job.layers, job.layer_count, job.batch_count );
+		slot = plClaimScratch( g->ctx, floats );
+		if ( slot >= 0 )
+		{
+			job.lanes = g->ctx->batch_scratch[slot];
+			job.lanes_floats = floats;
+		}
+	}
+	plResult r = plMlpBatchJob_Run( &job );
+	if ( slot >= 0 )
+	{
+		atomic_store_explicit( &g->ctx->batch_scratch_busy[slot], 0, memory_order_release );
+	}
+	return r == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 }
 
 static void plBlendTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
@@ -291,16 +312,36 @@ static void plRunGpu( plBatchGroup* g )
 
 // ---- per lane group, after the blend: skinning and normals with the instances as vector lanes ----
 
-// The context's scratch for the batched normals: blocks claimed per lane group (any thread may step a batch of its
-// own instances at the same time: a group that finds every block taken runs its normals per instance instead).
-void plReserveBatchScratch( plContextData* ctx, uint32_t vertex_count )
+// The context's scratch for a group's transposed networks and its lane groups' normals: blocks claimed per use (any
+// thread may step a batch of its own instances at the same time: a group that finds every block taken runs those
+// stages with the scratch-free kernels instead, with the same results).
+size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a )
 {
 	plBatchKernels kernels;
-	if ( !plSelectBatchKernels( &ctx->kernels, &kernels ) || kernels.geometry_lanes <= 1 )
+	size_t floats = 0;
+	if ( plSelectBatchKernelsUpTo( &ctx->kernels, PLEAT_BATCH_ISA_AVX512, &kernels ) )
 	{
-		return; // the scalar set runs skinning and normals per instance
+		if ( kernels.geometry_lanes > 1 )
+		{
+			floats = plNormalsBatchScratchFloats( a->vertex_count, kernels.geometry_lanes );
+		}
+		if ( kernels.mat_mat_lanes != NULL )
+		{
+			size_t lp = plMlpBatchLanesFloats( a->lp, a->lp_layer_count, PLEAT_BATCH_MAX );
+			size_t dec = plMlpBatchLanesFloats( a->dec, a->dec_layer_count, PLEAT_BATCH_MAX );
+			floats = lp > floats ? lp : floats;
+			floats = dec > floats ? dec : floats;
+		}
 	}
-	size_t floats = plNormalsBatchScratchFloats( vertex_count, kernels.geometry_lanes );
+	return floats;
+}
+
+void plReserveBatchScratch( plContextData* ctx, size_t floats )
+{
+	if ( floats == 0 )
+	{
+		return; // the scalar set runs skinning and normals per instance and has no lanes kernel
+	}
 	uint32_t slots = ctx->runner.worker_count < PLEAT_BATCH_SCRATCH_SLOTS ? ctx->runner.worker_count
 																		  : PLEAT_BATCH_SCRATCH_SLOTS;
 	if ( floats <= ctx->batch_scratch_floats && slots <= ctx->batch_scratch_slots )
@@ -336,7 +377,7 @@ void plFreeBatchScratch( plContextData* ctx )
 }
 
 // A free scratch block big enough for `floats` (its index), or -1.
-static int plClaimScratch( plContextData* ctx, size_t floats )
+int plClaimScratch( plContextData* ctx, size_t floats )
 {
 	if ( floats > ctx->batch_scratch_floats )
 	{

@@ -27,7 +27,7 @@ typedef struct plSlot
 
 typedef struct plContextData plContextData;
 
-// Scratch blocks for the batched normals a context keeps (one per worker, at most this many; batch.c).
+// Scratch blocks for plStepInstances a context keeps (one per worker, at most this many; batch.c).
 #define PLEAT_BATCH_SCRATCH_SLOTS 8
 
 // Frees an object a slot table holds (its owner's destroy, without the slot bookkeeping).
@@ -57,9 +57,9 @@ struct plContextData
 	plKernels kernels;
 	plKernelSet kernel_set; // which variants kernels holds
 
-	// plStepInstances's scratch for the batched normals (batch.c): one block per slot, claimed per lane group of
-	// instances, sized at instance creation for the largest mesh so far (plReserveBatchScratch). Context bookkeeping:
-	// through the host hooks, not counted in live_bytes, freed with the context.
+	// plStepInstances's scratch for the transposed networks and the batched normals (batch.c): one block per slot,
+	// claimed per use, sized at instance creation for the largest asset so far (plReserveBatchScratch). Context
+	// bookkeeping: through the host hooks, not counted in live_bytes, freed with the context.
 	float* batch_scratch[PLEAT_BATCH_SCRATCH_SLOTS];
 	size_t batch_scratch_floats; // of every block
 	uint32_t batch_scratch_slots;
@@ -80,10 +80,10 @@ typedef struct plContextTable
 } plContextTable;
 extern plContextTable g_plContextTable;
 
-// plStepInstances's scratch (batch.c): grow the context's blocks to fit a mesh of vertex_count vertices (at instance
-// creation; on failure the batch runs that mesh's normals per instance, with the same results), and free them (at
-// context destruction).
-void plReserveBatchScratch( plContextData* ctx, uint32_t vertex_count );
+// plStepInstances's scratch (batch.c): grow the context's blocks to at least `floats` floats (at instance creation;
+// on failure the batch runs the stages that need it with scratch-free kernels, with the same results), and free them
+// (at context destruction).
+void plReserveBatchScratch( plContextData* ctx, size_t floats );
 void plFreeBatchScratch( plContextData* ctx );
 
 // The live context a handle names (index and generation both match), or NULL. Asset and instance lookups go through

@@ -36,6 +36,7 @@ size_t plNormalsBatchScratchFloats( uint32_t vertex_count, uint32_t lanes )
 int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatchKernels* out )
 {
 	out->mat_mat = NULL;
+	out->mat_mat_lanes = NULL;
 	out->blend_shapes_batch = NULL;
 	out->skinning_batch = NULL;
 	out->normals_batch = NULL;
@@ -63,8 +64,9 @@ int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatc
 		if ( limit >= PLEAT_BATCH_ISA_AVX512 && plCpuHasAvx512Batch() )
 		{
 			out->mat_mat = plMatMat_Avx512;
+			out->mat_mat_lanes = plMatMatLanes_Avx512;
 			out->blend_shapes_batch = plBlendShapesBatch_Avx512;
-			out->isa = "avx512f+vl+bw+dq";
+			out->isa = "avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, normals)";
 		}
 #endif
 	}

@@ -427,7 +427,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	}
 	if ( r == PLEAT_RESULT_OK && inst->gl == NULL )
 	{
-		plReserveBatchScratch( ctx, a->vertex_count ); // optional: plStepInstances's batched normals for this mesh
+		plReserveBatchScratch( ctx, plBatchScratchFloats( ctx, a ) ); // optional: plStepInstances's lanes forms
 	}
 	uint32_t slot = UINT32_MAX;
 	if ( r == PLEAT_RESULT_OK )

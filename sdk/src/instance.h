@@ -111,6 +111,11 @@ void plCommit( plInstanceData* inst, int networks_ran, int reset, float dt_s, in
 // The step's result after its commit (NUMERIC_RESET, CLAMPED or OK), with its log line.
 plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpdate* update, float dt_s );
 
+// ---- batch.c ----
+// Floats of plStepInstances's scratch a context needs for instances of asset a (its kernels' lanes forms), for
+// plReserveBatchScratch at instance creation (0: none).
+size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a );
+
 // Normals of inst->positions into inst->normals on the calling thread (face normals, then the gather), for the rest
 // pose at creation. PLEAT_RESULT_INTERNAL_ERROR as plDeformCpu.
 plResult plNormalsSerial( plInstanceData* inst );

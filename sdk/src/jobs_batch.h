@@ -22,10 +22,17 @@ typedef struct plMlpBatchJob
 	                               // single job's scratch)
 	const plBatchKernels* kernels;
 	const plTaskRunner* runner;    // optional: the rows of each layer are split over workers
+	// Optional (NULL = none): [lanes_floats] floats, 64-byte aligned, for kernels->mat_mat_lanes — the inputs, the
+	// hidden layers and the outputs transposed, sixteen instances per vector, from the first layer to the last
+	// (plMlpBatchLanesFloats says how many; with fewer, or no lanes kernel, the job runs mat_mat per layer).
+	float* lanes;
+	size_t lanes_floats;
 } plMlpBatchJob;
 
 int plMlpBatchJob_Validate( const plMlpBatchJob* job );
 plResult plMlpBatchJob_Run( const plMlpBatchJob* job );
+// Floats of lanes scratch a job with these layers needs for batch_count instances (PLEAT_BATCH_MAX for any batch).
+size_t plMlpBatchLanesFloats( const plLayer* layers, uint32_t layer_count, uint32_t batch_count );
 
 // ---- blend_shapes_batch.c: T_def = shaped template + Σ_j w_j D_j over a vertex range, for batch_count instances ----
 

@@ -40,6 +40,16 @@ typedef void plBlendShapesBatchFn( float* const* out, const float* const* base, 
 								   uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
 								   uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 
+// The lanes form of a mat-mat (sixteen instances per vector): yt[g][r][l] = bias[r] + Σ_c W[r][c] · xt[g][c][l] for
+// rows [row_begin, row_end) of every lane group g < group_count, each (r, instance) with its single-instance twin's
+// arithmetic; xt is [group_count][in_count][16], yt [group_count][out_count][16], both 64-byte aligned (lanes past a
+// batch's instances hold anything finite, and their results are not used). fp16 weights: in_count <= 1024.
+typedef void plMatMatLanesFn( float* yt, const float* xt, uint32_t group_count, const void* weight, int weight_fp16,
+							  const float* bias, uint32_t in_count, uint32_t out_count, uint32_t row_begin,
+							  uint32_t row_end );
+#define PLEAT_LANES 16
+#define PLEAT_LANES_MAX_FP16_COLUMNS 1024
+
 // Linear blend skinning of batch_count instances of one mesh for vertices [v_begin, v_end): out[b][v] =
 // (Σ_k w_vk M_b,{j_vk}) · (in[b][v], 1), in and out packed [N][3] (stride 12), skin_matrices[b] [J][3][4]; joint indices
 // >= joint_count count as weight 0, as in plSkinningFn.
@@ -56,11 +66,12 @@ typedef void plNormalsBatchFn( float* const* normals, const float* const* positi
 typedef struct plBatchKernels
 {
 	plMatMatFn* mat_mat;
+	plMatMatLanesFn* mat_mat_lanes; // NULL where the set has none (the MLP job then runs mat_mat)
 	plBlendShapesBatchFn* blend_shapes_batch;
 	plSkinningBatchFn* skinning_batch;
 	plNormalsBatchFn* normals_batch;
 	uint32_t geometry_lanes; // instances per skinning_batch / normals_batch call that fill its registers (1 = scalar)
-	const char* isa;         // "scalar", "avx2+fma+f16c" or "avx512f+vl+bw+dq" (for benchmark reports)
+	const char* isa;         // the instruction sets of these kernels, for benchmark reports
 } plBatchKernels;
 
 // Floats of scratch plNormalsBatchFn needs for N vertices and up to `lanes` instances per call: the positions and the
@@ -80,6 +91,7 @@ plNormalsBatchFn plNormalsBatch_Avx2;
 #endif
 #if defined( PLEAT_HAVE_AVX512 )
 plMatMatFn plMatMat_Avx512;
+plMatMatLanesFn plMatMatLanes_Avx512;
 plBlendShapesBatchFn plBlendShapesBatch_Avx512;
 #endif
 #if defined( PLEAT_HAVE_AVX2 )

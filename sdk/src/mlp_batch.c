@@ -1,5 +1,7 @@
 // The batched MLP job: f_LP or f_dec for many instances of one asset, layer by layer, each layer a matrix-matrix
-// product whose weights are read once for the whole batch (kernels_batch.h). plMatMat_Scalar is the specification: per
+// product whose weights are read once for the whole batch (kernels_batch.h). With a lanes kernel and scratch the
+// whole chain runs transposed (sixteen instances per vector) and only the first input and the last output move
+// between the two layouts. plMatMat_Scalar is the specification: per
 // (instance, row) exactly plMatVec_Scalar's sum. The activation between layers is the single job's (plApplyActivation).
 #include "jobs_batch.h"
 
@@ -93,11 +95,117 @@ int plMlpBatchJob_Validate( const plMlpBatchJob* job )
 	return 1;
 }
 
+// ---- the lanes form (kernels->mat_mat_lanes): the whole chain transposed, sixteen instances per vector ----
+
+typedef struct plMatMatLanesTask
+{
+	const plBatchKernels* kernels;
+	float* yt;
+	const float* xt;
+	uint32_t group_count;
+	const plLayer* layer;
+} plMatMatLanesTask;
+
+static void plMatMatLanesTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	const plMatMatLanesTask* t = (const plMatMatLanesTask*)context;
+	t->kernels->mat_mat_lanes( t->yt, t->xt, t->group_count, t->layer->weight, t->layer->weight_fp16, t->layer->bias,
+							   t->layer->in_count, t->layer->out_count, begin, end );
+}
+
+static size_t plRoundUp16( size_t floats )
+{
+	return ( floats + 15 ) & ~(size_t)15;
+}
+
+size_t plMlpBatchLanesFloats( const plLayer* layers, uint32_t layer_count, uint32_t batch_count )
+{
+	uint32_t widest = layer_count > 0 ? layers[0].in_count : 0;
+	for ( uint32_t i = 0; i < layer_count; ++i )
+	{
+		widest = layers[i].out_count > widest ? layers[i].out_count : widest;
+	}
+	size_t groups = ( batch_count + PLEAT_LANES - 1 ) / PLEAT_LANES;
+	return 2 * plRoundUp16( groups * widest * PLEAT_LANES ); // ping and pong
+}
+
+// Non-zero if the job can take the lanes form (a lanes kernel, its scratch, enough instances to fill the lanes, fp16
+// rows the kernel widens).
+static int plUseLanes( const plMlpBatchJob* job )
+{
+	if ( job->kernels->mat_mat_lanes == NULL || job->lanes == NULL || ( (uintptr_t)job->lanes & 63u ) != 0 ||
+		 job->batch_count < PLEAT_LANES / 2 ||
+		 job->lanes_floats < plMlpBatchLanesFloats( job->layers, job->layer_count, job->batch_count ) )
+	{
+		return 0;
+	}
+	for ( uint32_t i = 0; i < job->layer_count; ++i )
+	{
+		if ( job->layers[i].weight_fp16 && job->layers[i].in_count > PLEAT_LANES_MAX_FP16_COLUMNS )
+		{
+			return 0;
+		}
+	}
+	return 1;
+}
+
+static void plRunLanes( const plMlpBatchJob* job )
+{
+	uint32_t n = job->batch_count, groups = ( n + PLEAT_LANES - 1 ) / PLEAT_LANES;
+	size_t half = job->lanes_floats / 2 & ~(size_t)15;
+	float* buffers[2] = { job->lanes, job->lanes + half };
+	// The inputs transposed: xt[g][c][l] = inputs[16 g + l][c], zero in lanes past the batch.
+	uint32_t in_count = job->layers[0].in_count;
+	float* xt = buffers[0];
+	for ( uint32_t g = 0; g < groups; ++g )
+	{
+		for ( uint32_t l = 0; l < PLEAT_LANES; ++l )
+		{
+			uint32_t b = g * PLEAT_LANES + l;
+			const float* x = b < n ? (const float*)job->inputs[b].ptr : NULL;
+			float* column = xt + (size_t)g * in_count * PLEAT_LANES + l;
+			for ( uint32_t c = 0; c < in_count; ++c )
+			{
+				column[(size_t)c * PLEAT_LANES] = x != NULL ? x[c] : 0.0f;
+			}
+		}
+	}
+	for ( uint32_t i = 0; i < job->layer_count; ++i )
+	{
+		const plLayer* layer = &job->layers[i];
+		float* yt = buffers[( i + 1 ) & 1u];
+		plMatMatLanesTask task = { job->kernels, yt, buffers[i & 1u], groups, layer };
+		plRunTask( job->runner, plMatMatLanesTaskRun, layer->out_count, 64, &task );
+		if ( i + 1 < job->layer_count )
+		{
+			plApplyActivation( yt, groups * layer->out_count * PLEAT_LANES, job->activation ); // element-wise
+		}
+	}
+	// The outputs back per instance.
+	const float* yt = buffers[job->layer_count & 1u];
+	uint32_t out_count = job->layers[job->layer_count - 1].out_count;
+	for ( uint32_t b = 0; b < n; ++b )
+	{
+		float* y = (float*)job->outputs[b].ptr;
+		const float* row = yt + (size_t)( b / PLEAT_LANES ) * out_count * PLEAT_LANES + b % PLEAT_LANES;
+		for ( uint32_t r = 0; r < out_count; ++r )
+		{
+			y[r] = row[(size_t)r * PLEAT_LANES];
+		}
+	}
+}
+
 plResult plMlpBatchJob_Run( const plMlpBatchJob* job )
 {
 	if ( !plMlpBatchJob_Validate( job ) )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	if ( plUseLanes( job ) )
+	{
+		plRunLanes( job );
+		return PLEAT_RESULT_OK;
 	}
 	uint32_t n = job->batch_count, widest = plWidestHidden( job->layers, job->layer_count );
 	const float* x[PLEAT_BATCH_MAX];

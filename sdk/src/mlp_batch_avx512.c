@@ -163,3 +163,158 @@ void plMatMat_Avx512( float* const* out, const float* const* x, uint32_t batch_c
 		r += (uint32_t)rows;
 	}
 }
+
+// ---- the lanes form: sixteen instances per vector (plMatMatLanesFn, kernels_batch.h) ----
+//
+// Here a vector holds one partial sum of sixteen instances instead of sixteen partial sums of one: plDotRow2's 16
+// partial sums of a (row, instance) — lanes 0-7 of its even chain, 0-7 of its odd chain — become 16 accumulators
+// whose lanes are the instances, each an FMA chain over the same columns in the same order, from the transposed
+// inputs x^T[c][instance] and the weight W[r][c] broadcast. Then the same additions as plDotRow2's end: even + odd
+// per lane, the halves, the pairs, the last two (plHorizontalSum's order), the fmaf tail, + bias; all vertical, for
+// sixteen instances at once. Per column and 3 rows: one 16-wide load and 3 FMAs with a broadcast operand, against
+// 10 loads for 24 FMAs in plMatMat_Avx512's tile, and no horizontal sums; the outputs stay transposed for the next layer.
+
+// Rows [r, r + R) of lane group xt ([in][16]) into yt ([out_count][16]), one half (even = 0: columns 16k + l and the
+// final 8-wide step's; odd = 1: columns 16k + 8 + l) of the partial sums into acc[R][8].
+static PLEAT_ALWAYS_INLINE void plLanesHalf( const int R, int odd, const float* const w[3], const float* xt,
+											 uint32_t in_count, const float* const* ahead, __m512 acc[3][8] )
+{
+	__m512 a[3][8];
+	for ( int r = 0; r < R; ++r )
+	{
+		for ( int l = 0; l < 8; ++l )
+		{
+			a[r][l] = _mm512_setzero_ps();
+		}
+	}
+	// Pointers that step 16 columns at a time, so every operand below is a constant offset from one of four registers.
+	uint32_t steps = in_count / 16, first = odd ? 8u : 0u;
+	const float* x = xt + (size_t)first * 16;
+	const float *w0 = w[0] + first, *w1 = w[R > 1 ? 1 : 0] + first, *w2 = w[R > 2 ? 2 : 0] + first;
+	for ( uint32_t k = 0; k <= steps; ++k, x += 16 * 16, w0 += 16, w1 += 16, w2 += 16 )
+	{
+		if ( ahead != NULL )
+		{
+			// the next row tile's weights, a line per row per step (they come from memory: other stages of the step
+			// have evicted the networks since the last batch)
+			for ( int r = 0; r < 3; ++r )
+			{
+				_mm_prefetch( (const char*)( ahead[r] + 16 * (size_t)k ), _MM_HINT_T0 );
+			}
+		}
+		if ( k == steps && ( odd || in_count - 16 * steps < 8 ) )
+		{
+			break; // the final 8-wide step belongs to the even chain only, and only when 8 columns are left
+		}
+		for ( int l = 0; l < 8; ++l )
+		{
+			__m512 xv = _mm512_load_ps( x + 16 * l );
+#if defined( __GNUC__ ) || defined( __clang__ )
+			// One load into a register for the R FMAs, each taking its weight as a broadcast memory operand (left
+			// alone, GCC 12 folds this load into every FMA and broadcasts the weights separately: twice the loads).
+			__asm__( "" : "+v"( xv ) );
+#endif
+			a[0][l] = _mm512_fmadd_ps( _mm512_set1_ps( w0[l] ), xv, a[0][l] );
+			if ( R > 1 )
+			{
+				a[1][l] = _mm512_fmadd_ps( _mm512_set1_ps( w1[l] ), xv, a[1][l] );
+			}
+			if ( R > 2 )
+			{
+				a[2][l] = _mm512_fmadd_ps( _mm512_set1_ps( w2[l] ), xv, a[2][l] );
+			}
+		}
+	}
+	for ( int r = 0; r < R; ++r )
+	{
+		for ( int l = 0; l < 8; ++l )
+		{
+			acc[r][l] = a[r][l];
+		}
+	}
+}
+
+static PLEAT_ALWAYS_INLINE void plLanesRows( const int R, const float* const w[3], const float* bias, const float* xt,
+											 uint32_t in_count, const float* const* ahead, float* yt )
+{
+	__m512 even[3][8], odd[3][8];
+	plLanesHalf( R, 0, w, xt, in_count, ahead, even );
+	plLanesHalf( R, 1, w, xt, in_count, NULL, odd );
+	uint32_t tail = in_count - in_count % 8;
+	for ( int r = 0; r < R; ++r )
+	{
+		__m512 v[8];
+		for ( int l = 0; l < 8; ++l )
+		{
+			v[l] = _mm512_add_ps( even[r][l], odd[r][l] );
+		}
+		__m512 t0 = _mm512_add_ps( v[0], v[4] ), t1 = _mm512_add_ps( v[1], v[5] );
+		__m512 t2 = _mm512_add_ps( v[2], v[6] ), t3 = _mm512_add_ps( v[3], v[7] );
+		__m512 s = _mm512_add_ps( _mm512_add_ps( t0, t2 ), _mm512_add_ps( t1, t3 ) );
+		for ( uint32_t c = tail; c < in_count; ++c )
+		{
+			s = _mm512_fmadd_ps( _mm512_set1_ps( w[r][c] ), _mm512_load_ps( xt + (size_t)c * 16 ), s );
+		}
+		_mm512_store_ps( yt + (size_t)r * 16, _mm512_add_ps( s, _mm512_set1_ps( bias[r] ) ) );
+	}
+}
+
+void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, const void* weight, int weight_fp16,
+						   const float* bias, uint32_t in_count, uint32_t out_count, uint32_t row_begin,
+						   uint32_t row_end )
+{
+	_Alignas( 64 ) float widened[3 * PLEAT_MM512_WIDEN_COLUMNS];
+	for ( uint32_t r = row_begin; r < row_end; )
+	{
+		int rows = row_end - r >= 3 ? 3 : (int)( row_end - r );
+		const float* w[3];
+		for ( int i = 0; i < 3; ++i )
+		{
+			uint32_t row = r + (uint32_t)( i < rows ? i : 0 );
+			w[i] = (const float*)weight + (size_t)row * in_count;
+			if ( weight_fp16 )
+			{
+				// widened once per row tile for every lane group (exact); the caller keeps in_count within the buffer
+				const uint16_t* w16 = (const uint16_t*)weight + (size_t)row * in_count;
+				float* dst = widened + (size_t)i * PLEAT_MM512_WIDEN_COLUMNS;
+				uint32_t c = 0;
+				for ( ; c + 16 <= in_count; c += 16 )
+				{
+					_mm512_store_ps( dst + c, _mm512_cvtph_ps( _mm256_loadu_si256( (const __m256i*)( w16 + c ) ) ) );
+				}
+				for ( ; c < in_count; ++c )
+				{
+					dst[c] = plHalfToFloat( w16[c] );
+				}
+				w[i] = dst;
+			}
+		}
+		// the next tile's rows (fp32; fp16 rows are widened from a stream the hardware prefetcher follows)
+		const float* next[3];
+		int prefetch = !weight_fp16 && r + 3 < row_end;
+		for ( int i = 0; i < 3; ++i )
+		{
+			uint32_t row = r + 3 + (uint32_t)i < row_end ? r + 3 + (uint32_t)i : r + 3;
+			next[i] = (const float*)weight + (size_t)( prefetch ? row : 0 ) * in_count;
+		}
+		for ( uint32_t g = 0; g < group_count; ++g )
+		{
+			const float* x = xt + (size_t)g * in_count * 16;
+			float* y = yt + ( (size_t)g * out_count + r ) * 16;
+			const float* const* ahead = prefetch && g == 0 ? next : NULL;
+			if ( rows == 3 )
+			{
+				plLanesRows( 3, w, bias + r, x, in_count, ahead, y );
+			}
+			else if ( rows == 2 )
+			{
+				plLanesRows( 2, w, bias + r, x, in_count, ahead, y );
+			}
+			else
+			{
+				plLanesRows( 1, w, bias + r, x, in_count, ahead, y );
+			}
+		}
+		r += (uint32_t)rows;
+	}
+}
