@@ -493,24 +493,37 @@ class BatchedStage1(torch.nn.Module):
       W_e·e + (W_s·h)[sender] + (W_r·h)[receiver] (the same linear map split by columns), so the node terms are
       computed once per node instead of once per edge;
     - on a coarse level only that level's vertices are updated (the node mask is zero elsewhere), so the level's
-      edge and node MLPs run on those vertices only, and their update is added back at their rows."""
+      edge and node MLPs run on those vertices only, and their update is added back at their rows.
 
-    def __init__(self, model):
+    With `bf16` (`stage1.autocast_bf16`, config.autocast_bf16) the encoders, the message passing and the compressor
+    run under bfloat16 autocast: their matmuls take bf16 operands (float32 accumulation), LayerNorm and ReLU act on
+    the bf16 results, while the residual node and edge streams, the sums over edges, Z, the decoder and the blend
+    shapes stay float32. An opt-in approximation (docs/training.md, "Speed"), not the same arithmetic."""
+
+    def __init__(self, model, bf16=False):
         super().__init__()
         self.model = model
+        self.bf16 = bool(bf16)
 
     def forward(self, node, edges, body, recv, graph, K):
         phi = self.model.phi
-        h = phi.node_enc(node)
-        e = [enc(x) for enc, x in zip(phi.edge_enc, edges)]
-        b = (phi.body_enc(body), recv)
-        for block, l in zip(phi.blocks, phi.schedule):
-            if l == 0:
-                h, e[l], b = graph_block(block, h, e[l], graph[l], b)
-            else:
-                h, e[l], _ = graph_block(block, h, e[l], graph[l])
-        z = compress(phi.compressor, h.reshape(K, -1, h.shape[-1]))
+        with torch.autocast(node.device.type, torch.bfloat16, enabled=self.bf16):
+            h = _f32_stream(phi.node_enc(node))
+            e = [_f32_stream(enc(x)) for enc, x in zip(phi.edge_enc, edges)]
+            b = (_f32_stream(phi.body_enc(body)), recv)
+            for block, l in zip(phi.blocks, phi.schedule):
+                if l == 0:
+                    h, e[l], b = graph_block(block, h, e[l], graph[l], b)
+                else:
+                    h, e[l], _ = graph_block(block, h, e[l], graph[l])
+            z = compress(phi.compressor, h.reshape(K, -1, h.shape[-1]))
+        z = z.float()
         return z, displacement(self.model.block, z)
+
+
+def _f32_stream(x):
+    """An encoder's output starts a residual stream: float32 also under bf16 autocast (a no-op without it)."""
+    return x.float()
 
 
 def displacement(block, z):
@@ -559,7 +572,7 @@ def graph_block(block, h, e, level, body=None):
         be = be + block.body_edge(torch.cat([be, hl.index_select(0, brecv)], -1))
         parts.append(torch.zeros_like(hl).index_add_(0, brecv, be))
         body = (be, brecv)
-    update = block.node(torch.cat(parts, -1))
+    update = block.node(torch.cat(parts, -1)).to(h.dtype)      # float32 under bf16 autocast, as h is
     h = h + update if active is None else h.index_add(0, active, update)
     return h, e, body
 

@@ -92,6 +92,38 @@ class Budget:
         return self.budget_s is not None and self.elapsed() >= self.budget_s
 
 
+def native_bf16(device):
+    """Whether `device` multiplies bfloat16 natively: on a CPU, AVX-512 BF16 or AMX (without them oneDNN emulates
+    bf16 and the matmuls are slower than float32, e.g. on AVX2-only CI machines); on a GPU, what torch reports."""
+    device = torch.device(device)
+    if device.type == "cuda":
+        return torch.cuda.is_bf16_supported()
+    if device.type != "cpu":
+        return False
+    cpu = torch.cpu
+    return bool(getattr(cpu, "_is_avx512_bf16_supported", lambda: False)()
+                or getattr(cpu, "_is_amx_tile_supported", lambda: False)())
+
+
+def autocast_bf16(c1, device):
+    """`stage1.autocast_bf16`: whether Φ's encoders, message passing and compressor run under bfloat16 autocast
+    (matmuls in bf16 with float32 accumulation; the residual streams, the decoder, the blend shapes, the rollout and
+    the losses stay float32). false (default): never; "auto": where the device has native bf16 (`native_bf16`);
+    true: required, a ValueError where the device lacks it. Only the batched path has it."""
+    value = c1.get("autocast_bf16", False)
+    if value not in (False, True, "auto"):
+        raise ValueError(f"stage1.autocast_bf16 must be false, true or \"auto\", not {value!r}")
+    if value is False:
+        return False
+    supported = native_bf16(device)
+    if value is True and not supported:
+        raise ValueError(f"stage1.autocast_bf16=true but {torch.device(device)} has no native bfloat16 "
+                         "(CPU: AVX-512 BF16 or AMX); use \"auto\" or false")
+    if value is True and not batched_path(c1):
+        raise ValueError("stage1.autocast_bf16 needs the batched path (stage1.batched=true)")
+    return supported and batched_path(c1)
+
+
 def batched_path(c1):
     """Whether the physics-loss stages run the batched path (batching.py; default) or the per-window one
     (`--set stage1.batched=false`, kept for the A/B comparison in bench/train_throughput.py)."""

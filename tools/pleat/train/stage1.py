@@ -8,8 +8,8 @@ import torch
 from tqdm import tqdm
 
 from pleat.train import sources
-from pleat.train.config import (LOSS_TERMS, Budget, batched_path, loss_weights, make_optimizer, rollout_steps,
-                                run_fraction, weighted)
+from pleat.train.config import (LOSS_TERMS, Budget, autocast_bf16, batched_path, loss_weights, make_optimizer,
+                                rollout_steps, run_fraction, weighted)
 from pleat.train.data import Setup, Window, physics_clips, sample_window
 from pleat.train.ddp import device_for, dist_info, stop_everywhere, wrap_ddp
 from pleat.train.models import Stage1Model
@@ -24,6 +24,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
     clips = physics_clips(cfg, setup.body)
     model = Stage1Model(setup).to(dev)
     c1 = cfg["stage1"]
+    bf16 = autocast_bf16(c1, dev)       # before anything runs: true where the device lacks bf16 is an error
     opt = make_optimizer(model, c1["lr"], c1.get("blend_lr_scale", 1.0))
     run = Run(out, "stage1", cfg, rank)
     start, elapsed = run.restore(model, opt) if resume else (0, 0.0)
@@ -34,7 +35,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
     batched = batched_path(c1)
     if batched:     # K windows per iteration through one graph (batching.py; the same losses, tested)
         from pleat.train import batching
-        net = batching.BatchedStage1(model)
+        net = batching.BatchedStage1(model, bf16=bf16)
         ddp = wrap_ddp(batching.compiled(net) if c1.get("compile") else net, world, dev)
         source = batching.WindowSource(setup, clips, rng, c1.get("windows_per_iteration", 1),
                                        worker=bool(c1.get("data_worker", False)))
@@ -64,7 +65,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
         gn = torch.nn.utils.clip_grad_norm_(model.parameters(), c1["grad_clip"])
         opt.step()
         rec = {"iteration": it + 1, **rec, "steps": steps, "grad_norm": float(gn), "fraction": s,
-               **{f"w_{k}": v for k, v in w.items()}}
+               **{f"w_{k}": v for k, v in w.items()}, **({"autocast_bf16": True} if bf16 else {})}
         run.log(rec)
         bar.set_postfix(loss=f"{rec['loss']:.4g}", ratio=f"{rec['ratio']:.3g}", steps=steps)
         stop = stop_everywhere(world, budget.spent(), dev)
