@@ -34,22 +34,9 @@ void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, con
 		{
 			continue; // no anchor: the vertex is far from the rest body
 		}
-		float m[12] = { 0 };
-		for ( uint32_t k = 0; k < K; ++k )
-		{
-			uint32_t joint = anchor_skin_indices[(size_t)v * K + k];
-			float w = anchor_skin_weights[(size_t)v * K + k];
-			if ( joint >= joint_count )
-			{
-				joint = 0; // the asset loader rejects this; never read out of bounds even so
-				w = 0.0f;
-			}
-			const float* mj = skin_matrices + (size_t)joint * 12;
-			for ( int e = 0; e < 12; ++e )
-			{
-				m[e] += w * mj[e];
-			}
-		}
+		float m[12];
+		plBlendJointMatrices( m, anchor_skin_indices + (size_t)v * K, anchor_skin_weights + (size_t)v * K, K,
+							  skin_matrices, joint_count );
 		const float* r = shaped_anchors + (size_t)v * 3;
 		float ax = m[0] * r[0] + m[1] * r[1] + m[2] * r[2] + m[3];
 		float ay = m[4] * r[0] + m[5] * r[1] + m[6] * r[2] + m[7];

@@ -4,36 +4,15 @@
 // unnormalised normal c0·n_x + c1·n_y + c2·n_z come from the same two registers without horizontal adds. The plane
 // test and the push are the scalar kernel's float expressions. Agrees with the scalar kernel to rounding (the sums
 // are grouped differently), which test_simd_matches_scalar bounds.
-#include "kernels.h"
-
-#include <immintrin.h>
-#include <math.h>
-
-#define PLEAT_CONTACT_MAX_JOINTS 64 // PLEAT_MAX_JOINTS (pleat.h); the asset loader enforces it
+#include "simd_avx2.h"
 
 void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
 						 const float* anchor_normals, const uint16_t* anchor_skin_indices,
 						 const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
 						 uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end )
 {
-	_Alignas( 32 ) float columns[( PLEAT_CONTACT_MAX_JOINTS + 1 ) * 16];
-	uint32_t J = joint_count < PLEAT_CONTACT_MAX_JOINTS ? joint_count : PLEAT_CONTACT_MAX_JOINTS;
-	for ( uint32_t j = 0; j < J; ++j )
-	{
-		const float* m = skin_matrices + (size_t)j * 12;
-		float* c = columns + (size_t)j * 16;
-		for ( int col = 0; col < 4; ++col )
-		{
-			c[col * 4 + 0] = m[col];
-			c[col * 4 + 1] = m[4 + col];
-			c[col * 4 + 2] = m[8 + col];
-			c[col * 4 + 3] = 0.0f;
-		}
-	}
-	for ( int e = 0; e < 16; ++e )
-	{
-		columns[(size_t)J * 16 + e] = 0.0f; // an index >= joint_count reads zeros (weight × 0)
-	}
+	_Alignas( 32 ) float columns[PLEAT_SKIN_COLUMN_FLOATS];
+	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
 	uint32_t K = influence_count;
 	for ( uint32_t v = v_begin; v < v_end; ++v )
 	{
@@ -42,17 +21,9 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 		{
 			continue; // no anchor
 		}
-		__m256 a = _mm256_setzero_ps(), b = _mm256_setzero_ps();
-		const uint16_t* idx = anchor_skin_indices + (size_t)v * K;
-		const float* wt = anchor_skin_weights + (size_t)v * K;
-		for ( uint32_t k = 0; k < K; ++k )
-		{
-			uint32_t joint = idx[k] < J ? idx[k] : J;
-			const float* c = columns + (size_t)joint * 16;
-			__m256 w = _mm256_broadcast_ss( wt + k );
-			a = _mm256_fmadd_ps( w, _mm256_load_ps( c ), a );
-			b = _mm256_fmadd_ps( w, _mm256_load_ps( c + 8 ), b );
-		}
+		__m256 a, b;
+		plBlendSkinColumns( &a, &b, anchor_skin_indices + (size_t)v * K, anchor_skin_weights + (size_t)v * K, K, J,
+							columns );
 		const float* r = shaped_anchors + (size_t)v * 3;
 		__m256 rxy = _mm256_set_m128( _mm_broadcast_ss( r + 1 ), _mm_broadcast_ss( r + 0 ) );
 		__m256 rz1 = _mm256_set_m128( _mm_set1_ps( 1.0f ), _mm_broadcast_ss( r + 2 ) );

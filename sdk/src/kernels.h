@@ -3,6 +3,7 @@
 // with an _Avx2 suffix and are chosen once at context creation (plSelectKernels).
 #ifndef PLEAT_KERNELS_H
 #define PLEAT_KERNELS_H
+#include <stddef.h>
 #include <stdint.h>
 
 // One Linear layer of an MLP as the asset stores it (read in place); the MLP job runs a chain of them.
@@ -61,6 +62,33 @@ typedef void plBodyContactFn( float* positions, uint32_t position_stride_bytes, 
 							  const float* anchor_normals, const uint16_t* anchor_skin_indices,
 							  const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
 							  uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end );
+
+// m = Σ_k w_k M_{j_k} ([3][4] row-major), k in order, from K indices and weights; an index >= joint_count counts
+// with weight 0 (the asset loader rejects it; never read out of bounds even so). The scalar skinning and body-contact
+// kernels blend with this one loop.
+static inline void plBlendJointMatrices( float m[12], const uint16_t* indices, const float* weights, uint32_t K,
+										 const float* matrices, uint32_t joint_count )
+{
+	for ( int e = 0; e < 12; ++e )
+	{
+		m[e] = 0.0f;
+	}
+	for ( uint32_t k = 0; k < K; ++k )
+	{
+		uint32_t joint = indices[k];
+		float w = weights[k];
+		if ( joint >= joint_count )
+		{
+			joint = 0;
+			w = 0.0f;
+		}
+		const float* mj = matrices + (size_t)joint * 12;
+		for ( int e = 0; e < 12; ++e )
+		{
+			m[e] += w * mj[e];
+		}
+	}
+}
 
 typedef struct plKernels
 {

@@ -1,5 +1,6 @@
 // Internal: the AVX2 + FMA (+ F16C) helpers that the single-instance kernels and their batched twins share
-// (mlp_avx2.c / mlp_batch_avx2.c, blend_shapes_avx2.c / blend_shapes_batch_avx2.c). One definition each, so a batched
+// (mlp_avx2.c / mlp_batch_avx2.c, blend_shapes_avx2.c / blend_shapes_batch_avx2.c, skinning_avx2.c /
+// body_contact_avx2.c). One definition each, so a batched
 // kernel performs its single-instance twin's per-element arithmetic by construction (kernels_batch.h). Include only
 // from sources compiled with -mavx2 -mfma -mf16c.
 #ifndef PLEAT_SIMD_AVX2_H
@@ -58,6 +59,51 @@ static inline float plDotRow2( const float* x, const void* weight, int weight_fp
 		sum = fmaf( plLoad1( weight, weight_fp16, base + c ), x[c], sum );
 	}
 	return sum;
+}
+
+// The skinning matrices as columns, two registers per joint: (c0 | c1) and (c2 | c3) with c_i = (m0i, m1i, m2i, 0),
+// joints at 16-float strides, plus an all-zero block after the last (an out-of-range index reads it: weight × 0).
+// columns: 32-byte aligned, PLEAT_SKIN_COLUMN_FLOATS floats. Returns the joints laid out (joint_count capped at 64).
+#define PLEAT_SKIN_COLUMN_JOINTS 64 // PLEAT_MAX_JOINTS (pleat.h); the asset loader enforces it
+#define PLEAT_SKIN_COLUMN_FLOATS ( ( PLEAT_SKIN_COLUMN_JOINTS + 1 ) * 16 )
+static inline uint32_t plSkinColumns( float* columns, const float* skin_matrices, uint32_t joint_count )
+{
+	uint32_t J = joint_count < PLEAT_SKIN_COLUMN_JOINTS ? joint_count : PLEAT_SKIN_COLUMN_JOINTS;
+	for ( uint32_t j = 0; j < J; ++j )
+	{
+		const float* m = skin_matrices + (size_t)j * 12;
+		float* c = columns + (size_t)j * 16;
+		for ( int col = 0; col < 4; ++col )
+		{
+			c[col * 4 + 0] = m[col];
+			c[col * 4 + 1] = m[4 + col];
+			c[col * 4 + 2] = m[8 + col];
+			c[col * 4 + 3] = 0.0f;
+		}
+	}
+	for ( int e = 0; e < 16; ++e )
+	{
+		columns[(size_t)J * 16 + e] = 0.0f;
+	}
+	return J;
+}
+
+// Σ_k w_k M_{j_k} in column form: *a = (c0 | c1), *b = (c2 | c3) of the blended matrix, 2 FMAs per influence, k in
+// order. J: what plSkinColumns returned.
+static inline void plBlendSkinColumns( __m256* a, __m256* b, const uint16_t* indices, const float* weights, uint32_t K,
+									   uint32_t J, const float* columns )
+{
+	__m256 sa = _mm256_setzero_ps(), sb = _mm256_setzero_ps();
+	for ( uint32_t k = 0; k < K; ++k )
+	{
+		uint32_t joint = indices[k] < J ? indices[k] : J; // the zero block
+		const float* c = columns + (size_t)joint * 16;
+		__m256 w = _mm256_broadcast_ss( weights + k );
+		sa = _mm256_fmadd_ps( w, _mm256_load_ps( c ), sa );
+		sb = _mm256_fmadd_ps( w, _mm256_load_ps( c + 8 ), sb );
+	}
+	*a = sa;
+	*b = sb;
 }
 
 #endif

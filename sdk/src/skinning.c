@@ -21,22 +21,9 @@ void plSkinning_Scalar( float* out, uint32_t out_stride_bytes, const float* in, 
 	uint32_t K = influence_count;
 	for ( uint32_t v = v_begin; v < v_end; ++v )
 	{
-		float m[12] = { 0 };
-		for ( uint32_t k = 0; k < K; ++k )
-		{
-			uint32_t joint = skin_indices[(size_t)v * K + k];
-			float w = skin_weights[(size_t)v * K + k];
-			if ( joint >= joint_count )
-			{
-				joint = 0; // the asset loader rejects this; never read out of bounds even so
-				w = 0.0f;
-			}
-			const float* mj = skin_matrices + (size_t)joint * 12;
-			for ( int e = 0; e < 12; ++e )
-			{
-				m[e] += w * mj[e];
-			}
-		}
+		float m[12];
+		plBlendJointMatrices( m, skin_indices + (size_t)v * K, skin_weights + (size_t)v * K, K, skin_matrices,
+							  joint_count );
 		const float* p = (const float*)( (const uint8_t*)in + (size_t)v * in_stride_bytes );
 		float* q = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
 		float x = p[0], y = p[1], z = p[2];

@@ -6,25 +6,13 @@
 // all-zero extra column block (weight × 0), as the scalar kernel counts it with weight 0. Only the 3 floats of each
 // output vertex are written, except that packed (12-byte stride) output writes 16 bytes when the next vertex is in
 // the same range (its first float is rewritten right after).
-#include "kernels.h"
-
-#include <immintrin.h>
-
-#define PLEAT_SKIN_MAX_JOINTS 64 // PLEAT_MAX_JOINTS (pleat.h); the asset loader enforces it
+#include "simd_avx2.h"
 
 static inline void plSkinVertex( float* q, int store16, const float* p, const uint16_t* idx, const float* wt,
 								 uint32_t K, uint32_t joint_count, const float* columns )
 {
-	__m256 a = _mm256_setzero_ps(), b = _mm256_setzero_ps();
-	for ( uint32_t k = 0; k < K; ++k )
-	{
-		uint32_t joint = idx[k];
-		joint = joint < joint_count ? joint : joint_count; // the zero block
-		const float* c = columns + (size_t)joint * 16;
-		__m256 w = _mm256_broadcast_ss( wt + k );
-		a = _mm256_fmadd_ps( w, _mm256_load_ps( c ), a );
-		b = _mm256_fmadd_ps( w, _mm256_load_ps( c + 8 ), b );
-	}
+	__m256 a, b;
+	plBlendSkinColumns( &a, &b, idx, wt, K, joint_count, columns );
 	__m256 xy = _mm256_set_m128( _mm_broadcast_ss( p + 1 ), _mm_broadcast_ss( p + 0 ) );
 	__m256 z1 = _mm256_set_m128( _mm_set1_ps( 1.0f ), _mm_broadcast_ss( p + 2 ) );
 	__m256 s = _mm256_fmadd_ps( b, z1, _mm256_mul_ps( a, xy ) );
@@ -44,24 +32,8 @@ void plSkinning_Avx2( float* out, uint32_t out_stride_bytes, const float* in, ui
 					  const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
 					  const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
 {
-	_Alignas( 32 ) float columns[( PLEAT_SKIN_MAX_JOINTS + 1 ) * 16];
-	uint32_t J = joint_count < PLEAT_SKIN_MAX_JOINTS ? joint_count : PLEAT_SKIN_MAX_JOINTS;
-	for ( uint32_t j = 0; j < J; ++j )
-	{
-		const float* m = skin_matrices + (size_t)j * 12;
-		float* c = columns + (size_t)j * 16;
-		for ( int col = 0; col < 4; ++col )
-		{
-			c[col * 4 + 0] = m[col];
-			c[col * 4 + 1] = m[4 + col];
-			c[col * 4 + 2] = m[8 + col];
-			c[col * 4 + 3] = 0.0f;
-		}
-	}
-	for ( int e = 0; e < 16; ++e )
-	{
-		columns[(size_t)J * 16 + e] = 0.0f;
-	}
+	_Alignas( 32 ) float columns[PLEAT_SKIN_COLUMN_FLOATS];
+	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
 	uint32_t K = influence_count;
 	int packed = out_stride_bytes == 12;
 	for ( uint32_t v = v_begin; v < v_end; ++v )
