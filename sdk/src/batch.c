@@ -395,8 +395,8 @@ int plClaimScratch( plContextData* ctx, size_t floats )
 	return -1;
 }
 
-// Lane groups [begin, end) of the members: skinning of a lane group's instances at once, body contact per instance,
-// then their normals at once. Every instance keeps its own positions and normals buffers; only the normals' lanes live
+// Lane groups [begin, end) of the members: skinning of a lane group's instances at once, body contact of those that
+// have it at once, then their normals at once. Every instance keeps its own positions and normals buffers; only the normals' lanes live
 // in the context's scratch.
 static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
@@ -422,14 +422,29 @@ static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void*
 		}
 		g->kernels->skinning_batch( positions, in, n, a->skin_indices, a->skin_weights, a->influence_count, matrices,
 									a->joint_count, 0, a->vertex_count );
+		// What plDeformCpu runs between skinning and normals: body contact, for the lanes that have it on.
+		float* contact_positions[PLEAT_BATCH_MAX];
+		const float* contact_anchors[PLEAT_BATCH_MAX];
+		const float* contact_matrices[PLEAT_BATCH_MAX];
+		float contact_offsets[PLEAT_BATCH_MAX];
+		uint32_t contact_count = 0;
 		for ( uint32_t k = 0; k < n; ++k )
 		{
-			// what plDeformCpu runs between skinning and normals
 			plInstanceData* inst = g->entries[g->members[m0 + k]].inst;
-			if ( inst->body_contact && plRunBodyContact( inst, matrices[k], 0, a->vertex_count ) != PLEAT_RESULT_OK )
+			if ( inst->body_contact )
 			{
-				atomic_store_explicit( &g->blend_result, (int)PLEAT_RESULT_INTERNAL_ERROR, memory_order_relaxed );
+				contact_positions[contact_count] = positions[k];
+				contact_anchors[contact_count] = inst->shaped_anchors;
+				contact_matrices[contact_count] = matrices[k];
+				contact_offsets[contact_count++] = inst->body_contact_offset_m;
 			}
+		}
+		if ( contact_count > 0 )
+		{
+			g->kernels->body_contact_batch( contact_positions, contact_anchors, contact_offsets, contact_count,
+											a->body_anchor_normals, a->body_anchor_skin_indices,
+											a->body_anchor_skin_weights, a->body_anchor_influence_count,
+											contact_matrices, a->joint_count, 0, a->vertex_count );
 		}
 		int slot = plClaimScratch( g->ctx, plNormalsBatchScratchFloats( a->vertex_count, lanes ) );
 		if ( slot >= 0 )
@@ -451,7 +466,7 @@ static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void*
 }
 
 // Members = the entries whose skinning and normals run batched (the batched kernels have lanes: not the scalar set);
-// body contact runs per instance in between, as in plDeformCpu.
+// body contact runs in between, as in plDeformCpu.
 static void plRunGeometry( plBatchGroup* g )
 {
 	g->member_count = 0;

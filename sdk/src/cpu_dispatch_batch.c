@@ -39,24 +39,29 @@ int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatc
 	out->mat_mat_lanes = NULL;
 	out->blend_shapes_batch = NULL;
 	out->skinning_batch = NULL;
+	out->body_contact_batch = NULL;
 	out->normals_batch = NULL;
 	out->geometry_lanes = 1;
 	out->isa = "scalar";
 	if ( kernels->mat_vec == plMatVec_Scalar && kernels->blend_shapes == plBlendShapes_Scalar &&
-		 kernels->skinning == plSkinning_Scalar && kernels->normals_scatter == plNormalsScatter_Scalar )
+		 kernels->skinning == plSkinning_Scalar && kernels->body_contact == plBodyContact_Scalar &&
+		 kernels->normals_scatter == plNormalsScatter_Scalar )
 	{
 		out->mat_mat = plMatMat_Scalar;
 		out->blend_shapes_batch = plBlendShapesBatch_Scalar;
 		out->skinning_batch = plSkinningBatch_Scalar;
+		out->body_contact_batch = plBodyContactBatch_Scalar;
 		out->normals_batch = plNormalsBatch_Scalar;
 	}
 #if defined( PLEAT_HAVE_AVX2 )
 	else if ( kernels->mat_vec == plMatVec_Avx2 && kernels->blend_shapes == plBlendShapes_Avx2 &&
-			  kernels->skinning == plSkinning_Avx2 && kernels->normals_scatter == plNormalsScatter_Avx2 )
+			  kernels->skinning == plSkinning_Avx2 && kernels->body_contact == plBodyContact_Avx2 &&
+			  kernels->normals_scatter == plNormalsScatter_Avx2 )
 	{
 		out->mat_mat = plMatMat_Avx2;
 		out->blend_shapes_batch = plBlendShapesBatch_Avx2;
 		out->skinning_batch = plSkinningBatch_Avx2;
+		out->body_contact_batch = plBodyContactBatch_Avx2;
 		out->normals_batch = plNormalsBatch_Avx2;
 		out->geometry_lanes = 8;
 		out->isa = "avx2+fma+f16c";
@@ -66,14 +71,14 @@ int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatc
 			out->mat_mat = plMatMat_Avx512;
 			out->mat_mat_lanes = plMatMatLanes_Avx512;
 			out->blend_shapes_batch = plBlendShapesBatch_Avx512;
-			out->isa = "avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, normals)";
+			out->isa = "avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, body contact, normals)";
 		}
 #endif
 	}
 #endif
 	(void)limit;
 	return out->mat_mat != NULL && out->blend_shapes_batch != NULL && out->skinning_batch != NULL &&
-		   out->normals_batch != NULL;
+		   out->body_contact_batch != NULL && out->normals_batch != NULL;
 }
 
 int plSelectBatchKernels( const plKernels* kernels, plBatchKernels* out )

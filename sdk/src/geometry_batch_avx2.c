@@ -296,3 +296,120 @@ void plNormalsBatch_Avx2( float* const* normals, const float* const* positions, 
 		}
 	}
 }
+
+// Body contact (twin of plBodyContact_Avx2), 8 instances per vector: the anchor's blended matrix as skinning's, the
+// posed anchor fma(m_i2, r_z, m_i0 r_x) + fma(m_i3, 1, m_i1 r_y) and the normal fma(m_i2, n_z, m_i0 n_x) +
+// fma(m_i3, 0, m_i1 n_y) per component, then the scalar kernel's length, divisions, plane distance and push — per
+// lane, each instance with its own anchors (its β) and clearance. A lane whose normal is degenerate, or whose vertex
+// lies beyond the clearance, keeps its position bit for bit.
+void plBodyContactBatch_Avx2( float* const* positions, const float* const* shaped_anchors, const float* offsets_m,
+							  uint32_t batch_count, const float* anchor_normals, const uint16_t* anchor_skin_indices,
+							  const float* anchor_skin_weights, uint32_t influence_count,
+							  const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin,
+							  uint32_t v_end )
+{
+	enum
+	{
+		MAX_JOINTS = 64
+	};
+	uint32_t J = joint_count < MAX_JOINTS ? joint_count : MAX_JOINTS;
+	_Alignas( 64 ) float lanes[( J + 1 ) * 12 * PL_LANES];
+	_Alignas( 64 ) float block_x[3 * PL_LANES * PL_LANES];
+	_Alignas( 64 ) float block_r[3 * PL_LANES * PL_LANES];
+	uint32_t K = influence_count;
+	const plVec one = plVecSet1( 1.0f ), zero = plVecZero(), tiny = plVecSet1( 1e-12f );
+	for ( uint32_t b0 = 0; b0 < batch_count; b0 += PL_LANES )
+	{
+		uint32_t n = batch_count - b0 < PL_LANES ? batch_count - b0 : PL_LANES;
+		_Alignas( 32 ) float offset_lanes[PL_LANES] = { 0 };
+		for ( uint32_t l = 0; l < n; ++l )
+		{
+			offset_lanes[l] = offsets_m[b0 + l];
+		}
+		const plVec offset = plVecLoad( offset_lanes );
+		for ( uint32_t j = 0; j <= J; ++j )
+		{
+			for ( uint32_t e = 0; e < 12; ++e )
+			{
+				float* row = lanes + ( (size_t)j * 12 + e ) * PL_LANES;
+				for ( uint32_t l = 0; l < PL_LANES; ++l )
+				{
+					row[l] = j < J && l < n ? skin_matrices[b0 + l][(size_t)j * 12 + e] : 0.0f;
+				}
+			}
+		}
+		for ( uint32_t v0 = v_begin; v0 < v_end; v0 += PL_LANES )
+		{
+			uint32_t count = v_end - v0 < PL_LANES ? v_end - v0 : PL_LANES;
+			int any = 0;
+			for ( uint32_t i = 0; i < count && !any; ++i )
+			{
+				const float* rn = anchor_normals + (size_t)( v0 + i ) * 3;
+				any = !( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f );
+			}
+			if ( !any )
+			{
+				continue; // no anchor in the block: nothing moves
+			}
+			plPrefetchLanes( (const float* const*)( positions + b0 ), n, (size_t)v0 + 4 * PL_LANES, v_end, 1 );
+			plPrefetchLanes( shaped_anchors + b0, n, (size_t)v0 + 4 * PL_LANES, v_end, 0 );
+			plToLanes( (const float* const*)( positions + b0 ), n, v0, count, block_x );
+			plToLanes( shaped_anchors + b0, n, v0, count, block_r );
+			for ( uint32_t i = 0; i < count; ++i )
+			{
+				uint32_t v = v0 + i;
+				const float* rn = anchor_normals + (size_t)v * 3;
+				if ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f )
+				{
+					continue; // no anchor
+				}
+				plVec a0[3], a1[3], a2[3], a3[3];
+				for ( int r = 0; r < 3; ++r )
+				{
+					a0[r] = a1[r] = a2[r] = a3[r] = plVecZero();
+				}
+				for ( uint32_t k = 0; k < K; ++k )
+				{
+					uint32_t joint = anchor_skin_indices[(size_t)v * K + k];
+					joint = joint < J ? joint : J;
+					const float* m = lanes + (size_t)joint * 12 * PL_LANES;
+					plVec w = plVecSet1( anchor_skin_weights[(size_t)v * K + k] );
+					for ( int r = 0; r < 3; ++r )
+					{
+						a0[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 0 ) * PL_LANES ), a0[r] );
+						a1[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 1 ) * PL_LANES ), a1[r] );
+						a2[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 2 ) * PL_LANES ), a2[r] );
+						a3[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 3 ) * PL_LANES ), a3[r] );
+					}
+				}
+				const float* pr = block_r + (size_t)i * 3 * PL_LANES;
+				plVec rx = plVecLoad( pr ), ry = plVecLoad( pr + PL_LANES ), rz = plVecLoad( pr + 2 * PL_LANES );
+				plVec nx0 = plVecSet1( rn[0] ), ny0 = plVecSet1( rn[1] ), nz0 = plVecSet1( rn[2] );
+				plVec anchor[3], normal[3];
+				for ( int r = 0; r < 3; ++r )
+				{
+					anchor[r] = plVecAdd( plVecFma( a2[r], rz, plVecMul( a0[r], rx ) ),
+										  plVecFma( a3[r], one, plVecMul( a1[r], ry ) ) );
+					normal[r] = plVecAdd( plVecFma( a2[r], nz0, plVecMul( a0[r], nx0 ) ),
+										  plVecFma( a3[r], zero, plVecMul( a1[r], ny0 ) ) );
+				}
+				plVec length = plVecSqrt( plVecAdd(
+					plVecAdd( plVecMul( normal[0], normal[0] ), plVecMul( normal[1], normal[1] ) ),
+					plVecMul( normal[2], normal[2] ) ) );
+				plVec has_direction = _mm256_cmp_ps( length, tiny, _CMP_GT_OQ );
+				plVec nx = _mm256_div_ps( normal[0], length ), ny = _mm256_div_ps( normal[1], length );
+				plVec nz = _mm256_div_ps( normal[2], length );
+				float* px = block_x + (size_t)i * 3 * PL_LANES;
+				plVec x = plVecLoad( px ), y = plVecLoad( px + PL_LANES ), z = plVecLoad( px + 2 * PL_LANES );
+				plVec d = plVecAdd( plVecAdd( plVecMul( plVecSub( x, anchor[0] ), nx ), plVecMul( plVecSub( y, anchor[1] ), ny ) ),
+									plVecMul( plVecSub( z, anchor[2] ), nz ) );
+				plVec moves = _mm256_and_ps( has_direction, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) );
+				plVec push = plVecSub( offset, d );
+				plVecStore( px, _mm256_blendv_ps( x, plVecAdd( x, plVecMul( push, nx ) ), moves ) );
+				plVecStore( px + PL_LANES, _mm256_blendv_ps( y, plVecAdd( y, plVecMul( push, ny ) ), moves ) );
+				plVecStore( px + 2 * PL_LANES, _mm256_blendv_ps( z, plVecAdd( z, plVecMul( push, nz ) ), moves ) );
+			}
+			plFromLanes( block_x, positions + b0, n, v0, count );
+		}
+	}
+}
