@@ -396,8 +396,8 @@ int plClaimScratch( plContextData* ctx, size_t floats )
 }
 
 // Lane groups [begin, end) of the members: skinning of a lane group's instances at once, body contact of those that
-// have it at once, then their normals at once. Every instance keeps its own positions and normals buffers; only the normals' lanes live
-// in the context's scratch.
+// have it at once, then their normals at once. Every instance keeps its own positions and normals buffers; only the
+// normals' lanes live in the context's scratch.
 static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;

@@ -160,9 +160,9 @@ static inline void plFromLanes( const float* src, float* const* dst, uint32_t n,
 	}
 }
 
-void plSkinningBatch_Avx2( float* const* out, const float* const* in, uint32_t batch_count, const uint16_t* skin_indices,
-						const float* skin_weights, uint32_t influence_count, const float* const* skin_matrices,
-						uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
+void plSkinningBatch_Avx2( float* const* out, const float* const* in, uint32_t batch_count,
+						   const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
+						   const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
 {
 	enum
 	{
@@ -401,8 +401,8 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 				plVec nz = _mm256_div_ps( normal[2], length );
 				float* px = block_x + (size_t)i * 3 * PL_LANES;
 				plVec x = plVecLoad( px ), y = plVecLoad( px + PL_LANES ), z = plVecLoad( px + 2 * PL_LANES );
-				plVec d = plVecAdd( plVecAdd( plVecMul( plVecSub( x, anchor[0] ), nx ), plVecMul( plVecSub( y, anchor[1] ), ny ) ),
-									plVecMul( plVecSub( z, anchor[2] ), nz ) );
+				plVec dx = plVecMul( plVecSub( x, anchor[0] ), nx ), dy = plVecMul( plVecSub( y, anchor[1] ), ny );
+				plVec d = plVecAdd( plVecAdd( dx, dy ), plVecMul( plVecSub( z, anchor[2] ), nz ) );
 				plVec moves = _mm256_and_ps( has_direction, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) );
 				plVec push = plVecSub( offset, d );
 				plVecStore( px, _mm256_blendv_ps( x, plVecAdd( x, plVecMul( push, nx ) ), moves ) );

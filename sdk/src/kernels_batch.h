@@ -18,9 +18,10 @@
 //     plNormalsBatch_*          ↔ plNormalsScatter_*     per face the same cross product (separate roundings), per
 //                                                         vertex the same ascending-face sum and normalisation
 // The _Avx512 kernels (AVX-512 F/VL/BW/DQ, chosen at run time when the CPU has them) are further twins of the _Avx2
-// single-instance kernels — a 16-wide FMA whose low and high halves are plMatVec_Avx2's even and odd chains, 16-wide
-// blend tiles — never of a single-instance AVX-512 kernel: a context's single-instance kernels stay the AVX2 set, and a
-// batch on an AVX-512 CPU gives exactly what they give. The AVX-512 set keeps the 8-lane AVX2 skinning, body contact and normals.
+// single-instance kernels — a 16-wide FMA whose low and high halves are plMatVec_Avx2's even and odd chains, sixteen
+// instances per vector in the lanes form, 16-wide blend tiles — never of a single-instance AVX-512 kernel: a context's
+// single-instance kernels stay the AVX2 set, and a batch on an AVX-512 CPU gives exactly what they give. The AVX-512
+// set keeps the 8-lane AVX2 skinning, body contact and normals.
 // test_batched_kernels_match_single checks each pair bit for bit, and every variant against the scalar specification.
 #ifndef PLEAT_KERNELS_BATCH_H
 #define PLEAT_KERNELS_BATCH_H

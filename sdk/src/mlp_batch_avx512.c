@@ -172,7 +172,8 @@ void plMatMat_Avx512( float* const* out, const float* const* x, uint32_t batch_c
 // inputs x^T[c][instance] and the weight W[r][c] broadcast. Then the same additions as plDotRow2's end: even + odd
 // per lane, the halves, the pairs, the last two (plHorizontalSum's order), the fmaf tail, + bias; all vertical, for
 // sixteen instances at once. Per column and 3 rows: one 16-wide load and 3 FMAs with a broadcast operand, against
-// 10 loads for 24 FMAs in plMatMat_Avx512's tile, and no horizontal sums; the outputs stay transposed for the next layer.
+// 10 loads for 24 FMAs in plMatMat_Avx512's tile, and no horizontal sums; the outputs stay transposed for the next
+// layer.
 
 // Rows [r, r + R) of lane group xt ([in][16]) into yt ([out_count][16]), one half (even = 0: columns 16k + l and the
 // final 8-wide step's; odd = 1: columns 16k + 8 + l) of the partial sums into acc[R][8].

@@ -108,7 +108,8 @@ static void plCreateCrowd( plBatchFixture* fixture, plGpuMode mode, plCrowd* cro
 				for ( int b = 0; b < 2; ++b )
 				{
 					glBindBuffer( GL_ARRAY_BUFFER, buffers[b] );
-					glBufferData( GL_ARRAY_BUFFER, (GLsizeiptr)( 16 * fixture->info.vertex_count ), NULL, GL_DYNAMIC_DRAW );
+					GLsizeiptr bytes = (GLsizeiptr)( 16 * fixture->info.vertex_count );
+					glBufferData( GL_ARRAY_BUFFER, bytes, NULL, GL_DYNAMIC_DRAW );
 					crowd->host_buffers[set][i][b] = buffers[b];
 				}
 				glBindBuffer( GL_ARRAY_BUFFER, 0 );
@@ -210,8 +211,9 @@ static void plRunCrowd( plBatchFixture* fixture, plGpuMode mode )
 			const float* c = buffers + ( 2 * PLEAT_TEST_CROWD + (size_t)i ) * 6 * n;
 			for ( int which = 0; which < 2; ++which )
 			{
-				worst[0][which] = fmax( worst[0][which], plWorst( b + 3 * (size_t)n * which, s + 3 * (size_t)n * which, n, which ) );
-				worst[1][which] = fmax( worst[1][which], plWorst( b + 3 * (size_t)n * which, c + 3 * (size_t)n * which, n, which ) );
+				size_t at = 3 * (size_t)n * (size_t)which;
+				worst[0][which] = fmax( worst[0][which], plWorst( b + at, s + at, n, which ) );
+				worst[1][which] = fmax( worst[1][which], plWorst( b + at, c + at, n, which ) );
 			}
 			// the instance's own buffers hold the read-back too, as after plInstance_Step
 			const float *pb, *ps;
