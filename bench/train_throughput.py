@@ -11,13 +11,16 @@ clipping, Adam):
   stage1    per-window (core: Window / rollout_loss / lbs_scale, one window per iteration — the old path),
             batched K = 1 (the same iteration through batching.py), batched K = --windows (K windows per
             iteration), the same with the data worker process (--worker), through torch.compile (--compile) and
-            as two DDP processes with K/2 windows each (--ddp: the same iteration on both cores)
+            as two DDP processes with K/2 windows each (--ddp: the same iteration on both cores), and each of
+            those with K > 1 under bf16 autocast (--bf16: stage1.autocast_bf16, an approximation of the float32
+            iteration, tests/python/test_train_autocast.py)
   ablation  per-window loop over its batch of windows (the old path) against the batched one
   record    stage 2's recording of Φ's latents: per sequence (old) against groups of sequences; per frame
   stage2    one stage-2 iteration (f_LP on recorded latents, unchanged: for reference)
 
 usage: PYTHONPATH=tools .venv/bin/python bench/train_throughput.py [--preset default] [--garment tshirt]
-           [--rounds 5] [--iterations 3] [--steps 5] [--windows 8] [--worker] [--compile 1,8] [--ddp] [--threads 1]
+           [--rounds 5] [--iterations 3] [--steps 5] [--windows 8] [--worker] [--compile 1,8] [--ddp] [--bf16]
+           [--threads 1]
            [--stages stage1,ablation,record,stage2]
            [--json out/bench/train_throughput.json]
 """
@@ -34,7 +37,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
-from pleat.train import batching, core  # noqa: E402
+from pleat.train import batching, config, core  # noqa: E402
 
 
 class Variant:
@@ -58,7 +61,7 @@ def optimizer_step(model, opt, objective, grad_clip):
     opt.step()
 
 
-def _ddp_rank(rank, world, port, setup, clips, cfg, steps, windows, w, conn):
+def _ddp_rank(rank, world, port, setup, clips, cfg, steps, windows, w, conn, bf16=False, use_compile=False):
     """One rank of the two-process variant: what `torchrun --nproc_per_node=2 -m pleat.train.cli stage1 --device
     cpu` runs (gloo), one iteration per message; replies with this process's CPU time so far."""
     os.environ.update(MASTER_ADDR="127.0.0.1", MASTER_PORT=str(port))
@@ -68,8 +71,10 @@ def _ddp_rank(rank, world, port, setup, clips, cfg, steps, windows, w, conn):
     torch.manual_seed(0)
     model = core.Stage1Model(setup)
     opt = core.make_optimizer(model, c1["lr"], c1.get("blend_lr_scale", 1.0))
-    net = torch.nn.parallel.DistributedDataParallel(batching.BatchedStage1(model))
+    net = batching.BatchedStage1(model, bf16=bf16)
+    net = torch.nn.parallel.DistributedDataParallel(batching.compiled(net) if use_compile else net)
     source = batching.WindowSource(setup, clips, np.random.default_rng([1, rank]), windows)
+    c1 = dict(c1, compile=use_compile, autocast_bf16=bf16)
     while conn.recv() is not None:
         objective, _ = batching.stage1_iteration(setup, net, source, c1, steps, w, steps)
         optimizer_step(model, opt, objective, c1["grad_clip"])
@@ -77,7 +82,7 @@ def _ddp_rank(rank, world, port, setup, clips, cfg, steps, windows, w, conn):
     torch.distributed.destroy_process_group()
 
 
-def ddp_variant(setup, clips, cfg, steps, windows, w):
+def ddp_variant(setup, clips, cfg, steps, windows, w, bf16=False, use_compile=False):
     import multiprocessing as mp
     import socket
     with socket.socket() as sock:
@@ -87,8 +92,8 @@ def ddp_variant(setup, clips, cfg, steps, windows, w):
     conns, procs, cpu = [], [], [0.0, 0.0]
     for rank in range(2):
         parent, child = ctx.Pipe()
-        p = ctx.Process(target=_ddp_rank, args=(rank, 2, port, setup, clips, cfg, steps, windows // 2, w, child),
-                        daemon=True)
+        p = ctx.Process(target=_ddp_rank, args=(rank, 2, port, setup, clips, cfg, steps, windows // 2, w, child,
+                                                bf16, use_compile), daemon=True)
         p.start()
         conns.append(parent)
         procs.append(p)
@@ -104,10 +109,11 @@ def ddp_variant(setup, clips, cfg, steps, windows, w):
             c.send(None)
         for p in procs:
             p.join(timeout=30)
-    return Variant(f"2 processes x K={windows // 2} (DDP)", 2 * (windows // 2), step, close, lambda: sum(cpu))
+    name = f"2 processes x K={windows // 2} (DDP)" + (" + compile" if use_compile else "") + (" + bf16" if bf16 else "")
+    return Variant(name, 2 * (windows // 2), step, close, lambda: sum(cpu))
 
 
-def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(), ddp=False):
+def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(), ddp=False, bf16=False):
     c1 = cfg["stage1"]
     w = core.loss_weights(c1, 0, 0.6)            # rollouts of `steps`, collision weight on its ramp
     floor = c1.get("loss_norm_floor", 1.0)
@@ -130,28 +136,37 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
             optimizer_step(model, opt, loss / scale, c1["grad_clip"])
         return Variant("per-window (old)", 1, step)
 
-    def batched(k, use_worker, use_compile=False):
+    def batched(k, use_worker, use_compile=False, use_bf16=False):
         model, opt = model_and_opt()
-        net = batching.BatchedStage1(model)
+        net = batching.BatchedStage1(model, bf16=use_bf16)
         if use_compile:
             net = batching.compiled(net)
         source = batching.WindowSource(setup, clips, np.random.default_rng(1), k, worker=use_worker)
+        c = dict(c1, compile=use_compile, autocast_bf16=use_bf16)
 
         def step():                       # core.train_stage1 (the default)
-            objective, _ = batching.stage1_iteration(setup, net, source, c1, steps, w, steps)
+            objective, _ = batching.stage1_iteration(setup, net, source, c, steps, w, steps)
             optimizer_step(model, opt, objective, c1["grad_clip"])
-        return Variant(f"batched K={k}" + (" + worker" if use_worker else "") + (" + compile" if use_compile else ""),
-                       k, step, source.close)
+        return Variant(f"batched K={k}" + (" + worker" if use_worker else "") + (" + compile" if use_compile else "")
+                       + (" + bf16" if use_bf16 else ""), k, step, source.close)
 
     out = [per_window(), batched(1, False)]
     if windows > 1:
         out.append(batched(windows, False))
+        if bf16:
+            out.append(batched(windows, False, use_bf16=True))
     if worker:
         out.append(batched(windows, True))
+        if bf16:
+            out.append(batched(windows, True, use_bf16=True))
     for k in compile_windows:
         out.append(batched(k, worker, True))
+        if bf16:
+            out.append(batched(k, worker, True, True))
     if ddp:
         out.append(ddp_variant(setup, clips, cfg, steps, windows, w))
+        if bf16:
+            out.append(ddp_variant(setup, clips, cfg, steps, windows, w, True, bool(compile_windows)))
     return out
 
 
@@ -267,6 +282,9 @@ def main():
                    "compilation happens in the warm-up and is timed")
     p.add_argument("--ddp", action="store_true", help="stage 1: also measure two processes (DDP, gloo) with "
                    "--windows/2 windows each, i.e. --windows per iteration in all")
+    p.add_argument("--bf16", action="store_true", help="stage 1: also measure each batched variant with K > 1 "
+                   "under stage1.autocast_bf16 (needs native bf16: AVX-512 BF16 or AMX); the DDP one also compiled "
+                   "when --compile is given")
     p.add_argument("--threads", type=int, default=1, help="torch threads (the trainer's default is 1)")
     p.add_argument("--stages", default="stage1,ablation,record,stage2")
     p.add_argument("--json", default=None, help="also write the results here")
@@ -278,8 +296,10 @@ def main():
     groups = {}
     stages = args.stages.split(",")
     if "stage1" in stages:
+        if args.bf16 and not config.native_bf16("cpu"):
+            p.error("--bf16: this CPU has no native bfloat16 (AVX-512 BF16 or AMX)")
         groups["stage1"] = stage1_variants(setup, clips, cfg, args.steps, args.windows, args.worker,
-                                           [int(k) for k in args.compile.split(",") if k], args.ddp)
+                                           [int(k) for k in args.compile.split(",") if k], args.ddp, args.bf16)
     if "ablation" in stages:
         groups["ablation"] = ablation_variants(setup, clips, cfg, args.steps, args.worker)
     if "record" in stages:
