@@ -103,13 +103,22 @@
 // plStepInstances( context, instances, inputs, outputs, results, count ) steps a whole crowd: instance i gets inputs[i]
 // and outputs[i], exactly as plInstance_Step( instances[i], &inputs[i], &outputs[i] ) would give it — the same checks,
 // results, outputs and state, bit for bit, whatever the crowd's size, order or worker count. Instances of the same
-// asset (CPU path, the SDK's MLP backend) are evaluated together in groups of up to 64: f_LP and f_dec become
+// asset (the SDK's MLP backend) are evaluated together in groups of up to 64: f_LP and f_dec become
 // matrix-matrix products and the blend shapes a small GEMM, so each network weight and blend shape is read once per
 // group instead of once per instance (a single step is bound by streaming them: 12 MB per fp32 step at the
 // reference size). Every instance's dot products keep the single kernels' summation order, which is what makes the
 // results identical. The work goes through the task hooks: workers take whole instances for the per-instance stages
-// (validation, forward kinematics, X_c, skinning, normals, commit) and rows or vertex ranges of the batched stages.
-// Instances in a GPU mode or on the ONNX Runtime backend are stepped one by one inside the call.
+// (validation, forward kinematics, X_c, commit), rows or vertex ranges of the batched stages, and lane groups of 8
+// instances for skinning, body contact and normals (one vector operation does one scalar operation for 8 of them). On
+// CPUs with AVX-512 the batched networks and blend shapes use it (the same bits: they repeat the AVX2 single-instance
+// arithmetic per instance). The batch's scratch belongs to the context, sized when instances are created (one block
+// per worker, up to 8; context bookkeeping, outside plContext_GetLiveBytes); a call that finds it taken by another
+// thread's call uses slower kernels with the same results. Instances in a GPU mode form groups per asset and mode:
+// their networks run batched on the CPU, and the deformation of the whole group is one dispatch per shader (the
+// instance in gl_WorkGroupID.y) in buffers the group's first instance keeps from its first batch (GPU memory for up to
+// 64 instances), then copied to each instance's vertex buffers and read back where asked, as plInstance_Step does
+// (the same GLSL per instance: equal to stepping one by one on the GPU within the GL-vs-CPU tolerance, on Mesa
+// llvmpipe bit for bit). Instances on the ONNX Runtime backend are stepped one by one inside the call.
 //     plInstance crowd[64]; plFrameInput poses[64]; plStepOutput vbos[64]; plResult results[64];
 //     ... fill poses[i] and vbos[i] as for plInstance_Step ...
 //     plStepInstances( context, crowd, poses, vbos, results, 64 );    // results[i] as plInstance_Step's
