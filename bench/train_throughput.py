@@ -3,8 +3,10 @@
 
 The machine is shared, so absolute times drift with other jobs' load: every round measures each variant once (the
 order reverses every round) on one setup in one process, so each pair of measurements sees about the same load;
-the report gives per-variant medians over rounds, of wall time and of this process's CPU time, and the median of
-the per-round ratios to the first variant of each stage, which is the number to quote.
+the report gives per-variant medians over rounds, of wall time and of CPU time (all of a variant's processes: the
+trainer, its data worker, both DDP ranks), and the median of the per-round ratios to the first variant of each
+stage, which is the number to quote (wall; CPU where other jobs' load makes wall times of two-process variants
+meaningless).
 
 Stages and variants (the training loops' own steps: draw windows, LBS normaliser, rollout, backward, gradient
 clipping, Adam):
@@ -51,6 +53,12 @@ class Variant:
             self.step()
         self.wall.append((time.perf_counter() - w0) / iterations)
         self.cpu.append((self.cpu_clock() - c0) / iterations)
+
+
+def _cpu_clock(source):
+    """CPU seconds of a variant: this process's, plus its data worker's when it has one (as the worker last reported
+    them, one iteration behind: over a measurement of n iterations that is still n preparations)."""
+    return (lambda: time.process_time() + source.worker_cpu_s) if source.proc is not None else time.process_time
 
 
 def optimizer_step(model, opt, objective, grad_clip):
@@ -148,7 +156,7 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
             objective, _ = batching.stage1_iteration(setup, net, source, c, steps, w, steps)
             optimizer_step(model, opt, objective, c1["grad_clip"])
         return Variant(f"batched K={k}" + (" + worker" if use_worker else "") + (" + compile" if use_compile else "")
-                       + (" + bf16" if use_bf16 else ""), k, step, source.close)
+                       + (" + bf16" if use_bf16 else ""), k, step, source.close, _cpu_clock(source))
 
     out = [per_window(), batched(1, False)]
     if windows > 1:
@@ -219,7 +227,8 @@ def ablation_variants(setup, clips, cfg, steps, worker):
         def step():                       # core.train_ablation (the default)
             objective, _ = batching.ablation_iteration(setup, model, source, c1, steps, w, z_lo, z_hi, steps)
             optimizer_step(model, opt, objective, c1["grad_clip"])
-        return Variant("batched" + (" + worker" if use_worker else ""), ca["batch"], step, source.close)
+        return Variant("batched" + (" + worker" if use_worker else ""), ca["batch"], step, source.close,
+                       _cpu_clock(source))
 
     out = [per_window(), batched(False)]
     if worker:

@@ -212,7 +212,9 @@ def _worker_loop(prepared, conn):
         if msg is None:
             break
         picks, static, steps = msg
-        conn.send(prepared(picks, static, steps))
+        win = prepared(picks, static, steps)
+        win["worker_cpu_s"] = time.process_time()        # the worker's CPU time so far, for the bench's totals
+        conn.send(win)
 
 
 class WindowSource:
@@ -226,6 +228,7 @@ class WindowSource:
         self.setup, self.clips, self.rng, self.K, self.static = setup, clips, rng, int(windows), static
         self.prepared = _Prepared(kinematics(setup), clips, setup.asset_stub if static else None)
         self.pending, self.proc, self.conn = None, None, None
+        self.worker_cpu_s = 0.0          # the worker process's CPU time as of its last handed-out windows
         if worker:
             import multiprocessing as mp
             ctx = mp.get_context("fork")
@@ -247,6 +250,7 @@ class WindowSource:
         if self.pending is not None:
             pend_steps, self.pending = self.pending, None
             win = self.conn.recv()
+            self.worker_cpu_s = win.pop("worker_cpu_s")
             if pend_steps != steps:
                 win = None
         if win is None:
@@ -341,9 +345,11 @@ class WindowBatch:
         recv_local = torch.as_tensor(vv, device=self.device)
         bi = torch.as_tensor(idx[kk, vv], device=self.device)
         xr = x0[k_t, recv_local]
-        HTe = HT[k_t]
-        b_t, b_n = (torch.stack([self.body_t[k_t, f - 1, bi] - xr, self.body_t[k_t, f, bi] - xr], 1)
-                    @ HTe).unbind(1)
+        rel = torch.stack([self.body_t[k_t, f - 1, bi] - xr, self.body_t[k_t, f, bi] - xr], 1)     # [E_b, 2, 3]
+        # rows are grouped by window (np.nonzero is row-major): one product with each window's heading, the same
+        # numbers as a per-row product with its gathered copy, without gathering E_b 3×3 matrices
+        b_t, b_n = torch.cat([r.reshape(-1, 3) @ HT[k] for k, r in
+                              enumerate(rel.split(np.bincount(kk, minlength=K).tolist()))]).view(-1, 2, 3).unbind(1)
         body = torch.cat([b_t, b_n, b_t.norm(dim=-1, keepdim=True), b_n.norm(dim=-1, keepdim=True),
                           self.dt30[k_t, f, None]], -1)
         return node, edges, body, k_t * N + recv_local
