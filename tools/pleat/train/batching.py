@@ -169,15 +169,17 @@ class RestTopology:
 
 def prepare(kin, picks, lbs_steps=None):
     """Everything about K picks that does not depend on the network (numpy): kinematics, shaped template, rest
-    geometry, the KD-tree of the body in every frame and, with `lbs_steps`, the LBS-only terms of rollouts of that
-    many steps (`lbs_terms`). Cheap to send to another process."""
+    geometry, the KD-tree of the body in every frame from the third on (the first one queried) and, with
+    `lbs_steps`, the LBS-only terms of rollouts of that many steps (`lbs_terms`). Cheap to send to another
+    process."""
     win = pose_windows(kin, picks)
     shaped = kin.shaped(win["beta"])
     win["shaped"] = shaped
     win["rest"] = kin.topology.geometry(shaped)
     win["material"] = np.stack([p["material"] for p in picks])
     win["material01"] = np.stack([p["material01"] for p in picks])
-    win["trees"] = [[cKDTree(b) for b in frames] for frames in win["body"]]
+    # frames 0 and 1 only start the garment (its LBS); the first state queried is frame 2's (features of frame 3)
+    win["trees"] = [[None, None] + [cKDTree(b) for b in frames[2:]] for frames in win["body"]]
     if lbs_steps:
         win["lbs_terms"] = lbs_terms(kin, win, lbs_steps)
     return win
