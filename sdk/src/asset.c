@@ -843,18 +843,11 @@ static void plAssetData_Destroy( plContextData* ctx, void* object )
 
 plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_asset )
 {
-	if ( out_asset != NULL )
+	plContextData* ctx;
+	plResult r = plBeginCreate( context, def, out_asset, sizeof( *out_asset ), &ctx );
+	if ( r != PLEAT_RESULT_OK )
 	{
-		memset( out_asset, 0, sizeof( *out_asset ) );
-	}
-	plContextData* ctx = plGetContext( context );
-	if ( def == NULL || out_asset == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	if ( ctx == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		return r;
 	}
 	if ( def->internal_cookie != PLEAT_DEF_COOKIE || ( def->path == NULL ) == ( def->data == NULL ) ||
 		 ( def->data != NULL && def->size == 0 ) ||
@@ -871,7 +864,6 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	size_t owned_size = 0;
 	const uint8_t* block = NULL;
 	size_t size = 0;
-	plResult r = PLEAT_RESULT_OK;
 	if ( def->path != NULL )
 	{
 		r = plReadFile( ctx, def->path, &owned, &owned_size );
@@ -906,14 +898,10 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	{
 		r = plAssetData_Parse( block, size, ( def->flags & PLEAT_ASSET_FLAG_SKIP_CHECKSUM ) != 0, asset );
 	}
-	uint32_t slot = UINT32_MAX;
 	if ( r == PLEAT_RESULT_OK )
 	{
-		slot = plSlotTable_Insert( ctx, &ctx->assets, asset, plAssetData_Destroy );
-		if ( slot == UINT32_MAX )
-		{
-			r = PLEAT_RESULT_OUT_OF_MEMORY;
-		}
+		r = plSlotTable_Insert( ctx, &ctx->assets, asset, plAssetData_Destroy, &out_asset->index1,
+								&out_asset->generation );
 	}
 	if ( r != PLEAT_RESULT_OK )
 	{
@@ -927,8 +915,6 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	}
 	asset->owned_block = owned;
 	asset->owned_size = owned_size;
-	out_asset->index1 = slot + 1;
-	out_asset->generation = ctx->assets.slots[slot].generation;
 	out_asset->context = ctx->handle;
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_ASSET_LOADED, "'%s': N=%u F=%u J=%u L=%u D=%u", asset->name,
 		   asset->vertex_count, asset->face_count, asset->joint_count, asset->latent_count, asset->blend_count );
@@ -938,29 +924,7 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 plAssetData* plGetAssetData( plAsset asset )
 {
 	plContextData* ctx = plGetContext( asset.context ); // the context generation too: its slot may have a new context
-	if ( ctx == NULL )
-	{
-		return NULL;
-	}
-	return (plAssetData*)plSlotTable_Get( &ctx->assets, asset.index1, asset.generation );
-}
-
-plResult plDestroyAsset( plAsset handle )
-{
-	plAssetData* asset = plGetAssetData( handle );
-	if ( asset == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	plContextData* ctx = plGetContext( handle.context );
-	if ( asset->instance_count != 0 )
-	{
-		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_ASSET_IN_USE, "%u instances", asset->instance_count );
-		return PLEAT_RESULT_ASSET_IN_USE;
-	}
-	plAssetData_Destroy( ctx, asset );
-	plSlotTable_Remove( &ctx->assets, handle.index1 );
-	return PLEAT_RESULT_OK;
+	return ctx != NULL ? (plAssetData*)plSlotTable_Get( &ctx->assets, asset.index1, asset.generation ) : NULL;
 }
 
 int plAsset_IsValid( plAsset asset )
@@ -968,16 +932,26 @@ int plAsset_IsValid( plAsset asset )
 	return plGetAssetData( asset ) != NULL;
 }
 
+plResult plDestroyAsset( plAsset handle )
+{
+	plContextData* ctx = plGetContext( handle.context );
+	const plAssetData* asset = plGetAssetData( handle );
+	if ( asset != NULL && asset->instance_count != 0 )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_ASSET_IN_USE, "%u instances", asset->instance_count );
+		return PLEAT_RESULT_ASSET_IN_USE;
+	}
+	return asset != NULL ? plSlotTable_Destroy( ctx, &ctx->assets, handle.index1, handle.generation )
+						 : PLEAT_RESULT_INVALID_HANDLE;
+}
+
 plResult plAsset_GetInfo( plAsset handle, plAssetInfo* out_info )
 {
-	if ( out_info == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
 	const plAssetData* a = plGetAssetData( handle );
-	if ( a == NULL )
+	plResult r = plCheckArgumentsThenHandle( out_info != NULL, a );
+	if ( r != PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		return r;
 	}
 	memset( out_info, 0, sizeof( *out_info ) );
 	out_info->vertex_count = a->vertex_count;
@@ -1012,71 +986,63 @@ plResult plAsset_GetInfo( plAsset handle, plAssetInfo* out_info )
 
 plResult plAsset_GetJointName( plAsset handle, uint32_t joint_index, const char** out_name )
 {
-	if ( out_name == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	*out_name = NULL;
 	const plAssetData* a = plGetAssetData( handle );
-	if ( a == NULL )
+	plResult r = plCheckArgumentsThenHandle( out_name != NULL, a );
+	if ( r == PLEAT_RESULT_OK && joint_index >= a->joint_count )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		r = PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	if ( joint_index >= a->joint_count )
+	if ( out_name != NULL )
+	{
+		*out_name = r == PLEAT_RESULT_OK ? a->joint_names + (size_t)joint_index * PLEAT_JOINT_NAME_SIZE : NULL;
+	}
+	return r;
+}
+
+// The two getters that lend an asset array with its row count: the faces (out_faces) or the template positions
+// (out_positions, the other one NULL). Both outputs are required; they are null and 0 unless the call succeeds.
+static plResult plLendAssetArray( plAsset handle, const uint32_t** out_faces, const float** out_positions,
+								  uint32_t* out_count )
+{
+	if ( ( out_faces == NULL && out_positions == NULL ) || out_count == NULL )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	*out_name = a->joint_names + (size_t)joint_index * PLEAT_JOINT_NAME_SIZE;
-	return PLEAT_RESULT_OK;
+	const plAssetData* a = plGetAssetData( handle );
+	if ( out_faces != NULL )
+	{
+		*out_faces = a != NULL ? a->faces : NULL;
+		*out_count = a != NULL ? a->face_count : 0;
+	}
+	else
+	{
+		*out_positions = a != NULL ? a->template_positions : NULL;
+		*out_count = a != NULL ? a->vertex_count : 0;
+	}
+	return a != NULL ? PLEAT_RESULT_OK : PLEAT_RESULT_INVALID_HANDLE;
 }
 
 plResult plAsset_GetFaces( plAsset handle, const uint32_t** out_faces, uint32_t* out_face_count )
 {
-	if ( out_faces == NULL || out_face_count == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	*out_faces = NULL;
-	*out_face_count = 0;
-	const plAssetData* a = plGetAssetData( handle );
-	if ( a == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	*out_faces = a->faces;
-	*out_face_count = a->face_count;
-	return PLEAT_RESULT_OK;
+	return plLendAssetArray( handle, out_faces, NULL, out_face_count );
 }
 
 plResult plAsset_GetTemplatePositions( plAsset handle, const float** out_positions, uint32_t* out_vertex_count )
 {
-	if ( out_positions == NULL || out_vertex_count == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	*out_positions = NULL;
-	*out_vertex_count = 0;
-	const plAssetData* a = plGetAssetData( handle );
-	if ( a == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	*out_positions = a->template_positions;
-	*out_vertex_count = a->vertex_count;
-	return PLEAT_RESULT_OK;
+	return plLendAssetArray( handle, NULL, out_positions, out_vertex_count );
 }
 
 plResult plAsset_FindJoint( plAsset handle, const char* name, int32_t* out_joint_index )
 {
-	if ( name == NULL || out_joint_index == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	*out_joint_index = -1;
 	const plAssetData* a = plGetAssetData( handle );
-	if ( a == NULL )
+	plResult r = plCheckArgumentsThenHandle( name != NULL && out_joint_index != NULL, a );
+	if ( r != PLEAT_RESULT_INVALID_ARGUMENT )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		*out_joint_index = -1;
+	}
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
 	}
 	for ( uint32_t j = 0; j < a->joint_count; ++j )
 	{

@@ -259,35 +259,36 @@ plResult plDestroyContext( plContext context )
 	return PLEAT_RESULT_OK;
 }
 
+plResult plBeginCreate( plContext context, const void* def, void* out_handle, size_t handle_size,
+						 plContextData** out_ctx )
+{
+	if ( out_handle != NULL )
+	{
+		memset( out_handle, 0, handle_size );
+	}
+	*out_ctx = plGetContext( context );
+	return plCheckArgumentsThenHandle( def != NULL && out_handle != NULL, *out_ctx );
+}
+
 plResult plContext_GetLiveBytes( plContext context, uint64_t* out_bytes )
 {
 	plContextData* ctx = plGetContext( context );
-	if ( out_bytes == NULL )
+	plResult r = plCheckArgumentsThenHandle( out_bytes != NULL, ctx );
+	if ( r == PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+		*out_bytes = atomic_load( &ctx->live_bytes );
 	}
-	if ( ctx == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	*out_bytes = atomic_load( &ctx->live_bytes );
-	return PLEAT_RESULT_OK;
+	return r;
 }
 
 plResult plContext_GetKernelSet( plContext context, plKernelSet* out_kernel_set )
 {
-	if ( out_kernel_set == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	*out_kernel_set = PLEAT_KERNEL_SET_SCALAR;
 	plContextData* ctx = plGetContext( context );
-	if ( ctx == NULL )
+	if ( out_kernel_set != NULL )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		*out_kernel_set = ctx != NULL ? ctx->kernel_set : PLEAT_KERNEL_SET_SCALAR;
 	}
-	*out_kernel_set = ctx->kernel_set;
-	return PLEAT_RESULT_OK;
+	return plCheckArgumentsThenHandle( out_kernel_set != NULL, ctx );
 }
 
 plResult plContext_UsesAvx2( plContext context, int* out_avx2 )
@@ -302,17 +303,15 @@ plResult plContext_UsesAvx2( plContext context, int* out_avx2 )
 	return r;
 }
 
-uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object, plDestroyObjectFn* destroy )
+// The index of a slot for a new object: a free one, or the first of the slots the table grows by; UINT32_MAX when it
+// cannot grow.
+static uint32_t plSlotTable_FreeSlot( plContextData* ctx, plSlotTable* table )
 {
-	table->destroy = destroy;
 	for ( uint32_t i = 0; i < table->capacity; ++i )
 	{
-		plSlot* slot = &table->slots[i];
+		const plSlot* slot = &table->slots[i];
 		if ( slot->object == NULL && slot->generation != PLEAT_GENERATION_LAST ) // retired slots are skipped for good
 		{
-			slot->object = object;
-			slot->generation += 1;
-			table->live_count += 1;
 			return i;
 		}
 	}
@@ -339,10 +338,25 @@ uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* objec
 	uint32_t index = table->capacity;
 	table->slots = slots;
 	table->capacity = new_capacity;
-	table->slots[index].object = object;
-	table->slots[index].generation = 1;
-	table->live_count += 1;
 	return index;
+}
+
+plResult plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object, plDestroyObjectFn* destroy,
+							 uint32_t* out_index1, uint32_t* out_generation )
+{
+	table->destroy = destroy;
+	uint32_t index = plSlotTable_FreeSlot( ctx, table );
+	if ( index == UINT32_MAX )
+	{
+		return PLEAT_RESULT_OUT_OF_MEMORY;
+	}
+	plSlot* slot = &table->slots[index];
+	slot->object = object;
+	slot->generation += 1;
+	table->live_count += 1;
+	*out_index1 = index + 1;
+	*out_generation = slot->generation;
+	return PLEAT_RESULT_OK;
 }
 
 void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint32_t generation )
@@ -359,12 +373,24 @@ void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint32_t gener
 	return slot->object;
 }
 
-void plSlotTable_Remove( plSlotTable* table, uint32_t index1 )
+static void plSlotTable_Remove( plSlotTable* table, uint32_t index1 )
 {
 	// The generation stays: handles of the removed object no longer find an object, and the next object of the slot
 	// gets the next generation (or, at PLEAT_GENERATION_LAST, the slot is never used again).
 	table->slots[index1 - 1u].object = NULL;
 	table->live_count -= 1;
+}
+
+plResult plSlotTable_Destroy( plContextData* ctx, plSlotTable* table, uint32_t index1, uint32_t generation )
+{
+	void* object = plSlotTable_Get( table, index1, generation );
+	if ( object == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
+	table->destroy( ctx, object );
+	plSlotTable_Remove( table, index1 );
+	return PLEAT_RESULT_OK;
 }
 
 void plSlotTable_Free( plContextData* ctx, plSlotTable* table )

@@ -9,6 +9,7 @@
 #include "tasks.h"
 
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #define PLEAT_MAX_CONTEXTS 64
@@ -89,17 +90,43 @@ void plFreeBatchScratch( plContextData* ctx );
 // The live context a handle names (index and generation both match), or NULL. Asset and instance lookups go through
 // this with the context handle they carry.
 plContextData* plGetContext( plContext context );
+
+// The start of every create and load (plLoadAsset, plCreateInstance, plCreateScene): the handle out parameter is
+// cleared (when there is one), then INVALID_ARGUMENT without a def or an out parameter, INVALID_HANDLE for a context
+// that is not alive; on OK *out_ctx is the context.
+plResult plBeginCreate( plContext context, const void* def, void* out_handle, size_t handle_size,
+						 plContextData** out_ctx );
+
+// The first checks of an entry point on an object: its looked-up data (NULL for a dead handle) and whether its other
+// arguments are usable. Which code wins when both are wrong is part of each function's contract, so the name says the
+// order: the getters that clear their outputs check the arguments first, the setters the handle first.
+static inline plResult plCheckArgumentsThenHandle( int arguments_valid, const void* object )
+{
+	return !arguments_valid ? PLEAT_RESULT_INVALID_ARGUMENT
+							: ( object == NULL ? PLEAT_RESULT_INVALID_HANDLE : PLEAT_RESULT_OK );
+}
+
+static inline plResult plCheckHandleThenArguments( const void* object, int arguments_valid )
+{
+	return object == NULL ? PLEAT_RESULT_INVALID_HANDLE
+						  : ( !arguments_valid ? PLEAT_RESULT_INVALID_ARGUMENT : PLEAT_RESULT_OK );
+}
+
 void plLog( const plContextData* ctx, plLogLevel level, plLogItem item, const char* format, ... )
 #if defined( __GNUC__ )
 	__attribute__( ( format( printf, 4, 5 ) ) )
 #endif
 	;
 
-// Slot tables: insert returns the slot index or UINT32_MAX (out of memory / capacity); the object's generation is then
-// table->slots[index].generation. destroy is how the table's objects are freed (the same for every insert).
-uint32_t plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object, plDestroyObjectFn* destroy );
+// Slot tables: insert puts object in a free slot (growing the table; OUT_OF_MEMORY when it cannot, at capacity or out of
+// memory) and writes the index1 and generation of its handle; destroy is how the table's objects are freed (the same
+// for every insert). Get is the live object a handle's index1 and generation name, or NULL.
+plResult plSlotTable_Insert( plContextData* ctx, plSlotTable* table, void* object, plDestroyObjectFn* destroy,
+							 uint32_t* out_index1, uint32_t* out_generation );
 void* plSlotTable_Get( const plSlotTable* table, uint32_t index1, uint32_t generation );
-void plSlotTable_Remove( plSlotTable* table, uint32_t index1 );
+// Destroys the object a handle names (through the table's destroy callback) and frees its slot; INVALID_HANDLE when
+// the handle names none.
+plResult plSlotTable_Destroy( plContextData* ctx, plSlotTable* table, uint32_t index1, uint32_t generation );
 // Destroys every object still in the table (through its destroy callback), then frees the table itself.
 void plSlotTable_Free( plContextData* ctx, plSlotTable* table );
 

@@ -9,11 +9,12 @@
 plInstanceData* plGetInstanceData( plInstance handle )
 {
 	plContextData* ctx = plGetContext( handle.context ); // the context generation too: its slot may have a new context
-	if ( ctx == NULL )
-	{
-		return NULL;
-	}
-	return (plInstanceData*)plSlotTable_Get( &ctx->instances, handle.index1, handle.generation );
+	return ctx != NULL ? (plInstanceData*)plSlotTable_Get( &ctx->instances, handle.index1, handle.generation ) : NULL;
+}
+
+int plInstance_IsValid( plInstance handle )
+{
+	return plGetInstanceData( handle ) != NULL;
 }
 
 plInstanceDef plDefaultInstanceDef( void )
@@ -227,18 +228,11 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 
 plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstance* out_instance )
 {
-	if ( out_instance != NULL )
+	plContextData* ctx;
+	plResult r = plBeginCreate( context, def, out_instance, sizeof( *out_instance ), &ctx );
+	if ( r != PLEAT_RESULT_OK )
 	{
-		memset( out_instance, 0, sizeof( *out_instance ) );
-	}
-	if ( def == NULL || out_instance == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	plContextData* ctx = plGetContext( context );
-	if ( ctx == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		return r;
 	}
 	// Every rejection below names the def field (and entry) in the log: the result code alone cannot say which of a
 	// dozen fields an integrator got wrong.
@@ -414,7 +408,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		float* m = inst->skin_matrices + j * 12;
 		m[0] = m[5] = m[10] = 1.0f;
 	}
-	plResult r = plApplyShape( a, inst->beta, inst->shaped_template, inst->rest_joints, inst->shaped_anchors );
+	r = plApplyShape( a, inst->beta, inst->shaped_template, inst->rest_joints, inst->shaped_anchors );
 	if ( r == PLEAT_RESULT_OK )
 	{
 		memcpy( inst->positions, inst->shaped_template, n3 );
@@ -429,14 +423,10 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	{
 		plReserveBatchScratch( ctx, plBatchScratchFloats( ctx, a ) ); // optional: plStepInstances's lanes forms
 	}
-	uint32_t slot = UINT32_MAX;
 	if ( r == PLEAT_RESULT_OK )
 	{
-		slot = plSlotTable_Insert( ctx, &ctx->instances, inst, plInstanceData_Destroy );
-		if ( slot == UINT32_MAX )
-		{
-			r = PLEAT_RESULT_OUT_OF_MEMORY;
-		}
+		r = plSlotTable_Insert( ctx, &ctx->instances, inst, plInstanceData_Destroy, &out_instance->index1,
+								&out_instance->generation );
 	}
 	a->instance_count += 1;
 	if ( r != PLEAT_RESULT_OK )
@@ -444,8 +434,6 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		plInstanceData_Destroy( ctx, inst );
 		return r;
 	}
-	out_instance->index1 = slot + 1;
-	out_instance->generation = ctx->instances.slots[slot].generation;
 	out_instance->context = ctx->handle;
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_INSTANCE_CREATED, "asset '%s'", a->name );
 	return clamped ? PLEAT_RESULT_CLAMPED : PLEAT_RESULT_OK;
@@ -453,20 +441,9 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 
 plResult plDestroyInstance( plInstance handle )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	plContextData* ctx = inst->ctx;
-	plInstanceData_Destroy( ctx, inst );
-	plSlotTable_Remove( &ctx->instances, handle.index1 );
-	return PLEAT_RESULT_OK;
-}
-
-int plInstance_IsValid( plInstance handle )
-{
-	return plGetInstanceData( handle ) != NULL;
+	plContextData* ctx = plGetContext( handle.context );
+	return ctx != NULL ? plSlotTable_Destroy( ctx, &ctx->instances, handle.index1, handle.generation )
+					   : PLEAT_RESULT_INVALID_HANDLE;
 }
 
 plResult plInstance_Reset( plInstance handle )
@@ -485,40 +462,28 @@ plResult plInstance_Reset( plInstance handle )
 plResult plInstance_SetNetworkRate( plInstance handle, float network_rate_hz )
 {
 	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
+	plResult r = plCheckHandleThenArguments( inst, isfinite( network_rate_hz ) && network_rate_hz >= 0.0f );
+	if ( r == PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		inst->network_interval_s = network_rate_hz > 0.0f ? 1.0 / network_rate_hz : 0.0;
 	}
-	if ( !( isfinite( network_rate_hz ) && network_rate_hz >= 0.0f ) )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	inst->network_interval_s = network_rate_hz > 0.0f ? 1.0 / network_rate_hz : 0.0;
-	return PLEAT_RESULT_OK;
+	return r;
 }
 
 plResult plInstance_SetBodyContact( plInstance handle, int enabled, float offset_m )
 {
 	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
+	plResult r = plCheckHandleThenArguments( inst, plBodyContactOffsetValid( offset_m ) );
+	if ( r == PLEAT_RESULT_OK && inst->gl != NULL ) // first, so a GL error leaves both paths as they were
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		r = plGlDeformer_SetBodyContact( inst->gl, enabled, offset_m );
 	}
-	if ( !plBodyContactOffsetValid( offset_m ) )
+	if ( r == PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+		inst->body_contact = enabled != 0 && inst->asset->body_anchors != NULL;
+		inst->body_contact_offset_m = offset_m;
 	}
-	if ( inst->gl != NULL ) // first, so a GL error leaves both paths as they were
-	{
-		plResult r = plGlDeformer_SetBodyContact( inst->gl, enabled, offset_m );
-		if ( r != PLEAT_RESULT_OK )
-		{
-			return r;
-		}
-	}
-	inst->body_contact = enabled != 0 && inst->asset->body_anchors != NULL;
-	inst->body_contact_offset_m = offset_m;
-	return PLEAT_RESULT_OK;
+	return r;
 }
 
 plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t beta_count )
@@ -573,17 +538,14 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 plResult plInstance_SetMaterial( plInstance handle, const float material[4] )
 {
 	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
+	plResult r = plCheckHandleThenArguments( inst, material != NULL );
+	if ( r == PLEAT_RESULT_OK && !plAllFiniteFloats( material, 4 ) )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		r = PLEAT_RESULT_NON_FINITE_INPUT;
 	}
-	if ( material == NULL )
+	if ( r != PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	if ( !plAllFiniteFloats( material, 4 ) )
-	{
-		return PLEAT_RESULT_NON_FINITE_INPUT;
+		return r;
 	}
 	int clamped = plClampMaterial( inst->asset, material, inst->material, inst->material_normalized );
 	if ( clamped )
@@ -597,22 +559,17 @@ plResult plInstance_SetMaterial( plInstance handle, const float material[4] )
 // which picks positions (0) or normals (1).
 static plResult plLendVertexArray( plInstance handle, int which, const float** out_array, uint32_t* out_count )
 {
-	if ( out_array == NULL )
+	const plInstanceData* inst = plGetInstanceData( handle );
+	plResult r = plCheckArgumentsThenHandle( out_array != NULL, inst );
+	if ( r != PLEAT_RESULT_INVALID_ARGUMENT )
 	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+		*out_array = inst == NULL ? NULL : ( which == 0 ? inst->positions : inst->normals );
 	}
-	*out_array = NULL;
-	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	*out_array = which == 0 ? inst->positions : inst->normals;
-	if ( out_count != NULL )
+	if ( r == PLEAT_RESULT_OK && out_count != NULL )
 	{
 		*out_count = inst->asset->vertex_count;
 	}
-	return PLEAT_RESULT_OK;
+	return r;
 }
 
 plResult plInstance_GetPositions( plInstance handle, const float** out_positions, uint32_t* out_count )
@@ -673,14 +630,12 @@ plResult plInstance_GetBlendWeights( plInstance handle, float* out, uint32_t ble
 
 plResult plInstance_GetShape( plInstance handle, float* out_beta, uint32_t beta_count, float out_material[4] )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
+	const plInstanceData* inst = plGetInstanceData( handle );
+	plResult r =
+		plCheckHandleThenArguments( inst, ( out_beta != NULL || beta_count == 0 ) && beta_count <= PLEAT_MAX_BETAS );
+	if ( r != PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	if ( ( out_beta == NULL && beta_count != 0 ) || beta_count > PLEAT_MAX_BETAS )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+		return r;
 	}
 	for ( uint32_t b = 0; b < beta_count; ++b )
 	{
@@ -695,50 +650,40 @@ plResult plInstance_GetShape( plInstance handle, float* out_beta, uint32_t beta_
 
 plResult plInstance_GetAsset( plInstance handle, plAsset* out_asset )
 {
-	if ( out_asset == NULL )
+	const plInstanceData* inst = plGetInstanceData( handle );
+	plResult r = plCheckArgumentsThenHandle( out_asset != NULL, inst );
+	if ( r == PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+		*out_asset = inst->asset_handle;
 	}
-	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
+	else if ( r == PLEAT_RESULT_INVALID_HANDLE )
 	{
 		memset( out_asset, 0, sizeof( *out_asset ) );
-		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	*out_asset = inst->asset_handle;
-	return PLEAT_RESULT_OK;
+	return r;
 }
 
 plResult plInstance_GetUserData( plInstance handle, void** out_user_data )
 {
-	if ( out_user_data == NULL )
+	const plInstanceData* inst = plGetInstanceData( handle );
+	if ( out_user_data != NULL )
 	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+		*out_user_data = inst != NULL ? inst->user_data : NULL;
 	}
-	*out_user_data = NULL;
-	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	*out_user_data = inst->user_data;
-	return PLEAT_RESULT_OK;
+	return plCheckArgumentsThenHandle( out_user_data != NULL, inst );
 }
 
 plResult plInstance_GetRestPose( plInstance handle, plRestJoint* out_joints, uint32_t joint_capacity )
 {
-	if ( out_joints == NULL )
+	const plInstanceData* inst = plGetInstanceData( handle );
+	plResult r = plCheckArgumentsThenHandle( out_joints != NULL, inst );
+	if ( r == PLEAT_RESULT_OK && joint_capacity < inst->asset->joint_count )
 	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+		r = PLEAT_RESULT_BUFFER_TOO_SMALL;
 	}
-	plInstanceData* inst = plGetInstanceData( handle );
-	if ( inst == NULL )
+	if ( r != PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	if ( joint_capacity < inst->asset->joint_count )
-	{
-		return PLEAT_RESULT_BUFFER_TOO_SMALL;
+		return r;
 	}
 	// rest_joints is the J(β) forward kinematics uses (plApplyShape), so a retarget sees exactly those joints.
 	plFillRestPose( inst->asset->parents, inst->rest_joints, inst->asset->joint_count, out_joints );

@@ -26,12 +26,6 @@
 #define PLEAT_COST_US_FIXED 5.0
 #define PLEAT_COST_US_PER_STREAMED_BYTE 0.0067e-3
 
-static plSceneData* plGetSceneData( plScene handle )
-{
-	plContextData* ctx = plGetContext( handle.context );
-	return ctx != NULL ? (plSceneData*)plSlotTable_Get( &ctx->scenes, handle.index1, handle.generation ) : NULL;
-}
-
 plSceneDef plDefaultSceneDef( void )
 {
 	plSceneDef def;
@@ -47,6 +41,17 @@ plCharacterDef plDefaultCharacterDef( void )
 	def.importance = 1.0f;
 	def.internal_cookie = PLEAT_DEF_COOKIE;
 	return def;
+}
+
+static plSceneData* plGetSceneData( plScene handle )
+{
+	plContextData* ctx = plGetContext( handle.context );
+	return ctx != NULL ? (plSceneData*)plSlotTable_Get( &ctx->scenes, handle.index1, handle.generation ) : NULL;
+}
+
+int plScene_IsValid( plScene handle )
+{
+	return plGetSceneData( handle ) != NULL;
 }
 
 // ---- levels ----
@@ -351,20 +356,12 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 
 plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_scene )
 {
-	if ( out_scene != NULL )
+	plContextData* ctx;
+	plResult r = plBeginCreate( context, def, out_scene, sizeof( *out_scene ), &ctx );
+	if ( r == PLEAT_RESULT_OK )
 	{
-		memset( out_scene, 0, sizeof( *out_scene ) );
+		r = plCheckSceneDef( ctx, def );
 	}
-	if ( def == NULL || out_scene == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	plContextData* ctx = plGetContext( context );
-	if ( ctx == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	plResult r = plCheckSceneDef( ctx, def );
 	if ( r != PLEAT_RESULT_OK )
 	{
 		return r;
@@ -395,12 +392,11 @@ plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_s
 		r = s->tiers[t].same_mesh || plTierTransferJob_Build( &transfer ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK
 																							  : PLEAT_RESULT_INTERNAL_ERROR;
 	}
-	uint32_t slot = UINT32_MAX;
 	if ( r == PLEAT_RESULT_OK )
 	{
 		plBuildLevels( s, def );
-		slot = plSlotTable_Insert( ctx, &ctx->scenes, s, plSceneData_Destroy );
-		r = slot == UINT32_MAX ? PLEAT_RESULT_OUT_OF_MEMORY : PLEAT_RESULT_OK;
+		r = plSlotTable_Insert( ctx, &ctx->scenes, s, plSceneData_Destroy, &out_scene->index1,
+								&out_scene->generation );
 	}
 	if ( r != PLEAT_RESULT_OK )
 	{
@@ -412,8 +408,6 @@ plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_s
 		s->tiers[t].asset->instance_count += 1; // the scene uses its tiers: plDestroyAsset waits for it
 	}
 	s->uses_tiers = 1;
-	out_scene->index1 = slot + 1;
-	out_scene->generation = ctx->scenes.slots[slot].generation;
 	out_scene->context = ctx->handle;
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_SCENE_CREATED, "%u tiers, %u levels (%u on the frontier), %u characters",
 		   s->tier_count, s->level_count, s->frontier_count, s->capacity );
@@ -422,20 +416,9 @@ plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_s
 
 plResult plDestroyScene( plScene handle )
 {
-	plSceneData* s = plGetSceneData( handle );
-	if ( s == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	plContextData* ctx = s->ctx;
-	plSceneData_Destroy( ctx, s );
-	plSlotTable_Remove( &ctx->scenes, handle.index1 );
-	return PLEAT_RESULT_OK;
-}
-
-int plScene_IsValid( plScene handle )
-{
-	return plGetSceneData( handle ) != NULL;
+	plContextData* ctx = plGetContext( handle.context );
+	return ctx != NULL ? plSlotTable_Destroy( ctx, &ctx->scenes, handle.index1, handle.generation )
+					   : PLEAT_RESULT_INVALID_HANDLE;
 }
 
 // ---- characters ----
@@ -448,13 +431,10 @@ static plSceneCharacter* plGetCharacter( plSceneData* s, uint32_t character )
 plResult plScene_AddCharacter( plScene handle, const plCharacterDef* def, uint32_t* out_character )
 {
 	plSceneData* s = plGetSceneData( handle );
-	if ( s == NULL )
+	plResult r = plCheckHandleThenArguments( s, def != NULL && out_character != NULL );
+	if ( r != PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	if ( def == NULL || out_character == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+		return r;
 	}
 	if ( def->internal_cookie != PLEAT_DEF_COOKIE )
 	{
@@ -474,7 +454,6 @@ plResult plScene_AddCharacter( plScene handle, const plCharacterDef* def, uint32
 		return PLEAT_RESULT_CAPACITY_EXCEEDED;
 	}
 	plSceneCharacter* c = &s->characters[id];
-	plResult r = PLEAT_RESULT_OK;
 	int clamped = 0;
 	for ( uint32_t t = 0; t < s->tier_count && r >= 0; ++t )
 	{
@@ -536,16 +515,12 @@ plResult plScene_SetImportance( plScene handle, uint32_t character, float import
 plResult plScene_SetBudget( plScene handle, float budget_us )
 {
 	plSceneData* s = plGetSceneData( handle );
-	if ( s == NULL )
+	plResult r = plCheckHandleThenArguments( s, budget_us >= 0.0f && isfinite( budget_us ) );
+	if ( r == PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		s->budget_us = budget_us;
 	}
-	if ( !( budget_us >= 0.0f && isfinite( budget_us ) ) )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	s->budget_us = budget_us;
-	return PLEAT_RESULT_OK;
+	return r;
 }
 
 plResult plScene_SetOverride( plScene handle, uint32_t character, const plDetail* detail )
@@ -601,37 +576,26 @@ plResult plScene_GetDetail( plScene handle, uint32_t character, plDetail* out_de
 
 plResult plScene_GetPlan( plScene handle, plScenePlan* out_plan )
 {
-	plSceneData* s = plGetSceneData( handle );
-	if ( s == NULL )
+	const plSceneData* s = plGetSceneData( handle );
+	plResult r = plCheckHandleThenArguments( s, out_plan != NULL );
+	if ( r == PLEAT_RESULT_OK )
 	{
-		return PLEAT_RESULT_INVALID_HANDLE;
+		*out_plan = s->plan;
 	}
-	if ( out_plan == NULL )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	*out_plan = s->plan;
-	return PLEAT_RESULT_OK;
+	return r;
 }
 
 plResult plScene_ReportFrameCost( plScene handle, float measured_us )
 {
 	plSceneData* s = plGetSceneData( handle );
-	if ( s == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	if ( !( measured_us > 0.0f && isfinite( measured_us ) ) )
-	{
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	if ( s->model_cost_us > 0.0f )
+	plResult r = plCheckHandleThenArguments( s, measured_us > 0.0f && isfinite( measured_us ) );
+	if ( r == PLEAT_RESULT_OK && s->model_cost_us > 0.0f )
 	{
 		float ratio = measured_us / s->model_cost_us;
 		float scale = 0.9f * s->cost_scale + 0.1f * ratio;
 		s->cost_scale = scale < 0.25f ? 0.25f : ( scale > 4.0f ? 4.0f : scale );
 	}
-	return PLEAT_RESULT_OK;
+	return r;
 }
 
 static plResult plGetOutput( plScene handle, uint32_t character, int normals, const float** out, uint32_t* out_count )
