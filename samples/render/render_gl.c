@@ -93,23 +93,10 @@ static const char* s_fragment_shader =
 	"  frag_color = vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0);\n"
 	"}\n";
 
-static int hasExtension( const char* list, const char* name )
-{
-	size_t n = strlen( name );
-	for ( const char* p = list; p != NULL && ( p = strstr( p, name ) ) != NULL; p += n )
-	{
-		if ( ( p == list || p[-1] == ' ' ) && ( p[n] == ' ' || p[n] == '\0' ) )
-		{
-			return 1;
-		}
-	}
-	return 0;
-}
-
 static int createContext( RenderGl* gl )
 {
 	const char* client = eglQueryString( EGL_NO_DISPLAY, EGL_EXTENSIONS );
-	if ( client == NULL || !hasExtension( client, "EGL_MESA_platform_surfaceless" ) )
+	if ( client == NULL || !epoxy_extension_in_string( client, "EGL_MESA_platform_surfaceless" ) )
 	{
 		fprintf( stderr, "render: EGL_MESA_platform_surfaceless is not available\n" );
 		return -1;

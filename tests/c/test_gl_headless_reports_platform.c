@@ -45,24 +45,14 @@ static const char* plFindItem( const plLogLines* lines, plLogItem item, plLogLev
 	return NULL;
 }
 
-static int plHasWord( const char* list, const char* word )
-{
-	size_t n = strlen( word );
-	for ( const char* p = list; p != NULL && ( p = strstr( p, word ) ) != NULL; p += n )
-	{
-		if ( ( p == list || p[-1] == ' ' ) && ( p[n] == ' ' || p[n] == '\0' ) )
-			return 1;
-	}
-	return 0;
-}
-
 // EGL devices without Mesa's software mark, counted the test's own way (0 when the device platform is absent).
 static int plHardwareEglDevices( int* out_software )
 {
 	*out_software = 0;
 	const char* client = eglQueryString( EGL_NO_DISPLAY, EGL_EXTENSIONS );
-	if ( !plHasWord( client, "EGL_EXT_platform_device" ) ||
-		 !( plHasWord( client, "EGL_EXT_device_base" ) || plHasWord( client, "EGL_EXT_device_enumeration" ) ) )
+	if ( !epoxy_extension_in_string( client, "EGL_EXT_platform_device" ) ||
+		 !( epoxy_extension_in_string( client, "EGL_EXT_device_base" ) ||
+			epoxy_extension_in_string( client, "EGL_EXT_device_enumeration" ) ) )
 		return 0;
 	EGLDeviceEXT devices[16];
 	EGLint count = 0;
@@ -71,7 +61,8 @@ static int plHardwareEglDevices( int* out_software )
 	int hardware = 0;
 	for ( EGLint i = 0; i < count; ++i )
 	{
-		if ( plHasWord( eglQueryDeviceStringEXT( devices[i], EGL_EXTENSIONS ), "EGL_MESA_device_software" ) )
+		const char* extensions = eglQueryDeviceStringEXT( devices[i], EGL_EXTENSIONS );
+		if ( epoxy_extension_in_string( extensions, "EGL_MESA_device_software" ) )
 			*out_software += 1;
 		else
 			hardware += 1;

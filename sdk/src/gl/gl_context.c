@@ -67,17 +67,6 @@ int plGlApi_CurrentVersion( const plGlApi* api )
 	return major * 10 + minor;
 }
 
-static int plHasExtension( const char* list, const char* name )
-{
-	size_t length = strlen( name );
-	for ( const char* p = list; p != NULL && ( p = strstr( p, name ) ) != NULL; p += length )
-	{
-		if ( ( p == list || p[-1] == ' ' ) && ( p[length] == ' ' || p[length] == '\0' ) )
-			return 1;
-	}
-	return 0;
-}
-
 static void plSaveEglCurrent( plGlContext* context )
 {
 	context->saved_api = eglQueryAPI();
@@ -176,8 +165,8 @@ static plResult plCreateEglOnDisplay( plGlContext* context, EGLDisplay display, 
 	}
 	const char* extensions = eglQueryString( display, EGL_EXTENSIONS );
 	EGLContext egl_context = EGL_NO_CONTEXT;
-	if ( !plHasExtension( extensions, "EGL_KHR_surfaceless_context" ) ||
-		 !plHasExtension( extensions, "EGL_KHR_create_context" ) )
+	if ( !epoxy_extension_in_string( extensions, "EGL_KHR_surfaceless_context" ) ||
+		 !epoxy_extension_in_string( extensions, "EGL_KHR_create_context" ) )
 	{
 		PL_TRIED( report, "%s: no EGL_KHR_surfaceless_context/EGL_KHR_create_context; ", route );
 	}
@@ -185,7 +174,7 @@ static plResult plCreateEglOnDisplay( plGlContext* context, EGLDisplay display, 
 	{
 		EGLConfig config = EGL_NO_CONFIG_KHR;
 		int have_config = 1;
-		if ( !plHasExtension( extensions, "EGL_KHR_no_config_context" ) )
+		if ( !epoxy_extension_in_string( extensions, "EGL_KHR_no_config_context" ) )
 		{
 			const EGLint config_attribs[] = { EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE };
 			EGLint config_count = 0;
@@ -224,7 +213,7 @@ static plResult plCreateEglOnDisplay( plGlContext* context, EGLDisplay display, 
 // be hardware (NVIDIA's devices carry EGL_NV_device_cuda and, with the DRM module loaded, EGL_EXT_device_drm).
 static int plEglDeviceIsSoftware( EGLDeviceEXT device )
 {
-	return plHasExtension( eglQueryDeviceStringEXT( device, EGL_EXTENSIONS ), "EGL_MESA_device_software" );
+	return epoxy_extension_in_string( eglQueryDeviceStringEXT( device, EGL_EXTENSIONS ), "EGL_MESA_device_software" );
 }
 
 // "/dev/dri/renderD128" or the like: the render node when the driver names one, else the primary node, else "".
@@ -232,9 +221,9 @@ static const char* plEglDeviceFile( EGLDeviceEXT device )
 {
 	const char* extensions = eglQueryDeviceStringEXT( device, EGL_EXTENSIONS );
 	const char* file = NULL;
-	if ( plHasExtension( extensions, "EGL_EXT_device_drm_render_node" ) )
+	if ( epoxy_extension_in_string( extensions, "EGL_EXT_device_drm_render_node" ) )
 		file = eglQueryDeviceStringEXT( device, EGL_DRM_RENDER_NODE_FILE_EXT );
-	if ( file == NULL && plHasExtension( extensions, "EGL_EXT_device_drm" ) )
+	if ( file == NULL && epoxy_extension_in_string( extensions, "EGL_EXT_device_drm" ) )
 		file = eglQueryDeviceStringEXT( device, EGL_DRM_DEVICE_FILE_EXT );
 	return file != NULL ? file : "";
 }
@@ -256,11 +245,11 @@ static int plEglLibraryLoads( plGlReport* report )
 static plResult plCreateEglDevice( plGlContext* context, int allow_software, plGlReport* report )
 {
 	const char* client_extensions = eglQueryString( EGL_NO_DISPLAY, EGL_EXTENSIONS );
-	int has_enumeration = plHasExtension( client_extensions, "EGL_EXT_device_base" ) ||
-						  ( plHasExtension( client_extensions, "EGL_EXT_device_enumeration" ) &&
-							plHasExtension( client_extensions, "EGL_EXT_device_query" ) );
-	if ( !plHasExtension( client_extensions, "EGL_EXT_platform_device" ) ||
-		 !plHasExtension( client_extensions, "EGL_EXT_platform_base" ) || !has_enumeration )
+	int has_enumeration = epoxy_extension_in_string( client_extensions, "EGL_EXT_device_base" ) ||
+						  ( epoxy_extension_in_string( client_extensions, "EGL_EXT_device_enumeration" ) &&
+							epoxy_extension_in_string( client_extensions, "EGL_EXT_device_query" ) );
+	if ( !epoxy_extension_in_string( client_extensions, "EGL_EXT_platform_device" ) ||
+		 !epoxy_extension_in_string( client_extensions, "EGL_EXT_platform_base" ) || !has_enumeration )
 	{
 		PL_TRIED( report, "EGL device platform: not offered; " );
 		return PLEAT_RESULT_GL_UNAVAILABLE;
@@ -305,8 +294,8 @@ static plResult plCreateEglSurfaceless( plGlContext* context, plGlReport* report
 {
 	// Client extensions: EGL_NO_DISPLAY query is only valid with EGL_EXT_client_extensions (NULL otherwise).
 	const char* client_extensions = eglQueryString( EGL_NO_DISPLAY, EGL_EXTENSIONS );
-	if ( !plHasExtension( client_extensions, "EGL_MESA_platform_surfaceless" ) ||
-		 !plHasExtension( client_extensions, "EGL_EXT_platform_base" ) )
+	if ( !epoxy_extension_in_string( client_extensions, "EGL_MESA_platform_surfaceless" ) ||
+		 !epoxy_extension_in_string( client_extensions, "EGL_EXT_platform_base" ) )
 	{
 		PL_TRIED( report, "EGL surfaceless platform: not offered; " );
 		return PLEAT_RESULT_GL_UNAVAILABLE;

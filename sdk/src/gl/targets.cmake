@@ -1,13 +1,6 @@
 # Deferred from sdk/src/gl/CMakeLists.txt to the end of the top-level directory, when the library targets exist:
-# the GL tests (cmocka, ctest). The timing program is a benchmark: bench/gl_step_timing.c, built by bench/.
-if(TARGET pleat_static)
-  set(_pleat_gl_lib pleat_static)
-elseif(TARGET pleat)
-  set(_pleat_gl_lib pleat)
-else()
-  message(WARNING "Pleat GL: no pleat/pleat_static library target; GL tests not built")
-  return()
-endif()
+# the GL tests (cmocka, ctest), linked with pleat_static as the other tests are. The timing program is a benchmark:
+# bench/gl_step_timing.c, built by bench/.
 get_filename_component(_pleat_root "${PLEAT_GL_DIR}/../../.." ABSOLUTE)
 
 if(NOT PLEAT_BUILD_TESTS AND DEFINED PLEAT_BUILD_TESTS)
@@ -25,7 +18,7 @@ foreach(_test_source IN LISTS _pleat_gl_tests)
   add_executable(${_test_name} "${_test_source}" "${_pleat_root}/tests/c/test_gl_support.c")
   target_include_directories(${_test_name} PRIVATE "${_pleat_root}/sdk/src" "${_pleat_root}/sdk/include"
                              "${_pleat_root}/tests/c")
-  target_link_libraries(${_test_name} PRIVATE ${_pleat_gl_lib} ${PLEAT_GL_LIBRARIES} PkgConfig::PLEAT_GL_CMOCKA m)
+  target_link_libraries(${_test_name} PRIVATE pleat_static ${PLEAT_GL_LIBRARIES} PkgConfig::PLEAT_GL_CMOCKA m)
   # These two build their assets with the core's C test asset builder.
   if(_test_name MATCHES "^test_gl_(instance|headless_reports_platform|batch_matches_single)$")
     if(NOT TARGET pleat_test_support)
