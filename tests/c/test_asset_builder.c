@@ -69,6 +69,30 @@ static void plTestMakeLayer( plTestLayer* layer, uint32_t in, uint32_t out, floa
 	}
 }
 
+// A network: the hidden layers (widths up to 4, a 0 ends them) and the output layer, from in inputs. Returns the
+// layer count.
+static uint32_t plTestMakeNetwork( plTestLayer* layers, uint32_t in, const uint32_t hidden[4], uint32_t out, float scale,
+								   uint32_t* rng )
+{
+	uint32_t count = 0;
+	for ( int i = 0; i < 4 && hidden[i] != 0; ++i )
+	{
+		plTestMakeLayer( &layers[count++], in, hidden[i], scale, rng );
+		in = hidden[i];
+	}
+	plTestMakeLayer( &layers[count++], in, out, scale, rng );
+	return count;
+}
+
+static void plTestFreeNetwork( plTestLayer* layers, uint32_t count )
+{
+	for ( uint32_t i = 0; i < count; ++i )
+	{
+		free( layers[i].weight );
+		free( layers[i].bias );
+	}
+}
+
 plTestAsset* plTestAsset_Create( const plTestAssetParams* p )
 {
 	plTestAsset* a = (plTestAsset*)calloc( 1, sizeof( plTestAsset ) );
@@ -195,22 +219,8 @@ plTestAsset* plTestAsset_Create( const plTestAssetParams* p )
 		a->z_min[i] = -10.0f;
 		a->z_max[i] = 10.0f;
 	}
-	uint32_t in = a->I;
-	a->lp_count = 0;
-	for ( int i = 0; i < 4 && p->lp_hidden[i] != 0; ++i )
-	{
-		plTestMakeLayer( &a->lp[a->lp_count++], in, p->lp_hidden[i], p->weight_scale, &rng );
-		in = p->lp_hidden[i];
-	}
-	plTestMakeLayer( &a->lp[a->lp_count++], in, a->L, p->weight_scale, &rng );
-	in = a->L;
-	a->dec_count = 0;
-	for ( int i = 0; i < 4 && p->dec_hidden[i] != 0; ++i )
-	{
-		plTestMakeLayer( &a->dec[a->dec_count++], in, p->dec_hidden[i], p->weight_scale, &rng );
-		in = p->dec_hidden[i];
-	}
-	plTestMakeLayer( &a->dec[a->dec_count++], in, a->D, p->weight_scale, &rng );
+	a->lp_count = plTestMakeNetwork( a->lp, a->I, p->lp_hidden, a->L, p->weight_scale, &rng );
+	a->dec_count = plTestMakeNetwork( a->dec, a->L, p->dec_hidden, a->D, p->weight_scale, &rng );
 	a->blend_shapes = plTestFloats( (size_t)a->D * a->N * 3 );
 	for ( size_t i = 0; i < (size_t)a->D * a->N * 3; ++i )
 	{
@@ -256,16 +266,8 @@ void plTestAsset_Destroy( plTestAsset* a )
 	free( a->body_anchor_normals );
 	free( a->body_anchor_skin_indices );
 	free( a->body_anchor_skin_weights );
-	for ( uint32_t i = 0; i < a->lp_count; ++i )
-	{
-		free( a->lp[i].weight );
-		free( a->lp[i].bias );
-	}
-	for ( uint32_t i = 0; i < a->dec_count; ++i )
-	{
-		free( a->dec[i].weight );
-		free( a->dec[i].bias );
-	}
+	plTestFreeNetwork( a->lp, a->lp_count );
+	plTestFreeNetwork( a->dec, a->dec_count );
 	free( a->joint_shapedirs );
 	free( a->template_positions );
 	free( a->shape_blend );
@@ -342,29 +344,45 @@ static plTestSection* plAddSection( plTestSection* list, uint32_t* count, const 
 	return s;
 }
 
+// A network's sections: weights <prefix>W<i> (stored fp16 when the asset is) and biases <prefix>B<i>.
+static void plAddNetworkSections( plTestSection* list, uint32_t* count, const char prefix[2], const plTestLayer* layers,
+								  uint32_t layer_count, int fp16 )
+{
+	for ( uint32_t i = 0; i < layer_count; ++i )
+	{
+		char w[5] = { prefix[0], prefix[1], 'W', (char)( '0' + i ), 0 };
+		char b[5] = { prefix[0], prefix[1], 'B', (char)( '0' + i ), 0 };
+		plAddSection( list, count, w, fp16 ? 2 : 1, layers[i].weight, 2, layers[i].out_count, layers[i].in_count, 1 )
+			->widen_to_half = fp16;
+		plAddSection( list, count, b, 1, layers[i].bias, 1, layers[i].out_count, 1, 1 );
+	}
+}
+
 uint8_t* plTestAsset_Write( const plTestAsset* a, size_t* out_size )
 {
 	plTestSection sections[64];
 	uint32_t count = 0;
 	uint8_t conf[256];
 	memset( conf, 0, sizeof( conf ) );
+	// CONF: 13 counts, then from byte 52 the dt and β ranges, the material min/max/default and the training rate.
 	uint32_t conf_u32[13] = { a->N, a->F, a->J, a->Jin, a->K, a->B, a->L, a->D, a->lp_count, a->dec_count,
 							  a->lp_activation, a->dec_activation, a->I };
+	float conf_f32[17] = { a->dt_min_s, a->dt_max_s, a->beta_min, a->beta_max };
+	for ( int i = 0; i < 4; ++i )
+	{
+		conf_f32[4 + i] = a->material_min[i];
+		conf_f32[8 + i] = a->material_max[i];
+		conf_f32[12 + i] = a->material_default[i];
+	}
+	conf_f32[16] = a->train_fps;
 	for ( int i = 0; i < 13; ++i )
 	{
 		plPutU32( conf + 4 * i, conf_u32[i] );
 	}
-	plPutF32( conf + 52, a->dt_min_s );
-	plPutF32( conf + 56, a->dt_max_s );
-	plPutF32( conf + 60, a->beta_min );
-	plPutF32( conf + 64, a->beta_max );
-	for ( int i = 0; i < 4; ++i )
+	for ( int i = 0; i < 17; ++i )
 	{
-		plPutF32( conf + 68 + 4 * i, a->material_min[i] );
-		plPutF32( conf + 84 + 4 * i, a->material_max[i] );
-		plPutF32( conf + 100 + 4 * i, a->material_default[i] );
+		plPutF32( conf + 52 + 4 * i, conf_f32[i] );
 	}
-	plPutF32( conf + 116, a->train_fps );
 
 	// CSR adjacency: faces of each vertex, ascending.
 	uint32_t* nado = (uint32_t*)calloc( a->N + 1, sizeof( uint32_t ) );
@@ -412,22 +430,8 @@ uint8_t* plTestAsset_Write( const plTestAsset* a, size_t* out_size )
 	plAddSection( sections, &count, "ZSTD", 1, a->z_std, 1, a->L, 1, 1 );
 	plAddSection( sections, &count, "ZMIN", 1, a->z_min, 1, a->L, 1, 1 );
 	plAddSection( sections, &count, "ZMAX", 1, a->z_max, 1, a->L, 1, 1 );
-	for ( uint32_t i = 0; i < a->lp_count; ++i )
-	{
-		char w[5] = { 'L', 'P', 'W', (char)( '0' + i ), 0 }, b[5] = { 'L', 'P', 'B', (char)( '0' + i ), 0 };
-		plAddSection( sections, &count, w, a->fp16 ? 2 : 1, a->lp[i].weight, 2, a->lp[i].out_count,
-					  a->lp[i].in_count, 1 )
-			->widen_to_half = a->fp16;
-		plAddSection( sections, &count, b, 1, a->lp[i].bias, 1, a->lp[i].out_count, 1, 1 );
-	}
-	for ( uint32_t i = 0; i < a->dec_count; ++i )
-	{
-		char w[5] = { 'D', 'C', 'W', (char)( '0' + i ), 0 }, b[5] = { 'D', 'C', 'B', (char)( '0' + i ), 0 };
-		plAddSection( sections, &count, w, a->fp16 ? 2 : 1, a->dec[i].weight, 2, a->dec[i].out_count,
-					  a->dec[i].in_count, 1 )
-			->widen_to_half = a->fp16;
-		plAddSection( sections, &count, b, 1, a->dec[i].bias, 1, a->dec[i].out_count, 1, 1 );
-	}
+	plAddNetworkSections( sections, &count, "LP", a->lp, a->lp_count, a->fp16 );
+	plAddNetworkSections( sections, &count, "DC", a->dec, a->dec_count, a->fp16 );
 	plAddSection( sections, &count, "BLND", a->fp16 ? 2 : 1, a->blend_shapes, 3, a->D, a->N, 3 )->widen_to_half =
 		a->fp16;
 	if ( a->body_anchors != NULL )
