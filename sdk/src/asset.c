@@ -745,9 +745,7 @@ plResult plAssetData_Parse( const uint8_t* data, size_t size, int skip_checksum,
 
 plAssetDef plDefaultAssetDef( void )
 {
-	plAssetDef def;
-	memset( &def, 0, sizeof( def ) );
-	def.internal_cookie = PLEAT_DEF_COOKIE;
+	plAssetDef def = { .internal_cookie = PLEAT_DEF_COOKIE };
 	return def;
 }
 

@@ -146,10 +146,7 @@ static void plCountingFree( void* ptr, size_t size, void* user )
 
 plContextDef plDefaultContextDef( void )
 {
-	plContextDef def;
-	memset( &def, 0, sizeof( def ) );
-	def.worker_count = 1;
-	def.internal_cookie = PLEAT_DEF_COOKIE;
+	plContextDef def = { .worker_count = 1, .internal_cookie = PLEAT_DEF_COOKIE };
 	return def;
 }
 

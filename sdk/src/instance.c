@@ -19,13 +19,11 @@ int plInstance_IsValid( plInstance handle )
 
 plInstanceDef plDefaultInstanceDef( void )
 {
-	plInstanceDef def;
-	memset( &def, 0, sizeof( def ) );
-	def.mlp_backend = PLEAT_MLP_BACKEND_PLEAT;
-	def.gpu_mode = PLEAT_GPU_MODE_NONE;
-	def.body_contact = 1;
-	def.body_contact_offset_m = PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M;
-	def.internal_cookie = PLEAT_DEF_COOKIE;
+	plInstanceDef def = { .mlp_backend = PLEAT_MLP_BACKEND_PLEAT,
+						  .gpu_mode = PLEAT_GPU_MODE_NONE,
+						  .body_contact = 1,
+						  .body_contact_offset_m = PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M,
+						  .internal_cookie = PLEAT_DEF_COOKIE };
 	return def;
 }
 

@@ -28,18 +28,13 @@
 
 plSceneDef plDefaultSceneDef( void )
 {
-	plSceneDef def;
-	memset( &def, 0, sizeof( def ) );
-	def.internal_cookie = PLEAT_DEF_COOKIE;
+	plSceneDef def = { .internal_cookie = PLEAT_DEF_COOKIE };
 	return def;
 }
 
 plCharacterDef plDefaultCharacterDef( void )
 {
-	plCharacterDef def;
-	memset( &def, 0, sizeof( def ) );
-	def.importance = 1.0f;
-	def.internal_cookie = PLEAT_DEF_COOKIE;
+	plCharacterDef def = { .importance = 1.0f, .internal_cookie = PLEAT_DEF_COOKIE };
 	return def;
 }
 
