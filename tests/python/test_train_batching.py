@@ -50,9 +50,12 @@ def test_sampling_draws_the_windows_of_the_per_window_path(tiny):
         p = batching.sample_pick(setup, clips, r2, STEPS + 3)
         assert np.array_equal(beta, p["beta"]) and np.array_equal(mat, p["material"])
         one = batching.prepare(batching.kinematics(setup), [p])
-        # the kinematics of the pick are the per-window posing's (body posing by a sparse matmul, normals in bulk)
-        for key in ("A", "body", "body_normals", "Hinv", "p0", "dt"):
+        # the kinematics of the pick are the per-window posing's (body posing by a sparse matmul, normals in bulk;
+        # normals from frame 3 on, the first frame with a loss)
+        for key in ("A", "body", "Hinv", "p0", "dt"):
             np.testing.assert_allclose(one[key][0], win[key], rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(one["body_normals"][0, 3:], win["body_normals"][3:], rtol=1e-10, atol=1e-12)
+        assert np.isnan(one["body_normals"][0, :3]).all()
 
 
 def test_rest_geometry_equals_cloth_rest_for_every_shape(tiny):

@@ -87,9 +87,10 @@ def kinematics(setup):
     return setup._kinematics
 
 
-def pose_windows(kin, picks):
+def pose_windows(kin, picks, normals_from=0):
     """`Setup.pose_window` for K picks of equal length, stacked: A [K, W, N, 3, 4], body / body_normals
-    [K, W, Vc, 3], dt [K, W], Hinv [K, W, 3, 3], p0 [K, W, 3] (float64), plus the picks' β [K, B]."""
+    [K, W, Vc, 3], dt [K, W], Hinv [K, W, 3, 3], p0 [K, W, 3] (float64), plus the picks' β [K, B]. Body normals
+    are computed from frame `normals_from` on (the same numbers per frame); earlier frames' are NaN."""
     M, dts, Hinv, p0 = [], [], [], []
     for p in picks:
         s, n, clip = p["start"], p["length"], p["clip"]
@@ -111,7 +112,8 @@ def pose_windows(kin, picks):
     Ab = np.moveaxis(Ab.reshape(-1, K, W, 3, 4), 0, 2)                                         # [K, W, V, 3, 4]
     body = np.einsum("kwvab,kvb->kwva", Ab[..., :3], shaped_body) + Ab[..., 3]
     if kin.body_faces is not None:
-        normals = reference.normals(body, kin.body_faces, *kin.body_adjacency)    # every frame at once
+        normals = np.full(body.shape, np.nan)
+        normals[:, normals_from:] = reference.normals(body[:, normals_from:], kin.body_faces, *kin.body_adjacency)
     else:
         normals = np.einsum("kwvab,vb->kwva", Ab[..., :3], kin.body_rest_normals)
         normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
@@ -172,7 +174,7 @@ def prepare(kin, picks, lbs_steps=None):
     geometry, the KD-tree of the body in every frame from the third on (the first one queried) and, with
     `lbs_steps`, the LBS-only terms of rollouts of that many steps (`lbs_terms`). Cheap to send to another
     process."""
-    win = pose_windows(kin, picks)
+    win = pose_windows(kin, picks, normals_from=3)     # normals enter the losses only, from frame 3 on
     shaped = kin.shaped(win["beta"])
     win["shaped"] = shaped
     win["rest"] = kin.topology.geometry(shaped)
