@@ -44,23 +44,8 @@ void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, con
 		float nx = m[0] * rest_normal[0] + m[1] * rest_normal[1] + m[2] * rest_normal[2];
 		float ny = m[4] * rest_normal[0] + m[5] * rest_normal[1] + m[6] * rest_normal[2];
 		float nz = m[8] * rest_normal[0] + m[9] * rest_normal[1] + m[10] * rest_normal[2];
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		if ( !( length > 1e-12f ) )
-		{
-			continue; // a degenerate blend has no direction to push along
-		}
-		nx /= length;
-		ny /= length;
-		nz /= length;
 		float* x = (float*)( (uint8_t*)positions + (size_t)v * position_stride_bytes );
-		float d = ( x[0] - ax ) * nx + ( x[1] - ay ) * ny + ( x[2] - az ) * nz;
-		if ( d < offset_m )
-		{
-			float push = offset_m - d;
-			x[0] += push * nx;
-			x[1] += push * ny;
-			x[2] += push * nz;
-		}
+		plPushOutOfAnchorPlane( x, ax, ay, az, nx, ny, nz, offset_m );
 	}
 }
 

@@ -34,23 +34,7 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 		_Alignas( 16 ) float anchor[4], normal[4];
 		_mm_store_ps( anchor, _mm_add_ps( _mm256_castps256_ps128( sa ), _mm256_extractf128_ps( sa, 1 ) ) );
 		_mm_store_ps( normal, _mm_add_ps( _mm256_castps256_ps128( sn ), _mm256_extractf128_ps( sn, 1 ) ) );
-		float nx = normal[0], ny = normal[1], nz = normal[2];
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		if ( !( length > 1e-12f ) )
-		{
-			continue; // a degenerate blend has no direction to push along
-		}
-		nx /= length;
-		ny /= length;
-		nz /= length;
 		float* x = (float*)( (uint8_t*)positions + (size_t)v * position_stride_bytes );
-		float d = ( x[0] - anchor[0] ) * nx + ( x[1] - anchor[1] ) * ny + ( x[2] - anchor[2] ) * nz;
-		if ( d < offset_m )
-		{
-			float push = offset_m - d;
-			x[0] += push * nx;
-			x[1] += push * ny;
-			x[2] += push * nz;
-		}
+		plPushOutOfAnchorPlane( x, anchor[0], anchor[1], anchor[2], normal[0], normal[1], normal[2], offset_m );
 	}
 }

@@ -3,6 +3,7 @@
 // with an _Avx2 suffix and are chosen once at context creation (plSelectKernels).
 #ifndef PLEAT_KERNELS_H
 #define PLEAT_KERNELS_H
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -87,6 +88,30 @@ static inline void plBlendJointMatrices( float m[12], const uint16_t* indices, c
 		{
 			m[e] += w * mj[e];
 		}
+	}
+}
+
+// The end of the body-contact test for one vertex x, shared by the scalar and AVX2 kernels: n = (nx, ny, nz)
+// normalised (a length ≤ 1e-12, a degenerate blend, leaves x as it is), d = (x − a)·n, and if d < offset_m
+// x ← x + (offset_m − d)·n.
+static inline void plPushOutOfAnchorPlane( float* x, float ax, float ay, float az, float nx, float ny, float nz,
+										   float offset_m )
+{
+	float length = sqrtf( nx * nx + ny * ny + nz * nz );
+	if ( !( length > 1e-12f ) )
+	{
+		return;
+	}
+	nx /= length;
+	ny /= length;
+	nz /= length;
+	float d = ( x[0] - ax ) * nx + ( x[1] - ay ) * ny + ( x[2] - az ) * nz;
+	if ( d < offset_m )
+	{
+		float push = offset_m - d;
+		x[0] += push * nx;
+		x[1] += push * ny;
+		x[2] += push * nz;
 	}
 }
 
