@@ -281,8 +281,10 @@ def build_parser():
     return add_quiet(ap)
 
 
-@command("pleat-pareto", build_parser)
-def main(args):
+@command("pleat-pareto")
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)     # the page quotes the command line
+    args = build_parser().parse_args(argv)
     from pleat import runtime
     from pleat.motion.split import VALIDATION
     for m in args.motion:
@@ -296,7 +298,7 @@ def main(args):
     plot(rows, out / "pareto.png")
     lib = str(runtime.find_library())
     env = f"PLEAT_LIBRARY={os.environ['PLEAT_LIBRARY']} " if os.environ.get("PLEAT_LIBRARY") else ""
-    cmdline = env + "pleat-pareto " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
+    cmdline = env + "pleat-pareto " + " ".join(shlex.quote(a) for a in argv)
     write_markdown(rows, clips, cmdline, lib, out / "pareto.md", args.max_frames, args.note, args.repeats)
     if args.json:
         write_text(args.json, json.dumps(rows, indent=1))
