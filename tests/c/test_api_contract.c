@@ -351,6 +351,68 @@ static void test_unavailable_backends_are_reported( void** state )
 	assert_int_equal( plDestroyAsset( rig->asset ), PLEAT_RESULT_OK ); // no instance kept a reference
 }
 
+// Body contact's settings: a clearance outside 0 .. PLEAT_BODY_CONTACT_MAX_OFFSET_M or not finite is refused at create
+// (INVALID_DEF) and at run time (INVALID_ARGUMENT, the setting unchanged); on an asset without anchors it is accepted
+// and changes nothing; on one with anchors turning it off gives plain skinning back.
+static void test_body_contact_settings_are_checked( void** state )
+{
+	(void)state;
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	for ( int anchors = 0; anchors < 2; ++anchors )
+	{
+		plTestAsset* model = plTestAsset_Create( &p );
+		assert_non_null( model );
+		if ( anchors )
+		{
+			assert_true( plTestAsset_AddBodyAnchors( model, 0.002f ) );
+		}
+		plTestRig rig;
+		assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
+		rig.model = model;
+		assert_int_equal( rig.info.has_body_contact, anchors );
+		plInstanceDef def = plDefaultInstanceDef();
+		assert_int_equal( def.body_contact, 1 );
+		assert_true( def.body_contact_offset_m == PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M );
+		def.asset = rig.asset;
+		const float bad[3] = { -0.001f, PLEAT_BODY_CONTACT_MAX_OFFSET_M * 2.0f, NAN };
+		plInstance inst;
+		for ( int i = 0; i < 3; ++i )
+		{
+			def.body_contact_offset_m = bad[i];
+			assert_int_equal( plCreateInstance( rig.context, &def, &inst ), PLEAT_RESULT_INVALID_DEF );
+		}
+		def.body_contact_offset_m = 0.0f; // allowed: push to the plane itself
+		assert_int_equal( plCreateInstance( rig.context, &def, &inst ), PLEAT_RESULT_OK );
+		for ( int i = 0; i < 3; ++i )
+		{
+			assert_int_equal( plInstance_SetBodyContact( inst, 1, bad[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+		}
+		plInstance plain;
+		plInstanceDef plain_def = plDefaultInstanceDef();
+		plain_def.asset = rig.asset;
+		plain_def.body_contact = 0;
+		assert_int_equal( plCreateInstance( rig.context, &plain_def, &plain ), PLEAT_RESULT_OK );
+		float q[64 * 4];
+		plFrameInput in = plTestMotion( 3, model->J, q );
+		const float *with, *without;
+		assert_int_equal( plInstance_Step( inst, &in, NULL ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( plain, &in, NULL ), PLEAT_RESULT_OK );
+		plInstance_GetPositions( inst, &with, NULL );
+		plInstance_GetPositions( plain, &without, NULL );
+		int differ = memcmp( with, without, (size_t)model->N * 3 * sizeof( float ) ) != 0;
+		assert_int_equal( differ, anchors ); // the blend shapes (±1 cm) push vertices through the plane 2 mm behind
+		// Off at run time: the next step is plain skinning again, bit for bit.
+		assert_int_equal( plInstance_SetBodyContact( inst, 0, 0.001f ), PLEAT_RESULT_OK );
+		plFrameInput next = plTestMotion( 4, model->J, q );
+		assert_int_equal( plInstance_Step( inst, &next, NULL ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( plain, &next, NULL ), PLEAT_RESULT_OK );
+		plInstance_GetPositions( inst, &with, NULL );
+		plInstance_GetPositions( plain, &without, NULL );
+		assert_memory_equal( with, without, (size_t)model->N * 3 * sizeof( float ) );
+		plTestRig_Free( &rig );
+	}
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
@@ -363,6 +425,7 @@ int main( void )
 		PLEAT_TEST_WITH_RIG( test_joint_map_reorders_engine_joints ),
 		cmocka_unit_test( test_log_callback_receives_stable_items ),
 		PLEAT_TEST_WITH_RIG( test_unavailable_backends_are_reported ),
+		cmocka_unit_test( test_body_contact_settings_are_checked ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

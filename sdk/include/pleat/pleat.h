@@ -595,7 +595,8 @@ typedef struct plInstanceDef
 	int body_contact;                  ///< non-zero (default): keep vertices outside the body where the asset carries
 	                                   ///< body anchors (BODY CONTACT above); 0 = plain skinning
 	float body_contact_offset_m;       ///< clearance kept from the body (metres, 0 .. PLEAT_BODY_CONTACT_MAX_OFFSET_M;
-	                                   ///< default PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M = 1 mm)
+	                                   ///< default PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M = 1 mm); outside or not
+	                                   ///< finite: PLEAT_RESULT_INVALID_DEF
 	void* user_data;                   ///< yours, returned by plInstance_GetUserData
 	int32_t internal_cookie;           ///< set by plDefaultInstanceDef; do not touch
 } plInstanceDef;
