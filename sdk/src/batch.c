@@ -225,6 +225,22 @@ static void plRunNetworks( plBatchGroup* g )
 	}
 }
 
+// The entry's instance if it deforms this step (NULL when it failed or waits for a numeric reset), its blend weights
+// held (next = current) between network updates, as plDeform does.
+static plInstanceData* plDeformingInstance( const plAssetData* a, plBatchEntry* e )
+{
+	if ( e->result != PLEAT_RESULT_OK || e->needs_reset )
+	{
+		return NULL;
+	}
+	plInstanceData* inst = e->inst;
+	if ( !e->update.run )
+	{
+		memcpy( inst->next_weights, inst->blend_weights, a->blend_count * sizeof( float ) );
+	}
+	return inst;
+}
+
 // Which instances blend this step (plDeform's rule): after a network update always; between updates (the held
 // weights) only when T_def is not already the committed one.
 static void plRunBlend( plBatchGroup* g )
@@ -233,14 +249,10 @@ static void plRunBlend( plBatchGroup* g )
 	for ( uint32_t i = 0; i < g->count; ++i )
 	{
 		plBatchEntry* e = &g->entries[i];
-		if ( e->result != PLEAT_RESULT_OK || e->needs_reset )
+		plInstanceData* inst = plDeformingInstance( a, e );
+		if ( inst == NULL )
 		{
 			continue;
-		}
-		plInstanceData* inst = e->inst;
-		if ( !e->update.run )
-		{
-			memcpy( inst->next_weights, inst->blend_weights, a->blend_count * sizeof( float ) );
 		}
 		e->blend = e->update.run || !inst->deformed_is_committed;
 		if ( e->blend )
@@ -273,14 +285,10 @@ static void plRunGpu( plBatchGroup* g )
 	for ( uint32_t i = 0; i < g->count; ++i )
 	{
 		plBatchEntry* e = &g->entries[i];
-		if ( e->result != PLEAT_RESULT_OK || e->needs_reset )
+		plInstanceData* inst = plDeformingInstance( a, e );
+		if ( inst == NULL )
 		{
 			continue;
-		}
-		plInstanceData* inst = e->inst;
-		if ( !e->update.run )
-		{
-			memcpy( inst->next_weights, inst->blend_weights, a->blend_count * sizeof( float ) );
 		}
 		plGlBatchMember* m = &members[count];
 		m->deformer = inst->gl;

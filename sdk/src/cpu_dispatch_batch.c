@@ -33,47 +33,59 @@ size_t plNormalsBatchScratchFloats( uint32_t vertex_count, uint32_t lanes )
 	return 2 * one;
 }
 
+// A single-instance kernel set (the kernels with batched twins) and its twins.
+typedef struct plKernelTwins
+{
+	plMatVecFn* mat_vec;
+	plBlendShapesFn* blend_shapes;
+	plSkinningFn* skinning;
+	plBodyContactFn* body_contact;
+	plNormalsScatterFn* normals_scatter;
+	plBatchKernels batch;
+} plKernelTwins;
+
+static const plKernelTwins s_plKernelTwins[] = {
+	{ plMatVec_Scalar,
+	  plBlendShapes_Scalar,
+	  plSkinning_Scalar,
+	  plBodyContact_Scalar,
+	  plNormalsScatter_Scalar,
+	  { plMatMat_Scalar, NULL, plBlendShapesBatch_Scalar, plSkinningBatch_Scalar, plBodyContactBatch_Scalar,
+		plNormalsBatch_Scalar, 1, "scalar" } },
+#if defined( PLEAT_HAVE_AVX2 )
+	{ plMatVec_Avx2,
+	  plBlendShapes_Avx2,
+	  plSkinning_Avx2,
+	  plBodyContact_Avx2,
+	  plNormalsScatter_Avx2,
+	  { plMatMat_Avx2, NULL, plBlendShapesBatch_Avx2, plSkinningBatch_Avx2, plBodyContactBatch_Avx2,
+		plNormalsBatch_Avx2, 8, "avx2+fma+f16c" } },
+#endif
+};
+
 int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatchKernels* out )
 {
-	out->mat_mat = NULL;
-	out->mat_mat_lanes = NULL;
-	out->blend_shapes_batch = NULL;
-	out->skinning_batch = NULL;
-	out->body_contact_batch = NULL;
-	out->normals_batch = NULL;
-	out->geometry_lanes = 1;
-	out->isa = "scalar";
-	if ( kernels->mat_vec == plMatVec_Scalar && kernels->blend_shapes == plBlendShapes_Scalar &&
-		 kernels->skinning == plSkinning_Scalar && kernels->body_contact == plBodyContact_Scalar &&
-		 kernels->normals_scatter == plNormalsScatter_Scalar )
+	const plBatchKernels none = { NULL, NULL, NULL, NULL, NULL, NULL, 1, "scalar" };
+	*out = none;
+	for ( size_t i = 0; i < sizeof( s_plKernelTwins ) / sizeof( s_plKernelTwins[0] ); ++i )
 	{
-		out->mat_mat = plMatMat_Scalar;
-		out->blend_shapes_batch = plBlendShapesBatch_Scalar;
-		out->skinning_batch = plSkinningBatch_Scalar;
-		out->body_contact_batch = plBodyContactBatch_Scalar;
-		out->normals_batch = plNormalsBatch_Scalar;
-	}
-#if defined( PLEAT_HAVE_AVX2 )
-	else if ( kernels->mat_vec == plMatVec_Avx2 && kernels->blend_shapes == plBlendShapes_Avx2 &&
-			  kernels->skinning == plSkinning_Avx2 && kernels->body_contact == plBodyContact_Avx2 &&
-			  kernels->normals_scatter == plNormalsScatter_Avx2 )
-	{
-		out->mat_mat = plMatMat_Avx2;
-		out->blend_shapes_batch = plBlendShapesBatch_Avx2;
-		out->skinning_batch = plSkinningBatch_Avx2;
-		out->body_contact_batch = plBodyContactBatch_Avx2;
-		out->normals_batch = plNormalsBatch_Avx2;
-		out->geometry_lanes = 8;
-		out->isa = "avx2+fma+f16c";
-#if defined( PLEAT_HAVE_AVX512 )
-		if ( limit >= PLEAT_BATCH_ISA_AVX512 && plCpuHasAvx512Batch() )
+		const plKernelTwins* t = &s_plKernelTwins[i];
+		if ( kernels->mat_vec == t->mat_vec && kernels->blend_shapes == t->blend_shapes &&
+			 kernels->skinning == t->skinning && kernels->body_contact == t->body_contact &&
+			 kernels->normals_scatter == t->normals_scatter )
 		{
-			out->mat_mat = plMatMat_Avx512;
-			out->mat_mat_lanes = plMatMatLanes_Avx512;
-			out->blend_shapes_batch = plBlendShapesBatch_Avx512;
-			out->isa = "avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, body contact, normals)";
+			*out = t->batch;
+			break;
 		}
-#endif
+	}
+#if defined( PLEAT_HAVE_AVX512 )
+	// The AVX2 set's wider twins for the networks and the blend, where the CPU runs them.
+	if ( out->mat_mat == plMatMat_Avx2 && limit >= PLEAT_BATCH_ISA_AVX512 && plCpuHasAvx512Batch() )
+	{
+		out->mat_mat = plMatMat_Avx512;
+		out->mat_mat_lanes = plMatMatLanes_Avx512;
+		out->blend_shapes_batch = plBlendShapesBatch_Avx512;
+		out->isa = "avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, body contact, normals)";
 	}
 #endif
 	(void)limit;

@@ -160,6 +160,47 @@ static inline void plFromLanes( const float* src, float* const* dst, uint32_t n,
 	}
 }
 
+// skin_matrices[0..n) (each [J][12]) → lanes[J + 1][12][PL_LANES]: element e of joint j's matrix for every lane, the
+// extra joint and the lanes past n all zero.
+static inline void plSkinMatricesToLanes( const float* const* skin_matrices, uint32_t n, uint32_t J, float* lanes )
+{
+	for ( uint32_t j = 0; j <= J; ++j )
+	{
+		for ( uint32_t e = 0; e < 12; ++e )
+		{
+			float* row = lanes + ( (size_t)j * 12 + e ) * PL_LANES;
+			for ( uint32_t l = 0; l < PL_LANES; ++l )
+			{
+				row[l] = j < J && l < n ? skin_matrices[l][(size_t)j * 12 + e] : 0.0f;
+			}
+		}
+	}
+}
+
+// Σ_k w_k M_{j_k} per lane, as plSkinning_Avx2 blends: per matrix element an FMA chain over the influences from 0;
+// a0..a3[r] = columns 0..3 of row r. indices, weights: the vertex's K influences; an index ≥ J reads the zero joint.
+static inline void plBlendMatrixLanes( plVec a0[3], plVec a1[3], plVec a2[3], plVec a3[3], const uint16_t* indices,
+									   const float* weights, uint32_t K, uint32_t J, const float* lanes )
+{
+	for ( int r = 0; r < 3; ++r )
+	{
+		a0[r] = a1[r] = a2[r] = a3[r] = plVecZero();
+	}
+	for ( uint32_t k = 0; k < K; ++k )
+	{
+		uint32_t joint = indices[k] < J ? indices[k] : J;
+		const float* m = lanes + (size_t)joint * 12 * PL_LANES;
+		plVec w = plVecSet1( weights[k] );
+		for ( int r = 0; r < 3; ++r )
+		{
+			a0[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 0 ) * PL_LANES ), a0[r] );
+			a1[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 1 ) * PL_LANES ), a1[r] );
+			a2[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 2 ) * PL_LANES ), a2[r] );
+			a3[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 3 ) * PL_LANES ), a3[r] );
+		}
+	}
+}
+
 void plSkinningBatch_Avx2( float* const* out, const float* const* in, uint32_t batch_count,
 						   const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
 						   const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
@@ -180,17 +221,7 @@ void plSkinningBatch_Avx2( float* const* out, const float* const* in, uint32_t b
 	for ( uint32_t b0 = 0; b0 < batch_count; b0 += PL_LANES )
 	{
 		uint32_t n = batch_count - b0 < PL_LANES ? batch_count - b0 : PL_LANES;
-		for ( uint32_t j = 0; j <= J; ++j )
-		{
-			for ( uint32_t e = 0; e < 12; ++e )
-			{
-				float* row = lanes + ( (size_t)j * 12 + e ) * PL_LANES;
-				for ( uint32_t l = 0; l < PL_LANES; ++l )
-				{
-					row[l] = j < J && l < n ? skin_matrices[b0 + l][(size_t)j * 12 + e] : 0.0f;
-				}
-			}
-		}
+		plSkinMatricesToLanes( skin_matrices + b0, n, J, lanes );
 		for ( uint32_t v0 = v_begin; v0 < v_end; v0 += PL_LANES )
 		{
 			uint32_t count = v_end - v0 < PL_LANES ? v_end - v0 : PL_LANES;
@@ -201,24 +232,8 @@ void plSkinningBatch_Avx2( float* const* out, const float* const* in, uint32_t b
 			{
 				uint32_t v = v0 + i;
 				plVec a0[3], a1[3], a2[3], a3[3]; // the blended matrix: columns 0..3 of rows 0..2
-				for ( int r = 0; r < 3; ++r )
-				{
-					a0[r] = a1[r] = a2[r] = a3[r] = plVecZero();
-				}
-				for ( uint32_t k = 0; k < K; ++k )
-				{
-					uint32_t joint = skin_indices[(size_t)v * K + k];
-					joint = joint < J ? joint : J;
-					const float* m = lanes + (size_t)joint * 12 * PL_LANES;
-					plVec w = plVecSet1( skin_weights[(size_t)v * K + k] );
-					for ( int r = 0; r < 3; ++r )
-					{
-						a0[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 0 ) * PL_LANES ), a0[r] );
-						a1[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 1 ) * PL_LANES ), a1[r] );
-						a2[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 2 ) * PL_LANES ), a2[r] );
-						a3[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 3 ) * PL_LANES ), a3[r] );
-					}
-				}
+				plBlendMatrixLanes( a0, a1, a2, a3, skin_indices + (size_t)v * K, skin_weights + (size_t)v * K, K, J,
+									lanes );
 				const float* p = block_in + (size_t)i * 3 * PL_LANES;
 				plVec x = plVecLoad( p ), y = plVecLoad( p + PL_LANES ), z = plVecLoad( p + 2 * PL_LANES );
 				float* q = block_out + (size_t)i * 3 * PL_LANES;
@@ -327,17 +342,7 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 			offset_lanes[l] = offsets_m[b0 + l];
 		}
 		const plVec offset = plVecLoad( offset_lanes );
-		for ( uint32_t j = 0; j <= J; ++j )
-		{
-			for ( uint32_t e = 0; e < 12; ++e )
-			{
-				float* row = lanes + ( (size_t)j * 12 + e ) * PL_LANES;
-				for ( uint32_t l = 0; l < PL_LANES; ++l )
-				{
-					row[l] = j < J && l < n ? skin_matrices[b0 + l][(size_t)j * 12 + e] : 0.0f;
-				}
-			}
-		}
+		plSkinMatricesToLanes( skin_matrices + b0, n, J, lanes );
 		for ( uint32_t v0 = v_begin; v0 < v_end; v0 += PL_LANES )
 		{
 			uint32_t count = v_end - v0 < PL_LANES ? v_end - v0 : PL_LANES;
@@ -364,24 +369,8 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 					continue; // no anchor
 				}
 				plVec a0[3], a1[3], a2[3], a3[3];
-				for ( int r = 0; r < 3; ++r )
-				{
-					a0[r] = a1[r] = a2[r] = a3[r] = plVecZero();
-				}
-				for ( uint32_t k = 0; k < K; ++k )
-				{
-					uint32_t joint = anchor_skin_indices[(size_t)v * K + k];
-					joint = joint < J ? joint : J;
-					const float* m = lanes + (size_t)joint * 12 * PL_LANES;
-					plVec w = plVecSet1( anchor_skin_weights[(size_t)v * K + k] );
-					for ( int r = 0; r < 3; ++r )
-					{
-						a0[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 0 ) * PL_LANES ), a0[r] );
-						a1[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 1 ) * PL_LANES ), a1[r] );
-						a2[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 2 ) * PL_LANES ), a2[r] );
-						a3[r] = plVecFma( w, plVecLoad( m + ( 4 * r + 3 ) * PL_LANES ), a3[r] );
-					}
-				}
+				const uint16_t* indices = anchor_skin_indices + (size_t)v * K;
+				plBlendMatrixLanes( a0, a1, a2, a3, indices, anchor_skin_weights + (size_t)v * K, K, J, lanes );
 				const float* pr = block_r + (size_t)i * 3 * PL_LANES;
 				plVec rx = plVecLoad( pr ), ry = plVecLoad( pr + PL_LANES ), rz = plVecLoad( pr + 2 * PL_LANES );
 				plVec nx0 = plVecSet1( rn[0] ), ny0 = plVecSet1( rn[1] ), nz0 = plVecSet1( rn[2] );
