@@ -45,19 +45,11 @@ typedef struct plKernelTwins
 } plKernelTwins;
 
 static const plKernelTwins s_plKernelTwins[] = {
-	{ plMatVec_Scalar,
-	  plBlendShapes_Scalar,
-	  plSkinning_Scalar,
-	  plBodyContact_Scalar,
-	  plNormalsScatter_Scalar,
+	{ plMatVec_Scalar, plBlendShapes_Scalar, plSkinning_Scalar, plBodyContact_Scalar, plNormalsScatter_Scalar,
 	  { plMatMat_Scalar, NULL, plBlendShapesBatch_Scalar, plSkinningBatch_Scalar, plBodyContactBatch_Scalar,
 		plNormalsBatch_Scalar, 1, "scalar" } },
 #if defined( PLEAT_HAVE_AVX2 )
-	{ plMatVec_Avx2,
-	  plBlendShapes_Avx2,
-	  plSkinning_Avx2,
-	  plBodyContact_Avx2,
-	  plNormalsScatter_Avx2,
+	{ plMatVec_Avx2, plBlendShapes_Avx2, plSkinning_Avx2, plBodyContact_Avx2, plNormalsScatter_Avx2,
 	  { plMatMat_Avx2, NULL, plBlendShapesBatch_Avx2, plSkinningBatch_Avx2, plBodyContactBatch_Avx2,
 		plNormalsBatch_Avx2, 8, "avx2+fma+f16c" } },
 #endif

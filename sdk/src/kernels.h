@@ -152,4 +152,28 @@ float plHalfToFloat( uint16_t h );
 // float → IEEE half, round to nearest even (used by tests and tools).
 uint16_t plFloatToHalf( float f );
 
+// Σ_c W[r][c] x[c] from c = 0, one rounding per multiply and add: the row sum of plMatVec_Scalar, the specification
+// (plMatMat_Scalar computes exactly this per instance).
+static inline float plDotRowScalar( const float* x, const void* weight, int weight_fp16, uint32_t r, uint32_t in_count )
+{
+	float sum = 0.0f;
+	if ( weight_fp16 )
+	{
+		const uint16_t* w = (const uint16_t*)weight + (size_t)r * in_count;
+		for ( uint32_t c = 0; c < in_count; ++c )
+		{
+			sum += plHalfToFloat( w[c] ) * x[c];
+		}
+	}
+	else
+	{
+		const float* w = (const float*)weight + (size_t)r * in_count;
+		for ( uint32_t c = 0; c < in_count; ++c )
+		{
+			sum += w[c] * x[c];
+		}
+	}
+	return sum;
+}
+
 #endif

@@ -9,24 +9,7 @@ void plMatVec_Scalar( float* out, const float* x, const void* weight, int weight
 {
 	for ( uint32_t r = row_begin; r < row_end; ++r )
 	{
-		float sum = 0.0f;
-		if ( weight_fp16 )
-		{
-			const uint16_t* w = (const uint16_t*)weight + (size_t)r * in_count;
-			for ( uint32_t c = 0; c < in_count; ++c )
-			{
-				sum += plHalfToFloat( w[c] ) * x[c];
-			}
-		}
-		else
-		{
-			const float* w = (const float*)weight + (size_t)r * in_count;
-			for ( uint32_t c = 0; c < in_count; ++c )
-			{
-				sum += w[c] * x[c];
-			}
-		}
-		out[r] = sum + bias[r];
+		out[r] = plDotRowScalar( x, weight, weight_fp16, r, in_count ) + bias[r];
 	}
 }
 

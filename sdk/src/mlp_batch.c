@@ -12,44 +12,40 @@ void plMatMat_Scalar( float* const* out, const float* const* x, uint32_t batch_c
 	{
 		for ( uint32_t b = 0; b < batch_count; ++b )
 		{
-			const float* xb = x[b];
-			float sum = 0.0f;
-			if ( weight_fp16 )
-			{
-				const uint16_t* w = (const uint16_t*)weight + (size_t)r * in_count;
-				for ( uint32_t c = 0; c < in_count; ++c )
-				{
-					sum += plHalfToFloat( w[c] ) * xb[c];
-				}
-			}
-			else
-			{
-				const float* w = (const float*)weight + (size_t)r * in_count;
-				for ( uint32_t c = 0; c < in_count; ++c )
-				{
-					sum += w[c] * xb[c];
-				}
-			}
-			out[b][r] = sum + bias[r];
+			out[b][r] = plDotRowScalar( x[b], weight, weight_fp16, r, in_count ) + bias[r];
 		}
 	}
 }
 
+// One layer's rows [begin, end) for the whole batch: the lanes form (the chain transposed) where yt is set, else each
+// instance's own buffers.
 typedef struct plMatMatTask
 {
 	const plBatchKernels* kernels;
-	float* const* out;
+	const plLayer* layer;
+	float* const* out; // per instance
 	const float* const* x;
 	uint32_t batch_count;
-	const plLayer* layer;
+	float* yt; // lanes form: [group_count][out_count][PLEAT_LANES]
+	const float* xt;
+	uint32_t group_count;
 } plMatMatTask;
 
 static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;
 	const plMatMatTask* t = (const plMatMatTask*)context;
-	t->kernels->mat_mat( t->out, t->x, t->batch_count, t->layer->weight, t->layer->weight_fp16, t->layer->bias,
-						 t->layer->in_count, begin, end );
+	const plLayer* l = t->layer;
+	if ( t->yt != NULL )
+	{
+		t->kernels->mat_mat_lanes( t->yt, t->xt, t->group_count, l->weight, l->weight_fp16, l->bias, l->in_count,
+								   l->out_count, begin, end );
+	}
+	else
+	{
+		t->kernels->mat_mat( t->out, t->x, t->batch_count, l->weight, l->weight_fp16, l->bias, l->in_count, begin,
+							 end );
+	}
 }
 
 static uint32_t plWidestHidden( const plLayer* layers, uint32_t layer_count )
@@ -96,23 +92,6 @@ int plMlpBatchJob_Validate( const plMlpBatchJob* job )
 }
 
 // ---- the lanes form (kernels->mat_mat_lanes): the whole chain transposed, sixteen instances per vector ----
-
-typedef struct plMatMatLanesTask
-{
-	const plBatchKernels* kernels;
-	float* yt;
-	const float* xt;
-	uint32_t group_count;
-	const plLayer* layer;
-} plMatMatLanesTask;
-
-static void plMatMatLanesTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void* context )
-{
-	(void)worker;
-	const plMatMatLanesTask* t = (const plMatMatLanesTask*)context;
-	t->kernels->mat_mat_lanes( t->yt, t->xt, t->group_count, t->layer->weight, t->layer->weight_fp16, t->layer->bias,
-							   t->layer->in_count, t->layer->out_count, begin, end );
-}
 
 static size_t plRoundUp16( size_t floats )
 {
@@ -175,8 +154,9 @@ static void plRunLanes( const plMlpBatchJob* job )
 	{
 		const plLayer* layer = &job->layers[i];
 		float* yt = buffers[( i + 1 ) & 1u];
-		plMatMatLanesTask task = { job->kernels, yt, buffers[i & 1u], groups, layer };
-		plRunTask( job->runner, plMatMatLanesTaskRun, layer->out_count, 64, &task );
+		plMatMatTask task = {
+			.kernels = job->kernels, .layer = layer, .yt = yt, .xt = buffers[i & 1u], .group_count = groups };
+		plRunTask( job->runner, plMatMatTaskRun, layer->out_count, 64, &task );
 		if ( i + 1 < job->layer_count )
 		{
 			plApplyActivation( yt, groups * layer->out_count * PLEAT_LANES, job->activation ); // element-wise
@@ -224,7 +204,7 @@ plResult plMlpBatchJob_Run( const plMlpBatchJob* job )
 			float* ping = (float*)job->scratch[b].ptr;
 			y[b] = last ? (float*)job->outputs[b].ptr : ( ( i & 1u ) ? ping + widest : ping );
 		}
-		plMatMatTask task = { job->kernels, y, x, n, layer };
+		plMatMatTask task = { .kernels = job->kernels, .layer = layer, .out = y, .x = x, .batch_count = n };
 		plRunTask( job->runner, plMatMatTaskRun, layer->out_count, 64, &task );
 		for ( uint32_t b = 0; b < n; ++b )
 		{
