@@ -39,7 +39,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
-from pleat.train import batching, config, core  # noqa: E402
+from pleat.train import ablation, batching, config, core  # noqa: E402
 
 
 class Variant:
@@ -181,7 +181,6 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
 def ablation_variants(setup, clips, cfg, steps, worker):
     c1, ca = cfg["stage1"], cfg["ablation"]
     w = core.loss_weights(c1, 0, 0.6)
-    floor = c1.get("loss_norm_floor", 1.0)
     norms = core.pose_statistics(setup, clips, np.random.default_rng(0), samples=4)
 
     def model_and_opt():
@@ -198,23 +197,8 @@ def ablation_variants(setup, clips, cfg, steps, worker):
             loss = 0.0
             for _ in range(ca["batch"]):
                 win, beta, mat, mat01 = core.sample_window(setup, clips, rng, steps + 3)
-                window = core.Window(setup, win, beta, mat, mat01)
-                static = core.to_t(setup.static_inputs(win, beta, mat), setup.device)
-                zbox = [torch.zeros(setup.L)]
-
-                def predictor(f, static=static, zbox=zbox):
-                    z, disp = model(zbox[0], static[f])
-                    zbox[0] = z
-                    zn = z.detach().cpu().numpy()
-                    np.minimum(z_lo, zn, out=z_lo)
-                    np.maximum(z_hi, zn, out=z_hi)
-                    return disp
-
-                scale = 1.0
-                if c1.get("loss_norm") == "lbs":
-                    scale, _ = core.lbs_scale(setup, win, beta, mat, mat01, steps, w, floor)
-                l, _ = core.rollout_loss(setup, None, window, steps, w, predictor)
-                loss = loss + l / scale / ca["batch"]
+                l, _ = ablation.window_loss(setup, model, win, beta, mat, mat01, c1, steps, w, z_lo, z_hi)
+                loss = loss + l / ca["batch"]
             optimizer_step(model, opt, loss, c1["grad_clip"])
         return Variant("per-window (old)", ca["batch"], step)
 

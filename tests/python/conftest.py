@@ -1,5 +1,6 @@
 """Shared pytest configuration: tests marked `slow` run only with PLEAT_SLOW_TESTS=1 (the default run stays short);
-the shipped body as a session fixture (`body`)."""
+the shipped body as a session fixture (`body`); the tiny training preset with its setup and physics clips
+(`tiny_physics`)."""
 import os
 
 import pytest
@@ -10,6 +11,18 @@ def body():
     """The shipped body (assets/body.npz); loading it fails with the command that builds it when it is missing."""
     from pleat.sim.scene import load_body
     return load_body()
+
+
+@pytest.fixture(scope="module")
+def tiny_physics():
+    """(cfg, setup, clips) of the tiny preset: the T-shirt on the CPU with stage 1's physics clips, one torch thread
+    (so the numbers do not depend on the machine's core count). Skips without PyTorch."""
+    torch = pytest.importorskip("torch", reason="PyTorch not installed (pip install 'pleat-tools[train]')")
+    from pleat.train import core
+    torch.set_num_threads(1)
+    cfg = core.load_config("tiny")
+    setup = core.Setup(cfg, "tshirt", "cpu")
+    return cfg, setup, core.physics_clips(cfg, setup.body)
 
 
 def pytest_configure(config):

@@ -13,15 +13,6 @@ from pleat.train import batching, config, core  # noqa: E402
 STEPS = 3
 
 
-@pytest.fixture(scope="module")
-def tiny():
-    torch.set_num_threads(1)
-    cfg = core.load_config("tiny")
-    setup = core.Setup(cfg, "tshirt", "cpu")
-    clips = core.physics_clips(cfg, setup.body)
-    return cfg, setup, clips
-
-
 @pytest.mark.parametrize("native", [False, True])
 def test_autocast_bf16_setting_is_off_by_default_and_checked_against_the_device(monkeypatch, native):
     monkeypatch.setattr(config, "native_bf16", lambda device: native)
@@ -49,9 +40,9 @@ def test_the_default_configs_leave_autocast_off():
         assert config.autocast_bf16(core.load_config(preset)["stage1"], "cpu") is False
 
 
-def test_stage1_refuses_bf16_on_a_device_without_it_before_training(monkeypatch, tiny, tmp_path):
+def test_stage1_refuses_bf16_on_a_device_without_it_before_training(monkeypatch, tiny_physics, tmp_path):
     from pleat.train import stage1
-    cfg, _, _ = tiny
+    cfg, _, _ = tiny_physics
     monkeypatch.setattr(config, "native_bf16", lambda device: False)
     bad = dict(cfg, stage1=dict(cfg["stage1"], autocast_bf16=True))
     with pytest.raises(ValueError, match="no native bfloat16"):
@@ -77,8 +68,8 @@ def _trained_a_little(setup):
     return model
 
 
-def test_float32_batched_network_has_no_bf16_anywhere(tiny):
-    cfg, setup, clips = tiny
+def test_float32_batched_network_has_no_bf16_anywhere(tiny_physics):
+    cfg, setup, clips = tiny_physics
     model = _trained_a_little(setup)
     rng = np.random.default_rng(4)
     win = batching.prepare(batching.kinematics(setup), [batching.sample_pick(setup, clips, rng, STEPS + 3)
@@ -102,13 +93,13 @@ def test_float32_batched_network_has_no_bf16_anywhere(tiny):
 
 
 @pytest.mark.skipif(not config.native_bf16("cpu"), reason="this CPU has no native bfloat16 (AVX-512 BF16 / AMX)")
-def test_bf16_iteration_stays_within_tolerance_of_float32(tiny):
+def test_bf16_iteration_stays_within_tolerance_of_float32(tiny_physics):
     """Three fixed windows, past the start of the collision ramp, Φ moved off its initialisation so that its
     displacements matter (objective ≈ 1.5, LBS = 1): the iteration's objective within 0.5 % of float32's and every
     window's loss within 1 % (bf16 keeps 8 bits: 0.4 % per rounding), the gradient within 10 % (relative norm of the
     difference) and pointing the same way (cosine > 0.995). Measured here: objective 10⁻³, losses 3·10⁻³, gradient
     2-3 %, cosine 0.9996; on the default preset 10⁻⁶ on the losses and 0.6 % on the gradient."""
-    cfg, setup, clips = tiny
+    cfg, setup, clips = tiny_physics
     w = core.loss_weights(cfg["stage1"], 0, 0.6)
     model = _trained_a_little(setup)
     rng = np.random.default_rng(5)
@@ -124,9 +115,9 @@ def test_bf16_iteration_stays_within_tolerance_of_float32(tiny):
 
 
 @pytest.mark.skipif(not config.native_bf16("cpu"), reason="this CPU has no native bfloat16 (AVX-512 BF16 / AMX)")
-def test_stage1_trains_under_bf16_and_says_so(tiny, tmp_path):
+def test_stage1_trains_under_bf16_and_says_so(tiny_physics, tmp_path):
     import json
-    cfg, _, _ = tiny
+    cfg, _, _ = tiny_physics
     c1 = dict(cfg["stage1"], iterations=2, checkpoint_every=2, validation_every=0, validation_windows=2,
               windows_per_iteration=2, autocast_bf16="auto")
     core.train_stage1(dict(cfg, stage1=c1), "tshirt", tmp_path, device="cpu", progress=False)

@@ -7,18 +7,9 @@ import pytest
 
 torch = pytest.importorskip("torch", reason="PyTorch not installed (pip install 'pleat-tools[train]')")
 
-from pleat.train import batching, core  # noqa: E402
+from pleat.train import ablation, batching, core  # noqa: E402
 
 STEPS = 3
-
-
-@pytest.fixture(scope="module")
-def tiny():
-    torch.set_num_threads(1)
-    cfg = core.load_config("tiny")
-    setup = core.Setup(cfg, "tshirt", "cpu")
-    clips = core.physics_clips(cfg, setup.body)
-    return cfg, setup, clips
 
 
 def _weights(cfg, s=0.6):
@@ -42,8 +33,8 @@ def _assert_grads_close(a, b, rel=1e-4):
         assert torch.allclose(ga, gb, rtol=rel, atol=rel * scale), float((ga - gb).abs().max()) / scale
 
 
-def test_sampling_draws_the_windows_of_the_per_window_path(tiny):
-    _, setup, clips = tiny
+def test_sampling_draws_the_windows_of_the_per_window_path(tiny_physics):
+    _, setup, clips = tiny_physics
     r1, r2 = np.random.default_rng(7), np.random.default_rng(7)
     for _ in range(4):
         win, beta, mat, mat01 = core.sample_window(setup, clips, r1, STEPS + 3)
@@ -58,9 +49,9 @@ def test_sampling_draws_the_windows_of_the_per_window_path(tiny):
         assert np.isnan(one["body_normals"][0, :3]).all()
 
 
-def test_rest_geometry_equals_cloth_rest_for_every_shape(tiny):
+def test_rest_geometry_equals_cloth_rest_for_every_shape(tiny_physics):
     import pleat.physics as ph
-    _, setup, _ = tiny
+    _, setup, _ = tiny_physics
     betas = np.random.default_rng(1).uniform(-3, 3, (3, setup.B))
     kin = batching.kinematics(setup)
     geo = kin.topology.geometry(kin.shaped(betas))
@@ -70,11 +61,11 @@ def test_rest_geometry_equals_cloth_rest_for_every_shape(tiny):
             np.testing.assert_allclose(geo[key][k], getattr(ref, key), rtol=1e-12, atol=1e-15)
 
 
-def test_stage1_batch_has_the_per_window_loss_terms_normaliser_and_gradients(tiny):
+def test_stage1_batch_has_the_per_window_loss_terms_normaliser_and_gradients(tiny_physics):
     """Three fixed windows: each window's loss, equation-4 terms and LBS-only divisor, and the gradient of the
     iteration's objective (mean of loss / LBS loss), equal the per-window path's (core.Window / rollout_loss /
     lbs_scale, one window at a time) within float32 tolerance."""
-    cfg, setup, clips = tiny
+    cfg, setup, clips = tiny_physics
     w = _weights(cfg)
     torch.manual_seed(0)
     model = core.Stage1Model(setup)
@@ -104,8 +95,8 @@ def test_stage1_batch_has_the_per_window_loss_terms_normaliser_and_gradients(tin
     _assert_grads_close(ref_grads, _grads(model))
 
 
-def test_ablation_batch_has_the_per_window_objective_gradients_and_latent_range(tiny):
-    cfg, setup, clips = tiny
+def test_ablation_batch_has_the_per_window_objective_gradients_and_latent_range(tiny_physics):
+    cfg, setup, clips = tiny_physics
     w = _weights(cfg)
     c1 = dict(cfg["stage1"], loss_norm="lbs")
     torch.manual_seed(0)
@@ -117,20 +108,9 @@ def test_ablation_batch_has_the_per_window_objective_gradients_and_latent_range(
     ref = 0.0
     for p in picks:       # core.train_ablation's per-window loop
         win = setup.pose_window(p["clip"], p["start"], p["length"], p["beta"])
-        static = core.to_t(setup.static_inputs(win, p["beta"], p["material"]), "cpu")
-        zbox = [torch.zeros(setup.L)]
-
-        def predictor(f, static=static, zbox=zbox):
-            z, disp = model(zbox[0], static[f])
-            zbox[0] = z
-            np.minimum(lo, z.detach().numpy(), out=lo)
-            np.maximum(hi, z.detach().numpy(), out=hi)
-            return disp
-
-        scale, _ = core.lbs_scale(setup, win, p["beta"], p["material"], p["material01"], STEPS, w, 1.0)
-        loss, _ = core.rollout_loss(setup, None, core.Window(setup, win, p["beta"], p["material"],
-                                                             p["material01"]), STEPS, w, predictor)
-        ref = ref + loss / scale / len(picks)
+        loss, _ = ablation.window_loss(setup, model, win, p["beta"], p["material"], p["material01"], c1, STEPS, w,
+                                       lo, hi)
+        ref = ref + loss / len(picks)
     ref.backward()
     ref_grads = _grads(model)
 
@@ -150,8 +130,8 @@ def test_ablation_batch_has_the_per_window_objective_gradients_and_latent_range(
     _assert_grads_close(ref_grads, _grads(model))
 
 
-def test_validation_and_recorded_latents_equal_the_per_window_path(tiny):
-    cfg, setup, _ = tiny
+def test_validation_and_recorded_latents_equal_the_per_window_path(tiny_physics):
+    cfg, setup, _ = tiny_physics
     torch.manual_seed(0)
     model = core.Stage1Model(setup).eval()
     per_window = dict(cfg, stage1=dict(cfg["stage1"], batched=False, validation_windows=3))
@@ -172,11 +152,11 @@ def test_validation_and_recorded_latents_equal_the_per_window_path(tiny):
         np.testing.assert_allclose(n["z"], o["z"], rtol=1e-4, atol=1e-5)
 
 
-def test_data_worker_prepares_the_same_windows_as_the_trainer_would(tiny):
+def test_data_worker_prepares_the_same_windows_as_the_trainer_would(tiny_physics):
     """The forked worker prepares iteration i + 1 while iteration i trains: the windows it hands out are those the
     in-process source draws from the same generator, also across a change of rollout length (the guess misses and
     the windows are drawn again)."""
-    _, setup, clips = tiny
+    _, setup, clips = tiny_physics
     here = batching.WindowSource(setup, clips, np.random.default_rng(3), 2, static=True)
     there = batching.WindowSource(setup, clips, np.random.default_rng(3), 2, static=True, worker=True)
     try:
@@ -196,10 +176,10 @@ def test_data_worker_prepares_the_same_windows_as_the_trainer_would(tiny):
         there.close()
 
 
-def test_vertex_major_compressor_is_the_einsum_one(tiny):
+def test_vertex_major_compressor_is_the_einsum_one(tiny_physics):
     """compress with K > 1 runs vertex-major: within float32 rounding the same Z and gradients as the einsum form
     that K = 1 keeps (another summation order)."""
-    _, setup, _ = tiny
+    _, setup, _ = tiny_physics
     torch.manual_seed(0)
     comp = core.Stage1Model(setup).phi.compressor
     h = torch.randn(3, setup.N, comp.blocks[0].conv.basis.shape[1], requires_grad=True)
@@ -216,12 +196,12 @@ def test_vertex_major_compressor_is_the_einsum_one(tiny):
     _assert_grads_close(out[0][1], out[1][1], rel=1e-5)
 
 
-def test_compiled_terms_are_the_eager_ones_and_follow_the_collision_ramp(tiny):
+def test_compiled_terms_are_the_eager_ones_and_follow_the_collision_ramp(tiny_physics):
     """With stage1.compile the equation-4 terms run through torch.compile: the same values within float32 rounding,
     and the collision weight, which moves every iteration on its ramp, is an input, not a constant (no
     recompilation when it changes)."""
     from torch._dynamo.utils import counters
-    cfg, setup, clips = tiny
+    cfg, setup, clips = tiny_physics
     win = batching.prepare(batching.kinematics(setup), _picks(setup, clips, 6, 2), STEPS)
     disp = torch.zeros(2, setup.N, 3)
     disp[:, :, 1] = -0.01                      # drop the garment 1 cm: collision and friction active

@@ -6,11 +6,11 @@ from tqdm import tqdm
 
 from pleat.train.config import (LOSS_TERMS, Budget, batched_path, loss_weights, make_optimizer, rollout_steps,
                                 run_fraction)
-from pleat.train.data import Setup, Window, physics_clips, sample_window, to_t
-from pleat.train.ddp import device_for, dist_info, stop_everywhere, wrap_ddp
+from pleat.train.data import Window, sample_window, to_t
+from pleat.train.ddp import stop_everywhere, wrap_ddp
 from pleat.train.models import AblationModel
 from pleat.train.run import Run
-from pleat.train.stage1 import lbs_scale, rollout_loss
+from pleat.train.stage1 import lbs_scale, rollout_loss, start_physics_run
 
 
 def pose_statistics(setup, clips, rng, samples=8):
@@ -31,12 +31,31 @@ def pose_statistics(setup, clips, rng, samples=8):
             "z_min": np.full(L, -1e3), "z_max": np.full(L, 1e3)}
 
 
+def window_loss(setup, model, win, beta, mat, mat01, c1, steps, w, z_lo, z_hi):
+    """One window of the per-window path: the rollout loss of f_LP → f_dec → D from Z = 0 and its terms, the loss
+    divided by the window's LBS loss (stage1.loss_norm = "lbs"); widens [z_lo, z_hi] to every latent the rollout
+    reaches (the range the asset stores)."""
+    static = to_t(setup.static_inputs(win, beta, mat), setup.device)
+    zbox = [torch.zeros(setup.L, device=setup.device)]
+
+    def predictor(f):
+        z, disp = model(zbox[0], static[f])
+        zbox[0] = z
+        with torch.no_grad():
+            zn = z.detach().cpu().numpy()
+            np.minimum(z_lo, zn, out=z_lo)
+            np.maximum(z_hi, zn, out=z_hi)
+        return disp
+
+    scale = 1.0
+    if c1.get("loss_norm") == "lbs":
+        scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1.get("loss_norm_floor", 1.0))
+    l, terms = rollout_loss(setup, None, Window(setup, win, beta, mat, mat01), steps, w, predictor)
+    return l / scale, terms
+
+
 def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True, max_minutes=None):
-    rank, world = dist_info()
-    dev = device_for(device, rank)
-    torch.manual_seed(cfg["seed"])
-    setup = Setup(cfg, garment, dev)
-    clips = physics_clips(cfg, setup.body)
+    rank, world, dev, setup, clips = start_physics_run(cfg, garment, device)
     rng = np.random.default_rng([cfg["seed"], 3, rank])
     norms = pose_statistics(setup, clips, rng)
     model = AblationModel(setup, norms).to(dev)
@@ -68,24 +87,8 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
             acc.pop("loss")
         for _ in range(0 if batched else ca["batch"]):
             win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
-            window = Window(setup, win, beta, mat, mat01)
-            static = to_t(setup.static_inputs(win, beta, mat), dev)
-            zbox = [torch.zeros(setup.L, device=dev)]
-
-            def predictor(f, static=static, zbox=zbox):
-                z, disp = ddp(zbox[0], static[f])
-                zbox[0] = z
-                with torch.no_grad():
-                    zn = z.detach().cpu().numpy()
-                    np.minimum(z_lo, zn, out=z_lo)
-                    np.maximum(z_hi, zn, out=z_hi)
-                return disp
-
-            scale = 1.0
-            if c1.get("loss_norm") == "lbs":
-                scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1.get("loss_norm_floor", 1.0))
-            l, terms = rollout_loss(setup, None, window, steps, w, predictor)
-            loss = loss + l / scale / ca["batch"]
+            l, terms = window_loss(setup, ddp, win, beta, mat, mat01, c1, steps, w, z_lo, z_hi)
+            loss = loss + l / ca["batch"]
             for k in LOSS_TERMS:
                 acc[k] += terms[k] / ca["batch"]
         opt.zero_grad()

@@ -16,12 +16,18 @@ from pleat.train.models import Stage1Model
 from pleat.train.run import Run, _rng_state
 
 
-def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, max_minutes=None):
+def start_physics_run(cfg, garment, device):
+    """What a run on the physics losses (stage 1, the ablation) starts from on this rank: (rank, world, device,
+    setup, clips), with torch seeded by the run's seed before the setup and any model are built."""
     rank, world = dist_info()
     dev = device_for(device, rank)
     torch.manual_seed(cfg["seed"])
     setup = Setup(cfg, garment, dev)
-    clips = physics_clips(cfg, setup.body)
+    return rank, world, dev, setup, physics_clips(cfg, setup.body)
+
+
+def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, max_minutes=None):
+    rank, world, dev, setup, clips = start_physics_run(cfg, garment, device)
     model = Stage1Model(setup).to(dev)
     c1 = cfg["stage1"]
     bf16 = autocast_bf16(c1, dev)       # before anything runs: true where the device lacks bf16 is an error
