@@ -13,6 +13,7 @@ import argparse
 import functools
 import os
 import sys
+from pathlib import Path
 
 EXIT_INPUT_ERROR = 1
 EXIT_INTERRUPTED = 130
@@ -91,6 +92,20 @@ def not_npz(path, exc, what):
     if not zipfile.is_zipfile(path):
         return InputError(path, f"not {what}: not an npz file (not a zip archive)")
     return InputError(path, f"not {what} ({type(exc).__name__}: {exc})")
+
+
+def read_by_suffix(path, readers, what, error=InputError):
+    """`path` read by the reader for its suffix (`readers`: {".obj": read_obj, ...}, lower case), or `error` naming
+    the file when it is missing, not a regular file, or of a suffix no reader takes (`what`: "mesh", ...)."""
+    path = Path(path)
+    if not path.is_file():
+        raise error(path, f"no such {what} file" if not path.exists() else "is not a regular file")
+    reader = readers.get(path.suffix.lower())
+    if reader is None:
+        *rest, last = readers
+        raise error(path, f"unknown {what} format {path.suffix or '(no suffix)'!r}: use "
+                          + (f"{', '.join(rest)} or {last}" if rest else last))
+    return reader(path)
 
 
 def doc_parser(prog, doc):

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pleat.cli import InputError
+from pleat.cli import InputError, read_by_suffix
 
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
 MAX_VERTICES = 2_000_000
@@ -97,15 +97,7 @@ def _check_mesh(path, v, f, what):
 
 def read_mesh(path):
     """A triangle mesh from .obj, .gltf or .glb (by suffix)."""
-    path = Path(path)
-    if not path.is_file():
-        raise MeshFileError(path, "no such mesh file" if not path.exists() else "is not a regular file")
-    suffix = path.suffix.lower()
-    if suffix == ".obj":
-        return read_obj(path)
-    if suffix in (".gltf", ".glb"):
-        return read_gltf(path)
-    raise MeshFileError(path, f"unknown mesh format {path.suffix or '(no suffix)'!r}: use .obj, .gltf or .glb")
+    return read_by_suffix(path, {".obj": read_obj, ".gltf": read_gltf, ".glb": read_gltf}, "mesh", MeshFileError)
 
 
 # ---- OBJ -----------------------------------------------------------------------------------------------------------

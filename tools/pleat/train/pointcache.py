@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pleat.cli import InputError
+from pleat.cli import InputError, read_by_suffix
 from pleat.train import simdata
 
 PC2_SIGNATURE = b"POINTCACHE2\0"
@@ -142,15 +142,7 @@ def write_npz_cache(path, positions, start_frame=0.0, sample_rate=1.0):
 
 def read_cache(path):
     """A point cache by suffix: .pc2 or .npz."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "no such point cache" if not path.exists() else "is not a regular file")
-    suffix = path.suffix.lower()
-    if suffix == ".pc2":
-        return read_pc2(path)
-    if suffix == ".npz":
-        return read_npz_cache(path)
-    raise InputError(path, f"unknown point cache format {path.suffix or '(no suffix)'!r}: use .pc2 or .npz")
+    return read_by_suffix(path, {".pc2": read_pc2, ".npz": read_npz_cache}, "point cache")
 
 
 # ---- motion ----------------------------------------------------------------------------------------------------------
