@@ -432,64 +432,70 @@ def _markdown_section(r):
         f"{lg['frames']} frames ({lg['seconds'] / 60:.1f} min at 30 fps) of chained clips "
         f"({', '.join('`' + c + '`' for c in r['clips'])}, 0.25 s blended transitions), looped so that the last "
         f"{d['window']} frames replay frames {d['first_start']}–{d['first_start'] + d['window'] - 1}.", "",
-        "| quantity | value |", "|---|---|",
-        f"| deviation, first window (mm) | {_f(d['first_window_mm'], 3)} |",
-        f"| deviation, last window (mm) | {_f(d['last_window_mm'], 3)} |",
-        f"| drift ratio last / first | {_f(d['ratio'], 4)} |",
-        f"| drift slope (mm / min) | {_f(d['slope_mm_per_min'], 5)} |",
-        f"| max latent norm | {_f(lg['latent_norm_max'], 3)} |",
-        f"| bound excess (mm, < 0 = inside) | {_f(lg['bound_excess_mm'], 1)} |",
-        f"| all finite / numeric resets / latent in range | {lg['finite']} / {lg['numeric_resets']} / "
-        f"{lg['latent_in_range']} |",
     ]
-    if "penetration" in lg:
-        for k, v in lg["penetration"].items():
-            lines.append(f"| {k}: penetration (%) / deepest (mm), sampled frames | {_f(v['penetration_pct'])} / "
-                         f"{_f(v['max_depth_mm'], 1)} |")
+    quantities = [
+        ("deviation, first window (mm)", _f(d["first_window_mm"], 3)),
+        ("deviation, last window (mm)", _f(d["last_window_mm"], 3)),
+        ("drift ratio last / first", _f(d["ratio"], 4)),
+        ("drift slope (mm / min)", _f(d["slope_mm_per_min"], 5)),
+        ("max latent norm", _f(lg["latent_norm_max"], 3)),
+        ("bound excess (mm, < 0 = inside)", _f(lg["bound_excess_mm"], 1)),
+        ("all finite / numeric resets / latent in range",
+         f"{lg['finite']} / {lg['numeric_resets']} / {lg['latent_in_range']}"),
+    ] + [(f"{k}: penetration (%) / deepest (mm), sampled frames", _penetration_cell(v))
+         for k, v in lg.get("penetration", {}).items()]
+    lines += _table(["quantity", "value"], quantities)
     if "reference_windows" in lg:
         lines += ["", f"Reference windows ({r['reference_window_frames']} frames each; the reference starts at rest "
-                  "at the window's first pose, Pleat and LBS carry their state from the long run):", "",
-                  "| window | start frame | Pleat error (mm) | Pleat restarted (mm) | LBS error (mm) | reference "
-                  "penetration (%) / deepest (mm) | reference s/frame |", "|---|---|---|---|---|---|---|"]
-        for name, w in lg["reference_windows"].items():
-            lines.append(f"| {name} | {w['start_frame']} | {_f(w['pleat_error_mm'])} | "
-                         f"{_f(w['pleat_fresh_error_mm'])} | {_f(w['lbs_error_mm'])} | "
-                         f"{_f(w['reference_penetration_pct'])} / {_f(w['reference_max_depth_mm'], 1)} | "
-                         f"{_f(w['reference_seconds_per_frame'], 1)} |")
+                  "at the window's first pose, Pleat and LBS carry their state from the long run):", ""]
+        lines += _table(["window", "start frame", "Pleat error (mm)", "Pleat restarted (mm)", "LBS error (mm)",
+                         "reference penetration (%) / deepest (mm)", "reference s/frame"],
+                        ([name, w["start_frame"], _f(w["pleat_error_mm"]), _f(w["pleat_fresh_error_mm"]),
+                          _f(w["lbs_error_mm"]), _penetration_cell(w, "reference_"),
+                          _f(w["reference_seconds_per_frame"], 1)] for name, w in lg["reference_windows"].items()))
     lines += ["", "![long run](images/stability_{pre}long.png)", ""]
     if f"images/stability_{pre}penetration.png" in r["plots"]:
         lines += ["### (e) Interpenetration along the long run", "",
                   "![penetration](images/stability_{pre}penetration.png)", ""]
-    lines += ["### (b) Fast motion", "", "| clip | speed | frames | deviation mean / max (mm) | bound excess (mm) | "
-              "finite | resets |", "|---|---|---|---|---|---|---|"]
-    for name, v in r["fast"].items():
-        lines.append(f"| {name} | {v['speed']:g}× | {v['frames']} | {_f(v['deviation_mean_mm'])} / "
-                     f"{_f(v['deviation_max_mm'])} | {_f(v['bound_excess_mm'], 1)} | {v['finite']} | "
-                     f"{v['numeric_resets']} |")
+    lines += ["### (b) Fast motion", ""]
+    lines += _table(["clip", "speed", "frames", "deviation mean / max (mm)", "bound excess (mm)", "finite", "resets"],
+                    ([name, f"{v['speed']:g}×", v["frames"], _deviation_cell(v), _f(v["bound_excess_mm"], 1),
+                      v["finite"], v["numeric_resets"]] for name, v in r["fast"].items()))
     lines += ["", "Each clip is looped to at least 10 s (300 frames at 1×) before it is sped up.", ""]
     lines += _reference_table(r.get("fast_reference"), "run")
     lines += [
               "![fast](images/stability_{pre}fast.png)", "", "### (c) Unusual bodies", "",
               f"β = ±3 (training's range) and ±4 (beyond it; the clamp limit) on one component at a time, clip "
-              f"`{r['clips'][0]}` looped to ≥ 10 s; penetration on 15 frames spread evenly over the clip.", "",
-              "| β | deviation mean / max (mm) | bound excess (mm) | Pleat penetration (%) / deepest (mm) | LBS "
-              "penetration (%) / deepest (mm) | finite |", "|---|---|---|---|---|---|"]
-    for name, v in r["bodies"].items():
-        lines.append(f"| {name} | {_f(v['deviation_mean_mm'])} / {_f(v['deviation_max_mm'])} | "
-                     f"{_f(v['bound_excess_mm'], 1)} | {_f(v.get('pleat_penetration_pct'))} / "
-                     f"{_f(v.get('pleat_max_depth_mm'), 1)} | {_f(v.get('lbs_penetration_pct'))} / "
-                     f"{_f(v.get('lbs_max_depth_mm'), 1)} | {v['finite']} |")
+              f"`{r['clips'][0]}` looped to ≥ 10 s; penetration on 15 frames spread evenly over the clip.", ""]
+    lines += _table(["β", "deviation mean / max (mm)", "bound excess (mm)", "Pleat penetration (%) / deepest (mm)",
+                     "LBS penetration (%) / deepest (mm)", "finite"],
+                    ([name, _deviation_cell(v), _f(v["bound_excess_mm"], 1), _penetration_cell(v, "pleat_"),
+                      _penetration_cell(v, "lbs_"), v["finite"]] for name, v in r["bodies"].items()))
     lines += [""] + _reference_table(r.get("bodies_reference"), "β")
     lines += ["![bodies](images/stability_{pre}bodies.png)", "", "### (d) Frame-time jitter", "",
-              "dt drawn uniformly from [1/120, 1/15] s; the poses are the clip sampled at the jittered times.", "",
-              "| clip | steps | dt range (ms) | clamped steps | deviation mean / max (mm) | bound excess (mm) | "
-              "finite | resets |", "|---|---|---|---|---|---|---|---|"]
-    for name, v in r["dt_jitter"].items():
-        lines.append(f"| {name} | {v['frames']} | {v['dt_min_s'] * 1000:.1f}–{v['dt_max_s'] * 1000:.1f} | "
-                     f"{v['clamped_steps']} | {_f(v['deviation_mean_mm'])} / {_f(v['deviation_max_mm'])} | "
-                     f"{_f(v['bound_excess_mm'], 1)} | {v['finite']} | {v['numeric_resets']} |")
+              "dt drawn uniformly from [1/120, 1/15] s; the poses are the clip sampled at the jittered times.", ""]
+    lines += _table(["clip", "steps", "dt range (ms)", "clamped steps", "deviation mean / max (mm)",
+                     "bound excess (mm)", "finite", "resets"],
+                    ([name, v["frames"], f"{v['dt_min_s'] * 1000:.1f}–{v['dt_max_s'] * 1000:.1f}", v["clamped_steps"],
+                      _deviation_cell(v), _f(v["bound_excess_mm"], 1), v["finite"], v["numeric_resets"]]
+                     for name, v in r["dt_jitter"].items()))
     lines += ["", "![dt jitter](images/stability_{pre}dt.png)", ""]
     return [ln.replace("{pre}", pre) for ln in lines]
+
+
+def _table(head, rows):
+    """A markdown table: the header cells, the rule, then one line per row of cells."""
+    return (["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+            + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
+
+
+def _deviation_cell(v):
+    return f"{_f(v['deviation_mean_mm'])} / {_f(v['deviation_max_mm'])}"
+
+
+def _penetration_cell(v, who=""):
+    """Penetration (%) / deepest (mm) of `who` ("pleat_", "lbs_", "reference_"; "" where the case holds one)."""
+    return f"{_f(v.get(who + 'penetration_pct'))} / {_f(v.get(who + 'max_depth_mm'), 1)}"
 
 
 def _reference_table(cases, what):
@@ -497,13 +503,12 @@ def _reference_table(cases, what):
         return []
     n = next(iter(cases.values()))["frames"]
     lines = [f"Against the reference simulator (first {n} frames; Pleat, LBS and the reference all start fresh "
-             "there):", "", f"| {what} | Pleat error (mm) | LBS error (mm) | penetration (%) / deepest (mm): Pleat | "
-             "LBS | reference | reference s/frame |", "|---|---|---|---|---|---|---|"]
-    for name, v in cases.items():
-        lines.append(f"| {name} | {_f(v['pleat_error_mm'])} | {_f(v['lbs_error_mm'])} | "
-                     + " | ".join(f"{_f(v[k + '_penetration_pct'])} / {_f(v[k + '_max_depth_mm'], 1)}"
-                                  for k in ("pleat", "lbs", "reference"))
-                     + f" | {_f(v['reference_seconds_per_frame'], 1)} |")
+             "there):", ""]
+    lines += _table([what, "Pleat error (mm)", "LBS error (mm)", "penetration (%) / deepest (mm): Pleat", "LBS",
+                     "reference", "reference s/frame"],
+                    ([name, _f(v["pleat_error_mm"]), _f(v["lbs_error_mm"]), _penetration_cell(v, "pleat_"),
+                      _penetration_cell(v, "lbs_"), _penetration_cell(v, "reference_"),
+                      _f(v["reference_seconds_per_frame"], 1)] for name, v in cases.items()))
     return lines + [""]
 
 
