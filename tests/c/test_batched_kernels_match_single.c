@@ -16,62 +16,91 @@ static uint32_t s_rng = 4242;
 
 static float plRand( void )
 {
-	s_rng ^= s_rng << 13;
-	s_rng ^= s_rng >> 17;
-	s_rng ^= s_rng << 5;
-	return (float)( s_rng >> 8 ) / 8388608.0f - 1.0f;
+	return plTestRandom( &s_rng );
 }
 
 // The kernel sets to compare: scalar always, AVX2 when this build and CPU have it, and the AVX2 single-instance
 // kernels with the AVX-512 batched ones when this build and CPU have those too (set 2). Each set's batched kernels are
 // held to the single-instance kernels of the same set.
 #define PLEAT_TEST_SETS 3
-static uint32_t plKernelSets( plKernels sets[PLEAT_TEST_SETS], plBatchKernels batch[PLEAT_TEST_SETS] )
+typedef struct plTestSets
 {
-	uint32_t count = 0;
-	for ( int scalar = 1; scalar >= 0; --scalar )
+	plKernels single[PLEAT_TEST_SETS];
+	plBatchKernels batch[PLEAT_TEST_SETS];
+	uint32_t count;
+} plTestSets;
+
+// cmocka setup: *state = the kernel sets (chosen once, reported once).
+static int plKernelSets_Setup( void** state )
+{
+	static plTestSets sets;
+	if ( sets.count == 0 )
 	{
-		plKernels k;
-		int avx2 = plSelectKernels( &k, scalar );
-		if ( !scalar && !avx2 )
+		for ( int scalar = 1; scalar >= 0; --scalar )
 		{
-			break;
+			plKernels k;
+			int avx2 = plSelectKernels( &k, scalar );
+			if ( !scalar && !avx2 )
+			{
+				break;
+			}
+			sets.single[sets.count] = k;
+			assert_true( plSelectBatchKernelsUpTo( &k, PLEAT_BATCH_ISA_AVX2, &sets.batch[sets.count] ) );
+			sets.count++;
+			if ( !scalar && plCpuHasAvx512Batch() )
+			{
+				sets.single[sets.count] = k;
+				assert_true( plSelectBatchKernelsUpTo( &k, PLEAT_BATCH_ISA_AVX512, &sets.batch[sets.count] ) );
+				assert_non_null( strstr( sets.batch[sets.count].isa, "avx512" ) );
+				sets.count++;
+			}
 		}
-		sets[count] = k;
-		assert_true( plSelectBatchKernelsUpTo( &k, PLEAT_BATCH_ISA_AVX2, &batch[count] ) );
-		count++;
-		if ( !scalar && plCpuHasAvx512Batch() )
-		{
-			sets[count] = k;
-			assert_true( plSelectBatchKernelsUpTo( &k, PLEAT_BATCH_ISA_AVX512, &batch[count] ) );
-			assert_non_null( strstr( batch[count].isa, "avx512" ) );
-			count++;
-		}
-	}
-	static int reported = 0;
-	if ( !reported )
-	{
-		reported = 1;
 		print_message( "batched kernel sets tested:" );
-		for ( uint32_t i = 0; i < count; ++i )
+		for ( uint32_t i = 0; i < sets.count; ++i )
 		{
-			print_message( " %s", batch[i].isa );
+			print_message( " %s", sets.batch[i].isa );
 		}
 		print_message( "\n" );
 	}
-	return count;
+	*state = &sets;
+	return 0;
+}
+#define PLEAT_TEST_WITH_SETS( test ) cmocka_unit_test_setup( test, plKernelSets_Setup )
+
+// A layer of random weights [out][in] (w, and w16 its fp16 copy) and bias [out], in one allocation (free w).
+typedef struct plRandomLayer
+{
+	float* w;
+	float* bias;
+	uint16_t* w16;
+} plRandomLayer;
+
+static plRandomLayer plRandomLayer_Make( uint32_t in, uint32_t out )
+{
+	size_t count = (size_t)in * out;
+	plRandomLayer l;
+	l.w = (float*)malloc( ( count + out ) * sizeof( float ) + count * sizeof( uint16_t ) );
+	l.bias = l.w + count;
+	l.w16 = (uint16_t*)( l.bias + out );
+	for ( size_t i = 0; i < count; ++i )
+	{
+		l.w[i] = plRand();
+		l.w16[i] = plFloatToHalf( l.w[i] );
+	}
+	for ( uint32_t i = 0; i < out; ++i )
+	{
+		l.bias[i] = plRand();
+	}
+	return l;
 }
 
 static void test_mat_mat_equals_mat_vec_per_instance( void** state )
 {
-	(void)state;
-	plKernels sets[PLEAT_TEST_SETS];
-	plBatchKernels batch[PLEAT_TEST_SETS];
-	uint32_t set_count = plKernelSets( sets, batch );
+	const plTestSets* k = (const plTestSets*)*state;
 	const uint32_t ins[] = { 1, 7, 8, 9, 15, 16, 17, 31, 33, 128, 681, 1030 };
 	const uint32_t outs[] = { 1, 2, 3, 5, 8, 13, 64 };
 	const uint32_t batches[] = { 1, 2, 3, 4, 5, 6, 7, 13, PLEAT_BATCH_MAX };
-	for ( uint32_t s = 0; s < set_count; ++s )
+	for ( uint32_t s = 0; s < k->count; ++s )
 	{
 		for ( int fp16 = 0; fp16 < 2; ++fp16 )
 		{
@@ -80,19 +109,8 @@ static void test_mat_mat_equals_mat_vec_per_instance( void** state )
 				for ( size_t o = 0; o < sizeof( outs ) / sizeof( outs[0] ); ++o )
 				{
 					uint32_t in = ins[a], out = outs[o];
-					float* w = (float*)malloc( (size_t)in * out * sizeof( float ) );
-					uint16_t* w16 = (uint16_t*)malloc( (size_t)in * out * sizeof( uint16_t ) );
-					float* bias = (float*)malloc( out * sizeof( float ) );
-					for ( size_t i = 0; i < (size_t)in * out; ++i )
-					{
-						w[i] = plRand();
-						w16[i] = plFloatToHalf( w[i] );
-					}
-					for ( uint32_t i = 0; i < out; ++i )
-					{
-						bias[i] = plRand();
-					}
-					const void* weights = fp16 ? (const void*)w16 : (const void*)w;
+					plRandomLayer layer = plRandomLayer_Make( in, out );
+					const void* weights = fp16 ? (const void*)layer.w16 : (const void*)layer.w;
 					for ( size_t bi = 0; bi < sizeof( batches ) / sizeof( batches[0] ); ++bi )
 					{
 						uint32_t n = batches[bi];
@@ -112,19 +130,17 @@ static void test_mat_mat_equals_mat_vec_per_instance( void** state )
 						}
 						// A row range starting at an odd row, as a worker would get.
 						uint32_t begin = out > 3 ? 1 : 0;
-						batch[s].mat_mat( y, x, n, weights, fp16, bias, in, begin, out );
+						k->batch[s].mat_mat( y, x, n, weights, fp16, layer.bias, in, begin, out );
 						for ( uint32_t b = 0; b < n; ++b )
 						{
-							sets[s].mat_vec( single, x[b], weights, fp16, bias, in, begin, out );
+							k->single[s].mat_vec( single, x[b], weights, fp16, layer.bias, in, begin, out );
 							assert_memory_equal( single + begin, y[b] + begin, ( out - begin ) * sizeof( float ) );
 						}
 						free( xs );
 						free( ys );
 						free( single );
 					}
-					free( w );
-					free( w16 );
-					free( bias );
+					free( layer.w );
 				}
 			}
 		}
@@ -134,25 +150,15 @@ static void test_mat_mat_equals_mat_vec_per_instance( void** state )
 // Every SIMD set's batched mat-mat (AVX2, AVX-512) against the scalar specification.
 static void test_mat_mat_simd_within_rounding_of_scalar_spec( void** state )
 {
-	(void)state;
-	plKernels sets[PLEAT_TEST_SETS];
-	plBatchKernels batch[PLEAT_TEST_SETS];
-	uint32_t set_count = plKernelSets( sets, batch );
-	if ( set_count < 2 )
+	const plTestSets* k = (const plTestSets*)*state;
+	if ( k->count < 2 )
 	{
 		skip();
 	}
 	const uint32_t in = 681, out = 37, n = 7;
-	float* w = (float*)malloc( (size_t)in * out * sizeof( float ) );
-	float bias[37], xs[7 * 681], ys[7 * 37], yv[7 * 37];
-	for ( size_t i = 0; i < (size_t)in * out; ++i )
-	{
-		w[i] = plRand();
-	}
-	for ( uint32_t i = 0; i < out; ++i )
-	{
-		bias[i] = plRand();
-	}
+	plRandomLayer layer = plRandomLayer_Make( in, out );
+	const float *w = layer.w, *bias = layer.bias;
+	float xs[7 * 681], ys[7 * 37], yv[7 * 37];
 	const float* x[7];
 	float *y_scalar[7], *y_simd[7];
 	for ( uint32_t b = 0; b < n; ++b )
@@ -165,10 +171,10 @@ static void test_mat_mat_simd_within_rounding_of_scalar_spec( void** state )
 		y_scalar[b] = ys + b * out;
 		y_simd[b] = yv + b * out;
 	}
-	batch[0].mat_mat( y_scalar, x, n, w, 0, bias, in, 0, out );
-	for ( uint32_t s = 1; s < set_count; ++s )
+	k->batch[0].mat_mat( y_scalar, x, n, w, 0, bias, in, 0, out );
+	for ( uint32_t s = 1; s < k->count; ++s )
 	{
-		batch[s].mat_mat( y_simd, x, n, w, 0, bias, in, 0, out );
+		k->batch[s].mat_mat( y_simd, x, n, w, 0, bias, in, 0, out );
 		for ( uint32_t b = 0; b < n; ++b )
 		{
 			for ( uint32_t r = 0; r < out; ++r )
@@ -182,7 +188,7 @@ static void test_mat_mat_simd_within_rounding_of_scalar_spec( void** state )
 			}
 		}
 	}
-	free( w );
+	free( layer.w );
 }
 
 // The lanes form of the mat-mat (sixteen instances per vector, where the set has one) against the single-instance
@@ -190,16 +196,14 @@ static void test_mat_mat_simd_within_rounding_of_scalar_spec( void** state )
 // of 3 and the rows left over, a partial lane group, fp32 and fp16.
 static void test_mat_mat_lanes_equals_mat_vec_per_instance( void** state )
 {
-	(void)state;
-	plKernels sets[PLEAT_TEST_SETS];
-	plBatchKernels batch[PLEAT_TEST_SETS];
-	uint32_t set_count = plKernelSets( sets, batch ), tested = 0;
+	const plTestSets* k = (const plTestSets*)*state;
+	uint32_t tested = 0;
 	const uint32_t ins[] = { 1, 7, 8, 9, 15, 16, 17, 33, 128, 681 };
 	const uint32_t outs[] = { 1, 2, 3, 5, 64 };
 	const uint32_t n = 21, groups = ( n + PLEAT_LANES - 1 ) / PLEAT_LANES;
-	for ( uint32_t s = 0; s < set_count; ++s )
+	for ( uint32_t s = 0; s < k->count; ++s )
 	{
-		if ( batch[s].mat_mat_lanes == NULL )
+		if ( k->batch[s].mat_mat_lanes == NULL )
 		{
 			continue;
 		}
@@ -211,22 +215,11 @@ static void test_mat_mat_lanes_equals_mat_vec_per_instance( void** state )
 				for ( size_t o = 0; o < sizeof( outs ) / sizeof( outs[0] ); ++o )
 				{
 					uint32_t in = ins[a], out = outs[o];
-					float* w = (float*)malloc( (size_t)in * out * sizeof( float ) );
-					uint16_t* w16 = (uint16_t*)malloc( (size_t)in * out * sizeof( uint16_t ) );
-					float* bias = (float*)malloc( out * sizeof( float ) );
+					plRandomLayer layer = plRandomLayer_Make( in, out );
 					float* xs = (float*)malloc( (size_t)n * in * sizeof( float ) );
 					float* xt = (float*)aligned_alloc( 64, (size_t)groups * in * PLEAT_LANES * sizeof( float ) );
 					float* yt = (float*)aligned_alloc( 64, (size_t)groups * out * PLEAT_LANES * sizeof( float ) );
 					float* single = (float*)malloc( out * sizeof( float ) );
-					for ( size_t i = 0; i < (size_t)in * out; ++i )
-					{
-						w[i] = plRand();
-						w16[i] = plFloatToHalf( w[i] );
-					}
-					for ( uint32_t i = 0; i < out; ++i )
-					{
-						bias[i] = plRand();
-					}
 					for ( uint32_t g = 0; g < groups; ++g )
 					{
 						for ( uint32_t l = 0; l < PLEAT_LANES; ++l )
@@ -243,21 +236,19 @@ static void test_mat_mat_lanes_equals_mat_vec_per_instance( void** state )
 							}
 						}
 					}
-					const void* weights = fp16 ? (const void*)w16 : (const void*)w;
+					const void* weights = fp16 ? (const void*)layer.w16 : (const void*)layer.w;
 					uint32_t begin = out > 3 ? 1 : 0; // a row range starting at an odd row, as a worker gets
-					batch[s].mat_mat_lanes( yt, xt, groups, weights, fp16, bias, in, out, begin, out );
+					k->batch[s].mat_mat_lanes( yt, xt, groups, weights, fp16, layer.bias, in, out, begin, out );
 					for ( uint32_t b = 0; b < n; ++b )
 					{
-						sets[s].mat_vec( single, xs + (size_t)b * in, weights, fp16, bias, in, begin, out );
+						k->single[s].mat_vec( single, xs + (size_t)b * in, weights, fp16, layer.bias, in, begin, out );
 						for ( uint32_t r = begin; r < out; ++r )
 						{
 							float lane = yt[( (size_t)( b / PLEAT_LANES ) * out + r ) * PLEAT_LANES + b % PLEAT_LANES];
 							assert_memory_equal( &single[r], &lane, sizeof( float ) );
 						}
 					}
-					free( w );
-					free( w16 );
-					free( bias );
+					free( layer.w );
 					free( xs );
 					free( xt );
 					free( yt );
@@ -274,14 +265,11 @@ static void test_mat_mat_lanes_equals_mat_vec_per_instance( void** state )
 
 static void test_blend_batch_equals_blend_per_instance( void** state )
 {
-	(void)state;
-	plKernels sets[PLEAT_TEST_SETS];
-	plBatchKernels batch[PLEAT_TEST_SETS];
-	uint32_t set_count = plKernelSets( sets, batch );
+	const plTestSets* k = (const plTestSets*)*state;
 	const uint32_t vertex_counts[] = { 1, 3, 5, 6, 11, 16, 17, 33, 100, 1004 };
 	const uint32_t blend_counts[] = { 1, 3, 4, 5, 9, 32, 130 };
 	const uint32_t batches[] = { 1, 3, 4, 5, 8, 9, 17, PLEAT_BATCH_MAX };
-	for ( uint32_t s = 0; s < set_count; ++s )
+	for ( uint32_t s = 0; s < k->count; ++s )
 	{
 		for ( int fp16 = 0; fp16 < 2; ++fp16 )
 		{
@@ -325,10 +313,10 @@ static void test_blend_batch_equals_blend_per_instance( void** state )
 						}
 						// A vertex range not starting at 0, as a worker would get (when there is more than one).
 						uint32_t begin = nv > 2 ? 1 : 0, end = nv;
-						batch[s].blend_shapes_batch( out, base, weights, n, sh, fp16, d, nv, begin, end );
+						k->batch[s].blend_shapes_batch( out, base, weights, n, sh, fp16, d, nv, begin, end );
 						for ( uint32_t b = 0; b < n; ++b )
 						{
-							sets[s].blend_shapes( single, base[b], sh, fp16, weights[b], d, nv, begin, end );
+							k->single[s].blend_shapes( single, base[b], sh, fp16, weights[b], d, nv, begin, end );
 							assert_memory_equal( single + begin * 3, out[b] + begin * 3,
 												 ( end - begin ) * 3 * sizeof( float ) );
 							for ( size_t i = 0; i < (size_t)begin * 3; ++i )
@@ -393,16 +381,13 @@ static void plTestNet_Init( plTestNet* net, const uint32_t widths[4], int fp16 )
 
 static void test_mlp_batch_job_equals_mlp_job_per_instance( void** state )
 {
-	(void)state;
-	plKernels sets[PLEAT_TEST_SETS];
-	plBatchKernels batch[PLEAT_TEST_SETS];
-	uint32_t set_count = plKernelSets( sets, batch );
+	const plTestSets* k = (const plTestSets*)*state;
 	const uint32_t widths[4] = { 681 % 200 + 3, 130, 70, 19 };
 	enum
 	{
 		N = 21 // two lane groups of the lanes form, the second partial
 	};
-	for ( uint32_t s = 0; s < set_count; ++s )
+	for ( uint32_t s = 0; s < k->count; ++s )
 	{
 		for ( int fp16 = 0; fp16 < 2; ++fp16 )
 		{
@@ -428,7 +413,7 @@ static void test_mlp_batch_job_equals_mlp_job_per_instance( void** state )
 				float* lanes = (float*)aligned_alloc( 64, ( lanes_floats * sizeof( float ) + 63 ) & ~(size_t)63 );
 				for ( int use_lanes = 0; use_lanes < 2; ++use_lanes )
 				{
-					plMlpBatchJob job = { net.layers, 3, activation, N, inputs, outputs, scratches, &batch[s], NULL,
+					plMlpBatchJob job = { net.layers, 3, activation, N, inputs, outputs, scratches, &k->batch[s], NULL,
 										  use_lanes ? lanes : NULL, use_lanes ? lanes_floats : 0 };
 					memset( ys, 0, sizeof( ys ) );
 					assert_int_equal( plMlpBatchJob_Run( &job ), PLEAT_RESULT_OK );
@@ -440,40 +425,31 @@ static void test_mlp_batch_job_equals_mlp_job_per_instance( void** state )
 										 inputs[b],
 										 plMakeSpan( single, widths[3], 4 ),
 										 plMakeSpan( single_scratch, 2 * 130, 4 ),
-										 &sets[s],
+										 &k->single[s],
 										 NULL };
 						assert_int_equal( plMlpJob_Run( &one ), PLEAT_RESULT_OK );
 						assert_memory_equal( single, ys[b], widths[3] * sizeof( float ) );
 					}
 				}
 				free( lanes );
-				plMlpBatchJob job = { net.layers, 3, activation, N, inputs, outputs, scratches, &batch[s], NULL, NULL, 0 };
+				plMlpBatchJob job = {
+					net.layers, 3, activation, N, inputs, outputs, scratches, &k->batch[s], NULL, NULL, 0 };
 
 				// Invalid jobs are rejected before anything is written.
 				plMlpBatchJob bad = job;
 				bad.batch_count = 0;
 				assert_int_equal( plMlpBatchJob_Run( &bad ), PLEAT_RESULT_INVALID_ARGUMENT );
-				bad = job;
-				bad.batch_count = PLEAT_BATCH_MAX + 1;
-				assert_false( plMlpBatchJob_Validate( &bad ) );
-				bad = job;
-				bad.activation = 7;
-				assert_false( plMlpBatchJob_Validate( &bad ) );
-				bad = job;
-				bad.kernels = NULL;
-				assert_false( plMlpBatchJob_Validate( &bad ) );
+				PLEAT_EXPECT_INVALID( plMlpBatchJob, job, batch_count, PLEAT_BATCH_MAX + 1 );
+				PLEAT_EXPECT_INVALID( plMlpBatchJob, job, activation, 7 );
+				PLEAT_EXPECT_INVALID( plMlpBatchJob, job, kernels, NULL );
 				plSpan short_scratch[N];
 				memcpy( short_scratch, scratches, sizeof( scratches ) );
 				short_scratch[N - 1] = plMakeSpan( scratch[N - 1], 2 * 130 - 1, 4 );
-				bad = job;
-				bad.scratch = short_scratch;
-				assert_false( plMlpBatchJob_Validate( &bad ) );
+				PLEAT_EXPECT_INVALID( plMlpBatchJob, job, scratch, short_scratch );
 				plConstSpan short_inputs[N];
 				memcpy( short_inputs, inputs, sizeof( inputs ) );
 				short_inputs[3] = plMakeConstSpan( xs[3], widths[0] - 1, 4 );
-				bad = job;
-				bad.inputs = short_inputs;
-				assert_false( plMlpBatchJob_Validate( &bad ) );
+				PLEAT_EXPECT_INVALID( plMlpBatchJob, job, inputs, short_inputs );
 				free( net.storage );
 			}
 		}
@@ -501,19 +477,11 @@ static void test_blend_batch_job_rejects_bad_spans( void** state )
 	bad.vertex_end = 4;
 	assert_false( plBlendShapesBatchJob_Validate( &bad ) );
 	plConstSpan mixed[2] = { plMakeConstSpan( w[0], 4, 4 ), plMakeConstSpan( w[1], 3, 4 ) };
-	bad = job;
-	bad.weights = mixed;
-	assert_false( plBlendShapesBatchJob_Validate( &bad ) );
+	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, weights, mixed );
 	plSpan aliased[2] = { plMakeSpan( base[0], 10, 12 ), plMakeSpan( out[1], 10, 12 ) };
-	bad = job;
-	bad.outputs = aliased;
-	assert_false( plBlendShapesBatchJob_Validate( &bad ) );
-	bad = job;
-	bad.batch_count = 0;
-	assert_false( plBlendShapesBatchJob_Validate( &bad ) );
-	bad = job;
-	bad.blend_shapes = NULL;
-	assert_false( plBlendShapesBatchJob_Validate( &bad ) );
+	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, outputs, aliased );
+	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, batch_count, 0 );
+	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, blend_shapes, NULL );
 }
 
 // Skinning: each instance of a batch gets what the single-instance kernel of the same set gives it, bit for bit — lane
@@ -539,14 +507,11 @@ static void plFillSkin( uint32_t n, uint32_t K, uint32_t J, uint16_t* indices, f
 
 static void test_skinning_batch_equals_skinning_per_instance( void** state )
 {
-	(void)state;
-	plKernels sets[PLEAT_TEST_SETS];
-	plBatchKernels batch[PLEAT_TEST_SETS];
-	uint32_t set_count = plKernelSets( sets, batch );
+	const plTestSets* k = (const plTestSets*)*state;
 	const uint32_t vertex_counts[] = { 1, 7, 8, 9, 23, 100 };
 	const uint32_t batches[] = { 1, 3, 8, 9, 17, PLEAT_BATCH_MAX };
 	const uint32_t J = 24;
-	for ( uint32_t s = 0; s < set_count; ++s )
+	for ( uint32_t s = 0; s < k->count; ++s )
 	{
 		for ( uint32_t K = 1; K <= 8; K += ( K < 4 ? 1 : 4 ) )
 		{
@@ -581,14 +546,14 @@ static void test_skinning_batch_equals_skinning_per_instance( void** state )
 						m[b] = mats + (size_t)b * J * 12;
 					}
 					uint32_t begin = nv > 2 ? 1 : 0, end = nv > 8 ? nv - 1 : nv;
-					batch[s].skinning_batch( out, in, n, indices, weights, K, m, J, begin, end );
+					k->batch[s].skinning_batch( out, in, n, indices, weights, K, m, J, begin, end );
 					for ( uint32_t b = 0; b < n; ++b )
 					{
 						for ( size_t i = 0; i < (size_t)nv * 3; ++i )
 						{
 							single[i] = -7.0f;
 						}
-						sets[s].skinning( single, 12, in[b], 12, indices, weights, K, m[b], J, begin, end );
+						k->single[s].skinning( single, 12, in[b], 12, indices, weights, K, m[b], J, begin, end );
 						assert_memory_equal( single, out[b], (size_t)nv * 3 * sizeof( float ) );
 						if ( s > 0 )
 						{
@@ -616,14 +581,11 @@ static void test_skinning_batch_equals_skinning_per_instance( void** state )
 // clearance (unchanged) and inside it (pushed), ragged lane groups and vertex ranges, 1..4 influences.
 static void test_body_contact_batch_equals_body_contact_per_instance( void** state )
 {
-	(void)state;
-	plKernels sets[PLEAT_TEST_SETS];
-	plBatchKernels batch[PLEAT_TEST_SETS];
-	uint32_t set_count = plKernelSets( sets, batch );
+	const plTestSets* k = (const plTestSets*)*state;
 	const uint32_t vertex_counts[] = { 1, 7, 9, 23, 100 };
 	const uint32_t batches[] = { 1, 3, 8, 9, 17 };
 	const uint32_t J = 24;
-	for ( uint32_t s = 0; s < set_count; ++s )
+	for ( uint32_t s = 0; s < k->count; ++s )
 	{
 		for ( uint32_t K = 1; K <= 4; ++K )
 		{
@@ -674,13 +636,13 @@ static void test_body_contact_batch_equals_body_contact_per_instance( void** sta
 					float* before = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
 					memcpy( before, ps, (size_t)n * nv * 3 * sizeof( float ) );
 					uint32_t begin = nv > 2 ? 1 : 0, end = nv > 8 ? nv - 1 : nv;
-					batch[s].body_contact_batch( p, r, offsets, n, normals, indices, weights, K, m, J, begin, end );
+					k->batch[s].body_contact_batch( p, r, offsets, n, normals, indices, weights, K, m, J, begin, end );
 					int moved = 0;
 					for ( uint32_t b = 0; b < n; ++b )
 					{
 						memcpy( single, before + (size_t)b * nv * 3, (size_t)nv * 3 * sizeof( float ) );
-						sets[s].body_contact( single, 12, r[b], normals, indices, weights, K, m[b], J, offsets[b], begin,
-											  end );
+						k->single[s].body_contact( single, 12, r[b], normals, indices, weights, K, m[b], J, offsets[b],
+												   begin, end );
 						assert_memory_equal( single, p[b], (size_t)nv * 3 * sizeof( float ) );
 						moved |= memcmp( single, before + (size_t)b * nv * 3, (size_t)nv * 3 * sizeof( float ) ) != 0;
 					}
@@ -717,13 +679,10 @@ static uint32_t plStripMesh( uint32_t columns, uint32_t* faces )
 
 static void test_normals_batch_equals_scatter_per_instance( void** state )
 {
-	(void)state;
-	plKernels sets[PLEAT_TEST_SETS];
-	plBatchKernels batch[PLEAT_TEST_SETS];
-	uint32_t set_count = plKernelSets( sets, batch );
+	const plTestSets* k = (const plTestSets*)*state;
 	const uint32_t column_counts[] = { 2, 4, 5, 12, 50 };
 	const uint32_t batches[] = { 1, 3, 8, 9, 17, PLEAT_BATCH_MAX };
-	for ( uint32_t s = 0; s < set_count; ++s )
+	for ( uint32_t s = 0; s < k->count; ++s )
 	{
 		for ( size_t ci = 0; ci < sizeof( column_counts ) / sizeof( column_counts[0] ); ++ci )
 		{
@@ -731,8 +690,9 @@ static void test_normals_batch_equals_scatter_per_instance( void** state )
 			uint32_t* faces = (uint32_t*)malloc( (size_t)( 2 * columns + 2 ) * 3 * sizeof( uint32_t ) );
 			uint32_t nf = plStripMesh( columns, faces );
 			float* scratch = (float*)aligned_alloc(
-				64, ( plNormalsBatchScratchFloats( nv, batch[s].geometry_lanes ) * sizeof( float ) + 63 ) & ~(size_t)63 );
-			float* sums4 = (float*)aligned_alloc( 64, (size_t)nv * 16 + 64 );
+				64,
+				( plNormalsBatchScratchFloats( nv, k->batch[s].geometry_lanes ) * sizeof( float ) + 63 ) & ~(size_t)63 );
+			float* sums4 = (float*)aligned_alloc( 64, ( (size_t)nv * 16 + 127 ) & ~(size_t)63 ); // a multiple of 64 (C11)
 			for ( size_t bi = 0; bi < sizeof( batches ) / sizeof( batches[0] ); ++bi )
 			{
 				uint32_t n = batches[bi];
@@ -750,10 +710,10 @@ static void test_normals_batch_equals_scatter_per_instance( void** state )
 					p[b] = ps + (size_t)b * nv * 3;
 					nrm[b] = ns + (size_t)b * nv * 3;
 				}
-				batch[s].normals_batch( nrm, p, n, nv, faces, nf, scratch );
+				k->batch[s].normals_batch( nrm, p, n, nv, faces, nf, scratch );
 				for ( uint32_t b = 0; b < n; ++b )
 				{
-					sets[s].normals_scatter( single, 12, p[b], 12, nv, faces, nf, sums4 );
+					k->single[s].normals_scatter( single, 12, p[b], 12, nv, faces, nf, sums4 );
 					assert_memory_equal( single, nrm[b], (size_t)nv * 3 * sizeof( float ) );
 					if ( s > 0 )
 					{
@@ -775,15 +735,15 @@ static void test_normals_batch_equals_scatter_per_instance( void** state )
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test( test_mat_mat_equals_mat_vec_per_instance ),
-		cmocka_unit_test( test_mat_mat_simd_within_rounding_of_scalar_spec ),
-		cmocka_unit_test( test_mat_mat_lanes_equals_mat_vec_per_instance ),
-		cmocka_unit_test( test_blend_batch_equals_blend_per_instance ),
-		cmocka_unit_test( test_mlp_batch_job_equals_mlp_job_per_instance ),
+		PLEAT_TEST_WITH_SETS( test_mat_mat_equals_mat_vec_per_instance ),
+		PLEAT_TEST_WITH_SETS( test_mat_mat_simd_within_rounding_of_scalar_spec ),
+		PLEAT_TEST_WITH_SETS( test_mat_mat_lanes_equals_mat_vec_per_instance ),
+		PLEAT_TEST_WITH_SETS( test_blend_batch_equals_blend_per_instance ),
+		PLEAT_TEST_WITH_SETS( test_mlp_batch_job_equals_mlp_job_per_instance ),
 		cmocka_unit_test( test_blend_batch_job_rejects_bad_spans ),
-		cmocka_unit_test( test_skinning_batch_equals_skinning_per_instance ),
-		cmocka_unit_test( test_body_contact_batch_equals_body_contact_per_instance ),
-		cmocka_unit_test( test_normals_batch_equals_scatter_per_instance ),
+		PLEAT_TEST_WITH_SETS( test_skinning_batch_equals_skinning_per_instance ),
+		PLEAT_TEST_WITH_SETS( test_body_contact_batch_equals_body_contact_per_instance ),
+		PLEAT_TEST_WITH_SETS( test_normals_batch_equals_scatter_per_instance ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

@@ -170,6 +170,24 @@ static inline void plTestLog_Record( plLogLevel level, plLogItem item, const cha
 	}
 }
 
+// One row of a table of invalid jobs: a copy of job (of type Job) with member set to value must fail Job##_Validate.
+#define PLEAT_EXPECT_INVALID( Job, job, member, value )                                                                \
+	do                                                                                                                 \
+	{                                                                                                                  \
+		Job invalid_ = ( job );                                                                                        \
+		invalid_.member = ( value );                                                                                   \
+		assert_false( Job##_Validate( &invalid_ ) );                                                                   \
+	} while ( 0 )
+
+// The next number of a xorshift32 stream (*state, never 0) as a float in [-1, 1): deterministic test data.
+static inline float plTestRandom( uint32_t* state )
+{
+	*state ^= *state << 13;
+	*state ^= *state >> 17;
+	*state ^= *state << 5;
+	return (float)( *state >> 8 ) / 8388608.0f - 1.0f;
+}
+
 // Frame `frame` of a smooth motion: every joint swings about an axis, the root walks and turns. quats: [J][4].
 static inline plFrameInput plTestMotion( uint32_t frame, uint32_t joint_count, float* quats )
 {

@@ -18,10 +18,7 @@ static uint32_t s_rng = 777;
 
 static float plRand( void )
 {
-	s_rng ^= s_rng << 13;
-	s_rng ^= s_rng >> 17;
-	s_rng ^= s_rng << 5;
-	return (float)( s_rng >> 8 ) / 8388608.0f - 1.0f;
+	return plTestRandom( &s_rng );
 }
 
 // The next number of the LCG that picks indices (faces, adjacency, joints).
