@@ -521,13 +521,13 @@ static void test_skinning_batch_equals_skinning_per_instance( void** state )
 				uint16_t* indices = (uint16_t*)malloc( (size_t)nv * K * sizeof( uint16_t ) );
 				float* weights = (float*)malloc( (size_t)nv * K * sizeof( float ) );
 				plFillSkin( nv, K, J, indices, weights );
+				float* single = (float*)malloc( (size_t)nv * 3 * sizeof( float ) );
 				for ( size_t bi = 0; bi < sizeof( batches ) / sizeof( batches[0] ); ++bi )
 				{
 					uint32_t n = batches[bi];
 					float* ins = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
 					float* outs = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
 					float* mats = (float*)malloc( (size_t)n * J * 12 * sizeof( float ) );
-					float* single = (float*)malloc( (size_t)nv * 3 * sizeof( float ) );
 					const float *in[PLEAT_BATCH_MAX], *m[PLEAT_BATCH_MAX];
 					float* out[PLEAT_BATCH_MAX];
 					for ( uint32_t b = 0; b < n; ++b )
@@ -567,8 +567,8 @@ static void test_skinning_batch_equals_skinning_per_instance( void** state )
 					free( ins );
 					free( outs );
 					free( mats );
-					free( single );
 				}
+				free( single );
 				free( indices );
 				free( weights );
 			}

@@ -34,14 +34,32 @@ static int plHaveAvx2( void )
 	return plSelectKernels( &k, 0 );
 }
 
-// The AVX2 and the scalar kernel tables; skips the test where this CPU or build has no AVX2 kernels.
-static void plRequireAvx2Kernels( plKernels* simd, plKernels* scalar )
+// cmocka setup: *state = the AVX2 kernels (where this build and CPU have them) and the scalar specification.
+typedef struct plKernelPair
 {
-	if ( !plSelectKernels( simd, 0 ) )
+	plKernels simd, scalar;
+	int has_simd;
+} plKernelPair;
+
+static int plKernelPair_Setup( void** state )
+{
+	static plKernelPair pair;
+	pair.has_simd = plSelectKernels( &pair.simd, 0 );
+	plSelectKernels( &pair.scalar, 1 );
+	*state = &pair;
+	return 0;
+}
+#define PLEAT_TEST_WITH_PAIR( test ) cmocka_unit_test_setup( test, plKernelPair_Setup )
+
+// The pair of the fixture; skips the test where there is no AVX2 set.
+static const plKernelPair* plRequireAvx2Kernels( void** state )
+{
+	const plKernelPair* pair = (const plKernelPair*)*state;
+	if ( !pair->has_simd )
 	{
 		skip();
 	}
-	plSelectKernels( scalar, 1 );
+	return pair;
 }
 
 // count weights scale · U(−1, 1) and their fp16 encodings; with fp16 the fp32 copy holds the decoded halves, so that
@@ -59,10 +77,36 @@ static void plRandomWeights( float* w, uint16_t* w16, size_t count, float scale,
 	}
 }
 
+// count influences: joints in [0, joint_count] (joint_count itself out of range), weights in [0, 1).
+static void plRandomInfluences( uint16_t* indices, float* weights, uint32_t count, uint32_t joint_count )
+{
+	for ( uint32_t i = 0; i < count; ++i )
+	{
+		indices[i] = (uint16_t)plRandIndex() % ( joint_count + 1 );
+		weights[i] = 0.5f * ( plRand() + 1.0f );
+	}
+}
+
 // The bound on |simd − scalar| for an fp32 sum of `terms` terms whose absolute values add up to magnitude (see top).
 static double plSumBound( uint32_t terms, double magnitude )
 {
 	return 4.0 * terms * 6e-8 * magnitude + 1e-30;
+}
+
+// Fails, naming the element (a printf format and its arguments), when |simd − scalar| exceeds plSumBound.
+static void plExpectWithinSumBound( float scalar, float simd, uint32_t terms, double magnitude, const char* format,
+									... )
+{
+	if ( fabs( (double)scalar - simd ) <= plSumBound( terms, magnitude ) )
+	{
+		return;
+	}
+	char where[160];
+	va_list args;
+	va_start( args, format );
+	vsnprintf( where, sizeof( where ), format, args );
+	va_end( args );
+	fail_msg( "%s: scalar %.9g simd %.9g", where, scalar, simd );
 }
 
 // n random points, `stride` bytes apart; the block ends at the last point's z.
@@ -81,9 +125,7 @@ static float* plRandomPositions( uint32_t n, uint32_t stride )
 
 static void test_mat_vec_avx2_matches_scalar( void** state )
 {
-	(void)state;
-	plKernels simd, scalar;
-	plRequireAvx2Kernels( &simd, &scalar );
+	const plKernelPair* pair = plRequireAvx2Kernels( state );
 	const uint32_t ins[] = { 1, 7, 8, 9, 15, 16, 17, 31, 33, 681 };
 	const uint32_t outs[] = { 1, 2, 3, 4, 5, 7, 13, 512 };
 	for ( int fp16 = 0; fp16 < 2; ++fp16 )
@@ -108,8 +150,8 @@ static void test_mat_vec_avx2_matches_scalar( void** state )
 				const void* weights = fp16 ? (const void*)w16 : (const void*)w;
 				// Also a sub-range of rows starting at an odd row, as a worker would get.
 				uint32_t begin = out > 3 ? 1 : 0;
-				scalar.mat_vec( ys, x, weights, fp16, bias, in, begin, out );
-				simd.mat_vec( yv, x, weights, fp16, bias, in, begin, out );
+				pair->scalar.mat_vec( ys, x, weights, fp16, bias, in, begin, out );
+				pair->simd.mat_vec( yv, x, weights, fp16, bias, in, begin, out );
 				for ( uint32_t r = begin; r < out; ++r )
 				{
 					double magnitude = fabs( bias[r] );
@@ -117,10 +159,8 @@ static void test_mat_vec_avx2_matches_scalar( void** state )
 					{
 						magnitude += fabs( (double)w[(size_t)r * in + c] * x[c] );
 					}
-					if ( fabs( (double)ys[r] - yv[r] ) > plSumBound( in + 1, magnitude ) )
-					{
-						fail_msg( "fp16=%d in=%u out=%u row %u: scalar %.9g simd %.9g", fp16, in, out, r, ys[r], yv[r] );
-					}
+					plExpectWithinSumBound( ys[r], yv[r], in + 1, magnitude, "fp16=%d in=%u out=%u row %u", fp16, in,
+											out, r );
 				}
 				free( w );
 				free( w16 );
@@ -131,9 +171,7 @@ static void test_mat_vec_avx2_matches_scalar( void** state )
 
 static void test_blend_shapes_avx2_matches_scalar( void** state )
 {
-	(void)state;
-	plKernels simd, scalar;
-	plRequireAvx2Kernels( &simd, &scalar );
+	const plKernelPair* pair = plRequireAvx2Kernels( state );
 	const uint32_t ns[] = { 1, 3, 5, 256, 257, 1000 };
 	const uint32_t ds[] = { 1, 2, 3, 128 };
 	for ( int fp16 = 0; fp16 < 2; ++fp16 )
@@ -158,8 +196,8 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 				}
 				const void* data = fp16 ? (const void*)shapes16 : (const void*)shapes;
 				uint32_t begin = n > 2 ? 1 : 0, end = n > 2 ? n - 1 : n;
-				scalar.blend_shapes( os, base, data, fp16, w, d, n, begin, end );
-				simd.blend_shapes( ov, base, data, fp16, w, d, n, begin, end );
+				pair->scalar.blend_shapes( os, base, data, fp16, w, d, n, begin, end );
+				pair->simd.blend_shapes( ov, base, data, fp16, w, d, n, begin, end );
 				for ( size_t i = 0; i < plane; ++i )
 				{
 					if ( i < (size_t)begin * 3 || i >= (size_t)end * 3 )
@@ -172,10 +210,8 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 					{
 						magnitude += fabs( (double)w[j] * shapes[j * plane + i] );
 					}
-					if ( fabs( (double)os[i] - ov[i] ) > plSumBound( d + 1, magnitude ) )
-					{
-						fail_msg( "fp16=%d n=%u d=%u float %zu: scalar %.9g simd %.9g", fp16, n, d, i, os[i], ov[i] );
-					}
+					plExpectWithinSumBound( os[i], ov[i], d + 1, magnitude, "fp16=%d n=%u d=%u float %zu", fp16, n, d,
+											i );
 				}
 				free( shapes );
 				free( shapes16 );
@@ -190,9 +226,7 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 // so they agree to rounding: |Δ| ≤ 1e-5 (the inputs are O(1); a wrong column or sign gives O(0.1)).
 static void test_body_contact_avx2_matches_scalar( void** state )
 {
-	(void)state;
-	plKernels simd, scalar;
-	plRequireAvx2Kernels( &simd, &scalar );
+	const plKernelPair* pair = plRequireAvx2Kernels( state );
 	const uint32_t joint_count = 7, n = 41, stride = 20; // bytes
 	float matrices[7 * 12];
 	for ( uint32_t i = 0; i < joint_count * 12; ++i )
@@ -220,16 +254,14 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 	{
 		uint16_t indices[41 * 8];
 		float weights[41 * 8];
-		for ( uint32_t i = 0; i < n * K; ++i )
-		{
-			indices[i] = (uint16_t)plRandIndex() % ( joint_count + 1 );
-			weights[i] = 0.5f * ( plRand() + 1.0f );
-		}
+		plRandomInfluences( indices, weights, n * K, joint_count );
 		float os[41 * 5], ov[41 * 5];
 		memcpy( os, start, sizeof( os ) );
 		memcpy( ov, start, sizeof( ov ) );
-		scalar.body_contact( os, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1, n - 2 );
-		simd.body_contact( ov, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1, n - 2 );
+		const plKernels *scalar = &pair->scalar, *simd = &pair->simd;
+		scalar->body_contact( os, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1,
+							  n - 2 );
+		simd->body_contact( ov, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1, n - 2 );
 		uint32_t moved = 0;
 		for ( uint32_t v = 0; v < n; ++v )
 		{
@@ -256,9 +288,7 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 // index out of range (weight 0 in both), vertex sub-ranges.
 static void test_skinning_avx2_matches_scalar( void** state )
 {
-	(void)state;
-	plKernels simd, scalar;
-	plRequireAvx2Kernels( &simd, &scalar );
+	const plKernelPair* pair = plRequireAvx2Kernels( state );
 	const uint32_t joint_count = 7, n = 37, in_stride = 16, out_stride = 28; // bytes
 	float matrices[7 * 12];
 	for ( uint32_t i = 0; i < joint_count * 12; ++i )
@@ -274,18 +304,14 @@ static void test_skinning_avx2_matches_scalar( void** state )
 	{
 		uint16_t indices[37 * 8];
 		float weights[37 * 8];
-		for ( uint32_t i = 0; i < n * K; ++i )
-		{
-			indices[i] = (uint16_t)plRandIndex() % ( joint_count + 1 );
-			weights[i] = 0.5f * ( plRand() + 1.0f );
-		}
+		plRandomInfluences( indices, weights, n * K, joint_count );
 		float os[37 * 7], ov[37 * 7];
 		for ( uint32_t i = 0; i < n * 7; ++i )
 		{
 			os[i] = ov[i] = -77.0f;
 		}
-		scalar.skinning( os, out_stride, in, in_stride, indices, weights, K, matrices, joint_count, 2, n - 1 );
-		simd.skinning( ov, out_stride, in, in_stride, indices, weights, K, matrices, joint_count, 2, n - 1 );
+		pair->scalar.skinning( os, out_stride, in, in_stride, indices, weights, K, matrices, joint_count, 2, n - 1 );
+		pair->simd.skinning( ov, out_stride, in, in_stride, indices, weights, K, matrices, joint_count, 2, n - 1 );
 		for ( uint32_t v = 0; v < n; ++v )
 		{
 			for ( uint32_t e = 0; e < 7; ++e )
@@ -309,10 +335,7 @@ static void test_skinning_avx2_matches_scalar( void** state )
 						}
 					}
 				}
-				if ( fabs( (double)a - b ) > plSumBound( K + 4, magnitude ) )
-				{
-					fail_msg( "K=%u vertex %u row %u: scalar %.9g simd %.9g", K, v, e, a, b );
-				}
+				plExpectWithinSumBound( a, b, K + 4, magnitude, "K=%u vertex %u row %u", K, v, e );
 			}
 		}
 	}
@@ -323,9 +346,7 @@ static void test_skinning_avx2_matches_scalar( void** state )
 // the last vertex's z (a 16-byte load there would be caught by ASan in the sanitizer build).
 static void test_normals_avx2_are_bit_identical_to_scalar( void** state )
 {
-	(void)state;
-	plKernels simd, scalar;
-	plRequireAvx2Kernels( &simd, &scalar );
+	const plKernelPair* pair = plRequireAvx2Kernels( state );
 	const uint32_t n = 53, f = 97;
 	for ( uint32_t stride = 12; stride <= 20; stride += 8 )
 	{
@@ -349,14 +370,14 @@ static void test_normals_avx2_are_bit_identical_to_scalar( void** state )
 		float fs[97 * 4], fv[97 * 4];
 		memset( fs, 0xAB, sizeof( fs ) );
 		memset( fv, 0xCD, sizeof( fv ) );
-		scalar.face_normals( fs, positions, stride, n, faces, 0, f );
-		simd.face_normals( fv, positions, stride, n, faces, 0, f );
+		pair->scalar.face_normals( fs, positions, stride, n, faces, 0, f );
+		pair->simd.face_normals( fv, positions, stride, n, faces, 0, f );
 		assert_memory_equal( fs, fv, sizeof( fs ) );
 		float os[53 * 4], ov[53 * 4];
 		memset( os, 0, sizeof( os ) );
 		memset( ov, 0, sizeof( ov ) );
-		scalar.normals_gather( os, 16, fs, f, offsets, adjacency, 1, n );
-		simd.normals_gather( ov, 16, fs, f, offsets, adjacency, 1, n );
+		pair->scalar.normals_gather( os, 16, fs, f, offsets, adjacency, 1, n );
+		pair->simd.normals_gather( ov, 16, fs, f, offsets, adjacency, 1, n );
 		assert_memory_equal( os, ov, sizeof( os ) );
 		float length = sqrtf( os[4] * os[4] + os[5] * os[5] + os[6] * os[6] );
 		assert_true( fabsf( length - 1.0f ) < 1e-5f ); // vertex 1 has faces: a unit normal
@@ -508,11 +529,11 @@ static void test_pipeline_avx2_matches_scalar( void** state )
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test( test_mat_vec_avx2_matches_scalar ),
-		cmocka_unit_test( test_blend_shapes_avx2_matches_scalar ),
-		cmocka_unit_test( test_skinning_avx2_matches_scalar ),
-		cmocka_unit_test( test_body_contact_avx2_matches_scalar ),
-		cmocka_unit_test( test_normals_avx2_are_bit_identical_to_scalar ),
+		PLEAT_TEST_WITH_PAIR( test_mat_vec_avx2_matches_scalar ),
+		PLEAT_TEST_WITH_PAIR( test_blend_shapes_avx2_matches_scalar ),
+		PLEAT_TEST_WITH_PAIR( test_skinning_avx2_matches_scalar ),
+		PLEAT_TEST_WITH_PAIR( test_body_contact_avx2_matches_scalar ),
+		PLEAT_TEST_WITH_PAIR( test_normals_avx2_are_bit_identical_to_scalar ),
 		cmocka_unit_test( test_normals_scatter_is_bit_identical_to_gather ),
 		cmocka_unit_test( test_half_conversion_round_trips ),
 		cmocka_unit_test( test_pipeline_avx2_matches_scalar ),
