@@ -33,10 +33,7 @@
 
 typedef struct plBatchFixture
 {
-	plContext context;
-	plAsset asset;
-	plAssetInfo info;
-	uint8_t* bytes;
+	plTestRig rig; // context, asset and its info
 	plTestEglContext engine;
 } plBatchFixture;
 
@@ -49,20 +46,10 @@ static int plSetup( void** state )
 	plTestAsset* model = plTestAsset_Create( &params );
 	assert_non_null( model );
 	assert_true( plTestAsset_AddBodyAnchors( model, 0.002f ) );
-	size_t size = 0;
-	fixture->bytes = plTestAsset_Write( model, &size );
+	assert_int_equal( plTestRig_Init( &fixture->rig, model, NULL ), PLEAT_RESULT_OK );
 	plTestAsset_Destroy( model );
-	assert_non_null( fixture->bytes );
-	plContextDef context_def = plDefaultContextDef();
-	assert_int_equal( plCreateContext( &context_def, &fixture->context ), PLEAT_RESULT_OK );
-	plAssetDef asset_def = plDefaultAssetDef();
-	asset_def.data = fixture->bytes;
-	asset_def.size = size;
-	assert_int_equal( plLoadAsset( fixture->context, &asset_def, &fixture->asset ), PLEAT_RESULT_OK );
-	assert_int_equal( plAsset_GetInfo( fixture->asset, &fixture->info ), PLEAT_RESULT_OK );
-	assert_true( fixture->info.has_body_contact );
-	if ( !plTestEgl_Create( &fixture->engine ) )
-		fixture->engine.context = NULL;
+	assert_true( fixture->rig.info.has_body_contact );
+	plTestEgl_Create( &fixture->engine ); // none on this machine: the tests skip (plTestEgl_Require)
 	*state = fixture;
 	return 0;
 }
@@ -71,9 +58,8 @@ static int plTeardown( void** state )
 {
 	plBatchFixture* fixture = *state;
 	plTestEgl_Destroy( &fixture->engine );
-	plDestroyAsset( fixture->asset );
-	plDestroyContext( fixture->context );
-	plTestAsset_FreeBytes( fixture->bytes );
+	plDestroyAsset( fixture->rig.asset );
+	plTestRig_Free( &fixture->rig );
 	free( fixture );
 	return 0;
 }
@@ -93,7 +79,7 @@ static void plCreateCrowd( plBatchFixture* fixture, plGpuMode mode, plCrowd* cro
 		for ( uint32_t i = 0; i < PLEAT_TEST_CROWD; ++i )
 		{
 			plInstanceDef def = plDefaultInstanceDef();
-			def.asset = fixture->asset;
+			def.asset = fixture->rig.asset;
 			def.gpu_mode = set == 2 ? PLEAT_GPU_MODE_NONE : mode;
 			def.body_contact = i != 2;              // one instance with contact off
 			def.network_rate_hz = i == 3 ? 15.0f : 0.0f; // one re-blends the held weights between updates
@@ -108,7 +94,7 @@ static void plCreateCrowd( plBatchFixture* fixture, plGpuMode mode, plCrowd* cro
 				for ( int b = 0; b < 2; ++b )
 				{
 					glBindBuffer( GL_ARRAY_BUFFER, buffers[b] );
-					GLsizeiptr bytes = (GLsizeiptr)( 16 * fixture->info.vertex_count );
+					GLsizeiptr bytes = (GLsizeiptr)( 16 * fixture->rig.info.vertex_count );
 					glBufferData( GL_ARRAY_BUFFER, bytes, NULL, GL_DYNAMIC_DRAW );
 					crowd->host_buffers[set][i][b] = buffers[b];
 				}
@@ -117,7 +103,7 @@ static void plCreateCrowd( plBatchFixture* fixture, plGpuMode mode, plCrowd* cro
 				def.host_normal_buffer = buffers[1];
 			}
 			plInstance* out = set == 0 ? &crowd->batch[i] : set == 1 ? &crowd->single[i] : &crowd->cpu[i];
-			assert_int_equal( plCreateInstance( fixture->context, &def, out ), PLEAT_RESULT_OK );
+			assert_int_equal( plCreateInstance( fixture->rig.context, &def, out ), PLEAT_RESULT_OK );
 		}
 	}
 }
@@ -166,7 +152,7 @@ static double plWorst( const float* a, const float* b, uint32_t n, int which )
 // Steps the crowd; reads back every instance on the last frame (and the even ones on every frame).
 static void plRunCrowd( plBatchFixture* fixture, plGpuMode mode )
 {
-	uint32_t n = fixture->info.vertex_count, J = fixture->info.joint_count;
+	uint32_t n = fixture->rig.info.vertex_count, J = fixture->rig.info.joint_count;
 	plCrowd crowd;
 	plCreateCrowd( fixture, mode, &crowd );
 	float* buffers = malloc( sizeof( float ) * 6 * n * PLEAT_TEST_CROWD * 3 ); // [set][instance][positions, normals]
@@ -192,7 +178,7 @@ static void plRunCrowd( plBatchFixture* fixture, plGpuMode mode )
 		}
 		plResult batch_results[PLEAT_TEST_CROWD];
 		uint64_t before = atomic_load( &g_plGlDispatches );
-		assert_true( plStepInstances( fixture->context, crowd.batch, inputs, outputs[0], batch_results,
+		assert_true( plStepInstances( fixture->rig.context, crowd.batch, inputs, outputs[0], batch_results,
 									  PLEAT_TEST_CROWD ) >= 0 );
 		uint64_t dispatches = atomic_load( &g_plGlDispatches ) - before;
 		// one per shader for the whole crowd: blend, skinning, body contact, face normals, gather
@@ -255,19 +241,10 @@ static void plRunCrowd( plBatchFixture* fixture, plGpuMode mode )
 	plDestroyCrowd( &crowd );
 }
 
-static void plRequireGl( const plBatchFixture* fixture )
-{
-	if ( fixture->engine.context == NULL )
-	{
-		print_message( "SKIP: no EGL surfaceless desktop GL 4.3 core context can be created on this machine\n" );
-		skip();
-	}
-}
-
 static void test_headless_batch_matches_one_by_one( void** state )
 {
 	plBatchFixture* fixture = *state;
-	plRequireGl( fixture );
+	plTestEgl_Require( &fixture->engine );
 	plRunCrowd( fixture, PLEAT_GPU_MODE_HEADLESS );
 	assert_ptr_equal( eglGetCurrentContext(), EGL_NO_CONTEXT );
 }
@@ -275,7 +252,7 @@ static void test_headless_batch_matches_one_by_one( void** state )
 static void test_host_context_batch_matches_one_by_one( void** state )
 {
 	plBatchFixture* fixture = *state;
-	plRequireGl( fixture );
+	plTestEgl_Require( &fixture->engine );
 	assert_true( plTestEgl_MakeCurrent( &fixture->engine ) );
 	GLuint engine_copy_buffer;
 	glGenBuffers( 1, &engine_copy_buffer );

@@ -14,6 +14,7 @@
 
 #include "pleat/pleat.h"
 #include "test_asset_builder.h"
+#include "test_common.h"
 #include "test_gl_support.h"
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>
@@ -28,10 +29,7 @@
 
 typedef struct plInstanceFixture
 {
-	plContext context;
-	plAsset asset;
-	plAssetInfo info;
-	uint8_t* bytes;
+	plTestRig rig; // context, asset and its info
 	plTestEglContext engine;
 	plTestAllocatorState allocator_state; // every SDK allocation goes through it (context def hooks)
 } plInstanceFixture;
@@ -55,23 +53,14 @@ static int plSetup( void** state )
 	params.blend_scale = 0.03f;
 	plTestAsset* model = plTestAsset_Create( &params );
 	assert_non_null( model );
-	size_t size = 0;
-	fixture->bytes = plTestAsset_Write( model, &size );
-	plTestAsset_Destroy( model );
-	assert_non_null( fixture->bytes );
 	plContextDef context_def = plDefaultContextDef();
 	plAllocator allocator = plTestAllocator( &fixture->allocator_state );
 	context_def.alloc = allocator.alloc;
 	context_def.free = allocator.free;
 	context_def.allocator_context = allocator.user;
-	assert_int_equal( plCreateContext( &context_def, &fixture->context ), PLEAT_RESULT_OK );
-	plAssetDef asset_def = plDefaultAssetDef();
-	asset_def.data = fixture->bytes;
-	asset_def.size = size;
-	assert_int_equal( plLoadAsset( fixture->context, &asset_def, &fixture->asset ), PLEAT_RESULT_OK );
-	assert_int_equal( plAsset_GetInfo( fixture->asset, &fixture->info ), PLEAT_RESULT_OK );
-	if ( !plTestEgl_Create( &fixture->engine ) )
-		fixture->engine.context = NULL;
+	assert_int_equal( plTestRig_Init( &fixture->rig, model, &context_def ), PLEAT_RESULT_OK );
+	plTestAsset_Destroy( model );
+	plTestEgl_Create( &fixture->engine ); // none on this machine: the tests skip (plTestEgl_Require)
 	*state = fixture;
 	return 0;
 }
@@ -80,9 +69,8 @@ static int plTeardown( void** state )
 {
 	plInstanceFixture* fixture = *state;
 	plTestEgl_Destroy( &fixture->engine );
-	plDestroyAsset( fixture->asset );
-	plDestroyContext( fixture->context );
-	plTestAsset_FreeBytes( fixture->bytes );
+	plDestroyAsset( fixture->rig.asset );
+	plTestRig_Free( &fixture->rig );
 	long long live = fixture->allocator_state.live_bytes;
 	int mismatch = fixture->allocator_state.size_mismatch;
 	free( fixture );
@@ -116,16 +104,16 @@ static void plPose( uint32_t frame, uint32_t joint_count, float* rotations, plFr
 static void plCompareWithCpu( plInstanceFixture* fixture, plGpuMode mode, uint32_t host_position_buffer,
 							  uint32_t host_normal_buffer )
 {
-	uint32_t n = fixture->info.vertex_count, j = fixture->info.joint_count;
+	uint32_t n = fixture->rig.info.vertex_count, j = fixture->rig.info.joint_count;
 	plInstance instances[2];
 	for ( int i = 0; i < 2; ++i )
 	{
 		plInstanceDef def = plDefaultInstanceDef();
-		def.asset = fixture->asset;
+		def.asset = fixture->rig.asset;
 		def.gpu_mode = i == 0 ? PLEAT_GPU_MODE_NONE : mode;
 		def.host_position_buffer = i == 0 ? 0 : host_position_buffer;
 		def.host_normal_buffer = i == 0 ? 0 : host_normal_buffer;
-		assert_int_equal( plCreateInstance( fixture->context, &def, &instances[i] ), PLEAT_RESULT_OK );
+		assert_int_equal( plCreateInstance( fixture->rig.context, &def, &instances[i] ), PLEAT_RESULT_OK );
 	}
 	float* rotations = malloc( sizeof( float ) * 4 * j );
 	float* outputs = malloc( sizeof( float ) * 12 * n ); // [instance][positions, normals][N][3]
@@ -170,19 +158,10 @@ static void plCompareWithCpu( plInstanceFixture* fixture, plGpuMode mode, uint32
 	assert_int_equal( plDestroyInstance( instances[1] ), PLEAT_RESULT_OK );
 }
 
-static void plRequireGl( const plInstanceFixture* fixture )
-{
-	if ( fixture->engine.context == NULL )
-	{
-		print_message( "SKIP: no EGL surfaceless desktop GL 4.3 core context can be created on this machine\n" );
-		skip();
-	}
-}
-
 static void test_headless_instance_matches_cpu_instance( void** state )
 {
 	plInstanceFixture* fixture = *state;
-	plRequireGl( fixture );
+	plTestEgl_Require( &fixture->engine );
 	plCompareWithCpu( fixture, PLEAT_GPU_MODE_HEADLESS, 0, 0 );
 	assert_ptr_equal( eglGetCurrentContext(), EGL_NO_CONTEXT );
 }
@@ -190,14 +169,14 @@ static void test_headless_instance_matches_cpu_instance( void** state )
 static void test_host_context_instance_matches_cpu_instance( void** state )
 {
 	plInstanceFixture* fixture = *state;
-	plRequireGl( fixture );
+	plTestEgl_Require( &fixture->engine );
 	assert_true( plTestEgl_MakeCurrent( &fixture->engine ) );
 	GLuint buffers[2];
 	glGenBuffers( 2, buffers );
 	for ( int b = 0; b < 2; ++b )
 	{
 		glBindBuffer( GL_ARRAY_BUFFER, buffers[b] );
-		glBufferData( GL_ARRAY_BUFFER, (GLsizeiptr)( 16 * fixture->info.vertex_count ), NULL, GL_DYNAMIC_DRAW );
+		glBufferData( GL_ARRAY_BUFFER, (GLsizeiptr)( 16 * fixture->rig.info.vertex_count ), NULL, GL_DYNAMIC_DRAW );
 	}
 	glBindBuffer( GL_ARRAY_BUFFER, 0 );
 	plCompareWithCpu( fixture, PLEAT_GPU_MODE_HOST_CONTEXT, buffers[0], buffers[1] );
@@ -210,13 +189,13 @@ static void test_host_context_instance_matches_cpu_instance( void** state )
 static void test_host_context_instance_without_current_context_fails_cleanly( void** state )
 {
 	plInstanceFixture* fixture = *state;
-	plRequireGl( fixture );
+	plTestEgl_Require( &fixture->engine );
 	plInstanceDef def = plDefaultInstanceDef();
-	def.asset = fixture->asset;
+	def.asset = fixture->rig.asset;
 	def.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT;
 	plInstance instance;
 	memset( &instance, 0, sizeof( instance ) );
-	assert_int_equal( plCreateInstance( fixture->context, &def, &instance ), PLEAT_RESULT_GL_UNAVAILABLE );
+	assert_int_equal( plCreateInstance( fixture->rig.context, &def, &instance ), PLEAT_RESULT_GL_UNAVAILABLE );
 	assert_false( plInstance_IsValid( instance ) );
 }
 

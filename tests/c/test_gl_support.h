@@ -39,7 +39,8 @@ void plTestReference_Deform( const plTestMesh* mesh, const float* blend_shapes, 
 // Largest |a - b| over count values.
 double plTestMaxAbsDiff( const float* a, const double* b, size_t count );
 
-// An EGL surfaceless desktop GL 4.3 core context, as an engine would have. Returns 0 if none can be made.
+// An EGL surfaceless desktop GL 4.3 core context, as an engine would have. Returns 0 (and a zeroed egl) if none can be
+// made.
 typedef struct plTestEglContext
 {
 	void* display;
@@ -49,6 +50,17 @@ int plTestEgl_Create( plTestEglContext* egl );
 int plTestEgl_MakeCurrent( const plTestEglContext* egl );
 void plTestEgl_Release( const plTestEglContext* egl );
 void plTestEgl_Destroy( plTestEglContext* egl );
+#if defined( CMOCKA_H_ )
+// Skips the calling cmocka test where plTestEgl_Create could make no context (egl->context NULL).
+static inline void plTestEgl_Require( const plTestEglContext* egl )
+{
+	if ( egl->context == NULL )
+	{
+		print_message( "SKIP: no EGL surfaceless desktop GL 4.3 core context can be created on this machine\n" );
+		skip();
+	}
+}
+#endif
 
 // An allocator over malloc that counts live bytes and checks the size passed to free.
 typedef struct plTestAllocatorState
