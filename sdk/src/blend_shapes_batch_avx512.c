@@ -87,34 +87,20 @@ static void plBlendTile( int V, int NB, float* const* out, const float* const* b
 #define PLEAT_TILE_CASE( vectors, n )                                                                                  \
 	case n:                                                                                                            \
 		plBlendTile512( vectors, n, out, base, weights, shapes, blend_count, plane, shape_i, i, ahead,                \
-						ahead_plane_bytes );                      \
+						ahead_plane_bytes );                                                                           \
 		return;
 	if ( V == PLEAT_BLEND512_VECTORS )
 	{
 		switch ( NB )
 		{
-			PLEAT_TILE_CASE( 3, 1 )
-			PLEAT_TILE_CASE( 3, 2 )
-			PLEAT_TILE_CASE( 3, 3 )
-			PLEAT_TILE_CASE( 3, 4 )
-			PLEAT_TILE_CASE( 3, 5 )
-			PLEAT_TILE_CASE( 3, 6 )
-			PLEAT_TILE_CASE( 3, 7 )
-			PLEAT_TILE_CASE( 3, 8 )
+			PLEAT_TILE_CASES_1_TO_8( PLEAT_TILE_CASE, 3 )
 		default:
 			return;
 		}
 	}
 	switch ( NB ) // one vector: the 16-element tiles after the 48-element ones
 	{
-		PLEAT_TILE_CASE( 1, 1 )
-		PLEAT_TILE_CASE( 1, 2 )
-		PLEAT_TILE_CASE( 1, 3 )
-		PLEAT_TILE_CASE( 1, 4 )
-		PLEAT_TILE_CASE( 1, 5 )
-		PLEAT_TILE_CASE( 1, 6 )
-		PLEAT_TILE_CASE( 1, 7 )
-		PLEAT_TILE_CASE( 1, 8 )
+		PLEAT_TILE_CASES_1_TO_8( PLEAT_TILE_CASE, 1 )
 	default:
 		return;
 	}

@@ -108,6 +108,11 @@ plMatMatFn plMatMat_Avx512;
 plMatMatLanesFn plMatMatLanes_Avx512;
 plBlendShapesBatchFn plBlendShapesBatch_Avx512;
 #endif
+// The AVX-512 kernels write their register tiles for constant sizes and instantiate them per instance count through a
+// switch: CASE( size, n ) expands to `case n:` and the call for that count, n = 1..6 or 1..8.
+#define PLEAT_TILE_CASES_1_TO_6( CASE, size )                                                                          \
+	CASE( size, 1 ) CASE( size, 2 ) CASE( size, 3 ) CASE( size, 4 ) CASE( size, 5 ) CASE( size, 6 )
+#define PLEAT_TILE_CASES_1_TO_8( CASE, size ) PLEAT_TILE_CASES_1_TO_6( CASE, size ) CASE( size, 7 ) CASE( size, 8 )
 #if defined( PLEAT_HAVE_AVX2 )
 void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
 					int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end );

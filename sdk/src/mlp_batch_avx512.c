@@ -95,24 +95,14 @@ static void plTileRows( int R, int NB, const float* const* x, const float* w, ui
 	{
 		switch ( NB )
 		{
-			PLEAT_TILE_CASE( 4, 1 )
-			PLEAT_TILE_CASE( 4, 2 )
-			PLEAT_TILE_CASE( 4, 3 )
-			PLEAT_TILE_CASE( 4, 4 )
-			PLEAT_TILE_CASE( 4, 5 )
-			PLEAT_TILE_CASE( 4, 6 )
+			PLEAT_TILE_CASES_1_TO_6( PLEAT_TILE_CASE, 4 )
 		default:
 			return;
 		}
 	}
 	switch ( NB ) // one row (the rows left after the 4-row tiles)
 	{
-		PLEAT_TILE_CASE( 1, 1 )
-		PLEAT_TILE_CASE( 1, 2 )
-		PLEAT_TILE_CASE( 1, 3 )
-		PLEAT_TILE_CASE( 1, 4 )
-		PLEAT_TILE_CASE( 1, 5 )
-		PLEAT_TILE_CASE( 1, 6 )
+		PLEAT_TILE_CASES_1_TO_6( PLEAT_TILE_CASE, 1 )
 	default:
 		return;
 	}
