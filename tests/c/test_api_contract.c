@@ -360,15 +360,9 @@ static void test_body_contact_settings_are_checked( void** state )
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	for ( int anchors = 0; anchors < 2; ++anchors )
 	{
-		plTestAsset* model = plTestAsset_Create( &p );
-		assert_non_null( model );
-		if ( anchors )
-		{
-			assert_true( plTestAsset_AddBodyAnchors( model, 0.002f ) );
-		}
 		plTestRig rig;
-		assert_int_equal( plTestRig_Init( &rig, model, NULL ), PLEAT_RESULT_OK );
-		rig.model = model;
+		assert_int_equal( plTestRig_CreateWithBody( &rig, &p, anchors ? 0.002f : 0.0f ), PLEAT_RESULT_OK );
+		const plTestAsset* model = rig.model;
 		assert_int_equal( rig.info.has_body_contact, anchors );
 		plInstanceDef def = plDefaultInstanceDef();
 		assert_int_equal( def.body_contact, 1 );

@@ -53,6 +53,22 @@ static inline plResult plTestRig_Create( plTestRig* rig, const plTestAssetParams
 	return r;
 }
 
+// plTestRig_Create, with a stand-in body depth_m behind the sheet (plTestAsset_AddBodyAnchors) when depth_m > 0.
+static inline plResult plTestRig_CreateWithBody( plTestRig* rig, const plTestAssetParams* params, float depth_m )
+{
+	plTestAssetParams p = params != NULL ? *params : plTestAsset_DefaultParams();
+	plTestAsset* model = plTestAsset_Create( &p );
+	if ( model == NULL || ( depth_m > 0.0f && !plTestAsset_AddBodyAnchors( model, depth_m ) ) )
+	{
+		plTestAsset_Destroy( model );
+		memset( rig, 0, sizeof( *rig ) );
+		return PLEAT_RESULT_OUT_OF_MEMORY;
+	}
+	plResult r = plTestRig_Init( rig, model, NULL );
+	rig->model = model;
+	return r;
+}
+
 static inline void plTestRig_Free( plTestRig* rig )
 {
 	plDestroyContext( rig->context );

@@ -26,15 +26,8 @@ static void plCompareGpuWithCpu( float network_rate_hz, int body_anchors )
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	p.grid_x = 17;
 	p.grid_y = 19;
-	plTestAsset* built = plTestAsset_Create( &p );
-	assert_non_null( built );
-	if ( body_anchors )
-	{
-		assert_true( plTestAsset_AddBodyAnchors( built, 0.002f ) );
-	}
 	plTestRig rig;
-	assert_int_equal( plTestRig_Init( &rig, built, NULL ), PLEAT_RESULT_OK );
-	rig.model = built;
+	assert_int_equal( plTestRig_CreateWithBody( &rig, &p, body_anchors ? 0.002f : 0.0f ), PLEAT_RESULT_OK );
 	assert_int_equal( rig.info.has_body_contact, body_anchors );
 	const plTestAsset* model = rig.model;
 	plInstanceDef idef = plDefaultInstanceDef();
