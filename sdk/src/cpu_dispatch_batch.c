@@ -27,8 +27,10 @@ size_t plNormalsBatchScratchFloats( uint32_t vertex_count, uint32_t lanes )
 	{
 		return (size_t)vertex_count * 4; // the scalar scatter's [N][4] sums
 	}
-	// positions and sums, [N][3][lanes] each, each starting on a 64-byte line
-	size_t one = (size_t)vertex_count * 3 * lanes;
+	// positions and sums, [N'][3][lanes] each with N' = N rounded up to whole blocks of `lanes` vertices (the lane
+	// transposes move whole blocks: the last one writes and reads past N), each starting on a 64-byte line
+	size_t blocks = ( (size_t)vertex_count + lanes - 1 ) / lanes;
+	size_t one = blocks * lanes * 3 * lanes;
 	one = ( one + 15 ) & ~(size_t)15;
 	return 2 * one;
 }

@@ -253,9 +253,11 @@ void plNormalsBatch_Avx2( float* const* normals, const float* const* positions, 
 					   uint32_t vertex_count, const uint32_t* faces, uint32_t face_count, float* scratch )
 {
 	uint32_t N = vertex_count;
-	size_t plane = ( (size_t)N * 3 * PL_LANES + 15 ) & ~(size_t)15;
-	float* P = scratch;          // [N][3][PL_LANES] positions
-	float* S = scratch + plane;  // [N][3][PL_LANES] sums, then unit normals
+	// [N'][3][PL_LANES] each, N' = N rounded up to whole PL_LANES-vertex blocks: plToLanes and plFromLanes move whole
+	// blocks (plNormalsBatchScratchFloats sizes the scratch the same way)
+	size_t plane = ( ( ( (size_t)N + PL_LANES - 1 ) / PL_LANES * PL_LANES ) * 3 * PL_LANES + 15 ) & ~(size_t)15;
+	float* P = scratch;          // positions
+	float* S = scratch + plane;  // sums, then unit normals
 	for ( uint32_t b0 = 0; b0 < batch_count; b0 += PL_LANES )
 	{
 		uint32_t n = batch_count - b0 < PL_LANES ? batch_count - b0 : PL_LANES;
