@@ -65,6 +65,7 @@ for target in $TARGETS; do
   # -rss_limit_mb: the loader and an instance of a seed-sized asset need a few MB; growth means a leak.
   # -timeout: one input runs in milliseconds; 10 s is a hang.
   s=0
+  LSAN_OPTIONS="suppressions=$PWD/tests/sanitizers/lsan-libc.supp:print_suppressions=0" \
   nice "$BUILD_DIR/tests/c/$target" "$dir/corpus" -max_total_time="$SECONDS_PER_TARGET" -max_len=$max_len \
     -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 -artifact_prefix="$dir/" >"$dir/fuzz.log" 2>&1 || s=$?
   echo "== $target ($SECONDS_PER_TARGET s)"
