@@ -79,9 +79,11 @@ plInstanceData* plGetInstanceData( plInstance handle );
 // PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
 plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend,
 					  const plTaskRunner* runner );
-// The body-contact job on inst->positions for vertices [begin, end) (after skinning with skin_matrices; instances with
-// inst->body_contact only). plDeformCpu runs it, and so does plStepInstances between its batched skinning and normals.
-plResult plRunBodyContact( plInstanceData* inst, const float* skin_matrices, uint32_t begin, uint32_t end );
+// The body-contact job on positions ([N][3], skinned with skin_matrices; inst->positions for a step) for vertices
+// [begin, end), with the instance's anchors and clearance (instances with inst->body_contact only). plDeformCpu runs it,
+// so do plStepInstances between its batched skinning and normals and the scene's LBS level on its own output.
+plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, uint32_t begin,
+						   uint32_t end );
 // ---- instance_step.c: the stages of plInstance_Step that plStepInstances (batch.c) runs too ----
 // The batch runs them in the same order for each instance, with f_LP, f_dec and the blend batched in between, so the
 // two paths share every line that decides what a step does (pleat.h: batch = single, bit for bit).

@@ -44,15 +44,16 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
 	if ( inst->body_contact )
 	{
-		plDeformTask_Record( t, plRunBodyContact( inst, t->skin_matrices, begin, end ) );
+		plDeformTask_Record( t, plRunBodyContact( inst, inst->positions, t->skin_matrices, begin, end ) );
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 }
 
-plResult plRunBodyContact( plInstanceData* inst, const float* skin_matrices, uint32_t begin, uint32_t end )
+plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, uint32_t begin,
+						   uint32_t end )
 {
 	const plAssetData* a = inst->asset;
-	plBodyContactJob contact = { plMakeSpan( inst->positions, a->vertex_count, 12 ),
+	plBodyContactJob contact = { plMakeSpan( positions, a->vertex_count, 12 ),
 								 inst->shaped_anchors,
 								 a->body_anchor_normals,
 								 a->body_anchor_skin_indices,

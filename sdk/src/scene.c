@@ -748,18 +748,10 @@ static plResult plStepLbs( plSceneData* s, plSceneCharacter* c, const plFrameInp
 	{
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
-	if ( inst->body_contact ) // the same clearance as the instance's own steps, so a switch to LBS does not pop
+	// the same clearance as the instance's own steps, so a switch to LBS does not pop
+	if ( inst->body_contact && plRunBodyContact( inst, positions, inst->next_skin_matrices, 0, n ) != PLEAT_RESULT_OK )
 	{
-		plBodyContactJob contact = { plMakeSpan( positions, n, 12 ),  inst->shaped_anchors,
-									 a->body_anchor_normals,          a->body_anchor_skin_indices,
-									 a->body_anchor_skin_weights,     a->body_anchor_influence_count,
-									 inst->next_skin_matrices,        a->joint_count,
-									 inst->body_contact_offset_m,     0,
-									 n,                               &s->ctx->kernels };
-		if ( plBodyContactJob_Run( &contact ) != PLEAT_RESULT_OK )
-		{
-			return PLEAT_RESULT_INTERNAL_ERROR;
-		}
+		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
 	if ( a->face_count >= n )
 	{
