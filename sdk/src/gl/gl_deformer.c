@@ -608,6 +608,36 @@ plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float
 	return result;
 }
 
+// The shaders in order, one dispatch each with `instances` rows of workgroups in y (1 for a single Run) and a storage
+// barrier between stages: blend_shapes → skinning → (contact_program, 0 = none) → face_normals → normals_gather. The
+// buffers and params are bound by the caller.
+static void plRunShaders( const plGlDeformer* deformer, GLuint contact_program, uint32_t instances )
+{
+	const plGlApi* api = &deformer->api;
+	GLuint groups = ( deformer->vertex_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
+	GLuint face_groups = ( deformer->face_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
+	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] );
+	plDispatch( api, groups, instances );
+	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_SKINNING] );
+	plDispatch( api, groups, instances );
+	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	if ( contact_program != 0 )
+	{
+		api->UseProgram( contact_program );
+		plDispatch( api, groups, instances );
+		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	}
+	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
+	plDispatch( api, face_groups, instances );
+	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] );
+	plDispatch( api, groups, instances );
+	// Whatever reads the outputs next: our read-back, or the engine's vertex fetch / shaders from its buffers.
+	api->MemoryBarrier( GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
+						GL_SHADER_STORAGE_BARRIER_BIT );
+}
+
 plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, const float* skin_matrices,
 						   float* positions, float* normals )
 {
@@ -628,28 +658,7 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 	for ( GLuint b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
 		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, deformer->bindings[b] );
 
-	GLuint groups = ( deformer->vertex_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
-	GLuint face_groups = ( deformer->face_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
-	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] );
-	plDispatch( api, groups, 1 );
-	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_SKINNING] );
-	plDispatch( api, groups, 1 );
-	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	if ( deformer->body_contact )
-	{
-		api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] );
-		plDispatch( api, groups, 1 );
-		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	}
-	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
-	plDispatch( api, face_groups, 1 );
-	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] );
-	plDispatch( api, groups, 1 );
-	// Whatever reads the outputs next: our read-back, or the engine's vertex fetch / shaders from its buffers.
-	api->MemoryBarrier( GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
-						GL_SHADER_STORAGE_BARRIER_BIT );
+	plRunShaders( deformer, deformer->body_contact ? deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] : 0, 1 );
 
 	if ( positions != NULL )
 		plReadBack( deformer, deformer->bindings[PLEAT_GL_BINDING_POSITIONS], positions );
@@ -864,27 +873,7 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 		contact |= members[k].deformer->body_contact;
 
 	// The single Run's dispatches with the members in y: one per shader for the whole batch.
-	GLuint groups = ( lead->vertex_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
-	GLuint face_groups = ( lead->face_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
-	api->UseProgram( lead->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] );
-	plDispatch( api, groups, count );
-	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	api->UseProgram( lead->programs[PLEAT_GL_PROGRAM_SKINNING] );
-	plDispatch( api, groups, count );
-	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	if ( contact )
-	{
-		api->UseProgram( lead->batch.contact_program );
-		plDispatch( api, groups, count );
-		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	}
-	api->UseProgram( lead->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
-	plDispatch( api, face_groups, count );
-	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
-	api->UseProgram( lead->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] );
-	plDispatch( api, groups, count );
-	api->MemoryBarrier( GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
-						GL_SHADER_STORAGE_BARRIER_BIT );
+	plRunShaders( lead, contact ? lead->batch.contact_program : 0, count );
 
 	plDeliverBatchOutputs( lead, members, count );
 	result = plCheckErrors( api );
