@@ -11,6 +11,8 @@ A zero rest normal means the vertex has no anchor (left as skinned), and so does
 """
 import numpy as np
 
+from pleat.reference.skinning import blend_matrices
+
 MIN_NORMAL_LENGTH = 1e-12
 # plDefaultInstanceDef's body_contact_offset_m: a millimetre of clearance, the simulator's contact scale
 BODY_CONTACT_OFFSET_M = 0.001
@@ -21,8 +23,7 @@ def body_contact(positions, shaped_anchors, anchor_normals, anchor_skin_indices,
     """positions [N, 3] (skinned), shaped_anchors / anchor_normals [N, 3] (rest), anchor skin [N, K], skin_matrices
     [J, 3, 4] → positions [N, 3] outside the anchors' tangent planes by at least offset_m."""
     x = np.asarray(positions, np.float64)
-    m = np.asarray(skin_matrices, np.float64)[np.asarray(anchor_skin_indices, np.int64)]  # [N, K, 3, 4]
-    blended = np.einsum("nk,nkij->nij", np.asarray(anchor_skin_weights, np.float64), m)
+    blended = blend_matrices(anchor_skin_indices, anchor_skin_weights, skin_matrices)
     a = np.einsum("nij,nj->ni", blended[..., :3], np.asarray(shaped_anchors, np.float64)) + blended[..., 3]
     n = np.einsum("nij,nj->ni", blended[..., :3], np.asarray(anchor_normals, np.float64))
     length = np.linalg.norm(n, axis=1)
