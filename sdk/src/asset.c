@@ -420,7 +420,6 @@ static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* t
 		 !plAllFiniteFloats( a->body_anchor_normals, (uint64_t)N * 3 ) ||
 		 !plSkinRowsValid( a->body_anchor_skin_indices, a->body_anchor_skin_weights, N, Ka, a->joint_count ) )
 	{
-		a->body_anchors = NULL;
 		return PLEAT_RESULT_INVALID_ASSET_DATA;
 	}
 	// Each normal is a unit vector (± 1e-3, as pleat-pack writes it) or zero (no anchor for that vertex).
@@ -430,7 +429,6 @@ static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* t
 		double len = sqrt( (double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2] );
 		if ( len != 0.0 && fabs( len - 1.0 ) > 1e-3 )
 		{
-			a->body_anchors = NULL;
 			return PLEAT_RESULT_INVALID_ASSET_DATA;
 		}
 	}
