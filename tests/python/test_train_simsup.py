@@ -88,3 +88,36 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     assert meta["training"]["recipe"] == "simulator-supervised"
     assert meta["training"]["contact"]["iterations"] == 3
     assert np.isfinite(w["blend_shapes"]).all() and np.abs(w["blend_shapes"]).max() > 0
+
+
+def test_window_noise_perturbs_inputs_and_start_latent_by_the_stated_amounts():
+    """core.window_loss's opt-in regulariser: f_LP sees its input rows moved by input_noise × x_std and its starting
+    latent by latent_noise × z_std (both in normalised units), the targets stay clean, and noise=None is the plain
+    loss bit for bit."""
+    L, F, S, T = 3, 5, 4, 12
+    seen = []
+
+    class Recorder(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.register_buffer("x_std", torch.full((L + F,), 2.0))
+            self.w = torch.nn.Parameter(torch.zeros(()))
+
+        def forward(self, z_prev, rows):
+            seen.append((z_prev.detach().clone(), rows.detach().clone()))
+            return z_prev * 0 + self.w, z_prev
+
+    gen = torch.Generator().manual_seed(0)
+    seqs = [{"static": np.zeros((T, L + F)), "z": np.ones((T, L))} for _ in range(S)]
+    lengths, static, target = core.padded_sequences(seqs)
+    z_mean, z_std = torch.zeros(L), torch.full((L,), 0.5)
+    pred = Recorder()
+    args = (pred, z_mean, z_std, lengths, static, target, 256, 1)
+    clean = core.window_loss(*args, torch.Generator().manual_seed(1)).item()
+    assert core.window_loss(*args, torch.Generator().manual_seed(1), noise=None).item() == clean
+    seen.clear()
+    noisy = core.window_loss(*args, gen, noise=(0.1, 0.2)).item()
+    z0, rows = seen[0]
+    assert abs(float(rows.std()) - 0.1 * 2.0) < 0.02                 # input rows: 0.1 × x_std
+    assert abs(float((z0 - z0.round()).std()) - 0.2 * 0.5) < 0.01      # start latent (1 or 0): 0.2 × z_std
+    assert noisy == pytest.approx(clean, rel=1e-6)       # the targets are not perturbed

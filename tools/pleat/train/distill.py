@@ -142,11 +142,12 @@ def train_decoder(block, seqs, sigma, iterations, lr, batch, gen, noise=0.05, de
     return float(loss.detach())
 
 
-def train_predictor(lp, seqs, iterations, lr, batch, window, gen, dev="cpu", weights=None, deadline=None):
+def train_predictor(lp, seqs, iterations, lr, batch, window, gen, dev="cpu", weights=None, deadline=None, noise=None):
     """f_LP' exactly as stage 2 trains f_LP: windows starting at a recorded Z'_{j-1} (Z'_0 = 0 at a sequence start),
     fed their own clamped predictions, MSE on the normalised latent. Cosine learning rate to 5 % of lr. With a
     `deadline` (time.time()), the iteration count is cut after 20 timed iterations to what fits before it, and the
-    cosine follows the cut count, so a budget-stopped fit still anneals."""
+    cosine follows the cut count, so a budget-stopped fit still anneals. noise: (input, latent) for
+    core.window_loss."""
     import math
     lengths, static, target = core.padded_sequences(seqs, dev)
     opt = torch.optim.Adam(lp.parameters(), lr=lr)
@@ -156,7 +157,7 @@ def train_predictor(lp, seqs, iterations, lr, batch, window, gen, dev="cpu", wei
         for group in opt.param_groups:
             group["lr"] = lr * (0.05 + 0.95 * 0.5 * (1.0 + math.cos(math.pi * it / total)))
         loss = core.window_loss(lp, lp.z_mean, lp.z_std, lengths, static, target, batch, window, gen, dev,
-                                weights)
+                                weights, noise)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -203,7 +204,8 @@ def own_stage2_error(run_dir, seqs):
 
 
 def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iterations=3000, dec_iterations=2000,
-            lr=1e-3, batch=64, window=8, progress=False, device="cpu", weight_by_energy=False, deadline=None):
+            lr=1e-3, batch=64, window=8, progress=False, device="cpu", weight_by_energy=False, deadline=None,
+            noise=None):
     """Train one tier. spec: pleat.eval.tiers.Tier (latent, blend, lp_hidden, dec_hidden, activation). garment:
     None for the teacher's mesh, else a coarser garment of the same shape (its displacements are transferred).
     Returns (lp, block, norms, shim, garment, report)."""
@@ -242,7 +244,7 @@ def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iter
     if weight_by_energy:
         w = torch.as_tensor(sigma[:L] ** 2 / np.mean(sigma[:L] ** 2), dtype=torch.float32, device=device)
     lp_loss = train_predictor(lp.to(device), train, iterations, lr, batch, window, gen, dev=device, weights=w,
-                              deadline=deadline)
+                              deadline=deadline, noise=noise)
     lp, block = lp.cpu(), block.cpu()
     report = {"tier": spec.name, "vertices": len(free_mask), "latent": L, "blend": D,
               "lp_hidden": list(spec.lp_hidden), "dec_hidden": list(spec.dec_hidden),

@@ -217,7 +217,8 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     lp, block, norms, shim, g, report = distill.distill(
         seqs, setup, spec, val, None, cfg["seed"], c["iterations"], c["dec_iterations"], c["lr"], c["batch"],
         c["window"], progress, device=dev, weight_by_energy=bool(c.get("weight_by_energy", False)),
-        deadline=None if budget_s is None else t_start + 0.85 * budget_s)
+        deadline=None if budget_s is None else t_start + 0.85 * budget_s,
+        noise=(float(c.get("input_noise", 0.0)), float(c.get("latent_noise", 0.0))))
     fit_s = time.time() - t_fit
     torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
                 "config": cfg, "garment": garment}, out / "simsup.pt")
@@ -230,7 +231,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                "wall_s": time.time() - t_start, "hardware": core.hardware(), "fit": report,
                "validation": val_err, "user_simulations": user_info}
     path = out / f"{setup.name}.pleat"
-    distill.pack_tier(path, lp, block, norms, shim, g, setup, dict(report, tier="large"), cfg["fps"],
+    distill.pack_tier(path, lp, block, norms, shim, g, setup, dict(report, tier=c["tier"]), cfg["fps"],
                       fp16=c.get("fp16", True), teacher="reference simulator",
                       model="pleat simulator-supervised: inference block fitted to the reference simulator",
                       training=summary, onnx=bool(c.get("onnx", False)))

@@ -30,18 +30,28 @@ def padded_sequences(seqs, dev="cpu"):
     return lengths, static, target
 
 
-def window_loss(predictor, z_mean, z_std, lengths, static, target, batch, window, gen, dev="cpu", weights=None):
+def window_loss(predictor, z_mean, z_std, lengths, static, target, batch, window, gen, dev="cpu", weights=None,
+                noise=None):
     """Stage 2's loss on one batch of windows: each starts at a recorded Z_{j-1} (zero at a sequence start) and is
     fed the predictor's own (clamped) predictions; MSE on the normalised latent, averaged over the window.
-    weights [L] (mean 1), if given, weigh the latent components (e.g. by how much displacement each one carries)."""
+    weights [L] (mean 1), if given, weigh the latent components (e.g. by how much displacement each one carries).
+    noise (input, latent), if given: Gaussian noise in normalised units (× the inputs' x_std, × z_std) added to every
+    input row and to each window's starting latent, so f_LP learns a smoother map and to pull a perturbed latent back
+    (a regulariser against motion unlike the training clips; targets stay clean)."""
     idx = torch.randint(len(lengths), (batch,), generator=gen).to(dev)
     n = lengths[idx]
     starts = (torch.rand(batch, generator=gen).to(dev) * (n - window).clamp_min(0).add(1)).long()
     z_prev = target[idx, starts]
+    input_noise, latent_noise = noise or (0.0, 0.0)
+    if latent_noise > 0.0:
+        z_prev = z_prev + latent_noise * z_std * torch.randn(z_prev.shape, generator=gen).to(dev)
     loss = 0.0
     for k in range(window):
         j = torch.minimum(starts + k, n - 1)
-        y, z_prev = predictor(z_prev, static[idx, j])
+        rows = static[idx, j]
+        if input_noise > 0.0:
+            rows = rows + input_noise * predictor.x_std * torch.randn(rows.shape, generator=gen).to(dev)
+        y, z_prev = predictor(z_prev, rows)
         sq = (y - (target[idx, j + 1] - z_mean) / z_std) ** 2
         loss = loss + (sq.mean() if weights is None else (sq * weights).mean())
     return loss / window
