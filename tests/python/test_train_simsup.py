@@ -121,3 +121,61 @@ def test_window_noise_perturbs_inputs_and_start_latent_by_the_stated_amounts():
     assert abs(float(rows.std()) - 0.1 * 2.0) < 0.02                 # input rows: 0.1 × x_std
     assert abs(float((z0 - z0.round()).std()) - 0.2 * 0.5) < 0.01      # start latent (1 or 0): 0.2 × z_std
     assert noisy == pytest.approx(clean, rel=1e-6)       # the targets are not perturbed
+
+
+def _random_member(setup, spec, seed):
+    """A fitted-looking member: random weights and its own normalisation of the shared inputs."""
+    from pleat.train import distill
+    from pleat.train.model import InferenceBlock
+    rng = np.random.default_rng(seed)
+    torch.manual_seed(seed)
+    shim = distill._shim(setup, spec.latent, spec.blend, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
+    F = setup.input_count - setup.L
+    norms = {"x_mean": np.concatenate([rng.normal(size=spec.latent), rng.normal(size=F)]),
+             "x_std": np.concatenate([rng.uniform(0.5, 2, spec.latent), rng.uniform(0.5, 2, F)]),
+             "z_mean": rng.normal(size=spec.latent), "z_std": rng.uniform(0.5, 2, spec.latent)}
+    norms["z_min"], norms["z_max"] = norms["z_mean"] - 1.0, norms["z_mean"] + 1.0   # the guard does clamp
+    lp = core.LatentPredictor(shim, norms)
+    block = InferenceBlock(shim.cfg["model"], setup.N, free_mask=setup.free_mask)
+    with torch.no_grad():
+        block.blend_shapes.normal_(0.0, 0.01)
+    return lp.eval(), block.eval(), norms
+
+
+def test_an_ensemble_packed_as_one_network_is_the_mean_of_its_members(tiny_setup):
+    """pleat.train.ensemble: two members with different normalisations, as one block-diagonal network of the summed
+    widths, free-run from a reset over the same rows: the garment is the members' mean (float32 rounding)."""
+    from pleat.eval.tiers import Tier
+    from pleat.train import ensemble
+    setup = tiny_setup
+    member = Tier("m", vertices=setup.N, latent=4, blend=5, lp_hidden=(8, 8), dec_hidden=(6,))
+    pair = Tier("p", vertices=setup.N, latent=8, blend=10, lp_hidden=(16, 16), dec_hidden=(12,))
+    members = [_random_member(setup, member, s) for s in (1, 2)]
+    lp, block, norms, _ = ensemble.combine(members, setup, pair)
+    rows = np.random.default_rng(3).normal(size=(12, setup.input_count - setup.L)) * 2.0
+
+    def run(lp_, block_, L):
+        z, out = torch.zeros(L), []
+        with torch.no_grad():
+            for r in rows:
+                _, z = lp_(z, torch.as_tensor(np.concatenate([np.zeros(L), r]), dtype=torch.float32))
+                out.append(block_.displacement(z))
+        return torch.stack(out)
+
+    mean = 0.5 * (run(members[0][0], members[0][1], 4) + run(members[1][0], members[1][1], 4))
+    got = run(lp, block, 8)
+    assert float(mean.abs().max()) > 1e-3                                   # the members do deform the garment
+    assert float((got - mean).abs().max()) < 1e-5 * float(mean.abs().max()) + 1e-7
+    with pytest.raises(ValueError):                                          # widths that do not add up
+        ensemble.combine(members, setup, Tier("q", vertices=setup.N, latent=8, blend=10, lp_hidden=(32, 16),
+                                              dec_hidden=(12,)))
+
+
+@pytest.mark.parametrize("argv", [["simsup-contact"], ["simsup-tiers"], ["simsup-ensemble", "--members", "one"]])
+def test_simsup_commands_missing_inputs_are_usage_errors(argv, tmp_path, capsys):
+    """pleat-train's simsup commands without what they need end as a usage error (status 2) that names it."""
+    from pleat.train import cli
+    with pytest.raises(SystemExit) as e:
+        cli.main(argv + ["--out", str(tmp_path)])
+    assert e.value.code == 2
+    assert ("--data" if argv[0] != "simsup-ensemble" else "--members") in capsys.readouterr().err

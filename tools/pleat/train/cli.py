@@ -10,10 +10,11 @@ from pleat.cli import add_quiet, command
 def build_parser():
     p = argparse.ArgumentParser(prog="pleat-train", description=__doc__)
     p.add_argument("command", choices=["stage1", "stage2", "ablation", "pack", "all", "simsup", "simsup-tiers",
-                                        "simsup-contact"],
+                                        "simsup-contact", "simsup-ensemble"],
                    help="simsup: the simulator-supervised recipe (simulate, fit, pack; docs/training.md); "
                         "simsup-tiers: cheaper tiers distilled from the simsup model in --out; "
-                        "simsup-contact: the contact-aware fine-tune of the simsup model in --out")
+                        "simsup-contact: the contact-aware fine-tune of the simsup model in --out; "
+                        "simsup-ensemble: the mean of the simsup runs --members packed as one network in --out")
     p.add_argument("--preset", default="tiny", help="configs/<preset>.json (tiny, default)")
     p.add_argument("--config", default=None, help="a config file instead of the preset")
     p.add_argument("--set", action="append", default=[], metavar="KEY=JSON",
@@ -40,6 +41,10 @@ def build_parser():
                    help="simsup-contact: fine-tune iterations (default the run's simsup.contact_iterations or 1500)")
     p.add_argument("--from-asset", default=None,
                    help="simsup-contact: start from this packed simsup asset (rebuilds --out/simsup.pt from it)")
+    p.add_argument("--members", nargs="+", default=[],
+                   help="simsup-ensemble: simsup run folders whose mean --out packs (e.g. two medium fits)")
+    p.add_argument("--ensemble-tier", default="large",
+                   help="simsup-ensemble: the tier whose sizes hold the members side by side (default large)")
     p.add_argument("--tier-dir", default=None, help="simsup-tiers: folder for <garment>_<tier>.pleat (default --out)")
     p.add_argument("--data", default=None, help="simsup: a dataset npz written by --export (no simulation)")
     p.add_argument("--export", default=None, help="simsup: write the simulated dataset to this npz")
@@ -56,7 +61,8 @@ def build_parser():
 
 @command("pleat-train")
 def main(argv=None):
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     try:
         import torch  # noqa: F401
     except ImportError:
@@ -89,15 +95,22 @@ def main(argv=None):
     if args.command == "simsup-contact":
         from pleat.train import simsup
         if not args.data:
-            p.error("simsup-contact needs --data (the datasets the model was fitted on)")
+            parser.error("simsup-contact needs --data (the datasets the model was fitted on)")
         if args.from_asset:
             simsup.run_from_asset(args.from_asset, args.garment, cfg, args.out)
-        simsup.contact_tune(args.out, args.data, args.contact_iterations, progress=progress,
-                            settings=cfg.get("simsup"))
+        # only what this call sets (--set simsup.contact_…=…) overrides the run's own contact settings: the
+        # preset's section would otherwise replace them (the tiny preset's 10 iterations)
+        explicit = {k.split(".", 1)[1]: v for k, v in overrides.items() if k.startswith("simsup.contact_")}
+        simsup.contact_tune(args.out, args.data, args.contact_iterations, progress=progress, settings=explicit)
+    if args.command == "simsup-ensemble":
+        from pleat.train import ensemble
+        if len(args.members) < 2:
+            parser.error("simsup-ensemble needs --members RUN_A RUN_B (simsup run folders)")
+        print(ensemble.ensemble_run(args.members, args.out, args.ensemble_tier))
     if args.command == "simsup-tiers":
         from pleat.train import simsup
         if not args.data:
-            p.error("simsup-tiers needs --data (the datasets the model was fitted on)")
+            parser.error("simsup-tiers needs --data (the datasets the model was fitted on)")
         simsup.distill_tiers(args.out, args.data, args.tiers, args.tier_dir or args.out, progress=progress)
     if args.command == "ablation":
         core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)

@@ -323,7 +323,8 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True)
         t1 = time.time()
         tlp, tblock, norms, shim, g, rep = distill.distill(
             teacher, setup, spec, teacher_val, garment, cfg["seed"], iterations or c["iterations"],
-            c["dec_iterations"], c["lr"], c["batch"], c["window"], False, weight_by_energy=True)
+            c["dec_iterations"], c["lr"], c["batch"], c["window"], False, weight_by_energy=True,
+            noise=(float(c.get("input_noise", 0.0)), float(c.get("latent_noise", 0.0))))
         rep["fit_wall_s"] = time.time() - t1
         if garment is None:
             rep["simulator_validation"] = posed_errors(tlp, tblock, val, setup.L)
