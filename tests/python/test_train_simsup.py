@@ -78,8 +78,17 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     path, summary = simsup.train(cfg, "tshirt", tmp_path / "a", workers=1, progress=False,
                                  cache_dir=tmp_path / "cache", export=str(data))
     assert summary["segments"] == 2 and summary["frames"] == 16
-    path2, summary2 = simsup.train(cfg, "tshirt", tmp_path / "b", progress=False, data=str(data))
+    # the refit as the shipped recipe makes it: two medium fits averaged into one network of the large sizes
+    cfg2 = core.load_config("tiny", overrides={"simsup.max_segments": 2, "simsup.segment_frames": 8,
+                                              "simsup.validation_frames": 6, "simsup.iterations": 20,
+                                              "simsup.dec_iterations": 10, "simsup.contact_iterations": 3,
+                                              "simsup.ensemble_members": 2, "simsup.member_tier": "medium",
+                                              "simsup.tier": "large", "simsup.input_noise": 0.1})
+    path2, summary2 = simsup.train(cfg2, "tshirt", tmp_path / "b", progress=False, data=str(data))
     assert summary2["frames"] == 16
+    fit = summary2["fit"]
+    assert fit["ensemble_of"] == ["medium", "medium"]      # (16 frames cap each member's L and D at their rank)
+    assert fit["latent"] == 2 * fit["members"][0]["latent"] and fit["blend"] == 2 * fit["members"][0]["blend"]
     printed = capsys.readouterr().out
     assert printed.count("verdict: ") == 2 and "than LBS-only on 1 validation clips" in printed   # one per run
     from pleat.asset import read_asset
@@ -87,6 +96,8 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     meta = json.loads(w["metadata_json"])
     assert meta["training"]["recipe"] == "simulator-supervised"
     assert meta["training"]["contact"]["iterations"] == 3
+    assert meta["model"].startswith("pleat simulator-supervised: the mean of 2 medium fits")
+    assert w["lp.0.weight"].shape[0] == 512 and w["blend_shapes"].shape[0] == fit["blend"]
     assert np.isfinite(w["blend_shapes"]).all() and np.abs(w["blend_shapes"]).max() > 0
 
 

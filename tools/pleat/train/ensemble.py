@@ -114,8 +114,8 @@ def ensemble_run(member_dirs, out, tier_name="large"):
     summaries = [json.loads((Path(d) / "simsup_summary.json").read_text()) for d in member_dirs]
     report = {"tier": tier_name, "vertices": setup.N, "latent": len(norms["z_mean"]),
               "blend": int(block.blend_shapes.shape[0]), "lp_hidden": list(spec.lp_hidden),
-              "dec_hidden": list(spec.dec_hidden), "ensemble_of": [str(d) for d in member_dirs],
-              "members": [s.get("fit", {}) for s in summaries]}
+              "dec_hidden": list(spec.dec_hidden), "ensemble_of": [m[3].cfg["simsup"]["tier"] for m in loaded],
+              "member_runs": [str(d) for d in member_dirs], "members": [s.get("fit", {}) for s in summaries]}
     summary = dict(summaries[0], recipe="simulator-supervised ensemble", members=[str(d) for d in member_dirs],
                    cpu_hours=sum(s.get("cpu_hours", 0.0) for s in summaries) - sum(
                        s.get("simulation_cpu_h", 0.0) for s in summaries[1:]),
@@ -128,8 +128,6 @@ def ensemble_run(member_dirs, out, tier_name="large"):
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     path = out / f"{setup.name}.pleat"
     distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, report, cfg["fps"],
-                      fp16=c.get("fp16", True), teacher="reference simulator",
-                      model="pleat simulator-supervised ensemble: the mean of "
-                            f"{len(member_dirs)} {loaded[0][3].cfg['model']['lp_hidden'][0]}-wide fits, "
-                            "packed as one block-diagonal network", training=summary, onnx=bool(c.get("onnx", False)))
+                      fp16=c.get("fp16", True), teacher="reference simulator", model=simsup.model_name(report),
+                      training=summary, onnx=bool(c.get("onnx", False)))
     return path

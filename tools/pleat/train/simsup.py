@@ -210,15 +210,30 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     if progress:
         print(f"simsup: {len(seqs)} segments, {frames} frames simulated ({sim_cpu / 3600:.2f} CPU h)", file=sys.stderr)
 
-    # 2. fit
+    # 2. fit: one model at simsup.tier, or (ensemble_members > 1) that many fits at simsup.member_tier from
+    # consecutive seeds, averaged into one network at simsup.tier's sizes (pleat.train.ensemble)
     spec = tier(c["tier"])
     dev = core.device_for(device, 0)
     t_fit = time.time()
-    lp, block, norms, shim, g, report = distill.distill(
-        seqs, setup, spec, val, None, cfg["seed"], c["iterations"], c["dec_iterations"], c["lr"], c["batch"],
-        c["window"], progress, device=dev, weight_by_energy=bool(c.get("weight_by_energy", False)),
-        deadline=None if budget_s is None else t_start + 0.85 * budget_s,
-        noise=(float(c.get("input_noise", 0.0)), float(c.get("latent_noise", 0.0))))
+    members = int(c.get("ensemble_members", 1))
+    fit_deadline = None if budget_s is None else t_start + 0.85 * budget_s
+    fits = []
+    for k in range(members):
+        deadline = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) * (k + 1) / members
+        fits.append(distill.distill(
+            seqs, setup, tier(c["member_tier"]) if members > 1 else spec, val, None, cfg["seed"] + k,
+            c["iterations"], c["dec_iterations"], c["lr"], c["batch"], c["window"], progress, device=dev,
+            weight_by_energy=bool(c.get("weight_by_energy", False)), deadline=deadline,
+            noise=(float(c.get("input_noise", 0.0)), float(c.get("latent_noise", 0.0)))))
+    if members > 1:
+        from pleat.train import ensemble
+        lp, block, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in fits], setup, spec)
+        g = fits[0][4]
+        report = dict(fits[0][5], tier=spec.name, latent=len(norms["z_mean"]), blend=int(block.blend_shapes.shape[0]),
+                      lp_hidden=list(spec.lp_hidden), dec_hidden=list(spec.dec_hidden),
+                      ensemble_of=[c["member_tier"]] * members, members=[f[5] for f in fits])
+    else:
+        lp, block, norms, shim, g, report = fits[0]
     fit_s = time.time() - t_fit
     torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
                 "config": cfg, "garment": garment}, out / "simsup.pt")
@@ -233,8 +248,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     path = out / f"{setup.name}.pleat"
     distill.pack_tier(path, lp, block, norms, shim, g, setup, dict(report, tier=c["tier"]), cfg["fps"],
                       fp16=c.get("fp16", True), teacher="reference simulator",
-                      model="pleat simulator-supervised: inference block fitted to the reference simulator",
-                      training=summary, onnx=bool(c.get("onnx", False)))
+                      model=model_name(report), training=summary, onnx=bool(c.get("onnx", False)))
     run.log({"summary": summary})
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     if int(c.get("contact_iterations", 0)) > 0:      # the last step: the contact-aware fine-tune (rewrites the asset
@@ -243,6 +257,14 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     else:
         print(verdict(val_err))
     return path, summary
+
+
+def model_name(report, contact=False):
+    """The asset META's model line of a simsup fit (report: distill's, or the ensemble's)."""
+    members = report.get("ensemble_of")
+    what = (f"the mean of {len(members)} {members[0]} fits to the reference simulator, packed as one network"
+            if members else "inference block fitted to the reference simulator")
+    return f"pleat simulator-supervised: {what}" + (", contact-aware fine-tune" if contact else "")
 
 
 def user_simulations(setup, specs, fps, log=None, progress=True):
@@ -395,8 +417,8 @@ def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, s
     path = run_dir / f"{setup.name}.pleat"
     distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(state["report"], tier=c["tier"]),
                       cfg["fps"], fp16=c.get("fp16", True), teacher="reference simulator",
-                      model="pleat simulator-supervised: inference block fitted to the reference simulator, "
-                            "contact-aware fine-tune", training=summary, onnx=bool(c.get("onnx", False)))
+                      model=model_name(state["report"], contact=True), training=summary,
+                      onnx=bool(c.get("onnx", False)))
     print(verdict(after))
     return path, rep
 
