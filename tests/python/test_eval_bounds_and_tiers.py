@@ -106,3 +106,20 @@ def test_pareto_command_writes_the_chart_and_quotes_its_command_line(tmp_path):
                         "--quiet"]) == 0
     page = (tmp_path / "pareto.md").read_text()
     assert "pleat-pareto --assets " + str(asset) in page and (tmp_path / "pareto.png").stat().st_size > 0
+
+
+def test_pareto_page_lists_an_ensemble_tier_by_its_members(tmp_path):
+    """A large tier packed by pleat.train.ensemble has no distillation report of its own: the page's distillation
+    table gives its members' PCA energy (mean), frames and summed fit time, and says what it is."""
+    member = {"tier": "medium", "vertices": 1004, "pca_energy": 0.99, "train_frames": 25228, "train_time_s": 400.0,
+              "validation": {"rms_mm": 10.7, "rms_zero_mm": 18.6, "rms_projection_mm": 4.0}}
+    ens = {"tier": "large", "vertices": 1004, "ensemble_of": ["medium", "medium"], "members": [member, member]}
+    row = dict(name="tier large (tshirt.pleat)", kind="asset", tier="large", model="pleat simulator-supervised",
+               vertices=1004, latent=128, blend=128, lp_hidden=[512, 512, 512], dec_hidden=[512, 512], step_us=75.0,
+               mean_mm=13.8, p95_mm=29.9, distillation=ens)
+    path = tmp_path / "pareto.md"
+    pareto.write_markdown([row, dict(row, name="tier medium", tier="medium", step_us=42.0, mean_mm=13.9,
+                                     distillation=member)], ["clip"], "pleat-pareto …", "lib", path, 60)
+    page = path.read_text()
+    assert "| large (mean of 2 medium fits) | 1004 | 99.00 % | 25228 | — | — | — | 800 |" in page
+    assert "| medium | 1004 | 99.00 % | 25228 | 10.70 | 18.60 | 4.00 | 400 |" in page

@@ -246,7 +246,13 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=(), re
         for r in dist:
             d = r["distillation"]
             v = d.get("validation") or d.get("train") or {}
-            lines.append(f"| {d['tier']} | {d['vertices']} | {100 * d['pca_energy']:.2f} % | {d['train_frames']} | "
+            tier, members = d["tier"], d.get("members") or []
+            if members:     # an ensemble (pleat.train.ensemble): its members' fits, the mean not scored here
+                tier = f"{tier} (mean of {len(members)} {d['ensemble_of'][0]} fits)"
+                d = dict(d, pca_energy=float(np.mean([m["pca_energy"] for m in members])),
+                         train_frames=members[0]["train_frames"],
+                         train_time_s=sum(m["train_time_s"] for m in members))
+            lines.append(f"| {tier} | {d['vertices']} | {100 * d['pca_energy']:.2f} % | {d['train_frames']} | "
                          f"{_fmt(v.get('rms_mm'), 2)} | {_fmt(v.get('rms_zero_mm'), 2)} | "
                          f"{_fmt(v.get('rms_projection_mm'), 2)} | {d['train_time_s']:.0f} |")
     if notes:
