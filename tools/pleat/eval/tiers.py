@@ -2,11 +2,12 @@
 
 Each tier fixes what sets the runtime's step cost: mesh resolution N, latent size L, blend-shape count D and the two
 MLPs' hidden widths. `large` is the shipped default t-shirt (the 1k t-shirt, data/garments/tshirt_1k.npz, with the
-paper's inference sizes L = D = 128, f_LP 3×512, f_dec 2×512), trained by the two stages. The smaller tiers are
-distilled from large's stage-1 teacher Φ (`pleat.train.distill`): smaller L, D and widths, and for `xsmall` a coarser
-remesh of the same garment (the 1k mesh's skinning + normals alone cost more than a tenth of large's step), so that
-the four span more than 10× in step time. `asset` is where each ships. `training_overrides(name)` gives the `--set`
-overrides for pleat-train's config if a tier is trained from scratch instead.
+paper's inference sizes L = D = 128, f_LP 3×512, f_dec 2×512): the simulator-supervised recipe fits two models at the
+medium sizes and packs their mean at these sizes (pleat.train.ensemble; docs/training.md). The smaller tiers are
+distilled from it (`pleat-train simsup-tiers`): smaller L, D and widths, and for `xsmall` a coarser remesh of the
+same garment (the 1k mesh's skinning + normals alone cost more than a tenth of large's step), so that the four span
+more than 10× in step time. `asset` is where each ships. `training_overrides(name)` gives the `--set` overrides for
+pleat-train's config if a tier is trained from scratch instead.
 """
 from dataclasses import asdict, dataclass
 
