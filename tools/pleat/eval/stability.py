@@ -411,8 +411,10 @@ def write_markdown(reports, path, command):
               "`tests/python/test_stability_shipped.py` runs the shipped trained assets (`assets/tshirt*.pleat`) on "
               "real motion capture (walk, run, jump, punch): a 5,000-frame chain must have deviation ratio ≤ 1.2 "
               "(measured 1.000 for all four tiers), stay finite, reset nothing and keep the latent in range; the run "
-              "played 3× faster and bodies at β0 = ±4 and β1 = +4 must stay finite with no vertex more than 150 mm "
-              "from the skinned garment (measured 34–52 mm at worst). About 11 s.", ""]
+              "played 3× faster and bodies at β0 = ±4 and β1 = +4 must stay finite, and no vertex of any of these runs may "
+              "be more than 300 mm from the skinned garment (measured 87–168 mm at worst; the simulator's own garment "
+              "is more than 150 mm from the skinned one in 27 % of its training frames, more than 300 mm in 6 %). "
+              "About 11 s.", ""]
     write_text(path, "\n".join(lines))
 
 
