@@ -250,9 +250,16 @@ static int SceneRig_Scene( SceneRig* rig, const plSceneDef* def_in, const BenchM
 }
 
 // Steps the scene `frames` times (after 60 untimed frames: the first switches and the cost correction settle); per-frame µs into samples. Returns 0 on a failed step.
+// Detail changes per timed frame in the last SceneRig_Run (a policy that thrashes pays for fades all the time).
+static double g_switchesPerFrame = 0.0;
+
 static int SceneRig_Run( SceneRig* rig, const BenchMotion* motion, uint32_t frames, double* samples,
 						 plScenePlan* out_plan )
 {
+	plDetail* last = (plDetail*)calloc( rig->characters, sizeof( plDetail ) );
+	uint64_t switches = 0;
+	if ( last == NULL )
+		return 0;
 	for ( uint32_t f = 0; f < frames + 60; ++f )
 	{
 		for ( uint32_t i = 0; i < rig->characters; ++i )
@@ -268,7 +275,16 @@ static int SceneRig_Run( SceneRig* rig, const BenchMotion* motion, uint32_t fram
 			plScene_ReportFrameCost( rig->scene, (float)us ); // the engine's feedback: the plan follows this machine
 		if ( f >= 60 )
 			samples[f - 60] = us;
+		for ( uint32_t i = 0; i < rig->characters; ++i )
+		{
+			plDetail d;
+			plScene_GetDetail( rig->scene, i, &d, NULL, NULL );
+			switches += f >= 60 && ( d.tier != last[i].tier || d.network_rate_hz != last[i].network_rate_hz );
+			last[i] = d;
+		}
 	}
+	free( last );
+	g_switchesPerFrame = frames > 0 ? (double)switches / frames : 0.0;
 	plScene_GetPlan( rig->scene, out_plan );
 	return 1;
 }
@@ -441,10 +457,10 @@ static int RunScene( int argc, char** argv )
 		}
 		fprintf( out, "%s    {\"budget_us\": %.0f, \"frame_median_us\": %.1f, \"frame_p90_us\": %.1f, "
 					  "\"planned_us\": %.1f, \"cost_scale\": %.3f, \"within_budget\": %s, \"weighted_error_mm\": %.2f, \"mean_error_mm\": %.2f, "
-					  "\"details\": [",
+					  "\"switches_per_frame\": %.2f, \"details\": [",
 				 b ? ",\n" : "", budgets[b], median, p90, plan.cost_us, plan.cost_scale,
 				 budgets[b] <= 0.0 || median <= budgets[b] ? "true" : "false", plan.weighted_error_mm,
-				 mean_error / characters );
+				 mean_error / characters, g_switchesPerFrame );
 		for ( uint32_t t = 0; t <= tier_count; ++t )
 			fprintf( out, "%s%u", t ? ", " : "", counts[t] );
 		fprintf( out, "], \"reduced_rate\": %u, \"ok\": %s}", reduced, ok ? "true" : "false" );

@@ -16,14 +16,16 @@
 #include <string.h>
 
 // Cost model of a tier when the def gives none (µs, a crowd on one core; docs/scene-budget.md, "Costs"): the batched
-// networks and blend at ~33 GMAC/s, skinning + normals + guards ~10 ns per vertex, a carry-over to the display mesh
-// ~4 ns per display vertex, ~5 µs per character of fixed work (validation, forward kinematics, X_c, commit), and the
-// weights and blend shapes streamed once per frame for the whole group at ~150 GB/s of effective overlap. Fitted to
-// pleat_bench_crowd on the reference sizes; measure and pass tier_cost_us for a real budget.
-#define PLEAT_COST_US_PER_MAC 0.030e-3
-#define PLEAT_COST_US_PER_VERTEX 0.010
-#define PLEAT_COST_US_PER_DISPLAY_VERTEX 0.004
-#define PLEAT_COST_US_FIXED 5.0
+// networks and blend at ~37 GMAC/s, skinning + body contact + normals + guards ~12 ns per vertex, a carry-over to the
+// display mesh (map + normals there) ~12 ns per display vertex, ~2 µs per character of fixed work (validation,
+// forward kinematics, X_c, commit), and the weights and blend shapes streamed once per frame for the whole group at
+// ~150 GB/s of effective overlap. Fitted by bench/fit_scene_costs.py to a pleat_bench_crowd --scene calibration of the
+// shipped tiers (2026-11-25, fixed cost held at the per-phase bench's 2 µs); measure and pass tier_cost_us for a real
+// budget, or report frame costs (plScene_ReportFrameCost).
+#define PLEAT_COST_US_PER_MAC 0.027e-3
+#define PLEAT_COST_US_PER_VERTEX 0.012
+#define PLEAT_COST_US_PER_DISPLAY_VERTEX 0.012
+#define PLEAT_COST_US_FIXED 2.0
 #define PLEAT_COST_US_PER_STREAMED_BYTE 0.0067e-3
 
 plSceneDef plDefaultSceneDef( void )

@@ -463,6 +463,54 @@ static void test_scene_destroyed_with_its_context( void** state )
 	assert_false( plScene_IsValid( scene ) );
 }
 
+// Fading-out details (extra_cost_us) close the budget to steps up, but never push a character below the level it is
+// on: otherwise every fade would start more fades (the bench scene switched ~10 characters a frame that way).
+static void test_fades_block_steps_up_but_push_nobody_down( void** state )
+{
+	(void)state;
+	plPlanner p;
+	plPlanner_Init( &p );
+	uint32_t n = 8;
+	for ( uint32_t c = 0; c < n; ++c )
+	{
+		p.importance[c] = 1.0f;
+	}
+	float budget = n * 40.0f;
+	plPlan( &p, n, budget, 0.25f ); // settle: some characters above the cheapest level
+	uint32_t settled[8];
+	int above = 0;
+	for ( uint32_t c = 0; c < n; ++c )
+	{
+		settled[c] = p.current[c] = p.out[c];
+		above += p.out[c] != p.frontier[0];
+	}
+	assert_true( above > 0 );
+	float extra[8] = { 0 };
+	extra[0] = budget; // a fade as dear as the whole budget
+	float cost = -1.0f;
+	plSceneBudgetJob job = { p.levels, p.level_count, p.frontier, p.frontier_count, p.stream, 3,
+							 n,        p.importance,  p.current,  p.pinned,         p.held,   extra,
+							 budget,   0.25f,         p.scratch,  sizeof( p.scratch ), p.out, &cost };
+	assert_int_equal( plSceneBudgetJob_Run( &job ), PLEAT_RESULT_OK );
+	for ( uint32_t c = 0; c < n; ++c )
+	{
+		assert_int_equal( p.out[c], settled[c] ); // kept, not pushed down by the fade
+	}
+	assert_true( cost > budget ); // the fade's cost is reported on top of the plan
+	// A character on the cheapest level gets no step up while the fade lasts.
+	uint32_t low = 0;
+	while ( low < n && settled[low] != p.frontier[0] )
+	{
+		low++;
+	}
+	if ( low < n )
+	{
+		p.importance[low] = 1000.0f;
+		assert_int_equal( plSceneBudgetJob_Run( &job ), PLEAT_RESULT_OK );
+		assert_int_equal( p.out[low], p.frontier[0] );
+	}
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
@@ -470,6 +518,7 @@ int main( void )
 		cmocka_unit_test( test_plans_stay_within_budget_and_follow_importance ),
 		cmocka_unit_test( test_hysteresis_keeps_plans_through_small_changes ),
 		cmocka_unit_test( test_pins_and_holds ),
+		cmocka_unit_test( test_fades_block_steps_up_but_push_nobody_down ),
 		cmocka_unit_test( test_scene_follows_budget_overrides_and_switch_limits ),
 		cmocka_unit_test( test_scene_destroyed_with_its_context ),
 	};
