@@ -3,11 +3,12 @@
 // two registers per joint, (c0 | c1) and (c2 | c3) with c_i = (m0i, m1i, m2i, 0); the anchor's blended matrix is
 // 2 FMAs per influence, and the posed anchor c0·r_x + c1·r_y + c2·r_z + c3 and the unnormalised normal
 // c0·n_x + c1·n_y + c2·n_z come from the same two registers without horizontal adds. They go to 8-lane rows.
-// Pass 2, 8 vertices at once: the normalisation, the plane distance and the push of plPushOutOfAnchorPlane, with the
-// same float operations in the same order (so this kernel stays bit-identical to plBodyContactBatch_Avx2, whose
-// lanes are instances), as masks instead of branches. Splitting the passes keeps the long sqrt → divide → compare
-// chain out of the per-vertex loop, where its branch ended every vertex (2.6× faster on the 1k shirt).
-// Agrees with the scalar kernel to rounding (the sums are grouped differently), which test_simd_matches_scalar bounds.
+// Pass 2, 8 vertices at once: the normalisation, plane distance and push of plPushOutOfAnchorPlane as
+// plPushOutOfAnchorPlane8 (shared with plBodyContactBatch_Avx2, whose lanes are instances), masks instead of
+// branches, and only the moved vertices written back. Against the one-pass version (the whole test per vertex, with
+// its branches) the skinning phase of the 1k shirt, body contact included, went from 17.05 to 13.95 µs
+// (pleat_bench_phases, alternated A/B). Agrees with the scalar kernel to rounding (the sums are grouped differently),
+// which test_simd_matches_scalar bounds.
 #include "simd_avx2.h"
 
 // Pass 1 for one anchored vertex: its posed anchor and unnormalised normal into lane i of the rows.
@@ -40,7 +41,7 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 	_Alignas( 32 ) float columns[PLEAT_SKIN_COLUMN_FLOATS];
 	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
 	uint32_t K = influence_count;
-	const __m256 offset = _mm256_set1_ps( offset_m ), tiny = _mm256_set1_ps( 1e-12f );
+	const __m256 offset = _mm256_set1_ps( offset_m );
 	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
 	{
 		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
@@ -81,27 +82,17 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 		{
 			continue;
 		}
-		__m256 ax = _mm256_load_ps( rows ), ay = _mm256_load_ps( rows + 8 ), az = _mm256_load_ps( rows + 16 );
-		__m256 nx = _mm256_load_ps( rows + 24 ), ny = _mm256_load_ps( rows + 32 ), nz = _mm256_load_ps( rows + 40 );
 		__m256 x = _mm256_load_ps( rows + 48 ), y = _mm256_load_ps( rows + 56 ), z = _mm256_load_ps( rows + 64 );
-		__m256 length = _mm256_sqrt_ps(
-			_mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
-		__m256 has_direction = _mm256_cmp_ps( length, tiny, _CMP_GT_OQ );
-		nx = _mm256_div_ps( nx, length );
-		ny = _mm256_div_ps( ny, length );
-		nz = _mm256_div_ps( nz, length );
-		__m256 d = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( _mm256_sub_ps( x, ax ), nx ),
-												 _mm256_mul_ps( _mm256_sub_ps( y, ay ), ny ) ),
-								  _mm256_mul_ps( _mm256_sub_ps( z, az ), nz ) );
-		int moves = _mm256_movemask_ps( _mm256_and_ps( has_direction, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) ) );
+		int moves = _mm256_movemask_ps( plPushOutOfAnchorPlane8(
+			&x, &y, &z, _mm256_load_ps( rows ), _mm256_load_ps( rows + 8 ), _mm256_load_ps( rows + 16 ),
+			_mm256_load_ps( rows + 24 ), _mm256_load_ps( rows + 32 ), _mm256_load_ps( rows + 40 ), offset ) );
 		if ( moves == 0 )
 		{
 			continue;
 		}
-		__m256 push = _mm256_sub_ps( offset, d );
-		_mm256_store_ps( rows + 48, _mm256_add_ps( x, _mm256_mul_ps( push, nx ) ) );
-		_mm256_store_ps( rows + 56, _mm256_add_ps( y, _mm256_mul_ps( push, ny ) ) );
-		_mm256_store_ps( rows + 64, _mm256_add_ps( z, _mm256_mul_ps( push, nz ) ) );
+		_mm256_store_ps( rows + 48, x );
+		_mm256_store_ps( rows + 56, y );
+		_mm256_store_ps( rows + 64, z );
 		for ( uint32_t i = 0; i < count; ++i )
 		{
 			if ( moves & ( 1 << i ) )

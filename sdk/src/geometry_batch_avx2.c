@@ -18,6 +18,7 @@
 // transposes in registers), through zero-padded copies at a ragged end. Contraction into FMA would change the bits of
 // the normals, so it is off here as in normals_avx2.c (GCC does not contract in ISO C mode; clang needs the pragma).
 #include "kernels_batch.h"
+#include "simd_avx2.h"
 
 #include <immintrin.h>
 #include <string.h>
@@ -205,11 +206,7 @@ void plSkinningBatch_Avx2( float* const* out, const float* const* in, uint32_t b
 						   const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
 						   const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
 {
-	enum
-	{
-		MAX_JOINTS = 64 // PLEAT_MAX_JOINTS; the asset loader enforces it
-	};
-	uint32_t J = joint_count < MAX_JOINTS ? joint_count : MAX_JOINTS;
+	uint32_t J = joint_count < PLEAT_SKIN_COLUMN_JOINTS ? joint_count : PLEAT_SKIN_COLUMN_JOINTS;
 	// [J + 1][12][PL_LANES]: element e of joint j's matrix for every lane; the extra joint is all zero (an index out of
 	// range blends a zero matrix, as plSkinning_Avx2 does). Sized by J (a VLA: the SIMD files build with GCC and clang
 	// only): 9.6 KB of a worker's stack for 24 joints, 25 KB for the most.
@@ -316,25 +313,22 @@ void plNormalsBatch_Avx2( float* const* normals, const float* const* positions, 
 
 // Body contact (twin of plBodyContact_Avx2), 8 instances per vector: the anchor's blended matrix as skinning's, the
 // posed anchor fma(m_i2, r_z, m_i0 r_x) + fma(m_i3, 1, m_i1 r_y) and the normal fma(m_i2, n_z, m_i0 n_x) +
-// fma(m_i3, 0, m_i1 n_y) per component, then the scalar kernel's length, divisions, plane distance and push — per
-// lane, each instance with its own anchors (its β) and clearance. A lane whose normal is degenerate, or whose vertex
-// lies beyond the clearance, keeps its position bit for bit.
+// fma(m_i3, 0, m_i1 n_y) per component, then the scalar kernel's length, divisions, plane distance and push
+// (plPushOutOfAnchorPlane8, shared with plBodyContact_Avx2) — per lane, each instance with its own anchors (its β)
+// and clearance. A lane whose normal is degenerate, or whose vertex lies beyond the clearance, keeps its position bit
+// for bit.
 void plBodyContactBatch_Avx2( float* const* positions, const float* const* shaped_anchors, const float* offsets_m,
 							  uint32_t batch_count, const float* anchor_normals, const uint16_t* anchor_skin_indices,
 							  const float* anchor_skin_weights, uint32_t influence_count,
 							  const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin,
 							  uint32_t v_end )
 {
-	enum
-	{
-		MAX_JOINTS = 64
-	};
-	uint32_t J = joint_count < MAX_JOINTS ? joint_count : MAX_JOINTS;
+	uint32_t J = joint_count < PLEAT_SKIN_COLUMN_JOINTS ? joint_count : PLEAT_SKIN_COLUMN_JOINTS;
 	_Alignas( 64 ) float lanes[( J + 1 ) * 12 * PL_LANES];
 	_Alignas( 64 ) float block_x[3 * PL_LANES * PL_LANES];
 	_Alignas( 64 ) float block_r[3 * PL_LANES * PL_LANES];
 	uint32_t K = influence_count;
-	const plVec one = plVecSet1( 1.0f ), zero = plVecZero(), tiny = plVecSet1( 1e-12f );
+	const plVec one = plVecSet1( 1.0f ), zero = plVecZero();
 	for ( uint32_t b0 = 0; b0 < batch_count; b0 += PL_LANES )
 	{
 		uint32_t n = batch_count - b0 < PL_LANES ? batch_count - b0 : PL_LANES;
@@ -384,21 +378,13 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 					normal[r] = plVecAdd( plVecFma( a2[r], nz0, plVecMul( a0[r], nx0 ) ),
 										  plVecFma( a3[r], zero, plVecMul( a1[r], ny0 ) ) );
 				}
-				plVec length = plVecSqrt( plVecAdd(
-					plVecAdd( plVecMul( normal[0], normal[0] ), plVecMul( normal[1], normal[1] ) ),
-					plVecMul( normal[2], normal[2] ) ) );
-				plVec has_direction = _mm256_cmp_ps( length, tiny, _CMP_GT_OQ );
-				plVec nx = _mm256_div_ps( normal[0], length ), ny = _mm256_div_ps( normal[1], length );
-				plVec nz = _mm256_div_ps( normal[2], length );
 				float* px = block_x + (size_t)i * 3 * PL_LANES;
 				plVec x = plVecLoad( px ), y = plVecLoad( px + PL_LANES ), z = plVecLoad( px + 2 * PL_LANES );
-				plVec dx = plVecMul( plVecSub( x, anchor[0] ), nx ), dy = plVecMul( plVecSub( y, anchor[1] ), ny );
-				plVec d = plVecAdd( plVecAdd( dx, dy ), plVecMul( plVecSub( z, anchor[2] ), nz ) );
-				plVec moves = _mm256_and_ps( has_direction, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) );
-				plVec push = plVecSub( offset, d );
-				plVecStore( px, _mm256_blendv_ps( x, plVecAdd( x, plVecMul( push, nx ) ), moves ) );
-				plVecStore( px + PL_LANES, _mm256_blendv_ps( y, plVecAdd( y, plVecMul( push, ny ) ), moves ) );
-				plVecStore( px + 2 * PL_LANES, _mm256_blendv_ps( z, plVecAdd( z, plVecMul( push, nz ) ), moves ) );
+				plPushOutOfAnchorPlane8( &x, &y, &z, anchor[0], anchor[1], anchor[2], normal[0], normal[1], normal[2],
+										 offset );
+				plVecStore( px, x );
+				plVecStore( px + PL_LANES, y );
+				plVecStore( px + 2 * PL_LANES, z );
 			}
 			plFromLanes( block_x, positions + b0, n, v0, count );
 		}
