@@ -96,6 +96,15 @@ def combine(members, setup, spec):
     return lp.eval(), block.eval(), norms, shim
 
 
+def report(spec, vertices, norms, block, member_tiers, member_reports, **extra):
+    """The fit report of a packed ensemble (simsup_summary.json's "fit", the asset META's "distillation"): its sizes,
+    what its members are, and their own fit reports."""
+    return dict({"tier": spec.name, "vertices": vertices, "latent": len(norms["z_mean"]),
+                 "blend": int(block.blend_shapes.shape[0]), "lp_hidden": list(spec.lp_hidden),
+                 "dec_hidden": list(spec.dec_hidden), "ensemble_of": list(member_tiers),
+                 "members": list(member_reports)}, **extra)
+
+
 def ensemble_run(member_dirs, out, tier_name="large"):
     """Members = simsup run folders (simsup.pt): their mean packed at `tier_name`'s sizes into a simsup run folder
     `out` (simsup.pt, simsup_summary.json, <garment>.pleat), so `pleat-train simsup-contact --out OUT` and
@@ -112,22 +121,12 @@ def ensemble_run(member_dirs, out, tier_name="large"):
     cfg = json.loads(json.dumps(setup.cfg))
     cfg["simsup"]["tier"] = tier_name
     summaries = [json.loads((Path(d) / "simsup_summary.json").read_text()) for d in member_dirs]
-    report = {"tier": tier_name, "vertices": setup.N, "latent": len(norms["z_mean"]),
-              "blend": int(block.blend_shapes.shape[0]), "lp_hidden": list(spec.lp_hidden),
-              "dec_hidden": list(spec.dec_hidden), "ensemble_of": [m[3].cfg["simsup"]["tier"] for m in loaded],
-              "member_runs": [str(d) for d in member_dirs], "members": [s.get("fit", {}) for s in summaries]}
+    fit = report(spec, setup.N, norms, block, [m[3].cfg["simsup"]["tier"] for m in loaded],
+                 [s.get("fit", {}) for s in summaries], member_runs=[str(d) for d in member_dirs])
     summary = dict(summaries[0], recipe="simulator-supervised ensemble", members=[str(d) for d in member_dirs],
                    cpu_hours=sum(s.get("cpu_hours", 0.0) for s in summaries) - sum(
                        s.get("simulation_cpu_h", 0.0) for s in summaries[1:]),
-                   fit=report)
+                   fit=fit)
     for k in ("contact", "contact_rounds", "validation_before_contact"):
         summary.pop(k, None)
-    torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
-                "config": cfg, "garment": garment}, out / "simsup.pt")
-    c = cfg["simsup"]
-    (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
-    path = out / f"{setup.name}.pleat"
-    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, report, cfg["fps"],
-                      fp16=c.get("fp16", True), teacher="reference simulator", model=simsup.model_name(report),
-                      training=summary, onnx=bool(c.get("onnx", False)))
-    return path
+    return simsup.write_run(out, setup, cfg, garment, lp, block, norms, shim, fit, summary)

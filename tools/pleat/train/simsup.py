@@ -228,15 +228,10 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     if members > 1:
         from pleat.train import ensemble
         lp, block, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in fits], setup, spec)
-        g = fits[0][4]
-        report = dict(fits[0][5], tier=spec.name, latent=len(norms["z_mean"]), blend=int(block.blend_shapes.shape[0]),
-                      lp_hidden=list(spec.lp_hidden), dec_hidden=list(spec.dec_hidden),
-                      ensemble_of=[c["member_tier"]] * members, members=[f[5] for f in fits])
+        report = ensemble.report(spec, setup.N, norms, block, [c["member_tier"]] * members, [f[5] for f in fits])
     else:
-        lp, block, norms, shim, g, report = fits[0]
+        lp, block, norms, shim, _, report = fits[0]
     fit_s = time.time() - t_fit
-    torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
-                "config": cfg, "garment": garment}, out / "simsup.pt")
     val_err = posed_errors(lp, block, val, setup.L)
     # 3. pack
     cpu_h = (sim_cpu + val_cpu) / 3600.0 + fit_s * max(1, torch.get_num_threads()) / 3600.0
@@ -245,18 +240,30 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                "simulation_cpu_h": sim_cpu / 3600.0, "fit_wall_s": fit_s, "cpu_hours": cpu_h,
                "wall_s": time.time() - t_start, "hardware": core.hardware(), "fit": report,
                "validation": val_err, "user_simulations": user_info}
-    path = out / f"{setup.name}.pleat"
-    distill.pack_tier(path, lp, block, norms, shim, g, setup, dict(report, tier=c["tier"]), cfg["fps"],
-                      fp16=c.get("fp16", True), teacher="reference simulator",
-                      model=model_name(report), training=summary, onnx=bool(c.get("onnx", False)))
+    path = write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary)
     run.log({"summary": summary})
-    (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     if int(c.get("contact_iterations", 0)) > 0:      # the last step: the contact-aware fine-tune (rewrites the asset
         path, _ = contact_tune(out, None, progress=progress, settings=c, sequences=(seqs, val),   # and says the verdict)
                                deadline=None if budget_s is None else t_start + budget_s)
     else:
         print(verdict(val_err))
     return path, summary
+
+
+def write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary, contact_tuned=False, **state):
+    """A simsup run folder's files from its model: simsup.pt (what load_model reads, plus `state`),
+    simsup_summary.json and the packed <garment>.pleat (fp16 / ONNX sections as cfg's simsup section says, META with
+    the summary). Returns the asset's path."""
+    c = cfg["simsup"]
+    torch.save(dict({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
+                     "config": cfg, "garment": garment}, **state), out / "simsup.pt")
+    (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
+    path = out / f"{setup.name}.pleat"
+    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=c["tier"]), cfg["fps"],
+                      fp16=c.get("fp16", True), teacher="reference simulator",
+                      model=model_name(report, contact=contact_tuned), training=summary,
+                      onnx=bool(c.get("onnx", False)))
+    return path
 
 
 def model_name(report, contact=False):
@@ -406,19 +413,13 @@ def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, s
     state = torch.load(run_dir / "simsup.pt", weights_only=False)
     if not (run_dir / "simsup_fit.pt").exists():
         torch.save(state, run_dir / "simsup_fit.pt")
-    state.update(lp=lp.state_dict(), block=block.state_dict(), contact=rep)
-    torch.save(state, run_dir / "simsup.pt")
     summary = json.loads((run_dir / "simsup_summary.json").read_text())
     summary.setdefault("contact_rounds", []).append(rep)
     summary.update(contact=rep, validation_before_contact=summary.get("validation_before_contact", before),
                    validation=after,
                    cpu_hours=summary["cpu_hours"] + rep["time_s"] * max(1, torch.get_num_threads()) / 3600.0)
-    (run_dir / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
-    path = run_dir / f"{setup.name}.pleat"
-    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(state["report"], tier=c["tier"]),
-                      cfg["fps"], fp16=c.get("fp16", True), teacher="reference simulator",
-                      model=model_name(state["report"], contact=True), training=summary,
-                      onnx=bool(c.get("onnx", False)))
+    path = write_run(run_dir, setup, state["config"], state["garment"], lp, block, state["norms"], shim,
+                     state["report"], summary, contact_tuned=True, contact=rep)
     print(verdict(after))
     return path, rep
 
