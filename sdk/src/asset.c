@@ -361,6 +361,7 @@ static plResult plParseLayers( const uint8_t* data, const plSectionTable* table,
 		layers[i].bias = b;
 		layers[i].in_count = in_count;
 		layers[i].out_count = out_count;
+		plFindLayerBlocks( &layers[i] ); // a packed ensemble's block-diagonal layers (layer_blocks.c)
 		in_count = out_count;
 	}
 	return PLEAT_RESULT_OK;

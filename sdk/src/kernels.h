@@ -7,6 +7,16 @@
 #include <stddef.h>
 #include <stdint.h>
 
+// Rows [row_begin, row_end) of a layer whose weights are zero outside columns [col_begin, col_end); col_begin is a
+// multiple of 16 and col_end a multiple of 16 or in_count, so the SIMD kernels' FMA chains over the window are
+// those of the whole row, and a window gives the whole row's bits (the skipped products are all 0 · x).
+typedef struct plLayerBlock
+{
+	uint32_t row_begin, row_end;
+	uint32_t col_begin, col_end;
+} plLayerBlock;
+#define PLEAT_MAX_LAYER_BLOCKS 8
+
 // One Linear layer of an MLP as the asset stores it (read in place); the MLP job runs a chain of them.
 typedef struct plLayer
 {
@@ -15,7 +25,19 @@ typedef struct plLayer
 	const float* bias;  // [out]
 	uint32_t in_count;
 	uint32_t out_count;
+	// 0: dense. Else the rows cut into blocks, each multiplied over its own column window only (layer_blocks.c finds
+	// them at load: a packed ensemble's block-diagonal layers, pleat.train.ensemble, cost what its members cost).
+	uint32_t block_count;
+	plLayerBlock blocks[PLEAT_MAX_LAYER_BLOCKS];
 } plLayer;
+
+// The layer's blocks as the MLP jobs run them: block_count blocks, or one dense block covering the layer.
+uint32_t plLayerBlocks( const plLayer* layer, plLayerBlock* blocks );
+// Multiply-adds of one evaluation of the layer as its blocks run (in_count · out_count when dense).
+uint64_t plLayerMacs( const plLayer* layer );
+// Finds the blocks of a layer whose weights are block-structured (rows in 2, 4 or 8 equal parts, each with zeros
+// outside one column window) when that saves at least a quarter of the multiply-adds; leaves block_count 0 otherwise.
+void plFindLayerBlocks( plLayer* layer );
 
 // Activation on the hidden layers (asset CONF lp_activation / dec_activation).
 #define PLEAT_ACTIVATION_RELU 1
@@ -23,9 +45,11 @@ typedef struct plLayer
 // y[r] = activation(y[r]) for r < count (mlp.c; the MLP job and its batched twin share it).
 void plApplyActivation( float* y, uint32_t count, uint32_t activation );
 
-// out[r] = bias[r] + Σ_c W[r][c] · x[c] for rows [row_begin, row_end); W is [rows][in] row-major, fp32 or fp16.
+// out[r] = bias[r] + Σ_c W[r][c] · x[c] over columns c in [col_begin, col_end) (a plLayerBlock's window; 0, in_count
+// for a dense layer) for rows [row_begin, row_end); W is [rows][in_count] row-major, fp32 or fp16.
 typedef void plMatVecFn( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
-						 uint32_t in_count, uint32_t row_begin, uint32_t row_end );
+						 uint32_t in_count, uint32_t col_begin, uint32_t col_end, uint32_t row_begin,
+						 uint32_t row_end );
 // out[v] = base[v] + Σ_j w[j] · shapes[j][v] for vertices [v_begin, v_end); shapes is [D][N][3], fp32 or fp16.
 typedef void plBlendShapesFn( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
 							  uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
@@ -152,23 +176,23 @@ float plHalfToFloat( uint16_t h );
 // float → IEEE half, round to nearest even (used by tests and tools).
 uint16_t plFloatToHalf( float f );
 
-// Σ_c W[r][c] x[c] from c = 0, one rounding per multiply and add: the row sum of plMatVec_Scalar, the specification
-// (plMatMat_Scalar computes exactly this per instance).
-static inline float plDotRowScalar( const float* x, const void* weight, int weight_fp16, uint32_t r, uint32_t in_count )
+// Σ_c w[c] x[c] for c < count from c = 0, one rounding per multiply and add, w the weights from element `base`: the
+// row sum of plMatVec_Scalar, the specification (plMatMat_Scalar computes exactly this per instance).
+static inline float plDotRowScalar( const float* x, const void* weight, int weight_fp16, size_t base, uint32_t count )
 {
 	float sum = 0.0f;
 	if ( weight_fp16 )
 	{
-		const uint16_t* w = (const uint16_t*)weight + (size_t)r * in_count;
-		for ( uint32_t c = 0; c < in_count; ++c )
+		const uint16_t* w = (const uint16_t*)weight + base;
+		for ( uint32_t c = 0; c < count; ++c )
 		{
 			sum += plHalfToFloat( w[c] ) * x[c];
 		}
 	}
 	else
 	{
-		const float* w = (const float*)weight + (size_t)r * in_count;
-		for ( uint32_t c = 0; c < in_count; ++c )
+		const float* w = (const float*)weight + base;
+		for ( uint32_t c = 0; c < count; ++c )
 		{
 			sum += w[c] * x[c];
 		}

@@ -33,23 +33,25 @@
 // The most instances one batched kernel call takes (the job and plStepInstances cut larger groups).
 #define PLEAT_BATCH_MAX 64
 
-// out[b][r] = bias[r] + Σ_c W[r][c] · x[b][c] for rows [row_begin, row_end) and b < batch_count; W is [rows][in]
-// row-major, fp32 or fp16 (read once per call from memory, then from cache for every b).
+// out[b][r] = bias[r] + Σ_c W[r][c] · x[b][c] over columns [col_begin, col_end) (plMatVecFn's window) for rows
+// [row_begin, row_end) and b < batch_count; W is [rows][in_count] row-major, fp32 or fp16 (read once per call from
+// memory, then from cache for every b).
 typedef void plMatMatFn( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
-						 int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end );
+						 int weight_fp16, const float* bias, uint32_t in_count, uint32_t col_begin, uint32_t col_end,
+						 uint32_t row_begin, uint32_t row_end );
 // out[b][v] = base[b][v] + Σ_j weights[b][j] · shapes[j][v] for vertices [v_begin, v_end) and b < batch_count;
 // shapes is [D][N][3], fp32 or fp16; out[b] may not alias base[b].
 typedef void plBlendShapesBatchFn( float* const* out, const float* const* base, const float* const* weights,
 								   uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
 								   uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 
-// The lanes form of a mat-mat (sixteen instances per vector): yt[g][r][l] = bias[r] + Σ_c W[r][c] · xt[g][c][l] for
-// rows [row_begin, row_end) of every lane group g < group_count, each (r, instance) with its single-instance twin's
+// The lanes form of a mat-mat (sixteen instances per vector): yt[g][r][l] = bias[r] + Σ_c W[r][c] · xt[g][c][l] over
+// columns [col_begin, col_end) for rows [row_begin, row_end) of every lane group g < group_count, each (r, instance) with its single-instance twin's
 // arithmetic; xt is [group_count][in_count][16], yt [group_count][out_count][16], both 64-byte aligned (lanes past a
 // batch's instances hold anything finite, and their results are not used). fp16 weights: in_count <= 1024.
 typedef void plMatMatLanesFn( float* yt, const float* xt, uint32_t group_count, const void* weight, int weight_fp16,
-							  const float* bias, uint32_t in_count, uint32_t out_count, uint32_t row_begin,
-							  uint32_t row_end );
+							  const float* bias, uint32_t in_count, uint32_t out_count, uint32_t col_begin,
+							  uint32_t col_end, uint32_t row_begin, uint32_t row_end );
 #define PLEAT_LANES 16
 #define PLEAT_LANES_MAX_FP16_COLUMNS 1024
 
@@ -90,8 +92,7 @@ typedef struct plBatchKernels
 // sums, [N][3][lanes] each, plus padding; for the scalar kernel (lanes = 1) the scatter's [N][4] sums.
 size_t plNormalsBatchScratchFloats( uint32_t vertex_count, uint32_t lanes );
 
-void plMatMat_Scalar( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
-					  int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end );
+plMatMatFn plMatMat_Scalar;
 void plBlendShapesBatch_Scalar( float* const* out, const float* const* base, const float* const* weights,
 								uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
 								uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
@@ -114,8 +115,7 @@ plBlendShapesBatchFn plBlendShapesBatch_Avx512;
 	CASE( size, 1 ) CASE( size, 2 ) CASE( size, 3 ) CASE( size, 4 ) CASE( size, 5 ) CASE( size, 6 )
 #define PLEAT_TILE_CASES_1_TO_8( CASE, size ) PLEAT_TILE_CASES_1_TO_6( CASE, size ) CASE( size, 7 ) CASE( size, 8 )
 #if defined( PLEAT_HAVE_AVX2 )
-void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
-					int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end );
+plMatMatFn plMatMat_Avx2;
 void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const float* const* weights,
 							  uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
 							  uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );

@@ -5,11 +5,13 @@
 #include <math.h>
 
 void plMatVec_Scalar( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
-					  uint32_t in_count, uint32_t row_begin, uint32_t row_end )
+					  uint32_t in_count, uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end )
 {
 	for ( uint32_t r = row_begin; r < row_end; ++r )
 	{
-		out[r] = plDotRowScalar( x, weight, weight_fp16, r, in_count ) + bias[r];
+		out[r] = plDotRowScalar( x + col_begin, weight, weight_fp16, (size_t)r * in_count + col_begin,
+								 col_end - col_begin ) +
+				 bias[r];
 	}
 }
 
@@ -39,12 +41,24 @@ typedef struct plMatVecTask
 	const plLayer* layer;
 } plMatVecTask;
 
+// Rows [begin, end) block by block, each over its own column window.
 static void plMatVecTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;
 	const plMatVecTask* t = (const plMatVecTask*)context;
-	t->kernels->mat_vec( t->out, t->x, t->layer->weight, t->layer->weight_fp16, t->layer->bias, t->layer->in_count,
-						 begin, end );
+	const plLayer* l = t->layer;
+	plLayerBlock blocks[PLEAT_MAX_LAYER_BLOCKS];
+	uint32_t block_count = plLayerBlocks( l, blocks );
+	for ( uint32_t i = 0; i < block_count; ++i )
+	{
+		uint32_t rb = blocks[i].row_begin > begin ? blocks[i].row_begin : begin;
+		uint32_t re = blocks[i].row_end < end ? blocks[i].row_end : end;
+		if ( rb < re )
+		{
+			t->kernels->mat_vec( t->out, t->x, l->weight, l->weight_fp16, l->bias, l->in_count, blocks[i].col_begin,
+								 blocks[i].col_end, rb, re );
+		}
+	}
 }
 
 int plMlpJob_Validate( const plMlpJob* job )

@@ -52,19 +52,20 @@ static inline void plDotRowQuad( const float* x, const void* weight, int weight_
 }
 
 void plMatVec_Avx2( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
-					uint32_t in_count, uint32_t row_begin, uint32_t row_end )
+					uint32_t in_count, uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end )
 {
-	uint32_t n = row_end - row_begin, q = n / 4;
+	uint32_t n = row_end - row_begin, q = n / 4, columns = col_end - col_begin;
+	x += col_begin;
 	for ( uint32_t i = 0; i < q; ++i )
 	{
 		uint32_t rows[4] = { row_begin + i, row_begin + q + i, row_begin + 2 * q + i, row_begin + 3 * q + i };
 		size_t base[4];
 		for ( int k = 0; k < 4; ++k )
 		{
-			base[k] = (size_t)rows[k] * in_count;
+			base[k] = (size_t)rows[k] * in_count + col_begin;
 		}
 		float sum[4];
-		plDotRowQuad( x, weight, weight_fp16, base, in_count, sum );
+		plDotRowQuad( x, weight, weight_fp16, base, columns, sum );
 		for ( int k = 0; k < 4; ++k )
 		{
 			out[rows[k]] = sum[k] + bias[rows[k]];
@@ -72,6 +73,6 @@ void plMatVec_Avx2( float* out, const float* x, const void* weight, int weight_f
 	}
 	for ( uint32_t r = row_begin + 4 * q; r < row_end; ++r )
 	{
-		out[r] = plDotRow2( x, weight, weight_fp16, (size_t)r * in_count, in_count ) + bias[r];
+		out[r] = plDotRow2( x, weight, weight_fp16, (size_t)r * in_count + col_begin, columns ) + bias[r];
 	}
 }

@@ -6,13 +6,16 @@
 #include "jobs_batch.h"
 
 void plMatMat_Scalar( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
-					  int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end )
+					  int weight_fp16, const float* bias, uint32_t in_count, uint32_t col_begin, uint32_t col_end,
+					  uint32_t row_begin, uint32_t row_end )
 {
 	for ( uint32_t r = row_begin; r < row_end; ++r )
 	{
 		for ( uint32_t b = 0; b < batch_count; ++b )
 		{
-			out[b][r] = plDotRowScalar( x[b], weight, weight_fp16, r, in_count ) + bias[r];
+			out[b][r] = plDotRowScalar( x[b] + col_begin, weight, weight_fp16, (size_t)r * in_count + col_begin,
+										col_end - col_begin ) +
+						bias[r];
 		}
 	}
 }
@@ -31,20 +34,33 @@ typedef struct plMatMatTask
 	uint32_t group_count;
 } plMatMatTask;
 
+// Rows [begin, end) block by block (plLayerBlocks), each over its own column window, as the single job runs them.
 static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;
 	const plMatMatTask* t = (const plMatMatTask*)context;
 	const plLayer* l = t->layer;
-	if ( t->yt != NULL )
+	plLayerBlock blocks[PLEAT_MAX_LAYER_BLOCKS];
+	uint32_t block_count = plLayerBlocks( l, blocks );
+	for ( uint32_t i = 0; i < block_count; ++i )
 	{
-		t->kernels->mat_mat_lanes( t->yt, t->xt, t->group_count, l->weight, l->weight_fp16, l->bias, l->in_count,
-								   l->out_count, begin, end );
-	}
-	else
-	{
-		t->kernels->mat_mat( t->out, t->x, t->batch_count, l->weight, l->weight_fp16, l->bias, l->in_count, begin,
-							 end );
+		uint32_t rb = blocks[i].row_begin > begin ? blocks[i].row_begin : begin;
+		uint32_t re = blocks[i].row_end < end ? blocks[i].row_end : end;
+		uint32_t cb = blocks[i].col_begin, ce = blocks[i].col_end;
+		if ( rb >= re )
+		{
+			continue;
+		}
+		if ( t->yt != NULL )
+		{
+			t->kernels->mat_mat_lanes( t->yt, t->xt, t->group_count, l->weight, l->weight_fp16, l->bias, l->in_count,
+									   l->out_count, cb, ce, rb, re );
+		}
+		else
+		{
+			t->kernels->mat_mat( t->out, t->x, t->batch_count, l->weight, l->weight_fp16, l->bias, l->in_count, cb,
+								 ce, rb, re );
+		}
 	}
 }
 

@@ -105,15 +105,19 @@ static inline void plDot3x3( const float* const x[3], const void* weight, int we
 // per instance triple: the same values (the conversion is exact), a third or less of the conversions.
 #define PLEAT_MAT_MAT_WIDEN_COLUMNS 1024
 
-void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
-					int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end )
+// plMatMat_Avx2 for at most PLEAT_BATCH_MAX instances whose inputs x[b] start at the window's first column; the
+// weights' rows are in_count long and `columns` of each, from column col_begin, are used.
+static void plMatMatWindow( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
+							int weight_fp16, const float* bias, uint32_t in_count, uint32_t col_begin,
+							uint32_t columns, uint32_t row_begin, uint32_t row_end )
 {
 	float widened[3 * PLEAT_MAT_MAT_WIDEN_COLUMNS];
-	int widen = weight_fp16 && in_count <= PLEAT_MAT_MAT_WIDEN_COLUMNS && batch_count > 3;
+	int widen = weight_fp16 && columns <= PLEAT_MAT_MAT_WIDEN_COLUMNS && batch_count > 3;
 	uint32_t r = row_begin;
 	for ( ; r + 3 <= row_end; r += 3 )
 	{
-		size_t base[3] = { (size_t)r * in_count, (size_t)( r + 1 ) * in_count, (size_t)( r + 2 ) * in_count };
+		size_t base[3] = { (size_t)r * in_count + col_begin, (size_t)( r + 1 ) * in_count + col_begin,
+						   (size_t)( r + 2 ) * in_count + col_begin };
 		const void* tile_weight = weight;
 		int tile_fp16 = weight_fp16;
 		size_t tile_base[3] = { base[0], base[1], base[2] };
@@ -123,16 +127,16 @@ void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_cou
 			for ( uint32_t k = 0; k < 3; ++k )
 			{
 				uint32_t c = 0;
-				for ( ; c + 8 <= in_count; c += 8 )
+				for ( ; c + 8 <= columns; c += 8 )
 				{
-					_mm256_storeu_ps( widened + k * in_count + c,
+					_mm256_storeu_ps( widened + k * columns + c,
 									  _mm256_cvtph_ps( _mm_loadu_si128( (const __m128i*)( w16 + base[k] + c ) ) ) );
 				}
-				for ( ; c < in_count; ++c )
+				for ( ; c < columns; ++c )
 				{
-					widened[k * in_count + c] = plHalfToFloat( w16[base[k] + c] );
+					widened[k * columns + c] = plHalfToFloat( w16[base[k] + c] );
 				}
-				tile_base[k] = (size_t)k * in_count;
+				tile_base[k] = (size_t)k * columns;
 			}
 			tile_weight = widened;
 			tile_fp16 = 0;
@@ -141,7 +145,7 @@ void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_cou
 		for ( ; b + 3 <= batch_count; b += 3 )
 		{
 			float sum[3][3];
-			plDot3x3( x + b, tile_weight, tile_fp16, tile_base, in_count, sum );
+			plDot3x3( x + b, tile_weight, tile_fp16, tile_base, columns, sum );
 			for ( uint32_t k = 0; k < 3; ++k )
 			{
 				out[b + k][r] = sum[0][k] + bias[r];
@@ -152,17 +156,34 @@ void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_cou
 		for ( ; b < batch_count; ++b )
 		{
 			float sum0, sum1;
-			plDot2x1( x[b], tile_weight, tile_fp16, tile_base[0], tile_base[1], in_count, &sum0, &sum1 );
+			plDot2x1( x[b], tile_weight, tile_fp16, tile_base[0], tile_base[1], columns, &sum0, &sum1 );
 			out[b][r] = sum0 + bias[r];
 			out[b][r + 1] = sum1 + bias[r + 1];
-			out[b][r + 2] = plDotRow2( x[b], tile_weight, tile_fp16, tile_base[2], in_count ) + bias[r + 2];
+			out[b][r + 2] = plDotRow2( x[b], tile_weight, tile_fp16, tile_base[2], columns ) + bias[r + 2];
 		}
 	}
 	for ( ; r < row_end; ++r )
 	{
 		for ( uint32_t b = 0; b < batch_count; ++b )
 		{
-			out[b][r] = plDotRow2( x[b], weight, weight_fp16, (size_t)r * in_count, in_count ) + bias[r];
+			out[b][r] = plDotRow2( x[b], weight, weight_fp16, (size_t)r * in_count + col_begin, columns ) + bias[r];
 		}
+	}
+}
+
+void plMatMat_Avx2( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
+					int weight_fp16, const float* bias, uint32_t in_count, uint32_t col_begin, uint32_t col_end,
+					uint32_t row_begin, uint32_t row_end )
+{
+	for ( uint32_t b = 0; b < batch_count; b += PLEAT_BATCH_MAX )
+	{
+		uint32_t n = batch_count - b < PLEAT_BATCH_MAX ? batch_count - b : PLEAT_BATCH_MAX;
+		const float* window[PLEAT_BATCH_MAX];
+		for ( uint32_t k = 0; k < n; ++k )
+		{
+			window[k] = x[b + k] + col_begin;
+		}
+		plMatMatWindow( out + b, window, n, weight, weight_fp16, bias, in_count, col_begin, col_end - col_begin,
+						row_begin, row_end );
 	}
 }

@@ -27,9 +27,10 @@
 #define PLEAT_ALWAYS_INLINE inline
 #endif
 
-// sum[r][b] = plDotRow2( x[b], w, 0, r · in_count, in_count ) for r < R, b < NB (R, NB compile-time after inlining).
+// sum[r][b] = plDotRow2( x[b], w, 0, r · stride, in_count ) for r < R, b < NB (R, NB compile-time after inlining).
 static PLEAT_ALWAYS_INLINE void plTile512( const int R, const int NB, const float* const* x, const float* w,
-										   uint32_t in_count, float sum[PLEAT_MM512_ROWS][PLEAT_MM512_INSTANCES] )
+										   size_t stride, uint32_t in_count,
+										   float sum[PLEAT_MM512_ROWS][PLEAT_MM512_INSTANCES] )
 {
 	__m512 acc[PLEAT_MM512_ROWS][PLEAT_MM512_INSTANCES];
 	const float* xb[PLEAT_MM512_INSTANCES];
@@ -47,7 +48,7 @@ static PLEAT_ALWAYS_INLINE void plTile512( const int R, const int NB, const floa
 		__m512 wv[PLEAT_MM512_ROWS];
 		for ( int r = 0; r < R; ++r )
 		{
-			wv[r] = _mm512_loadu_ps( w + (size_t)r * in_count + c );
+			wv[r] = _mm512_loadu_ps( w + (size_t)r * stride + c );
 		}
 		for ( int b = 0; b < NB; ++b )
 		{
@@ -62,7 +63,7 @@ static PLEAT_ALWAYS_INLINE void plTile512( const int R, const int NB, const floa
 	int step8 = in_count - c >= 8;
 	for ( int r = 0; r < R; ++r )
 	{
-		const float* wr = w + (size_t)r * in_count;
+		const float* wr = w + (size_t)r * stride;
 		for ( int b = 0; b < NB; ++b )
 		{
 			__m256 even = _mm512_castps512_ps256( acc[r][b] );
@@ -83,13 +84,13 @@ static PLEAT_ALWAYS_INLINE void plTile512( const int R, const int NB, const floa
 	}
 }
 
-// Rows [r, r + R) of instances [b, b + NB) with the tile's (fp32) rows at w.
-static void plTileRows( int R, int NB, const float* const* x, const float* w, uint32_t in_count,
+// Rows [r, r + R) of instances [b, b + NB) with the tile's (fp32) rows at w, `stride` floats apart.
+static void plTileRows( int R, int NB, const float* const* x, const float* w, size_t stride, uint32_t in_count,
 						float sum[PLEAT_MM512_ROWS][PLEAT_MM512_INSTANCES] )
 {
 #define PLEAT_TILE_CASE( rows, n )                                                                                     \
 	case n:                                                                                                            \
-		plTile512( rows, n, x, w, in_count, sum );                                                                     \
+		plTile512( rows, n, x, w, stride, in_count, sum );                                                             \
 		return;
 	if ( R == PLEAT_MM512_ROWS )
 	{
@@ -110,38 +111,52 @@ static void plTileRows( int R, int NB, const float* const* x, const float* w, ui
 }
 
 void plMatMat_Avx512( float* const* out, const float* const* x, uint32_t batch_count, const void* weight,
-					  int weight_fp16, const float* bias, uint32_t in_count, uint32_t row_begin, uint32_t row_end )
+					  int weight_fp16, const float* bias, uint32_t in_count, uint32_t col_begin, uint32_t col_end,
+					  uint32_t row_begin, uint32_t row_end )
 {
-	if ( weight_fp16 && in_count > PLEAT_MM512_WIDEN_COLUMNS )
+	uint32_t columns = col_end - col_begin;
+	if ( weight_fp16 && columns > PLEAT_MM512_WIDEN_COLUMNS )
 	{
-		plMatMat_Avx2( out, x, batch_count, weight, weight_fp16, bias, in_count, row_begin, row_end );
+		plMatMat_Avx2( out, x, batch_count, weight, weight_fp16, bias, in_count, col_begin, col_end, row_begin,
+					   row_end );
 		return;
 	}
 	_Alignas( 64 ) float widened[PLEAT_MM512_ROWS * PLEAT_MM512_WIDEN_COLUMNS];
 	for ( uint32_t r = row_begin; r < row_end; )
 	{
 		int rows = row_end - r >= PLEAT_MM512_ROWS ? PLEAT_MM512_ROWS : 1;
-		const float* w = (const float*)weight + (size_t)r * in_count;
+		const float* w = (const float*)weight + (size_t)r * in_count + col_begin;
+		size_t stride = in_count;
 		if ( weight_fp16 )
 		{
-			// The tile's rows widened once (exact) for every instance of the batch.
-			const uint16_t* w16 = (const uint16_t*)weight + (size_t)r * in_count;
-			size_t count = (size_t)rows * in_count, e = 0;
-			for ( ; e + 16 <= count; e += 16 )
+			// The tile's rows (their windows) widened once (exact) for every instance of the batch.
+			for ( int i = 0; i < rows; ++i )
 			{
-				_mm512_store_ps( widened + e, _mm512_cvtph_ps( _mm256_loadu_si256( (const __m256i*)( w16 + e ) ) ) );
-			}
-			for ( ; e < count; ++e )
-			{
-				widened[e] = plHalfToFloat( w16[e] );
+				const uint16_t* w16 = (const uint16_t*)weight + (size_t)( r + (uint32_t)i ) * in_count + col_begin;
+				float* dst = widened + (size_t)i * columns;
+				uint32_t c = 0;
+				for ( ; c + 16 <= columns; c += 16 )
+				{
+					_mm512_storeu_ps( dst + c, _mm512_cvtph_ps( _mm256_loadu_si256( (const __m256i*)( w16 + c ) ) ) );
+				}
+				for ( ; c < columns; ++c )
+				{
+					dst[c] = plHalfToFloat( w16[c] );
+				}
 			}
 			w = widened;
+			stride = columns;
 		}
 		for ( uint32_t b = 0; b < batch_count; b += PLEAT_MM512_INSTANCES )
 		{
 			int n = batch_count - b >= PLEAT_MM512_INSTANCES ? PLEAT_MM512_INSTANCES : (int)( batch_count - b );
+			const float* window[PLEAT_MM512_INSTANCES];
+			for ( int k = 0; k < n; ++k )
+			{
+				window[k] = x[b + (uint32_t)k] + col_begin;
+			}
 			float sum[PLEAT_MM512_ROWS][PLEAT_MM512_INSTANCES];
-			plTileRows( rows, n, x + b, w, in_count, sum );
+			plTileRows( rows, n, window, w, stride, columns, sum );
 			for ( int i = 0; i < rows; ++i )
 			{
 				for ( int k = 0; k < n; ++k )
@@ -251,9 +266,10 @@ static PLEAT_ALWAYS_INLINE void plLanesRows( const int R, const float* const w[3
 }
 
 void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, const void* weight, int weight_fp16,
-						   const float* bias, uint32_t in_count, uint32_t out_count, uint32_t row_begin,
-						   uint32_t row_end )
+						   const float* bias, uint32_t in_count, uint32_t out_count, uint32_t col_begin,
+						   uint32_t col_end, uint32_t row_begin, uint32_t row_end )
 {
+	uint32_t columns = col_end - col_begin;
 	_Alignas( 64 ) float widened[3 * PLEAT_MM512_WIDEN_COLUMNS];
 	for ( uint32_t r = row_begin; r < row_end; )
 	{
@@ -262,18 +278,18 @@ void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, con
 		for ( int i = 0; i < 3; ++i )
 		{
 			uint32_t row = r + (uint32_t)( i < rows ? i : 0 );
-			w[i] = (const float*)weight + (size_t)row * in_count;
+			w[i] = (const float*)weight + (size_t)row * in_count + col_begin;
 			if ( weight_fp16 )
 			{
 				// widened once per row tile for every lane group (exact); the caller keeps in_count within the buffer
-				const uint16_t* w16 = (const uint16_t*)weight + (size_t)row * in_count;
+				const uint16_t* w16 = (const uint16_t*)weight + (size_t)row * in_count + col_begin;
 				float* dst = widened + (size_t)i * PLEAT_MM512_WIDEN_COLUMNS;
 				uint32_t c = 0;
-				for ( ; c + 16 <= in_count; c += 16 )
+				for ( ; c + 16 <= columns; c += 16 )
 				{
 					_mm512_store_ps( dst + c, _mm512_cvtph_ps( _mm256_loadu_si256( (const __m256i*)( w16 + c ) ) ) );
 				}
-				for ( ; c < in_count; ++c )
+				for ( ; c < columns; ++c )
 				{
 					dst[c] = plHalfToFloat( w16[c] );
 				}
@@ -286,24 +302,24 @@ void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, con
 		for ( int i = 0; i < 3; ++i )
 		{
 			uint32_t row = r + 3 + (uint32_t)i < row_end ? r + 3 + (uint32_t)i : r + 3;
-			next[i] = (const float*)weight + (size_t)( prefetch ? row : 0 ) * in_count;
+			next[i] = (const float*)weight + (size_t)( prefetch ? row : 0 ) * in_count + col_begin;
 		}
 		for ( uint32_t g = 0; g < group_count; ++g )
 		{
-			const float* x = xt + (size_t)g * in_count * 16;
+			const float* x = xt + ( (size_t)g * in_count + col_begin ) * 16;
 			float* y = yt + ( (size_t)g * out_count + r ) * 16;
 			const float* const* ahead = prefetch && g == 0 ? next : NULL;
 			if ( rows == 3 )
 			{
-				plLanesRows( 3, w, bias + r, x, in_count, ahead, y );
+				plLanesRows( 3, w, bias + r, x, columns, ahead, y );
 			}
 			else if ( rows == 2 )
 			{
-				plLanesRows( 2, w, bias + r, x, in_count, ahead, y );
+				plLanesRows( 2, w, bias + r, x, columns, ahead, y );
 			}
 			else
 			{
-				plLanesRows( 1, w, bias + r, x, in_count, ahead, y );
+				plLanesRows( 1, w, bias + r, x, columns, ahead, y );
 			}
 		}
 		r += (uint32_t)rows;

@@ -75,11 +75,11 @@ static double plNetworkMacs( const plAssetData* a )
 	double macs = (double)a->blend_count * a->vertex_count * 3.0;
 	for ( uint32_t i = 0; i < a->lp_layer_count; ++i )
 	{
-		macs += (double)a->lp[i].in_count * a->lp[i].out_count;
+		macs += (double)plLayerMacs( &a->lp[i] ); // a block-structured layer multiplies its windows only
 	}
 	for ( uint32_t i = 0; i < a->dec_layer_count; ++i )
 	{
-		macs += (double)a->dec[i].in_count * a->dec[i].out_count;
+		macs += (double)plLayerMacs( &a->dec[i] );
 	}
 	return macs;
 }
@@ -89,11 +89,11 @@ static double plStreamedBytes( const plAssetData* a )
 	double bytes = (double)a->blend_count * a->vertex_count * 3.0 * ( a->blend_shapes_fp16 ? 2.0 : 4.0 );
 	for ( uint32_t i = 0; i < a->lp_layer_count; ++i )
 	{
-		bytes += (double)a->lp[i].in_count * a->lp[i].out_count * ( a->lp[i].weight_fp16 ? 2.0 : 4.0 );
+		bytes += (double)plLayerMacs( &a->lp[i] ) * ( a->lp[i].weight_fp16 ? 2.0 : 4.0 ); // the weights read
 	}
 	for ( uint32_t i = 0; i < a->dec_layer_count; ++i )
 	{
-		bytes += (double)a->dec[i].in_count * a->dec[i].out_count * ( a->dec[i].weight_fp16 ? 2.0 : 4.0 );
+		bytes += (double)plLayerMacs( &a->dec[i] ) * ( a->dec[i].weight_fp16 ? 2.0 : 4.0 );
 	}
 	return bytes;
 }

@@ -130,10 +130,10 @@ static void test_mat_mat_equals_mat_vec_per_instance( void** state )
 						}
 						// A row range starting at an odd row, as a worker would get.
 						uint32_t begin = out > 3 ? 1 : 0;
-						k->batch[s].mat_mat( y, x, n, weights, fp16, layer.bias, in, begin, out );
+						k->batch[s].mat_mat( y, x, n, weights, fp16, layer.bias, in, 0, in, begin, out );
 						for ( uint32_t b = 0; b < n; ++b )
 						{
-							k->single[s].mat_vec( single, x[b], weights, fp16, layer.bias, in, begin, out );
+							k->single[s].mat_vec( single, x[b], weights, fp16, layer.bias, in, 0, in, begin, out );
 							assert_memory_equal( single + begin, y[b] + begin, ( out - begin ) * sizeof( float ) );
 						}
 						free( xs );
@@ -171,10 +171,10 @@ static void test_mat_mat_simd_within_rounding_of_scalar_spec( void** state )
 		y_scalar[b] = ys + b * out;
 		y_simd[b] = yv + b * out;
 	}
-	k->batch[0].mat_mat( y_scalar, x, n, w, 0, bias, in, 0, out );
+	k->batch[0].mat_mat( y_scalar, x, n, w, 0, bias, in, 0, in, 0, out );
 	for ( uint32_t s = 1; s < k->count; ++s )
 	{
-		k->batch[s].mat_mat( y_simd, x, n, w, 0, bias, in, 0, out );
+		k->batch[s].mat_mat( y_simd, x, n, w, 0, bias, in, 0, in, 0, out );
 		for ( uint32_t b = 0; b < n; ++b )
 		{
 			for ( uint32_t r = 0; r < out; ++r )
@@ -238,10 +238,10 @@ static void test_mat_mat_lanes_equals_mat_vec_per_instance( void** state )
 					}
 					const void* weights = fp16 ? (const void*)layer.w16 : (const void*)layer.w;
 					uint32_t begin = out > 3 ? 1 : 0; // a row range starting at an odd row, as a worker gets
-					k->batch[s].mat_mat_lanes( yt, xt, groups, weights, fp16, layer.bias, in, out, begin, out );
+					k->batch[s].mat_mat_lanes( yt, xt, groups, weights, fp16, layer.bias, in, out, 0, in, begin, out );
 					for ( uint32_t b = 0; b < n; ++b )
 					{
-						k->single[s].mat_vec( single, xs + (size_t)b * in, weights, fp16, layer.bias, in, begin, out );
+						k->single[s].mat_vec( single, xs + (size_t)b * in, weights, fp16, layer.bias, in, 0, in, begin, out );
 						for ( uint32_t r = begin; r < out; ++r )
 						{
 							float lane = yt[( (size_t)( b / PLEAT_LANES ) * out + r ) * PLEAT_LANES + b % PLEAT_LANES];
@@ -347,6 +347,7 @@ typedef struct plTestNet
 
 static void plTestNet_Init( plTestNet* net, const uint32_t widths[4], int fp16 )
 {
+	memset( net->layers, 0, sizeof( net->layers ) ); // block_count 0: dense
 	size_t total = 0;
 	for ( int l = 0; l < 3; ++l )
 	{

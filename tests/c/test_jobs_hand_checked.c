@@ -296,7 +296,8 @@ static void test_mlp_small_network_by_hand( void** state )
 	(void)state;
 	float w0[4] = { 1, -1, 2, 0.5f }, b0[2] = { 0.5f, -3 };
 	float w1[2] = { 2, -1 }, b1[1] = { 0.25f };
-	plLayer layers[2] = { { w0, 0, b0, 2, 2 }, { w1, 0, b1, 2, 1 } };
+	plLayer layers[2] = { { .weight = w0, .bias = b0, .in_count = 2, .out_count = 2 },
+						  { .weight = w1, .bias = b1, .in_count = 2, .out_count = 1 } };
 	float x[2] = { 1, 2 }, y[1], scratch[4];
 	plKernels kernels;
 	plSelectKernels( &kernels, 1 );

@@ -150,8 +150,8 @@ static void test_mat_vec_avx2_matches_scalar( void** state )
 				const void* weights = fp16 ? (const void*)w16 : (const void*)w;
 				// Also a sub-range of rows starting at an odd row, as a worker would get.
 				uint32_t begin = out > 3 ? 1 : 0;
-				pair->scalar.mat_vec( ys, x, weights, fp16, bias, in, begin, out );
-				pair->simd.mat_vec( yv, x, weights, fp16, bias, in, begin, out );
+				pair->scalar.mat_vec( ys, x, weights, fp16, bias, in, 0, in, begin, out );
+				pair->simd.mat_vec( yv, x, weights, fp16, bias, in, 0, in, begin, out );
 				for ( uint32_t r = begin; r < out; ++r )
 				{
 					double magnitude = fabs( bias[r] );

@@ -98,6 +98,12 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     assert meta["training"]["contact"]["iterations"] == 3
     assert meta["model"].startswith("pleat simulator-supervised: the mean of 2 medium fits")
     assert w["lp.0.weight"].shape[0] == 512 and w["blend_shapes"].shape[0] == fit["blend"]
+    # the contact fine-tune kept the members apart: the blocks between them are still exactly zero, so the runtime
+    # skips them (sdk/src/layer_blocks.c)
+    for key in ("lp.1.weight", "dec.1.weight"):
+        W = np.asarray(w[key], np.float32)
+        h, half_in = W.shape[0] // 2, W.shape[1] // 2
+        assert not W[:h, half_in:].any() and not W[h:, :half_in].any() and W[:h, :half_in].any()
     assert np.isfinite(w["blend_shapes"]).all() and np.abs(w["blend_shapes"]).max() > 0
 
 

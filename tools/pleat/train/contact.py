@@ -85,6 +85,22 @@ def terms(data, seq, frame, disp_pred, eps_m):
     return err, pen, (sd < 0).float().mean()
 
 
+def keep_zero_blocks(modules):
+    """Masks the gradient of every Linear weight that is exactly 0 now, so it stays 0 under Adam (a zero gradient
+    moves nothing). A packed ensemble (pleat.train.ensemble) has zero blocks between its members: kept, the members
+    stay independent and the runtime keeps skipping those blocks (sdk/src/layer_blocks.c: the shipped ensemble's step
+    costs what its members cost). A trained dense layer has no exact zeros, so this leaves it free. Returns the hooks'
+    handles (remove them when done)."""
+    from pleat.train.model import linear_layers
+    handles = []
+    for module in modules:
+        for lin in linear_layers(module):
+            keep = (lin.weight.detach() != 0).to(lin.weight.dtype)
+            if bool((keep == 0).any()):
+                handles.append(lin.weight.register_hook(lambda g, keep=keep: g * keep))
+    return handles
+
+
 def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_contact=30.0, eps_m=2e-3,
              gen=None, log=None, deadline=None):
     """Trains f_LP, f_dec and the blend shapes (at 0.1× lr) on the posed error plus the contact term, on windows
@@ -97,6 +113,7 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
     params = [{"params": list(lp.parameters()) + list(block.decoder.parameters()), "lr": lr},
               {"params": [block.blend_shapes], "lr": lr * 0.1}]
     block.blend_shapes.requires_grad_(True)
+    hooks = keep_zero_blocks([lp.lp, block.decoder])
     opt = torch.optim.Adam(params)
     t0 = time.time()
     done = 0
@@ -126,6 +143,8 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
                  "time_s": round(time.time() - t0, 1)})
     lp.eval()
     block.blend_shapes.requires_grad_(False)
+    for h in hooks:
+        h.remove()
     return {"iterations": done, "final_error_mm2": float(err.detach()),
             "final_penetration_mm2": float(pen.detach()),
             "final_inside_share": float(inside.detach()), "w_contact": w_contact, "eps_m": eps_m,
