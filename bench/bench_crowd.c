@@ -3,7 +3,8 @@
 // plInstance_Step, in the same run.
 //
 // usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [--asset LABEL=PATH ...] [--counts 1,8,64,256]
-//                          [--workers 1,2] [--seconds S] [--clock wall|cpu] [--batch-isa best|avx2] [--out crowd.json]
+//                          [--workers 1,2] [--seconds S] [--rounds R] [--clock wall|cpu] [--batch-isa best|avx2]
+//                          [--out crowd.json]
 //        pleat_bench_crowd --scene --case case.bin --tier T0.pleat [--tier T1.pleat ...] --tier-errors e0,..,lbs
 //                          --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] [--out scene.json]
 //
@@ -28,7 +29,9 @@
 // first). Each entry states the kernels: "single_isa" (the context's, plInstance_Step) and "batch_isa" (what
 // plStepInstances chose on this CPU; --batch-isa avx2 caps it at the AVX2 twins for a comparison), plus the median
 // and the minimum over the iterations (the minimum is the least disturbed by other processes) and the load average
-// before and after the run (/proc/loadavg).
+// before and after the run (/proc/loadavg). --rounds R (default 1) runs the whole sweep R times and reports, per entry,
+// the median over the rounds of each round's median (and the least minimum), the ratios from those medians: on a shared
+// machine another process busy for a few seconds then spoils one round of a case, not the case.
 // --clock cpu is this thread's CPU time: with two workers it leaves out the helper's share, so wall (the default) is
 // the clock for every comparison here.
 #define _POSIX_C_SOURCE 200809L
@@ -43,6 +46,7 @@
 #define CROWD_MAX_ASSETS 8
 #define CROWD_MAX_COUNTS 8
 #define CROWD_MAX_ITERATIONS 4000
+#define CROWD_MAX_ROUNDS 15
 
 typedef struct CrowdResult
 {
@@ -491,6 +495,7 @@ int main( int argc, char** argv )
 	uint32_t counts[CROWD_MAX_COUNTS] = { 1, 8, 64, 256 }, count_count = 4;
 	uint32_t workers[2] = { 1, 2 }, worker_count = 2;
 	double seconds = 0.5;
+	uint32_t rounds = 1;
 	const char* batch_isa_arg = "best";
 	for ( int i = 1; i + 1 < argc; i += 2 )
 	{
@@ -504,6 +509,8 @@ int main( int argc, char** argv )
 			worker_count = ParseList( argv[i + 1], workers, 2 );
 		else if ( strcmp( argv[i], "--seconds" ) == 0 )
 			seconds = strtod( argv[i + 1], NULL );
+		else if ( strcmp( argv[i], "--rounds" ) == 0 )
+			rounds = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
 		else if ( strcmp( argv[i], "--clock" ) == 0 )
 			g_benchClock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
 		else if ( strcmp( argv[i], "--batch-isa" ) == 0 )
@@ -530,7 +537,13 @@ int main( int argc, char** argv )
 	if ( case_path == NULL || asset_count == 0 || !BenchReadMotion( case_path, &motion ) )
 	{
 		fprintf( stderr, "usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [...] [--counts 1,8,64,256] "
-						 "[--workers 1,2] [--seconds S] [--clock wall|cpu] [--batch-isa best|avx2] [--out crowd.json]\n" );
+						 "[--workers 1,2] [--seconds S] [--rounds R] [--clock wall|cpu] [--batch-isa best|avx2] "
+						 "[--out crowd.json]\n" );
+		return 2;
+	}
+	if ( rounds < 1 || rounds > CROWD_MAX_ROUNDS )
+	{
+		fprintf( stderr, "pleat_bench_crowd: --rounds takes 1..%d\n", CROWD_MAX_ROUNDS );
 		return 2;
 	}
 	for ( uint32_t w = 0; w < worker_count; ++w )
@@ -570,65 +583,104 @@ int main( int argc, char** argv )
 	}
 	fprintf( out,
 			 "{\n  \"isa\": \"%s\",\n  \"batch_isa\": \"%s\",\n  \"clock\": \"%s\",\n  \"seconds_per_case\": %.2f,\n"
-			 "  \"loadavg_start\": %.2f,\n  \"results\": [\n",
-			 isa, batch_isa, g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", seconds, load_start );
-	int first = 1, failed = 0;
-	for ( uint32_t a = 0; a < asset_count; ++a )
+			 "  \"rounds\": %u,\n  \"loadavg_start\": %.2f,\n  \"results\": [\n",
+			 isa, batch_isa, g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", seconds, rounds, load_start );
+	// Every round sweeps assets × workers × counts; results[round][asset][workers][count].
+	size_t cases = (size_t)asset_count * worker_count * count_count;
+	CrowdResult* results = (CrowdResult*)calloc( cases * rounds, sizeof( CrowdResult ) );
+	int failed = results == NULL;
+	uint32_t rounds_done = 0;
+	for ( uint32_t round = 0; round < rounds && !failed; ++round )
 	{
-		double single_step_1_worker_us = 0.0;
-		for ( uint32_t w = 0; w < worker_count; ++w )
+		for ( uint32_t a = 0; a < asset_count; ++a )
 		{
-			// The helper thread only while two-worker cases run: idle, it spins and yields, which a one-worker
-			// measurement on a small machine would feel.
-			if ( workers[w] == 2 && !BenchTwoWorkers_Start( &pool ) )
+			for ( uint32_t w = 0; w < worker_count; ++w )
 			{
-				continue;
-			}
-			double single_step_us = 0.0;
-			for ( uint32_t c = 0; c < count_count; ++c )
-			{
-				CrowdResult r;
-				memset( &r, 0, sizeof( r ) );
-				r.label = labels[a];
-				if ( !RunCrowd( paths[a], &motion, workers[w], &pool, counts[c], seconds, &r ) )
+				// The helper thread only while two-worker cases run: idle, it spins and yields, which a one-worker
+				// measurement on a small machine would feel.
+				if ( workers[w] == 2 && !BenchTwoWorkers_Start( &pool ) )
 				{
-					fprintf( stderr, "pleat_bench_crowd: %s, %u workers, %u instances failed\n", labels[a], workers[w],
-							 counts[c] );
-					failed = 1;
 					continue;
 				}
-				if ( counts[c] == 1 )
+				for ( uint32_t c = 0; c < count_count; ++c )
 				{
-					single_step_us = r.single_us;
-					if ( workers[w] == 1 )
+					CrowdResult* r = &results[round * cases + ( (size_t)a * worker_count + w ) * count_count + c];
+					r->label = labels[a];
+					if ( !RunCrowd( paths[a], &motion, workers[w], &pool, counts[c], seconds, r ) )
 					{
-						single_step_1_worker_us = r.single_us;
+						fprintf( stderr, "pleat_bench_crowd: %s, %u workers, %u instances failed\n", labels[a],
+								 workers[w], counts[c] );
+						failed = 1;
 					}
 				}
-				fprintf( out,
-						 "%s    {\"asset\": \"%s\", \"workers\": %u, \"instances\": %u, \"isa\": \"%s\", "
-						 "\"single_isa\": \"%s\", \"batch_isa\": \"%s\", "
-						 "\"batch_us_per_instance\": %.2f, \"one_by_one_us_per_instance\": %.2f, "
-						 "\"batch_us_per_instance_min\": %.2f, \"one_by_one_us_per_instance_min\": %.2f, "
-						 "\"batch_vs_one_by_one\": %.3f, \"batch_vs_single_step\": %.3f, "
-						 "\"batch_vs_single_step_1_worker\": %.3f, \"iterations\": %u, "
-						 "\"bit_identical\": %s, \"all_steps_ok\": %s}",
-						 first ? "" : ",\n", r.label, r.workers, r.count, isa, isa, r.count > 1 ? batch_isa : isa,
-						 r.batch_us, r.single_us, r.batch_min_us, r.single_min_us,
-						 r.single_us > 0.0 ? r.batch_us / r.single_us : 0.0,
-						 single_step_us > 0.0 ? r.batch_us / single_step_us : 0.0,
-						 single_step_1_worker_us > 0.0 ? r.batch_us / single_step_1_worker_us : 0.0, r.iterations,
-						 r.bit_identical ? "true" : "false", r.all_ok ? "true" : "false" );
-				fflush( out );
-				first = 0;
-				failed |= !r.bit_identical || !r.all_ok;
-			}
-			if ( workers[w] == 2 )
-			{
-				BenchTwoWorkers_Stop( &pool );
+				if ( workers[w] == 2 )
+				{
+					BenchTwoWorkers_Stop( &pool );
+				}
 			}
 		}
+		rounds_done += !failed;
 	}
+	// A failed sweep stops the rounds: the complete ones are combined (or what the first one measured).
+	uint32_t used = rounds_done > 0 ? rounds_done : 1;
+	int first = 1;
+	for ( size_t k = 0; k < cases && results != NULL; ++k )
+	{
+		// The rounds of case k: medians of the per-round medians, the least minimum, all bit-identical and ok.
+		CrowdResult r = results[k];
+		double batch[CROWD_MAX_ROUNDS], single[CROWD_MAX_ROUNDS];
+		for ( uint32_t round = 0; round < used; ++round )
+		{
+			const CrowdResult* q = &results[round * cases + k];
+			batch[round] = q->batch_us;
+			single[round] = q->single_us;
+			r.batch_min_us = q->batch_min_us < r.batch_min_us ? q->batch_min_us : r.batch_min_us;
+			r.single_min_us = q->single_min_us < r.single_min_us ? q->single_min_us : r.single_min_us;
+			r.bit_identical = r.bit_identical && q->bit_identical;
+			r.all_ok = r.all_ok && q->all_ok;
+			r.iterations += round > 0 ? q->iterations : 0;
+		}
+		r.batch_us = BenchMedian( batch, used );
+		r.single_us = BenchMedian( single, used );
+		results[k] = r;
+	}
+	for ( size_t k = 0; k < cases && results != NULL; ++k )
+	{
+		const CrowdResult r = results[k];
+		if ( r.count == 0 )
+		{
+			continue; // a case that did not run (its failure is reported above)
+		}
+		// The single step of the same asset and workers (n = 1), and of the same asset with one worker.
+		size_t asset_base = k - k % ( (size_t)worker_count * count_count );
+		size_t workers_base = k - k % count_count;
+		double single_step_us = 0.0, single_step_1_worker_us = 0.0;
+		for ( uint32_t c = 0; c < count_count; ++c )
+		{
+			if ( counts[c] == 1 )
+			{
+				single_step_us = results[workers_base + c].single_us;
+				single_step_1_worker_us = workers[0] == 1 ? results[asset_base + c].single_us : 0.0;
+			}
+		}
+		fprintf( out,
+				 "%s    {\"asset\": \"%s\", \"workers\": %u, \"instances\": %u, \"isa\": \"%s\", "
+				 "\"single_isa\": \"%s\", \"batch_isa\": \"%s\", "
+				 "\"batch_us_per_instance\": %.2f, \"one_by_one_us_per_instance\": %.2f, "
+				 "\"batch_us_per_instance_min\": %.2f, \"one_by_one_us_per_instance_min\": %.2f, "
+				 "\"batch_vs_one_by_one\": %.3f, \"batch_vs_single_step\": %.3f, "
+				 "\"batch_vs_single_step_1_worker\": %.3f, \"iterations\": %u, \"rounds\": %u, "
+				 "\"bit_identical\": %s, \"all_steps_ok\": %s}",
+				 first ? "" : ",\n", r.label, r.workers, r.count, isa, isa, r.count > 1 ? batch_isa : isa, r.batch_us,
+				 r.single_us, r.batch_min_us, r.single_min_us, r.single_us > 0.0 ? r.batch_us / r.single_us : 0.0,
+				 single_step_us > 0.0 ? r.batch_us / single_step_us : 0.0,
+				 single_step_1_worker_us > 0.0 ? r.batch_us / single_step_1_worker_us : 0.0, r.iterations, used,
+				 r.bit_identical ? "true" : "false", r.all_ok ? "true" : "false" );
+		fflush( out );
+		first = 0;
+		failed |= !r.bit_identical || !r.all_ok;
+	}
+	free( results );
 	fprintf( out, "\n  ],\n  \"loadavg_end\": %.2f\n}\n", BenchLoadAverage() );
 	if ( out != stdout )
 	{

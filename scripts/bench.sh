@@ -4,7 +4,8 @@
 # writes out/bench/step.json and prints it. See docs/benchmarks.md.
 # Environment: BUILD_DIR (default build/bench), ITERATIONS (default 2000), WARMUP (200), SCALAR_ITERATIONS (300),
 # CLOCK (wall, default, or cpu = the thread's CPU time, for a busy shared machine), PLEAT_ONNXRUNTIME_LIBRARY (default:
-# libonnxruntime.so* of the onnxruntime wheel in .venv). OUT_JSON (default out/bench/step.json).
+# libonnxruntime.so* of the onnxruntime wheel in .venv). OUT_JSON (default out/bench/step.json). The crowd sweep:
+# CROWD_COUNTS (1,8,64,256), CROWD_SECONDS (0.5 per case and round), CROWD_ROUNDS (3), CROWD_CLOCK (wall).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if ! setup_log=$(scripts/setup.sh 2>&1); then echo "$setup_log" >&2; exit 1; fi
@@ -42,11 +43,14 @@ ort_args=()
   --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" --clock "${CLOCK:-wall}" \
   --out "$OUT/phases.json"
 # Crowds (issue 13, docs/scene-budget.md): plStepInstances against one-by-one plInstance_Step, per instance, for 1, 8,
-# 64 and 256 instances of the shipped t-shirt and of the reference-size assets, 1 and 2 workers; merged in as "crowd".
+# 64 and 256 instances of the shipped t-shirt and of the reference-size assets, 1 and 2 workers, the whole sweep three
+# times (medians over the rounds: a neighbour busy for a few seconds spoils one round, not the number); merged in as
+# "crowd".
 "$BUILD_DIR/bench/pleat_bench_crowd" --case "$OUT/case.bin" \
   --asset tshirt_fp32="$OUT/tshirt_fp32.pleat" --asset tshirt_fp16="$OUT/tshirt_fp16.pleat" \
   --asset reference_fp32="$OUT/asset_fp32.pleat" --asset reference_fp16="$OUT/asset_fp16.pleat" \
-  --counts "${CROWD_COUNTS:-1,8,64,256}" --workers 1,2 --seconds "${CROWD_SECONDS:-0.5}" --clock "${CROWD_CLOCK:-wall}" \
+  --counts "${CROWD_COUNTS:-1,8,64,256}" --workers 1,2 --seconds "${CROWD_SECONDS:-0.5}" --rounds "${CROWD_ROUNDS:-3}" \
+  --clock "${CROWD_CLOCK:-wall}" \
   --out "$OUT/crowd.json"
 "$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" "$OUT/crowd.json" <<'PY'
 import json, sys
