@@ -106,6 +106,30 @@ def test_mirroring_twice_is_identity_and_mirroring_swaps_sides(body, walk):
 
 
 @needs_clips
+def test_collar_share_moves_the_clavicle_and_keeps_the_arm(body, walk):
+    """Clip.with_collar_share (the "collar" training variant): collar · shoulder is the clip's own product, the collar
+    turns by the share of the shoulder's angle, and the shoulder joint moves with it."""
+    from pleat.rotations import quat_multiply, quat_to_matrix
+    out = walk.with_collar_share(0.25)
+    names = list(walk.joint_names)
+    for side in ("left", "right"):
+        c, sh = names.index(f"{side}_collar"), names.index(f"{side}_shoulder")
+        before = quat_to_matrix(quat_multiply(walk.local_rotations[:, c], walk.local_rotations[:, sh]))
+        after = quat_to_matrix(quat_multiply(out.local_rotations[:, c], out.local_rotations[:, sh]))
+        np.testing.assert_allclose(after, before, atol=1e-9)
+        angle = lambda q: 2 * np.arccos(np.clip(np.abs(q[..., 3]), 0, 1))
+        moving = angle(walk.local_rotations[:, sh]) > 0.1
+        assert moving.any()
+        np.testing.assert_allclose(angle(out.local_rotations[moving, c]),
+                                   0.25 * angle(walk.local_rotations[moving, sh]), atol=1e-6)
+    moved = np.linalg.norm(out.joint_positions(body)[:, names.index("left_shoulder")] -
+                           walk.joint_positions(body)[:, names.index("left_shoulder")], axis=-1)
+    assert moved.max() > 0.005                      # metres: the shoulder rides on the clavicle
+    np.testing.assert_array_equal(out.joint_positions(body)[:, names.index("neck")],
+                                  walk.joint_positions(body)[:, names.index("neck")])
+
+
+@needs_clips
 @pytest.mark.parametrize("fps", [30, 60])
 def test_resampling_preserves_duration_and_pose(walk, fps):
     r = walk.resample(fps)

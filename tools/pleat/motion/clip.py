@@ -32,6 +32,17 @@ def _yaw_quat(yaw):
     return np.stack([np.zeros_like(yaw), np.sin(yaw / 2), np.zeros_like(yaw), np.cos(yaw / 2)], axis=-1)
 
 
+def _quat_power(q, t):
+    """q^t (x, y, z, w): the same axis, t times the angle, the shorter way round."""
+    q = quat_normalize(q)
+    q = np.where(q[..., 3:4] < 0, -q, q)
+    angle = 2.0 * np.arccos(np.clip(q[..., 3], -1.0, 1.0))
+    s = np.sin(angle / 2.0)
+    axis = np.where(s[..., None] > 1e-9, q[..., :3] / np.maximum(s, 1e-12)[..., None], np.array([1.0, 0.0, 0.0]))
+    half = angle * t / 2.0
+    return np.concatenate([axis * np.sin(half)[..., None], np.cos(half)[..., None]], -1)
+
+
 def _canonical(q):
     """Quaternions with w >= 0 (q and −q are the same rotation)."""
     return np.where(q[..., 3:4] < 0, -q, q)
@@ -148,6 +159,21 @@ class Clip:
         return replace(self, name=name, local_rotations=self.local_rotations[:, idx] * flip,
                        root_translation=self.root_translation * np.array([-1.0, 1.0, 1.0]),
                        root_rotation=self.root_rotation * flip)
+
+    def with_collar_share(self, share):
+        """Each shoulder's rotation with `share` of its angle moved into its collar (same axis): the arm keeps its
+        orientation relative to the chest and the shoulder joint moves with the collar, as with a skeleton that has
+        clavicles. The training motion (DeepMimic) has none — its collars are always the identity — so a model
+        trained on it alone meets collar rotations first in a user's motion (docs/accuracy.md); the simulator-
+        supervised recipe's "collar" variant (pleat.train.simdata) trains on this."""
+        names = list(self.joint_names)
+        q = self.local_rotations.copy()
+        for side in ("left", "right"):
+            c, sh = names.index(f"{side}_collar"), names.index(f"{side}_shoulder")
+            part = _quat_power(q[:, sh], share)
+            q[:, c] = quat_multiply(q[:, c], part)
+            q[:, sh] = quat_multiply(part * np.array([-1.0, -1.0, -1.0, 1.0]), q[:, sh])
+        return replace(self, name=f"{self.name}@collar{share:g}", local_rotations=q)
 
     def heading(self):
         """Yaw (rad) of the pelvis's global rotation Q_root · R_0 per frame (docs/inputs.md)."""

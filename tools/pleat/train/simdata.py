@@ -20,8 +20,11 @@ import numpy as np
 from pleat import garment_asset as ga
 
 # The variants of a training clip the data is drawn from: (name, time scale). Mirroring swaps left and right; a
-# time scale above 1 plays the clip faster (fast motion is where learned cloth breaks first, docs/stability.md).
-VARIANTS = (("original", 1.0), ("mirrored", 1.0), ("fast", 1.5), ("slow", 0.7))
+# time scale above 1 plays the clip faster (fast motion is where learned cloth breaks first, docs/stability.md);
+# "collar" moves COLLAR_SHARE of each shoulder's rotation into its collar (Clip.with_collar_share): the training
+# clips have no clavicle motion, a user's mocap usually has (docs/accuracy.md).
+VARIANTS = (("original", 1.0), ("mirrored", 1.0), ("fast", 1.5), ("slow", 0.7), ("collar", 1.0))
+COLLAR_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -40,6 +43,8 @@ def variant_clip(clip, variant):
     scale = dict(VARIANTS)[variant]
     if variant == "mirrored":
         clip = clip.mirrored()
+    if variant == "collar":
+        clip = clip.with_collar_share(COLLAR_SHARE)
     if scale != 1.0:
         clip = clip.time_scaled(scale)
     return clip

@@ -1,0 +1,64 @@
+"""Validation clips re-expressed the way another mocap source could express them (docs/accuracy.md, "Motion from a
+skeleton unlike the training data's"): not a test, a probe of how the shipped model generalises.
+
+The training motion (DeepMimic) has one chest joint, spread evenly over spine1..3, and no collars (always the
+identity). A source with a real spine and clavicles differs in both. Per clip this writes Pleat clip npz files
+(exact, no retargeting) for pleat-eval-suite --clips:
+  <clip>_spine.npz   the chest's rotation split 0.5 / 0.3 / 0.2 over spine1..3 (the same total rotation);
+  <clip>_collar<s>.npz  a share s (default a quarter) of each shoulder's rotation moved into its collar
+                     (Clip.with_collar_share: the arm keeps its orientation relative to the chest; the shoulder
+                     joint moves with the collar, as it does on a real body);
+  <clip>_ood.npz     both.
+
+    PYTHONPATH=tools .venv/bin/python bench/reexpress_clips.py --out out/s20/ood deepmimic_github/humanoid3d_jog ...
+    PLEAT_LIBRARY=build/eval/libpleat.so pleat-eval-suite --assets assets/tshirt.pleat --clips out/s20/ood/*.npz \
+        --betas 0 --out out/s20/suite_ood.json
+"""
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from pleat.motion.clip import _quat_power
+from pleat.motion.loaders import load_clip_at
+from pleat.rotations import quat_multiply
+
+SPINE_SPLIT = (0.5, 0.3, 0.2)
+COLLAR_SHARE = 0.25    # as the "collar" training variant (pleat.train.simdata); --collar-share probes others
+
+
+def reexpress(clip, spine=True, collar=COLLAR_SHARE):
+    names = list(clip.joint_names)
+    q = clip.local_rotations.copy()
+    if spine:
+        s1, s2, s3 = (names.index(n) for n in ("spine1", "spine2", "spine3"))
+        total = quat_multiply(quat_multiply(q[:, s1], q[:, s2]), q[:, s3])
+        for k, share in zip((s1, s2, s3), SPINE_SPLIT):
+            q[:, k] = _quat_power(total, share)
+    clip = replace(clip, local_rotations=q)
+    return clip.with_collar_share(collar) if collar else clip
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("clips", nargs="+", help="clip names or files")
+    ap.add_argument("--out", required=True, help="output folder")
+    ap.add_argument("--frames", type=int, default=60, help="frames per clip at 30 fps (default 60)")
+    ap.add_argument("--collar-share", type=float, default=COLLAR_SHARE,
+                    help="share of the shoulder's rotation moved into the collar (default 0.25)")
+    a = ap.parse_args(argv)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for name in a.clips:
+        clip = load_clip_at(name, fps=30.0, max_frames=a.frames)
+        stem = Path(name).name.split(".")[0]
+        share = a.collar_share
+        for tag, spine, collar in (("spine", True, 0.0), (f"collar{share:g}", False, share), ("ood", True, share)):
+            path = out / f"{stem}_{tag}.npz"
+            reexpress(clip, spine, collar).save(path)
+            print(path)
+
+
+if __name__ == "__main__":
+    main()
