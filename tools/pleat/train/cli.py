@@ -111,7 +111,9 @@ def main(argv=None):
         from pleat.train import simsup
         if not args.data:
             parser.error("simsup-tiers needs --data (the datasets the model was fitted on)")
-        simsup.distill_tiers(args.out, args.data, args.tiers, args.tier_dir or args.out, progress=progress)
+        # --set simsup.iterations=N sets the distillation's f_LP iterations (default: the run's own, 20,000)
+        simsup.distill_tiers(args.out, args.data, args.tiers, args.tier_dir or args.out,
+                             iterations=overrides.get("simsup.iterations"), progress=progress)
     if args.command == "ablation":
         core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)
         print("ablation done")
