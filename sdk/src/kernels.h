@@ -33,6 +33,14 @@ typedef struct plLayer
 
 // The layer's blocks as the MLP jobs run them: block_count blocks, or one dense block covering the layer.
 uint32_t plLayerBlocks( const plLayer* layer, plLayerBlock* blocks );
+// The rows of `block` within a task's rows [begin, end) as [*row_begin, *row_end); 0 when they do not meet.
+static inline int plBlockRowsWithin( const plLayerBlock* block, uint32_t begin, uint32_t end, uint32_t* row_begin,
+									 uint32_t* row_end )
+{
+	*row_begin = block->row_begin > begin ? block->row_begin : begin;
+	*row_end = block->row_end < end ? block->row_end : end;
+	return *row_begin < *row_end;
+}
 // Multiply-adds of one evaluation of the layer as its blocks run (in_count · out_count when dense).
 uint64_t plLayerMacs( const plLayer* layer );
 // Finds the blocks of a layer whose weights are block-structured (rows in 2, 4 or 8 equal parts, each with zeros

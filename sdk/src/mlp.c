@@ -51,9 +51,8 @@ static void plMatVecTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 	uint32_t block_count = plLayerBlocks( l, blocks );
 	for ( uint32_t i = 0; i < block_count; ++i )
 	{
-		uint32_t rb = blocks[i].row_begin > begin ? blocks[i].row_begin : begin;
-		uint32_t re = blocks[i].row_end < end ? blocks[i].row_end : end;
-		if ( rb < re )
+		uint32_t rb, re;
+		if ( plBlockRowsWithin( &blocks[i], begin, end, &rb, &re ) )
 		{
 			t->kernels->mat_vec( t->out, t->x, l->weight, l->weight_fp16, l->bias, l->in_count, blocks[i].col_begin,
 								 blocks[i].col_end, rb, re );

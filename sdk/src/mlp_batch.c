@@ -44,10 +44,8 @@ static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 	uint32_t block_count = plLayerBlocks( l, blocks );
 	for ( uint32_t i = 0; i < block_count; ++i )
 	{
-		uint32_t rb = blocks[i].row_begin > begin ? blocks[i].row_begin : begin;
-		uint32_t re = blocks[i].row_end < end ? blocks[i].row_end : end;
-		uint32_t cb = blocks[i].col_begin, ce = blocks[i].col_end;
-		if ( rb >= re )
+		uint32_t rb, re, cb = blocks[i].col_begin, ce = blocks[i].col_end;
+		if ( !plBlockRowsWithin( &blocks[i], begin, end, &rb, &re ) )
 		{
 			continue;
 		}

@@ -27,6 +27,20 @@
 #define PLEAT_ALWAYS_INLINE inline
 #endif
 
+// dst[c] = the fp16 weight w16[c] as float for c < columns (exact), 16 at a time.
+static inline void plWidenRow( float* dst, const uint16_t* w16, uint32_t columns )
+{
+	uint32_t c = 0;
+	for ( ; c + 16 <= columns; c += 16 )
+	{
+		_mm512_storeu_ps( dst + c, _mm512_cvtph_ps( _mm256_loadu_si256( (const __m256i*)( w16 + c ) ) ) );
+	}
+	for ( ; c < columns; ++c )
+	{
+		dst[c] = plHalfToFloat( w16[c] );
+	}
+}
+
 // sum[r][b] = plDotRow2( x[b], w, 0, r · stride, in_count ) for r < R, b < NB (R, NB compile-time after inlining).
 static PLEAT_ALWAYS_INLINE void plTile512( const int R, const int NB, const float* const* x, const float* w,
 										   size_t stride, uint32_t in_count,
@@ -132,17 +146,8 @@ void plMatMat_Avx512( float* const* out, const float* const* x, uint32_t batch_c
 			// The tile's rows (their windows) widened once (exact) for every instance of the batch.
 			for ( int i = 0; i < rows; ++i )
 			{
-				const uint16_t* w16 = (const uint16_t*)weight + (size_t)( r + (uint32_t)i ) * in_count + col_begin;
-				float* dst = widened + (size_t)i * columns;
-				uint32_t c = 0;
-				for ( ; c + 16 <= columns; c += 16 )
-				{
-					_mm512_storeu_ps( dst + c, _mm512_cvtph_ps( _mm256_loadu_si256( (const __m256i*)( w16 + c ) ) ) );
-				}
-				for ( ; c < columns; ++c )
-				{
-					dst[c] = plHalfToFloat( w16[c] );
-				}
+				plWidenRow( widened + (size_t)i * columns,
+							(const uint16_t*)weight + (size_t)( r + (uint32_t)i ) * in_count + col_begin, columns );
 			}
 			w = widened;
 			stride = columns;
@@ -282,17 +287,8 @@ void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, con
 			if ( weight_fp16 )
 			{
 				// widened once per row tile for every lane group (exact); the caller keeps in_count within the buffer
-				const uint16_t* w16 = (const uint16_t*)weight + (size_t)row * in_count + col_begin;
 				float* dst = widened + (size_t)i * PLEAT_MM512_WIDEN_COLUMNS;
-				uint32_t c = 0;
-				for ( ; c + 16 <= columns; c += 16 )
-				{
-					_mm512_store_ps( dst + c, _mm512_cvtph_ps( _mm256_loadu_si256( (const __m256i*)( w16 + c ) ) ) );
-				}
-				for ( ; c < columns; ++c )
-				{
-					dst[c] = plHalfToFloat( w16[c] );
-				}
+				plWidenRow( dst, (const uint16_t*)weight + (size_t)row * in_count + col_begin, columns );
 				w[i] = dst;
 			}
 		}
