@@ -83,11 +83,15 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
                                               "simsup.validation_frames": 6, "simsup.iterations": 20,
                                               "simsup.dec_iterations": 10, "simsup.contact_iterations": 3,
                                               "simsup.ensemble_members": 2, "simsup.member_tier": "medium",
-                                              "simsup.tier": "large", "simsup.input_noise": 0.1})
+                                              "simsup.tier": "large", "simsup.input_noise": 0.1,
+                                              "simsup.students": 2, "simsup.tier_teacher_frames": 30})
     path2, summary2 = simsup.train(cfg2, "tshirt", tmp_path / "b", progress=False, data=str(data))
     assert summary2["frames"] == 16
     fit = summary2["fit"]
-    assert fit["ensemble_of"] == ["medium", "medium"]      # (16 frames cap each member's L and D at their rank)
+    # two students of the pair's mean, each on the 16 simulated frames and ≥ 30 frames only the pair labelled
+    assert fit["ensemble_of"] == ["medium", "medium"] and fit["teacher_only_frames"] == 30
+    assert all(m["train_frames"] >= 16 + 30 for m in fit["members"])
+    assert fit["students_of"]["ensemble_of"] == ["medium", "medium"]    # the teacher: the mean of two fits
     assert fit["latent"] == 2 * fit["members"][0]["latent"] and fit["blend"] == 2 * fit["members"][0]["blend"]
     printed = capsys.readouterr().out
     assert printed.count("verdict: ") == 2 and "than LBS-only on 1 validation clips" in printed   # one per run
@@ -96,7 +100,7 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     meta = json.loads(w["metadata_json"])
     assert meta["training"]["recipe"] == "simulator-supervised"
     assert meta["training"]["contact"]["iterations"] == 3
-    assert meta["model"].startswith("pleat simulator-supervised: the mean of 2 medium fits")
+    assert meta["model"].startswith("pleat simulator-supervised: the mean of 2 medium networks distilled from a fit")
     assert w["lp.0.weight"].shape[0] == 512 and w["blend_shapes"].shape[0] == fit["blend"]
     # the contact fine-tune kept the members apart: the blocks between them are still exactly zero, so the runtime
     # skips them (sdk/src/layer_blocks.c)
@@ -105,6 +109,9 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
         h, half_in = W.shape[0] // 2, W.shape[1] // 2
         assert not W[:h, half_in:].any() and not W[h:, :half_in].any() and W[:h, :half_in].any()
     assert np.isfinite(w["blend_shapes"]).all() and np.abs(w["blend_shapes"]).max() > 0
+    # a contact step whose budget is already spent runs no iteration and says so (it used to fail on no loss)
+    _, rep = simsup.contact_tune(tmp_path / "b", str(data), iterations=2, progress=False, deadline=0.0)
+    assert rep["iterations"] == 0 and rep["final_error_mm2"] is None
 
 
 def test_window_noise_perturbs_inputs_and_start_latent_by_the_stated_amounts():
@@ -196,3 +203,21 @@ def test_simsup_commands_missing_inputs_are_usage_errors(argv, tmp_path, capsys)
         cli.main(argv + ["--out", str(tmp_path)])
     assert e.value.code == 2
     assert ("--data" if argv[0] != "simsup-ensemble" else "--members") in capsys.readouterr().err
+
+
+def test_teacher_only_sequences_are_new_unsimulated_frames_of_the_training_motion(tiny_setup):
+    """A tier's extra data: X_c rows of training-clip segments at new β and materials (another plan seed), at
+    least the frames asked for, with the latent block zero as a simulated sequence's rows have it."""
+    setup = tiny_setup
+    clips = simsup._clips("train", setup.cfg["fps"], setup.body)
+    seqs = simsup.teacher_only_sequences(setup, clips, 200, seed=0)
+    frames = sum(len(s["static"]) for s in seqs)
+    assert 200 <= frames < 200 + setup.cfg["simsup"]["segment_frames"]
+    assert all(s["static"].shape[1] == setup.input_count and not s["static"][:, :setup.L].any() for s in seqs)
+    assert "disp" not in seqs[0]                               # nothing was simulated
+    betas = np.array([s["beta"] for s in seqs])
+    assert len(np.unique(betas.round(6), axis=0)) > 1          # new bodies, not only the mean one
+    # another plan than the simulated one (plan_segments at the run's own seed), so not the same (β, window)s
+    simulated = simdata.plan_segments(list(clips.values()), setup.cfg["simsup"], setup.B, setup.cfg["seed"])
+    first_sim = {tuple(np.round(s.beta, 6)) for s in simulated[:len(seqs)] if any(s.beta)}
+    assert not first_sim & {tuple(b) for b in betas.round(6) if b.any()}

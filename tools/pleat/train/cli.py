@@ -45,6 +45,9 @@ def build_parser():
                    help="simsup-ensemble: simsup run folders whose mean --out packs (e.g. two medium fits)")
     p.add_argument("--ensemble-tier", default="large",
                    help="simsup-ensemble: the tier whose sizes hold the members side by side (default large)")
+    p.add_argument("--keep-runs", action="store_true",
+                   help="simsup-tiers: also write each tier as a simsup run folder <tier-dir>/<tier>_run "
+                        "(for simsup-ensemble / simsup-contact)")
     p.add_argument("--tier-dir", default=None, help="simsup-tiers: folder for <garment>_<tier>.pleat (default --out)")
     p.add_argument("--data", default=None, help="simsup: a dataset npz written by --export (no simulation)")
     p.add_argument("--export", default=None, help="simsup: write the simulated dataset to this npz")
@@ -113,7 +116,9 @@ def main(argv=None):
             parser.error("simsup-tiers needs --data (the datasets the model was fitted on)")
         # --set simsup.iterations=N sets the distillation's f_LP iterations (default: the run's own, 20,000)
         simsup.distill_tiers(args.out, args.data, args.tiers, args.tier_dir or args.out,
-                             iterations=overrides.get("simsup.iterations"), progress=progress)
+                             iterations=overrides.get("simsup.iterations"), progress=progress,
+                             teacher_frames=overrides.get("simsup.tier_teacher_frames"), seed=overrides.get("seed"),
+                             keep_runs=args.keep_runs)
     if args.command == "ablation":
         core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)
         print("ablation done")

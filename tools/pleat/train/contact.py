@@ -117,6 +117,7 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
     opt = torch.optim.Adam(params)
     t0 = time.time()
     done = 0
+    err = pen = inside = None            # stay None when no iteration ran (a budget already spent, 0 iterations)
     for it in range(iterations):
         if deadline is not None and time.time() > deadline:      # --max-minutes: stop where the budget ends
             break
@@ -145,7 +146,7 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
     block.blend_shapes.requires_grad_(False)
     for h in hooks:
         h.remove()
-    return {"iterations": done, "final_error_mm2": float(err.detach()),
-            "final_penetration_mm2": float(pen.detach()),
-            "final_inside_share": float(inside.detach()), "w_contact": w_contact, "eps_m": eps_m,
+    last = lambda v: None if v is None else float(v.detach())
+    return {"iterations": done, "final_error_mm2": last(err), "final_penetration_mm2": last(pen),
+            "final_inside_share": last(inside), "w_contact": w_contact, "eps_m": eps_m,
             "time_s": time.time() - t0}

@@ -94,14 +94,23 @@ def transfer(seqs, P):
 
 # ---- the tier -------------------------------------------------------------------------------------------------
 def principal_shapes(seqs, D, free_mask=None):
-    """Top-D uncentred principal directions of the displacements: blend shapes [D, N, 3] = σ_k v_k and σ [D]."""
-    X = np.concatenate([s["disp"].reshape(len(s["disp"]), -1) for s in seqs])
-    if free_mask is not None:
-        X = X * np.repeat(np.asarray(free_mask, np.float64), 3)[None]
-    _, S, Vt = np.linalg.svd(X, full_matrices=False)
+    """Top-D uncentred principal directions of the displacements: blend shapes [D, N, 3] = σ_k v_k and σ [D].
+    From the 3N × 3N Gram matrix, summed over chunks of frames: with teacher-only frames (simsup.distill_tiers) the
+    frames outnumber 3N thirtyfold, and an SVD of them all at once holds several copies of a 2.4 GB matrix."""
+    mask = None if free_mask is None else np.repeat(np.asarray(free_mask, np.float64), 3)[None]
+    gram, rows, chunk = 0.0, 0, []
+    for k, s in enumerate(seqs):
+        chunk.append(s["disp"].reshape(len(s["disp"]), -1))
+        if sum(len(c) for c in chunk) >= 4096 or k == len(seqs) - 1:
+            X = np.concatenate(chunk)
+            X = X * mask if mask is not None else X
+            gram, rows, chunk = gram + X.T @ X, rows + len(X), []
+    evals, V = np.linalg.eigh(gram)
+    order = np.argsort(evals)[::-1]
+    S, Vt = np.sqrt(np.maximum(evals[order], 0.0)), V[:, order].T
     # directions the teacher never uses (beyond the data's rank) would only add noise targets for f_LP'
     D = max(1, min(D, int(np.sum(S > 1e-6 * S[0]))))
-    sigma = np.maximum(S[:D] / np.sqrt(len(X)), 1e-9)
+    sigma = np.maximum(S[:D] / np.sqrt(rows), 1e-9)
     shapes = (sigma[:, None] * Vt[:D]).reshape(D, -1, 3)
     energy = float((S[:D] ** 2).sum() / max((S ** 2).sum(), 1e-30))
     return shapes, sigma, Vt[:D], energy

@@ -121,8 +121,11 @@ def ensemble_run(member_dirs, out, tier_name="large"):
     cfg = json.loads(json.dumps(setup.cfg))
     cfg["simsup"]["tier"] = tier_name
     summaries = [json.loads((Path(d) / "simsup_summary.json").read_text()) for d in member_dirs]
+    # members distilled from one teacher (simsup-tiers --keep-runs) say so in the asset's model line
+    teachers = {s.get("teacher") for s in summaries}
+    students = {"students_of": {"teacher_run": teachers.pop()}} if len(teachers) == 1 and None not in teachers else {}
     fit = report(spec, setup.N, norms, block, [m[3].cfg["simsup"]["tier"] for m in loaded],
-                 [s.get("fit", {}) for s in summaries], member_runs=[str(d) for d in member_dirs])
+                 [s.get("fit", {}) for s in summaries], member_runs=[str(d) for d in member_dirs], **students)
     summary = dict(summaries[0], recipe="simulator-supervised ensemble", members=[str(d) for d in member_dirs],
                    cpu_hours=sum(s.get("cpu_hours", 0.0) for s in summaries) - sum(
                        s.get("simulation_cpu_h", 0.0) for s in summaries[1:]),

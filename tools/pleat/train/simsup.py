@@ -216,10 +216,13 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     dev = core.device_for(device, 0)
     t_fit = time.time()
     members = int(c.get("ensemble_members", 1))
+    students = int(c.get("students", 0))
     fit_deadline = None if budget_s is None else t_start + 0.85 * budget_s
+    # with students, the first fit gets half of the fitting budget and the students the other half
+    first_deadline = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) * (0.5 if students else 1.0)
     fits = []
     for k in range(members):
-        deadline = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) * (k + 1) / members
+        deadline = None if first_deadline is None else t_fit + (first_deadline - t_fit) * (k + 1) / members
         fits.append(distill.distill(
             seqs, setup, tier(c["member_tier"]) if members > 1 else spec, val, None, cfg["seed"] + k,
             c["iterations"], c["dec_iterations"], c["lr"], c["batch"], c["window"], progress, device=dev,
@@ -231,6 +234,9 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
         report = ensemble.report(spec, setup.N, norms, block, [c["member_tier"]] * members, [f[5] for f in fits])
     else:
         lp, block, norms, shim, _, report = fits[0]
+    if students > 0:      # 2b. the fit teaches students on more motion than was simulated; their mean replaces it
+        lp, block, norms, shim, report = self_distil(lp, block, setup, seqs, val, train_clips, students, report,
+                                                     fit_deadline, progress)
     fit_s = time.time() - t_fit
     val_err = posed_errors(lp, block, val, setup.L)
     # 3. pack
@@ -269,7 +275,8 @@ def write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary,
 def model_name(report, contact=False):
     """The asset META's model line of a simsup fit (report: distill's, or the ensemble's)."""
     members = report.get("ensemble_of")
-    what = (f"the mean of {len(members)} {members[0]} fits to the reference simulator, packed as one network"
+    fitted = "networks distilled from a fit" if report.get("students_of") else "fits"
+    what = (f"the mean of {len(members)} {members[0]} {fitted} to the reference simulator, packed as one network"
             if members else "inference block fitted to the reference simulator")
     return f"pleat simulator-supervised: {what}" + (", contact-aware fine-tune" if contact else "")
 
@@ -309,6 +316,32 @@ def teacher_sequences(lp, block, seqs, setup_latent):
             for s in seqs]
 
 
+def teacher_only_sequences(setup, train_clips, frames, seed):
+    """X_c rows (latent block zero) of about `frames` more training frames that were never simulated: segments
+    planned as the simulated ones are (simdata.plan_segments) at another seed, so new β, materials and windows of
+    the same clips and variants. A tier learns the teacher's garment, and the teacher labels any motion for the
+    price of a rollout, so a tier needs not stop at the frames the simulator could afford (docs/training.md)."""
+    c = setup.cfg["simsup"]
+    out, total = [], 0
+    for seg in simdata.plan_segments(list(train_clips.values()), c, setup.B, int(seed) + 1000):
+        if total >= frames:
+            break
+        clip = simdata.cut(simdata.variant_clip(train_clips[seg.clip], seg.variant), seg.start, seg.frames)
+        out.append(simdata.sequence(setup, clip, np.array(seg.beta), np.array(seg.material)))
+        total += len(out[-1]["static"])
+    return out
+
+
+def garment_name(run_dir):
+    """The garment a simsup run was fitted on, as its simsup.pt names it (what core.Setup takes)."""
+    return torch.load(Path(run_dir) / "simsup.pt", weights_only=False)["garment"]
+
+
+def _fresh_dir(path):
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
 def load_model(run_dir):
     """(lp, block, norms, shim, setup) of a simsup run (simsup.pt)."""
     from pleat.eval.tiers import tier
@@ -326,10 +359,58 @@ def load_model(run_dir):
     return lp.eval(), block.eval(), state["norms"], shim, setup
 
 
-def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True):
+def teacher_data(lp, block, setup, seqs, val, train_clips, teacher_frames, seed):
+    """What a student learns: the model's own garment on the simulated training sequences plus `teacher_frames`
+    frames of unsimulated training motion (teacher_only_sequences at `seed`), and on the validation sequences."""
+    if teacher_frames > 0:
+        seqs = seqs + teacher_only_sequences(setup, train_clips, teacher_frames, seed)
+    return teacher_sequences(lp, block, seqs, setup.L), teacher_sequences(lp, block, val, setup.L)
+
+
+def fit_student(teacher, teacher_val, setup, spec, seed, iterations, garment=None, deadline=None):
+    """One smaller (or equal) inference block distilled from a simsup model's garment (teacher_data), with the run's
+    settings: distill.distill weighting the latent by energy, without the fit's f_LP noise."""
+    c = setup.cfg["simsup"]
+    return distill.distill(teacher, setup, spec, teacher_val, garment, seed, iterations, c["dec_iterations"],
+                           c["lr"], c["batch"], c["window"], False, weight_by_energy=True, deadline=deadline)
+
+
+def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadline=None, progress=False):
+    """The fitted model teaches `count` fits at simsup.member_tier (simsup.tier when one), each on the simulated
+    sequences plus simsup.tier_teacher_frames frames of unsimulated training motion at its own seed; their mean
+    (pleat.train.ensemble) replaces the model. Why: the teacher labels any motion for the price of a rollout, and
+    students fitted to its smooth garment on 2.5× the motion are more accurate against the simulator than the
+    teacher (docs/training.md, 2026-11-26 (3)). Returns (lp, block, norms, shim, report); `report` is the
+    teacher's fit report, kept in the new one."""
+    from pleat.eval.tiers import tier
+    from pleat.train import ensemble
+    c, seed = setup.cfg["simsup"], int(setup.cfg["seed"])
+    spec = tier(c["tier"])
+    member = tier(c["member_tier"]) if count > 1 else spec
+    frames = int(c.get("tier_teacher_frames", 0))
+    t0, fits = time.time(), []
+    for k in range(count):
+        teacher, teacher_val = teacher_data(lp, block, setup, seqs, val, train_clips, frames, seed + k)
+        end = None if deadline is None else t0 + (deadline - t0) * (k + 1) / count
+        fits.append(fit_student(teacher, teacher_val, setup, member, seed + k, c["iterations"], deadline=end))
+        if progress:
+            print(f"simsup: student {k + 1} of {count} ({member.name}) in {time.time() - t0:.0f} s", file=sys.stderr)
+    extra = {"students_of": report, "teacher_only_frames": frames}
+    if count == 1:
+        return fits[0][0], fits[0][1], fits[0][2], fits[0][3], dict(fits[0][5], **extra)
+    lp, block, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in fits], setup, spec)
+    return lp, block, norms, shim, ensemble.report(spec, setup.N, norms, block, [member.name] * count,
+                                                   [f[5] for f in fits], **extra)
+
+
+def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True, teacher_frames=None, seed=None,
+                  keep_runs=False):
     """Each tier of `tiers` (pleat.eval.tiers names) distilled from the simsup model in `run_dir` on the training
-    sequences of `data` (exported datasets): the tier learns the model's own garment, as the tiers learnt Φ's in
-    the two-stage recipe. Writes OUT_DIR/<garment>_<tier>.pleat; returns the reports. The fit's f_LP noise
+    sequences of `data` (exported datasets) and `teacher_frames` more frames of unsimulated training motion
+    (teacher_only_sequences; default simsup.tier_teacher_frames, else none): the tier learns the model's own
+    garment, as the tiers learnt Φ's in the two-stage recipe. Writes OUT_DIR/<garment>_<tier>.pleat; returns the
+    reports. With `keep_runs`, each tier on the teacher's mesh is also written as a simsup run folder
+    OUT_DIR/<tier>_run (float32 weights), which `simsup-ensemble` and `simsup-contact` take. The fit's f_LP noise
     (simsup.input_noise) is not used here: a tier learns the teacher's own smooth garment, and with the noise the
     distilled small tier came out 0.9 mm worse (docs/training.md)."""
     from pleat.eval.tiers import tier
@@ -339,10 +420,12 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True)
     val_clips = _clips("validation", cfg["fps"], setup.body)
     _, seqs, val, _, _ = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"])
     t0 = time.time()
-    teacher = teacher_sequences(lp, block, seqs, setup.L)
-    teacher_val = teacher_sequences(lp, block, val, setup.L)
+    seed = cfg["seed"] if seed is None else seed
+    teacher_frames = int(c.get("tier_teacher_frames", 0) if teacher_frames is None else teacher_frames)
+    teacher, teacher_val = teacher_data(lp, block, setup, seqs, val, train_clips, teacher_frames, seed)
     if progress:
-        print(f"simsup tiers: teacher rollouts on {len(seqs)} sequences in {time.time() - t0:.0f} s", file=sys.stderr)
+        print(f"simsup tiers: teacher rollouts on {len(teacher)} sequences ({len(seqs)} simulated) in "
+              f"{time.time() - t0:.0f} s", file=sys.stderr)
     reports = []
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -352,9 +435,8 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True)
         if spec.vertices and spec.vertices < setup.N * 0.8:
             garment = sources.garment(setup.name, setup.body, spec.vertices)
         t1 = time.time()
-        tlp, tblock, norms, shim, g, rep = distill.distill(
-            teacher, setup, spec, teacher_val, garment, cfg["seed"], iterations or c["iterations"],
-            c["dec_iterations"], c["lr"], c["batch"], c["window"], False, weight_by_energy=True)
+        tlp, tblock, norms, shim, g, rep = fit_student(teacher, teacher_val, setup, spec, seed,
+                                                       iterations or c["iterations"], garment)
         rep["fit_wall_s"] = time.time() - t1
         if garment is None:
             rep["simulator_validation"] = posed_errors(tlp, tblock, val, setup.L)
@@ -363,6 +445,15 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True)
                           teacher=f"simulator-supervised model {run_dir}",
                           model=f"pleat tier {name}: inference block distilled from the simulator-supervised model")
         rep["asset"] = str(path)
+        if keep_runs and g is setup.garment:
+            run_cfg = json.loads(json.dumps(cfg))
+            run_cfg["simsup"]["tier"] = name
+            summary = {"recipe": "distilled from a simulator-supervised model", "teacher": str(run_dir),
+                       "teacher_only_frames": teacher_frames, "seed": seed,
+                       "cpu_hours": rep["fit_wall_s"] / 3600.0, "fit": rep,
+                       "validation": rep.get("simulator_validation")}
+            rep["run"] = str(write_run(_fresh_dir(out_dir / f"{name}_run"), setup, run_cfg, garment_name(run_dir),
+                                       tlp, tblock, norms, shim, rep, summary).parent)
         reports.append(rep)
         if progress:
             print(f"simsup tiers: {name} → {path} in {rep['fit_wall_s']:.0f} s", file=sys.stderr)
