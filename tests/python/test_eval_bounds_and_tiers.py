@@ -49,10 +49,23 @@ def test_pareto_front_keeps_only_undominated_points():
 
 
 def test_tiers_span_ten_times_in_step_cost_and_grow_monotonically():
-    macs = [t.macs() for t in tiers.TIERS]
-    assert len(tiers.TIERS) == 4
+    macs = [t.macs() for t in tiers.SHIPPED]
+    assert [t.name for t in tiers.SHIPPED] == ["xsmall", "small", "medium", "large"]
     assert macs == sorted(macs)
     assert macs[-1] / macs[0] >= 10.0
+
+
+def test_a_mean_of_two_students_has_their_summed_sizes_and_twice_their_network_cost():
+    medium, small = tiers.tier("medium"), tiers.tier("small")
+    assert medium.mean_of == "small"
+    assert (medium.latent, medium.blend) == (2 * small.latent, 2 * small.blend)
+    assert medium.lp_hidden == tuple(2 * w for w in small.lp_hidden)
+    assert medium.dec_hidden == tuple(2 * w for w in small.dec_hidden)
+    assert medium.mlp_macs() == 2 * small.mlp_macs()
+    # the large tier's members (simsup.member_tier) ship nowhere, and fit the large sizes twice over
+    member, large = tiers.tier("member"), tiers.tier("large")
+    assert not member.asset and member not in tiers.SHIPPED
+    assert large.lp_hidden == tuple(2 * w for w in member.lp_hidden) and large.latent == 2 * member.latent
 
 
 def test_large_tier_is_the_papers_configuration_and_overrides_name_real_config_keys():
@@ -79,7 +92,7 @@ def test_shipped_tier_assets_have_their_tiers_sizes_and_a_trained_network():
     from pleat.eval.pareto import describe_asset
     from pleat.eval.scene import is_lbs_only, read_weights
     total = 0
-    for t in tiers.TIERS:
+    for t in tiers.SHIPPED:
         path = REPO_ROOT / t.asset
         if not path.is_file():
             pytest.skip(f"{t.asset} not in this checkout")

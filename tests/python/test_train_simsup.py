@@ -78,20 +78,20 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     path, summary = simsup.train(cfg, "tshirt", tmp_path / "a", workers=1, progress=False,
                                  cache_dir=tmp_path / "cache", export=str(data))
     assert summary["segments"] == 2 and summary["frames"] == 16
-    # the refit as the shipped recipe makes it: two medium fits averaged into one network of the large sizes
+    # the refit as the shipped recipe makes it: two member fits averaged into one network of the large sizes
     cfg2 = core.load_config("tiny", overrides={"simsup.max_segments": 2, "simsup.segment_frames": 8,
                                               "simsup.validation_frames": 6, "simsup.iterations": 20,
                                               "simsup.dec_iterations": 10, "simsup.contact_iterations": 3,
-                                              "simsup.ensemble_members": 2, "simsup.member_tier": "medium",
+                                              "simsup.ensemble_members": 2, "simsup.member_tier": "member",
                                               "simsup.tier": "large", "simsup.input_noise": 0.1,
                                               "simsup.students": 2, "simsup.tier_teacher_frames": 30})
     path2, summary2 = simsup.train(cfg2, "tshirt", tmp_path / "b", progress=False, data=str(data))
     assert summary2["frames"] == 16
     fit = summary2["fit"]
     # two students of the pair's mean, each on the 16 simulated frames and ≥ 30 frames only the pair labelled
-    assert fit["ensemble_of"] == ["medium", "medium"] and fit["teacher_only_frames"] == 30
+    assert fit["ensemble_of"] == ["member", "member"] and fit["teacher_only_frames"] == 30
     assert all(m["train_frames"] >= 16 + 30 for m in fit["members"])
-    assert fit["students_of"]["ensemble_of"] == ["medium", "medium"]    # the teacher: the mean of two fits
+    assert fit["students_of"]["ensemble_of"] == ["member", "member"]    # the teacher: the mean of two fits
     assert fit["latent"] == 2 * fit["members"][0]["latent"] and fit["blend"] == 2 * fit["members"][0]["blend"]
     printed = capsys.readouterr().out
     assert printed.count("verdict: ") == 2 and "than LBS-only on 1 validation clips" in printed   # one per run
@@ -100,7 +100,7 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     meta = json.loads(w["metadata_json"])
     assert meta["training"]["recipe"] == "simulator-supervised"
     assert meta["training"]["contact"]["iterations"] == 3
-    assert meta["model"].startswith("pleat simulator-supervised: the mean of 2 medium networks distilled from a fit")
+    assert meta["model"].startswith("pleat simulator-supervised: the mean of 2 member networks distilled from a fit")
     assert w["lp.0.weight"].shape[0] == 512 and w["blend_shapes"].shape[0] == fit["blend"]
     # the contact fine-tune kept the members apart: the blocks between them are still exactly zero, so the runtime
     # skips them (sdk/src/layer_blocks.c)

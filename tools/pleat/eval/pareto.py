@@ -71,7 +71,7 @@ def trained_tier_assets(overrides=None):
     from pleat import REPO_ROOT
     out = {}
     overrides = overrides or {}
-    for t in tiers_mod.TIERS:
+    for t in tiers_mod.SHIPPED:
         p = Path(overrides[t.name]).resolve() if t.name in overrides else (REPO_ROOT / t.asset if t.asset else None)
         if p is not None and p.is_file() and not S.is_lbs_only(S.read_weights(str(p))[1]):
             p = p.resolve()
@@ -123,7 +123,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                     row["frames"] = int(sum(r["frames"] for r in reps))
                 rows.append(row)
         if with_tiers:
-            for t in tiers_mod.TIERS:
+            for t in tiers_mod.SHIPPED:
                 if any(r.get("tier") == t.name for r in rows):
                     continue
                 from pleat.asset import write_asset
@@ -213,7 +213,7 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=(), re
         how = ("trained tier assets" if len(trained) == len(tiers) else
                f"{len(trained)} trained tier assets, the others random weights at the tier's sizes")
         lines += ["", f"The {len(tiers)} tiers span **{ratio:.1f}×** in measured step time ({how}; "
-                  "`pleat.eval.tiers.TIERS`)."]
+                  "`pleat.eval.tiers.SHIPPED`)."]
     lines += ["", "## What each row is", ""]
     lines += ["- Step times are measured, for every row.",
               "- Rows of kind `lbs-only` are the garment skinned by LBS with a zero network: a real baseline (one "

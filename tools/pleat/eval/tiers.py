@@ -3,11 +3,14 @@
 Each tier fixes what sets the runtime's step cost: mesh resolution N, latent size L, blend-shape count D and the two
 MLPs' hidden widths. `large` is the shipped default t-shirt (the 1k t-shirt, data/garments/tshirt_1k.npz, with the
 paper's inference sizes L = D = 128, f_LP 3×512, f_dec 2×512): the simulator-supervised recipe fits two models at the
-medium sizes and packs their mean at these sizes (pleat.train.ensemble; docs/training.md). The smaller tiers are
+`member` sizes and packs their mean at these sizes (pleat.train.ensemble; docs/training.md). The smaller tiers are
 distilled from it (`pleat-train simsup-tiers`): smaller L, D and widths, and for `xsmall` a coarser remesh of the
 same garment (the 1k mesh's skinning + normals alone cost more than a tenth of large's step), so that the four span
-more than 10× in step time. `asset` is where each ships. `training_overrides(name)` gives the `--set` overrides for
-pleat-train's config if a tier is trained from scratch instead.
+more than 10× in step time. A tier with `mean_of` is the mean of two students at that tier's sizes (seeds s, s + 1)
+packed as one network of the summed widths, whose zero blocks the runtime skips: two small students averaged are
+0.6 mm closer to the reference than one network at the `member` sizes (3×256 / 2×256), at less cost
+(docs/training.md, 2026-11-26 (3)). `asset` is where each ships; `member` ships nowhere. `training_overrides(name)`
+gives the `--set` overrides for pleat-train's config if a tier is trained from scratch instead.
 """
 from dataclasses import asdict, dataclass
 
@@ -23,15 +26,23 @@ class Tier:
     activation: str = "relu"
     asset: str = ""          # shipped asset, relative to the repository root
     distilled: bool = True   # False: trained by the two stages itself (the default asset)
+    mean_of: str = ""        # the mean of two students at this tier's sizes (pleat.train.ensemble)
 
-    def macs(self, input_joints=19, betas=10, influences=4):
-        """Multiply-accumulates per step: MLPs + blend shapes (D·3N) + skinning (12·K·N); a cost model only."""
+    def mlp_macs(self, input_joints=19, betas=10):
+        """Multiply-accumulates of f_LP and f_dec per step; for a mean of two students, both members' (the runtime
+        skips the zero blocks between them)."""
+        if self.mean_of:
+            return 2 * tier(self.mean_of).mlp_macs(input_joints, betas)
         from pleat.garment_asset import input_count_without_latent
         I = self.latent + input_count_without_latent(input_joints, betas)
         lp = [I, *self.lp_hidden, self.latent]
         dec = [self.latent, *self.dec_hidden, self.blend]
-        mlp = sum(a * b for a, b in zip(lp[:-1], lp[1:])) + sum(a * b for a, b in zip(dec[:-1], dec[1:]))
-        return mlp + self.blend * 3 * self.vertices + 12 * influences * self.vertices
+        return sum(a * b for a, b in zip(lp[:-1], lp[1:])) + sum(a * b for a, b in zip(dec[:-1], dec[1:]))
+
+    def macs(self, input_joints=19, betas=10, influences=4):
+        """Multiply-accumulates per step: MLPs + blend shapes (D·3N) + skinning (12·K·N); a cost model only."""
+        return (self.mlp_macs(input_joints, betas) + self.blend * 3 * self.vertices
+                + 12 * influences * self.vertices)
 
 
 TIERS = (
@@ -39,12 +50,14 @@ TIERS = (
          asset="assets/tshirt_xsmall.pleat"),
     Tier("small", vertices=1004, latent=32, blend=32, lp_hidden=(128, 128), dec_hidden=(128,),
          asset="assets/tshirt_small.pleat"),
-    Tier("medium", vertices=1004, latent=64, blend=64, lp_hidden=(256, 256, 256), dec_hidden=(256, 256),
-         asset="assets/tshirt_medium.pleat"),
+    Tier("medium", vertices=1004, latent=64, blend=64, lp_hidden=(256, 256), dec_hidden=(256,),
+         asset="assets/tshirt_medium.pleat", mean_of="small"),
+    Tier("member", vertices=1004, latent=64, blend=64, lp_hidden=(256, 256, 256), dec_hidden=(256, 256)),
     Tier("large", vertices=1004, latent=128, blend=128, lp_hidden=(512, 512, 512), dec_hidden=(512, 512),
          asset="assets/tshirt.pleat", distilled=False),
 )
 BY_NAME = {t.name: t for t in TIERS}
+SHIPPED = tuple(t for t in TIERS if t.asset)     # the tier ladder, cheapest first
 
 
 def tier(name):

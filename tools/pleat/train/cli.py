@@ -35,14 +35,15 @@ def build_parser():
                         "rollout and loss-weight schedules follow the budget when it ends the run first")
     p.add_argument("--workers", type=int, default=2, help="simsup: simulation processes (default 2)")
     p.add_argument("--cache-dir", default=None, help="simsup: simulation cache (default out/cache/sim)")
-    p.add_argument("--tiers", nargs="+", default=["medium", "small", "xsmall"],
-                   help="simsup-tiers: tier names (pleat.eval.tiers; default medium small xsmall)")
+    p.add_argument("--tiers", nargs="+", default=["small", "medium", "xsmall"],
+                   help="simsup-tiers: tier names (pleat.eval.tiers; default small medium xsmall: medium, the mean "
+                        "of two small students, reuses the small tier as its first)")
     p.add_argument("--contact-iterations", type=int, default=None,
                    help="simsup-contact: fine-tune iterations (default the run's simsup.contact_iterations or 1500)")
     p.add_argument("--from-asset", default=None,
                    help="simsup-contact: start from this packed simsup asset (rebuilds --out/simsup.pt from it)")
     p.add_argument("--members", nargs="+", default=[],
-                   help="simsup-ensemble: simsup run folders whose mean --out packs (e.g. two medium fits)")
+                   help="simsup-ensemble: simsup run folders whose mean --out packs (e.g. two member fits)")
     p.add_argument("--ensemble-tier", default="large",
                    help="simsup-ensemble: the tier whose sizes hold the members side by side (default large)")
     p.add_argument("--keep-runs", action="store_true",

@@ -339,8 +339,16 @@ def main(argv=None):
         if spec.vertices and spec.vertices < setup.N * 0.8:
             garment = sources.garment(setup.name if setup.name in ("tshirt", "tank_top", "long_sleeve", "pants",
                                                                    "dress") else "tshirt", setup.body, spec.vertices)
-        lp, block, norms, shim, g, rep = distill(seqs, setup, spec, val, garment, args.seed, args.iterations,
-                                                 args.dec_iterations, progress=progress)
+        if spec.mean_of:     # two students at the member tier's sizes, packed as one network
+            from pleat.train import ensemble
+            pair = [distill(seqs, setup, tiers_mod.tier(spec.mean_of), val, None, args.seed + k, args.iterations,
+                            args.dec_iterations, progress=progress) for k in range(2)]
+            lp, block, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in pair], setup, spec)
+            g, rep = setup.garment, ensemble.report(spec, setup.N, norms, block, [spec.mean_of] * 2,
+                                                    [f[5] for f in pair])
+        else:
+            lp, block, norms, shim, g, rep = distill(seqs, setup, spec, val, garment, args.seed, args.iterations,
+                                                     args.dec_iterations, progress=progress)
         path = out / f"{setup.name}_{name}.pleat"
         pack_tier(path, lp, block, norms, shim, g, setup, rep, setup.cfg["fps"], args.fp16, args.teacher)
         rep["asset"] = str(path)

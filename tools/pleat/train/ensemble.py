@@ -1,15 +1,16 @@
-"""Simulator-supervised fits averaged and packed as one network: the large tier as the mean of two medium fits.
+"""Fits averaged and packed as one network: the large tier as the mean of two `member` fits (or students), the medium
+tier as the mean of two small students.
 
     x = LBS(T + G_S(β) + ½ (D_a f_dec,a(z_a) + D_b f_dec,b(z_b))),   z_m = f_LP,m(z_m, X_c)   (m = a, b)
 
 Both members read the same inputs. f_LP of the pair is one MLP of twice the widths with block-diagonal weights: the
 latents side by side (z = (z_a, z_b)), the hidden units side by side, the input columns shared. f_dec likewise, and
 the blend shapes are both sets, each halved. So the average runs on the runtime as it is, at exactly the cost of
-the doubled sizes (medium 64 / 3×256 / 2×256 → large 128 / 3×512 / 2×512), and the normalisation, the latent guard
+the doubled sizes (member 64 / 3×256 / 2×256 → large 128 / 3×512 / 2×512), and the normalisation, the latent guard
 and the network rate keep working per component.
 
 Why: at 25k simulated frames one fit at the large sizes overfits its training clips (docs/training.md: it is less
-accurate on held-out motion than a medium fit of the same recipe), while two fits from different seeds make partly
+accurate on held-out motion than a member-sized fit of the same recipe), while two fits from different seeds make partly
 independent errors on motion unlike their training clips; their mean removes part of those. A member's own
 normalisation of the shared inputs is folded into its first layer, so members need not share it.
 """
@@ -56,7 +57,7 @@ def _first_layer(members, x_mean, x_std, L):
 
 @torch.no_grad()
 def combine(members, setup, spec):
-    """members: [(lp, block, norms)] of fits with the same depths and activation (e.g. two medium fits).
+    """members: [(lp, block, norms)] of fits with the same depths and activation (e.g. two member fits).
     spec: the pleat.eval.tiers.Tier of the result (its widths must be the members' summed). Returns
     (lp, block, norms, shim) whose garment is the members' mean."""
     L = sum(len(n["z_mean"]) for _, _, n in members)
@@ -121,15 +122,22 @@ def ensemble_run(member_dirs, out, tier_name="large"):
     cfg = json.loads(json.dumps(setup.cfg))
     cfg["simsup"]["tier"] = tier_name
     summaries = [json.loads((Path(d) / "simsup_summary.json").read_text()) for d in member_dirs]
-    # members distilled from one teacher (simsup-tiers --keep-runs) say so in the asset's model line
+    # members distilled from one teacher (simsup-tiers --keep-runs) say so in the asset's model line, and the
+    # teacher's data and CPU time count in the summary (what the asset's META records)
     teachers = {s.get("teacher") for s in summaries}
-    students = {"students_of": {"teacher_run": teachers.pop()}} if len(teachers) == 1 and None not in teachers else {}
+    teacher = teachers.pop() if len(teachers) == 1 and None not in teachers else None
+    students = {"students_of": {"teacher_run": teacher}} if teacher else {}
     fit = report(spec, setup.N, norms, block, [m[3].cfg["simsup"]["tier"] for m in loaded],
                  [s.get("fit", {}) for s in summaries], member_runs=[str(d) for d in member_dirs], **students)
-    summary = dict(summaries[0], recipe="simulator-supervised ensemble", members=[str(d) for d in member_dirs],
-                   cpu_hours=sum(s.get("cpu_hours", 0.0) for s in summaries) - sum(
-                       s.get("simulation_cpu_h", 0.0) for s in summaries[1:]),
-                   fit=fit)
+    cpu_h = sum(s.get("cpu_hours", 0.0) for s in summaries) - sum(s.get("simulation_cpu_h", 0.0) for s in summaries[1:])
+    base = summaries[0]
+    if teacher and (Path(teacher) / "simsup_summary.json").is_file():
+        base = json.loads((Path(teacher) / "simsup_summary.json").read_text())
+        cpu_h += base.get("cpu_hours", 0.0)
+        base = dict(base, teacher=teacher, teacher_only_frames=summaries[0].get("teacher_only_frames"),
+                    teacher_model=base.get("fit"), teacher_validation=base.pop("validation", None))
+    summary = dict(base, recipe="simulator-supervised ensemble" + (" of students" if teacher else ""),
+                   members=[str(d) for d in member_dirs], cpu_hours=cpu_h, fit=fit)
     for k in ("contact", "contact_rounds", "validation_before_contact"):
         summary.pop(k, None)
     return simsup.write_run(out, setup, cfg, garment, lp, block, norms, shim, fit, summary)

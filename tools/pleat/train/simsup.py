@@ -429,21 +429,42 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
     reports = []
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    fitted = {}
+
+    def student(spec, s, garment=None):
+        """The student at (tier, seed), fitted once per call of distill_tiers: medium's first member is small."""
+        if (spec.name, s) not in fitted:
+            data = (teacher, teacher_val) if s == seed else teacher_data(lp, block, setup, seqs, val, train_clips,
+                                                                        teacher_frames, s)
+            t1 = time.time()
+            fitted[spec.name, s] = fit_student(*data, setup, spec, s, iterations or c["iterations"], garment)
+            fitted[spec.name, s][5]["fit_wall_s"] = time.time() - t1
+        return fitted[spec.name, s]
+
     for name in tiers:
         spec = tier(name)
         garment = None
         if spec.vertices and spec.vertices < setup.N * 0.8:
             garment = sources.garment(setup.name, setup.body, spec.vertices)
-        t1 = time.time()
-        tlp, tblock, norms, shim, g, rep = fit_student(teacher, teacher_val, setup, spec, seed,
-                                                       iterations or c["iterations"], garment)
-        rep["fit_wall_s"] = time.time() - t1
+        if spec.mean_of:        # two students at the member tier's sizes, packed as one network (pleat.train.ensemble)
+            from pleat.train import ensemble
+            pair = [student(tier(spec.mean_of), seed + k) for k in range(2)]
+            tlp, tblock, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in pair], setup, spec)
+            g = setup.garment
+            rep = ensemble.report(spec, setup.N, norms, tblock, [spec.mean_of] * 2, [f[5] for f in pair],
+                                  students_of={"teacher_run": str(run_dir)}, teacher_only_frames=teacher_frames,
+                                  fit_wall_s=sum(f[5]["fit_wall_s"] for f in pair))
+        else:
+            tlp, tblock, norms, shim, g, rep = student(spec, seed, garment)
+            rep = dict(rep)
         if garment is None:
             rep["simulator_validation"] = posed_errors(tlp, tblock, val, setup.L)
         path = out_dir / f"{setup.name}_{name}.pleat"
+        what = (f"the mean of two {spec.mean_of} inference blocks distilled from the simulator-supervised model, "
+                f"packed as one network" if spec.mean_of else
+                "inference block distilled from the simulator-supervised model")
         distill.pack_tier(path, tlp, tblock, norms, shim, g, setup, rep, cfg["fps"], fp16=True,
-                          teacher=f"simulator-supervised model {run_dir}",
-                          model=f"pleat tier {name}: inference block distilled from the simulator-supervised model")
+                          teacher=f"simulator-supervised model {run_dir}", model=f"pleat tier {name}: {what}")
         rep["asset"] = str(path)
         if keep_runs and g is setup.garment:
             run_cfg = json.loads(json.dumps(cfg))
