@@ -204,7 +204,7 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=(), re
         lines.append("| {name} | {kind} | {N} | {L} | {D} | {lp} | {dec} | {us} | {mean} | {p95} | {front} |".format(
             name=r["name"], kind=r["model"] if r["kind"] != "tier-random" else "random weights, untrained",
             N=r["vertices"], L=r["latent"], D=r["blend"], lp="×".join(map(str, r["lp_hidden"])) or "—",
-            dec="×".join(map(str, r["dec_hidden"])) or "—", us=_fmt(r["step_us"]), mean=_fmt(r.get("mean_mm")),
+            dec="×".join(map(str, r["dec_hidden"])) or "—", us=_fmt(r["step_us"]), mean=_fmt(r.get("mean_mm"), 2),
             p95=_fmt(r.get("p95_mm")), front="★" if id(r) in front else ""))
     tiers = [r for r in rows if r["kind"] == "tier-random" or (r.get("tier") and r["kind"] == "asset")]
     trained = [r for r in tiers if r["kind"] == "asset"]
