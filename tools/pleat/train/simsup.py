@@ -234,7 +234,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
         report = ensemble.report(spec, setup.N, norms, block, [c["member_tier"]] * members, [f[5] for f in fits])
     else:
         lp, block, norms, shim, _, report = fits[0]
-    if students > 0:      # 3b. the fit teaches students on more motion than was simulated; their mean replaces it
+    if students > 0:      # 2b. the fit teaches students on more motion than was simulated; their mean replaces it
         lp, block, norms, shim, report = self_distil(lp, block, setup, seqs, val, train_clips, students, report,
                                                      fit_deadline, progress)
     fit_s = time.time() - t_fit
