@@ -229,7 +229,9 @@ def write_markdown(rows, clips, command, library, path, max_frames, notes=(), re
                   "components of the teacher's per-frame garment displacements (transferred by barycentric "
                   "interpolation for a tier on a coarser remesh), its latent Z' the top-L' principal coefficients, "
                   "f_dec' maps Z' to the D' coefficients and f_LP' is trained on X_c as stage 2 trains f_LP (Z_0 = 0, "
-                  "windows fed its own predictions)."]
+                  "windows fed its own predictions). The teacher also labels training motion nobody simulated "
+                  "(`simsup.tier_teacher_frames`), and a tier with `Tier.mean_of` (medium) is the mean of two such "
+                  "students at that tier's sizes, packed as one network whose zero blocks the runtime skips."]
     if any(r["kind"] == "tier-random" for r in rows):
         lines += ["- Rows of kind `random weights, untrained` have the tier's sizes but random weights: their speed "
                   "is what a trained tier of that size costs; they have no error."]
