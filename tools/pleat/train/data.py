@@ -18,6 +18,7 @@ class Setup:
 
     def __init__(self, cfg, garment_spec, device="cpu"):
         self.cfg, self.device = cfg, torch.device(device)
+        self.garment_spec = garment_spec     # what a run records as its garment (a name or a file)
         m = cfg["model"]
         self.body = sources.body(cfg["body"])
         self.garment = sources.garment(garment_spec, self.body, cfg["garment_vertices"])

@@ -343,9 +343,8 @@ def main(argv=None):
             from pleat.train import ensemble
             pair = [distill(seqs, setup, tiers_mod.tier(spec.mean_of), val, None, args.seed + k, args.iterations,
                             args.dec_iterations, progress=progress) for k in range(2)]
-            lp, block, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in pair], setup, spec)
-            g, rep = setup.garment, ensemble.report(spec, setup.N, norms, block, [spec.mean_of] * 2,
-                                                    [f[5] for f in pair])
+            lp, block, norms, shim, rep = ensemble.mean_of_fits(pair, setup, spec, spec.mean_of)
+            g = setup.garment
         else:
             lp, block, norms, shim, g, rep = distill(seqs, setup, spec, val, garment, args.seed, args.iterations,
                                                      args.dec_iterations, progress=progress)

@@ -97,6 +97,15 @@ def combine(members, setup, spec):
     return lp.eval(), block.eval(), norms, shim
 
 
+def mean_of_fits(fits, setup, spec, member_tier, **extra):
+    """fits: pleat.train.distill.distill results (lp, block, norms, shim, garment, report) at the tier
+    `member_tier`: their mean at `spec`'s sizes (combine) with its report (report, `extra` added).
+    Returns (lp, block, norms, shim, report)."""
+    lp, block, norms, shim = combine([(f[0], f[1], f[2]) for f in fits], setup, spec)
+    return lp, block, norms, shim, report(spec, setup.N, norms, block, [member_tier] * len(fits),
+                                          [f[5] for f in fits], **extra)
+
+
 def report(spec, vertices, norms, block, member_tiers, member_reports, **extra):
     """The fit report of a packed ensemble (simsup_summary.json's "fit", the asset META's "distillation"): its sizes,
     what its members are, and their own fit reports."""
@@ -113,7 +122,6 @@ def ensemble_run(member_dirs, out, tier_name="large"):
     from pleat.eval.tiers import tier
     from pleat.train import simsup
     loaded = [simsup.load_model(d) for d in member_dirs]
-    garment = torch.load(Path(member_dirs[0]) / "simsup.pt", weights_only=False)["garment"]
     setup = loaded[0][4]
     spec = tier(tier_name)
     lp, block, norms, shim = combine([(m[0], m[1], m[2]) for m in loaded], setup, spec)
@@ -140,4 +148,4 @@ def ensemble_run(member_dirs, out, tier_name="large"):
                    members=[str(d) for d in member_dirs], cpu_hours=cpu_h, fit=fit)
     for k in ("contact", "contact_rounds", "validation_before_contact"):
         summary.pop(k, None)
-    return simsup.write_run(out, setup, cfg, garment, lp, block, norms, shim, fit, summary)
+    return simsup.write_run(out, setup, cfg, setup.garment_spec, lp, block, norms, shim, fit, summary)

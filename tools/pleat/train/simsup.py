@@ -230,8 +230,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
             noise=(float(c.get("input_noise", 0.0)), float(c.get("latent_noise", 0.0)))))
     if members > 1:
         from pleat.train import ensemble
-        lp, block, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in fits], setup, spec)
-        report = ensemble.report(spec, setup.N, norms, block, [c["member_tier"]] * members, [f[5] for f in fits])
+        lp, block, norms, shim, report = ensemble.mean_of_fits(fits, setup, spec, c["member_tier"])
     else:
         lp, block, norms, shim, _, report = fits[0]
     if students > 0:      # 2b. the fit teaches students on more motion than was simulated; their mean replaces it
@@ -332,16 +331,6 @@ def teacher_only_sequences(setup, train_clips, frames, seed):
     return out
 
 
-def garment_name(run_dir):
-    """The garment a simsup run was fitted on, as its simsup.pt names it (what core.Setup takes)."""
-    return torch.load(Path(run_dir) / "simsup.pt", weights_only=False)["garment"]
-
-
-def _fresh_dir(path):
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
 def load_model(run_dir):
     """(lp, block, norms, shim, setup) of a simsup run (simsup.pt)."""
     from pleat.eval.tiers import tier
@@ -398,9 +387,7 @@ def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadlin
     extra = {"students_of": report, "teacher_only_frames": frames}
     if count == 1:
         return fits[0][0], fits[0][1], fits[0][2], fits[0][3], dict(fits[0][5], **extra)
-    lp, block, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in fits], setup, spec)
-    return lp, block, norms, shim, ensemble.report(spec, setup.N, norms, block, [member.name] * count,
-                                                   [f[5] for f in fits], **extra)
+    return ensemble.mean_of_fits(fits, setup, spec, member.name, **extra)
 
 
 def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True, teacher_frames=None, seed=None,
@@ -449,11 +436,10 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
         if spec.mean_of:        # two students at the member tier's sizes, packed as one network (pleat.train.ensemble)
             from pleat.train import ensemble
             pair = [student(tier(spec.mean_of), seed + k) for k in range(2)]
-            tlp, tblock, norms, shim = ensemble.combine([(f[0], f[1], f[2]) for f in pair], setup, spec)
+            tlp, tblock, norms, shim, rep = ensemble.mean_of_fits(
+                pair, setup, spec, spec.mean_of, students_of={"teacher_run": str(run_dir)},
+                teacher_only_frames=teacher_frames, fit_wall_s=sum(f[5]["fit_wall_s"] for f in pair))
             g = setup.garment
-            rep = ensemble.report(spec, setup.N, norms, tblock, [spec.mean_of] * 2, [f[5] for f in pair],
-                                  students_of={"teacher_run": str(run_dir)}, teacher_only_frames=teacher_frames,
-                                  fit_wall_s=sum(f[5]["fit_wall_s"] for f in pair))
         else:
             tlp, tblock, norms, shim, g, rep = student(spec, seed, garment)
             rep = dict(rep)
@@ -473,8 +459,10 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
                        "teacher_only_frames": teacher_frames, "seed": seed,
                        "cpu_hours": rep["fit_wall_s"] / 3600.0, "fit": rep,
                        "validation": rep.get("simulator_validation")}
-            rep["run"] = str(write_run(_fresh_dir(out_dir / f"{name}_run"), setup, run_cfg, garment_name(run_dir),
-                                       tlp, tblock, norms, shim, rep, summary).parent)
+            run = out_dir / f"{name}_run"
+            run.mkdir(exist_ok=True)
+            write_run(run, setup, run_cfg, setup.garment_spec, tlp, tblock, norms, shim, rep, summary)
+            rep["run"] = str(run)
         reports.append(rep)
         if progress:
             print(f"simsup tiers: {name} → {path} in {rep['fit_wall_s']:.0f} s", file=sys.stderr)
