@@ -35,6 +35,7 @@
 // --clock cpu is this thread's CPU time: with two workers it leaves out the helper's share, so wall (the default) is
 // the clock for every comparison here.
 #define _POSIX_C_SOURCE 200809L
+#include "asset.h"
 #include "bench_support.h"
 #include "kernels_batch.h"
 #include "pleat/pleat.h"
@@ -42,6 +43,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#if defined( __x86_64__ ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
+#include <immintrin.h>
+#define CROWD_FMA_PROBE 1
+#endif
 
 #define CROWD_MAX_ASSETS 8
 #define CROWD_MAX_COUNTS 8
@@ -75,6 +81,92 @@ static uint32_t ParseList( const char* text, uint32_t* out, uint32_t capacity )
 }
 
 // Steps set a with plStepInstances and set b one by one (order by iteration parity), n instances each.
+// ---- The compute floor: what no kernel can beat on this core ----
+// A batch reads each weight once, so what is left per instance is arithmetic: the MLPs' multiply-adds (the blocks the
+// runtime skips not counted, plLayerMacs) and the blend shapes' D · 3N. The floor is that count at this core's peak
+// fp32 FMA rate, measured here with the batch's vector width: 12 independent FMA chains (enough to cover the FMA
+// latency on the cores we know) on registers, no memory. "compute_floor_us_per_instance" = MACs / peak / workers,
+// and "floor_vs_single_step_1_worker" = floor / the one-worker single step of the same run: where the floor alone is
+// above the target (0.25 at n = 64), no batching reaches it with those workers.
+#if defined( CROWD_FMA_PROBE )
+#define CROWD_FMA_CHAINS 12
+__attribute__( ( target( "avx2,fma" ) ) ) static float FmaChains8( uint64_t rounds )
+{
+	__m256 acc[CROWD_FMA_CHAINS];
+	const __m256 m = _mm256_set1_ps( 0.999999f ), c = _mm256_set1_ps( 1e-7f );
+	for ( int i = 0; i < CROWD_FMA_CHAINS; ++i )
+		acc[i] = _mm256_set1_ps( (float)i );
+	for ( uint64_t r = 0; r < rounds; ++r )
+		for ( int i = 0; i < CROWD_FMA_CHAINS; ++i )
+			acc[i] = _mm256_fmadd_ps( acc[i], m, c );
+	__m256 sum = acc[0];
+	for ( int i = 1; i < CROWD_FMA_CHAINS; ++i )
+		sum = _mm256_add_ps( sum, acc[i] );
+	return _mm256_cvtss_f32( sum );
+}
+
+__attribute__( ( target( "avx512f" ) ) ) static float FmaChains16( uint64_t rounds )
+{
+	__m512 acc[CROWD_FMA_CHAINS];
+	const __m512 m = _mm512_set1_ps( 0.999999f ), c = _mm512_set1_ps( 1e-7f );
+	for ( int i = 0; i < CROWD_FMA_CHAINS; ++i )
+		acc[i] = _mm512_set1_ps( (float)i );
+	for ( uint64_t r = 0; r < rounds; ++r )
+		for ( int i = 0; i < CROWD_FMA_CHAINS; ++i )
+			acc[i] = _mm512_fmadd_ps( acc[i], m, c );
+	__m512 sum = acc[0];
+	for ( int i = 1; i < CROWD_FMA_CHAINS; ++i )
+		sum = _mm512_add_ps( sum, acc[i] ); // every chain live, or the compiler drops them
+	return _mm512_reduce_add_ps( sum );
+}
+#endif
+
+static volatile float g_fmaSink;
+
+// Peak fp32 multiply-adds per µs of this thread at `lanes` (8: AVX2 + FMA, 16: AVX-512), the best of 7 runs of
+// about 20 ms (the least disturbed by other processes); 0 where this build or CPU cannot run them.
+static double MeasureFmaPeakMacsPerUs( uint32_t lanes )
+{
+#if defined( CROWD_FMA_PROBE )
+	if ( lanes == 16 ? !__builtin_cpu_supports( "avx512f" )
+					 : !( __builtin_cpu_supports( "avx2" ) && __builtin_cpu_supports( "fma" ) ) )
+		return 0.0;
+	const uint64_t rounds = 1u << 20;
+	double best = 0.0;
+	for ( int run = 0; run < 8; ++run )
+	{
+		double t0 = BenchNowUs();
+		g_fmaSink = lanes == 16 ? FmaChains16( rounds ) : FmaChains8( rounds );
+		double us = BenchNowUs() - t0;
+		double rate = (double)rounds * CROWD_FMA_CHAINS * lanes / us;
+		best = run > 0 && rate > best ? rate : best; // run 0 warms the clock up
+	}
+	return best;
+#else
+	(void)lanes;
+	return 0.0;
+#endif
+}
+
+// The MLP and blend-shape multiply-adds of one step of the asset at `path` (0 if it cannot be read).
+static double AssetStepMacs( const char* path )
+{
+	size_t size = 0;
+	uint8_t* bytes = BenchReadFile( path, &size );
+	plAssetData a;
+	double macs = 0.0;
+	if ( bytes != NULL && plAssetData_Parse( bytes, size, 0, &a ) == PLEAT_RESULT_OK )
+	{
+		for ( uint32_t i = 0; i < a.lp_layer_count; ++i )
+			macs += (double)plLayerMacs( &a.lp[i] );
+		for ( uint32_t i = 0; i < a.dec_layer_count; ++i )
+			macs += (double)plLayerMacs( &a.dec[i] );
+		macs += (double)a.blend_count * 3.0 * a.vertex_count;
+	}
+	free( bytes );
+	return macs;
+}
+
 static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t workers, BenchTwoWorkers* pool, uint32_t n,
 					 double seconds, CrowdResult* result )
 {
@@ -574,6 +666,15 @@ int main( int argc, char** argv )
 	plSelectKernels( &single_kernels, 0 );
 	const char* batch_isa = plSelectBatchKernels( &single_kernels, &batch_kernels ) ? batch_kernels.isa : "none";
 	double load_start = BenchLoadAverage();
+	// The compute floor's peak at the batch's vector width (16 lanes where the batched MLP and blend kernels are the
+	// AVX-512 ones), and the AVX2 one beside it for the record.
+	double peak_avx2 = MeasureFmaPeakMacsPerUs( 8 ), peak_avx512 = MeasureFmaPeakMacsPerUs( 16 );
+	double peak = strstr( batch_isa, "avx512f" ) != NULL ? peak_avx512 : peak_avx2;
+	double asset_macs[CROWD_MAX_ASSETS];
+	for ( uint32_t a = 0; a < asset_count; ++a )
+	{
+		asset_macs[a] = AssetStepMacs( paths[a] );
+	}
 
 	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
 	if ( out == NULL )
@@ -583,8 +684,11 @@ int main( int argc, char** argv )
 	}
 	fprintf( out,
 			 "{\n  \"isa\": \"%s\",\n  \"batch_isa\": \"%s\",\n  \"clock\": \"%s\",\n  \"seconds_per_case\": %.2f,\n"
-			 "  \"rounds\": %u,\n  \"loadavg_start\": %.2f,\n  \"results\": [\n",
-			 isa, batch_isa, g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", seconds, rounds, load_start );
+			 "  \"rounds\": %u,\n  \"loadavg_start\": %.2f,\n"
+			 "  \"fma_peak_gmacs\": {\"avx2_fma\": %.1f, \"avx512f\": %.1f, \"floor_uses\": \"%s\"},\n"
+			 "  \"results\": [\n",
+			 isa, batch_isa, g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", seconds, rounds, load_start,
+			 peak_avx2 / 1e3, peak_avx512 / 1e3, peak == peak_avx512 && peak > 0.0 ? "avx512f" : "avx2_fma" );
 	// Every round sweeps assets × workers × counts; results[round][asset][workers][count].
 	size_t cases = (size_t)asset_count * worker_count * count_count;
 	CrowdResult* results = (CrowdResult*)calloc( cases * rounds, sizeof( CrowdResult ) );
@@ -663,18 +767,23 @@ int main( int argc, char** argv )
 				single_step_1_worker_us = workers[0] == 1 ? results[asset_base + c].single_us : 0.0;
 			}
 		}
+		size_t asset_index = k / ( (size_t)worker_count * count_count );
+		double floor_us = peak > 0.0 ? asset_macs[asset_index] / peak / r.workers : 0.0;
 		fprintf( out,
 				 "%s    {\"asset\": \"%s\", \"workers\": %u, \"instances\": %u, \"isa\": \"%s\", "
 				 "\"single_isa\": \"%s\", \"batch_isa\": \"%s\", "
 				 "\"batch_us_per_instance\": %.2f, \"one_by_one_us_per_instance\": %.2f, "
 				 "\"batch_us_per_instance_min\": %.2f, \"one_by_one_us_per_instance_min\": %.2f, "
 				 "\"batch_vs_one_by_one\": %.3f, \"batch_vs_single_step\": %.3f, "
-				 "\"batch_vs_single_step_1_worker\": %.3f, \"iterations\": %u, \"rounds\": %u, "
+				 "\"batch_vs_single_step_1_worker\": %.3f, \"step_macs\": %.0f, "
+				 "\"compute_floor_us_per_instance\": %.2f, \"floor_vs_single_step_1_worker\": %.3f, "
+				 "\"iterations\": %u, \"rounds\": %u, "
 				 "\"bit_identical\": %s, \"all_steps_ok\": %s}",
 				 first ? "" : ",\n", r.label, r.workers, r.count, isa, isa, r.count > 1 ? batch_isa : isa, r.batch_us,
 				 r.single_us, r.batch_min_us, r.single_min_us, r.single_us > 0.0 ? r.batch_us / r.single_us : 0.0,
 				 single_step_us > 0.0 ? r.batch_us / single_step_us : 0.0,
-				 single_step_1_worker_us > 0.0 ? r.batch_us / single_step_1_worker_us : 0.0, r.iterations, used,
+				 single_step_1_worker_us > 0.0 ? r.batch_us / single_step_1_worker_us : 0.0, asset_macs[asset_index],
+				 floor_us, single_step_1_worker_us > 0.0 ? floor_us / single_step_1_worker_us : 0.0, r.iterations, used,
 				 r.bit_identical ? "true" : "false", r.all_ok ? "true" : "false" );
 		fflush( out );
 		first = 0;
