@@ -79,8 +79,8 @@ void plFindLayerBlocks( plLayer* layer )
 	layer->block_count = 0;
 	uint64_t dense = (uint64_t)layer->out_count * layer->in_count;
 	uint64_t best = dense - dense / 4; // a split must save at least a quarter of the multiply-adds
-	static const uint32_t parts[3] = { 2, 4, 8 };
-	for ( int p = 0; p < 3; ++p )
+	static const uint32_t parts[5] = { 2, 3, 4, 6, 8 }; // ensembles of 2–8 members; 6 is not a power of two
+	for ( int p = 0; p < 5; ++p )
 	{
 		uint32_t n = parts[p];
 		if ( n > PLEAT_MAX_LAYER_BLOCKS || layer->out_count % n != 0 )

@@ -93,6 +93,16 @@ static void test_finds_the_blocks_of_ensemble_layers_and_none_where_they_do_not_
 		assert_int_equal( plLayerMacs( &t.layer ), 64 * 32 );
 		plBlockLayer_Free( &t );
 
+		// Six members: six blocks (a sixth of the work), found although six is not a power of two.
+		const uint32_t six[7] = { 0, 32, 64, 96, 128, 160, 192 };
+		t = plBlockLayer_Make( 192, 96, 6, six, UINT32_MAX, fp16 );
+		plFindLayerBlocks( &t.layer );
+		assert_int_equal( t.layer.block_count, 6 );
+		assert_int_equal( t.layer.blocks[5].row_begin, 80 );
+		assert_int_equal( t.layer.blocks[5].col_begin, 160 );
+		assert_int_equal( plLayerMacs( &t.layer ), 96 * 32 );
+		plBlockLayer_Free( &t );
+
 		// Windows not on 16-column boundaries are widened to them (and end at in_count): [0, 32) and [16, 40).
 		const uint32_t ragged[3] = { 0, 20, 40 };
 		t = plBlockLayer_Make( 40, 16, 2, ragged, UINT32_MAX, fp16 );
