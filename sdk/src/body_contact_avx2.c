@@ -71,7 +71,8 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 			}
 			any = 1;
 			const float* x = (const float*)( (const uint8_t*)positions + (size_t)v * position_stride_bytes );
-			position[i] = _mm_movelh_ps( _mm_castpd_ps( _mm_load_sd( (const double*)x ) ), _mm_load_ss( x + 2 ) );
+			// (x, y) by an unaligned 8-byte load (positions are only 4-byte aligned), z alone: no read past the vertex
+			position[i] = _mm_movelh_ps( _mm_castsi128_ps( _mm_loadl_epi64( (const __m128i*)x ) ), _mm_load_ss( x + 2 ) );
 			const float* r = shaped_anchors + (size_t)v * 3;
 			if ( K == 4 ) // the common case: a constant trip count, fully unrolled
 			{
