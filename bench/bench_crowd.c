@@ -80,7 +80,6 @@ static uint32_t ParseList( const char* text, uint32_t* out, uint32_t capacity )
 	return n;
 }
 
-// Steps set a with plStepInstances and set b one by one (order by iteration parity), n instances each.
 // ---- The compute floor: what no kernel can beat on this core ----
 // A batch reads each weight once, so what is left per instance is arithmetic: the MLPs' multiply-adds (the blocks the
 // runtime skips not counted, plLayerMacs) and the blend shapes' D · 3N. The floor is that count at this core's peak
@@ -124,7 +123,8 @@ __attribute__( ( target( "avx512f" ) ) ) static float FmaChains16( uint64_t roun
 static volatile float g_fmaSink;
 
 // Peak fp32 multiply-adds per µs of this thread at `lanes` (8: AVX2 + FMA, 16: AVX-512), the best of 7 runs of
-// about 20 ms (the least disturbed by other processes); 0 where this build or CPU cannot run them.
+// 12.6 M FMAs each (a few ms; the best is the least disturbed by other processes), after one that wakes the clock up;
+// 0 where this build or CPU cannot run them.
 static double MeasureFmaPeakMacsPerUs( uint32_t lanes )
 {
 #if defined( CROWD_FMA_PROBE )
@@ -167,6 +167,7 @@ static double AssetStepMacs( const char* path )
 	return macs;
 }
 
+// Steps set a with plStepInstances and set b one by one (order by iteration parity), n instances each.
 static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t workers, BenchTwoWorkers* pool, uint32_t n,
 					 double seconds, CrowdResult* result )
 {
