@@ -32,6 +32,8 @@
 // before and after the run (/proc/loadavg). --rounds R (default 1) runs the whole sweep R times and reports, per entry,
 // the median over the rounds of each round's median (and the least minimum), the ratios from those medians: on a shared
 // machine another process busy for a few seconds then spoils one round of a case, not the case.
+// Beside them, the compute floor of the same run (fma_peak_gmacs, step_macs, compute_floor_us_per_instance,
+// floor_vs_single_step_1_worker; "The compute floor" below): how close to the target any batching could come.
 // --clock cpu is this thread's CPU time: with two workers it leaves out the helper's share, so wall (the default) is
 // the clock for every comparison here.
 #define _POSIX_C_SOURCE 200809L
