@@ -1,7 +1,6 @@
 // The scene (pleat.h, SCENE BUDGET; docs/scene-budget.md): characters dressed in one garment that comes in several
 // tiers, a level of detail per character chosen every frame by the budget policy (scene_budget.c), switches that
-// cross-fade, one plStepInstances call per frame for every network detail shown, and the LBS-only characters' geometry
-// in lane groups through the same batched kernels (plStepLbsLevel).
+// cross-fade, and one plStepInstances call per frame for every network detail shown.
 //
 // Levels: [0] LBS-only, then for each tier its full rate and each reduced rate. Every character has one instance per
 // tier (created with it), so a switch allocates nothing: the new tier's instance is reset (its latent restarts from
@@ -11,11 +10,9 @@
 // (test_tier_switch_does_not_pop). LBS-only skins tiers[0]'s shaped template with the frame's skinning matrices,
 // without touching the instance's history. Outputs live on the display mesh (tiers[0]'s); other meshes are carried
 // over by tier_transfer.c.
-#include "kernels_batch.h"
 #include "scene.h"
 
 #include <math.h>
-#include <stdatomic.h>
 #include <string.h>
 
 // Cost model of a tier when the def gives none (µs, a crowd on one core; docs/scene-budget.md, "Costs"): the batched
@@ -30,10 +27,6 @@
 #define PLEAT_COST_US_PER_DISPLAY_VERTEX 0.012
 #define PLEAT_COST_US_FIXED 2.0
 #define PLEAT_COST_US_PER_STREAMED_BYTE 0.0067e-3
-// A character's cross-fade (plCrossFade: three passes over the display mesh, a square root per vertex) on top of its
-// two details: ≈ 12 µs a frame on the 1k shirt (100 characters faded at once from one detail to another, against the
-// two details' steady costs).
-#define PLEAT_COST_US_CROSSFADE_PER_VERTEX 0.012
 
 plSceneDef plDefaultSceneDef( void )
 {
@@ -295,7 +288,7 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 		(size_t)cap * sizeof( uint32_t ),         (size_t)cap * sizeof( int32_t ), (size_t)cap * sizeof( int32_t ),
 		(size_t)cap * sizeof( float ),            (size_t)cap * sizeof( uint32_t ), s->budget_scratch_bytes + live_ids,
 		(size_t)cap * 2 * sizeof( plInstance ),   (size_t)cap * 2 * sizeof( plFrameInput ),
-		(size_t)cap * 2 * sizeof( plResult ),     2 * display, (size_t)sums * 16, 0, (size_t)cap * 2 * sizeof( plResult ) };
+		(size_t)cap * 2 * sizeof( plResult ),     2 * display, (size_t)sums * 16, 0, (size_t)cap * sizeof( plResult ) };
 	size_t transfer = 0;
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
 	{
@@ -343,7 +336,6 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	s->fade_normals = s->fade_positions + (size_t)n0 * 3;
 	s->lbs_sums = (float*)parts[13];
 	s->verdicts = (plResult*)parts[15];
-	s->lbs_results = s->verdicts + cap;
 	uint8_t* q = (uint8_t*)parts[14];
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
 	{
@@ -660,12 +652,6 @@ plResult plScene_GetCharacterUserData( plScene handle, uint32_t character, void*
 
 // ---- the step ----
 
-// What a fade adds to a character's frame: the old detail stepped as well, and the cross-fade.
-static float plFadeCost( const plSceneData* s, uint32_t old_level )
-{
-	return s->levels[old_level].cost_us + (float)( PLEAT_COST_US_CROSSFADE_PER_VERTEX * s->display_vertex_count );
-}
-
 // The policy's plan for every live character (compacted: the job sees only live ones).
 static plResult plPlan( plSceneData* s, uint32_t* live, uint32_t live_count )
 {
@@ -678,7 +664,7 @@ static plResult plPlan( plSceneData* s, uint32_t* live, uint32_t live_count )
 		// A fade runs to its end before the next switch; an override is the engine's.
 		s->pinned[m] = c->override_level >= 0 ? c->override_level : ( fading ? (int32_t)c->level : -1 );
 		s->held[m] = c->stepped && c->frames_since_switch < s->min_frames_between_switches ? (int32_t)c->level : -1;
-		s->extra_cost_us[m] = fading ? plFadeCost( s, c->fade_from ) : 0.0f;
+		s->extra_cost_us[m] = fading ? s->levels[c->fade_from].cost_us : 0.0f;
 	}
 	float cost = 0.0f;
 	plSceneBudgetJob job = { s->levels,
@@ -727,19 +713,13 @@ static void plSwitch( plSceneData* s, plSceneCharacter* c, uint32_t target )
 	}
 	c->fade_from = c->level;
 	c->fade_alpha = c->stepped ? 0.0f : 1.0f;
-	if ( c->stepped )
-	{
-		// This frame steps the old detail too. The frame's modelled cost counts it, as the plan counts the fades in
-		// flight (extra_cost_us), so that the cost correction does not read the switches as a slower machine.
-		s->model_cost_us += plFadeCost( s, c->level );
-		s->plan.cost_us = s->model_cost_us * s->cost_scale;
-	}
 	c->level = target;
 }
 
-// LBS-only on the display mesh, in two parts. The pose: forward kinematics of tiers[0]'s instance (its scratch frame
-// only: the history is not touched) into its next_skin_matrices.
-static plResult plLbsPose( plSceneCharacter* c, const plFrameInput* input )
+// LBS-only on the display mesh: forward kinematics of tiers[0]'s instance (its scratch frame only: the history is not
+// touched), its shaped template skinned, normals. Into positions / normals [N0][3].
+static plResult plStepLbs( plSceneData* s, plSceneCharacter* c, const plFrameInput* input, float* positions,
+						   float* normals )
 {
 	plInstanceData* inst = plGetInstanceData( c->instances[0] );
 	const plAssetData* a = inst->asset;
@@ -750,35 +730,11 @@ static plResult plLbsPose( plSceneCharacter* c, const plFrameInput* input )
 		return r;
 	}
 	double dt = input->dt_s < a->dt_min_s ? a->dt_min_s : ( input->dt_s > a->dt_max_s ? a->dt_max_s : input->dt_s );
-	return plRunForwardKinematics( inst, &pose, dt, inst->history_valid ? inst->history[0].yaw : 0.0 );
-}
-
-// Normals of positions [N0][3] into normals, on the calling thread.
-static plResult plLbsNormals( plSceneData* s, const float* positions, float* normals )
-{
-	const plAssetData* a = s->tiers[0].asset;
-	uint32_t n = a->vertex_count;
-	if ( a->face_count >= n )
+	r = plRunForwardKinematics( inst, &pose, dt, inst->history_valid ? inst->history[0].yaw : 0.0 );
+	if ( r != PLEAT_RESULT_OK )
 	{
-		plNormalsScatterJob scatter = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count,
-										plMakeSpan( normals, n, 12 ), s->lbs_sums, a->face_count, &s->ctx->kernels };
-		return plNormalsScatterJob_Run( &scatter ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
+		return r;
 	}
-	plFaceNormalsJob faces = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count, s->lbs_sums, 0,
-							   a->face_count, &s->ctx->kernels };
-	plNormalsGatherJob gather = { s->lbs_sums, a->face_count, a->adjacency_offsets, a->adjacency_faces,
-								  plMakeSpan( normals, n, 12 ), 0, n, &s->ctx->kernels };
-	return plFaceNormalsJob_Run( &faces ) == PLEAT_RESULT_OK && plNormalsGatherJob_Run( &gather ) == PLEAT_RESULT_OK
-			   ? PLEAT_RESULT_OK
-			   : PLEAT_RESULT_INTERNAL_ERROR;
-}
-
-// The geometry, after plLbsPose: tiers[0]'s shaped template skinned with next_skin_matrices, body contact, normals,
-// into positions / normals [N0][3].
-static plResult plLbsGeometry( plSceneData* s, plSceneCharacter* c, float* positions, float* normals )
-{
-	plInstanceData* inst = plGetInstanceData( c->instances[0] );
-	const plAssetData* a = inst->asset;
 	uint32_t n = a->vertex_count;
 	plSkinningJob skin = { plMakeConstSpan( inst->shaped_template, n, 12 ),
 						   a->skin_indices,
@@ -799,115 +755,19 @@ static plResult plLbsGeometry( plSceneData* s, plSceneCharacter* c, float* posit
 	{
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
-	return plLbsNormals( s, positions, normals );
-}
-
-static plResult plStepLbs( plSceneData* s, plSceneCharacter* c, const plFrameInput* input, float* positions,
-						   float* normals )
-{
-	plResult r = plLbsPose( c, input );
-	return r == PLEAT_RESULT_OK ? plLbsGeometry( s, c, positions, normals ) : r;
-}
-
-#define PLEAT_LBS_LANES_MAX 16
-
-// plLbsGeometry of `count` characters at once (count <= the batched kernels' geometry lanes), into their back buffers:
-// skinning, body contact and normals through the batched geometry kernels (kernels_batch.h), whose lanes are
-// characters and which do per lane the single kernels' operations in the same order, so every character gets
-// plLbsGeometry's bits. Normals one by one where no scratch block is free.
-static void plLbsGeometryLanes( plSceneData* s, const plBatchKernels* kernels, plSceneCharacter* const* group,
-								uint32_t count, plResult* const* results )
-{
-	const plAssetData* a = s->tiers[0].asset;
-	uint32_t n = a->vertex_count;
-	const float* in[PLEAT_LBS_LANES_MAX];
-	const float* matrices[PLEAT_LBS_LANES_MAX];
-	float* positions[PLEAT_LBS_LANES_MAX];
-	float* normals[PLEAT_LBS_LANES_MAX];
-	float* contact_positions[PLEAT_LBS_LANES_MAX];
-	const float* contact_anchors[PLEAT_LBS_LANES_MAX];
-	const float* contact_matrices[PLEAT_LBS_LANES_MAX];
-	float contact_offsets[PLEAT_LBS_LANES_MAX];
-	uint32_t contact_count = 0;
-	for ( uint32_t k = 0; k < count; ++k )
+	if ( a->face_count >= n )
 	{
-		plInstanceData* inst = plGetInstanceData( group[k]->instances[0] );
-		in[k] = inst->shaped_template;
-		matrices[k] = inst->next_skin_matrices;
-		positions[k] = group[k]->back_positions;
-		normals[k] = group[k]->back_normals;
-		if ( inst->body_contact )
-		{
-			contact_positions[contact_count] = positions[k];
-			contact_anchors[contact_count] = inst->shaped_anchors;
-			contact_matrices[contact_count] = matrices[k];
-			contact_offsets[contact_count++] = inst->body_contact_offset_m;
-		}
+		plNormalsScatterJob scatter = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count,
+										plMakeSpan( normals, n, 12 ), s->lbs_sums, a->face_count, &s->ctx->kernels };
+		return plNormalsScatterJob_Run( &scatter ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 	}
-	kernels->skinning_batch( positions, in, count, a->skin_indices, a->skin_weights, a->influence_count, matrices,
-							 a->joint_count, 0, n );
-	if ( contact_count > 0 )
-	{
-		kernels->body_contact_batch( contact_positions, contact_anchors, contact_offsets, contact_count,
-									 a->body_anchor_normals, a->body_anchor_skin_indices, a->body_anchor_skin_weights,
-									 a->body_anchor_influence_count, contact_matrices, a->joint_count, 0, n );
-	}
-	int slot = plClaimScratch( s->ctx, plNormalsBatchScratchFloats( n, kernels->geometry_lanes ) );
-	if ( slot >= 0 )
-	{
-		kernels->normals_batch( normals, (const float* const*)positions, count, n, a->faces, a->face_count,
-								s->ctx->batch_scratch[slot] );
-		atomic_store_explicit( &s->ctx->batch_scratch_busy[slot], 0, memory_order_release );
-		return;
-	}
-	for ( uint32_t k = 0; k < count; ++k )
-	{
-		*results[k] = plLbsNormals( s, positions[k], normals[k] );
-	}
-}
-
-// The LBS-only level of this frame, before the results are gathered: every live character whose spans passed and
-// whose detail is LBS-only gets plStepLbs into its back buffers and its result in lbs_results — the poses one by one,
-// the geometry in lane groups (plLbsGeometryLanes), or one by one (plLbsGeometry) without batched kernels (the scalar
-// set) or on a mesh with fewer faces than vertices (whose normals take the face-normal gather, which has no twin).
-static void plStepLbsLevel( plSceneData* s, const uint32_t* live, uint32_t live_count, const plFrameInput* inputs )
-{
-	const plAssetData* a = s->tiers[0].asset;
-	plBatchKernels kernels;
-	int lanes_form = plSelectBatchKernels( &s->ctx->kernels, &kernels ) && kernels.geometry_lanes > 1 &&
-					 kernels.geometry_lanes <= PLEAT_LBS_LANES_MAX && a->face_count >= a->vertex_count;
-	plSceneCharacter* group[PLEAT_LBS_LANES_MAX];
-	plResult* results[PLEAT_LBS_LANES_MAX];
-	uint32_t count = 0;
-	for ( uint32_t m = 0; m < live_count; ++m )
-	{
-		plSceneCharacter* c = &s->characters[live[m]];
-		if ( s->verdicts[m] != PLEAT_RESULT_OK || plLevelTier( s, c->level ) >= 0 )
-		{
-			continue;
-		}
-		s->lbs_results[m] = plLbsPose( c, &inputs[live[m]] );
-		if ( s->lbs_results[m] != PLEAT_RESULT_OK )
-		{
-			continue;
-		}
-		if ( !lanes_form )
-		{
-			s->lbs_results[m] = plLbsGeometry( s, c, c->back_positions, c->back_normals );
-			continue;
-		}
-		group[count] = c;
-		results[count++] = &s->lbs_results[m];
-		if ( count == kernels.geometry_lanes )
-		{
-			plLbsGeometryLanes( s, &kernels, group, count, results );
-			count = 0;
-		}
-	}
-	if ( count > 0 )
-	{
-		plLbsGeometryLanes( s, &kernels, group, count, results );
-	}
+	plFaceNormalsJob faces = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count, s->lbs_sums, 0,
+							   a->face_count, &s->ctx->kernels };
+	plNormalsGatherJob gather = { s->lbs_sums, a->face_count, a->adjacency_offsets, a->adjacency_faces,
+								  plMakeSpan( normals, n, 12 ), 0, n, &s->ctx->kernels };
+	return plFaceNormalsJob_Run( &faces ) == PLEAT_RESULT_OK && plNormalsGatherJob_Run( &gather ) == PLEAT_RESULT_OK
+			   ? PLEAT_RESULT_OK
+			   : PLEAT_RESULT_INTERNAL_ERROR;
 }
 
 // A network detail's last outputs (its tier's instance, just stepped) on the display mesh.
@@ -1096,7 +956,6 @@ plResult plScene_Step( plScene handle, const plFrameInput* inputs, const plStepO
 		}
 	}
 	plStepInstances( handle.context, s->step_instances, s->step_inputs, NULL, s->step_results, steps );
-	plStepLbsLevel( s, live, live_count, inputs );
 
 	plResult first_error = PLEAT_RESULT_OK, first_note = PLEAT_RESULT_OK;
 	uint32_t k = 0, fading = 0;
@@ -1127,7 +986,7 @@ plResult plScene_Step( plScene handle, const plFrameInput* inputs, const plStepO
 		uint32_t joints = s->tiers[0].asset->joint_count;
 		if ( result >= 0 && tier < 0 )
 		{
-			result = s->lbs_results[m]; // plStepLbsLevel's
+			result = plStepLbs( s, c, &inputs[id], c->back_positions, c->back_normals );
 			memcpy( c->skin_matrices, plGetInstanceData( c->instances[0] )->next_skin_matrices,
 					(size_t)joints * 12 * sizeof( float ) );
 		}

@@ -144,7 +144,6 @@ typedef struct plSceneData
 	float* fade_normals;
 	float* lbs_sums;              // [max(N0, F0)][4] normals scratch of the LBS-only detail
 	plResult* verdicts;           // [capacity] a step's checks of each live character's output spans
-	plResult* lbs_results;        // [capacity] the LBS-only level's step of each live character shown on it
 	void* block;                  // everything above in one allocation
 	size_t block_size;
 } plSceneData;
