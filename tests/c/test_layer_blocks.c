@@ -165,9 +165,9 @@ static plSets plGetSets( void )
 	return sets;
 }
 
-// A packed pair's f_dec-like chain: a dense first layer, a block-diagonal hidden layer with ragged windows (member
-// widths 40: windows widened to 16-column boundaries, and a scalar tail), a block-diagonal output layer. The same
-// chain with blocks and with block_count = 0, every kernel set: the same bits.
+// A packed ensemble's f_dec-like chain: a dense first layer, a block-diagonal hidden layer of six members with ragged
+// windows (member widths 20: windows widened to 16-column boundaries, and a scalar tail), a block-diagonal output
+// layer of two. The same chain with blocks and with block_count = 0, every kernel set: the same bits.
 static void test_blocked_chain_gives_the_dense_bits( void** state )
 {
 	(void)state;
@@ -175,15 +175,16 @@ static void test_blocked_chain_gives_the_dense_bits( void** state )
 	{
 		N = 21, // two lane groups of the lanes form, the second partial
 		IN = 37,
-		HIDDEN = 80,
+		HIDDEN = 120,
 		OUT = 26
 	};
-	const uint32_t dense_cols[2] = { 0, IN }, hidden_cols[3] = { 0, 40, 80 }, out_cols[3] = { 0, 40, 80 };
+	const uint32_t dense_cols[2] = { 0, IN }, hidden_cols[7] = { 0, 20, 40, 60, 80, 100, 120 },
+				   out_cols[3] = { 0, 60, 120 };
 	plSets sets = plGetSets();
 	for ( int fp16 = 0; fp16 < 2; ++fp16 )
 	{
 		plBlockLayer t[3] = { plBlockLayer_Make( IN, HIDDEN, 1, dense_cols, UINT32_MAX, fp16 ),
-							 plBlockLayer_Make( HIDDEN, HIDDEN, 2, hidden_cols, UINT32_MAX, fp16 ),
+							 plBlockLayer_Make( HIDDEN, HIDDEN, 6, hidden_cols, UINT32_MAX, fp16 ),
 							 plBlockLayer_Make( HIDDEN, OUT, 2, out_cols, UINT32_MAX, fp16 ) };
 		plLayer dense[3], blocked[3];
 		for ( int l = 0; l < 3; ++l )
@@ -193,7 +194,7 @@ static void test_blocked_chain_gives_the_dense_bits( void** state )
 			plFindLayerBlocks( &blocked[l] );
 		}
 		assert_int_equal( blocked[0].block_count, 0 );
-		assert_int_equal( blocked[1].block_count, 2 );
+		assert_int_equal( blocked[1].block_count, 6 );
 		assert_int_equal( blocked[2].block_count, 2 );
 		static float xs[N][IN], y_dense[N][OUT], y_blocked[N][OUT], scratch[N][2 * HIDDEN];
 		plConstSpan inputs[N];
