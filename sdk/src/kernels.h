@@ -43,7 +43,7 @@ static inline int plBlockRowsWithin( const plLayerBlock* block, uint32_t begin, 
 }
 // Multiply-adds of one evaluation of the layer as its blocks run (in_count · out_count when dense).
 uint64_t plLayerMacs( const plLayer* layer );
-// Finds the blocks of a layer whose weights are block-structured (rows in 2, 4 or 8 equal parts, each with zeros
+// Finds the blocks of a layer whose weights are block-structured (rows in 2, 3, 4, 6 or 8 equal parts, each with zeros
 // outside one column window) when that saves at least a quarter of the multiply-adds; leaves block_count 0 otherwise.
 void plFindLayerBlocks( plLayer* layer );
 

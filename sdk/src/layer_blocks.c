@@ -1,5 +1,5 @@
 // Block-structured layers: rows whose weights are zero outside one column window are multiplied over that window only.
-// A packed ensemble (pleat.train.ensemble: two medium fits side by side as one large network) has block-diagonal
+// A packed ensemble (pleat.train.ensemble: two member fits side by side as one large network) has block-diagonal
 // hidden and output layers, so half of its multiply-adds are 0 · x; found here once at load, they are skipped, and the
 // ensemble costs about what its members cost instead of what a dense network of its sizes costs. The windows are
 // widened to 16-column boundaries so each kernel's FMA chains over a window are those of the whole row: the results

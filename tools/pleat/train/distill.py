@@ -98,13 +98,14 @@ def principal_shapes(seqs, D, free_mask=None):
     From the 3N × 3N Gram matrix, summed over chunks of frames: with teacher-only frames (simsup.distill_tiers) the
     frames outnumber 3N thirtyfold, and an SVD of them all at once holds several copies of a 2.4 GB matrix."""
     mask = None if free_mask is None else np.repeat(np.asarray(free_mask, np.float64), 3)[None]
-    gram, rows, chunk = 0.0, 0, []
+    gram, rows, chunk, pending = 0.0, 0, [], 0
     for k, s in enumerate(seqs):
         chunk.append(s["disp"].reshape(len(s["disp"]), -1))
-        if sum(len(c) for c in chunk) >= 4096 or k == len(seqs) - 1:
+        pending += len(chunk[-1])
+        if pending >= 4096 or k == len(seqs) - 1:
             X = np.concatenate(chunk)
             X = X * mask if mask is not None else X
-            gram, rows, chunk = gram + X.T @ X, rows + len(X), []
+            gram, rows, chunk, pending = gram + X.T @ X, rows + len(X), [], 0
     evals, V = np.linalg.eigh(gram)
     order = np.argsort(evals)[::-1]
     S, Vt = np.sqrt(np.maximum(evals[order], 0.0)), V[:, order].T
