@@ -1,7 +1,7 @@
 // Timing program (not a test): GL compute path vs CPU path on the shipped garment size, on whatever GL the machine
 // has (Mesa llvmpipe here). Prints medians; docs/gpu.md records the numbers.
 //
-//   pleat_gl_step_timing [--frames N] [ASSET.pleat]
+//   pleat_gl_step_timing [--frames N] [--crowd 1,8,64] [ASSET.pleat]
 //
 // 1. Deformation only, on the 4,424-vertex test mesh (tests/c/test_gl_support.c) with D = 128 blend shapes, K = 4,
 //    J = 24: the CPU jobs (blend_shapes.c, skinning.c, normals.c through the context's kernel choice, one thread) vs
@@ -9,6 +9,13 @@
 //    the GPU work; without it Run only queues commands).
 // 2. With an asset: plInstance_Step with gpu_mode PLEAT_GPU_MODE_NONE vs PLEAT_GPU_MODE_HEADLESS over the same motion, stepped
 //    alternately, plus the largest CPU/GL output difference.
+// 3. With an asset and --crowd 1,8,64 (issue 13): per count n, three crowds of n instances of the asset, stepped
+//    alternately frame by frame on the same motion (each instance its own phase): plStepInstances on headless GPU
+//    instances (networks batched on the CPU, one dispatch per shader for the group), plInstance_Step one by one on
+//    headless GPU instances, and plStepInstances on CPU instances (one worker). Per-instance medians. The GPU crowds
+//    read back only their last instance's positions and normals, which waits for all the frame's GPU work (an engine
+//    would draw from the GPU buffers instead); the CPU crowd writes every instance's outputs. Also the largest
+//    differences (position m, normal) between the GL batch's last instance and the other two crowds'.
 #include "jobs.h"
 #include "gl/gl_internal.h"
 #include "test_gl_support.h"
@@ -144,6 +151,30 @@ static int plTimeDeformation( uint32_t frames )
 }
 
 #ifndef PLEAT_GL_TIMING_NO_INSTANCE // (set only by scratch builds without instance.c)
+// A smooth swing of every joint about a per-joint axis, ±0.4 rad, and a walking root; phase shifts the swing (one per
+// crowd member). rotations: [4 joint_count], filled here and referenced by the input.
+static plFrameInput plSwingFrame( uint32_t frame, double phase, float* rotations, uint32_t joint_count )
+{
+	double t = frame / 30.0;
+	for ( uint32_t k = 0; k < joint_count; ++k )
+	{
+		double angle = 0.4 * sin( 2.0 * t + 0.5 * k + phase ), ax = cos( 0.7 * k ), az = sin( 0.7 * k );
+		double s = sin( 0.5 * angle );
+		rotations[4 * k] = (float)( s * ax );
+		rotations[4 * k + 1] = 0.0f;
+		rotations[4 * k + 2] = (float)( s * az );
+		rotations[4 * k + 3] = (float)cos( 0.5 * angle );
+	}
+	plFrameInput input;
+	memset( &input, 0, sizeof( input ) );
+	input.joint_rotations = rotations;
+	input.joint_count = joint_count;
+	input.root_translation = ( plVec3 ){ 0.0f, 0.0f, (float)( 1.2 * t ) };
+	input.root_rotation = ( plQuat ){ 0.0f, 0.0f, 0.0f, 1.0f };
+	input.dt_s = 1.0f / 30.0f;
+	return input;
+}
+
 static int plTimeInstances( const char* path, uint32_t frames )
 {
 	plContextDef context_def = plDefaultContextDef();
@@ -178,24 +209,7 @@ static int plTimeInstances( const char* path, uint32_t frames )
 	double worst_position = 0.0, worst_normal = 0.0;
 	for ( uint32_t frame = 0; frame < frames; ++frame )
 	{
-		// A smooth swing of every joint about a per-joint axis, ±0.4 rad, and a walking root.
-		double t = frame / 30.0;
-		for ( uint32_t k = 0; k < j; ++k )
-		{
-			double angle = 0.4 * sin( 2.0 * t + 0.5 * k ), ax = cos( 0.7 * k ), az = sin( 0.7 * k );
-			double s = sin( 0.5 * angle );
-			rotations[4 * k] = (float)( s * ax );
-			rotations[4 * k + 1] = 0.0f;
-			rotations[4 * k + 2] = (float)( s * az );
-			rotations[4 * k + 3] = (float)cos( 0.5 * angle );
-		}
-		plFrameInput input;
-		memset( &input, 0, sizeof( input ) );
-		input.joint_rotations = rotations;
-		input.joint_count = j;
-		input.root_translation = ( plVec3 ){ 0.0f, 0.0f, (float)( 1.2 * t ) };
-		input.root_rotation = ( plQuat ){ 0.0f, 0.0f, 0.0f, 1.0f };
-		input.dt_s = 1.0f / 30.0f;
+		plFrameInput input = plSwingFrame( frame, 0.0, rotations, j );
 		for ( int i = 0; i < 2; ++i )
 		{
 			plStepOutput output = { outputs + 6 * n * i, 0, outputs + 6 * n * i + 3 * n, 0, n };
@@ -226,10 +240,146 @@ static int plTimeInstances( const char* path, uint32_t frames )
 	free( step_s[1] );
 	return 0;
 }
+
+enum
+{
+	PL_CROWD_GL_BATCH,
+	PL_CROWD_GL_ONE_BY_ONE,
+	PL_CROWD_CPU_BATCH,
+	PL_CROWD_KINDS
+};
+
+// One count of the crowd timing (3. in the header); prints one JSON line.
+static int plTimeCrowd( plContext context, plAsset asset, const plAssetInfo* info, uint32_t count, uint32_t frames )
+{
+	static const char* names[PL_CROWD_KINDS] = { "gl_batch", "gl_one_by_one", "cpu_batch" };
+	uint32_t n = info->vertex_count, j = info->joint_count;
+	plInstance* instances = calloc( (size_t)PL_CROWD_KINDS * count, sizeof( plInstance ) );
+	plFrameInput* inputs = calloc( count, sizeof( plFrameInput ) );
+	plStepOutput* outputs = calloc( (size_t)PL_CROWD_KINDS * count, sizeof( plStepOutput ) );
+	float* rotations = malloc( sizeof( float ) * 4 * j * count );
+	float* last = malloc( sizeof( float ) * 6 * n * PL_CROWD_KINDS ); // the last instance's positions, normals
+	float* cpu_out = malloc( sizeof( float ) * 6 * n * count );
+	double* seconds = malloc( sizeof( double ) * frames * PL_CROWD_KINDS );
+	if ( !instances || !inputs || !outputs || !rotations || !last || !cpu_out || !seconds )
+		return 1;
+	for ( uint32_t kind = 0; kind < PL_CROWD_KINDS; ++kind )
+		for ( uint32_t i = 0; i < count; ++i )
+		{
+			plInstanceDef def = plDefaultInstanceDef();
+			def.asset = asset;
+			def.gpu_mode = kind == PL_CROWD_CPU_BATCH ? PLEAT_GPU_MODE_NONE : PLEAT_GPU_MODE_HEADLESS;
+			plResult result = plCreateInstance( context, &def, &instances[kind * count + i] );
+			if ( result != PLEAT_RESULT_OK )
+			{
+				printf( "crowd %u (%s): %s\n", count, names[kind], plResultString( result ) );
+				return 1;
+			}
+			plStepOutput* o = &outputs[kind * count + i];
+			memset( o, 0, sizeof( *o ) );
+			o->vertex_capacity = n;
+			if ( kind == PL_CROWD_CPU_BATCH )
+			{
+				o->positions = cpu_out + 6 * (size_t)n * i;
+				o->normals = cpu_out + 6 * (size_t)n * i + 3 * n;
+			}
+			if ( i + 1 == count )
+			{
+				o->positions = last + 6 * (size_t)n * kind;
+				o->normals = last + 6 * (size_t)n * kind + 3 * n;
+			}
+		}
+	double worst_position[PL_CROWD_KINDS] = { 0.0 }, worst_normal[PL_CROWD_KINDS] = { 0.0 }; // against the GL batch
+	const uint32_t warmup = 10;
+	for ( uint32_t frame = 0; frame < frames + warmup; ++frame )
+	{
+		for ( uint32_t i = 0; i < count; ++i )
+			inputs[i] = plSwingFrame( frame, 0.37 * i, rotations + 4 * (size_t)j * i, j );
+		for ( uint32_t kind = 0; kind < PL_CROWD_KINDS; ++kind )
+		{
+			const plInstance* set = instances + kind * count;
+			const plStepOutput* out = outputs + kind * count;
+			double t0 = plTestNowSeconds();
+			plResult result = PLEAT_RESULT_OK;
+			if ( kind == PL_CROWD_GL_ONE_BY_ONE )
+				for ( uint32_t i = 0; i < count && result >= 0; ++i )
+					result = plInstance_Step( set[i], &inputs[i], &out[i] );
+			else
+				result = plStepInstances( context, set, inputs, out, NULL, count );
+			double elapsed = plTestNowSeconds() - t0;
+			if ( result < 0 )
+			{
+				printf( "crowd %u (%s): %s\n", count, names[kind], plResultString( result ) );
+				return 1;
+			}
+			if ( frame >= warmup )
+				seconds[kind * frames + frame - warmup] = elapsed / count;
+		}
+		for ( uint32_t kind = 1; kind < PL_CROWD_KINDS; ++kind )
+		{
+			const float* other = last + 6 * (size_t)n * kind;
+			worst_position[kind] = fmax( worst_position[kind], plMaxDiff( last, other, 3 * (size_t)n ) );
+			worst_normal[kind] = fmax( worst_normal[kind], plMaxDiff( last + 3 * n, other + 3 * n, 3 * (size_t)n ) );
+		}
+	}
+	printf( "{\"instances\": %u, \"vertices\": %u", count, n );
+	for ( uint32_t kind = 0; kind < PL_CROWD_KINDS; ++kind )
+		printf( ", \"%s_us_per_instance\": %.2f", names[kind], 1e6 * plMedian( seconds + kind * frames, frames ) );
+	for ( uint32_t kind = 1; kind < PL_CROWD_KINDS; ++kind )
+		printf( ", \"gl_batch_vs_%s_max_diff\": [%.3g, %.3g]", names[kind], worst_position[kind], worst_normal[kind] );
+	printf( "}\n" );
+	for ( uint32_t k = 0; k < PL_CROWD_KINDS * count; ++k )
+		plDestroyInstance( instances[k] );
+	free( instances );
+	free( inputs );
+	free( outputs );
+	free( rotations );
+	free( last );
+	free( cpu_out );
+	free( seconds );
+	return 0;
+}
+
+static int plTimeCrowds( const char* path, const char* counts, uint32_t frames )
+{
+	plContextDef context_def = plDefaultContextDef();
+	plContext context;
+	plAssetDef asset_def = plDefaultAssetDef();
+	asset_def.path = path;
+	plAsset asset;
+	plAssetInfo info;
+	if ( plCreateContext( &context_def, &context ) != PLEAT_RESULT_OK ||
+		 plLoadAsset( context, &asset_def, &asset ) != PLEAT_RESULT_OK || plAsset_GetInfo( asset, &info ) != PLEAT_RESULT_OK )
+	{
+		fprintf( stderr, "cannot load %s\n", path );
+		return 1;
+	}
+	printf( "crowds of %s (per instance, median over %u frames; the CPU crowd on one worker):\n", path, frames );
+	int status = 0;
+	for ( const char* p = counts; *p != '\0'; )
+	{
+		char* end = NULL;
+		uint32_t count = (uint32_t)strtoul( p, &end, 10 );
+		if ( end == p )
+			break;
+		if ( count > 0 )
+			status |= plTimeCrowd( context, asset, &info, count, frames );
+		p = *end == ',' ? end + 1 : end;
+	}
+	plDestroyAsset( asset );
+	plDestroyContext( context );
+	return status;
+}
 #else
 static int plTimeInstances( const char* path, uint32_t frames )
 {
 	printf( "instance timing not built (%s, %u frames)\n", path, frames );
+	return 1;
+}
+
+static int plTimeCrowds( const char* path, const char* counts, uint32_t frames )
+{
+	printf( "crowd timing not built (%s, %s, %u frames)\n", path, counts, frames );
 	return 1;
 }
 #endif
@@ -238,10 +388,13 @@ int main( int argc, char** argv )
 {
 	uint32_t frames = 300;
 	const char* asset = NULL;
+	const char* crowd = NULL;
 	for ( int i = 1; i < argc; ++i )
 	{
 		if ( strcmp( argv[i], "--frames" ) == 0 && i + 1 < argc )
 			frames = (uint32_t)strtoul( argv[++i], NULL, 10 );
+		else if ( strcmp( argv[i], "--crowd" ) == 0 && i + 1 < argc )
+			crowd = argv[++i];
 		else
 			asset = argv[i];
 	}
@@ -250,5 +403,7 @@ int main( int argc, char** argv )
 	int status = plTimeDeformation( frames );
 	if ( asset != NULL )
 		status |= plTimeInstances( asset, frames );
+	if ( asset != NULL && crowd != NULL )
+		status |= plTimeCrowds( asset, crowd, frames );
 	return status;
 }
