@@ -86,7 +86,7 @@ class Setup:
         self.final_vertices = len(final)
         self.free_mask = np.ones(self.N, np.float32)
         self.free_mask[self.pinned] = 0.0
-        self.energies = sources.energies(self.template, self.faces, torch)
+        self.energies = sources.energies(self.template, self.faces, torch, device=self.device)
         lvl = np.eye(m["mp_levels"])[self.vertex_level]
         pin = np.zeros((self.N, 1))
         pin[self.pinned] = 1.0

@@ -85,13 +85,14 @@ def _motion_clips(split, fps, body_model=None, count_limit=None):
 class Energies:
     """Equation 4 terms for one garment from pleat.physics (torch path). material = (m kg/m², μ, λ, k)."""
 
-    def __init__(self, template, faces, torch, friction_mu=0.5, friction_eps_m=1e-3, collision_eps_m=4e-3):
+    def __init__(self, template, faces, torch, friction_mu=0.5, friction_eps_m=1e-3, collision_eps_m=4e-3,
+                 device=None):
         import pleat.physics as ph
         used["energies"] = "pleat.physics"
         self.ph, self.torch = ph, torch
         self.rest = ph.cloth_rest(template, faces)
         self._rest_t = None
-        self.faces = torch.as_tensor(self.rest.faces)
+        self.faces = torch.as_tensor(self.rest.faces, device=device)      # indexes the states on that device
         self.friction_mu, self.friction_eps, self.eps = friction_mu, friction_eps_m, collision_eps_m
 
     def rest_for(self, shaped, like):
@@ -125,5 +126,5 @@ class Energies:
     collision_weight = 1.0
 
 
-def energies(template, faces, torch):
-    return Energies(template, faces, torch)
+def energies(template, faces, torch, device=None):
+    return Energies(template, faces, torch, device=device)
