@@ -261,8 +261,10 @@ static int plTimeCrowd( plContext context, plAsset asset, const plAssetInfo* inf
 	float* last = malloc( sizeof( float ) * 6 * n * PL_CROWD_KINDS ); // the last instance's positions, normals
 	float* cpu_out = malloc( sizeof( float ) * 6 * n * count );
 	double* seconds = malloc( sizeof( double ) * frames * PL_CROWD_KINDS );
+	int status = 1;
+	uint32_t created = 0; // instances[0, created) exist
 	if ( !instances || !inputs || !outputs || !rotations || !last || !cpu_out || !seconds )
-		return 1;
+		goto done;
 	for ( uint32_t kind = 0; kind < PL_CROWD_KINDS; ++kind )
 		for ( uint32_t i = 0; i < count; ++i )
 		{
@@ -273,8 +275,9 @@ static int plTimeCrowd( plContext context, plAsset asset, const plAssetInfo* inf
 			if ( result != PLEAT_RESULT_OK )
 			{
 				printf( "crowd %u (%s): %s\n", count, names[kind], plResultString( result ) );
-				return 1;
+				goto done;
 			}
+			++created;
 			plStepOutput* o = &outputs[kind * count + i];
 			memset( o, 0, sizeof( *o ) );
 			o->vertex_capacity = n;
@@ -310,7 +313,7 @@ static int plTimeCrowd( plContext context, plAsset asset, const plAssetInfo* inf
 			if ( result < 0 )
 			{
 				printf( "crowd %u (%s): %s\n", count, names[kind], plResultString( result ) );
-				return 1;
+				goto done;
 			}
 			if ( frame >= warmup )
 				seconds[kind * frames + frame - warmup] = elapsed / count;
@@ -328,7 +331,9 @@ static int plTimeCrowd( plContext context, plAsset asset, const plAssetInfo* inf
 	for ( uint32_t kind = 1; kind < PL_CROWD_KINDS; ++kind )
 		printf( ", \"gl_batch_vs_%s_max_diff\": [%.3g, %.3g]", names[kind], worst_position[kind], worst_normal[kind] );
 	printf( "}\n" );
-	for ( uint32_t k = 0; k < PL_CROWD_KINDS * count; ++k )
+	status = 0;
+done:
+	for ( uint32_t k = 0; k < created; ++k )
 		plDestroyInstance( instances[k] );
 	free( instances );
 	free( inputs );
@@ -337,7 +342,7 @@ static int plTimeCrowd( plContext context, plAsset asset, const plAssetInfo* inf
 	free( last );
 	free( cpu_out );
 	free( seconds );
-	return 0;
+	return status;
 }
 
 static int plTimeCrowds( const char* path, const char* counts, uint32_t frames )
