@@ -1,7 +1,11 @@
 """Every method on one chart: error against time per frame, log time axis (docs/pareto.md, "Methods").
 
     PLEAT_LIBRARY=build/eval/libpleat.so pleat-methods --suite out/suite.json [more.json ...] \
-        [--label PATH=NAME ...] --out docs/methods.png [--json out/methods.json]
+        [--label PATH=NAME ...] [--rows EARLIER.json] --out docs/methods.png [--json out/methods.json]
+
+`--rows EARLIER.json` starts from the rows and Φ time of an earlier `--json` (a chart whose suites need not be at
+hand any more) and adds the suites' asset rows to it; LBS-only and the reference stay the earlier ones (the suites
+must be of the same clips and bodies for the rows to compare).
 
 Inputs are pleat-eval-suite reports (`pleat.eval.suite`, run with --reference-spread) so that every number is
 measured the same way on the same clips and bodies:
@@ -79,6 +83,18 @@ def rows_from_suites(paths, labels=None):
     return rows
 
 
+def merge_rows(earlier, rows):
+    """The earlier chart's rows, then the new asset rows (a new row replaces an earlier one of the same asset), LBS-only
+    and the reference last, from the earlier chart where it has them."""
+    new_assets = [r for r in rows if r["kind"] == "asset"]
+    replaced = {r["asset"] for r in new_assets}
+    kept = [r for r in earlier if r["kind"] == "asset" and r.get("asset") not in replaced]
+    baselines = [r for r in earlier if r["kind"] != "asset"]
+    have = {r["kind"] for r in baselines}
+    baselines += [r for r in rows if r["kind"] != "asset" and r["kind"] not in have]
+    return kept + new_assets + baselines
+
+
 def plot(rows, path, phi_us=None):
     import matplotlib
     matplotlib.use("Agg")
@@ -107,6 +123,8 @@ def plot(rows, path, phi_us=None):
 def build_parser():
     ap = doc_parser("pleat-methods", __doc__)
     ap.add_argument("--suite", nargs="+", required=True, help="pleat-eval-suite JSON reports")
+    ap.add_argument("--rows", default=None, metavar="EARLIER.json",
+                    help="start from the rows and Φ time of an earlier --json; the suites add their assets")
     ap.add_argument("--label", action="append", default=[], metavar="ASSET=NAME", help="a row's name (repeatable)")
     ap.add_argument("--no-phi", action="store_true", help="do not time Φ (needs torch)")
     ap.add_argument("--out", required=True, help="output file: the chart (PNG)")
@@ -117,7 +135,17 @@ def build_parser():
 @command("pleat-methods", build_parser)
 def main(args):
     rows = rows_from_suites(args.suite, dict(x.split("=", 1) for x in args.label))
-    phi_us = None if args.no_phi else 1e6 * phi_seconds_per_frame()
+    earlier = None
+    if args.rows:
+        with open(args.rows) as fh:
+            earlier = json.load(fh)
+        rows = merge_rows(earlier["rows"], rows)
+    if args.no_phi:
+        phi_us = None
+    elif earlier is not None and earlier.get("phi_us"):
+        phi_us = earlier["phi_us"]
+    else:
+        phi_us = 1e6 * phi_seconds_per_frame()
     plot(rows, args.out, phi_us)
     if args.json:
         write_text(args.json, json.dumps({"rows": rows, "phi_us": phi_us}, indent=1))
