@@ -102,6 +102,8 @@ def plot(rows, path, phi_us=None):
     fig, ax = plt.subplots(figsize=(10.5, 5))
     markers = {"asset": "o", "lbs": "s", "reference": "D"}
     cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    if len(rows) > len(cycle):      # no two rows in one colour: a 20-colour map
+        cycle = [plt.get_cmap("tab20")(i) for i in range(20)]
     for i, r in enumerate(rows):
         # a small horizontal jitter keeps rows of the same step time (the sizes of one network) apart
         x = r["us"] * (1.0 + 0.04 * (i % 5 - 2))
