@@ -175,20 +175,28 @@ static plFrameInput plSwingFrame( uint32_t frame, double phase, float* rotations
 	return input;
 }
 
-static int plTimeInstances( const char* path, uint32_t frames )
+// A default context with the asset at path loaded; 0 (and a message) if either fails.
+static int plOpenAsset( const char* path, plContext* context, plAsset* asset, plAssetInfo* info )
 {
 	plContextDef context_def = plDefaultContextDef();
-	plContext context;
 	plAssetDef asset_def = plDefaultAssetDef();
 	asset_def.path = path;
-	plAsset asset;
-	plAssetInfo info;
-	if ( plCreateContext( &context_def, &context ) != PLEAT_RESULT_OK ||
-		 plLoadAsset( context, &asset_def, &asset ) != PLEAT_RESULT_OK || plAsset_GetInfo( asset, &info ) != PLEAT_RESULT_OK )
+	if ( plCreateContext( &context_def, context ) != PLEAT_RESULT_OK ||
+		 plLoadAsset( *context, &asset_def, asset ) != PLEAT_RESULT_OK || plAsset_GetInfo( *asset, info ) != PLEAT_RESULT_OK )
 	{
 		fprintf( stderr, "cannot load %s\n", path );
-		return 1;
+		return 0;
 	}
+	return 1;
+}
+
+static int plTimeInstances( const char* path, uint32_t frames )
+{
+	plContext context;
+	plAsset asset;
+	plAssetInfo info;
+	if ( !plOpenAsset( path, &context, &asset, &info ) )
+		return 1;
 	plInstance instances[2];
 	for ( int i = 0; i < 2; ++i )
 	{
@@ -347,18 +355,11 @@ done:
 
 static int plTimeCrowds( const char* path, const char* counts, uint32_t frames )
 {
-	plContextDef context_def = plDefaultContextDef();
 	plContext context;
-	plAssetDef asset_def = plDefaultAssetDef();
-	asset_def.path = path;
 	plAsset asset;
 	plAssetInfo info;
-	if ( plCreateContext( &context_def, &context ) != PLEAT_RESULT_OK ||
-		 plLoadAsset( context, &asset_def, &asset ) != PLEAT_RESULT_OK || plAsset_GetInfo( asset, &info ) != PLEAT_RESULT_OK )
-	{
-		fprintf( stderr, "cannot load %s\n", path );
+	if ( !plOpenAsset( path, &context, &asset, &info ) )
 		return 1;
-	}
 	printf( "crowds of %s (per instance, median over %u frames; the CPU crowd on one worker):\n", path, frames );
 	int status = 0;
 	for ( const char* p = counts; *p != '\0'; )
