@@ -6,10 +6,11 @@
 //                          [--workers 1,2] [--seconds S] [--rounds R] [--clock wall|cpu] [--batch-isa best|avx2]
 //                          [--out crowd.json]
 //        pleat_bench_crowd --scene --case case.bin --tier T0.pleat [--tier T1.pleat ...] --tier-errors e0,..,lbs
-//                          --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] [--out scene.json]
+//                          --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] [--workers 1|2]
+//                          [--out scene.json]
 //
 // --scene (docs/scene-budget.md): a plScene of N characters at distances 2..40 m (importance 1 / distance²) on one
-// thread, 60 fps. First the calibration, in the same run: per character µs (mean frame) of every tier at its full rate and at 15 Hz
+// thread (--workers 2: this thread and one helper, wall clock), 60 fps. First the calibration, in the same run: per character µs (mean frame) of every tier at its full rate and at 15 Hz
 // (giving the cost between network updates) and of LBS-only, all characters on that detail, and of one lone character
 // (the tier's stream cost: what a group pays once); then for each budget a scene with those costs and the given errors
 // (mm, e.g. pleat.eval.suite's mean per tier and its LBS-only mean), 60 untimed frames and F timed ones, every frame's
@@ -290,6 +291,9 @@ static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t worke
 // --report-costs: every frame's measured cost goes back to the scene (plScene_ReportFrameCost), which then corrects
 // its cost model on the fly; without it the scene plans with the calibrated costs as they are.
 static int g_reportCosts = 0;
+// --workers 2: the scene's context gets the two-worker task system (the crowd step and the characters' finishing
+// split over both), and every cost, calibration included, is wall time on two cores.
+static BenchTwoWorkers* g_scenePool = NULL;
 
 typedef struct SceneRig
 {
@@ -301,11 +305,15 @@ typedef struct SceneRig
 	plFrameInput* inputs;
 } SceneRig;
 
-// A context with the tiers loaded (one thread: the budget is "µs of one core").
+// A context with the tiers loaded (one thread unless --workers 2: the budget is "µs of one core").
 static int SceneRig_Load( SceneRig* rig, const char* const* paths, uint32_t tier_count )
 {
 	memset( rig, 0, sizeof( *rig ) );
 	plContextDef def = plDefaultContextDef();
+	if ( g_scenePool != NULL )
+	{
+		BenchTwoWorkers_Install( g_scenePool, &def );
+	}
 	if ( plCreateContext( &def, &rig->context ) != PLEAT_RESULT_OK )
 		return 0;
 	rig->tier_count = tier_count;
@@ -429,7 +437,7 @@ static int RunScene( int argc, char** argv )
 	const char* case_path = NULL;
 	const char* out_path = NULL;
 	const char* tier_paths[SCENE_MAX_TIERS];
-	uint32_t tier_count = 0, characters = 100, frames = 120, budget_count = 0;
+	uint32_t tier_count = 0, characters = 100, frames = 120, budget_count = 0, workers = 1;
 	float errors[SCENE_MAX_TIERS + 1] = { 0 };
 	uint32_t error_count = 0;
 	double budgets[SCENE_MAX_BUDGETS];
@@ -451,6 +459,8 @@ static int RunScene( int argc, char** argv )
 			characters = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
 		else if ( strcmp( argv[i], "--frames" ) == 0 )
 			frames = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
+		else if ( strcmp( argv[i], "--workers" ) == 0 )
+			workers = (uint32_t)strtoul( argv[i + 1], NULL, 10 );
 		else if ( strcmp( argv[i], "--clock" ) == 0 )
 			g_benchClock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
 		else if ( strcmp( argv[i], "--tier-errors" ) == 0 )
@@ -479,12 +489,20 @@ static int RunScene( int argc, char** argv )
 	}
 	BenchMotion motion;
 	if ( case_path == NULL || tier_count == 0 || characters == 0 || frames == 0 || budget_count == 0 ||
-		 error_count != tier_count + 1 || !BenchReadMotion( case_path, &motion ) )
+		 error_count != tier_count + 1 || ( workers != 1 && workers != 2 ) ||
+		 ( workers == 2 && g_benchClock != CLOCK_MONOTONIC ) || !BenchReadMotion( case_path, &motion ) )
 	{
 		fprintf( stderr, "usage: pleat_bench_crowd --scene --case case.bin --tier T0.pleat [--tier T1.pleat ...] "
 						 "--tier-errors e0,..,lbs --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] "
-						 "[--out scene.json]\n" );
+						 "[--workers 1|2 (2: wall clock only)] [--out scene.json]\n" );
 		return 2;
+	}
+	static BenchTwoWorkers pool;
+	if ( workers == 2 )
+	{
+		if ( !BenchTwoWorkers_Start( &pool ) )
+			return 1;
+		g_scenePool = &pool;
 	}
 	// Calibration: each tier at its full rate and at the lowest rate, and LBS-only, on this machine, in this run.
 	const float rates[2] = { 30.0f, 15.0f };
@@ -510,8 +528,9 @@ static int RunScene( int argc, char** argv )
 	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
 	if ( out == NULL || lbs <= 0.0 )
 		return 1;
-	fprintf( out, "{\n  \"clock\": \"%s\",\n  \"characters\": %u,\n  \"frames\": %u,\n  \"calibration\": {\n",
-			 g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", characters, frames );
+	fprintf( out, "{\n  \"clock\": \"%s\",\n  \"workers\": %u,\n  \"characters\": %u,\n  \"frames\": %u,\n"
+				  "  \"calibration\": {\n",
+			 g_benchClock == CLOCK_MONOTONIC ? "wall" : "cpu", workers, characters, frames );
 	for ( uint32_t t = 0; t < tier_count; ++t )
 		fprintf( out, "    \"tier%u\": {\"path\": \"%s\", \"cost_us\": %.2f, \"skin_cost_us\": %.2f, "
 					  "\"stream_cost_us\": %.2f, \"error_mm\": %.2f},\n",
@@ -572,6 +591,8 @@ static int RunScene( int argc, char** argv )
 		fclose( out );
 	free( samples );
 	BenchFreeMotion( &motion );
+	if ( g_scenePool != NULL )
+		BenchTwoWorkers_Stop( g_scenePool );
 	return failed;
 }
 

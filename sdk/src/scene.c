@@ -283,12 +283,16 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	size_t display = (size_t)n0 * 3 * sizeof( float );
 	s->budget_scratch_bytes = (size_t)cap * PLEAT_SCENE_MAX_LEVELS * 12 + (size_t)cap * 4;
 	size_t live_ids = (size_t)cap * sizeof( uint32_t );
-	size_t sizes[16] = {
+	// Each task worker finishes its characters in its own fade and normals scratch (plFinishCharacters).
+	uint32_t workers = s->worker_count;
+	s->lbs_sums_floats = (size_t)sums * 4;
+	size_t sizes[17] = {
 		(size_t)cap * sizeof( plSceneCharacter ), (size_t)cap * 4 * display, (size_t)cap * sizeof( float ),
 		(size_t)cap * sizeof( uint32_t ),         (size_t)cap * sizeof( int32_t ), (size_t)cap * sizeof( int32_t ),
 		(size_t)cap * sizeof( float ),            (size_t)cap * sizeof( uint32_t ), s->budget_scratch_bytes + live_ids,
 		(size_t)cap * 2 * sizeof( plInstance ),   (size_t)cap * 2 * sizeof( plFrameInput ),
-		(size_t)cap * 2 * sizeof( plResult ),     2 * display, (size_t)sums * 16, 0, (size_t)cap * sizeof( plResult ) };
+		(size_t)cap * 2 * sizeof( plResult ),     workers * 2 * display, workers * s->lbs_sums_floats * sizeof( float ),
+		0,                                        (size_t)cap * sizeof( plResult ), (size_t)cap * sizeof( uint32_t ) };
 	size_t transfer = 0;
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
 	{
@@ -296,7 +300,7 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	}
 	sizes[14] = transfer;
 	size_t total = 0;
-	for ( int i = 0; i < 16; ++i )
+	for ( int i = 0; i < 17; ++i )
 	{
 		total += plAlign64( sizes[i] );
 	}
@@ -307,8 +311,8 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	}
 	s->block_size = total;
 	uint8_t* p = (uint8_t*)s->block;
-	void* parts[16];
-	for ( int i = 0; i < 16; ++i )
+	void* parts[17];
+	for ( int i = 0; i < 17; ++i )
 	{
 		parts[i] = p;
 		p += plAlign64( sizes[i] );
@@ -333,9 +337,9 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	s->step_inputs = (plFrameInput*)parts[10];
 	s->step_results = (plResult*)parts[11];
 	s->fade_positions = (float*)parts[12];
-	s->fade_normals = s->fade_positions + (size_t)n0 * 3;
 	s->lbs_sums = (float*)parts[13];
 	s->verdicts = (plResult*)parts[15];
+	s->result_index = (uint32_t*)parts[16];
 	uint8_t* q = (uint8_t*)parts[14];
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
 	{
@@ -375,6 +379,7 @@ plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_s
 	s->min_frames_between_switches = def->min_frames_between_switches != 0 ? def->min_frames_between_switches : 30;
 	s->crossfade_frames = def->crossfade_frames != 0 ? def->crossfade_frames : 8;
 	s->cost_scale = 1.0f;
+	s->worker_count = ctx->runner.worker_count;
 	r = plGatherTiers( ctx, s, def );
 	if ( r == PLEAT_RESULT_OK )
 	{
@@ -717,9 +722,10 @@ static void plSwitch( plSceneData* s, plSceneCharacter* c, uint32_t target )
 }
 
 // LBS-only on the display mesh: forward kinematics of tiers[0]'s instance (its scratch frame only: the history is not
-// touched), its shaped template skinned, normals. Into positions / normals [N0][3].
-static plResult plStepLbs( plSceneData* s, plSceneCharacter* c, const plFrameInput* input, float* positions,
-						   float* normals )
+// touched), its shaped template skinned, normals (sums: the calling worker's normals scratch). Into positions /
+// normals [N0][3].
+static plResult plStepLbs( const plSceneData* s, plSceneCharacter* c, const plFrameInput* input, float* positions,
+						   float* normals, float* sums )
 {
 	plInstanceData* inst = plGetInstanceData( c->instances[0] );
 	const plAssetData* a = inst->asset;
@@ -758,12 +764,12 @@ static plResult plStepLbs( plSceneData* s, plSceneCharacter* c, const plFrameInp
 	if ( a->face_count >= n )
 	{
 		plNormalsScatterJob scatter = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count,
-										plMakeSpan( normals, n, 12 ), s->lbs_sums, a->face_count, &s->ctx->kernels };
+										plMakeSpan( normals, n, 12 ), sums, a->face_count, &s->ctx->kernels };
 		return plNormalsScatterJob_Run( &scatter ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 	}
-	plFaceNormalsJob faces = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count, s->lbs_sums, 0,
+	plFaceNormalsJob faces = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count, sums, 0,
 							   a->face_count, &s->ctx->kernels };
-	plNormalsGatherJob gather = { s->lbs_sums, a->face_count, a->adjacency_offsets, a->adjacency_faces,
+	plNormalsGatherJob gather = { sums, a->face_count, a->adjacency_offsets, a->adjacency_faces,
 								  plMakeSpan( normals, n, 12 ), 0, n, &s->ctx->kernels };
 	return plFaceNormalsJob_Run( &faces ) == PLEAT_RESULT_OK && plNormalsGatherJob_Run( &gather ) == PLEAT_RESULT_OK
 			   ? PLEAT_RESULT_OK
@@ -809,7 +815,8 @@ static float plLargestJump( const float* a, const float* b, uint32_t n, uint32_t
 // taken — at most 1 / crossfade_frames more than the last frame's, at least a sixteenth of that (so a fade ends within
 // 16 × crossfade_frames frames even while the character keeps moving as fast as it ever did). Normals blend and
 // renormalise.
-static void plCrossFade( const plSceneData* s, plSceneCharacter* c )
+static void plCrossFade( const plSceneData* s, plSceneCharacter* c, const float* fade_positions,
+						 const float* fade_normals )
 {
 	uint32_t n0 = s->display_vertex_count;
 	float step = 1.0f / (float)s->crossfade_frames;
@@ -822,7 +829,7 @@ static void plCrossFade( const plSceneData* s, plSceneCharacter* c )
 		float d2 = 0.0f;
 		for ( int j = 0; j < 3; ++j )
 		{
-			float o = s->fade_positions[v * 3 + j], nw = c->back_positions[v * 3 + j];
+			float o = fade_positions[v * 3 + j], nw = c->back_positions[v * 3 + j];
 			float d = o + alpha * ( nw - o ) - c->positions[v * 3 + j];
 			d2 += d * d;
 		}
@@ -834,8 +841,8 @@ static void plCrossFade( const plSceneData* s, plSceneCharacter* c )
 		float a[3], b[3];
 		for ( int j = 0; j < 3; ++j )
 		{
-			a[j] = s->fade_positions[v * 3 + j] - c->positions[v * 3 + j];
-			b[j] = c->back_positions[v * 3 + j] - s->fade_positions[v * 3 + j];
+			a[j] = fade_positions[v * 3 + j] - c->positions[v * 3 + j];
+			b[j] = c->back_positions[v * 3 + j] - fade_positions[v * 3 + j];
 		}
 		float qa = b[0] * b[0] + b[1] * b[1] + b[2] * b[2];
 		float qb = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -853,8 +860,8 @@ static void plCrossFade( const plSceneData* s, plSceneCharacter* c )
 	{
 		float* p = c->back_positions + (size_t)v * 3;
 		float* nv = c->back_normals + (size_t)v * 3;
-		const float* fp = s->fade_positions + (size_t)v * 3;
-		const float* fn = s->fade_normals + (size_t)v * 3;
+		const float* fp = fade_positions + (size_t)v * 3;
+		const float* fn = fade_normals + (size_t)v * 3;
 		float n[3];
 		for ( int j = 0; j < 3; ++j )
 		{
@@ -895,6 +902,97 @@ static void plWriteOut( float* dst, uint32_t stride_bytes, const float* src, uin
 	{
 		float* d = (float*)( (uint8_t*)dst + (size_t)v * stride );
 		d[0] = src[v * 3 + 0], d[1] = src[v * 3 + 1], d[2] = src[v * 3 + 2];
+	}
+}
+
+// result_index of a live character whose output spans were rejected (it does not step), and of one that shows no
+// network (LBS-only).
+#define PLEAT_SCENE_SKIPPED UINT32_MAX
+#define PLEAT_SCENE_NO_NETWORK ( UINT32_MAX - 1u )
+
+// After the crowd step: one character's new outputs (its network's, or LBS-only), the cross-fade if one is in flight,
+// its recent motion, the buffer swap and the copy out. fade_* and sums: the calling worker's scratch.
+static plResult plFinishCharacter( const plSceneData* s, plSceneCharacter* c, const plFrameInput* input,
+								   const plStepOutput* out, uint32_t result_index, float* fade_positions,
+								   float* fade_normals, float* sums )
+{
+	uint32_t n0 = s->display_vertex_count;
+	int32_t tier = plLevelTier( s, c->level );
+	int fade = c->fade_alpha < 1.0f;
+	int32_t from = fade ? plLevelTier( s, c->fade_from ) : -1;
+	plResult result = tier >= 0 ? s->step_results[result_index] : PLEAT_RESULT_OK;
+	// The new outputs go to the back buffers; the front ones are the last frame's, to measure the jump against.
+	uint32_t joints = s->tiers[0].asset->joint_count;
+	if ( result >= 0 && tier < 0 )
+	{
+		result = plStepLbs( s, c, input, c->back_positions, c->back_normals, sums );
+		memcpy( c->skin_matrices, plGetInstanceData( c->instances[0] )->next_skin_matrices,
+				(size_t)joints * 12 * sizeof( float ) );
+	}
+	else if ( result >= 0 )
+	{
+		plShowTier( s, c, tier, c->back_positions, c->back_normals );
+		plInstance_GetSkinMatrices( c->instances[tier], c->skin_matrices, joints );
+	}
+	if ( result >= 0 && fade )
+	{
+		plResult rf = from < 0 ? plStepLbs( s, c, input, fade_positions, fade_normals, sums ) : PLEAT_RESULT_OK;
+		if ( from >= 0 )
+		{
+			plShowTier( s, c, from, fade_positions, fade_normals );
+		}
+		if ( rf >= 0 )
+		{
+			plCrossFade( s, c, fade_positions, fade_normals );
+		}
+	}
+	else if ( result >= 0 && c->stepped )
+	{
+		c->motion_m = fmaxf( plLargestJump( c->back_positions, c->positions, n0, 2 ), c->motion_m * PLEAT_MOTION_DECAY );
+	}
+	if ( result >= 0 )
+	{
+		float* swap = c->positions;
+		c->positions = c->back_positions, c->back_positions = swap;
+		swap = c->normals;
+		c->normals = c->back_normals, c->back_normals = swap;
+		c->stepped = 1;
+		c->frames_since_switch += c->frames_since_switch < UINT32_MAX / 2 ? 1u : 0u;
+		if ( out != NULL )
+		{
+			plWriteOut( out->positions, out->position_stride_bytes, c->positions, n0 );
+			plWriteOut( out->normals, out->normal_stride_bytes, c->normals, n0 );
+		}
+	}
+	return result;
+}
+
+typedef struct plSceneFinishTask
+{
+	plSceneData* scene;
+	const uint32_t* live;
+	const plFrameInput* inputs;
+	const plStepOutput* outputs;
+} plSceneFinishTask;
+
+// plTaskFn over the live characters: each verdict that let its character step becomes that character's result.
+static void plFinishCharacters( uint32_t start, uint32_t end, uint32_t worker, void* context )
+{
+	const plSceneFinishTask* task = (const plSceneFinishTask*)context;
+	plSceneData* s = task->scene;
+	size_t display = (size_t)s->display_vertex_count * 3;
+	float* fade_positions = s->fade_positions + (size_t)worker * 2 * display;
+	float* sums = s->lbs_sums + (size_t)worker * s->lbs_sums_floats;
+	for ( uint32_t m = start; m < end; ++m )
+	{
+		if ( s->result_index[m] == PLEAT_SCENE_SKIPPED )
+		{
+			continue;
+		}
+		uint32_t id = task->live[m];
+		s->verdicts[m] = plFinishCharacter( s, &s->characters[id], &task->inputs[id],
+											task->outputs != NULL ? &task->outputs[id] : NULL, s->result_index[m],
+											fade_positions, fade_positions + display, sums );
 	}
 }
 
@@ -957,85 +1055,47 @@ plResult plScene_Step( plScene handle, const plFrameInput* inputs, const plStepO
 	}
 	plStepInstances( handle.context, s->step_instances, s->step_inputs, NULL, s->step_results, steps );
 
+	// Each character's outputs are finished apart from the others' (its own instances and buffers, a worker's own
+	// scratch), so the host's workers share them; the verdicts become the characters' results.
+	uint32_t k = 0;
+	for ( uint32_t m = 0; m < live_count; ++m )
+	{
+		plSceneCharacter* c = &s->characters[live[m]];
+		s->result_index[m] = PLEAT_SCENE_SKIPPED;
+		if ( s->verdicts[m] != PLEAT_RESULT_OK )
+		{
+			continue;
+		}
+		int32_t tier = plLevelTier( s, c->level );
+		int32_t from = c->fade_alpha < 1.0f ? plLevelTier( s, c->fade_from ) : -1;
+		s->result_index[m] = tier >= 0 ? k : PLEAT_SCENE_NO_NETWORK;
+		// and the fading-out detail's result right after it (the same input, so the same verdict)
+		k += ( tier >= 0 ) + ( from >= 0 && from != tier );
+	}
+	plSceneFinishTask finish = { s, live, inputs, outputs };
+	plRunTask( &s->ctx->runner, plFinishCharacters, live_count, 2, &finish );
+
 	plResult first_error = PLEAT_RESULT_OK, first_note = PLEAT_RESULT_OK;
-	uint32_t k = 0, fading = 0;
+	uint32_t fading = 0;
 	double weighted_error = 0.0, importance = 0.0;
 	for ( uint32_t m = 0; m < live_count; ++m )
 	{
 		uint32_t id = live[m];
-		plSceneCharacter* c = &s->characters[id];
-		if ( s->verdicts[m] != PLEAT_RESULT_OK )
-		{
-			if ( out_results != NULL )
-			{
-				out_results[id] = s->verdicts[m];
-			}
-			first_error = first_error == PLEAT_RESULT_OK ? s->verdicts[m] : first_error;
-			continue;
-		}
-		int32_t tier = plLevelTier( s, c->level );
-		int fade = c->fade_alpha < 1.0f;
-		int32_t from = fade ? plLevelTier( s, c->fade_from ) : -1;
-		plResult result = tier >= 0 ? s->step_results[k++] : PLEAT_RESULT_OK;
-		if ( fade && from >= 0 && from != tier )
-		{
-			k++; // the fading-out detail's own result: the same input, so the same verdict
-		}
-		const plStepOutput* out = outputs != NULL ? &outputs[id] : NULL;
-		// The new outputs go to the back buffers; the front ones are the last frame's, to measure the jump against.
-		uint32_t joints = s->tiers[0].asset->joint_count;
-		if ( result >= 0 && tier < 0 )
-		{
-			result = plStepLbs( s, c, &inputs[id], c->back_positions, c->back_normals );
-			memcpy( c->skin_matrices, plGetInstanceData( c->instances[0] )->next_skin_matrices,
-					(size_t)joints * 12 * sizeof( float ) );
-		}
-		else if ( result >= 0 )
-		{
-			plShowTier( s, c, tier, c->back_positions, c->back_normals );
-			plInstance_GetSkinMatrices( c->instances[tier], c->skin_matrices, joints );
-		}
-		if ( result >= 0 && fade )
-		{
-			plResult rf = from < 0 ? plStepLbs( s, c, &inputs[id], s->fade_positions, s->fade_normals )
-								   : PLEAT_RESULT_OK;
-			if ( from >= 0 )
-			{
-				plShowTier( s, c, from, s->fade_positions, s->fade_normals );
-			}
-			if ( rf >= 0 )
-			{
-				plCrossFade( s, c );
-			}
-		}
-		else if ( result >= 0 && c->stepped )
-		{
-			c->motion_m = fmaxf( plLargestJump( c->back_positions, c->positions, n0, 2 ),
-								 c->motion_m * PLEAT_MOTION_DECAY );
-		}
-		if ( result >= 0 )
-		{
-			float* swap = c->positions;
-			c->positions = c->back_positions, c->back_positions = swap;
-			swap = c->normals;
-			c->normals = c->back_normals, c->back_normals = swap;
-			c->stepped = 1;
-			c->frames_since_switch += c->frames_since_switch < UINT32_MAX / 2 ? 1u : 0u;
-			if ( out != NULL )
-			{
-				plWriteOut( out->positions, out->position_stride_bytes, c->positions, n0 );
-				plWriteOut( out->normals, out->normal_stride_bytes, c->normals, n0 );
-			}
-		}
-		fading += c->fade_alpha < 1.0f;
-		weighted_error += (double)c->importance * s->levels[c->level].error_mm;
-		importance += c->importance;
+		const plSceneCharacter* c = &s->characters[id];
+		plResult result = s->verdicts[m];
 		if ( out_results != NULL )
 		{
 			out_results[id] = result;
 		}
 		first_error = first_error == PLEAT_RESULT_OK && result < 0 ? result : first_error;
 		first_note = first_note == PLEAT_RESULT_OK && result > 0 ? result : first_note;
+		if ( s->result_index[m] == PLEAT_SCENE_SKIPPED )
+		{
+			continue; // its output spans were rejected: it did not step
+		}
+		fading += c->fade_alpha < 1.0f;
+		weighted_error += (double)c->importance * s->levels[c->level].error_mm;
+		importance += c->importance;
 	}
 	s->plan.fading = fading;
 	s->plan.weighted_error_mm = importance > 0.0 ? (float)( weighted_error / importance ) : 0.0f;

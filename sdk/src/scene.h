@@ -140,10 +140,12 @@ typedef struct plSceneData
 	plInstance* step_instances;   // [2 · capacity]
 	plFrameInput* step_inputs;
 	plResult* step_results;
-	float* fade_positions;        // [N0][3] the detail being faded out, on the display mesh
-	float* fade_normals;
-	float* lbs_sums;              // [max(N0, F0)][4] normals scratch of the LBS-only detail
-	plResult* verdicts;           // [capacity] a step's checks of each live character's output spans
+	uint32_t worker_count;        // the context's task workers: one set of the scratch below each
+	float* fade_positions;        // [workers][2][N0][3] the detail being faded out, on the display mesh
+	float* lbs_sums;              // [workers][max(N0, F0)][4] normals scratch of the LBS-only detail
+	size_t lbs_sums_floats;       // one worker's share of lbs_sums
+	plResult* verdicts;           // [capacity] a step's checks of each live character's output spans, then its result
+	uint32_t* result_index;       // [capacity] where each live character's network result sits in step_results
 	void* block;                  // everything above in one allocation
 	size_t block_size;
 } plSceneData;

@@ -1,6 +1,7 @@
 // Determinism: the same motion gives the same output hash (positions, normals, latent over every frame) whether the
 // host task system runs 1, 2, 3 or 4 workers — the SDK splits MLP rows, blend shapes, skinning and normals into
-// ranges whose results do not depend on the split (no atomics, fixed summation order).
+// ranges whose results do not depend on the split (no atomics, fixed summation order). The same holds for a scene,
+// whose characters are finished (LBS-only details, tier transfer, cross-fades, copies out) by the workers in turn.
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -72,10 +73,121 @@ static void test_same_hash_for_one_to_four_workers( void** state )
 	}
 }
 
+// A scene of 12 characters whose details the overrides move every few frames through LBS-only, two tiers on the
+// display mesh and one on a coarser mesh, so that every frame has LBS-only characters, network ones and cross-fades
+// of each kind in flight. The hash covers every character's positions, normals and result over 40 frames.
+static uint64_t plRunScene( uint32_t workers, uint32_t* parallel_tasks )
+{
+	plTestTaskSystem* tasks = plTestTaskSystem_Create( workers );
+	plContextDef def = plDefaultContextDef();
+	if ( workers > 1 )
+	{
+		plTestTaskSystem_Install( tasks, &def );
+	}
+	plContext context;
+	assert_int_equal( plCreateContext( &def, &context ), PLEAT_RESULT_OK );
+	plTestAsset* models[3];
+	uint8_t* bytes[3];
+	plAsset tiers[3];
+	for ( int t = 0; t < 3; ++t )
+	{
+		plTestAssetParams p = plTestAsset_DefaultParams();
+		p.seed = 5; // one garment: tiers 0 and 1 share the mesh, tier 2 is a coarser sheet over the same area
+		p.blend_count = t == 0 ? 12 : 6;
+		p.lp_hidden[0] = t == 0 ? 64 : 32;
+		p.grid_x = t == 2 ? 4 : p.grid_x;
+		p.grid_y = t == 2 ? 4 : p.grid_y;
+		models[t] = plTestAsset_Create( &p );
+		size_t size;
+		bytes[t] = plTestAsset_Write( models[t], &size );
+		plAssetDef adef = plDefaultAssetDef();
+		adef.data = bytes[t];
+		adef.size = size;
+		assert_int_equal( plLoadAsset( context, &adef, &tiers[t] ), PLEAT_RESULT_OK );
+	}
+	enum { CHARACTERS = 12 };
+	plSceneDef sdef = plDefaultSceneDef();
+	sdef.tiers = tiers;
+	sdef.tier_count = 3;
+	sdef.budget_us = 1e6f;
+	sdef.character_capacity = CHARACTERS;
+	sdef.min_frames_between_switches = 1;
+	sdef.crossfade_frames = 4;
+	plScene scene;
+	assert_int_equal( plCreateScene( context, &sdef, &scene ), PLEAT_RESULT_OK );
+	uint32_t J = models[0]->J, N0 = models[0]->N;
+	for ( uint32_t i = 0; i < CHARACTERS; ++i )
+	{
+		plCharacterDef cdef = plDefaultCharacterDef();
+		float beta[1] = { 0.1f * (float)i };
+		cdef.beta = beta;
+		cdef.beta_count = 1;
+		uint32_t id;
+		assert_int_equal( plScene_AddCharacter( scene, &cdef, &id ), PLEAT_RESULT_OK );
+		assert_int_equal( id, i );
+	}
+	static float q[CHARACTERS][64 * 4], positions[CHARACTERS][4096 * 3], normals[CHARACTERS][4096 * 3];
+	assert_true( N0 <= 4096 );
+	plFrameInput inputs[CHARACTERS];
+	plStepOutput outputs[CHARACTERS];
+	plResult results[CHARACTERS];
+	uint64_t hash = 0;
+	for ( uint32_t t = 0; t < 40; ++t )
+	{
+		for ( uint32_t i = 0; i < CHARACTERS; ++i )
+		{
+			if ( ( t + i ) % 6 == 0 ) // each character every 6 frames, staggered: LBS-only, 0, 1, 2 in turn
+			{
+				plDetail detail = { (int32_t)( ( t / 6 + i ) % 4 ) - 1, 0.0f };
+				assert_int_equal( plScene_SetOverride( scene, i, &detail ), PLEAT_RESULT_OK );
+			}
+			inputs[i] = plTestMotion( t + 3 * i, J, q[i] );
+			outputs[i] = (plStepOutput){ 0 };
+			outputs[i].positions = positions[i];
+			outputs[i].normals = normals[i];
+			outputs[i].vertex_capacity = N0;
+		}
+		assert_true( plScene_Step( scene, inputs, outputs, results, CHARACTERS ) >= 0 );
+		plScenePlan plan;
+		assert_int_equal( plScene_GetPlan( scene, &plan ), PLEAT_RESULT_OK );
+		assert_true( t < 6 || plan.fading > 0 ); // cross-fades are in flight
+		for ( uint32_t i = 0; i < CHARACTERS; ++i )
+		{
+			hash = plTestHash( positions[i], (size_t)N0 * 12, hash );
+			hash = plTestHash( normals[i], (size_t)N0 * 12, hash );
+			hash = plTestHash( &results[i], sizeof( results[i] ), hash );
+		}
+	}
+	*parallel_tasks = plTestTaskSystem_ParallelTaskCount( tasks );
+	plDestroyContext( context );
+	for ( int t = 0; t < 3; ++t )
+	{
+		plTestAsset_FreeBytes( bytes[t] );
+		plTestAsset_Destroy( models[t] );
+	}
+	plTestTaskSystem_Destroy( tasks );
+	return hash;
+}
+
+static void test_scene_same_hash_for_one_to_four_workers( void** state )
+{
+	(void)state;
+	uint32_t parallel = 0;
+	uint64_t reference = plRunScene( 1, &parallel );
+	assert_int_equal( parallel, 0 );
+	for ( uint32_t workers = 2; workers <= 4; ++workers )
+	{
+		uint64_t h = plRunScene( workers, &parallel );
+		assert_true( parallel > 0 );
+		assert_true( h == reference );
+	}
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_same_hash_for_one_to_four_workers ),
+		cmocka_unit_test( test_scene_same_hash_for_one_to_four_workers ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

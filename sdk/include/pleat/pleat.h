@@ -137,7 +137,9 @@
 // A switch does not pop: the new detail starts from a reset latent and the outputs cross-fade from the old detail to
 // the new over plSceneDef.crossfade_frames frames (both are stepped meanwhile). Outputs are on the display mesh,
 // tiers[0]'s vertices and faces; a tier on another mesh is carried over by a barycentric map built at creation.
-// plScene_Step steps every character through plStepInstances (tiers batched) and writes each character's outputs.
+// plScene_Step steps every character through plStepInstances (tiers batched), then finishes the characters (LBS-only
+// details, the carry-over to the display mesh, cross-fades, the copies out) over the context's task hooks too, and
+// writes each character's outputs: the same bits for any worker count.
 //     plSceneDef sdef = plDefaultSceneDef();
 //     sdef.tiers = tiers; sdef.tier_count = 4; sdef.budget_us = 2000.0f; sdef.character_capacity = 100;
 //     plScene scene; plCreateScene( context, &sdef, &scene );
