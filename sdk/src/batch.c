@@ -69,7 +69,8 @@ static void plPrepareEntry( plBatchEntry* e )
 	{
 		return;
 	}
-	e->update = plDecideNetworkUpdate( inst->network_interval_s, inst->network_pending_s, e->input->dt_s,
+	e->update = plDecideNetworkUpdate( inst->network_interval_s - inst->network_lead_s, inst->network_pending_s,
+									   e->input->dt_s,
 									   !inst->history_valid, a->dt_min_s, a->dt_max_s );
 	e->result = plRunForwardKinematics( inst, &pose, e->update.dt_s, inst->history_valid ? inst->history[0].yaw : 0.0 );
 	if ( e->result != PLEAT_RESULT_OK || !e->update.run )

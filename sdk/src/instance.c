@@ -453,6 +453,7 @@ plResult plInstance_Reset( plInstance handle )
 	}
 	inst->history_valid = 0;
 	inst->network_pending_s = 0.0;
+	inst->network_lead_s = 0.0;
 	memset( inst->latent, 0, inst->asset->latent_count * sizeof( float ) );
 	return PLEAT_RESULT_OK;
 }
@@ -464,6 +465,7 @@ plResult plInstance_SetNetworkRate( plInstance handle, float network_rate_hz )
 	if ( r == PLEAT_RESULT_OK )
 	{
 		inst->network_interval_s = network_rate_hz > 0.0f ? 1.0 / network_rate_hz : 0.0;
+		inst->network_lead_s = 0.0;
 	}
 	return r;
 }

@@ -36,6 +36,8 @@ typedef struct plInstanceData
 
 	double network_interval_s; // 1 / network_rate_hz; 0 = the networks run every step
 	double network_pending_s;  // time since the last network update (steps that skipped it)
+	double network_lead_s;     // the next update comes this much before its interval is full (< the interval; a scene
+	                           // staggering its characters' updates), 0 again after it
 	int deformed_is_committed; // CPU path: deformed holds T_def of the committed blend weights and current β
 
 	int body_contact;            // non-zero: the body-contact job runs after skinning (the asset has anchors)

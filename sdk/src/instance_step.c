@@ -415,6 +415,9 @@ void plCommit( plInstanceData* inst, int networks_ran, int reset, float dt_s, in
 	const plAssetData* a = inst->asset;
 	if ( networks_ran )
 	{
+		// A first frame (or one after a reset) runs whatever the interval says; the next update the interval decides
+		// is the one that comes early by the lead, and takes it up.
+		inst->network_lead_s = inst->history_valid && !reset ? 0.0 : inst->network_lead_s;
 		inst->history[1] = inst->history_valid && !reset ? inst->history[0] : inst->next_frame;
 		inst->history[0] = inst->next_frame;
 		inst->history_valid = 1;
@@ -471,7 +474,8 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 		return r;
 	}
 	const plAssetData* a = inst->asset;
-	plNetworkUpdate update = plDecideNetworkUpdate( inst->network_interval_s, inst->network_pending_s, input->dt_s,
+	plNetworkUpdate update = plDecideNetworkUpdate( inst->network_interval_s - inst->network_lead_s,
+													inst->network_pending_s, input->dt_s,
 													!inst->history_valid, a->dt_min_s, a->dt_max_s );
 	PLEAT_STEP_PHASE( PLEAT_PHASE_VALIDATE );
 

@@ -593,8 +593,16 @@ plResult plScene_ReportFrameCost( plScene handle, float measured_us )
 	plResult r = plCheckHandleThenArguments( s, measured_us > 0.0f && isfinite( measured_us ) );
 	if ( r == PLEAT_RESULT_OK && s->model_cost_us > 0.0f )
 	{
-		float ratio = measured_us / s->model_cost_us;
-		float scale = 0.9f * s->cost_scale + 0.1f * ratio;
+		// The ratio of two running means (≈ 20 frames), not a running mean of per-frame ratios: a frame where many
+		// characters update their networks at once and the cheap frames around it weigh by what they cost, so a
+		// rate's rhythm does not make the correction, and with it the plan, swing from frame to frame.
+		if ( s->modelled_avg_us <= 0.0 ) // the first report: start from the model (scale 1), as before any report
+		{
+			s->measured_avg_us = s->modelled_avg_us = s->model_cost_us;
+		}
+		s->measured_avg_us = 0.95 * s->measured_avg_us + 0.05 * measured_us;
+		s->modelled_avg_us = 0.95 * s->modelled_avg_us + 0.05 * s->model_cost_us;
+		float scale = (float)( s->measured_avg_us / s->modelled_avg_us );
 		s->cost_scale = scale < 0.25f ? 0.25f : ( scale > 4.0f ? 4.0f : scale );
 	}
 	return r;
@@ -699,6 +707,21 @@ static plResult plPlan( plSceneData* s, uint32_t* live, uint32_t live_count )
 }
 
 // A character takes its planned level: a rate change in place; any other change restarts the new detail and fades.
+// At a reduced network rate, the character's first update after a switch comes early by its own share of the
+// interval (the golden-ratio sequence over character slots): characters that switch together — all of them on the
+// first frame — then run their networks on different frames instead of all on one, so the frames cost alike and
+// the engine sees no spike every 1 / rate. The networks see the true time since their last update.
+static void plStaggerNetworkUpdates( const plSceneData* s, const plSceneCharacter* c, int32_t tier, float rate_hz )
+{
+	if ( rate_hz <= 0.0f )
+	{
+		return;
+	}
+	double share = fmod( (double)( c - s->characters ) * 0.6180339887498949, 1.0 );
+	plInstanceData* inst = plGetInstanceData( c->instances[tier] );
+	inst->network_lead_s = share * inst->network_interval_s;
+}
+
 static void plSwitch( plSceneData* s, plSceneCharacter* c, uint32_t target )
 {
 	int32_t from_tier = plLevelTier( s, c->level ), to_tier = plLevelTier( s, target );
@@ -708,6 +731,7 @@ static void plSwitch( plSceneData* s, plSceneCharacter* c, uint32_t target )
 	if ( to_tier >= 0 && from_tier == to_tier && c->stepped )
 	{
 		plInstance_SetNetworkRate( c->instances[to_tier], rate );
+		plStaggerNetworkUpdates( s, c, to_tier, rate );
 		c->level = target;
 		return;
 	}
@@ -715,6 +739,7 @@ static void plSwitch( plSceneData* s, plSceneCharacter* c, uint32_t target )
 	{
 		plInstance_Reset( c->instances[to_tier] );
 		plInstance_SetNetworkRate( c->instances[to_tier], rate );
+		plStaggerNetworkUpdates( s, c, to_tier, rate );
 	}
 	c->fade_from = c->level;
 	c->fade_alpha = c->stepped ? 0.0f : 1.0f;

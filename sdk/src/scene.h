@@ -122,7 +122,8 @@ typedef struct plSceneData
 	float budget_us, hysteresis;
 	uint32_t min_frames_between_switches, crossfade_frames;
 	plScenePlan plan;
-	float cost_scale;       // measured / modelled frame cost, a running average (plScene_ReportFrameCost)
+	float cost_scale;       // measured / modelled frame cost: the ratio of the two running means below
+	double measured_avg_us, modelled_avg_us; // running means of the reported frame costs and of their plans' costs
 	float model_cost_us;    // the last plan's cost in the model's units (before the correction)
 
 	uint32_t capacity;

@@ -19,6 +19,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+// The share of the budget a step above a character's current level must leave free (the dead band).
+#define PLEAT_SCENE_STEP_UP_MARGIN 0.05f
+
 typedef struct plBudgetStep
 {
 	float value;        // importance × error saved / cost added (× 1 + hysteresis for held steps)
@@ -226,7 +229,10 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 		}
 		float extra = plMoveCost( job, tier_users, job->frontier[k - 1], job->frontier[k] );
 		int keeps = k <= plHeldPosition( job, job->current[c] ); // back to where the character already is
-		if ( spent + ( keeps ? 0.0f : fading ) + extra > job->budget_us )
+		// A step above where the character is must also leave a margin: a correction that wobbles by a few percent
+		// then moves nobody up and down (a dead band), only a real change of the budget or the costs does.
+		float limit = keeps ? job->budget_us : job->budget_us * ( 1.0f - PLEAT_SCENE_STEP_UP_MARGIN );
+		if ( spent + ( keeps ? 0.0f : fading ) + extra > limit )
 		{
 			position[c] = UINT32_MAX - 2u; // closed
 			continue;

@@ -511,6 +511,82 @@ static void test_fades_block_steps_up_but_push_nobody_down( void** state )
 	}
 }
 
+// Characters that switch to a reduced network rate together do not all run their networks on the same frames: 8
+// characters of one body on the same motion, put at 15 Hz under 60 fps on the same frame, would give the same outputs
+// on every frame if their updates stayed in step; staggered, they fall into groups by the frame of the rate's
+// 4-frame cycle on which they update, and every group still updates once a cycle (a character's outputs stay equal
+// to its group's).
+static void test_reduced_rates_stagger_the_network_updates( void** state )
+{
+	(void)state;
+	plSceneRig rig;
+	plSceneRig_Init( &rig );
+	const float rates[1] = { 15.0f };
+	plSceneDef sdef = plDefaultSceneDef();
+	sdef.tiers = rig.tiers;
+	sdef.tier_count = 3;
+	sdef.network_rates_hz = rates;
+	sdef.network_rate_count = 1;
+	sdef.character_capacity = 8;
+	plScene scene;
+	assert_int_equal( plCreateScene( rig.context, &sdef, &scene ), PLEAT_RESULT_OK );
+	plDetail slow = { 0, 15.0f };
+	for ( uint32_t i = 0; i < 8; ++i )
+	{
+		plCharacterDef cdef = plDefaultCharacterDef();
+		uint32_t id;
+		assert_int_equal( plScene_AddCharacter( scene, &cdef, &id ), PLEAT_RESULT_OK );
+		assert_int_equal( plScene_SetOverride( scene, id, &slow ), PLEAT_RESULT_OK );
+	}
+
+	uint32_t n = rig.models[0]->N;
+	static float q[64 * 4];
+	plFrameInput inputs[8];
+	uint32_t group[8] = { 0 }, group_count = 0;
+	for ( uint32_t frame = 0; frame < 24; ++frame )
+	{
+		plFrameInput in = plTestMotion( frame, rig.models[0]->J, q );
+		in.dt_s = 1.0f / 60.0f;
+		for ( uint32_t i = 0; i < 8; ++i )
+		{
+			inputs[i] = in;
+		}
+		assert_true( plScene_Step( scene, inputs, NULL, NULL, 8 ) >= 0 );
+		const float* p[8];
+		for ( uint32_t i = 0; i < 8; ++i )
+		{
+			uint32_t count;
+			assert_int_equal( plScene_GetPositions( scene, i, &p[i], &count ), PLEAT_RESULT_OK );
+		}
+		// Groups of equal outputs, numbered in order of first appearance.
+		uint32_t groups = 0, first_of[8];
+		for ( uint32_t i = 0; i < 8; ++i )
+		{
+			uint32_t g = 0;
+			while ( g < groups && memcmp( p[first_of[g]], p[i], (size_t)n * 12 ) != 0 )
+			{
+				g++;
+			}
+			if ( g == groups )
+			{
+				first_of[groups++] = i;
+			}
+			if ( frame >= 8 )
+			{
+				assert_int_equal( g, group[i] ); // once a character has updated early it keeps its own cycle
+			}
+			group[i] = g;
+		}
+		if ( frame == 0 )
+		{
+			assert_int_equal( groups, 1 ); // the first frame runs everyone's networks from the same reset
+		}
+		group_count = groups;
+	}
+	assert_true( group_count >= 3 ); // of the 4 frames of a cycle, 3 or 4 carry updates (not all on one)
+	plSceneRig_Free( &rig );
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
@@ -521,6 +597,7 @@ int main( void )
 		cmocka_unit_test( test_fades_block_steps_up_but_push_nobody_down ),
 		cmocka_unit_test( test_scene_follows_budget_overrides_and_switch_limits ),
 		cmocka_unit_test( test_scene_destroyed_with_its_context ),
+		cmocka_unit_test( test_reduced_rates_stagger_the_network_updates ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

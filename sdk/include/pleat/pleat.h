@@ -851,7 +851,8 @@ PLEAT_API plResult plScene_Step( plScene scene, const plFrameInput* inputs, cons
 /// The last step's plan.
 PLEAT_API plResult plScene_GetPlan( plScene scene, plScenePlan* out_plan );
 /// Tell the scene what its last plScene_Step really cost (µs, measured by the engine on its own clock, > 0): the
-/// scene keeps a running correction of its cost model (measured / modelled, averaged over ~10 frames, within ×0.25..4)
+/// scene keeps a running correction of its cost model (the ratio of the measured and the modelled costs, each a
+/// running mean over ~20 frames; within ×0.25..4)
 /// and plans the next frames with it, so the budget holds on the machine it runs on even when the def's costs were
 /// measured elsewhere or the load changes. Never called: the def's costs are taken as they are.
 PLEAT_API plResult plScene_ReportFrameCost( plScene scene, float measured_us );
