@@ -55,8 +55,6 @@ typedef struct plBatchGroup
 	atomic_int blend_result; // a blend or geometry job's error, from whichever worker saw it
 } plBatchGroup;
 
-int plClaimScratch( plContextData* ctx, size_t floats );
-
 // ---- per instance, before the networks: what plInstance_Step does up to X_c ----
 
 static void plPrepareEntry( plBatchEntry* e )

@@ -120,6 +120,10 @@ plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpd
 // plReserveBatchScratch at instance creation (0: none).
 size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a );
 
+// A free block of the context's batch scratch with room for `floats` floats: its slot (release it by storing 0 in
+// ctx->batch_scratch_busy[slot]), or -1 when none is free or big enough. plStepInstances and the scene's LBS level.
+int plClaimScratch( plContextData* ctx, size_t floats );
+
 // Normals of inst->positions into inst->normals on the calling thread (face normals, then the gather), for the rest
 // pose at creation. PLEAT_RESULT_INTERNAL_ERROR as plDeformCpu.
 plResult plNormalsSerial( plInstanceData* inst );

@@ -1,6 +1,7 @@
 // The scene (pleat.h, SCENE BUDGET; docs/scene-budget.md): characters dressed in one garment that comes in several
 // tiers, a level of detail per character chosen every frame by the budget policy (scene_budget.c), switches that
-// cross-fade, and one plStepInstances call per frame for every network detail shown.
+// cross-fade, one plStepInstances call per frame for every network detail shown, the LBS-only characters' geometry
+// in lane groups through the same batched kernels (plStepLbsLevel), and the characters finished over the task hooks.
 //
 // Levels: [0] LBS-only, then for each tier its full rate and each reduced rate. Every character has one instance per
 // tier (created with it), so a switch allocates nothing: the new tier's instance is reset (its latent restarts from
@@ -10,9 +11,11 @@
 // (test_tier_switch_does_not_pop). LBS-only skins tiers[0]'s shaped template with the frame's skinning matrices,
 // without touching the instance's history. Outputs live on the display mesh (tiers[0]'s); other meshes are carried
 // over by tier_transfer.c.
+#include "kernels_batch.h"
 #include "scene.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <string.h>
 
 // Cost model of a tier when the def gives none (µs, a crowd on one core; docs/scene-budget.md, "Costs"): the batched
@@ -292,7 +295,7 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 		(size_t)cap * sizeof( float ),            (size_t)cap * sizeof( uint32_t ), s->budget_scratch_bytes + live_ids,
 		(size_t)cap * 2 * sizeof( plInstance ),   (size_t)cap * 2 * sizeof( plFrameInput ),
 		(size_t)cap * 2 * sizeof( plResult ),     workers * 2 * display, workers * s->lbs_sums_floats * sizeof( float ),
-		0,                                        (size_t)cap * sizeof( plResult ), (size_t)cap * sizeof( uint32_t ) };
+		0,                                        (size_t)cap * 2 * sizeof( plResult ), (size_t)cap * 2 * sizeof( uint32_t ) };
 	size_t transfer = 0;
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
 	{
@@ -339,7 +342,9 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	s->fade_positions = (float*)parts[12];
 	s->lbs_sums = (float*)parts[13];
 	s->verdicts = (plResult*)parts[15];
+	s->lbs_results = s->verdicts + cap;
 	s->result_index = (uint32_t*)parts[16];
+	s->lbs_members = s->result_index + cap;
 	uint8_t* q = (uint8_t*)parts[14];
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
 	{
@@ -746,11 +751,14 @@ static void plSwitch( plSceneData* s, plSceneCharacter* c, uint32_t target )
 	c->level = target;
 }
 
-// LBS-only on the display mesh: forward kinematics of tiers[0]'s instance (its scratch frame only: the history is not
-// touched), its shaped template skinned, normals (sums: the calling worker's normals scratch). Into positions /
-// normals [N0][3].
-static plResult plStepLbs( const plSceneData* s, plSceneCharacter* c, const plFrameInput* input, float* positions,
-						   float* normals, float* sums )
+// result_index of a live character whose output spans were rejected (it does not step), and of one that shows no
+// network (LBS-only).
+#define PLEAT_SCENE_SKIPPED UINT32_MAX
+#define PLEAT_SCENE_NO_NETWORK ( UINT32_MAX - 1u )
+
+// LBS-only on the display mesh, in two parts. The pose: forward kinematics of tiers[0]'s instance (its scratch frame
+// only: the history is not touched) into its next_skin_matrices.
+static plResult plLbsPose( plSceneCharacter* c, const plFrameInput* input )
 {
 	plInstanceData* inst = plGetInstanceData( c->instances[0] );
 	const plAssetData* a = inst->asset;
@@ -761,11 +769,36 @@ static plResult plStepLbs( const plSceneData* s, plSceneCharacter* c, const plFr
 		return r;
 	}
 	double dt = input->dt_s < a->dt_min_s ? a->dt_min_s : ( input->dt_s > a->dt_max_s ? a->dt_max_s : input->dt_s );
-	r = plRunForwardKinematics( inst, &pose, dt, inst->history_valid ? inst->history[0].yaw : 0.0 );
-	if ( r != PLEAT_RESULT_OK )
+	return plRunForwardKinematics( inst, &pose, dt, inst->history_valid ? inst->history[0].yaw : 0.0 );
+}
+
+// Normals of positions [N0][3] into normals (sums: the calling worker's normals scratch).
+static plResult plLbsNormals( const plSceneData* s, const float* positions, float* normals, float* sums )
+{
+	const plAssetData* a = s->tiers[0].asset;
+	uint32_t n = a->vertex_count;
+	if ( a->face_count >= n )
 	{
-		return r;
+		plNormalsScatterJob scatter = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count,
+										plMakeSpan( normals, n, 12 ), sums, a->face_count, &s->ctx->kernels };
+		return plNormalsScatterJob_Run( &scatter ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 	}
+	plFaceNormalsJob faces = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count, sums, 0,
+							   a->face_count, &s->ctx->kernels };
+	plNormalsGatherJob gather = { sums, a->face_count, a->adjacency_offsets, a->adjacency_faces,
+								  plMakeSpan( normals, n, 12 ), 0, n, &s->ctx->kernels };
+	return plFaceNormalsJob_Run( &faces ) == PLEAT_RESULT_OK && plNormalsGatherJob_Run( &gather ) == PLEAT_RESULT_OK
+			   ? PLEAT_RESULT_OK
+			   : PLEAT_RESULT_INTERNAL_ERROR;
+}
+
+// The geometry, after plLbsPose: tiers[0]'s shaped template skinned with next_skin_matrices, body contact, normals,
+// into positions / normals [N0][3].
+static plResult plLbsGeometry( const plSceneData* s, plSceneCharacter* c, float* positions, float* normals,
+							   float* sums )
+{
+	plInstanceData* inst = plGetInstanceData( c->instances[0] );
+	const plAssetData* a = inst->asset;
 	uint32_t n = a->vertex_count;
 	plSkinningJob skin = { plMakeConstSpan( inst->shaped_template, n, 12 ),
 						   a->skin_indices,
@@ -786,19 +819,139 @@ static plResult plStepLbs( const plSceneData* s, plSceneCharacter* c, const plFr
 	{
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
-	if ( a->face_count >= n )
+	return plLbsNormals( s, positions, normals, sums );
+}
+
+// LBS-only for one character (a fade from LBS-only): pose and geometry.
+static plResult plStepLbs( const plSceneData* s, plSceneCharacter* c, const plFrameInput* input, float* positions,
+						   float* normals, float* sums )
+{
+	plResult r = plLbsPose( c, input );
+	return r == PLEAT_RESULT_OK ? plLbsGeometry( s, c, positions, normals, sums ) : r;
+}
+
+#define PLEAT_LBS_LANES_MAX 16
+
+// plLbsGeometry of `count` characters at once (count <= the batched kernels' geometry lanes), into their back buffers:
+// skinning, body contact and normals through the batched geometry kernels (kernels_batch.h), whose lanes are
+// characters and which do per lane the single kernels' operations in the same order, so every character gets
+// plLbsGeometry's bits. Normals one by one where no scratch block is free.
+static void plLbsGeometryLanes( const plSceneData* s, const plBatchKernels* kernels, plSceneCharacter* const* group,
+								uint32_t count, plResult* const* results, float* sums )
+{
+	const plAssetData* a = s->tiers[0].asset;
+	uint32_t n = a->vertex_count;
+	const float* in[PLEAT_LBS_LANES_MAX];
+	const float* matrices[PLEAT_LBS_LANES_MAX];
+	float* positions[PLEAT_LBS_LANES_MAX];
+	float* normals[PLEAT_LBS_LANES_MAX];
+	float* contact_positions[PLEAT_LBS_LANES_MAX];
+	const float* contact_anchors[PLEAT_LBS_LANES_MAX];
+	const float* contact_matrices[PLEAT_LBS_LANES_MAX];
+	float contact_offsets[PLEAT_LBS_LANES_MAX];
+	uint32_t contact_count = 0;
+	for ( uint32_t k = 0; k < count; ++k )
 	{
-		plNormalsScatterJob scatter = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count,
-										plMakeSpan( normals, n, 12 ), sums, a->face_count, &s->ctx->kernels };
-		return plNormalsScatterJob_Run( &scatter ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
+		plInstanceData* inst = plGetInstanceData( group[k]->instances[0] );
+		in[k] = inst->shaped_template;
+		matrices[k] = inst->next_skin_matrices;
+		positions[k] = group[k]->back_positions;
+		normals[k] = group[k]->back_normals;
+		if ( inst->body_contact )
+		{
+			contact_positions[contact_count] = positions[k];
+			contact_anchors[contact_count] = inst->shaped_anchors;
+			contact_matrices[contact_count] = matrices[k];
+			contact_offsets[contact_count++] = inst->body_contact_offset_m;
+		}
 	}
-	plFaceNormalsJob faces = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count, sums, 0,
-							   a->face_count, &s->ctx->kernels };
-	plNormalsGatherJob gather = { sums, a->face_count, a->adjacency_offsets, a->adjacency_faces,
-								  plMakeSpan( normals, n, 12 ), 0, n, &s->ctx->kernels };
-	return plFaceNormalsJob_Run( &faces ) == PLEAT_RESULT_OK && plNormalsGatherJob_Run( &gather ) == PLEAT_RESULT_OK
-			   ? PLEAT_RESULT_OK
-			   : PLEAT_RESULT_INTERNAL_ERROR;
+	kernels->skinning_batch( positions, in, count, a->skin_indices, a->skin_weights, a->influence_count, matrices,
+							 a->joint_count, 0, n );
+	if ( contact_count > 0 )
+	{
+		kernels->body_contact_batch( contact_positions, contact_anchors, contact_offsets, contact_count,
+									 a->body_anchor_normals, a->body_anchor_skin_indices, a->body_anchor_skin_weights,
+									 a->body_anchor_influence_count, contact_matrices, a->joint_count, 0, n );
+	}
+	int slot = plClaimScratch( s->ctx, plNormalsBatchScratchFloats( n, kernels->geometry_lanes ) );
+	if ( slot >= 0 )
+	{
+		kernels->normals_batch( normals, (const float* const*)positions, count, n, a->faces, a->face_count,
+								s->ctx->batch_scratch[slot] );
+		atomic_store_explicit( &s->ctx->batch_scratch_busy[slot], 0, memory_order_release );
+		return;
+	}
+	for ( uint32_t k = 0; k < count; ++k )
+	{
+		*results[k] = plLbsNormals( s, positions[k], normals[k], sums );
+	}
+}
+
+typedef struct plLbsLevelTask
+{
+	plSceneData* scene;
+	const uint32_t* live;
+	const plFrameInput* inputs;
+	const plBatchKernels* kernels; // NULL: one character at a time
+	uint32_t lanes;                // characters per group (1 without kernels)
+	uint32_t count;                // the LBS-only characters this frame: scene->lbs_members[0, count)
+} plLbsLevelTask;
+
+// plTaskFn over the groups of LBS-only characters: the poses one by one, then the group's geometry in lanes.
+static void plStepLbsGroups( uint32_t start, uint32_t end, uint32_t worker, void* context )
+{
+	const plLbsLevelTask* task = (const plLbsLevelTask*)context;
+	plSceneData* s = task->scene;
+	float* sums = s->lbs_sums + (size_t)worker * s->lbs_sums_floats;
+	for ( uint32_t g = start; g < end; ++g )
+	{
+		plSceneCharacter* group[PLEAT_LBS_LANES_MAX];
+		plResult* results[PLEAT_LBS_LANES_MAX];
+		uint32_t count = 0;
+		uint32_t last = ( g + 1 ) * task->lanes < task->count ? ( g + 1 ) * task->lanes : task->count;
+		for ( uint32_t k = g * task->lanes; k < last; ++k )
+		{
+			uint32_t m = s->lbs_members[k];
+			plSceneCharacter* c = &s->characters[task->live[m]];
+			s->lbs_results[m] = plLbsPose( c, &task->inputs[task->live[m]] );
+			if ( s->lbs_results[m] != PLEAT_RESULT_OK )
+			{
+				continue;
+			}
+			if ( task->kernels == NULL )
+			{
+				s->lbs_results[m] = plLbsGeometry( s, c, c->back_positions, c->back_normals, sums );
+				continue;
+			}
+			group[count] = c;
+			results[count++] = &s->lbs_results[m];
+		}
+		if ( count > 0 )
+		{
+			plLbsGeometryLanes( s, task->kernels, group, count, results, sums );
+		}
+	}
+}
+
+// The LBS-only level of this frame, before the characters are finished: every live character shown LBS-only gets
+// its outputs in its back buffers and its result in lbs_results — in lane groups through the batched geometry
+// kernels (plLbsGeometryLanes), or one by one without them (the scalar set) or on a mesh with fewer faces than
+// vertices (whose normals take the face-normal gather, which has no twin). The groups go to the task hooks.
+static void plStepLbsLevel( plSceneData* s, const uint32_t* live, uint32_t live_count, const plFrameInput* inputs )
+{
+	const plAssetData* a = s->tiers[0].asset;
+	plBatchKernels kernels;
+	int lanes_form = plSelectBatchKernels( &s->ctx->kernels, &kernels ) && kernels.geometry_lanes > 1 &&
+					 kernels.geometry_lanes <= PLEAT_LBS_LANES_MAX && a->face_count >= a->vertex_count;
+	plLbsLevelTask task = { s, live, inputs, lanes_form ? &kernels : NULL, lanes_form ? kernels.geometry_lanes : 1, 0 };
+	for ( uint32_t m = 0; m < live_count; ++m )
+	{
+		if ( s->result_index[m] == PLEAT_SCENE_NO_NETWORK )
+		{
+			s->lbs_members[task.count++] = m;
+		}
+	}
+	plRunTask( &s->ctx->runner, plStepLbsGroups, ( task.count + task.lanes - 1 ) / task.lanes, 1, &task );
 }
 
 // A network detail's last outputs (its tier's instance, just stepped) on the display mesh.
@@ -930,27 +1083,21 @@ static void plWriteOut( float* dst, uint32_t stride_bytes, const float* src, uin
 	}
 }
 
-// result_index of a live character whose output spans were rejected (it does not step), and of one that shows no
-// network (LBS-only).
-#define PLEAT_SCENE_SKIPPED UINT32_MAX
-#define PLEAT_SCENE_NO_NETWORK ( UINT32_MAX - 1u )
-
 // After the crowd step: one character's new outputs (its network's, or LBS-only), the cross-fade if one is in flight,
 // its recent motion, the buffer swap and the copy out. fade_* and sums: the calling worker's scratch.
 static plResult plFinishCharacter( const plSceneData* s, plSceneCharacter* c, const plFrameInput* input,
-								   const plStepOutput* out, uint32_t result_index, float* fade_positions,
-								   float* fade_normals, float* sums )
+								   const plStepOutput* out, uint32_t result_index, plResult lbs_result,
+								   float* fade_positions, float* fade_normals, float* sums )
 {
 	uint32_t n0 = s->display_vertex_count;
 	int32_t tier = plLevelTier( s, c->level );
 	int fade = c->fade_alpha < 1.0f;
 	int32_t from = fade ? plLevelTier( s, c->fade_from ) : -1;
-	plResult result = tier >= 0 ? s->step_results[result_index] : PLEAT_RESULT_OK;
-	// The new outputs go to the back buffers; the front ones are the last frame's, to measure the jump against.
+	// An LBS-only character's outputs are already in its back buffers (plStepLbsLevel); a network's are its tier's.
+	plResult result = tier >= 0 ? s->step_results[result_index] : lbs_result;
 	uint32_t joints = s->tiers[0].asset->joint_count;
 	if ( result >= 0 && tier < 0 )
 	{
-		result = plStepLbs( s, c, input, c->back_positions, c->back_normals, sums );
 		memcpy( c->skin_matrices, plGetInstanceData( c->instances[0] )->next_skin_matrices,
 				(size_t)joints * 12 * sizeof( float ) );
 	}
@@ -1017,7 +1164,7 @@ static void plFinishCharacters( uint32_t start, uint32_t end, uint32_t worker, v
 		uint32_t id = task->live[m];
 		s->verdicts[m] = plFinishCharacter( s, &s->characters[id], &task->inputs[id],
 											task->outputs != NULL ? &task->outputs[id] : NULL, s->result_index[m],
-											fade_positions, fade_positions + display, sums );
+											s->lbs_results[m], fade_positions, fade_positions + display, sums );
 	}
 }
 
@@ -1097,6 +1244,7 @@ plResult plScene_Step( plScene handle, const plFrameInput* inputs, const plStepO
 		// and the fading-out detail's result right after it (the same input, so the same verdict)
 		k += ( tier >= 0 ) + ( from >= 0 && from != tier );
 	}
+	plStepLbsLevel( s, live, live_count, inputs );
 	plSceneFinishTask finish = { s, live, inputs, outputs };
 	plRunTask( &s->ctx->runner, plFinishCharacters, live_count, 2, &finish );
 

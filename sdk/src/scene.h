@@ -147,6 +147,8 @@ typedef struct plSceneData
 	size_t lbs_sums_floats;       // one worker's share of lbs_sums
 	plResult* verdicts;           // [capacity] a step's checks of each live character's output spans, then its result
 	uint32_t* result_index;       // [capacity] where each live character's network result sits in step_results
+	plResult* lbs_results;        // [capacity] the LBS-only level's result of each live character shown on it
+	uint32_t* lbs_members;        // [capacity] the live characters (positions in live_ids) shown LBS-only this frame
 	void* block;                  // everything above in one allocation
 	size_t block_size;
 } plSceneData;

@@ -320,6 +320,94 @@ static void test_crowd_equals_one_by_one_avx2_batch_and_no_scratch( void** state
 	plRunCrowdWith( 0, 3, 1, 1 );
 }
 
+// The scene's LBS-only level steps its characters in lane groups through the batched geometry kernels (scene.c,
+// plStepLbsLevel). Each must get the bits of a lone instance of a zero network — its blend weights are exactly 0, so
+// its T_def is the shaped template and its step is LBS with body contact: positions and normals of 11 characters (a
+// lane group and part of another) with different β and motion, over three frames.
+static void plRunLbsLevel( int force_scalar )
+{
+	enum
+	{
+		CHARACTERS = 11,
+		N = 300
+	};
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	p.grid_x = 20;
+	p.grid_y = 15;
+	p.weight_scale = 0.0f; // every network weight and bias 0: w = 0
+	p.seed = 21;
+	plTestAsset* model = plTestAsset_Create( &p );
+	// the stand-in body 0.5 mm behind the sheet, inside the default 1 mm clearance: body contact moves every anchored
+	// vertex (four in five) on every step
+	assert_true( plTestAsset_AddBodyAnchors( model, 0.0005f ) );
+	size_t size;
+	uint8_t* bytes = plTestAsset_Write( model, &size );
+	plContextDef def = plDefaultContextDef();
+	def.force_scalar = force_scalar;
+	plContext context;
+	assert_int_equal( plCreateContext( &def, &context ), PLEAT_RESULT_OK );
+	plAssetDef adef = plDefaultAssetDef();
+	adef.data = bytes;
+	adef.size = size;
+	plAsset asset;
+	assert_int_equal( plLoadAsset( context, &adef, &asset ), PLEAT_RESULT_OK );
+	plSceneDef sdef = plDefaultSceneDef();
+	sdef.tiers = &asset;
+	sdef.tier_count = 1;
+	sdef.character_capacity = CHARACTERS;
+	plScene scene;
+	assert_int_equal( plCreateScene( context, &sdef, &scene ), PLEAT_RESULT_OK );
+	plInstance lone[CHARACTERS];
+	const plDetail lbs = { -1, 0.0f };
+	for ( uint32_t i = 0; i < CHARACTERS; ++i )
+	{
+		float beta[2] = { 0.3f * (float)( i % 5 ) - 0.6f, 0.1f * (float)( i % 3 ) };
+		plCharacterDef cdef = plDefaultCharacterDef();
+		cdef.beta = beta;
+		cdef.beta_count = 2;
+		uint32_t id;
+		assert_int_equal( plScene_AddCharacter( scene, &cdef, &id ), PLEAT_RESULT_OK );
+		assert_int_equal( id, i );
+		assert_int_equal( plScene_SetOverride( scene, id, &lbs ), PLEAT_RESULT_OK );
+		plInstanceDef idef = plDefaultInstanceDef();
+		idef.asset = asset;
+		idef.beta = beta;
+		idef.beta_count = 2;
+		assert_int_equal( plCreateInstance( context, &idef, &lone[i] ), PLEAT_RESULT_OK );
+	}
+	static float quats[CHARACTERS][64 * 4];
+	static float scene_out[CHARACTERS][2][N * 3], lone_out[2][N * 3];
+	plFrameInput inputs[CHARACTERS];
+	plStepOutput outputs[CHARACTERS];
+	plResult results[CHARACTERS];
+	for ( uint32_t frame = 0; frame < 3; ++frame )
+	{
+		for ( uint32_t i = 0; i < CHARACTERS; ++i )
+		{
+			inputs[i] = plTestMotion( 2 * frame + 5 * i, model->J, quats[i] );
+			outputs[i] = ( plStepOutput ){ scene_out[i][0], 12, scene_out[i][1], 12, N };
+		}
+		assert_true( plScene_Step( scene, inputs, outputs, results, CHARACTERS ) >= 0 );
+		for ( uint32_t i = 0; i < CHARACTERS; ++i )
+		{
+			plStepOutput out = { lone_out[0], 12, lone_out[1], 12, N };
+			assert_int_equal( results[i], plInstance_Step( lone[i], &inputs[i], &out ) );
+			assert_memory_equal( scene_out[i][0], lone_out[0], sizeof( lone_out[0] ) );
+			assert_memory_equal( scene_out[i][1], lone_out[1], sizeof( lone_out[1] ) );
+		}
+	}
+	plDestroyContext( context );
+	plTestAsset_FreeBytes( bytes );
+	plTestAsset_Destroy( model );
+}
+
+static void test_scene_lbs_level_equals_lone_instances( void** state )
+{
+	(void)state;
+	plRunLbsLevel( 0 );
+	plRunLbsLevel( 1 );
+}
+
 static void test_batch_arguments( void** state )
 {
 	(void)state;
@@ -360,6 +448,7 @@ int main( void )
 		cmocka_unit_test( test_crowd_equals_one_by_one_simd ),
 		cmocka_unit_test( test_crowd_equals_one_by_one_avx2_batch_and_no_scratch ),
 		cmocka_unit_test( test_batch_arguments ),
+		cmocka_unit_test( test_scene_lbs_level_equals_lone_instances ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }
