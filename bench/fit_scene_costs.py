@@ -3,15 +3,17 @@
 
 The model, per character and frame (µs): a tier at full rate = PER_MAC · (MLP + blend-shape multiply-adds) +
 PER_VERTEX · N + FIXED + PER_DISPLAY_VERTEX · N_display (only for a tier on another mesh, carried over to the
-display mesh); between network updates the same without the multiply-adds; LBS-only = PER_VERTEX · N_display + FIXED.
-The calibration of the run gives all of these per tier (cost_us, skin_cost_us) and for LBS-only: a least-squares fit
-of the four constants to them, printed with each level's measured and modelled cost.
+display mesh); between network updates the same without the multiply-adds; LBS-only = LBS_PER_VERTEX · N_display +
+FIXED (its own constant: since stop 24 the scene's LBS-only level runs the batched geometry kernels, a tier's step
+between updates does not). The calibration of each run gives all of these per tier (cost_us, skin_cost_us) and for
+LBS-only: a least-squares fit of the five constants to the levels of every run given, printed with each level's
+measured and modelled cost.
 
 With every tier on one mesh but xsmall, FIXED and PER_VERTEX are hardly separable; --fixed-us holds FIXED at a
 value measured elsewhere (pleat_bench_phases: validation + forward kinematics + X_c + guards + commit) and fits the
 other three.
 
-usage: bench/fit_scene_costs.py out/bench/scene.json [--fixed-us F]
+usage: bench/fit_scene_costs.py out/bench/scene.json [more.json ...] [--fixed-us F]
 """
 import json
 import sys
@@ -32,37 +34,42 @@ def network_macs(weights):
 
 def main():
     from pleat.eval import scene as S
-    run = json.load(open(sys.argv[1]))
-    cal = run["calibration"]
-    tiers = [cal[k] for k in sorted(k for k in cal if k.startswith("tier"))]
-    sizes = []
-    for t in tiers:
-        _, w = S.read_weights(t["path"])
-        sizes.append((network_macs(w), len(w["template"])))
-    display = sizes[0][1]
+    args = sys.argv[1:]
+    fixed = None
+    if "--fixed-us" in args:
+        k = args.index("--fixed-us")
+        fixed = float(args[k + 1])
+        del args[k:k + 2]
     rows, costs, labels = [], [], []
-    for t, (macs, n) in zip(tiers, sizes):
-        carry = 0.0 if n == display else float(display)
-        rows.append([macs, n, 1.0, carry])
-        costs.append(t["cost_us"])
-        labels.append(f"{t['path']} full")
-        rows.append([0.0, n, 1.0, carry])
-        costs.append(t["skin_cost_us"])
-        labels.append(f"{t['path']} between updates")
-    rows.append([0.0, display, 1.0, 0.0])
-    costs.append(cal["lbs"]["cost_us"])
-    labels.append("LBS-only")
+    for path in args:
+        cal = json.load(open(path))["calibration"]
+        tiers = [cal[k] for k in sorted(k for k in cal if k.startswith("tier"))]
+        sizes = []
+        for t in tiers:
+            _, w = S.read_weights(t["path"])
+            sizes.append((network_macs(w), len(w["template"])))
+        display = sizes[0][1]
+        for t, (macs, n) in zip(tiers, sizes):
+            carry = 0.0 if n == display else float(display)
+            rows.append([macs, n, 1.0, carry, 0.0])
+            costs.append(t["cost_us"])
+            labels.append(f"{t['path']} full")
+            rows.append([0.0, n, 1.0, carry, 0.0])
+            costs.append(t["skin_cost_us"])
+            labels.append(f"{t['path']} between updates")
+        rows.append([0.0, 0.0, 1.0, 0.0, display])
+        costs.append(cal["lbs"]["cost_us"])
+        labels.append("LBS-only")
     A, y = np.array(rows), np.array(costs)
-    fixed = float(sys.argv[sys.argv.index("--fixed-us") + 1]) if "--fixed-us" in sys.argv else None
     # relative least squares: every level counts by its own size, not the large tier alone
     if fixed is None:
         x, *_ = np.linalg.lstsq(A / y[:, None], np.ones_like(y), rcond=None)
     else:
-        free = [0, 1, 3]
+        free = [0, 1, 3, 4]
         sub, *_ = np.linalg.lstsq(A[:, free] / y[:, None], (y - fixed) / y, rcond=None)
-        x = np.array([sub[0], sub[1], fixed, sub[2]])
+        x = np.array([sub[0], sub[1], fixed, sub[2], sub[3]])
     names = ("PLEAT_COST_US_PER_MAC", "PLEAT_COST_US_PER_VERTEX", "PLEAT_COST_US_FIXED",
-             "PLEAT_COST_US_PER_DISPLAY_VERTEX")
+             "PLEAT_COST_US_PER_DISPLAY_VERTEX", "PLEAT_COST_US_LBS_PER_VERTEX")
     for name, value in zip(names, x):
         print(f"#define {name} {value:.4g}")
     print()

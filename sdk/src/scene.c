@@ -23,11 +23,16 @@
 // display mesh (map + normals there) ~12 ns per display vertex, ~2 µs per character of fixed work (validation,
 // forward kinematics, X_c, commit), and the weights and blend shapes streamed once per frame for the whole group at
 // ~150 GB/s of effective overlap. Fitted by bench/fit_scene_costs.py to a pleat_bench_crowd --scene calibration of the
-// shipped tiers (2026-11-25, fixed cost held at the per-phase bench's 2 µs); measure and pass tier_cost_us for a real
-// budget, or report frame costs (plScene_ReportFrameCost).
+// shipped tiers (2026-11-25, fixed cost held at the per-phase bench's 2 µs). The fit to stop 24's calibrations gives
+// ~45 GMAC/s, but the crowd renderer, which draws between steps, measures its scenes 8–25 % above these estimates
+// already (caches cold at every frame), so the tiers keep the more cautious constants. The LBS-only level, whose
+// geometry runs the batched kernels in lane groups since stop 24 (plStepLbsLevel), has its own: ~7.6 ns per display
+// vertex (the same fit). Measure and pass tier_cost_us for a real budget, or report frame costs
+// (plScene_ReportFrameCost).
 #define PLEAT_COST_US_PER_MAC 0.027e-3
 #define PLEAT_COST_US_PER_VERTEX 0.012
 #define PLEAT_COST_US_PER_DISPLAY_VERTEX 0.012
+#define PLEAT_COST_US_LBS_PER_VERTEX 0.0076
 #define PLEAT_COST_US_FIXED 2.0
 #define PLEAT_COST_US_PER_STREAMED_BYTE 0.0067e-3
 
@@ -110,7 +115,7 @@ static void plBuildLevels( plSceneData* s, const plSceneDef* def )
 	s->levels[0].tier = -1;
 	s->levels[0].rate_hz = 0.0f;
 	s->levels[0].cost_us =
-		def->lbs_cost_us > 0.0f ? def->lbs_cost_us : (float)( PLEAT_COST_US_PER_VERTEX * n0 + PLEAT_COST_US_FIXED );
+		def->lbs_cost_us > 0.0f ? def->lbs_cost_us : (float)( PLEAT_COST_US_LBS_PER_VERTEX * n0 + PLEAT_COST_US_FIXED );
 	s->levels[0].error_mm = lbs_error;
 	s->level_count = 1;
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
