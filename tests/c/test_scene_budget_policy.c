@@ -203,6 +203,49 @@ static void test_hysteresis_keeps_plans_through_small_changes( void** state )
 	assert_int_equal( p.out[least], 1 );
 }
 
+// The dead band: a step above a character's current level must leave 5 % of the budget free, keeping a level needs
+// only the budget. So a plan made at budget B survives the budget falling by up to that share (a cost correction that
+// wobbles moves nobody), and a larger fall does move characters down.
+static void test_budget_wobble_inside_the_dead_band_moves_nobody( void** state )
+{
+	(void)state;
+	plPlanner p;
+	plPlanner_Init( &p );
+	const uint32_t n = 32;
+	for ( uint32_t c = 0; c < n; ++c )
+	{
+		p.importance[c] = 0.2f + 0.6f * plRand01();
+		p.current[c] = 0;
+	}
+	float budget = n * 55.0f;
+	plPlan( &p, n, budget, 0.25f );
+	uint32_t first[64];
+	memcpy( first, p.out, sizeof( first ) );
+	memcpy( p.current, p.out, sizeof( p.current ) );
+	uint32_t mixed = 0;
+	for ( uint32_t c = 0; c < n; ++c )
+	{
+		mixed += first[c] != first[0];
+	}
+	assert_true( mixed > 0 ); // the budget matters: the characters are on different levels
+	for ( int trial = 0; trial < 20; ++trial )
+	{
+		float wobble = 1.0f - 0.045f * (float)trial / 19.0f; // down to −4.5 %
+		plPlan( &p, n, budget * wobble, 0.25f );
+		for ( uint32_t c = 0; c < n; ++c )
+		{
+			assert_int_equal( p.out[c], first[c] );
+		}
+	}
+	plPlan( &p, n, budget * 0.85f, 0.25f );
+	uint32_t moved = 0;
+	for ( uint32_t c = 0; c < n; ++c )
+	{
+		moved += p.out[c] != first[c];
+	}
+	assert_true( moved > 0 );
+}
+
 static void test_pins_and_holds( void** state )
 {
 	(void)state;
@@ -593,6 +636,7 @@ int main( void )
 		cmocka_unit_test( test_frontier_is_sorted_convex_and_drops_dominated_levels ),
 		cmocka_unit_test( test_plans_stay_within_budget_and_follow_importance ),
 		cmocka_unit_test( test_hysteresis_keeps_plans_through_small_changes ),
+		cmocka_unit_test( test_budget_wobble_inside_the_dead_band_moves_nobody ),
 		cmocka_unit_test( test_pins_and_holds ),
 		cmocka_unit_test( test_fades_block_steps_up_but_push_nobody_down ),
 		cmocka_unit_test( test_scene_follows_budget_overrides_and_switch_limits ),
