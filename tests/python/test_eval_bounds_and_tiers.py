@@ -68,6 +68,17 @@ def test_a_mean_of_two_students_has_their_summed_sizes_and_twice_their_network_c
     assert large.lp_hidden == tuple(2 * w for w in member.lp_hidden) and large.latent == 2 * member.latent
 
 
+def test_a_packed_name_gives_count_times_a_tiers_sizes():
+    six, small = tiers.tier("6xsmall"), tiers.tier("small")
+    assert six == tiers.packed("small", 6) and six.name == "6xsmall" and six.vertices == small.vertices
+    assert (six.latent, six.blend) == (6 * small.latent, 6 * small.blend)
+    assert six.lp_hidden == (768, 768) and six.dec_hidden == (768,)
+    for bad in ("0xsmall", "6xhuge", "xsmallx", "6x"):
+        with pytest.raises(ValueError):
+            tiers.tier(bad)
+    assert tiers.tier("xsmall").vertices == 150     # a real tier whose name starts with x is still itself
+
+
 def test_large_tier_is_the_papers_configuration_and_overrides_name_real_config_keys():
     large = tiers.tier("large")
     assert (large.latent, large.blend, large.lp_hidden, large.dec_hidden) == (128, 128, (512,) * 3, (512, 512))

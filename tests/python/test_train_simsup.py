@@ -112,6 +112,19 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     # a contact step whose budget is already spent runs no iteration and says so (it used to fail on no loss)
     _, rep = simsup.contact_tune(tmp_path / "b", str(data), iterations=2, progress=False, deadline=0.0)
     assert rep["iterations"] == 0 and rep["final_error_mm2"] is None
+    # the opt-in second round (docs/training.md, stop 24): the students' mean teaches two small students in turn,
+    # packed at twice the small sizes
+    cfg3 = json.loads(json.dumps(cfg2))
+    cfg3["simsup"].update({"second_students": 2, "second_student_tier": "small"})
+    path3, summary3 = simsup.train(cfg3, "tshirt", tmp_path / "c", progress=False, data=str(data))
+    fit3 = summary3["fit"]
+    assert fit3["tier"] == "2xsmall" and fit3["ensemble_of"] == ["small", "small"]
+    assert fit3["lp_hidden"] == [256, 256] and fit3["dec_hidden"] == [256]
+    assert fit3["latent"] == sum(m["latent"] for m in fit3["members"])
+    assert fit3["students_of"]["ensemble_of"] == ["member", "member"]                    # taught by the students
+    assert fit3["students_of"]["students_of"]["ensemble_of"] == ["member", "member"]     # whom the fit taught
+    w3 = read_asset(path3.read_bytes())
+    assert w3["lp.0.weight"].shape[0] == 256 and np.isfinite(w3["blend_shapes"]).all()
 
 
 def test_window_noise_perturbs_inputs_and_start_latent_by_the_stated_amounts():

@@ -60,11 +60,25 @@ BY_NAME = {t.name: t for t in TIERS}
 SHIPPED = tuple(t for t in TIERS if t.asset)     # the tier ladder, cheapest first
 
 
+def packed(name, count):
+    """The sizes of `count` networks of tier `name` packed as one (pleat.train.ensemble: summed widths, equal blocks
+    the runtime skips between), named "<count>x<name>"; e.g. packed("small", 6) for the six small students of
+    docs/training.md (stop 22, 24)."""
+    t = tier(name)
+    return Tier(f"{count}x{t.name}", vertices=t.vertices, latent=count * t.latent, blend=count * t.blend,
+                lp_hidden=tuple(count * w for w in t.lp_hidden), dec_hidden=tuple(count * w for w in t.dec_hidden),
+                activation=t.activation)
+
+
 def tier(name):
+    """A tier by name; "<count>x<name>" is `count` networks of that tier packed as one (packed)."""
+    count, _, member = name.partition("x") if name not in BY_NAME else ("", "", "")
+    if count.isdigit() and int(count) > 0 and member in BY_NAME:
+        return packed(member, int(count))
     try:
         return BY_NAME[name]
     except KeyError:
-        raise ValueError(f"unknown tier {name!r}; known: {', '.join(BY_NAME)}") from None
+        raise ValueError(f"unknown tier {name!r}; known: {', '.join(BY_NAME)} (or <count>x<one of them>)") from None
 
 
 def training_overrides(name):

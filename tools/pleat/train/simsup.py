@@ -217,9 +217,11 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     t_fit = time.time()
     members = int(c.get("ensemble_members", 1))
     students = int(c.get("students", 0))
+    second = int(c.get("second_students", 0)) if students > 0 else 0
     fit_deadline = None if budget_s is None else t_start + 0.85 * budget_s
-    # with students, the first fit gets half of the fitting budget and the students the other half
-    first_deadline = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) * (0.5 if students else 1.0)
+    # the first fit, the students and the second round of students share the fitting budget equally
+    rounds = 1 + (students > 0) + (second > 0)
+    first_deadline = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) / rounds
     fits = []
     for k in range(members):
         deadline = None if first_deadline is None else t_fit + (first_deadline - t_fit) * (k + 1) / members
@@ -234,8 +236,12 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     else:
         lp, block, norms, shim, _, report = fits[0]
     if students > 0:      # 2b. the fit teaches students on more motion than was simulated; their mean replaces it
+        end = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) * 2 / rounds
         lp, block, norms, shim, report = self_distil(lp, block, setup, seqs, val, train_clips, students, report,
-                                                     fit_deadline, progress)
+                                                     end, progress)
+    if second > 0:        # 2c. (opt-in) their mean teaches a second round of smaller students (docs/training.md, stop 24)
+        lp, block, norms, shim, report = self_distil(lp, block, setup, seqs, val, train_clips, second, report,
+                                                     fit_deadline, progress, student_tier=c["second_student_tier"])
     fit_s = time.time() - t_fit
     val_err = posed_errors(lp, block, val, setup.L)
     # 3. pack
@@ -264,7 +270,7 @@ def write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary,
                      "config": cfg, "garment": garment}, **state), out / "simsup.pt")
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     path = out / f"{setup.name}.pleat"
-    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=c["tier"]), cfg["fps"],
+    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=report.get("tier") or c["tier"]), cfg["fps"],
                       fp16=c.get("fp16", True), teacher="reference simulator",
                       model=model_name(report, contact=contact_tuned), training=summary,
                       onnx=bool(c.get("onnx", False)))
@@ -337,7 +343,7 @@ def load_model(run_dir):
     state = torch.load(Path(run_dir) / "simsup.pt", weights_only=False)
     cfg = state["config"]
     setup = core.Setup(cfg, state["garment"], "cpu")
-    spec = tier(cfg["simsup"]["tier"])
+    spec = tier(state.get("report", {}).get("tier") or cfg["simsup"]["tier"])   # a second round: "<n>x<tier>"
     L, D = state["norms"]["z_mean"].shape[0], state["block"]["blend_shapes"].shape[0]
     shim = distill._shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
     lp = core.LatentPredictor(shim, state["norms"])
@@ -364,18 +370,23 @@ def fit_student(teacher, teacher_val, setup, spec, seed, iterations, garment=Non
                            c["lr"], c["batch"], c["window"], False, weight_by_energy=True, deadline=deadline)
 
 
-def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadline=None, progress=False):
+def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadline=None, progress=False,
+                student_tier=None):
     """The fitted model teaches `count` fits at simsup.member_tier (simsup.tier when one), each on the simulated
     sequences plus simsup.tier_teacher_frames frames of unsimulated training motion at its own seed; their mean
     (pleat.train.ensemble) replaces the model. Why: the teacher labels any motion for the price of a rollout, and
     students fitted to its smooth garment on 2.5× the motion are more accurate against the simulator than the
-    teacher (docs/training.md, 2026-11-26 (3)). Returns (lp, block, norms, shim, report); `report` is the
-    teacher's fit report, kept in the new one."""
-    from pleat.eval.tiers import tier
+    teacher (docs/training.md, 2026-11-26 (3)). With `student_tier` the students have that tier's sizes and their
+    mean is packed at `count` times them (tiers.packed), as the second round of students does. Returns
+    (lp, block, norms, shim, report); `report` is the teacher's fit report, kept in the new one."""
+    from pleat.eval.tiers import packed, tier
     from pleat.train import ensemble
     c, seed = setup.cfg["simsup"], int(setup.cfg["seed"])
-    spec = tier(c["tier"])
-    member = tier(c["member_tier"]) if count > 1 else spec
+    if student_tier:
+        member, spec = tier(student_tier), packed(student_tier, count)
+    else:
+        spec = tier(c["tier"])
+        member = tier(c["member_tier"]) if count > 1 else spec
     frames = int(c.get("tier_teacher_frames", 0))
     t0, fits = time.time(), []
     for k in range(count):
