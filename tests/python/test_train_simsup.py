@@ -112,9 +112,16 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     # a contact step whose budget is already spent runs no iteration and says so (it used to fail on no loss)
     _, rep = simsup.contact_tune(tmp_path / "b", str(data), iterations=2, progress=False, deadline=0.0)
     assert rep["iterations"] == 0 and rep["final_error_mm2"] is None
+    # the same recipe with its fits two at a time in forked children (simsup.fit_workers): the same asset, bit for bit
+    cfg2p = json.loads(json.dumps(cfg2))
+    cfg2p["simsup"]["fit_workers"] = 2
+    path2p, _ = simsup.train(cfg2p, "tshirt", tmp_path / "b2", progress=False, data=str(data))
+    w2p = read_asset(path2p.read_bytes())
+    for key in ("lp.0.weight", "lp.1.weight", "dec.0.weight", "dec.1.weight", "blend_shapes"):
+        assert np.array_equal(np.asarray(w2p[key]), np.asarray(w[key])), key
     # the opt-in second round (docs/training.md, stop 24): the students' mean teaches two small students in turn,
     # packed at twice the small sizes
-    cfg3 = json.loads(json.dumps(cfg2))
+    cfg3 = json.loads(json.dumps(cfg2p))
     cfg3["simsup"].update({"second_students": 2, "second_student_tier": "small"})
     path3, summary3 = simsup.train(cfg3, "tshirt", tmp_path / "c", progress=False, data=str(data))
     fit3 = summary3["fit"]

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pleat.train import core, distill, simdata, sources
+from pleat.train import core, distill, forkpool, simdata, sources
 
 
 def _clips(split, fps, body):
@@ -222,14 +222,16 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     # the first fit, the students and the second round of students share the fitting budget equally
     rounds = 1 + (students > 0) + (second > 0)
     first_deadline = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) / rounds
-    fits = []
-    for k in range(members):
-        deadline = None if first_deadline is None else t_fit + (first_deadline - t_fit) * (k + 1) / members
-        fits.append(distill.distill(
+    workers = fit_workers(c, dev)
+
+    def member_fit(k):
+        return lambda: distill.distill(
             seqs, setup, tier(c["member_tier"]) if members > 1 else spec, val, None, cfg["seed"] + k,
-            c["iterations"], c["dec_iterations"], c["lr"], c["batch"], c["window"], progress, device=dev,
-            weight_by_energy=bool(c.get("weight_by_energy", False)), deadline=deadline,
-            noise=(float(c.get("input_noise", 0.0)), float(c.get("latent_noise", 0.0)))))
+            c["iterations"], c["dec_iterations"], c["lr"], c["batch"], c["window"], progress and workers <= 1,
+            device=dev, weight_by_energy=bool(c.get("weight_by_energy", False)),
+            deadline=forkpool.deadline(t_fit, first_deadline, k, members, workers),
+            noise=(float(c.get("input_noise", 0.0)), float(c.get("latent_noise", 0.0))))
+    fits = forkpool.run([member_fit(k) for k in range(members)], workers)
     if members > 1:
         from pleat.train import ensemble
         lp, block, norms, shim, report = ensemble.mean_of_fits(fits, setup, spec, c["member_tier"])
@@ -370,6 +372,12 @@ def fit_student(teacher, teacher_val, setup, spec, seed, iterations, garment=Non
                            c["lr"], c["batch"], c["window"], False, weight_by_energy=True, deadline=deadline)
 
 
+def fit_workers(c, device):
+    """How many independent fits run side by side (simsup.fit_workers, forked children, pleat.train.forkpool): on the
+    CPU only, since a GPU serves one fit at a time better."""
+    return max(1, int(c.get("fit_workers", 1))) if str(device) == "cpu" else 1
+
+
 def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadline=None, progress=False,
                 student_tier=None):
     """The fitted model teaches `count` fits at simsup.member_tier (simsup.tier when one), each on the simulated
@@ -388,13 +396,20 @@ def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadlin
         spec = tier(c["tier"])
         member = tier(c["member_tier"]) if count > 1 else spec
     frames = int(c.get("tier_teacher_frames", 0))
-    t0, fits = time.time(), []
-    for k in range(count):
-        teacher, teacher_val = teacher_data(lp, block, setup, seqs, val, train_clips, frames, seed + k)
-        end = None if deadline is None else t0 + (deadline - t0) * (k + 1) / count
-        fits.append(fit_student(teacher, teacher_val, setup, member, seed + k, c["iterations"], deadline=end))
-        if progress:
-            print(f"simsup: student {k + 1} of {count} ({member.name}) in {time.time() - t0:.0f} s", file=sys.stderr)
+    t0 = time.time()
+    workers = fit_workers(c, "cpu")
+
+    def student(k):
+        def job():
+            teacher, teacher_val = teacher_data(lp, block, setup, seqs, val, train_clips, frames, seed + k)
+            fit = fit_student(teacher, teacher_val, setup, member, seed + k, c["iterations"],
+                              deadline=forkpool.deadline(t0, deadline, k, count, workers))
+            if progress:
+                print(f"simsup: student {k + 1} of {count} ({member.name}) in {time.time() - t0:.0f} s",
+                      file=sys.stderr)
+            return fit
+        return job
+    fits = forkpool.run([student(k) for k in range(count)], workers)
     extra = {"students_of": report, "teacher_only_frames": frames}
     if count == 1:
         return fits[0][0], fits[0][1], fits[0][2], fits[0][3], dict(fits[0][5], **extra)
