@@ -119,6 +119,17 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     w2p = read_asset(path2p.read_bytes())
     for key in ("lp.0.weight", "lp.1.weight", "dec.0.weight", "dec.1.weight", "blend_shapes"):
         assert np.array_equal(np.asarray(w2p[key]), np.asarray(w[key])), key
+    # the tiers distilled from it (pleat-train simsup-tiers): one by one from run b, side by side from run b2 (its
+    # config says fit_workers 2); the same small and medium (the mean of two small students) either way
+    for run, out in (("b", "t1"), ("b2", "t2")):
+        reps = simsup.distill_tiers(tmp_path / run, str(data), ["small", "medium"], tmp_path / out, iterations=20,
+                                    progress=False, teacher_frames=30)
+        assert [r["asset"].split("_")[-1] for r in reps] == ["small.pleat", "medium.pleat"]
+    for name in ("small", "medium"):
+        a = read_asset((tmp_path / "t1" / f"tshirt_{name}.pleat").read_bytes())
+        b = read_asset((tmp_path / "t2" / f"tshirt_{name}.pleat").read_bytes())
+        for key in ("lp.0.weight", "dec.0.weight", "blend_shapes"):
+            assert np.array_equal(np.asarray(a[key]), np.asarray(b[key])), (name, key)
     # the opt-in second round (docs/training.md, stop 24): the students' mean teaches two small students in turn,
     # packed at twice the small sizes
     cfg3 = json.loads(json.dumps(cfg2p))

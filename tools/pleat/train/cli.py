@@ -119,7 +119,7 @@ def main(argv=None):
         simsup.distill_tiers(args.out, args.data, args.tiers, args.tier_dir or args.out,
                              iterations=overrides.get("simsup.iterations"), progress=progress,
                              teacher_frames=overrides.get("simsup.tier_teacher_frames"), seed=overrides.get("seed"),
-                             keep_runs=args.keep_runs)
+                             keep_runs=args.keep_runs, workers=overrides.get("simsup.fit_workers"))
     if args.command == "ablation":
         core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)
         print("ablation done")

@@ -417,7 +417,7 @@ def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadlin
 
 
 def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True, teacher_frames=None, seed=None,
-                  keep_runs=False):
+                  keep_runs=False, workers=None):
     """Each tier of `tiers` (pleat.eval.tiers names) distilled from the simsup model in `run_dir` on the training
     sequences of `data` (exported datasets) and `teacher_frames` more frames of unsimulated training motion
     (teacher_only_sequences; default simsup.tier_teacher_frames, else none): the tier learns the model's own
@@ -425,7 +425,8 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
     reports. With `keep_runs`, each tier on the teacher's mesh is also written as a simsup run folder
     OUT_DIR/<tier>_run (float32 weights), which `simsup-ensemble` and `simsup-contact` take. The fit's f_LP noise
     (simsup.input_noise) is not used here: a tier learns the teacher's own smooth garment, and with the noise the
-    distilled small tier came out 0.9 mm worse (docs/training.md)."""
+    distilled small tier came out 0.9 mm worse (docs/training.md). `workers`: fits side by side (default: the run's
+    simsup.fit_workers)."""
     from pleat.eval.tiers import tier
     lp, block, _, _, setup = load_model(run_dir)
     cfg, c = setup.cfg, setup.cfg["simsup"]
@@ -442,23 +443,42 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
     reports = []
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    fitted = {}
 
-    def student(spec, s, garment=None):
-        """The student at (tier, seed), fitted once per call of distill_tiers: medium's first member is small."""
-        if (spec.name, s) not in fitted:
+    def garment_of(spec):
+        """None: the teacher's mesh; else the tier's own coarser remesh of the garment."""
+        return sources.garment(setup.name, setup.body, spec.vertices) if (
+            spec.vertices and spec.vertices < setup.N * 0.8) else None
+
+    # Every student the tiers need, once (medium's first member is the small tier itself), fitted side by side
+    # (simsup.fit_workers, pleat.train.forkpool): independent and seeded, so the same networks as one by one.
+    wanted = []
+    for name in tiers:
+        spec = tier(name)
+        for key in ([(spec.mean_of, seed + k) for k in range(2)] if spec.mean_of else [(name, seed)]):
+            if key not in wanted:
+                wanted.append(key)
+
+    garments = {name: garment_of(tier(name)) for name in list(tiers) + [n for n, _ in wanted]}     # before the forks
+
+    def fit_job(name, s):
+        def job():
+            spec = tier(name)
             data = (teacher, teacher_val) if s == seed else teacher_data(lp, block, setup, seqs, val, train_clips,
                                                                         teacher_frames, s)
             t1 = time.time()
-            fitted[spec.name, s] = fit_student(*data, setup, spec, s, iterations or c["iterations"], garment)
-            fitted[spec.name, s][5]["fit_wall_s"] = time.time() - t1
+            fit = fit_student(*data, setup, spec, s, iterations or c["iterations"], garments[name])
+            fit[5]["fit_wall_s"] = time.time() - t1
+            return fit
+        return job
+    workers = fit_workers(c, "cpu") if workers is None else max(1, int(workers))
+    fitted = dict(zip(wanted, forkpool.run([fit_job(*key) for key in wanted], workers)))
+
+    def student(spec, s):
         return fitted[spec.name, s]
 
     for name in tiers:
         spec = tier(name)
-        garment = None
-        if spec.vertices and spec.vertices < setup.N * 0.8:
-            garment = sources.garment(setup.name, setup.body, spec.vertices)
+        garment = garments[name]
         if spec.mean_of:        # two students at the member tier's sizes, packed as one network (pleat.train.ensemble)
             from pleat.train import ensemble
             pair = [student(tier(spec.mean_of), seed + k) for k in range(2)]
@@ -467,7 +487,7 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
                 teacher_only_frames=teacher_frames, fit_wall_s=sum(f[5]["fit_wall_s"] for f in pair))
             g = setup.garment
         else:
-            tlp, tblock, norms, shim, g, rep = student(spec, seed, garment)
+            tlp, tblock, norms, shim, g, rep = student(spec, seed)
             rep = dict(rep)
         if garment is None:
             rep["simulator_validation"] = posed_errors(tlp, tblock, val, setup.L)
