@@ -241,7 +241,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
         end = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) * 2 / rounds
         lp, block, norms, shim, report = self_distil(lp, block, setup, seqs, val, train_clips, students, report,
                                                      end, progress)
-    if second > 0:        # 2c. (opt-in) their mean teaches a second round of smaller students (docs/training.md, stop 24)
+    if second > 0:        # 2c. (opt-in) their mean teaches a second round of smaller students (docs/training.md)
         lp, block, norms, shim, report = self_distil(lp, block, setup, seqs, val, train_clips, second, report,
                                                      fit_deadline, progress, student_tier=c["second_student_tier"])
     fit_s = time.time() - t_fit
@@ -272,7 +272,8 @@ def write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary,
                      "config": cfg, "garment": garment}, **state), out / "simsup.pt")
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     path = out / f"{setup.name}.pleat"
-    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=report.get("tier") or c["tier"]), cfg["fps"],
+    tier_name = report.get("tier") or c["tier"]        # a second round of students: "<n>x<tier>"
+    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=tier_name), cfg["fps"],
                       fp16=c.get("fp16", True), teacher="reference simulator",
                       model=model_name(report, contact=contact_tuned), training=summary,
                       onnx=bool(c.get("onnx", False)))
