@@ -55,6 +55,8 @@ typedef struct plBatchGroup
 	atomic_int blend_result; // a blend or geometry job's error, from whichever worker saw it
 } plBatchGroup;
 
+static int plClaimScratch( plContextData* ctx, size_t floats );
+
 // ---- per instance, before the networks: what plInstance_Step does up to X_c ----
 
 static void plPrepareEntry( plBatchEntry* e )
@@ -383,8 +385,9 @@ void plFreeBatchScratch( plContextData* ctx )
 	ctx->batch_scratch_floats = 0;
 }
 
-// A free scratch block big enough for `floats` (its index), or -1.
-int plClaimScratch( plContextData* ctx, size_t floats )
+// A free scratch block big enough for `floats` (its index), or -1; release it by storing 0 in
+// ctx->batch_scratch_busy[slot].
+static int plClaimScratch( plContextData* ctx, size_t floats )
 {
 	if ( floats > ctx->batch_scratch_floats )
 	{
@@ -402,69 +405,78 @@ int plClaimScratch( plContextData* ctx, size_t floats )
 	return -1;
 }
 
-// Lane groups [begin, end) of the members: skinning of a lane group's instances at once, body contact of those that
-// have it at once, then their normals at once. Every instance keeps its own positions and normals buffers; only the
-// normals' lanes live in the context's scratch.
+int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const plAssetData* a,
+					 plInstanceData* const* insts, const float* const* in, float* const* positions,
+					 float* const* normals, uint32_t count )
+{
+	const float* matrices[PLEAT_BATCH_MAX] = { NULL }; // (all of count filled below; GCC's scalar build cannot tell)
+	float* contact_positions[PLEAT_BATCH_MAX];
+	const float* contact_anchors[PLEAT_BATCH_MAX];
+	const float* contact_matrices[PLEAT_BATCH_MAX];
+	float contact_offsets[PLEAT_BATCH_MAX];
+	uint32_t contact_count = 0;
+	for ( uint32_t k = 0; k < count; ++k )
+	{
+		matrices[k] = insts[k]->next_skin_matrices;
+		if ( insts[k]->body_contact )
+		{
+			contact_positions[contact_count] = positions[k];
+			contact_anchors[contact_count] = insts[k]->shaped_anchors;
+			contact_matrices[contact_count] = matrices[k];
+			contact_offsets[contact_count++] = insts[k]->body_contact_offset_m;
+		}
+	}
+	kernels->skinning_batch( positions, in, count, a->skin_indices, a->skin_weights, a->influence_count, matrices,
+							 a->joint_count, 0, a->vertex_count );
+	// What plDeformCpu runs between skinning and normals: body contact, for the lanes that have it on.
+	if ( contact_count > 0 )
+	{
+		kernels->body_contact_batch( contact_positions, contact_anchors, contact_offsets, contact_count,
+									 a->body_anchor_normals, a->body_anchor_skin_indices, a->body_anchor_skin_weights,
+									 a->body_anchor_influence_count, contact_matrices, a->joint_count, 0,
+									 a->vertex_count );
+	}
+	int slot = plClaimScratch( ctx, plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes ) );
+	if ( slot < 0 )
+	{
+		return 0;
+	}
+	kernels->normals_batch( normals, (const float* const*)positions, count, a->vertex_count, a->faces, a->face_count,
+							ctx->batch_scratch[slot] );
+	atomic_store_explicit( &ctx->batch_scratch_busy[slot], 0, memory_order_release );
+	return 1;
+}
+
+// Lane groups [begin, end) of the members through plGeometryLanes. Every instance keeps its own positions and normals
+// buffers; only the normals' lanes live in the context's scratch.
 static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;
 	plBatchGroup* g = (plBatchGroup*)context;
-	const plAssetData* a = g->asset;
 	uint32_t lanes = g->kernels->geometry_lanes;
 	for ( uint32_t lane_group = begin; lane_group < end; ++lane_group )
 	{
 		uint32_t m0 = lane_group * lanes;
 		uint32_t n = g->member_count - m0 < lanes ? g->member_count - m0 : lanes;
+		plInstanceData* insts[PLEAT_BATCH_MAX];
 		const float* in[PLEAT_BATCH_MAX];
-		const float* matrices[PLEAT_BATCH_MAX];
 		float* positions[PLEAT_BATCH_MAX];
 		float* normals[PLEAT_BATCH_MAX];
 		for ( uint32_t k = 0; k < n; ++k )
 		{
-			plInstanceData* inst = g->entries[g->members[m0 + k]].inst;
-			in[k] = inst->deformed;
-			matrices[k] = inst->next_skin_matrices;
-			positions[k] = inst->positions;
-			normals[k] = inst->normals;
+			insts[k] = g->entries[g->members[m0 + k]].inst;
+			in[k] = insts[k]->deformed;
+			positions[k] = insts[k]->positions;
+			normals[k] = insts[k]->normals;
 		}
-		g->kernels->skinning_batch( positions, in, n, a->skin_indices, a->skin_weights, a->influence_count, matrices,
-									a->joint_count, 0, a->vertex_count );
-		// What plDeformCpu runs between skinning and normals: body contact, for the lanes that have it on.
-		float* contact_positions[PLEAT_BATCH_MAX];
-		const float* contact_anchors[PLEAT_BATCH_MAX];
-		const float* contact_matrices[PLEAT_BATCH_MAX];
-		float contact_offsets[PLEAT_BATCH_MAX];
-		uint32_t contact_count = 0;
-		for ( uint32_t k = 0; k < n; ++k )
+		if ( plGeometryLanes( g->ctx, g->kernels, g->asset, insts, in, positions, normals, n ) )
 		{
-			plInstanceData* inst = g->entries[g->members[m0 + k]].inst;
-			if ( inst->body_contact )
-			{
-				contact_positions[contact_count] = positions[k];
-				contact_anchors[contact_count] = inst->shaped_anchors;
-				contact_matrices[contact_count] = matrices[k];
-				contact_offsets[contact_count++] = inst->body_contact_offset_m;
-			}
-		}
-		if ( contact_count > 0 )
-		{
-			g->kernels->body_contact_batch( contact_positions, contact_anchors, contact_offsets, contact_count,
-											a->body_anchor_normals, a->body_anchor_skin_indices,
-											a->body_anchor_skin_weights, a->body_anchor_influence_count,
-											contact_matrices, a->joint_count, 0, a->vertex_count );
-		}
-		int slot = plClaimScratch( g->ctx, plNormalsBatchScratchFloats( a->vertex_count, lanes ) );
-		if ( slot >= 0 )
-		{
-			g->kernels->normals_batch( normals, (const float* const*)positions, n, a->vertex_count, a->faces,
-									   a->face_count, g->ctx->batch_scratch[slot] );
-			atomic_store_explicit( &g->ctx->batch_scratch_busy[slot], 0, memory_order_release );
 			continue;
 		}
 		for ( uint32_t k = 0; k < n; ++k )
 		{
 			// No scratch free: each instance's own normals (the single step's kernels, the same bits).
-			if ( plNormalsSerial( g->entries[g->members[m0 + k]].inst ) != PLEAT_RESULT_OK )
+			if ( plNormalsSerial( insts[k] ) != PLEAT_RESULT_OK )
 			{
 				atomic_store_explicit( &g->blend_result, (int)PLEAT_RESULT_INTERNAL_ERROR, memory_order_relaxed );
 			}

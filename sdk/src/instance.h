@@ -120,9 +120,15 @@ plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpd
 // plReserveBatchScratch at instance creation (0: none).
 size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a );
 
-// A free block of the context's batch scratch with room for `floats` floats: its slot (release it by storing 0 in
-// ctx->batch_scratch_busy[slot]), or -1 when none is free or big enough. plStepInstances and the scene's LBS level.
-int plClaimScratch( plContextData* ctx, size_t floats );
+// Skinning, body contact (the lanes whose instance has it on) and normals of `count` lanes (count <= the kernels'
+// geometry_lanes) through the batched geometry kernels: in[k] skinned with insts[k]'s next_skin_matrices into
+// positions[k], body contact as plDeformCpu runs it, normals into normals[k]. Per lane the single kernels' operations
+// in the same order, so every lane gets the single step's bits. Returns 0 when no scratch block was free for the
+// normals' lanes (the caller computes them one by one), else 1. plStepInstances and the scene's LBS-only level.
+struct plBatchKernels;
+int plGeometryLanes( plContextData* ctx, const struct plBatchKernels* kernels, const plAssetData* a,
+					 plInstanceData* const* insts, const float* const* in, float* const* positions,
+					 float* const* normals, uint32_t count );
 
 // Normals of inst->positions into inst->normals on the calling thread (face normals, then the gather), for the rest
 // pose at creation. PLEAT_RESULT_INTERNAL_ERROR as plDeformCpu.

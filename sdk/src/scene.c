@@ -15,7 +15,6 @@
 #include "scene.h"
 
 #include <math.h>
-#include <stdatomic.h>
 #include <string.h>
 
 // Cost model of a tier when the def gives none (µs, a crowd on one core; docs/scene-budget.md, "Costs"): the batched
@@ -837,53 +836,25 @@ static plResult plStepLbs( const plSceneData* s, plSceneCharacter* c, const plFr
 
 #define PLEAT_LBS_LANES_MAX 16
 
-// plLbsGeometry of `count` characters at once (count <= the batched kernels' geometry lanes), into their back buffers:
-// skinning, body contact and normals through the batched geometry kernels (kernels_batch.h), whose lanes are
-// characters and which do per lane the single kernels' operations in the same order, so every character gets
-// plLbsGeometry's bits. Normals one by one where no scratch block is free.
+// plLbsGeometry of `count` characters at once (count <= the batched kernels' geometry lanes), into their back buffers,
+// through plGeometryLanes (the batched kernels, the same bits as one by one). Normals one by one where no scratch
+// block is free.
 static void plLbsGeometryLanes( const plSceneData* s, const plBatchKernels* kernels, plSceneCharacter* const* group,
 								uint32_t count, plResult* const* results, float* sums )
 {
-	const plAssetData* a = s->tiers[0].asset;
-	uint32_t n = a->vertex_count;
+	plInstanceData* insts[PLEAT_LBS_LANES_MAX];
 	const float* in[PLEAT_LBS_LANES_MAX];
-	const float* matrices[PLEAT_LBS_LANES_MAX];
 	float* positions[PLEAT_LBS_LANES_MAX];
 	float* normals[PLEAT_LBS_LANES_MAX];
-	float* contact_positions[PLEAT_LBS_LANES_MAX];
-	const float* contact_anchors[PLEAT_LBS_LANES_MAX];
-	const float* contact_matrices[PLEAT_LBS_LANES_MAX];
-	float contact_offsets[PLEAT_LBS_LANES_MAX];
-	uint32_t contact_count = 0;
 	for ( uint32_t k = 0; k < count; ++k )
 	{
-		plInstanceData* inst = plGetInstanceData( group[k]->instances[0] );
-		in[k] = inst->shaped_template;
-		matrices[k] = inst->next_skin_matrices;
+		insts[k] = plGetInstanceData( group[k]->instances[0] );
+		in[k] = insts[k]->shaped_template;
 		positions[k] = group[k]->back_positions;
 		normals[k] = group[k]->back_normals;
-		if ( inst->body_contact )
-		{
-			contact_positions[contact_count] = positions[k];
-			contact_anchors[contact_count] = inst->shaped_anchors;
-			contact_matrices[contact_count] = matrices[k];
-			contact_offsets[contact_count++] = inst->body_contact_offset_m;
-		}
 	}
-	kernels->skinning_batch( positions, in, count, a->skin_indices, a->skin_weights, a->influence_count, matrices,
-							 a->joint_count, 0, n );
-	if ( contact_count > 0 )
+	if ( plGeometryLanes( s->ctx, kernels, s->tiers[0].asset, insts, in, positions, normals, count ) )
 	{
-		kernels->body_contact_batch( contact_positions, contact_anchors, contact_offsets, contact_count,
-									 a->body_anchor_normals, a->body_anchor_skin_indices, a->body_anchor_skin_weights,
-									 a->body_anchor_influence_count, contact_matrices, a->joint_count, 0, n );
-	}
-	int slot = plClaimScratch( s->ctx, plNormalsBatchScratchFloats( n, kernels->geometry_lanes ) );
-	if ( slot >= 0 )
-	{
-		kernels->normals_batch( normals, (const float* const*)positions, count, n, a->faces, a->face_count,
-								s->ctx->batch_scratch[slot] );
-		atomic_store_explicit( &s->ctx->batch_scratch_busy[slot], 0, memory_order_release );
 		return;
 	}
 	for ( uint32_t k = 0; k < count; ++k )
