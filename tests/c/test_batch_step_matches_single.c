@@ -340,17 +340,13 @@ static void plRunLbsLevel( int force_scalar )
 	// the stand-in body 0.5 mm behind the sheet, inside the default 1 mm clearance: body contact moves every anchored
 	// vertex (four in five) on every step
 	assert_true( plTestAsset_AddBodyAnchors( model, 0.0005f ) );
-	size_t size;
-	uint8_t* bytes = plTestAsset_Write( model, &size );
 	plContextDef def = plDefaultContextDef();
 	def.force_scalar = force_scalar;
-	plContext context;
-	assert_int_equal( plCreateContext( &def, &context ), PLEAT_RESULT_OK );
-	plAssetDef adef = plDefaultAssetDef();
-	adef.data = bytes;
-	adef.size = size;
-	plAsset asset;
-	assert_int_equal( plLoadAsset( context, &adef, &asset ), PLEAT_RESULT_OK );
+	plTestRig rig;
+	assert_int_equal( plTestRig_Init( &rig, model, &def ), PLEAT_RESULT_OK );
+	rig.model = model; // plTestRig_Free destroys it
+	plContext context = rig.context;
+	plAsset asset = rig.asset;
 	plSceneDef sdef = plDefaultSceneDef();
 	sdef.tiers = &asset;
 	sdef.tier_count = 1;
@@ -396,9 +392,7 @@ static void plRunLbsLevel( int force_scalar )
 			assert_memory_equal( scene_out[i][1], lone_out[1], sizeof( lone_out[1] ) );
 		}
 	}
-	plDestroyContext( context );
-	plTestAsset_FreeBytes( bytes );
-	plTestAsset_Destroy( model );
+	plTestRig_Free( &rig );
 }
 
 static void test_scene_lbs_level_equals_lone_instances( void** state )

@@ -76,6 +76,54 @@ static inline void plTestRig_Free( plTestRig* rig )
 	plTestAsset_Destroy( rig->model );
 }
 
+// The three tiers of one garment the scene tests dress characters in: tiers 0 and 1 on one mesh (12 and 6 blend
+// shapes), tier 2 a coarser sheet over the same area; written and loaded into a context, which owns the assets.
+typedef struct plTestSceneTiers
+{
+	plAsset tiers[3];
+	uint8_t* bytes[3];
+	plTestAsset* models[3];
+} plTestSceneTiers;
+
+static inline plResult plTestSceneTiers_Load( plTestSceneTiers* set, plContext context )
+{
+	memset( set, 0, sizeof( *set ) );
+	for ( int t = 0; t < 3; ++t )
+	{
+		plTestAssetParams p = plTestAsset_DefaultParams();
+		p.seed = 5; // one garment
+		p.blend_count = t == 0 ? 12 : 6;
+		p.lp_hidden[0] = t == 0 ? 64 : 32;
+		if ( t == 2 )
+		{
+			p.grid_x = 4;
+			p.grid_y = 4;
+		}
+		set->models[t] = plTestAsset_Create( &p );
+		size_t size;
+		set->bytes[t] = plTestAsset_Write( set->models[t], &size );
+		plAssetDef adef = plDefaultAssetDef();
+		adef.data = set->bytes[t];
+		adef.size = size;
+		plResult r = plLoadAsset( context, &adef, &set->tiers[t] );
+		if ( r != PLEAT_RESULT_OK )
+		{
+			return r;
+		}
+	}
+	return PLEAT_RESULT_OK;
+}
+
+// The written bytes and the models (the assets go with their context).
+static inline void plTestSceneTiers_Free( plTestSceneTiers* set )
+{
+	for ( int t = 0; t < 3; ++t )
+	{
+		plTestAsset_FreeBytes( set->bytes[t] );
+		plTestAsset_Destroy( set->models[t] );
+	}
+}
+
 // cmocka fixture (PLEAT_TEST_WITH_RIG( test ) in the test table): *state is a rig on the default test asset in a
 // default context.
 #define PLEAT_TEST_WITH_RIG( test ) cmocka_unit_test_setup_teardown( test, plTestRig_Setup, plTestRig_Teardown )

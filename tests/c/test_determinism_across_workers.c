@@ -86,28 +86,11 @@ static uint64_t plRunScene( uint32_t workers, uint32_t* parallel_tasks )
 	}
 	plContext context;
 	assert_int_equal( plCreateContext( &def, &context ), PLEAT_RESULT_OK );
-	plTestAsset* models[3];
-	uint8_t* bytes[3];
-	plAsset tiers[3];
-	for ( int t = 0; t < 3; ++t )
-	{
-		plTestAssetParams p = plTestAsset_DefaultParams();
-		p.seed = 5; // one garment: tiers 0 and 1 share the mesh, tier 2 is a coarser sheet over the same area
-		p.blend_count = t == 0 ? 12 : 6;
-		p.lp_hidden[0] = t == 0 ? 64 : 32;
-		p.grid_x = t == 2 ? 4 : p.grid_x;
-		p.grid_y = t == 2 ? 4 : p.grid_y;
-		models[t] = plTestAsset_Create( &p );
-		size_t size;
-		bytes[t] = plTestAsset_Write( models[t], &size );
-		plAssetDef adef = plDefaultAssetDef();
-		adef.data = bytes[t];
-		adef.size = size;
-		assert_int_equal( plLoadAsset( context, &adef, &tiers[t] ), PLEAT_RESULT_OK );
-	}
+	plTestSceneTiers set;
+	assert_int_equal( plTestSceneTiers_Load( &set, context ), PLEAT_RESULT_OK );
 	enum { CHARACTERS = 12 };
 	plSceneDef sdef = plDefaultSceneDef();
-	sdef.tiers = tiers;
+	sdef.tiers = set.tiers;
 	sdef.tier_count = 3;
 	sdef.budget_us = 1e6f;
 	sdef.character_capacity = CHARACTERS;
@@ -115,7 +98,7 @@ static uint64_t plRunScene( uint32_t workers, uint32_t* parallel_tasks )
 	sdef.crossfade_frames = 4;
 	plScene scene;
 	assert_int_equal( plCreateScene( context, &sdef, &scene ), PLEAT_RESULT_OK );
-	uint32_t J = models[0]->J, N0 = models[0]->N;
+	uint32_t J = set.models[0]->J, N0 = set.models[0]->N;
 	for ( uint32_t i = 0; i < CHARACTERS; ++i )
 	{
 		plCharacterDef cdef = plDefaultCharacterDef();
@@ -160,11 +143,7 @@ static uint64_t plRunScene( uint32_t workers, uint32_t* parallel_tasks )
 	}
 	*parallel_tasks = plTestTaskSystem_ParallelTaskCount( tasks );
 	plDestroyContext( context );
-	for ( int t = 0; t < 3; ++t )
-	{
-		plTestAsset_FreeBytes( bytes[t] );
-		plTestAsset_Destroy( models[t] );
-	}
+	plTestSceneTiers_Free( &set );
 	plTestTaskSystem_Destroy( tasks );
 	return hash;
 }

@@ -151,22 +151,29 @@ static void test_plans_stay_within_budget_and_follow_importance( void** state )
 	assert_int_equal( p.out[3], 0 );
 }
 
+// n characters of random importance planned from the cheapest level at budget (hysteresis 0.25) and settled there:
+// the plan in first[] and in p->current.
+static void plSettle( plPlanner* p, uint32_t n, float budget, uint32_t* first )
+{
+	plPlanner_Init( p );
+	for ( uint32_t c = 0; c < n; ++c )
+	{
+		p->importance[c] = 0.2f + 0.6f * plRand01();
+		p->current[c] = 0;
+	}
+	plPlan( p, n, budget, 0.25f );
+	memcpy( first, p->out, sizeof( p->out ) );
+	memcpy( p->current, p->out, sizeof( p->current ) );
+}
+
 static void test_hysteresis_keeps_plans_through_small_changes( void** state )
 {
 	(void)state;
 	plPlanner p;
-	plPlanner_Init( &p );
 	const uint32_t n = 32;
-	for ( uint32_t c = 0; c < n; ++c )
-	{
-		p.importance[c] = 0.2f + 0.6f * plRand01();
-		p.current[c] = 0;
-	}
 	float budget = n * 55.0f; // room for about half of the characters above LBS
-	plPlan( &p, n, budget, 0.25f );
 	uint32_t first[64];
-	memcpy( first, p.out, sizeof( first ) );
-	memcpy( p.current, p.out, sizeof( p.current ) );
+	plSettle( &p, n, budget, first );
 	uint32_t changed_small = 0, changed_large = 0, changed_without = 0;
 	for ( int trial = 0; trial < 50; ++trial )
 	{
@@ -210,18 +217,10 @@ static void test_budget_wobble_inside_the_dead_band_moves_nobody( void** state )
 {
 	(void)state;
 	plPlanner p;
-	plPlanner_Init( &p );
 	const uint32_t n = 32;
-	for ( uint32_t c = 0; c < n; ++c )
-	{
-		p.importance[c] = 0.2f + 0.6f * plRand01();
-		p.current[c] = 0;
-	}
 	float budget = n * 55.0f;
-	plPlan( &p, n, budget, 0.25f );
 	uint32_t first[64];
-	memcpy( first, p.out, sizeof( first ) );
-	memcpy( p.current, p.out, sizeof( p.current ) );
+	plSettle( &p, n, budget, first );
 	uint32_t mixed = 0;
 	for ( uint32_t c = 0; c < n; ++c )
 	{
@@ -285,9 +284,7 @@ static void test_pins_and_holds( void** state )
 typedef struct plSceneRig
 {
 	plContext context;
-	plAsset tiers[3];
-	uint8_t* bytes[3];
-	plTestAsset* models[3];
+	plTestSceneTiers set;
 } plSceneRig;
 
 static void plSceneRig_Init( plSceneRig* rig )
@@ -295,25 +292,7 @@ static void plSceneRig_Init( plSceneRig* rig )
 	memset( rig, 0, sizeof( *rig ) );
 	plContextDef cdef = plDefaultContextDef();
 	assert_int_equal( plCreateContext( &cdef, &rig->context ), PLEAT_RESULT_OK );
-	for ( int t = 0; t < 3; ++t )
-	{
-		plTestAssetParams p = plTestAsset_DefaultParams();
-		p.seed = 5; // one garment: tiers 0 and 1 share the mesh, tier 2 is a coarser sheet over the same area
-		p.blend_count = t == 0 ? 12 : 6;
-		p.lp_hidden[0] = t == 0 ? 64 : 32;
-		if ( t == 2 )
-		{
-			p.grid_x = 4;
-			p.grid_y = 4;
-		}
-		rig->models[t] = plTestAsset_Create( &p );
-		size_t size;
-		rig->bytes[t] = plTestAsset_Write( rig->models[t], &size );
-		plAssetDef adef = plDefaultAssetDef();
-		adef.data = rig->bytes[t];
-		adef.size = size;
-		assert_int_equal( plLoadAsset( rig->context, &adef, &rig->tiers[t] ), PLEAT_RESULT_OK );
-	}
+	assert_int_equal( plTestSceneTiers_Load( &rig->set, rig->context ), PLEAT_RESULT_OK );
 }
 
 static void plSceneRig_Free( plSceneRig* rig )
@@ -322,11 +301,7 @@ static void plSceneRig_Free( plSceneRig* rig )
 	plContext_GetLiveBytes( rig->context, &live );
 	assert_true( live > 0 );
 	plDestroyContext( rig->context );
-	for ( int t = 0; t < 3; ++t )
-	{
-		plTestAsset_FreeBytes( rig->bytes[t] );
-		plTestAsset_Destroy( rig->models[t] );
-	}
+	plTestSceneTiers_Free( &rig->set );
 }
 
 static void test_scene_follows_budget_overrides_and_switch_limits( void** state )
@@ -337,7 +312,7 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 	const float costs[3] = { 100.0f, 50.0f, 20.0f }, errors[3] = { 5.0f, 8.0f, 15.0f }, rates[1] = { 30.0f };
 	const float no_stream[3] = { 0.0f, 0.0f, 0.0f };
 	plSceneDef sdef = plDefaultSceneDef();
-	sdef.tiers = rig.tiers;
+	sdef.tiers = rig.set.tiers;
 	sdef.tier_count = 3;
 	sdef.tier_cost_us = costs;
 	sdef.tier_stream_cost_us = no_stream;
@@ -363,7 +338,7 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 	bad.internal_cookie = 0;
 	assert_int_equal( plCreateScene( rig.context, &bad, &none ), PLEAT_RESULT_INVALID_DEF );
 	// An asset used by a scene cannot be destroyed under it.
-	assert_int_equal( plDestroyAsset( rig.tiers[2] ), PLEAT_RESULT_ASSET_IN_USE );
+	assert_int_equal( plDestroyAsset( rig.set.tiers[2] ), PLEAT_RESULT_ASSET_IN_USE );
 
 	uint32_t ids[8];
 	for ( uint32_t i = 0; i < 8; ++i )
@@ -399,7 +374,7 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 		}
 		for ( uint32_t i = 0; i < 8; ++i )
 		{
-			inputs[i] = plTestMotion( frame + 3 * i, rig.models[0]->J, q[i] );
+			inputs[i] = plTestMotion( frame + 3 * i, rig.set.models[0]->J, q[i] );
 		}
 		assert_true( plScene_Step( scene, inputs, NULL, results, 8 ) >= 0 );
 		plScenePlan plan;
@@ -440,7 +415,7 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 	const float* positions;
 	uint32_t count;
 	assert_int_equal( plScene_GetPositions( scene, 7, &positions, &count ), PLEAT_RESULT_OK );
-	assert_int_equal( count, rig.models[0]->N );
+	assert_int_equal( count, rig.set.models[0]->N );
 	for ( uint32_t v = 0; v < count * 3; ++v )
 	{
 		assert_true( isfinite( positions[v] ) );
@@ -458,9 +433,9 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 	assert_int_equal( plScene_GetPlan( scene, &corrected ), PLEAT_RESULT_OK );
 	assert_true( corrected.cost_scale == 4.0f );
 	float skin[64 * 12];
-	assert_int_equal( plScene_GetSkinMatrices( scene, 7, skin, rig.models[0]->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
-	assert_int_equal( plScene_GetSkinMatrices( scene, 7, skin, rig.models[0]->J ), PLEAT_RESULT_OK );
-	for ( uint32_t i = 0; i < rig.models[0]->J * 12; ++i )
+	assert_int_equal( plScene_GetSkinMatrices( scene, 7, skin, rig.set.models[0]->J - 1 ), PLEAT_RESULT_BUFFER_TOO_SMALL );
+	assert_int_equal( plScene_GetSkinMatrices( scene, 7, skin, rig.set.models[0]->J ), PLEAT_RESULT_OK );
+	for ( uint32_t i = 0; i < rig.set.models[0]->J * 12; ++i )
 	{
 		assert_true( isfinite( skin[i] ) );
 	}
@@ -475,17 +450,13 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 	uint64_t live = 1;
 	plContext_GetLiveBytes( rig.context, &live );
 	// Only the three assets remain (the scene and its 24 instances gave everything back).
-	assert_int_equal( plDestroyAsset( rig.tiers[2] ), PLEAT_RESULT_OK );
-	assert_int_equal( plDestroyAsset( rig.tiers[1] ), PLEAT_RESULT_OK );
-	assert_int_equal( plDestroyAsset( rig.tiers[0] ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyAsset( rig.set.tiers[2] ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyAsset( rig.set.tiers[1] ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyAsset( rig.set.tiers[0] ), PLEAT_RESULT_OK );
 	plContext_GetLiveBytes( rig.context, &live );
 	assert_int_equal( live, 0 );
 	plDestroyContext( rig.context );
-	for ( int t = 0; t < 3; ++t )
-	{
-		plTestAsset_FreeBytes( rig.bytes[t] );
-		plTestAsset_Destroy( rig.models[t] );
-	}
+	plTestSceneTiers_Free( &rig.set );
 }
 
 static void test_scene_destroyed_with_its_context( void** state )
@@ -494,7 +465,7 @@ static void test_scene_destroyed_with_its_context( void** state )
 	plSceneRig rig;
 	plSceneRig_Init( &rig );
 	plSceneDef sdef = plDefaultSceneDef();
-	sdef.tiers = rig.tiers;
+	sdef.tiers = rig.set.tiers;
 	sdef.tier_count = 3;
 	sdef.budget_us = 500.0f;
 	plScene scene;
@@ -566,7 +537,7 @@ static void test_reduced_rates_stagger_the_network_updates( void** state )
 	plSceneRig_Init( &rig );
 	const float rates[1] = { 15.0f };
 	plSceneDef sdef = plDefaultSceneDef();
-	sdef.tiers = rig.tiers;
+	sdef.tiers = rig.set.tiers;
 	sdef.tier_count = 3;
 	sdef.network_rates_hz = rates;
 	sdef.network_rate_count = 1;
@@ -582,13 +553,13 @@ static void test_reduced_rates_stagger_the_network_updates( void** state )
 		assert_int_equal( plScene_SetOverride( scene, id, &slow ), PLEAT_RESULT_OK );
 	}
 
-	uint32_t n = rig.models[0]->N;
+	uint32_t n = rig.set.models[0]->N;
 	static float q[64 * 4];
 	plFrameInput inputs[8];
 	uint32_t group[8] = { 0 }, group_count = 0;
 	for ( uint32_t frame = 0; frame < 24; ++frame )
 	{
-		plFrameInput in = plTestMotion( frame, rig.models[0]->J, q );
+		plFrameInput in = plTestMotion( frame, rig.set.models[0]->J, q );
 		in.dt_s = 1.0f / 60.0f;
 		for ( uint32_t i = 0; i < 8; ++i )
 		{
