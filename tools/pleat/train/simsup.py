@@ -459,7 +459,8 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
             if key not in wanted:
                 wanted.append(key)
 
-    garments = {name: garment_of(tier(name)) for name in list(tiers) + [n for n, _ in wanted]}     # before the forks
+    # each tier's mesh once (a coarser one is a remesh), before the forks
+    garments = {name: garment_of(tier(name)) for name in dict.fromkeys([*tiers, *(n for n, _ in wanted)])}
 
     def fit_job(name, s):
         def job():
