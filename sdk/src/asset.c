@@ -390,7 +390,8 @@ static int plSkinRowsValid( const uint16_t* indices, const float* weights, uint3
 	return 1;
 }
 
-// The optional body-contact block (asset 1.1): BANC, BASH, BANN, BASI, BASW, all or none.
+// The optional body-contact block: BANC, BASH, BANN, BASI, BASW, all or none (asset 1.1: one point per vertex), and
+// BACA (asset 1.2: each vertex's candidate points, which sets the point count P to BANC's rows).
 static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* table, plAssetData* a )
 {
 	static const char* const tags[5] = { "BANC", "BASH", "BANN", "BASI", "BASW" };
@@ -399,41 +400,74 @@ static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* t
 	{
 		present += plFindSection( table, tags[t] ) != NULL;
 	}
+	const plSection* baca = plFindSection( table, "BACA" );
 	if ( present == 0 )
 	{
-		return PLEAT_RESULT_OK;
+		return baca == NULL ? PLEAT_RESULT_OK : PLEAT_RESULT_INVALID_ASSET_DATA;
 	}
 	const plSection* basi = plFindSection( table, "BASI" );
-	if ( present != 5 || basi->rank != 2 || basi->dims[1] < 1 || basi->dims[1] > PLEAT_MAX_INFLUENCES )
+	const plSection* banc = plFindSection( table, "BANC" );
+	if ( present != 5 || basi->rank != 2 || basi->dims[1] < 1 || basi->dims[1] > PLEAT_MAX_INFLUENCES ||
+		 banc->rank != 2 )
 	{
 		return PLEAT_RESULT_INVALID_ASSET_DATA;
 	}
 	uint32_t N = a->vertex_count, B = a->beta_count, Ka = basi->dims[1];
-	a->body_anchors = (const float*)plRequire( data, table, "BANC", PLEAT_DTYPE_F32, 2, N, 3, 1 );
-	a->body_anchor_shape = (const float*)plRequire( data, table, "BASH", PLEAT_DTYPE_F32, 3, B, N, 3 );
-	a->body_anchor_normals = (const float*)plRequire( data, table, "BANN", PLEAT_DTYPE_F32, 2, N, 3, 1 );
-	a->body_anchor_skin_indices = (const uint16_t*)plRequire( data, table, "BASI", PLEAT_DTYPE_U16, 2, N, Ka, 1 );
-	a->body_anchor_skin_weights = (const float*)plRequire( data, table, "BASW", PLEAT_DTYPE_F32, 2, N, Ka, 1 );
+	uint32_t P = N, C = 1;
+	if ( baca != NULL )
+	{
+		if ( baca->rank != 2 || baca->dims[1] < 1 || baca->dims[1] > PLEAT_MAX_CONTACT_CANDIDATES ||
+			 banc->dims[0] < 1 || banc->dims[0] >= PLEAT_NO_CONTACT_CANDIDATE )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		P = banc->dims[0];
+		C = baca->dims[1];
+		a->body_anchor_candidates = (const uint16_t*)plRequire( data, table, "BACA", PLEAT_DTYPE_U16, 2, N, C, 1 );
+		if ( a->body_anchor_candidates == NULL )
+		{
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		for ( uint64_t i = 0; i < (uint64_t)N * C; ++i )
+		{
+			uint16_t c = a->body_anchor_candidates[i];
+			if ( c >= P && c != PLEAT_NO_CONTACT_CANDIDATE )
+			{
+				return PLEAT_RESULT_INVALID_ASSET_DATA;
+			}
+		}
+	}
+	a->body_anchors = (const float*)plRequire( data, table, "BANC", PLEAT_DTYPE_F32, 2, P, 3, 1 );
+	a->body_anchor_shape = (const float*)plRequire( data, table, "BASH", PLEAT_DTYPE_F32, 3, B, P, 3 );
+	a->body_anchor_normals = (const float*)plRequire( data, table, "BANN", PLEAT_DTYPE_F32, 2, P, 3, 1 );
+	a->body_anchor_skin_indices = (const uint16_t*)plRequire( data, table, "BASI", PLEAT_DTYPE_U16, 2, P, Ka, 1 );
+	a->body_anchor_skin_weights = (const float*)plRequire( data, table, "BASW", PLEAT_DTYPE_F32, 2, P, Ka, 1 );
 	if ( a->body_anchors == NULL || a->body_anchor_shape == NULL || a->body_anchor_normals == NULL ||
 		 a->body_anchor_skin_indices == NULL || a->body_anchor_skin_weights == NULL ||
-		 !plAllFiniteFloats( a->body_anchors, (uint64_t)N * 3 ) ||
-		 !plAllFiniteFloats( a->body_anchor_shape, (uint64_t)B * N * 3 ) ||
-		 !plAllFiniteFloats( a->body_anchor_normals, (uint64_t)N * 3 ) ||
-		 !plSkinRowsValid( a->body_anchor_skin_indices, a->body_anchor_skin_weights, N, Ka, a->joint_count ) )
+		 !plAllFiniteFloats( a->body_anchors, (uint64_t)P * 3 ) ||
+		 !plAllFiniteFloats( a->body_anchor_shape, (uint64_t)B * P * 3 ) ||
+		 !plAllFiniteFloats( a->body_anchor_normals, (uint64_t)P * 3 ) ||
+		 !plSkinRowsValid( a->body_anchor_skin_indices, a->body_anchor_skin_weights, P, Ka, a->joint_count ) )
 	{
+		a->body_anchors = NULL;
+		a->body_anchor_candidates = NULL;
 		return PLEAT_RESULT_INVALID_ASSET_DATA;
 	}
-	// Each normal is a unit vector (± 1e-3, as pleat-pack writes it) or zero (no anchor for that vertex).
-	for ( uint32_t v = 0; v < N; ++v )
+	// Each normal is a unit vector (± 1e-3, as pleat-pack writes it) or zero (a point that never anchors).
+	for ( uint32_t p = 0; p < P; ++p )
 	{
-		const float* n = a->body_anchor_normals + (size_t)v * 3;
+		const float* n = a->body_anchor_normals + (size_t)p * 3;
 		double len = sqrt( (double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2] );
 		if ( len != 0.0 && fabs( len - 1.0 ) > 1e-3 )
 		{
+			a->body_anchors = NULL;
+			a->body_anchor_candidates = NULL;
 			return PLEAT_RESULT_INVALID_ASSET_DATA;
 		}
 	}
 	a->body_anchor_influence_count = Ka;
+	a->body_point_count = P;
+	a->body_anchor_candidate_count = C;
 	return PLEAT_RESULT_OK;
 }
 

@@ -48,14 +48,18 @@ typedef struct plAssetData
 	const void* blend_shapes; // [D][N][3] fp32 or fp16
 	int blend_shapes_fp16;
 	const uint32_t* pinned; // [P] or NULL
-	// Body contact (asset 1.1, optional, all or none): per vertex the rest anchor, its shape directions, its unit
-	// normal (zero = no anchor) and the body's skinning there (docs/asset-format.md "Body contact").
-	const float* body_anchors;          // [N][3] or NULL
-	const float* body_anchor_shape;     // [B][N][3]
-	const float* body_anchor_normals;   // [N][3]
-	const uint16_t* body_anchor_skin_indices; // [N][Ka]
-	const float* body_anchor_skin_weights;    // [N][Ka]
+	// Body contact (asset 1.1, optional, all or none): P body points, each a rest position, its shape directions, its
+	// unit normal (zero = never an anchor) and the body's skinning there; asset 1.2 adds each vertex's candidate points
+	// (BACA), 1.1 has one point per vertex (P = N, vertex v's is point v). docs/asset-format.md "Body contact".
+	const float* body_anchors;          // [P][3] or NULL
+	const float* body_anchor_shape;     // [B][P][3]
+	const float* body_anchor_normals;   // [P][3]
+	const uint16_t* body_anchor_skin_indices; // [P][Ka]
+	const float* body_anchor_skin_weights;    // [P][Ka]
 	uint32_t body_anchor_influence_count;     // Ka (1..8), 0 without anchors
+	uint32_t body_point_count;                // P (0 without anchors)
+	const uint16_t* body_anchor_candidates;   // [N][C] point indices, PLEAT_NO_CONTACT_CANDIDATE = empty; NULL: 1.1
+	uint32_t body_anchor_candidate_count;     // C (1..PLEAT_MAX_CONTACT_CANDIDATES; 1 for 1.1)
 	uint32_t pinned_count;
 	const void* onnx_lp;    // OXLP or NULL
 	size_t onnx_lp_size;

@@ -410,31 +410,22 @@ int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const pl
 					 float* const* normals, uint32_t count )
 {
 	const float* matrices[PLEAT_BATCH_MAX] = { NULL }; // (all of count filled below; GCC's scalar build cannot tell)
-	float* contact_positions[PLEAT_BATCH_MAX];
-	const float* contact_anchors[PLEAT_BATCH_MAX];
-	const float* contact_matrices[PLEAT_BATCH_MAX];
-	float contact_offsets[PLEAT_BATCH_MAX];
-	uint32_t contact_count = 0;
 	for ( uint32_t k = 0; k < count; ++k )
 	{
 		matrices[k] = insts[k]->next_skin_matrices;
-		if ( insts[k]->body_contact )
-		{
-			contact_positions[contact_count] = positions[k];
-			contact_anchors[contact_count] = insts[k]->shaped_anchors;
-			contact_matrices[contact_count] = matrices[k];
-			contact_offsets[contact_count++] = insts[k]->body_contact_offset_m;
-		}
 	}
 	kernels->skinning_batch( positions, in, count, a->skin_indices, a->skin_weights, a->influence_count, matrices,
 							 a->joint_count, 0, a->vertex_count );
-	// What plDeformCpu runs between skinning and normals: body contact, for the lanes that have it on.
-	if ( contact_count > 0 )
+	// What plDeformCpu runs between skinning and normals: body contact, for the lanes that have it on, each with the
+	// context's single-instance kernels (the batch set's twins), so a lane gets the lone step's bits.
+	// (The jobs only refuse spans the instance did not build, as the batched kernel that ran here before could not
+	// fail at all: the result says nothing about the input.)
+	for ( uint32_t k = 0; k < count; ++k )
 	{
-		kernels->body_contact_batch( contact_positions, contact_anchors, contact_offsets, contact_count,
-									 a->body_anchor_normals, a->body_anchor_skin_indices, a->body_anchor_skin_weights,
-									 a->body_anchor_influence_count, contact_matrices, a->joint_count, 0,
-									 a->vertex_count );
+		if ( insts[k]->body_contact )
+		{
+			(void)plRunBodyContact( insts[k], positions[k], matrices[k] );
+		}
 	}
 	int slot = plClaimScratch( ctx, plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes ) );
 	if ( slot < 0 )

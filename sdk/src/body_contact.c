@@ -1,18 +1,35 @@
 // The body-contact job (pleat.h, BODY CONTACT): after skinning, each vertex closer than offset_m to the posed tangent
-// plane of its body anchor moves out along the anchor's normal to that distance:
-//     M_a = Σ_k w_ak M_{j_ak},  a = M_a · (anchor, 1),  n = normalize(M_a[:, :3] · n_rest),  d = (x − a) · n
-//     x ← x + max(0, offset − d) · n
-// The anchor is skinned with the body's own weights (not the garment's diffused ones), so a and n are where the body
-// surface is. Same loop as shaders/body_contact.comp and tools/pleat/reference/body_contact.py.
+// plane of its anchor moves out along the anchor's normal to that distance. The anchor is made from the vertex's
+// candidate body points nearest to it in this pose: the cloth slides over the body and the arms come down beside the
+// chest, so the body point nearest a garment vertex changes with the pose (asset 1.2; 1.1 has one point per vertex).
+//     posing, per point p:  M_p = Σ_k w_pk M_{j_pk},  a_p = M_p · (r_p, 1),  n_p = normalize(M_p[:, :3] · n_p)
+//     per vertex:           m = min over usable candidates |x − a_c|²,
+//                           w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE)·m + PLEAT_CONTACT_BLEND_M² − |x − a_c|²),
+//                           a = Σ w_c a_c / Σ w_c,  n = normalize(Σ w_c n_c),  d = (x − a) · n,
+//                           x ← x + max(0, offset − d) · n
+// Why a blend of the nearest few and not the nearest alone: the nearest jumps from one point to the next as the vertex
+// moves, and the push would jump with it (a visible pop, and a choice that two paths rounding differently could make
+// differently); the weights are continuous in x, and the narrow margin keeps nearly all that the nearest alone gains
+// (docs/accuracy.md "Body contact"). The points are skinned with the body's own weights (not the garment's diffused
+// ones), so a and n are where the body surface is. Same loops as shaders/body_contact.comp and
+// tools/pleat/reference/body_contact.py.
 #include "jobs.h"
 
 #include <math.h>
 
+int plBodyPointsJob_Validate( const plBodyPointsJob* job )
+{
+	return job != NULL && job->shaped_points != NULL && job->point_normals != NULL && job->skin_indices != NULL &&
+		   job->skin_weights != NULL && job->skin_matrices != NULL && job->posed != NULL && job->influence_count >= 1 &&
+		   job->influence_count <= PLEAT_MAX_INFLUENCES && job->joint_count > 0 &&
+		   job->point_begin <= job->point_end && job->point_end <= job->point_count;
+}
+
 int plBodyContactJob_Validate( const plBodyContactJob* job )
 {
-	if ( job == NULL || job->shaped_anchors == NULL || job->anchor_normals == NULL ||
-		 job->anchor_skin_indices == NULL || job->anchor_skin_weights == NULL || job->skin_matrices == NULL ||
-		 job->influence_count < 1 || job->influence_count > PLEAT_MAX_INFLUENCES || job->joint_count == 0 ||
+	if ( job == NULL || job->posed == NULL || job->point_count == 0 ||
+		 ( job->candidates == NULL ? job->candidate_count != 1 || job->point_count < job->positions.count
+								   : job->candidate_count < 1 || job->candidate_count > PLEAT_MAX_CONTACT_CANDIDATES ) ||
 		 !( job->offset_m >= 0.0f && job->offset_m <= PLEAT_BODY_CONTACT_MAX_OFFSET_M ) )
 	{
 		return 0;
@@ -21,32 +38,131 @@ int plBodyContactJob_Validate( const plBodyContactJob* job )
 	return job->vertex_begin <= job->vertex_end && job->vertex_end <= n && PLEAT_SPAN_HOLDS( job->positions, 12, n );
 }
 
-void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
-						   const float* anchor_normals, const uint16_t* anchor_skin_indices,
-						   const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
-						   uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end )
+void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const float* point_normals,
+							  const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
+							  const float* skin_matrices, uint32_t joint_count, uint32_t p_begin, uint32_t p_end )
 {
 	uint32_t K = influence_count;
-	for ( uint32_t v = v_begin; v < v_end; ++v )
+	for ( uint32_t p = p_begin; p < p_end; ++p )
 	{
-		const float* rest_normal = anchor_normals + (size_t)v * 3;
-		if ( rest_normal[0] == 0.0f && rest_normal[1] == 0.0f && rest_normal[2] == 0.0f )
+		float* out = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
+		for ( int e = 0; e < PLEAT_POSED_POINT_FLOATS; ++e )
 		{
-			continue; // no anchor: the vertex is far from the rest body
+			out[e] = 0.0f;
+		}
+		const float* rn = point_normals + (size_t)p * 3;
+		if ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f )
+		{
+			continue; // never an anchor: the asset left this point without a normal
 		}
 		float m[12];
-		plBlendJointMatrices( m, anchor_skin_indices + (size_t)v * K, anchor_skin_weights + (size_t)v * K, K,
-							  skin_matrices, joint_count );
-		const float* r = shaped_anchors + (size_t)v * 3;
-		float ax = m[0] * r[0] + m[1] * r[1] + m[2] * r[2] + m[3];
-		float ay = m[4] * r[0] + m[5] * r[1] + m[6] * r[2] + m[7];
-		float az = m[8] * r[0] + m[9] * r[1] + m[10] * r[2] + m[11];
-		float nx = m[0] * rest_normal[0] + m[1] * rest_normal[1] + m[2] * rest_normal[2];
-		float ny = m[4] * rest_normal[0] + m[5] * rest_normal[1] + m[6] * rest_normal[2];
-		float nz = m[8] * rest_normal[0] + m[9] * rest_normal[1] + m[10] * rest_normal[2];
-		float* x = (float*)( (uint8_t*)positions + (size_t)v * position_stride_bytes );
-		plPushOutOfAnchorPlane( x, ax, ay, az, nx, ny, nz, offset_m );
+		plBlendJointMatrices( m, skin_indices + (size_t)p * K, skin_weights + (size_t)p * K, K, skin_matrices,
+							  joint_count );
+		const float* r = shaped_points + (size_t)p * 3;
+		float nx = m[0] * rn[0] + m[1] * rn[1] + m[2] * rn[2];
+		float ny = m[4] * rn[0] + m[5] * rn[1] + m[6] * rn[2];
+		float nz = m[8] * rn[0] + m[9] * rn[1] + m[10] * rn[2];
+		float length = sqrtf( nx * nx + ny * ny + nz * nz );
+		if ( !( length > 1e-12f ) )
+		{
+			continue; // a degenerate blend: no plane to keep the vertex out of
+		}
+		out[0] = m[0] * r[0] + m[1] * r[1] + m[2] * r[2] + m[3];
+		out[1] = m[4] * r[0] + m[5] * r[1] + m[6] * r[2] + m[7];
+		out[2] = m[8] * r[0] + m[9] * r[1] + m[10] * r[2] + m[11];
+		out[3] = 1.0f;
+		out[4] = nx / length;
+		out[5] = ny / length;
+		out[6] = nz / length;
 	}
+}
+
+void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, const float* posed, uint32_t point_count,
+						   const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
+						   uint32_t v_end )
+{
+	uint32_t C = candidate_count;
+	for ( uint32_t v = v_begin; v < v_end; ++v )
+	{
+		float* x = (float*)( (uint8_t*)positions + (size_t)v * position_stride_bytes );
+		// The usable candidates and their squared distances, then the nearest.
+		const float* rows[PLEAT_MAX_CONTACT_CANDIDATES];
+		float d2[PLEAT_MAX_CONTACT_CANDIDATES];
+		uint32_t count = 0;
+		float nearest = 0.0f;
+		for ( uint32_t c = 0; c < C; ++c )
+		{
+			uint32_t p = candidates != NULL ? candidates[(size_t)v * C + c] : v;
+			if ( p >= point_count )
+			{
+				continue; // an empty slot (PLEAT_NO_CONTACT_CANDIDATE)
+			}
+			const float* a = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
+			if ( a[3] == 0.0f )
+			{
+				continue; // not usable in this pose
+			}
+			float dx = x[0] - a[0], dy = x[1] - a[1], dz = x[2] - a[2];
+			rows[count] = a;
+			d2[count] = dx * dx + dy * dy + dz * dz;
+			nearest = count == 0 || d2[count] < nearest ? d2[count] : nearest;
+			count++;
+		}
+		if ( count == 0 )
+		{
+			continue; // no candidate: the vertex is far from the rest body
+		}
+		float limit = ( 1.0f + PLEAT_CONTACT_BLEND_SHARE ) * nearest + PLEAT_CONTACT_BLEND_M * PLEAT_CONTACT_BLEND_M;
+		float total = 0.0f, ax = 0.0f, ay = 0.0f, az = 0.0f, nx = 0.0f, ny = 0.0f, nz = 0.0f;
+		for ( uint32_t i = 0; i < count; ++i )
+		{
+			float w = limit - d2[i];
+			if ( w > 0.0f )
+			{
+				const float* a = rows[i];
+				total += w;
+				ax += w * a[0];
+				ay += w * a[1];
+				az += w * a[2];
+				nx += w * a[4];
+				ny += w * a[5];
+				nz += w * a[6];
+			}
+		}
+		float length = sqrtf( nx * nx + ny * ny + nz * nz );
+		if ( !( total > 0.0f ) || !( length > 1e-12f ) )
+		{
+			continue; // normals that cancel (a thin body part seen from its edge): no direction to push along
+		}
+		ax /= total;
+		ay /= total;
+		az /= total;
+		nx /= length;
+		ny /= length;
+		nz /= length;
+		float d = ( x[0] - ax ) * nx + ( x[1] - ay ) * ny + ( x[2] - az ) * nz;
+		if ( d < offset_m )
+		{
+			float push = offset_m - d;
+			x[0] += push * nx;
+			x[1] += push * ny;
+			x[2] += push * nz;
+		}
+	}
+}
+
+plResult plBodyPointsJob_Run( const plBodyPointsJob* job )
+{
+	if ( !plBodyPointsJob_Validate( job ) )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plPoseBodyPointsFn* kernel = job->kernels != NULL && job->kernels->pose_body_points != NULL
+									 ? job->kernels->pose_body_points
+									 : plPoseBodyPoints_Scalar;
+	kernel( job->posed, job->shaped_points, job->point_normals, job->skin_indices, job->skin_weights,
+			job->influence_count, job->skin_matrices, job->joint_count, job->point_begin, job->point_end );
+	return PLEAT_RESULT_OK;
 }
 
 plResult plBodyContactJob_Run( const plBodyContactJob* job )
@@ -57,8 +173,7 @@ plResult plBodyContactJob_Run( const plBodyContactJob* job )
 	}
 	plBodyContactFn* kernel = job->kernels != NULL && job->kernels->body_contact != NULL ? job->kernels->body_contact
 																						  : plBodyContact_Scalar;
-	kernel( (float*)job->positions.ptr, job->positions.stride_bytes, job->shaped_anchors, job->anchor_normals,
-			job->anchor_skin_indices, job->anchor_skin_weights, job->influence_count, job->skin_matrices,
-			job->joint_count, job->offset_m, job->vertex_begin, job->vertex_end );
+	kernel( (float*)job->positions.ptr, job->positions.stride_bytes, job->posed, job->point_count, job->candidates,
+			job->candidate_count, job->offset_m, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }

@@ -11,6 +11,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 	kernels->face_normals = plFaceNormals_Scalar;
 	kernels->normals_gather = plNormalsGather_Scalar;
 	kernels->normals_scatter = plNormalsScatter_Scalar;
+	kernels->pose_body_points = plPoseBodyPoints_Scalar;
 	kernels->body_contact = plBodyContact_Scalar;
 #if defined( PLEAT_HAVE_AVX2 ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
 	if ( !force_scalar )
@@ -25,7 +26,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 			kernels->face_normals = plFaceNormals_Avx2;
 			kernels->normals_gather = plNormalsGather_Avx2;
 			kernels->normals_scatter = plNormalsScatter_Avx2;
-			kernels->body_contact = plBodyContact_Avx2;
+			kernels->pose_body_points = plPoseBodyPoints_Avx2;
 			return 1;
 		}
 	}

@@ -41,31 +41,31 @@ typedef struct plKernelTwins
 	plMatVecFn* mat_vec;
 	plBlendShapesFn* blend_shapes;
 	plSkinningFn* skinning;
-	plBodyContactFn* body_contact;
+	plPoseBodyPointsFn* pose_body_points;
 	plNormalsScatterFn* normals_scatter;
 	plBatchKernels batch;
 } plKernelTwins;
 
 static const plKernelTwins s_plKernelTwins[] = {
-	{ plMatVec_Scalar, plBlendShapes_Scalar, plSkinning_Scalar, plBodyContact_Scalar, plNormalsScatter_Scalar,
-	  { plMatMat_Scalar, NULL, plBlendShapesBatch_Scalar, plSkinningBatch_Scalar, plBodyContactBatch_Scalar,
-		plNormalsBatch_Scalar, 1, "scalar" } },
+	{ plMatVec_Scalar, plBlendShapes_Scalar, plSkinning_Scalar, plPoseBodyPoints_Scalar, plNormalsScatter_Scalar,
+	  { plMatMat_Scalar, NULL, plBlendShapesBatch_Scalar, plSkinningBatch_Scalar, plNormalsBatch_Scalar, 1,
+		"scalar" } },
 #if defined( PLEAT_HAVE_AVX2 )
-	{ plMatVec_Avx2, plBlendShapes_Avx2, plSkinning_Avx2, plBodyContact_Avx2, plNormalsScatter_Avx2,
-	  { plMatMat_Avx2, NULL, plBlendShapesBatch_Avx2, plSkinningBatch_Avx2, plBodyContactBatch_Avx2,
-		plNormalsBatch_Avx2, 8, "avx2+fma+f16c" } },
+	{ plMatVec_Avx2, plBlendShapes_Avx2, plSkinning_Avx2, plPoseBodyPoints_Avx2, plNormalsScatter_Avx2,
+	  { plMatMat_Avx2, NULL, plBlendShapesBatch_Avx2, plSkinningBatch_Avx2, plNormalsBatch_Avx2, 8,
+		"avx2+fma+f16c" } },
 #endif
 };
 
 int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatchKernels* out )
 {
-	const plBatchKernels none = { NULL, NULL, NULL, NULL, NULL, NULL, 1, "scalar" };
+	const plBatchKernels none = { NULL, NULL, NULL, NULL, NULL, 1, "scalar" };
 	*out = none;
 	for ( size_t i = 0; i < sizeof( s_plKernelTwins ) / sizeof( s_plKernelTwins[0] ); ++i )
 	{
 		const plKernelTwins* t = &s_plKernelTwins[i];
 		if ( kernels->mat_vec == t->mat_vec && kernels->blend_shapes == t->blend_shapes &&
-			 kernels->skinning == t->skinning && kernels->body_contact == t->body_contact &&
+			 kernels->skinning == t->skinning && kernels->pose_body_points == t->pose_body_points &&
 			 kernels->normals_scatter == t->normals_scatter )
 		{
 			*out = t->batch;
@@ -79,12 +79,12 @@ int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatc
 		out->mat_mat = plMatMat_Avx512;
 		out->mat_mat_lanes = plMatMatLanes_Avx512;
 		out->blend_shapes_batch = plBlendShapesBatch_Avx512;
-		out->isa = "avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, body contact, normals)";
+		out->isa = "avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, normals)";
 	}
 #endif
 	(void)limit;
 	return out->mat_mat != NULL && out->blend_shapes_batch != NULL && out->skinning_batch != NULL &&
-		   out->body_contact_batch != NULL && out->normals_batch != NULL;
+		   out->normals_batch != NULL;
 }
 
 int plSelectBatchKernels( const plKernels* kernels, plBatchKernels* out )

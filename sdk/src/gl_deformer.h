@@ -37,13 +37,16 @@ typedef struct plGlDeformerDesc
 	const uint32_t* faces;              // [F][3]
 	const uint32_t* adjacency_offsets;  // [N + 1] CSR into adjacency_faces
 	const uint32_t* adjacency_faces;    // [3F]
-	// Body contact (optional; NULL body_anchors = the asset has none): the anchors of the current β and the asset's
-	// anchor normals and skinning (pleat.h BODY CONTACT).
-	const float* body_anchors;              // [N][3]
-	const float* body_anchor_normals;       // [N][3]
-	const uint16_t* body_anchor_skin_indices; // [N][Ka]
-	const float* body_anchor_skin_weights;    // [N][Ka]
+	// Body contact (optional; NULL body_anchors = the asset has none): the P body points of the current β, the asset's
+	// point normals and skinning, and each vertex's candidate points (pleat.h BODY CONTACT; body_contact.c).
+	const float* body_anchors;              // [P][3]
+	const float* body_anchor_normals;       // [P][3]
+	const uint16_t* body_anchor_skin_indices; // [P][Ka]
+	const float* body_anchor_skin_weights;    // [P][Ka]
 	uint32_t body_anchor_influence_count;     // Ka
+	uint32_t body_point_count;                // P
+	const uint16_t* body_anchor_candidates;   // [N][C], PLEAT_NO_CONTACT_CANDIDATE = empty; NULL: vertex v's point is v
+	uint32_t body_anchor_candidate_count;     // C (1 with NULL candidates)
 	// Host-context mode only, optional (0 = the deformer owns its output buffers): GL buffer names the engine renders
 	// from; the deformer writes one vec4 per vertex (xyz, w = 1 for positions, 0 for normals).
 	uint32_t host_position_buffer;
@@ -56,7 +59,7 @@ typedef struct plGlDeformerDesc
 
 plResult plGlDeformer_Create( const plGlDeformerDesc* desc, const plAllocator* allocator, plGlDeformer** out );
 // Called when β changes (the shaped template and, with body anchors, the anchors of β are recomputed on the CPU once,
-// then uploaded in one BufferSubData: a GL error leaves both as they were). body_anchors: [N][3], NULL without.
+// then uploaded in one BufferSubData: a GL error leaves both as they were). body_anchors: [P][3], NULL without.
 plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* shaped_template, const float* body_anchors );
 // Body contact for the following Runs (a deformer made without body anchors ignores it). offset_m: metres, >= 0.
 plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float offset_m );

@@ -74,7 +74,7 @@ static int plClampMaterial( const plAssetData* a, const float* material, float* 
 }
 
 // The shaped template T + G_S(β) of beta into out ([N][3]), J(β) into out_joints ([J][3]) and, for an asset with body
-// anchors, the anchors of β into out_anchors ([N][3]; the same shape blend with the body's directions).
+// contact, the body points of β into out_anchors ([P][3]; the same shape blend with the body's directions).
 static plResult plApplyShape( const plAssetData* a, const float* beta, float* out, double* out_joints,
 							  float* out_anchors )
 {
@@ -88,9 +88,9 @@ static plResult plApplyShape( const plAssetData* a, const float* beta, float* ou
 	}
 	if ( a->body_anchors != NULL )
 	{
-		plShapeBlendJob anchor_job = { plMakeConstSpan( a->body_anchors, a->vertex_count, 12 ), a->body_anchor_shape,
-									   plMakeConstSpan( beta, a->beta_count, 4 ),
-									   plMakeSpan( out_anchors, a->vertex_count, 12 ) };
+		plShapeBlendJob anchor_job = { plMakeConstSpan( a->body_anchors, a->body_point_count, 12 ),
+									   a->body_anchor_shape, plMakeConstSpan( beta, a->beta_count, 4 ),
+									   plMakeSpan( out_anchors, a->body_point_count, 12 ) };
 		if ( out_anchors == NULL || plShapeBlendJob_Run( &anchor_job ) != PLEAT_RESULT_OK )
 		{
 			return PLEAT_RESULT_INTERNAL_ERROR;
@@ -194,6 +194,9 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 			desc.body_anchor_skin_indices = a->body_anchor_skin_indices;
 			desc.body_anchor_skin_weights = a->body_anchor_skin_weights;
 			desc.body_anchor_influence_count = a->body_anchor_influence_count;
+			desc.body_point_count = a->body_point_count;
+			desc.body_anchor_candidates = a->body_anchor_candidates;
+			desc.body_anchor_candidate_count = a->body_anchor_candidate_count;
 		}
 		desc.host_position_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_position_buffer : 0;
 		desc.host_normal_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_normal_buffer : 0;
@@ -361,7 +364,8 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	}
 	inst->mlp_scratch_count = 2 * ( widest > 0 ? widest : 1 );
 	size_t n3 = (size_t)a->vertex_count * 3 * sizeof( float );
-	size_t sizes[14] = { n3,
+	size_t p3 = (size_t)a->body_point_count * 3 * sizeof( float );
+	size_t sizes[15] = { n3,
 						 a->latent_count * sizeof( float ),
 						 a->latent_count * sizeof( float ),
 						 a->input_count * sizeof( float ),
@@ -374,9 +378,10 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 						 n3,
 						 (size_t)a->face_count * 4 * sizeof( float ),
 						 def->gpu_mode != PLEAT_GPU_MODE_NONE ? n3 : 0,
-						 a->body_anchors != NULL ? 2 * n3 : 0 };
+						 a->body_anchors != NULL ? 2 * p3 : 0,
+						 a->body_anchors != NULL ? (size_t)a->body_point_count * PLEAT_POSED_POINT_FLOATS * sizeof( float ) : 0 };
 	size_t total = 0;
-	for ( int i = 0; i < 14; ++i )
+	for ( int i = 0; i < 15; ++i )
 	{
 		total += plAlign64( sizes[i] );
 	}
@@ -387,12 +392,12 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
 	inst->block_size = total;
-	float** targets[14] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
+	float** targets[15] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
 							&inst->y,               &inst->blend_weights, &inst->next_weights, &inst->mlp_scratch,
 							&inst->deformed,        &inst->positions,     &inst->normals,     &inst->face_normals,
-							&inst->gl_normals,      &inst->shaped_anchors };
+							&inst->gl_normals,      &inst->shaped_anchors, &inst->posed_points };
 	uint8_t* cursor = (uint8_t*)inst->block;
-	for ( int i = 0; i < 14; ++i )
+	for ( int i = 0; i < 15; ++i )
 	{
 		*targets[i] = sizes[i] != 0 ? (float*)cursor : NULL;
 		cursor += plAlign64( sizes[i] );
@@ -511,7 +516,7 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 	// upload is one BufferSubData.
 	inst->deformed_is_committed = 0;
 	double rest_joints[PLEAT_MAX_JOINTS * 3];
-	float* next_anchors = inst->shaped_anchors != NULL ? inst->shaped_anchors + (size_t)a->vertex_count * 3 : NULL;
+	float* next_anchors = inst->shaped_anchors != NULL ? inst->shaped_anchors + (size_t)a->body_point_count * 3 : NULL;
 	plResult r = plApplyShape( a, clamped_beta, inst->deformed, rest_joints, next_anchors );
 	if ( r == PLEAT_RESULT_OK && inst->gl != NULL )
 	{
@@ -525,7 +530,7 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 	memcpy( inst->shaped_template, inst->deformed, (size_t)a->vertex_count * 3 * sizeof( float ) );
 	if ( next_anchors != NULL )
 	{
-		memcpy( inst->shaped_anchors, next_anchors, (size_t)a->vertex_count * 3 * sizeof( float ) );
+		memcpy( inst->shaped_anchors, next_anchors, (size_t)a->body_point_count * 3 * sizeof( float ) );
 	}
 	memcpy( inst->rest_joints, rest_joints, (size_t)a->joint_count * 3 * sizeof( double ) );
 	if ( clamped )

@@ -62,8 +62,10 @@ typedef struct plInstanceData
 	float* positions;       // [N][3]
 	float* normals;         // [N][3]
 	float* face_normals;    // [F][4] scratch: unnormalised face normals (x, y, z, 0)
-	float* shaped_anchors;  // [2][N][3] assets with body anchors only (else NULL): the body anchors of the committed
+	float* shaped_anchors;  // [2][P][3] assets with body contact only (else NULL): the body points of the committed
 	                        // β, then scratch where plInstance_SetShape builds the next ones
+	float* posed_points;    // [P][PLEAT_POSED_POINT_FLOATS] assets with body contact only: the body points in the pose
+	                        // of the step (plPoseBodyPointsFn), read by the push
 	float* gl_normals;      // [N][3] GPU modes only: normals read back here (positions into deformed, unused on the
 	                        // GPU path) and copied to normals/positions only when the whole step succeeded
 
@@ -81,11 +83,15 @@ plInstanceData* plGetInstanceData( plInstance handle );
 // PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
 plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend,
 					  const plTaskRunner* runner );
-// The body-contact job on positions ([N][3], skinned with skin_matrices; inst->positions for a step) for vertices
-// [begin, end), with the instance's anchors and clearance (instances with inst->body_contact only). plDeformCpu runs it,
-// so do plStepInstances between its batched skinning and normals and the scene's LBS level on its own output.
-plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, uint32_t begin,
-						   uint32_t end );
+// Body contact (instances with inst->body_contact only), in its two jobs: the body points [begin, end) posed with
+// skin_matrices into inst->posed_points, then the push of positions ([N][3], skinned with the same matrices;
+// inst->positions for a step) for vertices [begin, end), with the instance's candidates and clearance. plDeformCpu runs
+// the two as separate tasks over the host's workers; plRunBodyContact runs both, all points and vertices, on the
+// calling thread, as plStepInstances does between its batched skinning and normals and the scene's LBS level on its
+// own output.
+plResult plPoseBodyPoints( plInstanceData* inst, const float* skin_matrices, uint32_t begin, uint32_t end );
+plResult plPushOutOfBody( plInstanceData* inst, float* positions, uint32_t begin, uint32_t end );
+plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices );
 // ---- instance_step.c: the stages of plInstance_Step that plStepInstances (batch.c) runs too ----
 // The batch runs them in the same order for each instance, with f_LP, f_dec and the blend batched in between, so the
 // two paths share every line that decides what a step does (pleat.h: batch = single, bit for bit).

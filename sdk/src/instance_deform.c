@@ -44,28 +44,56 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
 	if ( inst->body_contact )
 	{
-		plDeformTask_Record( t, plRunBodyContact( inst, inst->positions, t->skin_matrices, begin, end ) );
+		plDeformTask_Record( t, plPushOutOfBody( inst, inst->positions, begin, end ) );
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 }
 
-plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, uint32_t begin,
-						   uint32_t end )
+// Before the blend-and-skin task: the body points in this pose, which any vertex's push may read.
+static void plPoseBodyPointsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plDeformTask* t = (plDeformTask*)context;
+	plDeformTask_Record( t, plPoseBodyPoints( t->inst, t->skin_matrices, begin, end ) );
+}
+
+plResult plPoseBodyPoints( plInstanceData* inst, const float* skin_matrices, uint32_t begin, uint32_t end )
 {
 	const plAssetData* a = inst->asset;
-	plBodyContactJob contact = { plMakeSpan( positions, a->vertex_count, 12 ),
-								 inst->shaped_anchors,
-								 a->body_anchor_normals,
-								 a->body_anchor_skin_indices,
-								 a->body_anchor_skin_weights,
-								 a->body_anchor_influence_count,
-								 skin_matrices,
-								 a->joint_count,
-								 inst->body_contact_offset_m,
-								 begin,
-								 end,
-								 &inst->ctx->kernels };
-	return plBodyContactJob_Run( &contact );
+	plBodyPointsJob job = { inst->shaped_anchors,
+							a->body_anchor_normals,
+							a->body_anchor_skin_indices,
+							a->body_anchor_skin_weights,
+							a->body_anchor_influence_count,
+							skin_matrices,
+							a->joint_count,
+							inst->posed_points,
+							a->body_point_count,
+							begin,
+							end,
+							&inst->ctx->kernels };
+	return plBodyPointsJob_Run( &job );
+}
+
+plResult plPushOutOfBody( plInstanceData* inst, float* positions, uint32_t begin, uint32_t end )
+{
+	const plAssetData* a = inst->asset;
+	plBodyContactJob job = { plMakeSpan( positions, a->vertex_count, 12 ),
+							 inst->posed_points,
+							 a->body_point_count,
+							 a->body_anchor_candidates,
+							 a->body_anchor_candidate_count,
+							 inst->body_contact_offset_m,
+							 begin,
+							 end,
+							 &inst->ctx->kernels };
+	return plBodyContactJob_Run( &job );
+}
+
+plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices )
+{
+	plResult r = plPoseBodyPoints( inst, skin_matrices, 0, inst->asset->body_point_count );
+	return r == PLEAT_RESULT_OK ? plPushOutOfBody( inst, positions, 0, inst->asset->vertex_count ) : r;
 }
 
 static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
@@ -120,6 +148,14 @@ plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const fl
 	const plAssetData* a = inst->asset;
 	plDeformTask task;
 	plDeformTask_Init( &task, inst, blend_weights, skin_matrices, blend );
+	if ( inst->body_contact )
+	{
+		plRunTask( runner, plPoseBodyPointsTask, a->body_point_count, 512, &task );
+		if ( plDeformTask_Result( &task ) != PLEAT_RESULT_OK )
+		{
+			return plDeformTask_Result( &task );
+		}
+	}
 	plRunTask( runner, plBlendAndSkinTask, a->vertex_count, 256, &task );
 	if ( plDeformTask_Result( &task ) != PLEAT_RESULT_OK )
 	{

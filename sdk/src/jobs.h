@@ -216,18 +216,34 @@ typedef struct plSkinningJob
 int plSkinningJob_Validate( const plSkinningJob* job );
 plResult plSkinningJob_Run( const plSkinningJob* job );
 
-// ---- body_contact.c: keep skinned vertices outside the body's tangent plane at their anchors (pleat.h, BODY CONTACT)
+// ---- body_contact.c: pose the body points, then keep skinned vertices outside the tangent plane of the nearest of their
+// candidate points (pleat.h, BODY CONTACT)
+
+typedef struct plBodyPointsJob
+{
+	const float* shaped_points;        // [P][3] rest body points of this β (r + Σ_b β_b BASH[b])
+	const float* point_normals;        // [P][3] rest unit normals, zero = never an anchor
+	const uint16_t* skin_indices;      // [P][Ka]
+	const float* skin_weights;         // [P][Ka]
+	uint32_t influence_count;          // Ka
+	const float* skin_matrices;        // [J][3][4], the skinning job's
+	uint32_t joint_count;              // J
+	float* posed;                      // out: [P][PLEAT_POSED_POINT_FLOATS] (kernels.h)
+	uint32_t point_count;              // P
+	uint32_t point_begin, point_end;
+	const plKernels* kernels;          // optional: NULL = the scalar kernel
+} plBodyPointsJob;
+
+int plBodyPointsJob_Validate( const plBodyPointsJob* job );
+plResult plBodyPointsJob_Run( const plBodyPointsJob* job );
 
 typedef struct plBodyContactJob
 {
 	plSpan positions;                  // [N] xyz, skinned, moved in place, any stride
-	const float* shaped_anchors;       // [N][3] rest anchors of this β (a + Σ_b β_b BASH[b])
-	const float* anchor_normals;       // [N][3] rest unit normals, zero = no anchor
-	const uint16_t* anchor_skin_indices; // [N][Ka]
-	const float* anchor_skin_weights;    // [N][Ka]
-	uint32_t influence_count;          // Ka
-	const float* skin_matrices;        // [J][3][4], the skinning job's
-	uint32_t joint_count;              // J
+	const float* posed;                // [P][PLEAT_POSED_POINT_FLOATS] from plBodyPointsJob, this pose
+	uint32_t point_count;              // P
+	const uint16_t* candidates;        // [N][C] point indices (PLEAT_NO_CONTACT_CANDIDATE = empty); NULL: vertex v's is v
+	uint32_t candidate_count;          // C (1 with candidates NULL)
 	float offset_m;                    // clearance (metres, >= 0)
 	uint32_t vertex_begin, vertex_end;
 	const plKernels* kernels;          // optional: NULL = the scalar kernel

@@ -88,13 +88,29 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 								 uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
 								 uint32_t face_count, float* sums4 );
 
-// Body contact for vertices [v_begin, v_end) (pleat.h BODY CONTACT, body_contact.c): each vertex closer than offset_m
-// to its anchor's posed tangent plane moves out along the anchor's normal; positions strided (bytes), anchors and
-// normals [N][3], anchor skin [N][K]; a zero rest normal = no anchor; joint indices >= joint_count count as weight 0.
-typedef void plBodyContactFn( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
-							  const float* anchor_normals, const uint16_t* anchor_skin_indices,
-							  const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
-							  uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end );
+// Body contact (pleat.h BODY CONTACT, body_contact.c), in two kernels:
+// Posing the body points [p_begin, p_end): M_p = Σ_k w_pk M_{j_pk}, a = M_p · (r_p, 1), n = normalize(M_p[:, :3] · n_p)
+// into posed[p] = (a_x, a_y, a_z, usable, n_x, n_y, n_z, 0) (PLEAT_POSED_POINT_FLOATS floats, 32-byte rows): usable is
+// 1 where the rest normal is non-zero and the blended one longer than 1e-12, else 0 (and the rest of the row 0).
+// Rest points and normals [P][3], point skin [P][K]; joint indices >= joint_count count as weight 0.
+#define PLEAT_POSED_POINT_FLOATS 8
+// At most this many candidate body points per garment vertex (asset 1.2, BACA), and the index of an empty slot.
+#define PLEAT_MAX_CONTACT_CANDIDATES 16
+#define PLEAT_NO_CONTACT_CANDIDATE 0xFFFFu
+// The candidates almost as near as the nearest blend into one plane (body_contact.c says why): the share of the
+// nearest squared distance, and a floor in metres, within which a candidate still counts.
+#define PLEAT_CONTACT_BLEND_SHARE 0.1f
+#define PLEAT_CONTACT_BLEND_M 0.001f
+typedef void plPoseBodyPointsFn( float* posed, const float* shaped_points, const float* point_normals,
+								 const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
+								 const float* skin_matrices, uint32_t joint_count, uint32_t p_begin, uint32_t p_end );
+// The push for vertices [v_begin, v_end): of each vertex's usable candidates (candidates [N][C], an index >= P or
+// PLEAT_NO_CONTACT_CANDIDATE = an empty slot; NULL = vertex v's point is v, C = 1), with m the nearest squared distance,
+// w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE)·m + PLEAT_CONTACT_BLEND_M² − |x − a_c|²), a = Σ w_c a_c / Σ w_c and
+// n = normalize(Σ w_c n_c) (slot order); d = (x − a)·n and if d < offset_m x ← x + (offset_m − d)·n.
+typedef void plBodyContactFn( float* positions, uint32_t position_stride_bytes, const float* posed, uint32_t point_count,
+							  const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
+							  uint32_t v_end );
 
 // m = Σ_k w_k M_{j_k} ([3][4] row-major), k in order, from K indices and weights; an index >= joint_count counts
 // with weight 0 (the asset loader rejects it; never read out of bounds even so). The scalar skinning and body-contact
@@ -123,30 +139,6 @@ static inline void plBlendJointMatrices( float m[12], const uint16_t* indices, c
 	}
 }
 
-// The end of the body-contact test for one vertex x, shared by the scalar and AVX2 kernels: n = (nx, ny, nz)
-// normalised (a length ≤ 1e-12, a degenerate blend, leaves x as it is), d = (x − a)·n, and if d < offset_m
-// x ← x + (offset_m − d)·n.
-static inline void plPushOutOfAnchorPlane( float* x, float ax, float ay, float az, float nx, float ny, float nz,
-										   float offset_m )
-{
-	float length = sqrtf( nx * nx + ny * ny + nz * nz );
-	if ( !( length > 1e-12f ) )
-	{
-		return;
-	}
-	nx /= length;
-	ny /= length;
-	nz /= length;
-	float d = ( x[0] - ax ) * nx + ( x[1] - ay ) * ny + ( x[2] - az ) * nz;
-	if ( d < offset_m )
-	{
-		float push = offset_m - d;
-		x[0] += push * nx;
-		x[1] += push * ny;
-		x[2] += push * nz;
-	}
-}
-
 typedef struct plKernels
 {
 	plMatVecFn* mat_vec;
@@ -155,6 +147,7 @@ typedef struct plKernels
 	plFaceNormalsFn* face_normals;
 	plNormalsGatherFn* normals_gather;
 	plNormalsScatterFn* normals_scatter;
+	plPoseBodyPointsFn* pose_body_points;
 	plBodyContactFn* body_contact;
 } plKernels;
 
@@ -162,6 +155,7 @@ typedef struct plKernels
 plMatVecFn plMatVec_Scalar;
 plBlendShapesFn plBlendShapes_Scalar;
 plSkinningFn plSkinning_Scalar;
+plPoseBodyPointsFn plPoseBodyPoints_Scalar;
 plBodyContactFn plBodyContact_Scalar;
 plFaceNormalsFn plFaceNormals_Scalar;
 plNormalsGatherFn plNormalsGather_Scalar;
@@ -170,7 +164,7 @@ plNormalsScatterFn plNormalsScatter_Scalar;
 plMatVecFn plMatVec_Avx2;
 plBlendShapesFn plBlendShapes_Avx2;
 plSkinningFn plSkinning_Avx2;
-plBodyContactFn plBodyContact_Avx2;
+plPoseBodyPointsFn plPoseBodyPoints_Avx2;
 plFaceNormalsFn plFaceNormals_Avx2;
 plNormalsGatherFn plNormalsGather_Avx2;
 plNormalsScatterFn plNormalsScatter_Avx2;

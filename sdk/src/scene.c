@@ -819,7 +819,7 @@ static plResult plLbsGeometry( const plSceneData* s, plSceneCharacter* c, float*
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
 	// the same clearance as the instance's own steps, so a switch to LBS does not pop
-	if ( inst->body_contact && plRunBodyContact( inst, positions, inst->next_skin_matrices, 0, n ) != PLEAT_RESULT_OK )
+	if ( inst->body_contact && plRunBodyContact( inst, positions, inst->next_skin_matrices ) != PLEAT_RESULT_OK )
 	{
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}

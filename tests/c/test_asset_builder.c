@@ -231,28 +231,74 @@ plTestAsset* plTestAsset_Create( const plTestAssetParams* p )
 
 int plTestAsset_AddBodyAnchors( plTestAsset* a, float depth_m )
 {
-	size_t n3 = (size_t)a->N * 3, nk = (size_t)a->N * a->K;
-	a->body_anchors = (float*)malloc( n3 * sizeof( float ) );
-	a->body_anchor_shape = (float*)malloc( ( a->B > 0 ? a->B : 1 ) * n3 * sizeof( float ) );
-	a->body_anchor_normals = (float*)calloc( n3, sizeof( float ) );
-	a->body_anchor_skin_indices = (uint16_t*)malloc( nk * sizeof( uint16_t ) );
-	a->body_anchor_skin_weights = (float*)malloc( nk * sizeof( float ) );
+	uint32_t extra = ( a->N + 3 ) / 4;
+	a->P = a->N + extra;
+	a->C = 3;
+	size_t p3 = (size_t)a->P * 3, pk = (size_t)a->P * a->K;
+	a->body_anchors = (float*)malloc( p3 * sizeof( float ) );
+	a->body_anchor_shape = (float*)malloc( ( a->B > 0 ? a->B : 1 ) * p3 * sizeof( float ) );
+	a->body_anchor_normals = (float*)calloc( p3, sizeof( float ) );
+	a->body_anchor_skin_indices = (uint16_t*)malloc( pk * sizeof( uint16_t ) );
+	a->body_anchor_skin_weights = (float*)malloc( pk * sizeof( float ) );
+	a->body_candidates = (uint16_t*)malloc( (size_t)a->N * a->C * sizeof( uint16_t ) );
 	if ( a->body_anchors == NULL || a->body_anchor_shape == NULL || a->body_anchor_normals == NULL ||
-		 a->body_anchor_skin_indices == NULL || a->body_anchor_skin_weights == NULL )
+		 a->body_anchor_skin_indices == NULL || a->body_anchor_skin_weights == NULL || a->body_candidates == NULL )
 	{
 		return 0;
 	}
+	for ( uint32_t p = 0; p < a->P; ++p )
+	{
+		uint32_t v = p < a->N ? p : 4 * ( p - a->N ); // the vertex the point sits behind
+		float* r = a->body_anchors + 3 * (size_t)p;
+		float* n = a->body_anchor_normals + 3 * (size_t)p;
+		r[0] = a->template_positions[3 * v] + ( p < a->N ? 0.0f : 0.001f );
+		r[1] = a->template_positions[3 * v + 1];
+		r[2] = a->template_positions[3 * v + 2] - ( p < a->N ? depth_m : 0.5f * depth_m );
+		if ( p >= a->N )
+		{
+			n[0] = 0.6f; // (0.6, 0, 0.8): unit
+			n[2] = 0.8f;
+		}
+		else
+		{
+			n[2] = v % 5 == 0 ? 0.0f : 1.0f;
+		}
+		for ( uint32_t b = 0; b < a->B; ++b )
+		{
+			memcpy( a->body_anchor_shape + ( (size_t)b * a->P + p ) * 3, a->shape_blend + ( (size_t)b * a->N + v ) * 3,
+					3 * sizeof( float ) );
+		}
+		memcpy( a->body_anchor_skin_indices + (size_t)p * a->K, a->skin_indices + (size_t)v * a->K,
+				a->K * sizeof( uint16_t ) );
+		memcpy( a->body_anchor_skin_weights + (size_t)p * a->K, a->skin_weights + (size_t)v * a->K,
+				a->K * sizeof( float ) );
+	}
 	for ( uint32_t v = 0; v < a->N; ++v )
 	{
-		a->body_anchors[3 * v] = a->template_positions[3 * v];
-		a->body_anchors[3 * v + 1] = a->template_positions[3 * v + 1];
-		a->body_anchors[3 * v + 2] = a->template_positions[3 * v + 2] - depth_m;
-		a->body_anchor_normals[3 * v + 2] = v % 5 == 0 ? 0.0f : 1.0f;
+		uint16_t* c = a->body_candidates + (size_t)v * a->C;
+		int none = v % 7 == 3;
+		c[0] = none ? 0xFFFFu : (uint16_t)v;
+		c[1] = !none && v % 4 == 0 ? (uint16_t)( a->N + v / 4 ) : 0xFFFFu;
+		c[2] = 0xFFFFu;
 	}
-	memcpy( a->body_anchor_shape, a->shape_blend, (size_t)a->B * n3 * sizeof( float ) );
-	memcpy( a->body_anchor_skin_indices, a->skin_indices, nk * sizeof( uint16_t ) );
-	memcpy( a->body_anchor_skin_weights, a->skin_weights, nk * sizeof( float ) );
 	return 1;
+}
+
+void plTestAsset_DropBodyCandidates( plTestAsset* a )
+{
+	// The first N points are vertex v's own, in order: the 1.1 layout is their prefix of every array.
+	if ( a->B > 0 )
+	{
+		for ( uint32_t b = 1; b < a->B; ++b )
+		{
+			memmove( a->body_anchor_shape + (size_t)b * a->N * 3, a->body_anchor_shape + (size_t)b * a->P * 3,
+					 (size_t)a->N * 3 * sizeof( float ) );
+		}
+	}
+	a->P = a->N;
+	a->C = 1;
+	free( a->body_candidates );
+	a->body_candidates = NULL;
 }
 
 void plTestAsset_Destroy( plTestAsset* a )
@@ -266,6 +312,7 @@ void plTestAsset_Destroy( plTestAsset* a )
 	free( a->body_anchor_normals );
 	free( a->body_anchor_skin_indices );
 	free( a->body_anchor_skin_weights );
+	free( a->body_candidates );
 	plTestFreeNetwork( a->lp, a->lp_count );
 	plTestFreeNetwork( a->dec, a->dec_count );
 	free( a->joint_shapedirs );
@@ -436,11 +483,15 @@ uint8_t* plTestAsset_Write( const plTestAsset* a, size_t* out_size )
 		a->fp16;
 	if ( a->body_anchors != NULL )
 	{
-		plAddSection( sections, &count, "BANC", 1, a->body_anchors, 2, a->N, 3, 1 );
-		plAddSection( sections, &count, "BASH", 1, a->body_anchor_shape, 3, a->B, a->N, 3 );
-		plAddSection( sections, &count, "BANN", 1, a->body_anchor_normals, 2, a->N, 3, 1 );
-		plAddSection( sections, &count, "BASI", 4, a->body_anchor_skin_indices, 2, a->N, a->K, 1 );
-		plAddSection( sections, &count, "BASW", 1, a->body_anchor_skin_weights, 2, a->N, a->K, 1 );
+		plAddSection( sections, &count, "BANC", 1, a->body_anchors, 2, a->P, 3, 1 );
+		plAddSection( sections, &count, "BASH", 1, a->body_anchor_shape, 3, a->B, a->P, 3 );
+		plAddSection( sections, &count, "BANN", 1, a->body_anchor_normals, 2, a->P, 3, 1 );
+		plAddSection( sections, &count, "BASI", 4, a->body_anchor_skin_indices, 2, a->P, a->K, 1 );
+		plAddSection( sections, &count, "BASW", 1, a->body_anchor_skin_weights, 2, a->P, a->K, 1 );
+		if ( a->body_candidates != NULL )
+		{
+			plAddSection( sections, &count, "BACA", 4, a->body_candidates, 2, a->N, a->C, 1 );
+		}
 	}
 	if ( a->onnx_lp != NULL )
 	{

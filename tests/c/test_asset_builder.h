@@ -56,21 +56,30 @@ typedef struct plTestAsset
 	uint16_t version_major, version_minor;
 	const void* onnx_lp; size_t onnx_lp_size; // optional OXLP payload
 	const void* onnx_dec; size_t onnx_dec_size;
-	// Optional body anchors (asset 1.1 BANC/BASH/BANN/BASI/BASW), NULL = none: see plTestAsset_AddBodyAnchors.
-	float* body_anchors;             // [N][3]
-	float* body_anchor_shape;        // [B][N][3]
-	float* body_anchor_normals;      // [N][3]
-	uint16_t* body_anchor_skin_indices; // [N][K]
-	float* body_anchor_skin_weights;    // [N][K]
+	// Optional body contact (BANC/BASH/BANN/BASI/BASW for P points, and BACA, each vertex's candidates, unless
+	// body_candidates is NULL: then P = N, asset 1.1), NULL = none: see plTestAsset_AddBodyAnchors.
+	uint32_t P;                      // body points
+	uint32_t C;                      // candidates per vertex
+	float* body_anchors;             // [P][3]
+	float* body_anchor_shape;        // [B][P][3]
+	float* body_anchor_normals;      // [P][3]
+	uint16_t* body_anchor_skin_indices; // [P][K]
+	float* body_anchor_skin_weights;    // [P][K]
+	uint16_t* body_candidates;          // [N][C] or NULL
 } plTestAsset;
 
 plTestAssetParams plTestAsset_DefaultParams( void );
 // Returns NULL on allocation failure.
 plTestAsset* plTestAsset_Create( const plTestAssetParams* params );
 void plTestAsset_Destroy( plTestAsset* asset );
-// Gives the sheet a stand-in body: a parallel plane depth_m behind it (normal +Z), shaped and skinned like the sheet,
-// every fifth vertex without an anchor. Blend shapes larger than depth_m push vertices through it. 0 on failure.
+// Gives the sheet a stand-in body (asset 1.2): P = N + ⌈N/4⌉ points shaped and skinned like the sheet. Point v < N
+// lies depth_m behind vertex v (normal +Z; every fifth has a zero normal and never anchors); point N + j lies 1 mm
+// beside vertex 4j and half as deep, its normal tilted towards +X. Candidates (C = 3): vertex v has point v, then
+// point N + v/4 for v % 4 == 0, then an empty slot; every seventh vertex (v % 7 == 3) has none at all. So vertices
+// 4j mostly take the tilted point, and blend shapes larger than depth_m push vertices through both. 0 on failure.
 int plTestAsset_AddBodyAnchors( plTestAsset* asset, float depth_m );
+// Back to one point per vertex (asset 1.1, no candidate table): point v for vertex v, the extra points dropped.
+void plTestAsset_DropBodyCandidates( plTestAsset* asset );
 // Serialises into a 64-byte aligned block (free with plTestAsset_FreeBytes). Returns NULL on failure.
 uint8_t* plTestAsset_Write( const plTestAsset* asset, size_t* out_size );
 void plTestAsset_FreeBytes( uint8_t* bytes );

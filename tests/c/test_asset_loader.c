@@ -25,7 +25,7 @@ static int plLoaderSetup( void** state )
 	plLoaderFixture* f = (plLoaderFixture*)calloc( 1, sizeof( plLoaderFixture ) );
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	f->model = plTestAsset_Create( &p );
-	if ( f->model == NULL || !plTestAsset_AddBodyAnchors( f->model, 0.002f ) ) // the optional 1.1 block, checked too
+	if ( f->model == NULL || !plTestAsset_AddBodyAnchors( f->model, 0.002f ) ) // the optional 1.2 block, checked too
 	{
 		return -1;
 	}
@@ -356,6 +356,7 @@ static void test_broken_content_is_invalid_asset_data( void** state )
 		{ "BASW", 4, minus_one },    // negative body anchor skin weight
 		{ "BANC", 8, nan_bits },     // non-finite body anchor
 		{ "BASH", 0, nan_bits },     // non-finite body anchor shape direction
+		{ "BACA", 0, 0x70007000u },  // a candidate point index past P that is not the empty slot 0xFFFF
 		{ "JNAM", 0, 0x41414141u },  // (valid: name still NUL-terminated) — checked below to load
 	};
 	for ( size_t i = 0; i + 1 < sizeof( edits ) / sizeof( edits[0] ); ++i )
@@ -373,6 +374,10 @@ static void test_broken_content_is_invalid_asset_data( void** state )
 	plFieldEdit drop_basw = { "BASW", 0, 0, 4 };
 	memcpy( &drop_basw.value, "BASX", 4 );
 	assert_int_equal( plLoadEdited( f, f->size, plEditField, &drop_basw, 1, 0 ), PLEAT_RESULT_INVALID_ASSET_DATA );
+	// Without BACA the points must be one per vertex (1.1): P = N + N/4 rows with the table renamed away is invalid.
+	plFieldEdit drop_baca = { "BACA", 0, 0, 4 };
+	memcpy( &drop_baca.value, "BACX", 4 );
+	assert_int_equal( plLoadEdited( f, f->size, plEditField, &drop_baca, 1, 0 ), PLEAT_RESULT_INVALID_ASSET_DATA );
 	// A missing required section (TMPL renamed to an unknown fourcc, which a 1.x reader ignores).
 	plFieldEdit rename = { "TMPL", 0, 0, 4 };
 	memcpy( &rename.value, "TMPX", 4 );

@@ -8,9 +8,10 @@
 // 5 + 3 layers and 300 autoregressive frames (the latent feeds back) that grows to ~1e-4 relative at worst. We assert
 //   latent:    |c − ref| ≤ 2e-3 · (1 + |ref|)          (a wrong input block or weight gives O(1) differences)
 //   positions: |c − ref| ≤ 1e-4 m + 1e-4 · |ref|      (0.1 mm; a wrong skinning or blend gives centimetres)
-//   normals:   |c − ref| ≤ 2e-3 for 99.99 % of components and ≤ 2e-2 for all (unit vectors; a wrong winding or
+//   normals:   |c − ref| ≤ 2e-3 for 99.99 % of components and ≤ 3e-2 for all (unit vectors; a wrong winding or
 //              adjacency gives up to 2). The outliers are vertices whose adjacent faces nearly cancel (folded cloth):
-//              there a 2e-6 m position rounding on centimetre triangles moves the normal by ~1e-2.
+//              there a 2e-6 m position rounding on centimetre triangles moves the normal by ~1e-2. Body contact folds
+//              some more: the worst, measured, is a vertex whose six faces sum to 1/7 of their areas (0.024).
 // and report the measured maxima so a regression in precision is visible before it fails.
 #include <setjmp.h>
 #include <stdarg.h>
@@ -146,7 +147,7 @@ static void test_c_path_matches_numpy_reference_over_motion( void** state )
 			double en = fabs( (double)normals[i] - expected_normals[i] );
 			worst_normal = en > worst_normal ? en : worst_normal;
 			normal_outliers += en > 2e-3;
-			if ( en > 2e-2 && failures++ < 5 )
+			if ( en > 3e-2 && failures++ < 5 )
 			{
 				print_error( "frame %u normal %zu: %g vs %g\n", t, i, normals[i], expected_normals[i] );
 			}

@@ -543,8 +543,11 @@ static void test_body_contact_by_hand( void** state )
 	const uint16_t indices[5 * 2] = { 0, 1, 0, 1, 1, 0, 0, 1, 0, 1 };
 	const float weights[5 * 2] = { 1, 0, 1, 0, 1, 0, 1, 0, 0.5f, 0.5f };
 	const float matrices[2 * 12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, /* joint 1: */ 0, -1, 0, 1, 1, 0, 0, 0, 0, 0, 1, 0 };
-	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), anchors, normals, indices, weights, 2, matrices, 2,
-							 0.002f, 0, 5, NULL };
+	float posed[5 * PLEAT_POSED_POINT_FLOATS];
+	plBodyPointsJob pose = { anchors, normals, indices, weights, 2, matrices, 2, posed, 5, 0, 5, NULL };
+	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
+	// One point per vertex (asset 1.1: no candidate table, vertex v's point is v).
+	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), posed, 5, NULL, 1, 0.002f, 0, 5, NULL };
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
 	const float expected[5 * 3] = { 0, 0.002f, 0, 0.3f, 0.010f, 0, 0.998f, 0.5f, 0, 0, -1.0f, 0,
 									0.5f - 0.00141421356f, 0.00141421356f, 0 };
@@ -552,12 +555,56 @@ static void test_body_contact_by_hand( void** state )
 	{
 		assert_float_equal( positions[i], expected[i], 1e-6f );
 	}
-	// A vertex range leaves the rest alone; a negative or non-finite offset is refused.
+	assert_float_equal( posed[3 * PLEAT_POSED_POINT_FLOATS + 3], 0.0f, 0.0f ); // the zero normal: never usable
+	// A vertex range leaves the rest alone; a negative or non-finite offset is refused, and so are a candidate count
+	// without a table, more candidates than the limit, fewer points than vertices without a table, a point range past P.
 	positions[1] = -0.005f;
 	job.vertex_begin = 1;
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
 	assert_float_equal( positions[1], -0.005f, 0.0f );
 	job.offset_m = -0.001f;
+	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+	job.offset_m = 0.002f;
+	job.candidate_count = 2;
+	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+	job.candidate_count = 1;
+	job.point_count = 4;
+	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+	pose.point_end = 6;
+	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_INVALID_ARGUMENT );
+}
+
+// Candidates (asset 1.2), all on joint 0 (the identity): p0 at the origin, normal +Y; p1 at (0.1, 0, 0), normal +X;
+// p2 at (0.05, 0, 0) with a zero normal (never usable); offset 0.002. The blend margin: (1 + 0.1)·m + (1 mm)².
+//   v0 = (0.09, −0.001, 0), candidates (p0, p1, empty): m = 0.000101 (p1); p0 at 0.008101 is outside the margin
+//       (0.0001121), so the plane is p1's alone → d = −0.01 along +X, moved by 0.012 → (0.102, −0.001, 0), although
+//       it is behind p0's plane too.
+//   v1 = (0.05, −0.001, 0), candidates (p2, p0, p1): p2 is nearest but unusable; p0 and p1 are exactly as far (0.05 =
+//       0.1 − 0.05 in binary), equal weights → a = (0.05, 0, 0), n = (√½, √½, 0), d = −0.001·√½ → moved by
+//       (0.002 + 0.001·√½)·n = 0.00191421356 per axis → (0.05191421356, 0.00091421356, 0).
+//   v2 = (0, −1, 0), candidates (empty, 7 ≥ P, empty): none → untouched, however deep.
+static void test_body_contact_blends_the_nearest_usable_candidates_by_hand( void** state )
+{
+	(void)state;
+	float positions[3 * 3] = { 0.09f, -0.001f, 0, 0.05f, -0.001f, 0, 0, -1.0f, 0 };
+	const float points[3 * 3] = { 0, 0, 0, 0.1f, 0, 0, 0.05f, 0, 0 };
+	const float normals[3 * 3] = { 0, 1, 0, 1, 0, 0, 0, 0, 0 };
+	const uint16_t indices[3] = { 0, 0, 0 };
+	const float weights[3] = { 1, 1, 1 };
+	const float matrices[12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0 };
+	const uint16_t candidates[3 * 3] = { 0, 1, PLEAT_NO_CONTACT_CANDIDATE, 2, 0, 1, PLEAT_NO_CONTACT_CANDIDATE, 7,
+										 PLEAT_NO_CONTACT_CANDIDATE };
+	float posed[3 * PLEAT_POSED_POINT_FLOATS];
+	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 3, 0, 3, NULL };
+	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
+	plBodyContactJob job = { plMakeSpan( positions, 3, 12 ), posed, 3, candidates, 3, 0.002f, 0, 3, NULL };
+	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
+	const float expected[3 * 3] = { 0.102f, -0.001f, 0, 0.05191421356f, 0.00091421356f, 0, 0, -1.0f, 0 };
+	for ( int i = 0; i < 9; ++i )
+	{
+		assert_float_equal( positions[i], expected[i], 1e-6f );
+	}
+	job.candidate_count = PLEAT_MAX_CONTACT_CANDIDATES + 1;
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
 }
 
@@ -597,6 +644,7 @@ int main( void )
 		cmocka_unit_test( test_input_normalisation_and_latent_guard_by_hand ),
 		cmocka_unit_test( test_network_rate_decision_by_hand ),
 		cmocka_unit_test( test_body_contact_by_hand ),
+		cmocka_unit_test( test_body_contact_blends_the_nearest_usable_candidates_by_hand ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

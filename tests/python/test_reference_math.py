@@ -323,30 +323,49 @@ def test_random_weights_recurrence_is_contractive():
     assert np.linalg.norm(a.latent - b.latent) < 0.75 * gap
 
 
-def test_body_contact_moves_only_vertices_closer_than_the_offset_and_only_along_the_anchor_normal(asset):
-    """The contact job against its definition (pleat.h BODY CONTACT), recomputed here from the anchors: afterwards
-    every anchored vertex is at least offset_m in front of its posed tangent plane; vertices that were are untouched;
-    the others moved along n by exactly offset − d. The golden tube's blend shapes push many through the stand-in
-    body, so the test sees both kinds."""
+def test_body_contact_pushes_each_vertex_out_of_its_nearest_candidates_blended_plane(asset):
+    """The contact job against its definition (pleat.h BODY CONTACT), recomputed here point by point and vertex by
+    vertex: the usable candidates within the margin of the nearest, (1 + η)·m + ε², blend with weights
+    max(0, margin − d²) into one plane; afterwards every anchored vertex is at least offset_m in front of it; vertices
+    that were are untouched; the others moved along n by exactly offset − d. The golden tube's blend shapes push many
+    through the stand-in body, and its candidates overlap, so the test sees both kinds of vertex, single candidates
+    and blends of several."""
+    from pleat.reference.body_contact import CONTACT_BLEND_M, CONTACT_BLEND_SHARE
     motion = clip(6, seed=5)
     offset = 0.002
     plain, contact = Instance(asset, body_contact=False), Instance(asset, body_contact_offset_m=offset)
     f = lambda k: np.asarray(asset[k], float)
-    anchors = f("body_anchor") + np.einsum("b,bnc->nc", plain.beta, f("body_anchor_shape"))
-    has_anchor = np.linalg.norm(f("body_anchor_normal"), axis=1) > 0
-    moved_total = 0
+    points = f("body_anchor") + np.einsum("b,bnc->nc", plain.beta, f("body_anchor_shape"))
+    table = np.asarray(asset["body_anchor_candidates"], int)
+    P = len(points)
+    moved_total, blended = 0, 0
     for k in range(6):
         before, _ = plain.step(*(m[k] for m in motion))
         after, _ = contact.step(*(m[k] for m in motion))
-        m = plain.skin_matrices[asset["body_anchor_skin_indices"].astype(int)]          # [N, K, 3, 4]
-        blend = np.einsum("nk,nkij->nij", f("body_anchor_skin_weights"), m)
-        a = np.einsum("nij,nj->ni", blend[..., :3], anchors) + blend[..., 3]
-        n = np.einsum("nij,nj->ni", blend[..., :3], f("body_anchor_normal"))
-        n[has_anchor] /= np.linalg.norm(n[has_anchor], axis=1, keepdims=True)
-        d = np.einsum("ni,ni->n", before - a, n)
-        moved = has_anchor & (d < offset)
-        moved_total += moved.sum()
-        np.testing.assert_array_equal(after[~moved], before[~moved])
-        np.testing.assert_allclose(after[moved], before[moved] + (offset - d[moved])[:, None] * n[moved], atol=1e-12)
-        assert np.all(np.einsum("ni,ni->n", after - a, n)[has_anchor] >= offset - 1e-12)
-    assert 0 < moved_total < 6 * len(anchors)
+        m = plain.skin_matrices[asset["body_anchor_skin_indices"].astype(int)]          # [P, K, 3, 4]
+        blend = np.einsum("pk,pkij->pij", f("body_anchor_skin_weights"), m)
+        a = np.einsum("pij,pj->pi", blend[..., :3], points) + blend[..., 3]
+        n = np.einsum("pij,pj->pi", blend[..., :3], f("body_anchor_normal"))
+        usable = np.linalg.norm(n, axis=1) > 1e-12
+        n[usable] /= np.linalg.norm(n[usable], axis=1, keepdims=True)
+        for v in range(len(before)):
+            near = [(np.sum((before[v] - a[p]) ** 2), p) for p in table[v] if p < P and usable[p]]
+            if not near:
+                np.testing.assert_array_equal(after[v], before[v])
+                continue
+            margin = (1 + CONTACT_BLEND_SHARE) * min(d2 for d2, _ in near) + CONTACT_BLEND_M ** 2
+            weights = [(margin - d2, p) for d2, p in near if d2 < margin]
+            blended += len(weights) > 1
+            total = sum(w for w, _ in weights)
+            anchor = sum(w * a[p] for w, p in weights) / total
+            normal = sum(w * n[p] for w, p in weights)
+            normal /= np.linalg.norm(normal)
+            d = np.dot(before[v] - anchor, normal)
+            if d < offset:
+                moved_total += 1
+                np.testing.assert_allclose(after[v], before[v] + (offset - d) * normal, rtol=0, atol=1e-10)
+            else:
+                np.testing.assert_array_equal(after[v], before[v])
+            assert np.dot(after[v] - anchor, normal) >= offset - 1e-10
+    assert 0 < moved_total < 6 * len(table)
+    assert blended > 0                   # several candidates within the margin: the blend is exercised

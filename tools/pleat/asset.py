@@ -21,7 +21,7 @@ import numpy as np
 
 MAGIC = b"PLEATAST"
 VERSION_MAJOR = 1
-VERSION_MINOR = 1   # 1.1 adds the optional body-contact sections (BANC …)
+VERSION_MINOR = 2   # 1.1 adds the optional body-contact sections (BANC …), 1.2 their candidates (BACA)
 HEADER_SIZE = 128
 SECTION_ENTRY_SIZE = 48
 CONF_SIZE = 256
@@ -307,6 +307,10 @@ BODY_CONTACT_KEYS = ("body_anchor", "body_anchor_shape", "body_anchor_normal", "
                      "body_anchor_skin_weights")
 BODY_NORMAL_TOLERANCE = 1e-3
 BODY_CONTACT_SECTIONS = ("BANC", "BASH", "BANN", "BASI", "BASW")
+# Asset 1.2: each garment vertex's candidate body points (BACA, [N, C] uint16, NO_CANDIDATE = an empty slot)
+BODY_CONTACT_CANDIDATES_KEY = "body_anchor_candidates"
+MAX_CONTACT_CANDIDATES = 16      # PLEAT_MAX_CONTACT_CANDIDATES
+NO_CANDIDATE = 0xFFFF
 
 
 def _skin_weights(w, key, K):
@@ -322,24 +326,43 @@ def _skin_weights(w, key, K):
 
 
 def _validate_body_contact(weights, w, N, B, J):
-    """The optional body-contact block (asset 1.1, docs/asset-format.md "Body contact"): all five keys or none."""
+    """The optional body-contact block (docs/asset-format.md "Body contact"): the five point keys, all or none, and
+    (asset 1.2) the candidates. Without candidates there is one point per vertex (P = N, asset 1.1)."""
     present = [k for k in BODY_CONTACT_KEYS if weights.get(k) is not None]
+    candidates = weights.get(BODY_CONTACT_CANDIDATES_KEY)
     if not present:
+        if candidates is not None:
+            raise AssetError(f"{BODY_CONTACT_CANDIDATES_KEY} without the body points ({list(BODY_CONTACT_KEYS)})")
         return
     if len(present) != len(BODY_CONTACT_KEYS):
         raise AssetError(f"body contact: need all of {list(BODY_CONTACT_KEYS)} or none, got {present}")
-    w["body_anchor"] = _floats(weights, "body_anchor", (N, 3))
-    w["body_anchor_shape"] = _floats(weights, "body_anchor_shape", (B, N, 3))
-    n = w["body_anchor_normal"] = _floats(weights, "body_anchor_normal", (N, 3))
+    points = np.asarray(weights["body_anchor"])
+    P = points.shape[0] if points.ndim == 2 else -1
+    if candidates is None and P != N:
+        raise AssetError(f"body_anchor: {P} points without {BODY_CONTACT_CANDIDATES_KEY} (one per vertex: N = {N})")
+    if not 1 <= P < NO_CANDIDATE:
+        raise AssetError(f"body_anchor: expected [P, 3] with P in 1..{NO_CANDIDATE - 1}, got {points.shape}")
+    w["body_anchor"] = _floats(weights, "body_anchor", (P, 3))
+    w["body_anchor_shape"] = _floats(weights, "body_anchor_shape", (B, P, 3))
+    n = w["body_anchor_normal"] = _floats(weights, "body_anchor_normal", (P, 3))
     length = np.linalg.norm(n.astype(np.float64), axis=1)
     if np.any((length != 0.0) & (np.abs(length - 1.0) > BODY_NORMAL_TOLERANCE)):
-        raise AssetError("body_anchor_normal: each row must be a unit vector, or zero for a vertex without an anchor")
+        raise AssetError("body_anchor_normal: each row must be a unit vector, or zero for a point that never anchors")
     idx = np.asarray(weights["body_anchor_skin_indices"])
-    if idx.ndim != 2 or idx.shape[0] != N or not 1 <= idx.shape[1] <= MAX_INFLUENCES:
-        raise AssetError(f"body_anchor_skin_indices: expected [N={N}, K] with K in 1..{MAX_INFLUENCES}, got {idx.shape}")
+    if idx.ndim != 2 or idx.shape[0] != P or not 1 <= idx.shape[1] <= MAX_INFLUENCES:
+        raise AssetError(f"body_anchor_skin_indices: expected [P={P}, K] with K in 1..{MAX_INFLUENCES}, got {idx.shape}")
     w["body_anchor_skin_indices"] = _ints(weights, "body_anchor_skin_indices", idx.shape, 0, J)
     w["body_anchor_skin_weights"] = _floats(weights, "body_anchor_skin_weights", idx.shape)
     _skin_weights(w, "body_anchor_skin_weights", idx.shape[1])
+    if candidates is not None:
+        c = np.asarray(candidates)
+        if c.ndim != 2 or c.shape[0] != N or not 1 <= c.shape[1] <= MAX_CONTACT_CANDIDATES:
+            raise AssetError(f"{BODY_CONTACT_CANDIDATES_KEY}: expected [N={N}, C] with C in "
+                             f"1..{MAX_CONTACT_CANDIDATES}, got {c.shape}")
+        if not np.issubdtype(c.dtype, np.integer) or np.any((c < 0) | ((c >= P) & (c != NO_CANDIDATE))):
+            raise AssetError(f"{BODY_CONTACT_CANDIDATES_KEY}: each entry must be a point index below P = {P} "
+                             f"or {NO_CANDIDATE} (an empty slot)")
+        w[BODY_CONTACT_CANDIDATES_KEY] = c.astype(np.uint16)
 
 
 def _to_fp16(a, key):
@@ -395,6 +418,8 @@ def _sections(w, onnx_models=None):
         out += [("BANC", DTYPE_F32, w["body_anchor"]), ("BASH", DTYPE_F32, w["body_anchor_shape"]),
                 ("BANN", DTYPE_F32, w["body_anchor_normal"]),
                 ("BASI", DTYPE_U16, w["body_anchor_skin_indices"]), ("BASW", DTYPE_F32, w["body_anchor_skin_weights"])]
+        if BODY_CONTACT_CANDIDATES_KEY in w:
+            out.append(("BACA", DTYPE_U16, w[BODY_CONTACT_CANDIDATES_KEY]))
     for fourcc, model in (onnx_models or {}).items():
         out.append((fourcc, DTYPE_U8, np.frombuffer(model, dtype=np.uint8)))
     return out
@@ -598,11 +623,17 @@ def read_asset(data, verify_checksum=True):
             raise AssetError(f"body contact: sections {contact} without the rest of {list(BODY_CONTACT_SECTIONS)}",
                              "INVALID_ASSET_DATA")
         Ka = by["BASI"]["dims"][1] if len(by["BASI"]["dims"]) == 2 else 0
-        w["body_anchor"] = get("BANC", (DTYPE_F32,), (N, 3))
-        w["body_anchor_shape"] = get("BASH", (DTYPE_F32,), (B, N, 3))
-        w["body_anchor_normal"] = get("BANN", (DTYPE_F32,), (N, 3))
-        w["body_anchor_skin_indices"] = get("BASI", (DTYPE_U16,), (N, Ka))
-        w["body_anchor_skin_weights"] = get("BASW", (DTYPE_F32,), (N, Ka))
+        P = by["BANC"]["dims"][0] if "BACA" in by and by["BANC"]["dims"] else N    # 1.1: one point per vertex
+        w["body_anchor"] = get("BANC", (DTYPE_F32,), (P, 3))
+        w["body_anchor_shape"] = get("BASH", (DTYPE_F32,), (B, P, 3))
+        w["body_anchor_normal"] = get("BANN", (DTYPE_F32,), (P, 3))
+        w["body_anchor_skin_indices"] = get("BASI", (DTYPE_U16,), (P, Ka))
+        w["body_anchor_skin_weights"] = get("BASW", (DTYPE_F32,), (P, Ka))
+        if "BACA" in by:
+            C = by["BACA"]["dims"][1] if len(by["BACA"]["dims"]) == 2 else 0
+            w[BODY_CONTACT_CANDIDATES_KEY] = get("BACA", (DTYPE_U16,), (N, C))
+    elif "BACA" in by:
+        raise AssetError("body contact: BACA without the body points", "INVALID_ASSET_DATA")
     w["dt_range_s"] = np.array(conf["dt_range_s"], dtype=np.float32)
     w["beta_range"] = np.array(conf["beta_range"], dtype=np.float32)
     for key in ("material_min", "material_max", "material_default"):

@@ -1,13 +1,23 @@
 """The body-contact job (sdk/src/body_contact.c, shaders/body_contact.comp): keep each skinned garment vertex at least
-`offset_m` outside the body's tangent plane at its anchor.
+`offset_m` outside the body's tangent plane at the body point nearest to it among its candidates.
 
-Each garment vertex i has a body anchor: a point a_i on the rest body surface (shaped by β like the template), the
-body's unit normal n_i there, and the body's own skin weights at that point. Per frame the anchor is skinned with
-those weights, M_a = Σ_k w_ik M_{j_ik}:
-    a = M_a · (a_i, 1),   n = normalize(M_a[:, :3] · n_i),   d = (x − a) · n
-    x ← x + max(0, offset_m − d) · n
-A zero rest normal means the vertex has no anchor (left as skinned), and so does a blended normal of length below
-1e-12 (a degenerate blend). Continuous in x, so a vertex never jumps when it starts or stops touching.
+The asset carries P body points (asset 1.1: P = N, one per garment vertex): a point r_p on the rest body surface
+(shaped by β like the template), the body's unit normal n_p there, and the body's own skin weights at that point.
+Per frame each point is posed with those weights, M_p = Σ_k w_pk M_{j_pk} (pose_contact_points):
+    a_p = M_p · (r_p, 1),   n_p = normalize(M_p[:, :3] · n_p)
+Each garment vertex i has up to C candidate points (asset 1.2, BACA; 1.1: its own point). Of the usable ones, those
+almost as near to x_i as the nearest blend into one plane, with weights that fall to zero at a margin above the
+nearest squared distance m:
+    w_c = max(0, (1 + η)·m + ε² − |x − a_c|²),   a = Σ w_c a_c / Σ w_c,   n = normalize(Σ w_c n_c)
+    d = (x − a) · n,   x ← x + max(0, offset_m − d) · n
+(η = CONTACT_BLEND_SHARE, ε = CONTACT_BLEND_M.) A point with a zero rest normal, or a blended normal of length below
+1e-12 (a degenerate blend), is no candidate; a vertex without candidates is left as skinned, and so is one whose
+blended normal is shorter than 1e-12. Why several candidates: the garment slides over the body and the arms come down
+beside the chest, so the body point nearest a garment vertex changes with the pose; one fixed point per vertex left
+vertices inside the body wherever the cloth had moved off its rest neighbour. Why a blend and not the nearest alone:
+the nearest jumps from one point to the next as the vertex moves, and so would the push; the blend is continuous in x
+(m is), so a vertex never jumps, and two paths that round differently agree to rounding. The narrow margin keeps
+nearly all of what the nearest alone removes (docs/accuracy.md "Body contact").
 """
 import numpy as np
 
@@ -16,19 +26,57 @@ from pleat.reference.skinning import blend_matrices
 MIN_NORMAL_LENGTH = 1e-12
 # plDefaultInstanceDef's body_contact_offset_m: a millimetre of clearance, the simulator's contact scale
 BODY_CONTACT_OFFSET_M = 0.001
+# An empty candidate slot (BACA): the vertex has fewer candidates than the asset's C
+NO_CANDIDATE = 0xFFFF
+# The blend of candidates almost as near as the nearest (PLEAT_CONTACT_BLEND_SHARE, PLEAT_CONTACT_BLEND_M in kernels.h)
+CONTACT_BLEND_SHARE = 0.1
+CONTACT_BLEND_M = 0.001
 
 
-def body_contact(positions, shaped_anchors, anchor_normals, anchor_skin_indices, anchor_skin_weights, skin_matrices,
-                 offset_m):
-    """positions [N, 3] (skinned), shaped_anchors / anchor_normals [N, 3] (rest), anchor skin [N, K], skin_matrices
-    [J, 3, 4] → positions [N, 3] outside the anchors' tangent planes by at least offset_m."""
-    x = np.asarray(positions, np.float64)
-    blended = blend_matrices(anchor_skin_indices, anchor_skin_weights, skin_matrices)
-    a = np.einsum("nij,nj->ni", blended[..., :3], np.asarray(shaped_anchors, np.float64)) + blended[..., 3]
-    n = np.einsum("nij,nj->ni", blended[..., :3], np.asarray(anchor_normals, np.float64))
+def pose_contact_points(shaped_points, point_normals, point_skin_indices, point_skin_weights, skin_matrices):
+    """shaped_points / point_normals [P, 3] (rest), point skin [P, K], skin_matrices [J, 3, 4] → posed points [P, 3],
+    unit normals [P, 3] and whether each point can anchor [P] (a non-zero rest normal and a non-degenerate blend)."""
+    blended = blend_matrices(point_skin_indices, point_skin_weights, skin_matrices)
+    a = np.einsum("nij,nj->ni", blended[..., :3], np.asarray(shaped_points, np.float64)) + blended[..., 3]
+    n = np.einsum("nij,nj->ni", blended[..., :3], np.asarray(point_normals, np.float64))
     length = np.linalg.norm(n, axis=1)
-    has_anchor = length > MIN_NORMAL_LENGTH
-    n = n / np.where(has_anchor, length, 1.0)[:, None]
-    d = np.einsum("ni,ni->n", x - a, n)
-    push = np.where(has_anchor & (d < offset_m), offset_m - d, 0.0)
-    return x + push[:, None] * n
+    usable = length > MIN_NORMAL_LENGTH
+    return a, n / np.where(usable, length, 1.0)[:, None], usable
+
+
+def candidate_weights(positions, posed_points, usable, candidates):
+    """positions [N, 3], posed points [P, 3] and their usability [P], candidates [N, C] (NO_CANDIDATE = empty; None =
+    the identity, C = 1) → the candidates' point indices [N, C] (0 where empty) and their blend weights [N, C] (0 for
+    empty slots, unusable points and candidates outside the margin; all 0 for a vertex without candidates)."""
+    x = np.asarray(positions, np.float64)
+    N = len(x)
+    cand = np.arange(N)[:, None] if candidates is None else np.asarray(candidates, np.int64)
+    valid = cand < len(posed_points)
+    safe = np.where(valid, cand, 0)
+    valid &= usable[safe]
+    d2 = np.sum((posed_points[safe] - x[:, None, :]) ** 2, axis=-1)
+    m = np.min(np.where(valid, d2, np.inf), axis=1, keepdims=True)
+    with np.errstate(invalid="ignore"):
+        w = np.maximum(0.0, (1.0 + CONTACT_BLEND_SHARE) * m + CONTACT_BLEND_M ** 2 - d2)
+    return safe, np.where(valid, w, 0.0)
+
+
+def body_contact(positions, shaped_points, point_normals, point_skin_indices, point_skin_weights, skin_matrices,
+                 offset_m, candidates=None):
+    """positions [N, 3] (skinned), the body points [P, 3] / [P, 3] / [P, K] / [P, K], skin_matrices [J, 3, 4],
+    candidates [N, C] or None (P = N, each vertex its own point) → positions [N, 3] outside the blended tangent plane
+    of the nearest candidates by at least offset_m."""
+    x = np.asarray(positions, np.float64)
+    a, n, usable = pose_contact_points(shaped_points, point_normals, point_skin_indices, point_skin_weights,
+                                       skin_matrices)
+    index, w = candidate_weights(x, a, usable, candidates)
+    total = w.sum(axis=1)
+    has = total > 0.0
+    anchor = np.einsum("nc,nci->ni", w, a[index]) / np.where(has, total, 1.0)[:, None]
+    normal = np.einsum("nc,nci->ni", w, n[index])
+    length = np.linalg.norm(normal, axis=1)
+    has &= length > MIN_NORMAL_LENGTH
+    normal = normal / np.where(has, length, 1.0)[:, None]
+    d = np.einsum("ni,ni->n", x - anchor, normal)
+    push = np.where(has & (d < offset_m), offset_m - d, 0.0)
+    return x + push[:, None] * normal

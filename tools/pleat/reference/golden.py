@@ -148,9 +148,9 @@ def random_weights(vertices=4424, latent=128, blend=128, lp_hidden=(512, 512, 51
 
     The skeleton is always the 24 SMPL-named joints with 19 input joints. latent_gain bounds the Lipschitz constant
     of Z_t → Z_t+1 measured at sample points (the recurrence is contractive, so rollouts stay bounded);
-    blend_rms_m is the RMS learned displacement for typical latents. body_contact adds body anchors (asset 1.1) on a
-    stand-in body, the tube 1 cm further in, skinned like the tube, with every seventh vertex left without an anchor:
-    the blend shapes push many vertices through it, so the contact job has work on most frames."""
+    blend_rms_m is the RMS learned displacement for typical latents. body_contact adds body contact (asset 1.2) on a
+    stand-in body, points 1 cm inside the tube, skinned like it, several candidates per vertex (below): the
+    blend shapes push many vertices through it, so the contact job has work on most frames."""
     rng = np.random.default_rng(seed)
     J = len(SMPL_JOINT_NAMES)
     verts, faces, coords = tube_mesh(vertices)
@@ -228,10 +228,26 @@ def random_weights(vertices=4424, latent=128, blend=128, lp_hidden=(512, 512, 51
     w["blend_shapes"] = fields * (blend_rms_m / np.sqrt(np.mean(np.sum(disp ** 2, -1))))
     w["pinned"] = np.arange(0, min(N, 3 * (N // 50 + 1)), 3)[: max(1, N // 150)]
     if body_contact:
-        normal = radial.copy()
-        normal[::7] = 0.0
-        w.update(body_anchor=verts - 0.01 * radial, body_anchor_shape=shape.copy(), body_anchor_normal=normal,
-                 body_anchor_skin_indices=skin_indices, body_anchor_skin_weights=skin_weights)
+        # The stand-in body (asset 1.2): point v 1 cm inside vertex v (every seventh without a normal), and for every
+        # third vertex a second point as deep, moved 3 mm along the tube; each vertex's candidates are its own
+        # point, its neighbour's, that second point where it has one, and an empty slot; every eleventh vertex has
+        # none. As the tube deforms the nearest candidate changes, so the golden covers the choice as well as the push.
+        extra = np.arange(0, N, 3)
+        along = np.zeros(3)
+        along[np.argmax(np.ptp(verts, axis=0))] = 0.003
+        points = np.concatenate([verts - 0.01 * radial, verts[extra] - 0.01 * radial[extra] + along])
+        normal = np.concatenate([radial, radial[extra]])
+        normal[:N:7] = 0.0
+        table = np.full((N, 4), 0xFFFF, np.int64)
+        v = np.arange(N)
+        table[:, 0], table[:, 1] = v, (v + 1) % N
+        table[extra, 2] = N + np.arange(len(extra))
+        table[v % 11 == 5] = 0xFFFF
+        w.update(body_anchor=points, body_anchor_shape=np.concatenate([shape, shape[:, extra]], axis=1),
+                 body_anchor_normal=normal,
+                 body_anchor_skin_indices=np.concatenate([skin_indices, skin_indices[extra]]),
+                 body_anchor_skin_weights=np.concatenate([skin_weights, skin_weights[extra]]),
+                 body_anchor_candidates=table.astype(np.uint16))
     return w
 
 
