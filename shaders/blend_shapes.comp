@@ -22,7 +22,7 @@ layout(std140, binding = 0) uniform plGlDeformParams
 	uint face_count;      // F
 	uint anchor_influence_count; // Ka (body_contact.comp)
 	float body_contact_offset_m; // (body_contact.comp)
-	uint shaped_rows;            // rows of ShapedTemplate per instance: N, or 2N with body anchors
+	uint shaped_rows;            // rows of ShapedTemplate per instance: N, or N + P with body contact
 };
 
 // [instances][shaped_rows] xyz, w = 1: T + G_S(beta) in the first N rows of each instance

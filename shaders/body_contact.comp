@@ -1,17 +1,32 @@
 #version 430 core
-// Body-contact job (pleat.h, BODY CONTACT): after skinning, a vertex closer than the clearance to its body anchor's
-// posed tangent plane moves out along the anchor's normal to that distance:
-//     M_a = sum_k anchor_skin_weights[i][k] * M_{anchor_skin_indices[i][k]}
-//     a = M_a * (anchor, 1),  n = normalize(M_a[:, :3] * anchor_normal),  d = dot(x - a, n)
-//     x += max(0, offset - d) * n
-// Same loop as sdk/src/body_contact.c and tools/pleat/reference/body_contact.py. A zero rest normal means no anchor;
-// so does a blended normal shorter than 1e-12. One invocation per vertex.
+// Body-contact job (pleat.h, BODY CONTACT): after skinning, a vertex closer than the clearance to the posed tangent
+// plane of its anchor moves out along the anchor's normal to that distance. The anchor is made from the vertex's
+// candidate body points nearest to it in this pose (asset 1.2; 1.1 has one point per vertex, the identity table). Two
+// passes, as the two kernels of sdk/src/body_contact.c and tools/pleat/reference/body_contact.py:
+//   PLEAT_POSE_POINTS 1 (plPoseBodyPoints_Scalar, pose_contact_points), one invocation per body point p:
+//     M_p = sum_k point_skin_weights[p][k] * M_{point_skin_indices[p][k]}
+//     a = M_p * (r_p, 1),  n = normalize(M_p[:, :3] * point_normals[p])  -> posed[p]
+//     usable iff the rest normal is non-zero and |n| > 1e-12
+//   PLEAT_POSE_POINTS 0 (plBodyContact_Scalar, candidate_weights + body_contact), one invocation per vertex:
+//     m = min over usable candidates |x - a_c|^2
+//     w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE) m + PLEAT_CONTACT_BLEND_M^2 - |x - a_c|^2)
+//     a = sum w_c a_c / sum w_c,  n = normalize(sum w_c n_c),  d = dot(x - a, n),  x += max(0, offset - d) * n
+// Why a blend of the nearest few and not the nearest alone: the nearest jumps from one point to the next as the vertex
+// moves, and the push would jump with it; the weights are continuous in x, so this fp32 path and the CPU's agree to
+// rounding even where two candidates are almost equally near. The points are posed once per frame rather than once
+// per vertex and candidate: a vertex has up to PLEAT_MAX_CONTACT_CANDIDATES and neighbouring vertices share most of
+// them. They are skinned with the body's own weights (not the garment's diffused ones), so a and n are where the body
+// surface is. PLEAT_MAX_CONTACT_CANDIDATES, PLEAT_CONTACT_BLEND_SHARE and PLEAT_CONTACT_BLEND_M come from
+// sdk/src/kernels.h (gl_deformer.c injects them after the #version line, with the pass and batch defines).
 // Batches (plStepInstances, sdk/src/gl/gl_deformer.c plGlDeformer_RunBatch): gl_WorkGroupID.y is the instance, and
 // every per-instance buffer holds one block per instance at that index; a single instance is instance 0. The batch's
-// program is compiled with PLEAT_BATCH 1 (injected after the #version line): each instance's contact setting then
+// programs are compiled with PLEAT_BATCH 1 (injected after the #version line): each instance's contact setting then
 // comes from BatchContact instead of the params block.
 #ifndef PLEAT_BATCH
 #define PLEAT_BATCH 0
+#endif
+#ifndef PLEAT_POSE_POINTS
+#define PLEAT_POSE_POINTS 0
 #endif
 
 layout(local_size_x = 64) in;
@@ -26,20 +41,67 @@ layout(std140, binding = 0) uniform plGlDeformParams
 	uint face_count;             // F
 	uint anchor_influence_count; // Ka
 	float body_contact_offset_m; // clearance (metres)
-	uint shaped_rows;            // rows of ShapedTemplate per instance: 2N
+	uint shaped_rows;            // rows of ShapedTemplate per instance: N + P
+	uint point_count;            // P
+	uint candidate_count;        // C
 };
 
-// Per instance, rows 0..N-1: the shaped template (blend_shapes.comp); rows N..2N-1: the body anchors of the same beta.
-layout(std430, binding = 0) restrict readonly buffer ShapedTemplate { vec4 shaped[]; };
 #if PLEAT_BATCH
 // Each instance of a batch has its own contact setting: (enabled 0 or 1, clearance in metres, 0, 0), C twin plGlVec4.
 layout(std430, binding = 16) restrict readonly buffer BatchContact { vec4 batch_contact[]; }; // [instances]
 #endif
+
+#if PLEAT_POSE_POINTS
+// Per instance, rows 0..N-1: the shaped template (blend_shapes.comp); rows N..N+P-1: the body points of the same beta.
+layout(std430, binding = 0) restrict readonly buffer ShapedTemplate { vec4 shaped[]; };
 layout(std430, binding = 6) restrict readonly buffer SkinMatrices { vec4 skin_matrices[]; }; // [instances][J][3]
-layout(std430, binding = 7) restrict buffer Positions { vec4 positions[]; };                 // [instances][N]
-layout(std430, binding = 13) restrict readonly buffer AnchorNormals { vec4 anchor_normals[]; };           // [N]
-layout(std430, binding = 14) restrict readonly buffer AnchorSkinIndices { uint anchor_skin_indices[]; };  // [N][Ka]
-layout(std430, binding = 15) restrict readonly buffer AnchorSkinWeights { float anchor_skin_weights[]; }; // [N][Ka]
+layout(std430, binding = 13) restrict readonly buffer PointNormals { vec4 point_normals[]; };           // [P]
+layout(std430, binding = 14) restrict readonly buffer PointSkinIndices { uint point_skin_indices[]; };  // [P][Ka]
+layout(std430, binding = 15) restrict readonly buffer PointSkinWeights { float point_skin_weights[]; }; // [P][Ka]
+// Two rows per point, as plPoseBodyPoints_Scalar's 8 floats: (a, usable 1 or 0), (n, 0); all 0 when not usable.
+layout(std430, binding = 17) restrict writeonly buffer PosedPoints { vec4 posed[]; }; // [instances][P][2]
+
+void main()
+{
+	uint p = gl_GlobalInvocationID.x;
+	if (p >= point_count)
+		return;
+	uint instance = gl_WorkGroupID.y;
+#if PLEAT_BATCH
+	if (batch_contact[instance].x == 0.0)
+		return; // contact off for this instance: its push pass reads nothing
+#endif
+	uint out_row = 2u * (instance * point_count + p);
+	posed[out_row] = vec4(0.0);
+	posed[out_row + 1u] = vec4(0.0);
+	vec3 rest_normal = point_normals[p].xyz;
+	if (rest_normal == vec3(0.0))
+		return; // never an anchor: the asset left this point without a normal
+	uint matrices = instance * joint_count * 3u;
+	vec4 m0 = vec4(0.0), m1 = vec4(0.0), m2 = vec4(0.0); // the point's blended matrix, row by row
+	for (uint k = 0u; k < anchor_influence_count; ++k)
+	{
+		uint e = p * anchor_influence_count + k;
+		float w = point_skin_weights[e];
+		uint joint = matrices + 3u * point_skin_indices[e];
+		m0 += w * skin_matrices[joint];
+		m1 += w * skin_matrices[joint + 1u];
+		m2 += w * skin_matrices[joint + 2u];
+	}
+	vec3 n = vec3(dot(m0.xyz, rest_normal), dot(m1.xyz, rest_normal), dot(m2.xyz, rest_normal));
+	float len = length(n);
+	if (!(len > 1e-12))
+		return; // a degenerate blend: no plane to keep the vertex out of
+	vec4 r = vec4(shaped[instance * shaped_rows + vertex_count + p].xyz, 1.0);
+	posed[out_row] = vec4(dot(m0, r), dot(m1, r), dot(m2, r), 1.0);
+	posed[out_row + 1u] = vec4(n / len, 0.0);
+}
+
+#else
+layout(std430, binding = 7) restrict buffer Positions { vec4 positions[]; };                    // [instances][N]
+layout(std430, binding = 17) restrict readonly buffer PosedPoints { vec4 posed[]; };            // [instances][P][2]
+// Empty slots hold an index >= P (PLEAT_NO_CONTACT_CANDIDATE); a 1.1 asset gets the identity, C = 1.
+layout(std430, binding = 18) restrict readonly buffer ContactCandidates { uint candidates[]; }; // [N][C]
 
 void main()
 {
@@ -54,29 +116,50 @@ void main()
 #else
 	float offset_m = body_contact_offset_m;
 #endif
-	uint matrices = instance * joint_count * 3u;
-	vec3 rest_normal = anchor_normals[i].xyz;
-	if (rest_normal == vec3(0.0))
-		return; // no anchor: the vertex is far from the rest body
-	vec4 m0 = vec4(0.0), m1 = vec4(0.0), m2 = vec4(0.0); // the anchor's blended matrix, row by row
-	for (uint k = 0u; k < anchor_influence_count; ++k)
-	{
-		uint e = i * anchor_influence_count + k;
-		float w = anchor_skin_weights[e];
-		uint joint = matrices + 3u * anchor_skin_indices[e];
-		m0 += w * skin_matrices[joint];
-		m1 += w * skin_matrices[joint + 1u];
-		m2 += w * skin_matrices[joint + 2u];
-	}
-	vec4 r = vec4(shaped[instance * shaped_rows + vertex_count + i].xyz, 1.0);
-	vec3 a = vec3(dot(m0, r), dot(m1, r), dot(m2, r));
-	vec3 n = vec3(dot(m0.xyz, rest_normal), dot(m1.xyz, rest_normal), dot(m2.xyz, rest_normal));
-	float len = length(n);
-	if (!(len > 1e-12))
-		return; // a degenerate blend has no direction to push along
-	n /= len;
+	uint points = instance * point_count;
 	vec3 x = positions[instance * vertex_count + i].xyz;
+	// The usable candidates and their squared distances, then the nearest.
+	uint rows[PLEAT_MAX_CONTACT_CANDIDATES];
+	float d2[PLEAT_MAX_CONTACT_CANDIDATES];
+	uint count = 0u;
+	float nearest = 0.0;
+	for (uint c = 0u; c < candidate_count; ++c)
+	{
+		uint p = candidates[i * candidate_count + c];
+		if (p >= point_count)
+			continue; // an empty slot (PLEAT_NO_CONTACT_CANDIDATE)
+		uint row = 2u * (points + p);
+		vec4 a = posed[row];
+		if (a.w == 0.0)
+			continue; // not usable in this pose
+		vec3 delta = x - a.xyz;
+		rows[count] = row;
+		d2[count] = delta.x * delta.x + delta.y * delta.y + delta.z * delta.z;
+		nearest = count == 0u || d2[count] < nearest ? d2[count] : nearest;
+		count++;
+	}
+	if (count == 0u)
+		return; // no candidate: the vertex is far from the rest body
+	float limit = (1.0 + PLEAT_CONTACT_BLEND_SHARE) * nearest + PLEAT_CONTACT_BLEND_M * PLEAT_CONTACT_BLEND_M;
+	float total = 0.0;
+	vec3 a = vec3(0.0), n = vec3(0.0);
+	for (uint k = 0u; k < count; ++k)
+	{
+		float w = limit - d2[k];
+		if (w > 0.0)
+		{
+			total += w;
+			a += w * posed[rows[k]].xyz;
+			n += w * posed[rows[k] + 1u].xyz;
+		}
+	}
+	float len = length(n);
+	if (!(total > 0.0) || !(len > 1e-12))
+		return; // normals that cancel (a thin body part seen from its edge): no direction to push along
+	a /= total;
+	n /= len;
 	float d = dot(x - a, n);
 	if (d < offset_m)
 		positions[instance * vertex_count + i] = vec4(x + (offset_m - d) * n, 1.0);
 }
+#endif

@@ -294,7 +294,7 @@ static void plRunGpu( plBatchGroup* g )
 		plGlBatchMember* m = &members[count];
 		m->deformer = inst->gl;
 		m->shaped_template = inst->shaped_template;
-		m->body_anchors = inst->shaped_anchors; // its first N rows: the anchors of the committed β
+		m->body_anchors = inst->shaped_anchors; // its first P rows: the body points of the committed β
 		m->blend_weights = inst->next_weights;
 		m->skin_matrices = inst->next_skin_matrices;
 		m->positions = e->read_back ? inst->deformed : NULL;

@@ -27,6 +27,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 			kernels->normals_gather = plNormalsGather_Avx2;
 			kernels->normals_scatter = plNormalsScatter_Avx2;
 			kernels->pose_body_points = plPoseBodyPoints_Avx2;
+			kernels->body_contact = plBodyContact_Avx2;
 			return 1;
 		}
 	}

@@ -80,7 +80,7 @@ typedef struct plGlBatchMember
 {
 	plGlDeformer* deformer;       // the instance's own; plGlDeformer_CanBatch( lead, deformer )
 	const float* shaped_template; // [N][3] T + G_S(β) of the β its deformer holds (uploaded when that changed)
-	const float* body_anchors;    // [N][3] anchors of the same β (meshes with body anchors; else NULL)
+	const float* body_anchors;    // [P][3] body points of the same β (meshes with body contact; else NULL)
 	const float* blend_weights;   // [D]
 	const float* skin_matrices;   // [J][3][4]
 	float* positions;             // optional [N][3] read-back (NULL = none), as plGlDeformer_Run

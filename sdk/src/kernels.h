@@ -165,6 +165,7 @@ plMatVecFn plMatVec_Avx2;
 plBlendShapesFn plBlendShapes_Avx2;
 plSkinningFn plSkinning_Avx2;
 plPoseBodyPointsFn plPoseBodyPoints_Avx2;
+plBodyContactFn plBodyContact_Avx2;
 plFaceNormalsFn plFaceNormals_Avx2;
 plNormalsGatherFn plNormalsGather_Avx2;
 plNormalsScatterFn plNormalsScatter_Avx2;

@@ -20,6 +20,7 @@
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -262,6 +263,353 @@ static void test_set_shaped_template_moves_the_output( void** state )
 	plExpectNoLeak( fixture );
 }
 
+// --- body contact with candidate points (asset 1.2) ----------------------------------------------------------------
+
+// A stand-in body inside the tube: P = 30 × 20 points on a coarser cylinder of radius 0.12 m (every 7th point without
+// a normal: never an anchor) plus 20 copies of points with the same rest position and skinning but a normal tilted 30°
+// up, so that a vertex listing a point and its copy blends two normals at exactly the same distance. The body is
+// skinned with its own two influences (Ka = 2 ≠ K). Each vertex lists C = 8 candidates: the 4 body points around it,
+// the copy (before the original for every third vertex, after it otherwise), a far point on the other side of the
+// tube or the out-of-range index P, and empty slots (PLEAT_NO_CONTACT_CANDIDATE, leading for every fourth vertex);
+// every 97th vertex has only empty slots and stays as skinned. The blend shapes (±3 cm each) push many vertices
+// through the body.
+#define PLEAT_TEST_BODY_RINGS 30u
+#define PLEAT_TEST_BODY_SEGMENTS 20u
+#define PLEAT_TEST_BODY_COPIES 20u
+#define PLEAT_TEST_BODY_POINTS ( PLEAT_TEST_BODY_RINGS * PLEAT_TEST_BODY_SEGMENTS + PLEAT_TEST_BODY_COPIES )
+#define PLEAT_TEST_BODY_INFLUENCES 2u
+#define PLEAT_TEST_BODY_CANDIDATES 8u
+#define PLEAT_TEST_NO_CANDIDATE 0xFFFFu
+#define PLEAT_TEST_CONTACT_OFFSET_M 0.004f
+// pleat.h BODY CONTACT's blend of the candidates almost as near as the nearest (kernels.h PLEAT_CONTACT_BLEND_SHARE and
+// PLEAT_CONTACT_BLEND_M; the reference keeps its own copy of the rule).
+#define PLEAT_TEST_BLEND_SHARE 0.1
+#define PLEAT_TEST_BLEND_M 0.001
+
+typedef struct plTestBody
+{
+	float points[PLEAT_TEST_BODY_POINTS * 3];  // the body points of the current β, [P][3]
+	float normals[PLEAT_TEST_BODY_POINTS * 3]; // [P][3]
+	uint16_t skin_indices[PLEAT_TEST_BODY_POINTS * PLEAT_TEST_BODY_INFLUENCES];
+	float skin_weights[PLEAT_TEST_BODY_POINTS * PLEAT_TEST_BODY_INFLUENCES];
+	uint16_t* candidates; // [N][C]
+} plTestBody;
+
+static void plTestBody_Build( plTestBody* body, const plTestMesh* mesh, float radius_m )
+{
+	const float height = 1.2f; // plTestMesh_Build's tube
+	const uint32_t base = PLEAT_TEST_BODY_RINGS * PLEAT_TEST_BODY_SEGMENTS;
+	for ( uint32_t p = 0; p < PLEAT_TEST_BODY_POINTS; ++p )
+	{
+		uint32_t q = p < base ? p : ( p - base ) * 30u + 1u; // a copy of point q
+		uint32_t ring = q / PLEAT_TEST_BODY_SEGMENTS, segment = q % PLEAT_TEST_BODY_SEGMENTS;
+		float y = height * (float)ring / (float)( PLEAT_TEST_BODY_RINGS - 1 );
+		float angle = 6.2831853f * (float)segment / (float)PLEAT_TEST_BODY_SEGMENTS;
+		body->points[3 * p] = radius_m * cosf( angle );
+		body->points[3 * p + 1] = y;
+		body->points[3 * p + 2] = radius_m * sinf( angle );
+		float tilt = p < base ? 0.0f : 0.5235988f;
+		int without = p < base && p % 7 == 0;
+		body->normals[3 * p] = without ? 0.0f : cosf( tilt ) * cosf( angle );
+		body->normals[3 * p + 1] = without ? 0.0f : sinf( tilt );
+		body->normals[3 * p + 2] = without ? 0.0f : cosf( tilt ) * sinf( angle );
+		float t = y / height * (float)( mesh->joint_count - 1 );
+		uint32_t lower = (uint32_t)floorf( t );
+		lower = lower + 1 < mesh->joint_count ? lower : mesh->joint_count - 2;
+		body->skin_indices[2 * p] = (uint16_t)lower;
+		body->skin_indices[2 * p + 1] = (uint16_t)( lower + 1 );
+		body->skin_weights[2 * p] = 1.0f - ( t - (float)lower );
+		body->skin_weights[2 * p + 1] = t - (float)lower;
+	}
+	uint32_t rings = mesh->vertex_count / 56u, segments = 56u; // plSetup's 79 × 56
+	body->candidates = malloc( sizeof( uint16_t ) * mesh->vertex_count * PLEAT_TEST_BODY_CANDIDATES );
+	for ( uint32_t v = 0; v < mesh->vertex_count; ++v )
+	{
+		uint32_t r = v / segments, s = v % segments;
+		float fr = (float)r / (float)( rings - 1 ) * (float)( PLEAT_TEST_BODY_RINGS - 1 );
+		uint32_t r0 = (uint32_t)floorf( fr ) < PLEAT_TEST_BODY_RINGS - 1 ? (uint32_t)floorf( fr )
+																		 : PLEAT_TEST_BODY_RINGS - 2;
+		uint32_t s0 = s * PLEAT_TEST_BODY_SEGMENTS / segments, s1 = ( s0 + 1 ) % PLEAT_TEST_BODY_SEGMENTS;
+		uint32_t around[4] = { r0 * PLEAT_TEST_BODY_SEGMENTS + s0, r0 * PLEAT_TEST_BODY_SEGMENTS + s1,
+							   ( r0 + 1 ) * PLEAT_TEST_BODY_SEGMENTS + s0, ( r0 + 1 ) * PLEAT_TEST_BODY_SEGMENTS + s1 };
+		uint32_t copy = around[0] % 30u == 1u ? base + around[0] / 30u : PLEAT_TEST_NO_CANDIDATE;
+		uint32_t far = ( PLEAT_TEST_BODY_RINGS - 1 - r0 ) * PLEAT_TEST_BODY_SEGMENTS +
+					   ( s0 + PLEAT_TEST_BODY_SEGMENTS / 2 ) % PLEAT_TEST_BODY_SEGMENTS;
+		uint16_t* slots = body->candidates + (size_t)v * PLEAT_TEST_BODY_CANDIDATES;
+		uint32_t c = 0;
+		for ( uint32_t e = 0; e < PLEAT_TEST_BODY_CANDIDATES; ++e )
+			slots[e] = PLEAT_TEST_NO_CANDIDATE;
+		if ( v % 97u == 0 )
+			continue;
+		if ( v % 4u == 0 )
+			slots[c++] = PLEAT_TEST_NO_CANDIDATE;
+		if ( copy != PLEAT_TEST_NO_CANDIDATE && v % 3u == 0 )
+			slots[c++] = (uint16_t)copy;
+		for ( int e = 0; e < 4; ++e )
+			slots[c++] = (uint16_t)around[e];
+		if ( copy != PLEAT_TEST_NO_CANDIDATE && v % 3u != 0 )
+			slots[c++] = (uint16_t)copy;
+		slots[c++] = (uint16_t)( v % 2u ? PLEAT_TEST_BODY_POINTS : far );
+	}
+}
+
+static void plAddBody( plGlDeformerDesc* desc, const plTestBody* body )
+{
+	desc->body_anchors = body->points;
+	desc->body_anchor_normals = body->normals;
+	desc->body_anchor_skin_indices = body->skin_indices;
+	desc->body_anchor_skin_weights = body->skin_weights;
+	desc->body_anchor_influence_count = PLEAT_TEST_BODY_INFLUENCES;
+	desc->body_point_count = PLEAT_TEST_BODY_POINTS;
+	desc->body_anchor_candidates = body->candidates;
+	desc->body_anchor_candidate_count = PLEAT_TEST_BODY_CANDIDATES;
+}
+
+// What the contact did across a run, to show that the body exercised the rules.
+typedef struct plContactCounts
+{
+	uint32_t pushed;        // vertices moved out
+	uint32_t blended;       // of those, vertices whose plane blends two or more candidates
+	double worst_position;  // largest |GPU − reference| (m)
+	double worst_normal;
+} plContactCounts;
+
+// The body contact of pleat.h in double, written out from the equations (not from body_contact.c): positions [N][3]
+// skinned in, pushed out of the plane blended from the candidates almost as near as the nearest.
+static void plReferenceBodyContact( const plTestMesh* mesh, const plTestBody* body, const float* skin_matrices,
+									double offset_m, double* positions, plContactCounts* counts )
+{
+	static double posed[PLEAT_TEST_BODY_POINTS][3], normal[PLEAT_TEST_BODY_POINTS][3];
+	static int usable[PLEAT_TEST_BODY_POINTS];
+	for ( uint32_t p = 0; p < PLEAT_TEST_BODY_POINTS; ++p )
+	{
+		double m[12] = { 0.0 };
+		for ( uint32_t k = 0; k < PLEAT_TEST_BODY_INFLUENCES; ++k )
+		{
+			const float* joint = skin_matrices + 12 * body->skin_indices[PLEAT_TEST_BODY_INFLUENCES * p + k];
+			for ( int e = 0; e < 12; ++e )
+				m[e] += (double)body->skin_weights[PLEAT_TEST_BODY_INFLUENCES * p + k] * joint[e];
+		}
+		const float *r = body->points + 3 * p, *n = body->normals + 3 * p;
+		double length = 0.0;
+		for ( int row = 0; row < 3; ++row )
+		{
+			posed[p][row] = m[4 * row] * r[0] + m[4 * row + 1] * r[1] + m[4 * row + 2] * r[2] + m[4 * row + 3];
+			normal[p][row] = m[4 * row] * n[0] + m[4 * row + 1] * n[1] + m[4 * row + 2] * n[2];
+			length += normal[p][row] * normal[p][row];
+		}
+		length = sqrt( length );
+		usable[p] = !( n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f ) && length > 1e-12;
+		for ( int row = 0; row < 3 && usable[p]; ++row )
+			normal[p][row] /= length;
+	}
+	for ( uint32_t v = 0; v < mesh->vertex_count; ++v )
+	{
+		double* x = positions + 3 * v;
+		const uint16_t* slots = body->candidates + (size_t)v * PLEAT_TEST_BODY_CANDIDATES;
+		double d2[PLEAT_TEST_BODY_CANDIDATES], nearest = INFINITY;
+		for ( uint32_t c = 0; c < PLEAT_TEST_BODY_CANDIDATES; ++c )
+		{
+			uint32_t p = slots[c];
+			d2[c] = INFINITY;
+			if ( p >= PLEAT_TEST_BODY_POINTS || !usable[p] )
+				continue;
+			d2[c] = 0.0;
+			for ( int e = 0; e < 3; ++e )
+				d2[c] += ( x[e] - posed[p][e] ) * ( x[e] - posed[p][e] );
+			nearest = fmin( nearest, d2[c] );
+		}
+		if ( nearest == INFINITY )
+			continue;
+		double limit = ( 1.0 + PLEAT_TEST_BLEND_SHARE ) * nearest + PLEAT_TEST_BLEND_M * PLEAT_TEST_BLEND_M;
+		double total = 0.0, a[3] = { 0.0, 0.0, 0.0 }, n[3] = { 0.0, 0.0, 0.0 };
+		uint32_t blended = 0;
+		for ( uint32_t c = 0; c < PLEAT_TEST_BODY_CANDIDATES; ++c )
+		{
+			double w = limit - d2[c]; // −∞ for empty slots and unusable points
+			if ( !( w > 0.0 ) )
+				continue;
+			total += w;
+			blended += 1;
+			for ( int e = 0; e < 3; ++e )
+			{
+				a[e] += w * posed[slots[c]][e];
+				n[e] += w * normal[slots[c]][e];
+			}
+		}
+		double length = sqrt( n[0] * n[0] + n[1] * n[1] + n[2] * n[2] );
+		if ( !( length > 1e-12 ) )
+			continue;
+		double d = 0.0;
+		for ( int e = 0; e < 3; ++e )
+			d += ( x[e] - a[e] / total ) * n[e] / length;
+		if ( d < offset_m )
+		{
+			for ( int e = 0; e < 3; ++e )
+				x[e] += ( offset_m - d ) * n[e] / length;
+			counts->pushed += 1;
+			counts->blended += blended > 1;
+		}
+	}
+}
+
+// Area-weighted vertex normals over the adjacency, in double, of positions [N][3] (as plTestReference_Deform's).
+static void plReferenceNormals( const plTestMesh* mesh, const double* positions, double* normals )
+{
+	for ( uint32_t i = 0; i < mesh->vertex_count; ++i )
+	{
+		double sum[3] = { 0.0, 0.0, 0.0 };
+		for ( uint32_t e = mesh->adjacency_offsets[i]; e < mesh->adjacency_offsets[i + 1]; ++e )
+		{
+			const uint32_t* tri = mesh->faces + 3 * mesh->adjacency_faces[e];
+			const double *a = positions + 3 * tri[0], *b = positions + 3 * tri[1], *c = positions + 3 * tri[2];
+			double u[3] = { b[0] - a[0], b[1] - a[1], b[2] - a[2] };
+			double w[3] = { c[0] - a[0], c[1] - a[1], c[2] - a[2] };
+			sum[0] += u[1] * w[2] - u[2] * w[1];
+			sum[1] += u[2] * w[0] - u[0] * w[2];
+			sum[2] += u[0] * w[1] - u[1] * w[0];
+		}
+		double length = sqrt( sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2] );
+		for ( int c = 0; c < 3; ++c )
+			normals[3 * i + c] = length > 0.0 ? sum[c] / length : 0.0;
+	}
+}
+
+// Checks one deformer's read-back of a frame against the reference with contact at offset_m (< 0: contact off).
+static void plExpectContactFrame( plTestFixture* fixture, const plTestBody* body, const float* blend_weights,
+								  const float* skin_matrices, const float* positions, const float* normals,
+								  double offset_m, plContactCounts* counts )
+{
+	const plTestMesh* mesh = &fixture->mesh;
+	size_t values = (size_t)3 * mesh->vertex_count;
+	plTestReference_Deform( mesh, mesh->blend_shapes, blend_weights, skin_matrices, fixture->expected_positions,
+							fixture->expected_normals );
+	if ( offset_m >= 0.0 )
+	{
+		plReferenceBodyContact( mesh, body, skin_matrices, offset_m, fixture->expected_positions, counts );
+		plReferenceNormals( mesh, fixture->expected_positions, fixture->expected_normals );
+	}
+	double position_error = plTestMaxAbsDiff( positions, fixture->expected_positions, values );
+	double normal_error = plTestMaxAbsDiff( normals, fixture->expected_normals, values );
+	counts->worst_position = fmax( counts->worst_position, position_error );
+	counts->worst_normal = fmax( counts->worst_normal, normal_error );
+	assert_true( position_error <= PLEAT_TEST_POSITION_TOLERANCE_M );
+	assert_true( normal_error <= PLEAT_TEST_NORMAL_TOLERANCE );
+}
+
+static void test_body_contact_pushes_out_of_the_nearest_candidates( void** state )
+{
+	plTestFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	const plTestMesh* mesh = &fixture->mesh;
+	plTestBody* body = calloc( 1, sizeof( *body ) );
+	plTestBody_Build( body, mesh, 0.12f );
+	plGlDeformerDesc desc = plDescFor( mesh, PLEAT_GL_DEFORMER_HEADLESS, 0 );
+	plAddBody( &desc, body );
+	plGlDeformer* deformer = NULL;
+	assert_int_equal( plGlDeformer_Create( &desc, &fixture->allocator, &deformer ), PLEAT_RESULT_OK );
+	assert_int_equal( plGlDeformer_SetBodyContact( deformer, 1, PLEAT_TEST_CONTACT_OFFSET_M ), PLEAT_RESULT_OK );
+	plContactCounts counts = { 0, 0, 0.0, 0.0 };
+	for ( uint32_t frame = 0; frame < 12; ++frame )
+	{
+		if ( frame == 6 )
+		{
+			// A new β moves the body points with the template (rows N..N+P−1 of the same upload).
+			free( body->candidates ); // built again, the same
+			plTestBody_Build( body, mesh, 0.125f );
+			assert_int_equal( plGlDeformer_SetShapedTemplate( deformer, mesh->shaped_template, body->points ),
+							  PLEAT_RESULT_OK );
+		}
+		plTestMotion_Frame( mesh, frame, fixture->blend_weights, fixture->skin_matrices );
+		assert_int_equal( plGlDeformer_Run( deformer, fixture->blend_weights, fixture->skin_matrices,
+											fixture->positions, fixture->normals ),
+						  PLEAT_RESULT_OK );
+		plExpectContactFrame( fixture, body, fixture->blend_weights, fixture->skin_matrices, fixture->positions,
+							  fixture->normals, PLEAT_TEST_CONTACT_OFFSET_M, &counts );
+	}
+	print_message( "body contact, P = %u, C = %u: %u vertex pushes over 12 frames, %u of them from a blend of candidates; "
+				   "max position error %.3g m, max normal error %.3g\n",
+				   PLEAT_TEST_BODY_POINTS, PLEAT_TEST_BODY_CANDIDATES, counts.pushed, counts.blended,
+				   counts.worst_position, counts.worst_normal );
+	assert_true( counts.pushed > 1000 );
+	assert_true( counts.blended > 0 );
+	// Off: the skinned positions as they are.
+	assert_int_equal( plGlDeformer_SetBodyContact( deformer, 0, PLEAT_TEST_CONTACT_OFFSET_M ), PLEAT_RESULT_OK );
+	assert_int_equal( plGlDeformer_Run( deformer, fixture->blend_weights, fixture->skin_matrices, fixture->positions,
+										fixture->normals ),
+					  PLEAT_RESULT_OK );
+	plExpectContactFrame( fixture, body, fixture->blend_weights, fixture->skin_matrices, fixture->positions,
+						  fixture->normals, -1.0, &counts );
+	plGlDeformer_Destroy( deformer );
+	free( body->candidates );
+	free( body );
+	plExpectNoLeak( fixture );
+}
+
+// The batch path (plGlDeformer_RunBatch, PLEAT_BATCH 1 programs): three deformers of the same mesh in one batch, each
+// with its own body points (β: radius 12, 12.6 and 13.2 cm), pose and contact setting (on at 4 mm, off, on at 1 mm),
+// each as the reference says.
+static void test_body_contact_batch_matches_reference( void** state )
+{
+	plTestFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	const plTestMesh* mesh = &fixture->mesh;
+	enum { members_count = 3 };
+	const double offsets[members_count] = { 0.004, -1.0, 0.001 };
+	plTestBody* bodies[members_count];
+	plGlDeformer* deformers[members_count];
+	float *weights[members_count], *matrices[members_count], *positions[members_count], *normals[members_count];
+	size_t values = (size_t)3 * mesh->vertex_count;
+	for ( int k = 0; k < members_count; ++k )
+	{
+		bodies[k] = calloc( 1, sizeof( *bodies[k] ) );
+		plTestBody_Build( bodies[k], mesh, 0.12f + 0.006f * (float)k );
+		plGlDeformerDesc desc = plDescFor( mesh, PLEAT_GL_DEFORMER_HEADLESS, 0 );
+		plAddBody( &desc, bodies[k] );
+		assert_int_equal( plGlDeformer_Create( &desc, &fixture->allocator, &deformers[k] ), PLEAT_RESULT_OK );
+		assert_int_equal( plGlDeformer_SetBodyContact( deformers[k], offsets[k] >= 0.0,
+													   offsets[k] >= 0.0 ? (float)offsets[k] : 0.0f ),
+						  PLEAT_RESULT_OK );
+		weights[k] = malloc( sizeof( float ) * mesh->blend_count );
+		matrices[k] = malloc( sizeof( float ) * 12 * mesh->joint_count );
+		positions[k] = malloc( sizeof( float ) * values );
+		normals[k] = malloc( sizeof( float ) * values );
+	}
+	plContactCounts counts = { 0, 0, 0.0, 0.0 };
+	for ( uint32_t frame = 0; frame < 4; ++frame )
+	{
+		plGlBatchMember members[members_count];
+		for ( int k = 0; k < members_count; ++k )
+		{
+			plTestMotion_Frame( mesh, frame + 5u * (uint32_t)k, weights[k], matrices[k] );
+			memset( positions[k], 0xff, sizeof( float ) * values );
+			members[k] = ( plGlBatchMember ){ deformers[k], mesh->shaped_template, bodies[k]->points, weights[k],
+											  matrices[k], positions[k], normals[k] };
+		}
+		uint64_t before = atomic_load( &g_plGlDispatches );
+		assert_int_equal( plGlDeformer_RunBatch( deformers[0], members, members_count ), PLEAT_RESULT_OK );
+		// blend shapes, skinning, posing the body points, the push, face normals, normals gather
+		assert_int_equal( atomic_load( &g_plGlDispatches ) - before, 6 );
+		for ( int k = 0; k < members_count; ++k )
+			plExpectContactFrame( fixture, bodies[k], weights[k], matrices[k], positions[k], normals[k], offsets[k],
+								  &counts );
+	}
+	print_message( "body contact in a batch of %d: max position error %.3g m, max normal error %.3g\n", members_count,
+				   counts.worst_position, counts.worst_normal );
+	assert_true( counts.pushed > 1000 );
+	for ( int k = 0; k < members_count; ++k )
+	{
+		plGlDeformer_Destroy( deformers[k] );
+		free( weights[k] );
+		free( matrices[k] );
+		free( positions[k] );
+		free( normals[k] );
+		free( bodies[k]->candidates );
+		free( bodies[k] );
+	}
+	plExpectNoLeak( fixture );
+}
+
 // --- host-context mode ---------------------------------------------------------------------------------------------
 
 // Engine-side GL objects with distinctive bindings that the deformer must leave exactly as they were.
@@ -476,6 +824,11 @@ static void test_invalid_descriptions_are_rejected( void** state )
 	uint32_t* bad_offsets = malloc( sizeof( uint32_t ) * ( mesh->vertex_count + 1 ) );
 	memcpy( bad_offsets, mesh->adjacency_offsets, sizeof( uint32_t ) * ( mesh->vertex_count + 1 ) );
 	bad_offsets[5] = bad_offsets[6] + 1; // not monotonic
+	plTestBody* body = calloc( 1, sizeof( *body ) );
+	plTestBody_Build( body, mesh, 0.12f );
+	plTestBody* bad_body = malloc( sizeof( *bad_body ) );
+	*bad_body = *body; // shares body's candidates
+	bad_body->skin_indices[PLEAT_TEST_BODY_INFLUENCES * PLEAT_TEST_BODY_POINTS - 1] = (uint16_t)mesh->joint_count;
 
 	for ( int c = 0;; ++c )
 	{
@@ -501,6 +854,15 @@ static void test_invalid_descriptions_are_rejected( void** state )
 		case 16: desc.adjacency_offsets = bad_offsets; break;
 		case 17: desc.host_position_buffer = 1; break; // host buffers in headless mode
 		case 18: desc.vertex_count = 0x10000000u; break; // buffers past 2 GiB
+		// Body contact: plBodyContactJob_Validate's rules, and the point skinning the posing pass indexes unchecked.
+		case 19: plAddBody( &desc, body ), desc.body_point_count = 0; break;
+		case 20: plAddBody( &desc, body ), desc.body_anchor_candidate_count = 0; break;
+		case 21: plAddBody( &desc, body ), desc.body_anchor_candidate_count = 17; break; // > the most, 16
+		case 22: plAddBody( &desc, body ), desc.body_anchor_candidates = NULL, desc.body_anchor_candidate_count = 1;
+			break; // no table: vertex v's point is v, but P < N
+		case 23: plAddBody( &desc, body ), desc.body_anchor_normals = NULL; break;
+		case 24: plAddBody( &desc, body ), desc.body_anchor_influence_count = 9; break;
+		case 25: plAddBody( &desc, bad_body ); break; // a point skin index >= J
 		default: goto done;
 		}
 		deformer = (plGlDeformer*)&desc;
@@ -508,6 +870,9 @@ static void test_invalid_descriptions_are_rejected( void** state )
 		assert_null( deformer );
 	}
 done:
+	free( body->candidates );
+	free( body );
+	free( bad_body );
 	free( bad_indices );
 	free( bad_faces );
 	free( bad_offsets );
@@ -527,6 +892,8 @@ int main( void )
 		cmocka_unit_test( test_headless_egl_device_platform_matches_reference ),
 		cmocka_unit_test( test_fp16_blend_shapes_match_rounded_reference ),
 		cmocka_unit_test( test_set_shaped_template_moves_the_output ),
+		cmocka_unit_test( test_body_contact_pushes_out_of_the_nearest_candidates ),
+		cmocka_unit_test( test_body_contact_batch_matches_reference ),
 		cmocka_unit_test( test_host_context_matches_reference_and_restores_state ),
 		cmocka_unit_test( test_host_context_without_output_buffers_matches_reference ),
 		cmocka_unit_test( test_host_context_without_current_context_is_unavailable ),

@@ -5,9 +5,11 @@
 // With a network rate (plInstanceDef.network_rate_hz) the steps between network updates skin the held deformation:
 // the GPU re-blends it, the CPU reuses its T_def; both must still agree.
 //
-// With body anchors (asset 1.1, pleat.h BODY CONTACT) body_contact.comp runs after skinning on the GPU and
-// plBodyContactJob on the CPU: the stand-in body is a plane 2 mm behind the sheet and the blend shapes (±1 cm) push
-// many vertices through it, so both paths move vertices; they must agree, and differ from contact off.
+// With body contact (pleat.h BODY CONTACT) body_contact.comp's two passes run after skinning on the GPU and
+// plBodyPointsJob + plBodyContactJob on the CPU: the stand-in body is a plane 2 mm behind the sheet, with tilted
+// candidate points beside some vertices (asset 1.2, P ≠ N, C > 1: plTestAsset_AddBodyAnchors) or one point per vertex
+// (asset 1.1, no candidate table: plTestAsset_DropBodyCandidates), and the blend shapes (±1 cm) push many vertices
+// through it, so both paths move vertices; they must agree, and differ from contact off.
 //
 // Tolerance: 1e-5 m for positions, 1e-3 for normals — the GPU sums in a different order and with its own rounding
 // (the GL engineer's test_gl_deformer measures ~1e-6 m and ~1e-4); a wrong matrix layout or weight gives centimetres.
@@ -21,13 +23,37 @@
 
 #include "test_common.h"
 
-static void plCompareGpuWithCpu( float network_rate_hz, int body_anchors )
+typedef enum plTestBody
+{
+	PLEAT_TEST_NO_BODY,
+	PLEAT_TEST_BODY_CANDIDATES,           // asset 1.2
+	PLEAT_TEST_BODY_ONE_POINT_PER_VERTEX, // asset 1.1
+} plTestBody;
+
+static void plCompareGpuWithCpu( float network_rate_hz, plTestBody body )
 {
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	p.grid_x = 17;
 	p.grid_y = 19;
 	plTestRig rig;
-	assert_int_equal( plTestRig_CreateWithBody( &rig, &p, body_anchors ? 0.002f : 0.0f ), PLEAT_RESULT_OK );
+	int body_anchors = body != PLEAT_TEST_NO_BODY;
+	plTestAsset* built = plTestAsset_Create( &p );
+	assert_non_null( built );
+	if ( body_anchors )
+	{
+		assert_true( plTestAsset_AddBodyAnchors( built, 0.002f ) );
+	}
+	if ( body == PLEAT_TEST_BODY_ONE_POINT_PER_VERTEX )
+	{
+		plTestAsset_DropBodyCandidates( built );
+	}
+	if ( body == PLEAT_TEST_BODY_CANDIDATES )
+	{
+		// What this case is for: more body points than vertices, and several candidates per vertex.
+		assert_true( built->body_candidates != NULL && built->P != built->N && built->C > 1 );
+	}
+	assert_int_equal( plTestRig_Init( &rig, built, NULL ), PLEAT_RESULT_OK );
+	rig.model = built; // freed by plTestRig_Free
 	assert_int_equal( rig.info.has_body_contact, body_anchors );
 	const plTestAsset* model = rig.model;
 	plInstanceDef idef = plDefaultInstanceDef();
@@ -88,9 +114,10 @@ static void plCompareGpuWithCpu( float network_rate_hz, int body_anchors )
 			worst_n = en > worst_n ? en : worst_n;
 		}
 	}
-	print_message( "GPU vs CPU instance, network rate %g Hz, body anchors %d: max position error %.3g m, max normal "
-				   "error %.3g (body contact moved vertices by up to %.3g m)\n",
-				   network_rate_hz, body_anchors, worst_p, worst_n, contact_moved );
+	static const char* const bodies[3] = { "none", "candidate points (1.2)", "one point per vertex (1.1)" };
+	print_message( "GPU vs CPU instance, network rate %g Hz, body %s: max position error %.3g m, max normal error %.3g "
+				   "(body contact moved vertices by up to %.3g m)\n",
+				   network_rate_hz, bodies[body], worst_p, worst_n, contact_moved );
 	assert_true( worst_p <= 1e-5 );
 	assert_true( worst_n <= 1e-3 );
 	if ( body_anchors )
@@ -109,19 +136,25 @@ static void plCompareGpuWithCpu( float network_rate_hz, int body_anchors )
 static void test_headless_gpu_instance_matches_cpu_instance( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 0.0f, 0 );
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_NO_BODY );
 }
 
 static void test_headless_gpu_instance_matches_cpu_instance_with_body_contact( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 0.0f, 1 );
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_CANDIDATES );
+}
+
+static void test_headless_gpu_instance_matches_cpu_instance_with_one_body_point_per_vertex( void** state )
+{
+	(void)state;
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_ONE_POINT_PER_VERTEX );
 }
 
 static void test_headless_gpu_instance_matches_cpu_instance_between_network_updates( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 12.0f, 1 ); // steps of 1/30 s: the networks run on every third step
+	plCompareGpuWithCpu( 12.0f, PLEAT_TEST_BODY_CANDIDATES ); // steps of 1/30 s: the networks run on every third step
 }
 
 int main( void )
@@ -129,6 +162,7 @@ int main( void )
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance ),
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_body_contact ),
+		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_one_body_point_per_vertex ),
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_between_network_updates ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );

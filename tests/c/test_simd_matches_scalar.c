@@ -223,7 +223,7 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 // Posing the body points: random points, normals and K = 1..8 influences, every fourth point without a normal, a joint
 // index out of range, a point sub-range (rows outside it untouched). The blended matrix is summed in another
 // grouping, so the rows agree to rounding: |Δ| ≤ 1e-5 (the inputs are O(1); a wrong column or sign gives O(0.1)),
-// the usable flags exactly. The push has no SIMD twin (kernels.h): both sets run plBodyContact_Scalar.
+// the usable flags exactly.
 static void test_pose_body_points_avx2_matches_scalar( void** state )
 {
 	const plKernelPair* pair = plRequireAvx2Kernels( state );
@@ -246,7 +246,6 @@ static void test_pose_body_points_avx2_matches_scalar( void** state )
 			points[3 * p + e] = plRand();
 		}
 	}
-	assert_ptr_equal( pair->scalar.body_contact, pair->simd.body_contact );
 	for ( uint32_t K = 1; K <= PLEAT_MAX_INFLUENCES; ++K )
 	{
 		uint16_t indices[41 * 8];
@@ -282,6 +281,86 @@ static void test_pose_body_points_avx2_matches_scalar( void** state )
 			}
 		}
 		assert_true( usable > 0 );
+	}
+}
+
+// The push: random posed points (every fifth unusable), C = 1..16 candidates per vertex with empty slots (0xFFFF and
+// indices past P), a vertex without any, near ties (pairs of points equally far from a vertex), strided positions
+// (other floats untouched) and a vertex sub-range. The blend's sums run in another order in the SIMD kernel, so the
+// two agree to rounding: |Δ| ≤ 1e-6 m on O(1) coordinates (a wrong weight or lane gives 1e-3 and more).
+static void test_body_contact_avx2_matches_scalar( void** state )
+{
+	const plKernelPair* pair = plRequireAvx2Kernels( state );
+	enum { n = 37, P = 53, stride = 20 };
+	float posed[P * PLEAT_POSED_POINT_FLOATS];
+	for ( uint32_t p = 0; p < P; ++p )
+	{
+		float* r = posed + p * PLEAT_POSED_POINT_FLOATS;
+		float nx = plRand(), ny = plRand(), nz = plRand() + 0.1f;
+		float len = sqrtf( nx * nx + ny * ny + nz * nz );
+		int usable = p % 5 != 2;
+		float row[8] = { 0.3f * plRand(), 0.3f * plRand(), 0.3f * plRand(), usable ? 1.0f : 0.0f,
+						 usable ? nx / len : 0.0f, usable ? ny / len : 0.0f, usable ? nz / len : 0.0f, 0.0f };
+		memcpy( r, row, sizeof( row ) );
+	}
+	float start[n * 5];
+	for ( uint32_t v = 0; v < n; ++v )
+	{
+		for ( int e = 0; e < 5; ++e )
+		{
+			start[5 * v + e] = e < 3 ? 0.3f * plRand() : -77.0f;
+		}
+	}
+	// vertex 4 halfway between points 0 and 1: a tie inside the margin
+	for ( int e = 0; e < 3; ++e )
+	{
+		start[5 * 4 + e] = 0.5f * ( posed[e] + posed[PLEAT_POSED_POINT_FLOATS + e] );
+	}
+	for ( uint32_t C = 1; C <= PLEAT_MAX_CONTACT_CANDIDATES; ++C )
+	{
+		uint16_t candidates[n * PLEAT_MAX_CONTACT_CANDIDATES];
+		for ( uint32_t v = 0; v < n; ++v )
+		{
+			for ( uint32_t c = 0; c < C; ++c )
+			{
+				uint32_t k = v * C + c, r = (uint32_t)( ( plRand() + 1.0f ) * 0.5f * P ) % P;
+				candidates[k] = v == 7 || c % 6 == 5 ? 0xFFFFu : c % 7 == 6 ? (uint16_t)( P + c ) : (uint16_t)r;
+			}
+			if ( v == 4 && C >= 2 )
+			{
+				candidates[v * C] = 0;
+				candidates[v * C + 1] = 1;
+			}
+		}
+		float os[n * 5], ov[n * 5];
+		memcpy( os, start, sizeof( os ) );
+		memcpy( ov, start, sizeof( ov ) );
+		for ( int pass = 0; pass < 2; ++pass ) // pass 1: the identity table (C = 1, vertex v's point is v)
+		{
+			const uint16_t* table = pass == 0 ? candidates : NULL;
+			uint32_t count = pass == 0 ? C : 1;
+			pair->scalar.body_contact( os, stride, posed, P, table, count, 0.05f, 1, n - 2 );
+			pair->simd.body_contact( ov, stride, posed, P, table, count, 0.05f, 1, n - 2 );
+		}
+		uint32_t moved = 0;
+		for ( uint32_t v = 0; v < n; ++v )
+		{
+			for ( uint32_t e = 0; e < 5; ++e )
+			{
+				float a = os[v * 5 + e], b = ov[v * 5 + e];
+				if ( v < 1 || v >= n - 2 || e >= 3 )
+				{
+					assert_true( a == start[v * 5 + e] && b == start[v * 5 + e] ); // untouched
+					continue;
+				}
+				moved += a != start[v * 5 + e];
+				if ( fabsf( a - b ) > 1e-6f )
+				{
+					fail_msg( "C=%u vertex %u float %u: scalar %.9g simd %.9g", C, v, e, a, b );
+				}
+			}
+		}
+		assert_true( moved > 0 );
 	}
 }
 
@@ -534,6 +613,7 @@ int main( void )
 		PLEAT_TEST_WITH_PAIR( test_blend_shapes_avx2_matches_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_skinning_avx2_matches_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_pose_body_points_avx2_matches_scalar ),
+		PLEAT_TEST_WITH_PAIR( test_body_contact_avx2_matches_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_normals_avx2_are_bit_identical_to_scalar ),
 		cmocka_unit_test( test_normals_scatter_is_bit_identical_to_gather ),
 		cmocka_unit_test( test_half_conversion_round_trips ),

@@ -94,11 +94,11 @@ BODY_ANCHOR_INFLUENCES = 4
 # about where the body is when the cloth hangs loose.
 BODY_ANCHOR_MAX_DISTANCE_M = 0.05
 # Candidate body points per garment vertex (asset 1.2): the rest body vertices nearest to it. The runtime anchors each
-# vertex to the candidate nearest to it in the pose, so the cloth may slide this far over the body and stay outside.
-# Measured on the three validation clips with the most contact (sideflip, stealthy_walk1, punch; two bodies; the shipped
-# network's output): one fixed anchor leaves 1.27 % of vertex-frames inside the body, 8 candidates 0.89 %, 16 0.79 %,
-# 32 0.65 % (docs/accuracy.md "Body contact"); the step pays per candidate, so 16.
-BODY_CONTACT_CANDIDATES = 16
+# vertex to the blend of its candidates nearest to it in the pose, so the cloth may slide over the body and stay
+# outside. Measured on the three validation clips with the most contact (sideflip, stealthy_walk1, punch; two bodies;
+# the shipped network's output; the proto of docs/accuracy.md "Body contact"): one fixed point per vertex leaves 1.27 %
+# of vertex-frames inside the body, 8 candidates 0.91 %, 16 0.83 %; the push costs ~2 ns per candidate and vertex, so 8.
+BODY_CONTACT_CANDIDATES = 8
 
 
 def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance_m=BODY_ANCHOR_MAX_DISTANCE_M,

@@ -1,7 +1,8 @@
-// The GL compute path: blend_shapes.comp → skinning.comp (→ body_contact.comp) → face_normals.comp → normals_gather.comp
-// over GPU-resident asset data, for one instance (plGlDeformer_Run) or for a batch of instances of one mesh with one
-// dispatch per shader (plGlDeformer_RunBatch). See sdk/src/gl_deformer.h for the contract and docs/gpu.md for the
-// buffers, the saved state and the measurements.
+// The GL compute path: blend_shapes.comp → skinning.comp (→ body_contact.comp: posing the body points, then the push)
+// → face_normals.comp → normals_gather.comp over GPU-resident asset data, for one instance (plGlDeformer_Run) or for a
+// batch of instances of one mesh with one dispatch per pass (plGlDeformer_RunBatch). See sdk/src/gl_deformer.h for the
+// contract and docs/gpu.md for the buffers, the saved state and the measurements.
+#include "../kernels.h"
 #include "gl_internal.h"
 #include "gl_shaders.h"
 #include <stdatomic.h>
@@ -20,13 +21,25 @@ static void plDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y )
 	atomic_fetch_add_explicit( &g_plGlDispatches, 1, memory_order_relaxed );
 }
 
+// body_contact.comp's constants, from kernels.h so that the CPU kernels and the shader cannot drift apart; then the
+// pass (posing the body points, or the push) and, for a batch's programs, PLEAT_BATCH.
+#define PLEAT_GL_STRING_( x ) #x
+#define PLEAT_GL_STRING( x ) PLEAT_GL_STRING_( x )
+#define PLEAT_GL_CONTACT_DEFINES                                                                                       \
+	"#define PLEAT_MAX_CONTACT_CANDIDATES " PLEAT_GL_STRING( PLEAT_MAX_CONTACT_CANDIDATES ) "\n"                       \
+	"#define PLEAT_CONTACT_BLEND_SHARE " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_SHARE ) "\n"                             \
+	"#define PLEAT_CONTACT_BLEND_M " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_M ) "\n"
+#define PLEAT_GL_POSE_POINTS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 1\n"
+#define PLEAT_GL_BATCH_DEFINES "#define PLEAT_BATCH 1\n"
+
 enum
 {
 	PLEAT_GL_PROGRAM_BLEND_SHAPES,
 	PLEAT_GL_PROGRAM_SKINNING,
 	PLEAT_GL_PROGRAM_FACE_NORMALS,
 	PLEAT_GL_PROGRAM_NORMALS_GATHER,
-	PLEAT_GL_PROGRAM_BODY_CONTACT, // assets with body anchors only (0 otherwise)
+	PLEAT_GL_PROGRAM_BODY_POINTS,  // body_contact.comp, PLEAT_POSE_POINTS 1: assets with body points only (0 otherwise)
+	PLEAT_GL_PROGRAM_BODY_CONTACT, // body_contact.comp, the push: the same
 	PLEAT_GL_PROGRAM_COUNT
 };
 
@@ -36,8 +49,10 @@ typedef struct plGlBatchBuffers
 {
 	uint32_t capacity;                       // members the buffers hold (0: no batch yet)
 	GLuint buffers[PLEAT_GL_BINDING_COUNT];  // per-instance bindings only (0 elsewhere)
-	GLuint contact_program;                  // body_contact.comp with PLEAT_BATCH 1 (body anchors only)
+	GLuint points_program;                   // body_contact.comp with PLEAT_BATCH 1, posing (body points only)
+	GLuint contact_program;                  // body_contact.comp with PLEAT_BATCH 1, the push (body points only)
 	uint64_t* template_keys;                 // [capacity][2]: the (serial, template generation) each slot holds
+	size_t template_keys_bytes;              // as allocated: a reservation that failed in GL keeps capacity 0
 	void* staging;                           // [capacity] weights, matrices or contact rows on their way up
 	size_t staging_bytes;
 } plGlBatchBuffers;
@@ -54,8 +69,10 @@ struct plGlDeformer
 	uint32_t blend_count;     // D
 	uint32_t influence_count; // K
 	uint32_t joint_count;     // J
-	uint32_t anchor_influence_count; // Ka, 0 without body anchors
-	int body_contact;                // the contact pass runs (anchors present and enabled)
+	uint32_t anchor_influence_count; // Ka, 0 without body points
+	uint32_t point_count;            // P, 0 without body points
+	uint32_t candidate_count;        // C (1 for the identity table of a 1.1 asset), 0 without body points
+	int body_contact;                // the contact passes run (body points present and enabled)
 	float body_contact_offset_m;     // the clearance the params buffer holds
 
 	GLuint programs[PLEAT_GL_PROGRAM_COUNT];
@@ -63,7 +80,7 @@ struct plGlDeformer
 	GLuint owned[PLEAT_GL_BINDING_COUNT];    // buffers the deformer created (0 where the host supplied one)
 	GLuint bindings[PLEAT_GL_BINDING_COUNT]; // what Run binds at each binding point
 
-	void* staging; // conversions on upload and read-backs; staging_bytes = max(16 N, 4 N K)
+	void* staging; // conversions on upload and read-backs; staging_bytes = max(16 (N + P), 4 N K, 4 P Ka, 4 N C)
 	size_t staging_bytes;
 
 	uint64_t serial;              // unique per deformer
@@ -195,15 +212,21 @@ static plResult plValidateDesc( const plGlDeformerDesc* desc )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	if ( desc->body_anchors != NULL )
 	{
+		// As plBodyContactJob_Validate: without a candidate table vertex v's point is v, so there are at least N.
+		uint64_t p = desc->body_point_count, c = desc->body_anchor_candidate_count;
 		if ( desc->body_anchor_normals == NULL || desc->body_anchor_skin_indices == NULL ||
 			 desc->body_anchor_skin_weights == NULL || desc->body_anchor_influence_count == 0 ||
-			 desc->body_anchor_influence_count > 8 )
+			 desc->body_anchor_influence_count > 8 || p == 0 ||
+			 ( desc->body_anchor_candidates == NULL ? c != 1 || p < n : c < 1 || c > PLEAT_MAX_CONTACT_CANDIDATES ) )
 			return PLEAT_RESULT_INVALID_ARGUMENT;
-		for ( size_t e = 0; e < (size_t)desc->vertex_count * desc->body_anchor_influence_count; ++e )
+		if ( ( n + p ) * 16u > 0x7fffffffu || p * 32u > 0x7fffffffu || n * 4u * c > 0x7fffffffu )
+			return PLEAT_RESULT_INVALID_ARGUMENT;
+		for ( size_t e = 0; e < (size_t)p * desc->body_anchor_influence_count; ++e )
 		{
 			if ( desc->body_anchor_skin_indices[e] >= desc->joint_count )
 				return PLEAT_RESULT_INVALID_ARGUMENT;
 		}
+		// Candidate indices need no check: the push skips any index >= P as an empty slot.
 	}
 	// The shaders index with these values unchecked, so they are checked once here (an out-of-range GPU read is
 	// undefined behaviour without robust buffer access).
@@ -244,26 +267,32 @@ static GLuint plCreateBuffer( plGlDeformer* deformer, plGlBinding binding, size_
 	return buffer;
 }
 
-// [N][3] → vec4 rows (w = w_value).
+// [count][3] → vec4 rows (w = w_value).
 static void plToVec4( plGlVec4* rows, const float* xyz, uint32_t count, float w_value )
 {
 	for ( uint32_t i = 0; i < count; ++i )
 		rows[i] = ( plGlVec4 ){ xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], w_value };
 }
 
-// The shaped template, then (with body anchors) the anchors of the same β in rows N..2N−1: one BufferSubData.
-static void plUploadShapedTemplate( plGlDeformer* deformer, const float* shaped_template, const float* body_anchors )
+// Rows of the shaped-template buffer per instance: the template, then (with body points) the P points of the same β.
+static size_t plShapedRows( const plGlDeformer* deformer )
+{
+	return (size_t)deformer->vertex_count + deformer->point_count;
+}
+
+// The shaped template, then (with body points) the points of the same β in rows N..N+P−1: one BufferSubData, so a GL
+// error leaves both as they were.
+static void plUploadShapedTemplate( plGlDeformer* deformer, const float* shaped_template, const float* body_points )
 {
 	deformer->template_generation += 1; // a batch this deformer's instance joins uploads it again
 	const plGlApi* api = &deformer->api;
 	plGlVec4* rows = deformer->staging;
 	uint32_t n = deformer->vertex_count;
 	plToVec4( rows, shaped_template, n, 1.0f );
-	int anchors = deformer->anchor_influence_count > 0;
-	if ( anchors )
-		plToVec4( rows + n, body_anchors, n, 1.0f );
+	if ( deformer->point_count > 0 )
+		plToVec4( rows + n, body_points, deformer->point_count, 1.0f );
 	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, deformer->bindings[PLEAT_GL_BINDING_SHAPED_TEMPLATE] );
-	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)n * 16 * ( anchors ? 2 : 1 ), rows );
+	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)( plShapedRows( deformer ) * 16 ), rows );
 }
 
 // Rewrites the two body-contact fields of the params buffer (the rest never changes).
@@ -339,14 +368,20 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] = plCompileProgram( api, plGlShaderSource_normals_gather, "" );
 	uint32_t Ka = deformer->anchor_influence_count;
 	if ( Ka > 0 )
-		deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] = plCompileProgram( api, plGlShaderSource_body_contact, "" );
+	{
+		deformer->programs[PLEAT_GL_PROGRAM_BODY_POINTS] =
+			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POSE_POINTS_DEFINES );
+		deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] =
+			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_CONTACT_DEFINES );
+	}
 	for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
 	{
-		if ( deformer->programs[p] == 0 && ( p != PLEAT_GL_PROGRAM_BODY_CONTACT || Ka > 0 ) )
+		int contact = p == PLEAT_GL_PROGRAM_BODY_POINTS || p == PLEAT_GL_PROGRAM_BODY_CONTACT;
+		if ( deformer->programs[p] == 0 && ( !contact || Ka > 0 ) )
 			return PLEAT_RESULT_GL_ERROR;
 	}
 
-	size_t n = desc->vertex_count;
+	size_t n = desc->vertex_count, P = deformer->point_count, C = deformer->candidate_count;
 	plGlDeformParams params = { desc->vertex_count,
 								desc->blend_count,
 								desc->influence_count,
@@ -354,12 +389,15 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 								desc->face_count,
 								Ka,
 								deformer->body_contact_offset_m,
-								desc->vertex_count * ( Ka > 0 ? 2u : 1u ) };
+								(uint32_t)plShapedRows( deformer ),
+								deformer->point_count,
+								deformer->candidate_count,
+								{ 0, 0 } };
 	api->GenBuffers( 1, &deformer->params_buffer );
 	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
 	api->BufferData( GL_UNIFORM_BUFFER, sizeof( params ), &params, GL_STATIC_DRAW );
 
-	plCreateBuffer( deformer, PLEAT_GL_BINDING_SHAPED_TEMPLATE, n * 16 * ( Ka > 0 ? 2 : 1 ), NULL, GL_DYNAMIC_DRAW );
+	plCreateBuffer( deformer, PLEAT_GL_BINDING_SHAPED_TEMPLATE, plShapedRows( deformer ) * 16, NULL, GL_DYNAMIC_DRAW );
 	plUploadShapedTemplate( deformer, desc->shaped_template, desc->body_anchors );
 	plUploadBlendShapes( deformer, desc->blend_shapes, desc->blend_shapes_fp16 );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BLEND_WEIGHTS, (size_t)desc->blend_count * 4, NULL, GL_STREAM_DRAW );
@@ -394,20 +432,29 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	if ( Ka > 0 )
 	{
 		plGlVec4* rows = deformer->staging;
-		plToVec4( rows, desc->body_anchor_normals, desc->vertex_count, 0.0f );
-		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_NORMALS, n * 16, rows, GL_STATIC_DRAW );
+		plToVec4( rows, desc->body_anchor_normals, deformer->point_count, 0.0f );
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_NORMALS, P * 16, rows, GL_STATIC_DRAW );
 		uint32_t* indices = deformer->staging; // u16 → the shader's uint
-		for ( size_t e = 0; e < n * Ka; ++e )
+		for ( size_t e = 0; e < P * Ka; ++e )
 			indices[e] = desc->body_anchor_skin_indices[e];
-		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES, n * Ka * 4, indices, GL_STATIC_DRAW );
-		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS, n * Ka * 4, desc->body_anchor_skin_weights,
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES, P * Ka * 4, indices, GL_STATIC_DRAW );
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS, P * Ka * 4, desc->body_anchor_skin_weights,
 						GL_STATIC_DRAW );
+		// u16 → uint, PLEAT_NO_CONTACT_CANDIDATE staying >= P. A 1.1 asset (no table) gets the identity with C = 1, so
+		// the push has one loop for both, as plBodyContact_Scalar reads candidates[v] = v there.
+		uint32_t* candidates = deformer->staging;
+		for ( size_t e = 0; e < n * C; ++e )
+			candidates[e] = desc->body_anchor_candidates != NULL ? desc->body_anchor_candidates[e] : (uint32_t)e;
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_CONTACT_CANDIDATES, n * C * 4, candidates, GL_STATIC_DRAW );
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_POSED_POINTS, P * 32, NULL, GL_DYNAMIC_COPY );
 	}
 	else
 	{
 		// Nothing reads them, but every binding point gets a buffer, as the shaders' other buffers do.
 		for ( int b = PLEAT_GL_BINDING_ANCHOR_NORMALS; b <= PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS; ++b )
 			plCreateBuffer( deformer, (plGlBinding)b, 16, NULL, GL_STATIC_DRAW );
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_CONTACT_CANDIDATES, 16, NULL, GL_STATIC_DRAW );
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_POSED_POINTS, 16, NULL, GL_STATIC_DRAW );
 	}
 	// Read by batches only (plGlDeformer_RunBatch binds its own); a single Run binds this placeholder.
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BATCH_CONTACT, 16, NULL, GL_STATIC_DRAW );
@@ -432,8 +479,11 @@ static void plDeleteGlObjects( plGlDeformer* deformer )
 			api->DeleteBuffers( 1, &deformer->batch.buffers[b] );
 		deformer->batch.buffers[b] = 0;
 	}
+	if ( deformer->batch.points_program != 0 )
+		api->DeleteProgram( deformer->batch.points_program );
 	if ( deformer->batch.contact_program != 0 )
 		api->DeleteProgram( deformer->batch.contact_program );
+	deformer->batch.points_program = 0;
 	deformer->batch.contact_program = 0;
 	deformer->batch.capacity = 0;
 }
@@ -444,7 +494,7 @@ static void plFreeDeformer( plGlDeformer* deformer )
 	if ( deformer->context != NULL )
 		plGlContext_Destroy( deformer->context );
 	plFree( &allocator, deformer->staging, deformer->staging_bytes );
-	plFree( &allocator, deformer->batch.template_keys, (size_t)deformer->batch.capacity * 2 * sizeof( uint64_t ) );
+	plFree( &allocator, deformer->batch.template_keys, deformer->batch.template_keys_bytes );
 	plFree( &allocator, deformer->batch.staging, deformer->batch.staging_bytes );
 	plFree( &allocator, deformer, sizeof( *deformer ) );
 }
@@ -473,15 +523,21 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	deformer->influence_count = desc->influence_count;
 	deformer->joint_count = desc->joint_count;
 	deformer->serial = atomic_fetch_add_explicit( &s_plGlDeformerSerial, 1, memory_order_relaxed ) + 1;
-	deformer->anchor_influence_count = desc->body_anchors != NULL ? desc->body_anchor_influence_count : 0;
-	deformer->body_contact = deformer->anchor_influence_count > 0;
+	int points = desc->body_anchors != NULL;
+	deformer->anchor_influence_count = points ? desc->body_anchor_influence_count : 0;
+	deformer->point_count = points ? desc->body_point_count : 0;
+	deformer->candidate_count = points ? desc->body_anchor_candidate_count : 0;
+	deformer->body_contact = points;
 	deformer->body_contact_offset_m = PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M;
-	size_t n = desc->vertex_count;
-	// Staging holds the largest upload: 2N vec4 rows (template + anchors), N vec4 rows, or [N][K] / [N][Ka] uints.
-	size_t rows = n * 16 * ( deformer->anchor_influence_count > 0 ? 2 : 1 );
-	size_t widest_skin = desc->influence_count > deformer->anchor_influence_count ? desc->influence_count
-																				 : deformer->anchor_influence_count;
-	deformer->staging_bytes = rows > n * 4 * widest_skin ? rows : n * 4 * widest_skin;
+	// Staging holds the largest upload: N + P vec4 rows (template + body points; also the N rows of a blend shape or a
+	// read-back and the P of the point normals), or the uints of [N][K], [P][Ka] or [N][C].
+	size_t rows = plShapedRows( deformer ) * 16;
+	size_t skin = (size_t)desc->vertex_count * 4 * desc->influence_count;
+	size_t point_skin = (size_t)deformer->point_count * 4 * deformer->anchor_influence_count;
+	size_t candidates = (size_t)desc->vertex_count * 4 * deformer->candidate_count;
+	deformer->staging_bytes = rows > skin ? rows : skin;
+	deformer->staging_bytes = deformer->staging_bytes > point_skin ? deformer->staging_bytes : point_skin;
+	deformer->staging_bytes = deformer->staging_bytes > candidates ? deformer->staging_bytes : candidates;
 	deformer->staging = plAlloc( allocator, deformer->staging_bytes, 64 );
 	if ( deformer->staging == NULL )
 	{
@@ -609,25 +665,32 @@ plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float
 }
 
 // The shaders in order, one dispatch each with `instances` rows of workgroups in y (1 for a single Run) and a storage
-// barrier between stages: blend_shapes → skinning → (contact_program, 0 = none) → face_normals → normals_gather. The
-// buffers and params are bound by the caller.
-static void plRunShaders( const plGlDeformer* deformer, GLuint contact_program, uint32_t instances )
+// barrier between stages: blend_shapes → skinning → (points_program over the P body points, then contact_program over
+// the vertices; 0 = no contact) → face_normals → normals_gather. The buffers and params are bound by the caller.
+static void plRunShaders( const plGlDeformer* deformer, GLuint points_program, GLuint contact_program,
+						  uint32_t instances )
 {
 	const plGlApi* api = &deformer->api;
 	GLuint groups = ( deformer->vertex_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
 	GLuint face_groups = ( deformer->face_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
+	GLuint point_groups = ( deformer->point_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] );
 	plDispatch( api, groups, instances );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+	// Posing the body points reads nothing skinning writes, so no barrier between the two; the one after posing also
+	// covers the skinned positions, which the push reads.
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_SKINNING] );
 	plDispatch( api, groups, instances );
-	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	if ( contact_program != 0 )
 	{
+		api->UseProgram( points_program );
+		plDispatch( api, point_groups, instances );
+		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+		// Every vertex reads the posed points of its candidates, which other invocations wrote.
 		api->UseProgram( contact_program );
 		plDispatch( api, groups, instances );
-		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	}
+	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
 	plDispatch( api, face_groups, instances );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
@@ -658,7 +721,11 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 	for ( GLuint b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
 		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, deformer->bindings[b] );
 
-	plRunShaders( deformer, deformer->body_contact ? deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] : 0, 1 );
+	if ( deformer->body_contact )
+		plRunShaders( deformer, deformer->programs[PLEAT_GL_PROGRAM_BODY_POINTS],
+					  deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT], 1 );
+	else
+		plRunShaders( deformer, 0, 0, 1 );
 
 	if ( positions != NULL )
 		plReadBack( deformer, deformer->bindings[PLEAT_GL_BINDING_POSITIONS], positions );
@@ -676,7 +743,8 @@ int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member 
 	return lead != NULL && member != NULL && lead->mode == member->mode && lead->vertex_count == member->vertex_count &&
 		   lead->face_count == member->face_count && lead->blend_count == member->blend_count &&
 		   lead->influence_count == member->influence_count && lead->joint_count == member->joint_count &&
-		   lead->anchor_influence_count == member->anchor_influence_count;
+		   lead->anchor_influence_count == member->anchor_influence_count &&
+		   lead->point_count == member->point_count && lead->candidate_count == member->candidate_count;
 }
 
 static GLuint plCreateBatchBuffer( const plGlApi* api, size_t bytes )
@@ -702,25 +770,30 @@ static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
 			api->DeleteBuffers( 1, &batch->buffers[b] );
 		batch->buffers[b] = 0;
 	}
-	plFree( &lead->allocator, batch->template_keys, (size_t)batch->capacity * 2 * sizeof( uint64_t ) );
+	plFree( &lead->allocator, batch->template_keys, batch->template_keys_bytes );
 	plFree( &lead->allocator, batch->staging, batch->staging_bytes );
 	batch->template_keys = NULL;
+	batch->template_keys_bytes = 0;
 	batch->staging = NULL;
+	batch->staging_bytes = 0;
 	batch->capacity = 0;
 
-	size_t c = capacity, n = lead->vertex_count, f = lead->face_count;
-	size_t rows = n * ( lead->anchor_influence_count > 0 ? 2 : 1 );
+	size_t c = capacity, n = lead->vertex_count, f = lead->face_count, p = lead->point_count;
+	size_t rows = plShapedRows( lead );
 	size_t weights = c * lead->blend_count * 4, matrices = c * lead->joint_count * 48, contact = c * 16;
 	batch->staging_bytes = weights > matrices ? weights : matrices;
 	batch->staging_bytes = batch->staging_bytes > contact ? batch->staging_bytes : contact;
 	batch->staging = plAlloc( &lead->allocator, batch->staging_bytes, 64 );
-	batch->template_keys = plAllocZeroed( &lead->allocator, c * 2 * sizeof( uint64_t ), 16 );
+	batch->template_keys_bytes = c * 2 * sizeof( uint64_t );
+	batch->template_keys = plAllocZeroed( &lead->allocator, batch->template_keys_bytes, 16 );
 	if ( batch->staging == NULL || batch->template_keys == NULL )
 	{
-		plFree( &lead->allocator, batch->template_keys, c * 2 * sizeof( uint64_t ) );
+		plFree( &lead->allocator, batch->template_keys, batch->template_keys_bytes );
 		plFree( &lead->allocator, batch->staging, batch->staging_bytes );
 		batch->template_keys = NULL;
+		batch->template_keys_bytes = 0;
 		batch->staging = NULL;
+		batch->staging_bytes = 0;
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
 	batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] = plCreateBatchBuffer( api, c * rows * 16 );
@@ -731,9 +804,19 @@ static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
 	batch->buffers[PLEAT_GL_BINDING_NORMALS] = plCreateBatchBuffer( api, c * n * 16 );
 	batch->buffers[PLEAT_GL_BINDING_FACE_NORMALS] = plCreateBatchBuffer( api, c * f * 16 );
 	batch->buffers[PLEAT_GL_BINDING_BATCH_CONTACT] = plCreateBatchBuffer( api, contact );
-	if ( lead->anchor_influence_count > 0 && batch->contact_program == 0 )
+	if ( p > 0 )
+		batch->buffers[PLEAT_GL_BINDING_POSED_POINTS] = plCreateBatchBuffer( api, c * p * 32 );
+	if ( p > 0 && batch->points_program == 0 )
 	{
-		batch->contact_program = plCompileProgram( api, plGlShaderSource_body_contact, "#define PLEAT_BATCH 1\n" );
+		batch->points_program = plCompileProgram( api, plGlShaderSource_body_contact,
+												  PLEAT_GL_POSE_POINTS_DEFINES PLEAT_GL_BATCH_DEFINES );
+		if ( batch->points_program == 0 )
+			return PLEAT_RESULT_GL_ERROR;
+	}
+	if ( p > 0 && batch->contact_program == 0 )
+	{
+		batch->contact_program =
+			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_CONTACT_DEFINES PLEAT_GL_BATCH_DEFINES );
 		if ( batch->contact_program == 0 )
 			return PLEAT_RESULT_GL_ERROR;
 	}
@@ -766,18 +849,18 @@ static void plUploadBatchInputs( plGlDeformer* lead, const plGlBatchMember* memb
 	const plGlApi* api = &lead->api;
 	plGlBatchBuffers* batch = &lead->batch;
 	uint32_t n = lead->vertex_count;
-	int anchors = lead->anchor_influence_count > 0;
-	size_t rows = (size_t)n * ( anchors ? 2 : 1 );
+	int points = lead->point_count > 0;
+	size_t rows = plShapedRows( lead );
 	for ( uint32_t k = 0; k < count; ++k )
 	{
 		const plGlDeformer* own = members[k].deformer;
 		uint64_t* key = batch->template_keys + 2 * (size_t)k;
 		if ( key[0] == own->serial && key[1] == own->template_generation )
 			continue;
-		plGlVec4* staging = lead->staging; // holds 2N rows with anchors (plCreate sized it)
+		plGlVec4* staging = lead->staging; // holds N + P rows (plCreate sized it)
 		plToVec4( staging, members[k].shaped_template, n, 1.0f );
-		if ( anchors )
-			plToVec4( staging + n, members[k].body_anchors, n, 1.0f );
+		if ( points )
+			plToVec4( staging + n, members[k].body_anchors, lead->point_count, 1.0f );
 		api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] );
 		api->BufferSubData( GL_SHADER_STORAGE_BUFFER, (GLintptr)( k * rows * 16 ), (GLsizeiptr)( rows * 16 ), staging );
 		key[0] = own->serial;
@@ -794,7 +877,7 @@ static void plUploadBatchInputs( plGlDeformer* lead, const plGlBatchMember* memb
 				(size_t)lead->joint_count * 48 );
 	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_SKIN_MATRICES] );
 	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)count * lead->joint_count * 48, matrices );
-	if ( anchors )
+	if ( points )
 	{
 		plGlVec4* contact = batch->staging;
 		for ( uint32_t k = 0; k < count; ++k )
@@ -872,8 +955,11 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 	for ( uint32_t k = 0; k < count; ++k )
 		contact |= members[k].deformer->body_contact;
 
-	// The single Run's dispatches with the members in y: one per shader for the whole batch.
-	plRunShaders( lead, contact ? lead->batch.contact_program : 0, count );
+	// The single Run's dispatches with the members in y: one per pass for the whole batch.
+	if ( contact )
+		plRunShaders( lead, lead->batch.points_program, lead->batch.contact_program, count );
+	else
+		plRunShaders( lead, 0, 0, count );
 
 	plDeliverBatchOutputs( lead, members, count );
 	result = plCheckErrors( api );

@@ -4,7 +4,8 @@
 #define PLEAT_GL_TYPES_H
 #include <stdint.h>
 
-// std140 uniform block plGlDeformParams (uniform buffer binding 0), the same in every shader.
+// std140 uniform block plGlDeformParams (uniform buffer binding 0). Every shader declares it from the start, as far
+// as the fields it reads (body_contact.comp declares all of them).
 typedef struct plGlDeformParams
 {
 	uint32_t vertex_count;    // N
@@ -12,11 +13,14 @@ typedef struct plGlDeformParams
 	uint32_t influence_count; // K
 	uint32_t joint_count;     // J
 	uint32_t face_count;      // F
-	uint32_t anchor_influence_count; // Ka: body anchors' skin influences (0: the asset has no body anchors)
+	uint32_t anchor_influence_count; // Ka: body points' skin influences (0: the asset has no body points)
 	float body_contact_offset_m;     // body_contact.comp's clearance (metres)
-	uint32_t shaped_rows;            // rows of the shaped-template buffer per instance: N, or 2N with body anchors
+	uint32_t shaped_rows;            // rows of the shaped-template buffer per instance: N, or N + P with body points
+	uint32_t point_count;            // P body points (0 without)
+	uint32_t candidate_count;        // C candidate points per vertex (1 for the identity table of a 1.1 asset)
+	uint32_t pad[2];                 // std140 rounds the block to 16 bytes
 } plGlDeformParams;
-_Static_assert( sizeof( plGlDeformParams ) == 32, "std140 plGlDeformParams is 32 bytes" );
+_Static_assert( sizeof( plGlDeformParams ) == 48, "std140 plGlDeformParams is 48 bytes" );
 
 // std430 vec4 element: positions/normals/templates (xyz + w) and one row of a 3×4 skin matrix.
 typedef struct plGlVec4
@@ -38,7 +42,7 @@ _Static_assert( sizeof( plGlHalf4 ) == 8, "two std430 uints" );
 // Shader storage buffer bindings (the `binding = n` of each buffer block in shaders/*.comp).
 typedef enum plGlBinding
 {
-	PLEAT_GL_BINDING_SHAPED_TEMPLATE = 0,   // vec4 [N] (+ [N] body anchors of β) blend_shapes.comp, body_contact.comp
+	PLEAT_GL_BINDING_SHAPED_TEMPLATE = 0,   // vec4 [N] (+ [P] body points of β) blend_shapes.comp, body_contact.comp
 	PLEAT_GL_BINDING_BLEND_SHAPES = 1,      // vec4 or plGlHalf4 [D][N]
 	PLEAT_GL_BINDING_BLEND_WEIGHTS = 2,     // float [D]
 	PLEAT_GL_BINDING_DEFORMED = 3,          // vec4 [N] T_def      blend_shapes.comp → skinning.comp
@@ -51,20 +55,23 @@ typedef enum plGlBinding
 	PLEAT_GL_BINDING_ADJACENCY_FACES = 10,  // uint [3F]
 	PLEAT_GL_BINDING_NORMALS = 11,          // vec4 [N]
 	PLEAT_GL_BINDING_FACE_NORMALS = 12,     // vec4 [F]            face_normals.comp → normals_gather.comp
-	PLEAT_GL_BINDING_ANCHOR_NORMALS = 13,   // vec4 [N]            body_contact.comp (assets with body anchors)
-	PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES = 14, // uint [N][Ka]
-	PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS = 15, // float [N][Ka]
+	PLEAT_GL_BINDING_ANCHOR_NORMALS = 13,   // vec4 [P] rest normals of the body points, body_contact.comp (posing)
+	PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES = 14, // uint [P][Ka]
+	PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS = 15, // float [P][Ka]
 	PLEAT_GL_BINDING_BATCH_CONTACT = 16,    // vec4 [instances] (enabled, offset_m, 0, 0) body_contact.comp, batches only
-	PLEAT_GL_BINDING_COUNT = 17,
+	PLEAT_GL_BINDING_POSED_POINTS = 17,     // vec4 [P][2] (a, usable), (n, 0)  body_contact.comp posing → push
+	PLEAT_GL_BINDING_CONTACT_CANDIDATES = 18, // uint [N][C] body point indices, >= P = empty slot (push)
+	PLEAT_GL_BINDING_COUNT = 19,
 } plGlBinding;
 
 // Batches (plGlDeformer_RunBatch): the buffers above marked per instance hold [instances] blocks of the size given
 // (shaped template [instances][shaped_rows], weights [instances][D], T_def, positions and normals [instances][N], skin
-// matrices [instances][J][3], face normals [instances][F]); gl_WorkGroupID.y of a dispatch is the instance. The mesh's
-// own buffers (blend shapes, skinning, faces, adjacency, anchors) are shared by the batch.
+// matrices [instances][J][3], face normals [instances][F], posed body points [instances][P][2]); gl_WorkGroupID.y of a
+// dispatch is the instance. The mesh's own buffers (blend shapes, skinning, faces, adjacency, body points' normals and
+// skinning, candidates) are shared by the batch.
 
 // Workgroup size of every shader (layout(local_size_x = 64)); dispatch ceil(N / 64) groups (ceil(F / 64) for
-// face_normals.comp).
+// face_normals.comp, ceil(P / 64) for body_contact.comp's posing pass).
 #define PLEAT_GL_WORKGROUP_SIZE 64u
 
 #endif
