@@ -391,7 +391,8 @@ static int plSkinRowsValid( const uint16_t* indices, const float* weights, uint3
 }
 
 // The optional body-contact block: BANC, BASH, BANN, BASI, BASW, all or none (asset 1.1: one point per vertex), and
-// BACA (asset 1.2: each vertex's candidate points, which sets the point count P to BANC's rows).
+// BACA (asset 1.2: each vertex's candidate points, which sets the point count P to BANC's rows) and BARG (1.2: each
+// point's ring of points, for the posed body's normal there).
 static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* table, plAssetData* a )
 {
 	static const char* const tags[5] = { "BANC", "BASH", "BANN", "BASI", "BASW" };
@@ -401,9 +402,10 @@ static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* t
 		present += plFindSection( table, tags[t] ) != NULL;
 	}
 	const plSection* baca = plFindSection( table, "BACA" );
+	const plSection* barg = plFindSection( table, "BARG" );
 	if ( present == 0 )
 	{
-		return baca == NULL ? PLEAT_RESULT_OK : PLEAT_RESULT_INVALID_ASSET_DATA;
+		return baca == NULL && barg == NULL ? PLEAT_RESULT_OK : PLEAT_RESULT_INVALID_ASSET_DATA;
 	}
 	const plSection* basi = plFindSection( table, "BASI" );
 	const plSection* banc = plFindSection( table, "BANC" );
@@ -464,6 +466,37 @@ static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* t
 			a->body_anchor_candidates = NULL;
 			return PLEAT_RESULT_INVALID_ASSET_DATA;
 		}
+	}
+	// BARG (1.2, optional): per point a ring of 3..R point indices < P, then empty entries (or none at all).
+	if ( barg != NULL )
+	{
+		uint32_t R = barg->rank == 2 ? barg->dims[1] : 0;
+		a->body_anchor_ring = R >= 3 && R <= PLEAT_MAX_POINT_RING
+								  ? (const uint16_t*)plRequire( data, table, "BARG", PLEAT_DTYPE_U16, 2, P, R, 1 )
+								  : NULL;
+		int valid = a->body_anchor_ring != NULL;
+		for ( uint32_t p = 0; valid && p < P; ++p )
+		{
+			const uint16_t* ring = a->body_anchor_ring + (size_t)p * R;
+			uint32_t m = 0;
+			while ( m < R && ring[m] < P )
+			{
+				m++;
+			}
+			valid = m == 0 || m >= 3;
+			for ( uint32_t i = m; valid && i < R; ++i )
+			{
+				valid = ring[i] == PLEAT_NO_CONTACT_CANDIDATE; // after the ring only empty entries
+			}
+		}
+		if ( !valid )
+		{
+			a->body_anchors = NULL;
+			a->body_anchor_candidates = NULL;
+			a->body_anchor_ring = NULL;
+			return PLEAT_RESULT_INVALID_ASSET_DATA;
+		}
+		a->body_anchor_ring_count = R;
 	}
 	a->body_anchor_influence_count = Ka;
 	a->body_point_count = P;

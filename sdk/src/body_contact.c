@@ -2,7 +2,9 @@
 // plane of its anchor moves out along the anchor's normal to that distance. The anchor is made from the vertex's
 // candidate body points nearest to it in this pose: the cloth slides over the body and the arms come down beside the
 // chest, so the body point nearest a garment vertex changes with the pose (asset 1.2; 1.1 has one point per vertex).
-//     posing, per point p:  M_p = Σ_k w_pk M_{j_pk},  a_p = M_p · (r_p, 1),  n_p = normalize(M_p[:, :3] · n_p)
+//     posing, per point p:  M_p = Σ_k w_pk M_{j_pk},  a_p = M_p · (r_p, 1),
+//                           n_p = normalize(Σ_i (a_{r_i} − a_p) × (a_{r_i+1} − a_p)) over p's ring (asset 1.2, BARG)
+//                           or, without a ring, normalize(M_p[:, :3] · n_rest)
 //     per vertex:           m = min over usable candidates |x − a_c|²,
 //                           w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE)·m + PLEAT_CONTACT_BLEND_M² − |x − a_c|²),
 //                           a = Σ w_c a_c / Σ w_c,  n = normalize(Σ w_c n_c),  d = (x − a) · n,
@@ -11,7 +13,9 @@
 // moves, and the push would jump with it (a visible pop, and a choice that two paths rounding differently could make
 // differently); the weights are continuous in x, and the narrow margin keeps nearly all that the nearest alone gains
 // (docs/accuracy.md "Body contact"). The points are skinned with the body's own weights (not the garment's diffused
-// ones), so a and n are where the body surface is. Same loops as shaders/body_contact.comp and
+// ones), so a is where the body surface is; its normal is the posed body's own (the blended matrix turns the rest
+// normal by the joints' rotations only, which near the shoulders, armpits and waist tilts it off the surface, and
+// there the candidates could not help: docs/accuracy.md "Body contact"). Same loops as shaders/body_contact.comp and
 // tools/pleat/reference/body_contact.py.
 #include "jobs.h"
 
@@ -46,34 +50,67 @@ void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const fl
 	for ( uint32_t p = p_begin; p < p_end; ++p )
 	{
 		float* out = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
-		for ( int e = 0; e < PLEAT_POSED_POINT_FLOATS; ++e )
-		{
-			out[e] = 0.0f;
-		}
-		const float* rn = point_normals + (size_t)p * 3;
-		if ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f )
-		{
-			continue; // never an anchor: the asset left this point without a normal
-		}
 		float m[12];
 		plBlendJointMatrices( m, skin_indices + (size_t)p * K, skin_weights + (size_t)p * K, K, skin_matrices,
 							  joint_count );
 		const float* r = shaped_points + (size_t)p * 3;
+		const float* rn = point_normals + (size_t)p * 3;
+		// Every point's position: a face corner that never anchors still gives its neighbours their normals.
+		out[0] = m[0] * r[0] + m[1] * r[1] + m[2] * r[2] + m[3];
+		out[1] = m[4] * r[0] + m[5] * r[1] + m[6] * r[2] + m[7];
+		out[2] = m[8] * r[0] + m[9] * r[1] + m[10] * r[2] + m[11];
+		int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
 		float nx = m[0] * rn[0] + m[1] * rn[1] + m[2] * rn[2];
 		float ny = m[4] * rn[0] + m[5] * rn[1] + m[6] * rn[2];
 		float nz = m[8] * rn[0] + m[9] * rn[1] + m[10] * rn[2];
 		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		if ( !( length > 1e-12f ) )
+		int usable = anchorable && length > 1e-12f; // a degenerate blend: no plane to keep the vertex out of
+		out[3] = usable ? 1.0f : 0.0f;
+		out[4] = usable ? nx / length : 0.0f;
+		out[5] = usable ? ny / length : 0.0f;
+		out[6] = usable ? nz / length : 0.0f;
+		out[7] = anchorable ? 1.0f : 0.0f;
+	}
+}
+
+void plBodyPointNormals_Scalar( float* posed, uint32_t point_count, const uint16_t* rings, uint32_t ring_count,
+								uint32_t p_begin, uint32_t p_end )
+{
+	uint32_t R = ring_count;
+	for ( uint32_t p = p_begin; p < p_end; ++p )
+	{
+		float* out = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
+		const uint16_t* ring = rings + (size_t)p * R;
+		if ( out[7] == 0.0f || ring[0] >= point_count )
 		{
-			continue; // a degenerate blend: no plane to keep the vertex out of
+			continue; // not an anchor, or no ring: the row stands
 		}
-		out[0] = m[0] * r[0] + m[1] * r[1] + m[2] * r[2] + m[3];
-		out[1] = m[4] * r[0] + m[5] * r[1] + m[6] * r[2] + m[7];
-		out[2] = m[8] * r[0] + m[9] * r[1] + m[10] * r[2] + m[11];
-		out[3] = 1.0f;
-		out[4] = nx / length;
-		out[5] = ny / length;
-		out[6] = nz / length;
+		// d_i = a_{r_i} − a_p around the fan; n = Σ d_i × d_{i+1}, the last one closing on d_0
+		float d[PLEAT_MAX_POINT_RING][3];
+		uint32_t m = 0;
+		while ( m < R && ring[m] < point_count )
+		{
+			const float* q = posed + (size_t)ring[m] * PLEAT_POSED_POINT_FLOATS;
+			d[m][0] = q[0] - out[0];
+			d[m][1] = q[1] - out[1];
+			d[m][2] = q[2] - out[2];
+			m++;
+		}
+		float nx = 0.0f, ny = 0.0f, nz = 0.0f;
+		for ( uint32_t i = 0; i < m; ++i )
+		{
+			const float* u = d[i];
+			const float* v = d[i + 1 < m ? i + 1 : 0];
+			nx += u[1] * v[2] - u[2] * v[1];
+			ny += u[2] * v[0] - u[0] * v[2];
+			nz += u[0] * v[1] - u[1] * v[0];
+		}
+		float length = sqrtf( nx * nx + ny * ny + nz * nz );
+		int usable = length > 1e-12f;
+		out[3] = usable ? 1.0f : 0.0f;
+		out[4] = usable ? nx / length : 0.0f;
+		out[5] = usable ? ny / length : 0.0f;
+		out[6] = usable ? nz / length : 0.0f;
 	}
 }
 
@@ -162,6 +199,21 @@ plResult plBodyPointsJob_Run( const plBodyPointsJob* job )
 									 : plPoseBodyPoints_Scalar;
 	kernel( job->posed, job->shaped_points, job->point_normals, job->skin_indices, job->skin_weights,
 			job->influence_count, job->skin_matrices, job->joint_count, job->point_begin, job->point_end );
+	return PLEAT_RESULT_OK;
+}
+
+plResult plBodyPointNormalsJob_Run( const plBodyPointNormalsJob* job )
+{
+	if ( job == NULL || job->posed == NULL || job->rings == NULL || job->ring_count < 3 ||
+		 job->ring_count > PLEAT_MAX_POINT_RING || job->point_begin > job->point_end ||
+		 job->point_end > job->point_count )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT;
+	}
+	plBodyPointNormalsFn* kernel = job->kernels != NULL && job->kernels->body_point_normals != NULL
+									   ? job->kernels->body_point_normals
+									   : plBodyPointNormals_Scalar;
+	kernel( job->posed, job->point_count, job->rings, job->ring_count, job->point_begin, job->point_end );
 	return PLEAT_RESULT_OK;
 }
 

@@ -36,11 +36,6 @@ void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const floa
 	{
 		float* out = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
 		const float* rn = point_normals + (size_t)p * 3;
-		if ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f )
-		{
-			_mm256_storeu_ps( out, _mm256_setzero_ps() );
-			continue;
-		}
 		__m128 point, normal;
 		const float* r = shaped_points + (size_t)p * 3;
 		if ( K == 4 ) // the common case: a constant trip count, fully unrolled
@@ -55,110 +50,220 @@ void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const floa
 		}
 		_Alignas( 16 ) float n[4];
 		_mm_store_ps( n, normal );
+		int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
 		float length = sqrtf( n[0] * n[0] + n[1] * n[1] + n[2] * n[2] );
-		if ( !( length > 1e-12f ) )
-		{
-			_mm256_storeu_ps( out, _mm256_setzero_ps() );
-			continue;
-		}
-		_mm_storeu_ps( out, _mm_insert_ps( point, _mm_set_ss( 1.0f ), 0x30 ) ); // (a_x, a_y, a_z, usable = 1)
-		_mm_storeu_ps( out + 4, _mm_div_ps( normal, _mm_set1_ps( length ) ) );  // lane 3: 0 / length = 0
+		int usable = anchorable && length > 1e-12f;
+		// (a_x, a_y, a_z, usable): every point's position, a face corner's too
+		_mm_storeu_ps( out, _mm_insert_ps( point, _mm_set_ss( usable ? 1.0f : 0.0f ), 0x30 ) );
+		// (n, anchorable): lane 3 of the normal is 0, so 0 / length = 0 before the flag goes in
+		__m128 unit = usable ? _mm_div_ps( normal, _mm_set1_ps( length ) ) : _mm_setzero_ps();
+		_mm_storeu_ps( out + 4, _mm_insert_ps( unit, _mm_set_ss( anchorable ? 1.0f : 0.0f ), 0x30 ) );
 	}
 }
 
-// AVX twin of plBodyContact_Scalar, four candidates per vector and no branch per candidate: their rows are read with
-// one 16-byte load per half ((a_x, a_y, a_z, usable), then the unit normal) and transposed in registers; pass 1 gives
-// the squared distances (an empty slot or an unusable point: +∞) and the nearest; pass 2 the weights
-// max(0, margin − d²), which are zero outside the margin, and the weighted sums, lane by lane, then across lanes. Why:
-// the scalar kernel branched on every candidate, twice, and the branch on the weight mispredicted (a vertex has 1–3 of
-// its 16 inside the margin): ~60 ns a vertex against ~15 here. The sums run in another order than the scalar
-// kernel's, so the two agree to rounding (test_simd_matches_scalar).
+// AVX2 twin of plBodyContact_Scalar, eight vertices per vector: slot by slot, the candidate rows of the eight by
+// gathers (position and usable, then, for the slots where some lane has a weight, the normal); the nearest, the
+// weights and the sums lane by lane in the scalar kernel's order (an unusable or empty slot, or one outside the
+// margin, adds w = 0, which leaves every sum's bits as they were), so the two agree bit for bit. Why lanes of vertices
+// and not of candidates: a vertex's work is one long chain (distances, nearest, weights, sums, a square root, three
+// divisions), so one vertex at a time ran at its latency, ~23 ns; eight chains side by side run at the gathers' pace.
 void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const float* posed, uint32_t point_count,
 						 const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
 						 uint32_t v_end )
 {
-	uint32_t C = candidate_count, groups = ( C + 3 ) / 4;
-	const __m128 infinity = _mm_set1_ps( INFINITY ), zero = _mm_setzero_ps();
-	for ( uint32_t v = v_begin; v < v_end; ++v )
+	uint32_t C = candidate_count;
+	const __m256 zero = _mm256_setzero_ps(), infinity = _mm256_set1_ps( INFINITY );
+	const __m256i row = _mm256_set1_epi32( PLEAT_POSED_POINT_FLOATS ), limit = _mm256_set1_epi32( (int32_t)point_count );
+	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
 	{
-		float* x = (float*)( (uint8_t*)positions + (size_t)v * position_stride_bytes );
-		const __m128 px = _mm_set1_ps( x[0] ), py = _mm_set1_ps( x[1] ), pz = _mm_set1_ps( x[2] );
-		const float* rows[PLEAT_MAX_CONTACT_CANDIDATES];
-		__m128 ax[PLEAT_MAX_CONTACT_CANDIDATES / 4], ay[PLEAT_MAX_CONTACT_CANDIDATES / 4];
-		__m128 az[PLEAT_MAX_CONTACT_CANDIDATES / 4], d2[PLEAT_MAX_CONTACT_CANDIDATES / 4];
-		__m128 nearest4 = infinity;
-		for ( uint32_t g = 0; g < groups; ++g )
+		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
+		_Alignas( 32 ) float px[8] = { 0 }, py[8] = { 0 }, pz[8] = { 0 };
+		_Alignas( 32 ) int32_t slots[PLEAT_MAX_CONTACT_CANDIDATES][8];
+		for ( uint32_t i = 0; i < 8; ++i )
 		{
-			__m128 r[4];
-			for ( uint32_t i = 0; i < 4; ++i )
+			uint32_t v = v0 + i;
+			if ( i < count )
 			{
-				uint32_t c = 4 * g + i;
-				uint32_t p = c >= C ? point_count : candidates != NULL ? candidates[(size_t)v * C + c] : v;
-				rows[c] = p < point_count ? posed + (size_t)p * PLEAT_POSED_POINT_FLOATS : NULL;
-				r[i] = rows[c] != NULL ? _mm_loadu_ps( rows[c] ) : zero; // a zero row is never usable
+				const float* x = (const float*)( (const uint8_t*)positions + (size_t)v * position_stride_bytes );
+				px[i] = x[0];
+				py[i] = x[1];
+				pz[i] = x[2];
 			}
-			_MM_TRANSPOSE4_PS( r[0], r[1], r[2], r[3] ); // a_x of the four, a_y, a_z, usable
-			__m128 dx = _mm_sub_ps( px, r[0] ), dy = _mm_sub_ps( py, r[1] ), dz = _mm_sub_ps( pz, r[2] );
-			__m128 d = _mm_add_ps( _mm_add_ps( _mm_mul_ps( dx, dx ), _mm_mul_ps( dy, dy ) ), _mm_mul_ps( dz, dz ) );
-			d2[g] = _mm_blendv_ps( infinity, d, _mm_cmpneq_ps( r[3], zero ) );
-			ax[g] = r[0];
-			ay[g] = r[1];
-			az[g] = r[2];
-			nearest4 = _mm_min_ps( nearest4, d2[g] );
-		}
-		nearest4 = _mm_min_ps( nearest4, _mm_movehl_ps( nearest4, nearest4 ) );
-		nearest4 = _mm_min_ss( nearest4, _mm_shuffle_ps( nearest4, nearest4, 1 ) );
-		float nearest = _mm_cvtss_f32( nearest4 );
-		if ( nearest == INFINITY )
-		{
-			continue; // no usable candidate
-		}
-		const __m128 limit = _mm_set1_ps( ( 1.0f + PLEAT_CONTACT_BLEND_SHARE ) * nearest +
-										  PLEAT_CONTACT_BLEND_M * PLEAT_CONTACT_BLEND_M );
-		__m128 sw = zero, sax = zero, say = zero, saz = zero, snx = zero, sny = zero, snz = zero;
-		for ( uint32_t g = 0; g < groups; ++g )
-		{
-			__m128 w = _mm_max_ps( zero, _mm_sub_ps( limit, d2[g] ) ); // +∞ distances: max(0, −∞) = 0
-			__m128 n[4];
-			for ( uint32_t i = 0; i < 4; ++i )
+			for ( uint32_t c = 0; c < C; ++c )
 			{
-				n[i] = rows[4 * g + i] != NULL ? _mm_loadu_ps( rows[4 * g + i] + 4 ) : zero;
+				slots[c][i] = i >= count ? (int32_t)PLEAT_NO_CONTACT_CANDIDATE
+										 : candidates != NULL ? (int32_t)candidates[(size_t)v * C + c] : (int32_t)v;
 			}
-			_MM_TRANSPOSE4_PS( n[0], n[1], n[2], n[3] );
-			sw = _mm_add_ps( sw, w );
-			sax = _mm_add_ps( sax, _mm_mul_ps( w, ax[g] ) );
-			say = _mm_add_ps( say, _mm_mul_ps( w, ay[g] ) );
-			saz = _mm_add_ps( saz, _mm_mul_ps( w, az[g] ) );
-			snx = _mm_add_ps( snx, _mm_mul_ps( w, n[0] ) );
-			sny = _mm_add_ps( sny, _mm_mul_ps( w, n[1] ) );
-			snz = _mm_add_ps( snz, _mm_mul_ps( w, n[2] ) );
 		}
-		// Across the lanes: (total, a_x, a_y, a_z) from one transpose, then the normal's three.
-		_MM_TRANSPOSE4_PS( sw, sax, say, saz );
-		__m128 sums = _mm_add_ps( _mm_add_ps( sw, sax ), _mm_add_ps( say, saz ) );
-		__m128 unused = zero;
-		_MM_TRANSPOSE4_PS( snx, sny, snz, unused );
-		__m128 normal = _mm_add_ps( _mm_add_ps( snx, sny ), _mm_add_ps( snz, unused ) );
-		_Alignas( 16 ) float s4[4], n4[4];
-		_mm_store_ps( s4, sums );
-		_mm_store_ps( n4, normal );
-		float total = s4[0], nx = n4[0], ny = n4[1], nz = n4[2];
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		if ( !( total > 0.0f ) || !( length > 1e-12f ) )
+		const __m256 x = _mm256_load_ps( px ), y = _mm256_load_ps( py ), z = _mm256_load_ps( pz );
+		__m256 ax[PLEAT_MAX_CONTACT_CANDIDATES], ay[PLEAT_MAX_CONTACT_CANDIDATES], az[PLEAT_MAX_CONTACT_CANDIDATES];
+		__m256 d2[PLEAT_MAX_CONTACT_CANDIDATES];
+		__m256i offsets[PLEAT_MAX_CONTACT_CANDIDATES];
+		__m256 nearest = infinity;
+		for ( uint32_t c = 0; c < C; ++c )
 		{
-			continue; // normals that cancel: no direction to push along
+			__m256i index = _mm256_load_si256( (const __m256i*)slots[c] );
+			__m256i valid = _mm256_cmpgt_epi32( limit, index ); // an empty slot (0xFFFF) or an index past P: out
+			offsets[c] = _mm256_and_si256( _mm256_mullo_epi32( index, row ), valid );
+			__m256 usable = _mm256_and_ps( _mm256_castsi256_ps( valid ),
+										   _mm256_cmp_ps( _mm256_i32gather_ps( posed + 3, offsets[c], 4 ), zero, _CMP_NEQ_OQ ) );
+			ax[c] = _mm256_i32gather_ps( posed, offsets[c], 4 );
+			ay[c] = _mm256_i32gather_ps( posed + 1, offsets[c], 4 );
+			az[c] = _mm256_i32gather_ps( posed + 2, offsets[c], 4 );
+			__m256 dx = _mm256_sub_ps( x, ax[c] ), dy = _mm256_sub_ps( y, ay[c] ), dz = _mm256_sub_ps( z, az[c] );
+			__m256 d = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( dx, dx ), _mm256_mul_ps( dy, dy ) ),
+									  _mm256_mul_ps( dz, dz ) );
+			d2[c] = _mm256_blendv_ps( infinity, d, usable );
+			nearest = _mm256_min_ps( nearest, d2[c] );
 		}
-		float bx = s4[1] / total, by = s4[2] / total, bz = s4[3] / total;
-		nx /= length;
-		ny /= length;
-		nz /= length;
-		float d = ( x[0] - bx ) * nx + ( x[1] - by ) * ny + ( x[2] - bz ) * nz;
-		if ( d < offset_m )
+		__m256 anchored = _mm256_cmp_ps( nearest, infinity, _CMP_LT_OQ ); // lanes with a usable candidate
+		if ( _mm256_movemask_ps( anchored ) == 0 )
 		{
-			float push = offset_m - d;
-			x[0] += push * nx;
-			x[1] += push * ny;
-			x[2] += push * nz;
+			continue;
+		}
+		const float margin = PLEAT_CONTACT_BLEND_M * PLEAT_CONTACT_BLEND_M;
+		__m256 margin_limit = _mm256_add_ps( _mm256_mul_ps( _mm256_set1_ps( 1.0f + PLEAT_CONTACT_BLEND_SHARE ), nearest ),
+											 _mm256_set1_ps( margin ) );
+		__m256 total = zero, sx = zero, sy = zero, sz = zero, nx = zero, ny = zero, nz = zero;
+		for ( uint32_t c = 0; c < C; ++c )
+		{
+			__m256 w = _mm256_sub_ps( margin_limit, d2[c] );
+			__m256 inside = _mm256_cmp_ps( w, zero, _CMP_GT_OQ );
+			if ( _mm256_movemask_ps( inside ) == 0 )
+			{
+				continue; // no lane weighs this slot: every sum would add +0
+			}
+			w = _mm256_and_ps( w, inside );
+			total = _mm256_add_ps( total, w );
+			sx = _mm256_add_ps( sx, _mm256_mul_ps( w, ax[c] ) );
+			sy = _mm256_add_ps( sy, _mm256_mul_ps( w, ay[c] ) );
+			sz = _mm256_add_ps( sz, _mm256_mul_ps( w, az[c] ) );
+			nx = _mm256_add_ps( nx, _mm256_mul_ps( w, _mm256_i32gather_ps( posed + 4, offsets[c], 4 ) ) );
+			ny = _mm256_add_ps( ny, _mm256_mul_ps( w, _mm256_i32gather_ps( posed + 5, offsets[c], 4 ) ) );
+			nz = _mm256_add_ps( nz, _mm256_mul_ps( w, _mm256_i32gather_ps( posed + 6, offsets[c], 4 ) ) );
+		}
+		__m256 length = _mm256_sqrt_ps(
+			_mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
+		__m256 pushes = _mm256_and_ps( _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) ),
+									   _mm256_cmp_ps( length, _mm256_set1_ps( 1e-12f ), _CMP_GT_OQ ) );
+		sx = _mm256_div_ps( sx, total );
+		sy = _mm256_div_ps( sy, total );
+		sz = _mm256_div_ps( sz, total );
+		nx = _mm256_div_ps( nx, length );
+		ny = _mm256_div_ps( ny, length );
+		nz = _mm256_div_ps( nz, length );
+		__m256 d = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( _mm256_sub_ps( x, sx ), nx ),
+												 _mm256_mul_ps( _mm256_sub_ps( y, sy ), ny ) ),
+								  _mm256_mul_ps( _mm256_sub_ps( z, sz ), nz ) );
+		__m256 offset = _mm256_set1_ps( offset_m );
+		int moves = _mm256_movemask_ps( _mm256_and_ps( pushes, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) ) );
+		if ( moves == 0 )
+		{
+			continue;
+		}
+		__m256 push = _mm256_sub_ps( offset, d );
+		_Alignas( 32 ) float rx[8], ry[8], rz[8];
+		_mm256_store_ps( rx, _mm256_add_ps( x, _mm256_mul_ps( push, nx ) ) );
+		_mm256_store_ps( ry, _mm256_add_ps( y, _mm256_mul_ps( push, ny ) ) );
+		_mm256_store_ps( rz, _mm256_add_ps( z, _mm256_mul_ps( push, nz ) ) );
+		for ( uint32_t i = 0; i < count; ++i )
+		{
+			if ( moves & ( 1 << i ) )
+			{
+				float* p = (float*)( (uint8_t*)positions + (size_t)( v0 + i ) * position_stride_bytes );
+				p[0] = rx[i];
+				p[1] = ry[i];
+				p[2] = rz[i];
+			}
+		}
+	}
+}
+
+// AVX2 twin of plBodyPointNormals_Scalar, eight points per vector: their own positions and, slot by slot, their ring
+// points' positions by gathers from the posed rows; d_i = a_{r_i} − a_p, and the cross product of each d_i with the
+// next, the last slot of each lane closing on its d_0 (a blend where the next slot is past the lane's ring). The same
+// operations in the same order as the scalar kernel, lane by lane (no contraction), so the two agree bit for bit. Why
+// lanes of points: a point's normal is one chain (the fan's sum, a square root, three divisions), so one point at a
+// time (16-byte rows, shuffles for the cross products) ran at its latency, ~25 ns a point against ~11 here.
+void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t* rings, uint32_t ring_count,
+							  uint32_t p_begin, uint32_t p_end )
+{
+	uint32_t R = ring_count;
+	const __m256i row = _mm256_set1_epi32( PLEAT_POSED_POINT_FLOATS ), lane = _mm256_setr_epi32( 0, 1, 2, 3, 4, 5, 6, 7 );
+	const __m256i limit = _mm256_set1_epi32( (int32_t)point_count );
+	const __m256 zero = _mm256_setzero_ps();
+	for ( uint32_t p0 = p_begin; p0 < p_end; p0 += 8 )
+	{
+		uint32_t count = p_end - p0 < 8 ? p_end - p0 : 8;
+		// Ring indices slot by slot, points across the lanes (a lane past the range, not an anchor or without a ring:
+		// every slot empty), and whether any lane changes.
+		_Alignas( 32 ) int32_t slots[PLEAT_MAX_POINT_RING][8];
+		int any = 0;
+		for ( uint32_t i = 0; i < 8; ++i )
+		{
+			uint32_t p = p0 + i;
+			const float* out = i < count ? posed + (size_t)p * PLEAT_POSED_POINT_FLOATS : NULL;
+			int changes = out != NULL && out[7] != 0.0f && rings[(size_t)p * R] < point_count;
+			any |= changes;
+			for ( uint32_t s = 0; s < R; ++s )
+			{
+				slots[s][i] = changes ? (int32_t)rings[(size_t)p * R + s] : (int32_t)PLEAT_NO_CONTACT_CANDIDATE;
+			}
+		}
+		if ( !any )
+		{
+			continue;
+		}
+		__m256i own = _mm256_mullo_epi32( _mm256_add_epi32( _mm256_set1_epi32( (int32_t)p0 ), lane ), row );
+		own = _mm256_and_si256( own, _mm256_cmpgt_epi32( _mm256_set1_epi32( (int32_t)count ), lane ) ); // past: row 0
+		__m256 px = _mm256_i32gather_ps( posed, own, 4 );
+		__m256 py = _mm256_i32gather_ps( posed + 1, own, 4 );
+		__m256 pz = _mm256_i32gather_ps( posed + 2, own, 4 );
+		__m256 dx[PLEAT_MAX_POINT_RING], dy[PLEAT_MAX_POINT_RING], dz[PLEAT_MAX_POINT_RING];
+		__m256 used[PLEAT_MAX_POINT_RING];
+		for ( uint32_t s = 0; s < R; ++s )
+		{
+			__m256i index = _mm256_load_si256( (const __m256i*)slots[s] );
+			__m256i valid = _mm256_cmpgt_epi32( limit, index );
+			__m256i offset = _mm256_and_si256( _mm256_mullo_epi32( index, row ), valid );
+			used[s] = _mm256_castsi256_ps( valid );
+			dx[s] = _mm256_sub_ps( _mm256_i32gather_ps( posed, offset, 4 ), px );
+			dy[s] = _mm256_sub_ps( _mm256_i32gather_ps( posed + 1, offset, 4 ), py );
+			dz[s] = _mm256_sub_ps( _mm256_i32gather_ps( posed + 2, offset, 4 ), pz );
+		}
+		__m256 nx = zero, ny = zero, nz = zero;
+		for ( uint32_t s = 0; s < R; ++s )
+		{
+			// the next slot, or d_0 where the next is past this lane's ring (or s is the last slot)
+			__m256 next_used = s + 1 < R ? used[s + 1] : zero;
+			__m256 vx = _mm256_blendv_ps( dx[0], s + 1 < R ? dx[s + 1] : dx[0], next_used );
+			__m256 vy = _mm256_blendv_ps( dy[0], s + 1 < R ? dy[s + 1] : dy[0], next_used );
+			__m256 vz = _mm256_blendv_ps( dz[0], s + 1 < R ? dz[s + 1] : dz[0], next_used );
+			__m256 cx = _mm256_sub_ps( _mm256_mul_ps( dy[s], vz ), _mm256_mul_ps( dz[s], vy ) );
+			__m256 cy = _mm256_sub_ps( _mm256_mul_ps( dz[s], vx ), _mm256_mul_ps( dx[s], vz ) );
+			__m256 cz = _mm256_sub_ps( _mm256_mul_ps( dx[s], vy ), _mm256_mul_ps( dy[s], vx ) );
+			nx = _mm256_blendv_ps( nx, _mm256_add_ps( nx, cx ), used[s] );
+			ny = _mm256_blendv_ps( ny, _mm256_add_ps( ny, cy ), used[s] );
+			nz = _mm256_blendv_ps( nz, _mm256_add_ps( nz, cz ), used[s] );
+		}
+		__m256 length = _mm256_sqrt_ps(
+			_mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
+		__m256 usable = _mm256_cmp_ps( length, _mm256_set1_ps( 1e-12f ), _CMP_GT_OQ );
+		_Alignas( 32 ) float rx[8], ry[8], rz[8], ru[8];
+		_mm256_store_ps( rx, _mm256_and_ps( _mm256_div_ps( nx, length ), usable ) );
+		_mm256_store_ps( ry, _mm256_and_ps( _mm256_div_ps( ny, length ), usable ) );
+		_mm256_store_ps( rz, _mm256_and_ps( _mm256_div_ps( nz, length ), usable ) );
+		_mm256_store_ps( ru, _mm256_and_ps( _mm256_set1_ps( 1.0f ), usable ) );
+		for ( uint32_t i = 0; i < count; ++i )
+		{
+			if ( slots[0][i] < (int32_t)point_count ) // the lanes that change
+			{
+				float* out = posed + (size_t)( p0 + i ) * PLEAT_POSED_POINT_FLOATS;
+				out[3] = ru[i];
+				out[4] = rx[i];
+				out[5] = ry[i];
+				out[6] = rz[i];
+			}
 		}
 	}
 }

@@ -83,13 +83,15 @@ plInstanceData* plGetInstanceData( plInstance handle );
 // PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
 plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend,
 					  const plTaskRunner* runner );
-// Body contact (instances with inst->body_contact only), in its two jobs: the body points [begin, end) posed with
-// skin_matrices into inst->posed_points, then the push of positions ([N][3], skinned with the same matrices;
+// Body contact (instances with inst->body_contact only), in its jobs: the body points [begin, end) posed with
+// skin_matrices into inst->posed_points, then (assets with BARG, after all points are posed) the posed body's normals
+// at the points [begin, end), then the push of positions ([N][3], skinned with the same matrices;
 // inst->positions for a step) for vertices [begin, end), with the instance's candidates and clearance. plDeformCpu runs
-// the two as separate tasks over the host's workers; plRunBodyContact runs both, all points and vertices, on the
+// them as separate tasks over the host's workers; plRunBodyContact runs all three, all points and vertices, on the
 // calling thread, as plStepInstances does between its batched skinning and normals and the scene's LBS level on its
 // own output.
 plResult plPoseBodyPoints( plInstanceData* inst, const float* skin_matrices, uint32_t begin, uint32_t end );
+plResult plBodyPointNormals( plInstanceData* inst, uint32_t begin, uint32_t end ); // assets with BARG; else nothing
 plResult plPushOutOfBody( plInstanceData* inst, float* positions, uint32_t begin, uint32_t end );
 plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices );
 // ---- instance_step.c: the stages of plInstance_Step that plStepInstances (batch.c) runs too ----

@@ -49,12 +49,32 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 }
 
-// Before the blend-and-skin task: the body points in this pose, which any vertex's push may read.
+// Before the blend-and-skin task: the body points in this pose, which any vertex's push may read, then (a second
+// task: they read the posed points around them) the posed body's normals at the points with rings.
 static void plPoseBodyPointsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;
 	plDeformTask* t = (plDeformTask*)context;
 	plDeformTask_Record( t, plPoseBodyPoints( t->inst, t->skin_matrices, begin, end ) );
+}
+
+static void plBodyPointNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plDeformTask* t = (plDeformTask*)context;
+	plDeformTask_Record( t, plBodyPointNormals( t->inst, begin, end ) );
+}
+
+plResult plBodyPointNormals( plInstanceData* inst, uint32_t begin, uint32_t end )
+{
+	const plAssetData* a = inst->asset;
+	if ( a->body_anchor_ring == NULL )
+	{
+		return PLEAT_RESULT_OK; // asset 1.1: the blended rest normals stand
+	}
+	plBodyPointNormalsJob job = { inst->posed_points, a->body_point_count, a->body_anchor_ring,
+								  a->body_anchor_ring_count, begin, end, &inst->ctx->kernels };
+	return plBodyPointNormalsJob_Run( &job );
 }
 
 plResult plPoseBodyPoints( plInstanceData* inst, const float* skin_matrices, uint32_t begin, uint32_t end )
@@ -92,7 +112,9 @@ plResult plPushOutOfBody( plInstanceData* inst, float* positions, uint32_t begin
 
 plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices )
 {
-	plResult r = plPoseBodyPoints( inst, skin_matrices, 0, inst->asset->body_point_count );
+	uint32_t P = inst->asset->body_point_count;
+	plResult r = plPoseBodyPoints( inst, skin_matrices, 0, P );
+	r = r == PLEAT_RESULT_OK ? plBodyPointNormals( inst, 0, P ) : r;
 	return r == PLEAT_RESULT_OK ? plPushOutOfBody( inst, positions, 0, inst->asset->vertex_count ) : r;
 }
 
@@ -151,6 +173,10 @@ plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const fl
 	if ( inst->body_contact )
 	{
 		plRunTask( runner, plPoseBodyPointsTask, a->body_point_count, 512, &task );
+		if ( a->body_anchor_ring != NULL && plDeformTask_Result( &task ) == PLEAT_RESULT_OK )
+		{
+			plRunTask( runner, plBodyPointNormalsTask, a->body_point_count, 512, &task );
+		}
 		if ( plDeformTask_Result( &task ) != PLEAT_RESULT_OK )
 		{
 			return plDeformTask_Result( &task );

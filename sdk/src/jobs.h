@@ -237,6 +237,18 @@ typedef struct plBodyPointsJob
 int plBodyPointsJob_Validate( const plBodyPointsJob* job );
 plResult plBodyPointsJob_Run( const plBodyPointsJob* job );
 
+typedef struct plBodyPointNormalsJob
+{
+	float* posed;                      // [P][PLEAT_POSED_POINT_FLOATS], every position posed (plBodyPointsJob)
+	uint32_t point_count;              // P
+	const uint16_t* rings;             // [P][R] (BARG)
+	uint32_t ring_count;               // R
+	uint32_t point_begin, point_end;
+	const plKernels* kernels;          // optional: NULL = the scalar kernel
+} plBodyPointNormalsJob;
+
+plResult plBodyPointNormalsJob_Run( const plBodyPointNormalsJob* job );
+
 typedef struct plBodyContactJob
 {
 	plSpan positions;                  // [N] xyz, skinned, moved in place, any stride

@@ -88,15 +88,19 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 								 uint32_t position_stride_bytes, uint32_t vertex_count, const uint32_t* faces,
 								 uint32_t face_count, float* sums4 );
 
-// Body contact (pleat.h BODY CONTACT, body_contact.c), in two kernels:
+// Body contact (pleat.h BODY CONTACT, body_contact.c), in three kernels:
 // Posing the body points [p_begin, p_end): M_p = Σ_k w_pk M_{j_pk}, a = M_p · (r_p, 1), n = normalize(M_p[:, :3] · n_p)
-// into posed[p] = (a_x, a_y, a_z, usable, n_x, n_y, n_z, 0) (PLEAT_POSED_POINT_FLOATS floats, 32-byte rows): usable is
-// 1 where the rest normal is non-zero and the blended one longer than 1e-12, else 0 (and the rest of the row 0).
-// Rest points and normals [P][3], point skin [P][K]; joint indices >= joint_count count as weight 0.
+// into posed[p] = (a_x, a_y, a_z, usable, n_x, n_y, n_z, anchorable) (PLEAT_POSED_POINT_FLOATS floats, 32-byte rows):
+// every point's position; anchorable is 1 where the rest normal is non-zero, usable where also the blended normal is
+// longer than 1e-12 (else 0, and the normal 0). Rest points and normals [P][3], point skin [P][K]; joint indices
+// >= joint_count count as weight 0.
 #define PLEAT_POSED_POINT_FLOATS 8
 // At most this many candidate body points per garment vertex (asset 1.2, BACA), and the index of an empty slot.
 #define PLEAT_MAX_CONTACT_CANDIDATES 16
 #define PLEAT_NO_CONTACT_CANDIDATE 0xFFFFu
+// At most this many points in a body point's ring (BARG): the body mesh has at most 8 around a vertex.
+#define PLEAT_MAX_POINT_RING 8
+#define PLEAT_MAX_POINT_FACES 8 // TEMPORARY: the GL path until it takes rings
 // The candidates almost as near as the nearest blend into one plane (body_contact.c says why): the share of the
 // nearest squared distance, and a floor in metres, within which a candidate still counts.
 #define PLEAT_CONTACT_BLEND_SHARE 0.1f
@@ -104,6 +108,13 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 typedef void plPoseBodyPointsFn( float* posed, const float* shaped_points, const float* point_normals,
 								 const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
 								 const float* skin_matrices, uint32_t joint_count, uint32_t p_begin, uint32_t p_end );
+// The posed body's normals at the anchorable points [p_begin, p_end) with a ring (asset 1.2, BARG; rings [P][R]: m ≥ 3
+// point indices counter-clockwise from outside, then indices >= P): with d_i = a_{r_i} − a_p,
+// n = Σ_i d_i × d_{(i+1) mod m} (the area-weighted normal of the closed fan), read from the posed positions that
+// plPoseBodyPointsFn wrote for every point; then usable = |n| > 1e-12, n normalised. A point without a ring, or not
+// anchorable, keeps its row. Writes only the normal and usable of the points in the range.
+typedef void plBodyPointNormalsFn( float* posed, uint32_t point_count, const uint16_t* rings, uint32_t ring_count,
+								   uint32_t p_begin, uint32_t p_end );
 // The push for vertices [v_begin, v_end): of each vertex's usable candidates (candidates [N][C], an index >= P or
 // PLEAT_NO_CONTACT_CANDIDATE = an empty slot; NULL = vertex v's point is v, C = 1), with m the nearest squared distance,
 // w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE)·m + PLEAT_CONTACT_BLEND_M² − |x − a_c|²), a = Σ w_c a_c / Σ w_c and
@@ -148,6 +159,7 @@ typedef struct plKernels
 	plNormalsGatherFn* normals_gather;
 	plNormalsScatterFn* normals_scatter;
 	plPoseBodyPointsFn* pose_body_points;
+	plBodyPointNormalsFn* body_point_normals;
 	plBodyContactFn* body_contact;
 } plKernels;
 
@@ -156,6 +168,7 @@ plMatVecFn plMatVec_Scalar;
 plBlendShapesFn plBlendShapes_Scalar;
 plSkinningFn plSkinning_Scalar;
 plPoseBodyPointsFn plPoseBodyPoints_Scalar;
+plBodyPointNormalsFn plBodyPointNormals_Scalar;
 plBodyContactFn plBodyContact_Scalar;
 plFaceNormalsFn plFaceNormals_Scalar;
 plNormalsGatherFn plNormalsGather_Scalar;
@@ -166,6 +179,7 @@ plBlendShapesFn plBlendShapes_Avx2;
 plSkinningFn plSkinning_Avx2;
 plPoseBodyPointsFn plPoseBodyPoints_Avx2;
 plBodyContactFn plBodyContact_Avx2;
+plBodyPointNormalsFn plBodyPointNormals_Avx2;
 plFaceNormalsFn plFaceNormals_Avx2;
 plNormalsGatherFn plNormalsGather_Avx2;
 plNormalsScatterFn plNormalsScatter_Avx2;

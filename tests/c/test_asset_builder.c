@@ -273,6 +273,31 @@ int plTestAsset_AddBodyAnchors( plTestAsset* a, float depth_m )
 		memcpy( a->body_anchor_skin_weights + (size_t)p * a->K, a->skin_weights + (size_t)v * a->K,
 				a->K * sizeof( float ) );
 	}
+	a->body_ring = (uint16_t*)malloc( (size_t)a->P * PLEAT_TEST_POINT_RING * sizeof( uint16_t ) );
+	if ( a->body_ring == NULL )
+	{
+		return 0;
+	}
+	memset( a->body_ring, 0xFF, (size_t)a->P * PLEAT_TEST_POINT_RING * sizeof( uint16_t ) );
+	// The grid's width: the vertices of row 0 share its y.
+	uint32_t gx = 1;
+	while ( gx < a->N && a->template_positions[3 * gx + 1] == a->template_positions[1] )
+	{
+		gx++;
+	}
+	uint32_t gy = a->N / gx;
+	static const int ring_x[8] = { 1, 1, 0, -1, -1, -1, 0, 1 }, ring_y[8] = { 0, 1, 1, 1, 0, -1, -1, -1 }; // CCW
+	for ( uint32_t y = 1; y + 1 < gy; ++y )
+	{
+		for ( uint32_t x = 1; x + 1 < gx; ++x )
+		{
+			uint16_t* ring = a->body_ring + (size_t)( y * gx + x ) * PLEAT_TEST_POINT_RING;
+			for ( int i = 0; i < 8; ++i )
+			{
+				ring[i] = (uint16_t)( ( y + ring_y[i] ) * gx + x + ring_x[i] );
+			}
+		}
+	}
 	for ( uint32_t v = 0; v < a->N; ++v )
 	{
 		uint16_t* c = a->body_candidates + (size_t)v * a->C;
@@ -299,6 +324,8 @@ void plTestAsset_DropBodyCandidates( plTestAsset* a )
 	a->C = 1;
 	free( a->body_candidates );
 	a->body_candidates = NULL;
+	free( a->body_ring );
+	a->body_ring = NULL;
 }
 
 void plTestAsset_Destroy( plTestAsset* a )
@@ -313,6 +340,7 @@ void plTestAsset_Destroy( plTestAsset* a )
 	free( a->body_anchor_skin_indices );
 	free( a->body_anchor_skin_weights );
 	free( a->body_candidates );
+	free( a->body_ring );
 	plTestFreeNetwork( a->lp, a->lp_count );
 	plTestFreeNetwork( a->dec, a->dec_count );
 	free( a->joint_shapedirs );
@@ -491,6 +519,10 @@ uint8_t* plTestAsset_Write( const plTestAsset* a, size_t* out_size )
 		if ( a->body_candidates != NULL )
 		{
 			plAddSection( sections, &count, "BACA", 4, a->body_candidates, 2, a->N, a->C, 1 );
+		}
+		if ( a->body_ring != NULL )
+		{
+			plAddSection( sections, &count, "BARG", 4, a->body_ring, 2, a->P, PLEAT_TEST_POINT_RING, 1 );
 		}
 	}
 	if ( a->onnx_lp != NULL )

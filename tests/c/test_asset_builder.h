@@ -66,7 +66,10 @@ typedef struct plTestAsset
 	uint16_t* body_anchor_skin_indices; // [P][K]
 	float* body_anchor_skin_weights;    // [P][K]
 	uint16_t* body_candidates;          // [N][C] or NULL
+	uint16_t* body_ring;                // [P][PLEAT_TEST_POINT_RING] (BARG) or NULL
 } plTestAsset;
+
+#define PLEAT_TEST_POINT_RING 8
 
 plTestAssetParams plTestAsset_DefaultParams( void );
 // Returns NULL on allocation failure.
@@ -76,9 +79,11 @@ void plTestAsset_Destroy( plTestAsset* asset );
 // lies depth_m behind vertex v (normal +Z; every fifth has a zero normal and never anchors); point N + j lies 1 mm
 // beside vertex 4j and half as deep, its normal tilted towards +X. Candidates (C = 3): vertex v has point v, then
 // point N + v/4 for v % 4 == 0, then an empty slot; every seventh vertex (v % 7 == 3) has none at all. So vertices
-// 4j mostly take the tilted point, and blend shapes larger than depth_m push vertices through both. 0 on failure.
+// 4j mostly take the tilted point, and blend shapes larger than depth_m push vertices through both. Rings (BARG): point
+// v < N at an interior grid vertex has the grid vertices around v, counter-clockwise seen from +Z (so its posed normal
+// is the stand-in's, +Z at rest); edge vertices and the extra points have none (the blended rest normal). 0 on failure.
 int plTestAsset_AddBodyAnchors( plTestAsset* asset, float depth_m );
-// Back to one point per vertex (asset 1.1, no candidate table): point v for vertex v, the extra points dropped.
+// Back to one point per vertex (asset 1.1, no candidate or face table): point v for vertex v, the extra points dropped.
 void plTestAsset_DropBodyCandidates( plTestAsset* asset );
 // Serialises into a 64-byte aligned block (free with plTestAsset_FreeBytes). Returns NULL on failure.
 uint8_t* plTestAsset_Write( const plTestAsset* asset, size_t* out_size );

@@ -357,6 +357,8 @@ static void test_broken_content_is_invalid_asset_data( void** state )
 		{ "BANC", 8, nan_bits },     // non-finite body anchor
 		{ "BASH", 0, nan_bits },     // non-finite body anchor shape direction
 		{ "BACA", 0, 0x70007000u },  // a candidate point index past P that is not the empty slot 0xFFFF
+		{ "BARG", 0, 0x00010002u },  // point 0 (an edge point, no ring) given a ring of two
+		{ "BARG", 16, 0x70000001u }, // a ring point past P (point 1's ring)
 		{ "JNAM", 0, 0x41414141u },  // (valid: name still NUL-terminated) — checked below to load
 	};
 	for ( size_t i = 0; i + 1 < sizeof( edits ) / sizeof( edits[0] ); ++i )

@@ -608,6 +608,41 @@ static void test_body_contact_blends_the_nearest_usable_candidates_by_hand( void
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
 }
 
+// The posed body's normal at a point from its ring (BARG), identity pose: p0 at the origin, rest normal +Y, ring
+// (p1, p2, p3, p4) = (1, 0, 0), (0, 1, 0), (−1, 0, 0), (0, −1, 0), counter-clockwise seen from +Z:
+// Σ d_i × d_(i+1) = 4 · (0, 0, 1) → +Z, not the rest normal. p1 has no ring → keeps its blended rest normal +Y. p2's
+// ring (p1, p3, p1) is flat through it (a zero sum) → not usable. p3 and p4 have zero rest normals (ring corners only):
+// posed (p0's normal reads them) and never usable.
+static void test_body_point_normals_from_rings_by_hand( void** state )
+{
+	(void)state;
+	const float points[5 * 3] = { 0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0 };
+	const float normals[5 * 3] = { 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0 };
+	const uint16_t indices[5] = { 0, 0, 0, 0, 0 };
+	const float weights[5] = { 1, 1, 1, 1, 1 };
+	const float matrices[12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0 };
+	const uint16_t E = PLEAT_NO_CONTACT_CANDIDATE;
+	const uint16_t rings[5 * 4] = { 1, 2, 3, 4, /* p1 */ E, E, E, E, /* p2 */ 1, 3, 1, E, /* p3 */ E, E, E, E,
+									/* p4 */ 0, 1, 2, E };
+	float posed[5 * PLEAT_POSED_POINT_FLOATS];
+	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 5, 0, 5, NULL };
+	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
+	assert_float_equal( posed[3 * PLEAT_POSED_POINT_FLOATS + 0], -1.0f, 0.0f ); // a corner is posed too
+	plBodyPointNormalsJob job = { posed, 5, rings, 4, 0, 5, NULL };
+	assert_int_equal( plBodyPointNormalsJob_Run( &job ), PLEAT_RESULT_OK );
+	const float expected[5][4] = { { 1, 0, 0, 1 }, { 1, 0, 1, 0 }, { 0, 0, 0, 0 }, { 0, 0, 0, 0 }, { 0, 0, 0, 0 } };
+	for ( int p = 0; p < 5; ++p )
+	{
+		const float* row = posed + p * PLEAT_POSED_POINT_FLOATS;
+		for ( int e = 0; e < 4; ++e )
+		{
+			assert_float_equal( row[3 + e], expected[p][e], 1e-7f ); // usable, then n
+		}
+	}
+	job.ring_count = PLEAT_MAX_POINT_RING + 1;
+	assert_int_equal( plBodyPointNormalsJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+}
+
 static void test_network_rate_decision_by_hand( void** state )
 {
 	(void)state;
@@ -645,6 +680,7 @@ int main( void )
 		cmocka_unit_test( test_network_rate_decision_by_hand ),
 		cmocka_unit_test( test_body_contact_by_hand ),
 		cmocka_unit_test( test_body_contact_blends_the_nearest_usable_candidates_by_hand ),
+		cmocka_unit_test( test_body_point_normals_from_rings_by_hand ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

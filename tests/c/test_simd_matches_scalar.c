@@ -284,6 +284,47 @@ static void test_pose_body_points_avx2_matches_scalar( void** state )
 	}
 }
 
+// The posed body's normals from rings: random posed positions, rings of 3..R points (R = 8, the fast path, and R = 5,
+// the general one) or none, points that are not anchors, a point range with a tail of fewer than 8. The AVX2 kernel
+// performs the scalar one's operations lane by lane, so the rows must be equal bit for bit.
+static void test_body_point_normals_avx2_are_bit_identical_to_scalar( void** state )
+{
+	const plKernelPair* pair = plRequireAvx2Kernels( state );
+	enum { P = 45 };
+	for ( uint32_t R = 5; R <= 8; R += 3 )
+	{
+		float start[P * PLEAT_POSED_POINT_FLOATS];
+		uint16_t rings[P * 8];
+		for ( uint32_t p = 0; p < P; ++p )
+		{
+			float* r = start + p * PLEAT_POSED_POINT_FLOATS;
+			float row[8] = { plRand(), plRand(), plRand(), 1.0f, 0.0f, 1.0f, 0.0f, p % 6 == 4 ? 0.0f : 1.0f };
+			memcpy( r, row, sizeof( row ) );
+			uint32_t m = p % 7 == 2 ? 0 : 3 + p % ( R - 2 ); // 0 or 3..R
+			for ( uint32_t s = 0; s < R; ++s )
+			{
+				rings[p * R + s] = s < m ? (uint16_t)( ( p * 7 + s * 11 + 1 ) % P ) : PLEAT_NO_CONTACT_CANDIDATE;
+			}
+		}
+		float os[P * PLEAT_POSED_POINT_FLOATS], ov[P * PLEAT_POSED_POINT_FLOATS];
+		memcpy( os, start, sizeof( os ) );
+		memcpy( ov, start, sizeof( ov ) );
+		pair->scalar.body_point_normals( os, P, rings, R, 2, P - 3 );
+		pair->simd.body_point_normals( ov, P, rings, R, 2, P - 3 );
+		assert_memory_equal( os, ov, sizeof( os ) );
+		uint32_t changed = 0;
+		for ( uint32_t p = 0; p < P; ++p )
+		{
+			changed += memcmp( os + p * PLEAT_POSED_POINT_FLOATS, start + p * PLEAT_POSED_POINT_FLOATS, 32 ) != 0;
+			if ( p < 2 || p >= P - 3 || p % 6 == 4 || p % 7 == 2 )
+			{
+				assert_memory_equal( os + p * PLEAT_POSED_POINT_FLOATS, start + p * PLEAT_POSED_POINT_FLOATS, 32 );
+			}
+		}
+		assert_true( changed > P / 2 );
+	}
+}
+
 // The push: random posed points (every fifth unusable), C = 1..16 candidates per vertex with empty slots (0xFFFF and
 // indices past P), a vertex without any, near ties (pairs of points equally far from a vertex), strided positions
 // (other floats untouched) and a vertex sub-range. The blend's sums run in another order in the SIMD kernel, so the
@@ -614,6 +655,7 @@ int main( void )
 		PLEAT_TEST_WITH_PAIR( test_skinning_avx2_matches_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_pose_body_points_avx2_matches_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_body_contact_avx2_matches_scalar ),
+		PLEAT_TEST_WITH_PAIR( test_body_point_normals_avx2_are_bit_identical_to_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_normals_avx2_are_bit_identical_to_scalar ),
 		cmocka_unit_test( test_normals_scatter_is_bit_identical_to_gather ),
 		cmocka_unit_test( test_half_conversion_round_trips ),

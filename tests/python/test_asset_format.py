@@ -36,7 +36,7 @@ def refresh_crc(buf):
 
 def test_header_fields_follow_the_spec(data):
     magic, major, minor, header_size, file_size, count, flags, table, crc = struct.unpack_from("<8sHHIQIIQI", data, 0)
-    assert (magic, major, minor, header_size, flags, table) == (b"PLEATAST", 1, 1, 128, 0, 128)
+    assert (magic, major, minor, header_size, flags, table) == (b"PLEATAST", 1, 2, 128, 0, 128)
     assert file_size == len(data)
     assert data[44:128] == bytes(84)
     zeroed = bytearray(data)
@@ -207,6 +207,11 @@ def _set(index, value):
     return f
 
 
+def _in_first_ring(rings, slot, value):
+    rings[np.flatnonzero(rings[:, 0] != 0xFFFF)[0], slot] = value
+    return rings
+
+
 @pytest.mark.parametrize("change,message", [
     (dict(template=None), "template"),
     (dict(template=_set((0, 0), np.inf)), "template"),
@@ -229,6 +234,12 @@ def _set(index, value):
     (dict(metadata_json="{not json"), "metadata_json"),
     (dict(joint_names=["pelvis"] * 24), "joint_names"),
     (dict(dt_range_s=np.array([0.1, 0.01])), "dt_range_s"),
+    (dict(body_anchor_candidates=_set((0, 0), 60000)), "body_anchor_candidates"),     # past P, not the empty 65535
+    (dict(body_anchor_candidates=lambda a: np.repeat(a, 5, axis=1)), "body_anchor_candidates"),   # C > 16
+    (dict(body_anchor_candidates=None), "points without"),                         # P != N without a table
+    (dict(body_anchor_ring=lambda a: _in_first_ring(a, 1, 0xFFFF)), "body_anchor_ring"),   # a ring of one: under 3
+    (dict(body_anchor_ring=lambda a: _in_first_ring(a, 2, 60000)), "body_anchor_ring"),    # past P
+    (dict(body_anchor=None), "body contact"),
 ])
 def test_writer_rejects_invalid_weights(weights, change, message):
     with pytest.raises(pa.AssetError, match=message.replace(".", r"\.")):

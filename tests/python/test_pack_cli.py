@@ -30,40 +30,91 @@ def test_pack_writes_what_write_asset_writes(tmp_path, weights, weights_file):
     assert out.read_bytes() == pa.write_asset(None, weights, fp16=True)
 
 
-def test_repacking_an_asset_adds_body_anchors_and_keeps_everything_else(tmp_path):
-    """pleat-pack IN.pleat --body-contact: the anchors come from the body (nearest rest vertex, its normal, its own
-    top-4 skin weights); every other section is unchanged."""
+def _garment_on_the_body(tmp_path):
+    """A random asset whose template is the body's own vertices pushed 1 cm out (every fifth 9 cm: too far)."""
     from pleat.body import BodyModel
+    from pleat.body.model import vertex_normals
     body = BodyModel.load()
     w = random_weights(vertices=60, latent=4, blend=3, lp_hidden=(8,), dec_hidden=(6,), seed=2, body_contact=False)
-    # a garment on the body: the template is the body's own vertices pushed 1 cm out (or 9 cm: too far to anchor)
     pick = np.linspace(0, body.num_vertices - 1, len(w["template"])).astype(int)
-    from pleat.body.model import vertex_normals
     push = np.where(np.arange(len(pick)) % 5 == 0, 0.09, 0.01)
     w["template"] = body.v_template[pick] + push[:, None] * vertex_normals(body.v_template, body.faces)[pick]
-    src, out = tmp_path / "in.pleat", tmp_path / "out.pleat"
+    src = tmp_path / "in.pleat"
     pa.write_asset(src, w)
     assert "body_anchor" not in pa.read_asset(src.read_bytes())
-    assert pack.main([str(src), "-o", str(out), "--body-contact"]) == 0
-    back, before = pa.read_asset(out.read_bytes()), pa.read_asset(src.read_bytes())
+    return body, w, pick, src
+
+
+def _unchanged_but_contact(back, before):
+    contact = set(pa.BODY_CONTACT_KEYS) | {pa.BODY_CONTACT_CANDIDATES_KEY, pa.BODY_CONTACT_RING_KEY}
     for key, value in before.items():
-        if key != "metadata_json":
+        if key != "metadata_json" and key not in contact:
             np.testing.assert_array_equal(np.asarray(back[key]), np.asarray(value), err_msg=key)
     meta, meta_before = json.loads(back["metadata_json"]), json.loads(before["metadata_json"])
-    assert meta.pop("body_contact")["vertices"] == len(pick) and meta == meta_before   # META says how, nothing else
+    contact_meta = meta.pop("body_contact")
+    assert meta == meta_before                                         # META says how, nothing else changes
+    return contact_meta
+
+
+def test_repacking_an_asset_adds_body_contact_and_keeps_everything_else(tmp_path):
+    """pleat-pack IN.pleat --body-contact (asset 1.2): the points are body vertices; each near garment vertex's
+    candidates are its 4 nearest, nearest first, with their normals and their own top-4 skin weights; the far ones
+    have none; each candidate has its ring of body neighbours, counter-clockwise from outside (its rest fan's normal
+    is its rest normal); ring corners that are no candidate never anchor; every other section is unchanged."""
     from scipy.spatial import cKDTree
+    body, w, pick, src = _garment_on_the_body(tmp_path)
+    out = tmp_path / "out.pleat"
+    assert pack.main([str(src), "-o", str(out), "--body-contact"]) == 0
+    back, before = pa.read_asset(out.read_bytes()), pa.read_asset(src.read_bytes())
+    meta = _unchanged_but_contact(back, before)
+    assert meta["vertices"] == len(pick) and meta["candidates"] == 4 and meta["posed_normals"]
+    gap, vertex = cKDTree(body.v_template).query(back["body_anchor"].astype(np.float64))
+    np.testing.assert_allclose(gap, 0.0, atol=1e-6)                    # every point is a body vertex
+    table, P = back["body_anchor_candidates"].astype(int), len(vertex)
+    far = cKDTree(body.v_template).query(w["template"])[0] > 0.05      # no body vertex within 5 cm
+    assert np.all(table[far] == pa.NO_CANDIDATE) and np.all(table[~far] < P) and np.any(far)
+    to_slot = np.linalg.norm(w["template"][~far, None] - body.v_template[vertex[table[~far]]], axis=2)
+    assert np.all(np.diff(to_slot, axis=1) >= -1e-9)                   # nearest first …
+    to_pick = np.linalg.norm(w["template"][~far] - body.v_template[pick[~far]], axis=1)
+    assert np.all(to_slot[:, 0] <= to_pick + 1e-9)                     # … and no farther than the pushed-out vertex
+    candidate = np.zeros(P, bool)
+    candidate[table[~far].ravel()] = True
+    length = np.linalg.norm(back["body_anchor_normal"], axis=1)
+    np.testing.assert_allclose(length[candidate], 1.0, atol=1e-6)
+    np.testing.assert_array_equal(length[~candidate], 0.0)             # ring corners only: never an anchor
+    ring = back["body_anchor_ring"].astype(int)
+    edges = {tuple(sorted(e)) for f in body.faces for e in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
+    for p in np.flatnonzero(candidate):
+        r = ring[p][ring[p] < P]
+        assert len(r) >= 3 and all(tuple(sorted((vertex[p], vertex[q]))) in edges for q in r)
+        d = body.v_template[vertex[r]] - body.v_template[vertex[p]]
+        fan = np.cross(d, np.roll(d, -1, axis=0)).sum(axis=0)
+        assert np.dot(fan, back["body_anchor_normal"][p]) > 0.9 * np.linalg.norm(fan)
+    top = np.argmax(body.weights[vertex], axis=1)
+    assert all(t in row for t, row in zip(top, back["body_anchor_skin_indices"]))
+
+
+def test_pack_one_candidate_with_rest_normals_writes_the_asset_1_1_block(tmp_path):
+    """--contact-candidates 1 --contact-rest-normals: one point per vertex, its nearest body vertex (as near as the
+    one pushed out), a zero normal beyond 5 cm, no candidate table or rings; a bad count is refused."""
+    from scipy.spatial import cKDTree
+    body, w, pick, src = _garment_on_the_body(tmp_path)
+    out = tmp_path / "out.pleat"
+    assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates", "1",
+                      "--contact-rest-normals"]) == 0
+    back = pa.read_asset(out.read_bytes())
+    assert pa.BODY_CONTACT_CANDIDATES_KEY not in back and pa.BODY_CONTACT_RING_KEY not in back
+    _unchanged_but_contact(back, pa.read_asset(src.read_bytes()))
     gap, anchor = cKDTree(body.v_template).query(back["body_anchor"].astype(np.float64))
-    np.testing.assert_allclose(gap, 0.0, atol=1e-6)                    # every anchor is a body vertex …
+    np.testing.assert_allclose(gap, 0.0, atol=1e-6)
     to_anchor = np.linalg.norm(w["template"] - body.v_template[anchor], axis=1)
     to_pick = np.linalg.norm(w["template"] - body.v_template[pick], axis=1)
-    assert np.all(to_anchor <= to_pick + 1e-9)                         # … at least as near as the one we pushed out
+    assert np.all(to_anchor <= to_pick + 1e-9)
     length = np.linalg.norm(back["body_anchor_normal"], axis=1)
     near = to_anchor < 0.05
     np.testing.assert_allclose(length[near], 1.0, atol=1e-6)
     np.testing.assert_array_equal(length[~near], 0.0)
-    assert np.any(~near) and np.any(near)
-    top = np.argmax(body.weights[anchor], axis=1)
-    assert all(t in row for t, row in zip(top, back["body_anchor_skin_indices"]))
+    assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates", "17"]) != 0
 
 
 def test_pack_name_and_metadata_override(tmp_path, weights_file):
@@ -80,7 +131,7 @@ def test_info_prints_header_sections_counts_and_meta(tmp_path, weights_file, cap
     capsys.readouterr()
     assert pack.main(["--info", str(out)]) == 0
     text = capsys.readouterr().out
-    for needle in ("Pleat asset 1.1", "CRC-32", "(ok)", "TMPL", "BANC", "BASW", "OXLP", "OXDC", "vertex_count=100", "latent_count=8",
+    for needle in ("Pleat asset 1.2", "CRC-32", "(ok)", "TMPL", "BANC", "BASW", "OXLP", "OXDC", "vertex_count=100", "latent_count=8",
                    "name: tee", "META:", "validation: ok"):
         assert needle in text, needle
     data = bytearray(out.read_bytes())

@@ -325,7 +325,7 @@ def test_random_weights_recurrence_is_contractive():
 
 def test_body_contact_pushes_each_vertex_out_of_its_nearest_candidates_blended_plane(asset):
     """The contact job against its definition (pleat.h BODY CONTACT), recomputed here point by point and vertex by
-    vertex: the usable candidates within the margin of the nearest, (1 + η)·m + ε², blend with weights
+    vertex (the points' normals from their posed rings where they have rings): the usable candidates within the margin of the nearest, (1 + η)·m + ε², blend with weights
     max(0, margin − d²) into one plane; afterwards every anchored vertex is at least offset_m in front of it; vertices
     that were are untouched; the others moved along n by exactly offset − d. The golden tube's blend shapes push many
     through the stand-in body, and its candidates overlap, so the test sees both kinds of vertex, single candidates
@@ -346,7 +346,11 @@ def test_body_contact_pushes_each_vertex_out_of_its_nearest_candidates_blended_p
         blend = np.einsum("pk,pkij->pij", f("body_anchor_skin_weights"), m)
         a = np.einsum("pij,pj->pi", blend[..., :3], points) + blend[..., 3]
         n = np.einsum("pij,pj->pi", blend[..., :3], f("body_anchor_normal"))
-        usable = np.linalg.norm(n, axis=1) > 1e-12
+        for p, ring in enumerate(np.asarray(asset["body_anchor_ring"], int)):     # the posed fan's normal
+            r = [q for q in ring if q < P]
+            if r:
+                n[p] = sum(np.cross(a[r[i]] - a[p], a[r[(i + 1) % len(r)]] - a[p]) for i in range(len(r)))
+        usable = (np.linalg.norm(n, axis=1) > 1e-12) & np.any(f("body_anchor_normal") != 0, axis=1)
         n[usable] /= np.linalg.norm(n[usable], axis=1, keepdims=True)
         for v in range(len(before)):
             near = [(np.sum((before[v] - a[p]) ** 2), p) for p in table[v] if p < P and usable[p]]

@@ -311,6 +311,10 @@ BODY_CONTACT_SECTIONS = ("BANC", "BASH", "BANN", "BASI", "BASW")
 BODY_CONTACT_CANDIDATES_KEY = "body_anchor_candidates"
 MAX_CONTACT_CANDIDATES = 16      # PLEAT_MAX_CONTACT_CANDIDATES
 NO_CANDIDATE = 0xFFFF
+# Asset 1.2: each body point's ring (BARG, [P, R] uint16: the m >= 3 points around it, counter-clockwise seen from
+# outside, then NO_CANDIDATE; all NO_CANDIDATE = no ring), from which the runtime computes the posed body's normal there
+BODY_CONTACT_RING_KEY = "body_anchor_ring"
+MAX_POINT_RING = 8               # PLEAT_MAX_POINT_RING
 
 
 def _skin_weights(w, key, K):
@@ -330,9 +334,11 @@ def _validate_body_contact(weights, w, N, B, J):
     (asset 1.2) the candidates. Without candidates there is one point per vertex (P = N, asset 1.1)."""
     present = [k for k in BODY_CONTACT_KEYS if weights.get(k) is not None]
     candidates = weights.get(BODY_CONTACT_CANDIDATES_KEY)
+    ring = weights.get(BODY_CONTACT_RING_KEY)
     if not present:
-        if candidates is not None:
-            raise AssetError(f"{BODY_CONTACT_CANDIDATES_KEY} without the body points ({list(BODY_CONTACT_KEYS)})")
+        if candidates is not None or ring is not None:
+            raise AssetError(f"{BODY_CONTACT_CANDIDATES_KEY} or {BODY_CONTACT_RING_KEY} without the body points "
+                             f"({list(BODY_CONTACT_KEYS)})")
         return
     if len(present) != len(BODY_CONTACT_KEYS):
         raise AssetError(f"body contact: need all of {list(BODY_CONTACT_KEYS)} or none, got {present}")
@@ -363,6 +369,17 @@ def _validate_body_contact(weights, w, N, B, J):
             raise AssetError(f"{BODY_CONTACT_CANDIDATES_KEY}: each entry must be a point index below P = {P} "
                              f"or {NO_CANDIDATE} (an empty slot)")
         w[BODY_CONTACT_CANDIDATES_KEY] = c.astype(np.uint16)
+    if ring is not None:
+        r = np.asarray(ring)
+        if r.ndim != 2 or r.shape[0] != P or not 3 <= r.shape[1] <= MAX_POINT_RING:
+            raise AssetError(f"{BODY_CONTACT_RING_KEY}: expected [P={P}, R] with R in 3..{MAX_POINT_RING}, got {r.shape}")
+        empty = r == NO_CANDIDATE
+        used = np.sum(~empty, axis=1)
+        if (not np.issubdtype(r.dtype, np.integer) or np.any((r < 0) | ((r >= P) & ~empty))
+                or np.any(empty[:, :-1] & ~empty[:, 1:]) or np.any((used > 0) & (used < 3))):
+            raise AssetError(f"{BODY_CONTACT_RING_KEY}: each row must be 3..R point indices below P = {P}, then "
+                             f"{NO_CANDIDATE} (or {NO_CANDIDATE} throughout: no ring)")
+        w[BODY_CONTACT_RING_KEY] = r.astype(np.uint16)
 
 
 def _to_fp16(a, key):
@@ -420,6 +437,8 @@ def _sections(w, onnx_models=None):
                 ("BASI", DTYPE_U16, w["body_anchor_skin_indices"]), ("BASW", DTYPE_F32, w["body_anchor_skin_weights"])]
         if BODY_CONTACT_CANDIDATES_KEY in w:
             out.append(("BACA", DTYPE_U16, w[BODY_CONTACT_CANDIDATES_KEY]))
+        if BODY_CONTACT_RING_KEY in w:
+            out.append(("BARG", DTYPE_U16, w[BODY_CONTACT_RING_KEY]))
     for fourcc, model in (onnx_models or {}).items():
         out.append((fourcc, DTYPE_U8, np.frombuffer(model, dtype=np.uint8)))
     return out
@@ -632,8 +651,11 @@ def read_asset(data, verify_checksum=True):
         if "BACA" in by:
             C = by["BACA"]["dims"][1] if len(by["BACA"]["dims"]) == 2 else 0
             w[BODY_CONTACT_CANDIDATES_KEY] = get("BACA", (DTYPE_U16,), (N, C))
-    elif "BACA" in by:
-        raise AssetError("body contact: BACA without the body points", "INVALID_ASSET_DATA")
+        if "BARG" in by:
+            R = by["BARG"]["dims"][1] if len(by["BARG"]["dims"]) == 2 else 0
+            w[BODY_CONTACT_RING_KEY] = get("BARG", (DTYPE_U16,), (P, R))
+    elif "BACA" in by or "BARG" in by:
+        raise AssetError("body contact: BACA or BARG without the body points", "INVALID_ASSET_DATA")
     w["dt_range_s"] = np.array(conf["dt_range_s"], dtype=np.float32)
     w["beta_range"] = np.array(conf["beta_range"], dtype=np.float32)
     for key in ("material_min", "material_max", "material_default"):

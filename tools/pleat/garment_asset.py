@@ -94,21 +94,47 @@ BODY_ANCHOR_INFLUENCES = 4
 # about where the body is when the cloth hangs loose.
 BODY_ANCHOR_MAX_DISTANCE_M = 0.05
 # Candidate body points per garment vertex (asset 1.2): the rest body vertices nearest to it. The runtime anchors each
-# vertex to the blend of its candidates nearest to it in the pose, so the cloth may slide over the body and stay
-# outside. Measured on the three validation clips with the most contact (sideflip, stealthy_walk1, punch; two bodies;
-# the shipped network's output; the proto of docs/accuracy.md "Body contact"): one fixed point per vertex leaves 1.27 %
-# of vertex-frames inside the body, 8 candidates 0.91 %, 16 0.83 %; the push costs ~2 ns per candidate and vertex, so 8.
-BODY_CONTACT_CANDIDATES = 8
+# vertex to the blend of its candidates nearest to it in the pose, with the posed body's normal there, so the cloth may
+# slide over the body and stay outside. Measured (pleat-eval-suite on sideflip, stealthy_walk1 and punch, the three
+# validation clips with the most contact, two bodies, the shipped network; docs/accuracy.md "Body contact"): one point
+# per vertex with the turned rest normal (asset 1.1) leaves 1.27 % of vertex-frames inside the body, and more
+# candidates do not help while the normal is the turned one; with the posed normal 1 candidate 1.11 %, 4 0.96 %,
+# 8 0.91 %. Each candidate costs ~4 ns per vertex and step, the posed normals ~15 ns per point: 4 by default.
+BODY_CONTACT_CANDIDATES = 4
+# Ring points kept per body point (asset 1.2, BARG): the body mesh has at most 8 around a vertex.
+BODY_POINT_RING = 8
+
+
+def _vertex_rings(faces, vertex_count, vertices):
+    """The one-ring of each of `vertices` in a mesh whose triangles are counter-clockwise from outside: {v: ring
+    [m]}, counter-clockwise, for the closed fans (a vertex on an open edge is left out)."""
+    following = {}
+    wanted = set(int(v) for v in vertices)
+    for a, b, c in np.asarray(faces, np.int64):
+        for p, j, k in ((a, b, c), (b, c, a), (c, a, b)):
+            if int(p) in wanted:
+                following.setdefault(int(p), {})[int(j)] = int(k)
+    rings = {}
+    for v, nxt in following.items():
+        start = next(iter(nxt))
+        ring, cur = [start], nxt[start]
+        while cur != start and cur in nxt and len(ring) <= len(nxt):
+            ring.append(cur)
+            cur = nxt[cur]
+        if cur == start and len(ring) == len(nxt):
+            rings[v] = np.asarray(ring, np.int64)
+    return rings
 
 
 def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance_m=BODY_ANCHOR_MAX_DISTANCE_M,
-                 candidates=BODY_CONTACT_CANDIDATES):
+                 candidates=BODY_CONTACT_CANDIDATES, posed_normals=True):
     """The body-contact keys of the weights file for a garment template [N, 3] on the mean body: the body points
     (rest body vertices: position, shape directions [B, P, 3], unit normal, and their top `influences` skin joints and
-    weights, renormalised) and per garment vertex its `candidates` nearest points, nearest first (asset 1.2). The
-    runtime keeps each posed garment vertex outside the tangent plane of the candidate nearest to it
-    (pleat.reference.body_contact), the simulator's vertex-plane measure. candidates = 1 writes an asset 1.1 block
-    (one point per vertex, no candidate table)."""
+    weights, renormalised; in the order the garment reaches them), per garment vertex its `candidates` nearest points,
+    nearest first, and with posed_normals each candidate's ring of body points (asset 1.2). The runtime keeps each
+    posed garment vertex outside the blended tangent plane of its candidates nearest to it (pleat.reference.
+    body_contact), the simulator's vertex-plane measure. candidates = 1 without posed_normals writes an asset 1.1
+    block (one point per vertex, the blended rest normals: the cheapest contact, for the cheapest tiers)."""
     from scipy.spatial import cKDTree
 
     from pleat.asset import NO_CANDIDATE
@@ -122,15 +148,35 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     distance, nearest = cKDTree(v_template).query(np.asarray(template, np.float64), k=C)
     distance, nearest = distance.reshape(len(template), C), nearest.reshape(len(template), C)
     far = distance[:, 0] > max_distance_m                                   # no candidates at all
-    if C == 1:
+    ring_table = None
+    if C == 1 and not posed_normals:
         points, table = nearest[:, 0], None                                 # asset 1.1: point i is vertex i's
         point_normals = normals[points]
         point_normals[far] = 0.0
     else:
-        points, inverse = np.unique(nearest[~far], return_inverse=True)    # body vertices in index order
+        # The candidates, then (posed_normals) the rest of their rings, posed with them so that the runtime can take
+        # the posed body's own normal at each candidate from the points around it. Stored in the order the garment
+        # first reaches them (its vertices in order, each vertex's candidates nearest first, then the ring corners):
+        # the runtime reads a vertex's candidates and a point's ring from rows that neighbouring vertices and points
+        # have just read, not from all over the table.
+        def first_seen(values):
+            values = np.asarray(values, np.int64).ravel()
+            _, first = np.unique(values, return_index=True)
+            return values[np.sort(first)]
+        anchors = first_seen(nearest[~far])
+        rings = _vertex_rings(faces, len(v_template), anchors) if posed_normals else {}
+        points = first_seen(np.concatenate([anchors] + [rings[v] for v in anchors if v in rings]))
+        slot = np.full(len(v_template), -1, np.int64)
+        slot[points] = np.arange(len(points))
         table = np.full((len(template), C), NO_CANDIDATE, np.int64)
-        table[~far] = inverse.reshape(-1, C)
+        table[~far] = slot[nearest[~far]]
         point_normals = normals[points]
+        point_normals[~np.isin(points, anchors)] = 0.0                     # ring corners only: never an anchor
+        if posed_normals:
+            ring_table = np.full((len(points), BODY_POINT_RING), NO_CANDIDATE, np.int64)
+            for v, r in rings.items():
+                if 3 <= len(r) <= BODY_POINT_RING:                          # else the blended rest normal
+                    ring_table[slot[v], :len(r)] = slot[r]
     k = min(influences, skin.shape[1])
     top = np.argsort(-skin[points], axis=1, kind="stable")[:, :k]
     top_weights = np.take_along_axis(skin[points], top, axis=1)
@@ -143,6 +189,8 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
            "body_anchor_skin_weights": (top_weights / top_weights.sum(axis=1, keepdims=True)).astype(np.float32)}
     if table is not None:
         out["body_anchor_candidates"] = table.astype(np.uint16)
+    if ring_table is not None:
+        out["body_anchor_ring"] = ring_table.astype(np.uint16)
     return out
 
 
@@ -156,10 +204,14 @@ def body_contact_meta(anchors):
                 "anchored_vertices": anchored, "vertices": int(len(anchors["body_anchor"])),
                 "max_distance_m": BODY_ANCHOR_MAX_DISTANCE_M}
     from pleat.asset import NO_CANDIDATE
+    rings = anchors.get("body_anchor_ring")
     return {"anchors": f"the {table.shape[1]} nearest rest body vertices per garment vertex (candidates; the runtime "
-                       "takes the one nearest in the pose), each with its normal and its own top-"
-                       f"{anchors['body_anchor_skin_indices'].shape[1]} skin weights",
+                       "blends those nearest in the pose), each with its own top-"
+                       f"{anchors['body_anchor_skin_indices'].shape[1]} skin weights and "
+                       + ("its ring of body vertices (the posed body's normal)" if rings is not None
+                          else "its rest normal (turned by the blended matrix)"),
             "points": int(len(anchors["body_anchor"])), "candidates": int(table.shape[1]),
+            "posed_normals": rings is not None,
             "anchored_vertices": int(np.count_nonzero(table[:, 0] != NO_CANDIDATE)), "vertices": int(len(table)),
             "max_distance_m": BODY_ANCHOR_MAX_DISTANCE_M}
 

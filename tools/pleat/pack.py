@@ -1,8 +1,8 @@
 """pleat-pack: weights file (.npz / .safetensors) → Pleat asset (.pleat), and asset inspection. No PyTorch.
 
     pleat-pack WEIGHTS.npz --out OUT.pleat [--fp16] [--onnx] [--name NAME] [--metadata JSON] [--export-onnx DIR]
-               [--body-contact [BODY.npz]]
-    pleat-pack IN.pleat --out OUT.pleat --body-contact      # repack an asset, adding its body anchors
+               [--body-contact [BODY.npz]] [--contact-candidates C] [--contact-rest-normals]
+    pleat-pack IN.pleat --out OUT.pleat --body-contact      # repack an asset, adding (or redoing) its body contact
     pleat-pack --info FILE.pleat
 """
 import argparse
@@ -71,8 +71,15 @@ def build_parser():
     p.add_argument("--metadata", help="META JSON: inline JSON text or a path to a .json file (overrides metadata_json)")
     p.add_argument("--export-onnx", metavar="DIR", help="also write latent_predictor.onnx and decoder.onnx to DIR")
     p.add_argument("--body-contact", nargs="?", const="", default=None, metavar="BODY",
-                   help="add body anchors (asset 1.1 body contact) computed against this body npz (default: the "
+                   help="add body contact (asset 1.2: body points, candidates, rings) computed against this body npz (default: the "
                         "shipped body, assets/body.npz)")
+    p.add_argument("--contact-candidates", type=int, default=None, metavar="C",
+                   help="with --body-contact: candidate body points per garment vertex (1..16, default 4; "
+                        "docs/asset-format.md \"Body contact\")")
+    p.add_argument("--contact-rest-normals", action="store_true",
+                   help="with --body-contact: turn each point's rest normal by its blended matrix instead of taking "
+                        "the posed body's normal (cheaper, less exact near the joints); with --contact-candidates 1 "
+                        "this writes the asset 1.1 block")
     p.add_argument("--info", metavar="FILE", help="print header, sections, counts and META of an asset and exit")
     add_quiet(p)
     return p
@@ -105,8 +112,14 @@ def main(argv=None):
         raise not_npz(a.weights, e, "a weights file") from None
     if a.body_contact is not None:
         from pleat.body import BodyModel
-        from pleat.garment_asset import body_anchors, body_contact_meta
-        weights.update(body_anchors(weights["template"], BodyModel.load(a.body_contact or None)))
+        from pleat.garment_asset import BODY_CONTACT_CANDIDATES, body_anchors, body_contact_meta
+        if a.contact_candidates is not None and not 1 <= a.contact_candidates <= pa.MAX_CONTACT_CANDIDATES:
+            raise InputError("--contact-candidates", f"{a.contact_candidates}: must be 1..{pa.MAX_CONTACT_CANDIDATES}")
+        for key in ("body_anchor_candidates", "body_anchor_ring"):   # the new block replaces any earlier one whole
+            weights.pop(key, None)
+        weights.update(body_anchors(weights["template"], BodyModel.load(a.body_contact or None),
+                                    candidates=a.contact_candidates or BODY_CONTACT_CANDIDATES,
+                                    posed_normals=not a.contact_rest_normals))
         if weights.get("metadata_json") is not None:
             meta = json.loads(str(weights["metadata_json"]))
             meta["body_contact"] = body_contact_meta(weights)

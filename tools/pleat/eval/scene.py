@@ -32,10 +32,10 @@ def read_weights(source):
 def lbs_only_weights(weights, body_contact=False):
     """The same garment, skeleton and ranges with the zero network: the LBS-only baseline, run through the same
     runtime path as the trained model. Plain skinning unless body_contact (then the asset's body anchors stay)."""
-    from pleat.asset import BODY_CONTACT_CANDIDATES_KEY, BODY_CONTACT_KEYS
+    from pleat.asset import BODY_CONTACT_CANDIDATES_KEY, BODY_CONTACT_RING_KEY, BODY_CONTACT_KEYS
     w = {k: v for k, v in weights.items()
          if k not in NETWORK_KEYS and not k.startswith(("lp.", "dec.", "onnx_"))
-         and (body_contact or k not in BODY_CONTACT_KEYS + (BODY_CONTACT_CANDIDATES_KEY,))}
+         and (body_contact or k not in BODY_CONTACT_KEYS + (BODY_CONTACT_CANDIDATES_KEY, BODY_CONTACT_RING_KEY))}
     N = len(w["template"])
     B = len(w["shape_blend"])
     Jin = len(w["input_joints"])

@@ -4,7 +4,13 @@
 The asset carries P body points (asset 1.1: P = N, one per garment vertex): a point r_p on the rest body surface
 (shaped by β like the template), the body's unit normal n_p there, and the body's own skin weights at that point.
 Per frame each point is posed with those weights, M_p = Σ_k w_pk M_{j_pk} (pose_contact_points):
-    a_p = M_p · (r_p, 1),   n_p = normalize(M_p[:, :3] · n_p)
+    a_p = M_p · (r_p, 1),   n_p = normalize(Σ_i (a_{r_i} − a_p) × (a_{r_(i+1) mod m} − a_p))
+(asset 1.2, BARG: the posed body's own area-weighted normal, from the ring of posed points r_0..r_(m−1) around p;
+without a ring, and in asset 1.1, n_p = normalize(M_p[:, :3] · n_rest)). Why the posed mesh's normal: the blended matrix turns the rest normal
+by the joints' rotations only, so near the shoulders, the armpits and the waist, where the skin stretches and folds, it
+tilts away from the surface; on the three validation clips with most contact that left 1.27 % of vertex-frames inside
+the body with one point per vertex, and candidates did not help (1.25 %); with the posed normal 1.11 % and 0.91 %
+with 8 candidates (docs/accuracy.md "Body contact").
 Each garment vertex i has up to C candidate points (asset 1.2, BACA; 1.1: its own point). Of the usable ones, those
 almost as near to x_i as the nearest blend into one plane, with weights that fall to zero at a margin above the
 nearest squared distance m:
@@ -33,14 +39,28 @@ CONTACT_BLEND_SHARE = 0.1
 CONTACT_BLEND_M = 0.001
 
 
-def pose_contact_points(shaped_points, point_normals, point_skin_indices, point_skin_weights, skin_matrices):
-    """shaped_points / point_normals [P, 3] (rest), point skin [P, K], skin_matrices [J, 3, 4] → posed points [P, 3],
-    unit normals [P, 3] and whether each point can anchor [P] (a non-zero rest normal and a non-degenerate blend)."""
+def pose_contact_points(shaped_points, point_normals, point_skin_indices, point_skin_weights, skin_matrices,
+                        point_rings=None):
+    """shaped_points / point_normals [P, 3] (rest), point skin [P, K], skin_matrices [J, 3, 4], point_rings [P, R] or
+    None → posed points [P, 3], unit normals [P, 3] and whether each point can anchor [P]. A point with a ring (asset
+    1.2, BARG: the m ≥ 3 body points around it, counter-clockwise seen from outside, NO_CANDIDATE after them) takes the
+    posed body's own area-weighted normal there, Σ_i (x_{r_i} − x_p) × (x_{r_(i+1) mod m} − x_p) (the sum over the
+    faces of its closed fan), as the simulator and pleat-eval measure contact; a point without, the blended matrix
+    times its rest normal. A point can anchor where its rest normal is non-zero and its normal longer than 1e-12."""
     blended = blend_matrices(point_skin_indices, point_skin_weights, skin_matrices)
     a = np.einsum("nij,nj->ni", blended[..., :3], np.asarray(shaped_points, np.float64)) + blended[..., 3]
     n = np.einsum("nij,nj->ni", blended[..., :3], np.asarray(point_normals, np.float64))
+    if point_rings is not None:
+        ring = np.asarray(point_rings, np.int64)                               # [P, R]
+        m = np.sum(ring < len(a), axis=1)                                       # the used entries are a prefix
+        d = a[np.where(ring < len(a), ring, 0)] - a[:, None, :]                 # [P, R, 3]
+        following = (np.arange(ring.shape[1])[None, :] + 1) % np.maximum(m, 1)[:, None]
+        cross = np.cross(d, np.take_along_axis(d, following[..., None], axis=1))
+        cross *= (np.arange(ring.shape[1])[None, :] < m[:, None])[..., None]
+        n = np.where((m >= 3)[:, None], cross.sum(axis=1), n)
     length = np.linalg.norm(n, axis=1)
-    usable = length > MIN_NORMAL_LENGTH
+    anchorable = np.any(np.asarray(point_normals) != 0.0, axis=1)
+    usable = anchorable & (length > MIN_NORMAL_LENGTH)
     return a, n / np.where(usable, length, 1.0)[:, None], usable
 
 
@@ -62,13 +82,13 @@ def candidate_weights(positions, posed_points, usable, candidates):
 
 
 def body_contact(positions, shaped_points, point_normals, point_skin_indices, point_skin_weights, skin_matrices,
-                 offset_m, candidates=None):
+                 offset_m, candidates=None, point_rings=None):
     """positions [N, 3] (skinned), the body points [P, 3] / [P, 3] / [P, K] / [P, K], skin_matrices [J, 3, 4],
     candidates [N, C] or None (P = N, each vertex its own point) → positions [N, 3] outside the blended tangent plane
     of the nearest candidates by at least offset_m."""
     x = np.asarray(positions, np.float64)
     a, n, usable = pose_contact_points(shaped_points, point_normals, point_skin_indices, point_skin_weights,
-                                       skin_matrices)
+                                       skin_matrices, point_rings)
     index, w = candidate_weights(x, a, usable, candidates)
     total = w.sum(axis=1)
     has = total > 0.0

@@ -243,11 +243,19 @@ def random_weights(vertices=4424, latent=128, blend=128, lp_hidden=(512, 512, 51
         table[:, 0], table[:, 1] = v, (v + 1) % N
         table[extra, 2] = N + np.arange(len(extra))
         table[v % 11 == 5] = 0xFFFF
+        # Rings (BARG) for the points under the tube's vertices: the tube's own fans (counter-clockwise seen from
+        # outside, so the posed normal points out like the rest one; pleat.garment_asset's rings); the second points
+        # keep the blended rest normal.
+        from pleat.garment_asset import _vertex_rings
+        ring_table = np.full((len(points), 8), 0xFFFF, np.int64)
+        for v, r in _vertex_rings(faces, N, np.arange(N)).items():
+            if 3 <= len(r) <= 8:
+                ring_table[v, :len(r)] = r
         w.update(body_anchor=points, body_anchor_shape=np.concatenate([shape, shape[:, extra]], axis=1),
                  body_anchor_normal=normal,
                  body_anchor_skin_indices=np.concatenate([skin_indices, skin_indices[extra]]),
                  body_anchor_skin_weights=np.concatenate([skin_weights, skin_weights[extra]]),
-                 body_anchor_candidates=table.astype(np.uint16))
+                 body_anchor_candidates=table.astype(np.uint16), body_anchor_ring=ring_table.astype(np.uint16))
     return w
 
 

@@ -79,6 +79,7 @@ class Instance:
             self.anchor_skin_indices = np.asarray(asset["body_anchor_skin_indices"], np.int64)
             self.anchor_skin_weights = np.asarray(asset["body_anchor_skin_weights"], np.float64)
             self.anchor_candidates = asset.get("body_anchor_candidates")     # None: one point per vertex (1.1)
+            self.anchor_ring = asset.get("body_anchor_ring")                 # None: rotated rest normals
         self.parents = np.asarray(asset["joint_parents"], np.int64)
         self.input_joints = np.asarray(asset["input_joints"], np.int64)
         self.faces = np.asarray(asset["faces"], np.int64)
@@ -206,7 +207,7 @@ class Instance:
             if self.body_contact:
                 positions = body_contact(positions, self.shaped_anchors, self.anchor_normals, self.anchor_skin_indices,
                                          self.anchor_skin_weights, skin_matrices, self.body_contact_offset_m,
-                                         self.anchor_candidates)
+                                         self.anchor_candidates, self.anchor_ring)
             vertex_normals = normals(positions, self.faces, self.adjacency_offsets, self.adjacency_faces)
         return positions, vertex_normals, bool(np.all(np.isfinite(positions)) and np.all(np.isfinite(vertex_normals)))
 
