@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from pleat import asset as pa
+from pleat.reference.body_contact import body_contact
 from pleat.reference import Instance, shape_blend, skinning
 from pleat.reference.golden import random_motion, random_weights
 
@@ -56,9 +57,15 @@ def test_non_finite_from_the_reset_state_dresses_the_body_without_learned_deform
             for latent, weights in ((c_inst.latent, c_inst.blend_weights),
                                     (reference.latent, reference.blend_weights)):
                 assert not np.any(latent) and not np.any(weights)
-            # the body without learned deformation: T + G_S(β), skinned with this pose's matrices
+            # the body without learned deformation: T + G_S(β), skinned with this pose's matrices (then kept outside
+            # the body, as every step is: the asset has body contact)
             shaped = shape_blend(asset["template"], asset["shape_blend"], reference.beta)
             expected = skinning(shaped, asset["skin_indices"], asset["skin_weights"], reference.skin_matrices)
+            assert reference.body_contact
+            expected = body_contact(expected, reference.shaped_anchors, reference.anchor_normals,
+                                    reference.anchor_skin_indices, reference.anchor_skin_weights,
+                                    reference.skin_matrices, reference.body_contact_offset_m,
+                                    reference.anchor_candidates, reference.anchor_ring)
             np.testing.assert_allclose(pos, expected, atol=1e-12)
             np.testing.assert_allclose(c_pos, pos, atol=1e-5, err_msg=f"step {k}")
             np.testing.assert_allclose(c_nrm, nrm, atol=1e-4, err_msg=f"step {k}")

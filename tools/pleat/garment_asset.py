@@ -101,6 +101,19 @@ BODY_ANCHOR_MAX_DISTANCE_M = 0.05
 # candidates do not help while the normal is the turned one; with the posed normal 1 candidate 1.11 %, 4 0.96 %,
 # 8 0.91 %. Each candidate costs ~4 ns per vertex and step, the posed normals ~15 ns per point: 4 by default.
 BODY_CONTACT_CANDIDATES = 4
+# Body contact per tier, (candidates, posed normals): the contact costs as much as a small network (docs/benchmarks.md
+# "Body contact"), so the cheaper tiers get less of it, as they get smaller networks: one candidate with the posed
+# normal for medium and small, and the asset 1.1 contact (one point, the turned rest normal) for the coarse xsmall.
+TIER_CONTACT = {"medium": (1, True), "small": (1, True), "xsmall": (1, False)}
+
+
+def tier_contact(tier):
+    """(candidates, posed_normals) for a tier name: "medium", "small", "xsmall" as TIER_CONTACT says; anything else
+    ("large", a member, several students averaged as one network, "<n>x<tier>") costs as the top tier, and gets its
+    contact."""
+    return TIER_CONTACT.get(str(tier or ""), (BODY_CONTACT_CANDIDATES, True))
+
+
 # Ring points kept per body point (asset 1.2, BARG): the body mesh has at most 8 around a vertex.
 BODY_POINT_RING = 8
 
@@ -216,14 +229,15 @@ def body_contact_meta(anchors):
             "max_distance_m": BODY_ANCHOR_MAX_DISTANCE_M}
 
 
-def weights_from_garment(garment, body, network=None, metadata=None, name=None):
+def weights_from_garment(garment, body, network=None, metadata=None, name=None, contact=None):
     """The weights dict pleat-pack / pleat.asset.write_asset reads (docs/asset-format.md key names).
 
     garment: a pleat.garment Garment, a dict or an npz with template, faces, skin_indices, skin_weights, shape_blend
     [B,N,3] and optionally pinned, name. body: pleat.body.BodyModel (or anything with v_template, shapedirs [V,3,B],
     J_regressor, parents, joint_names). network: None for the LBS-only model, else a dict with the trained keys
     (x_mean, x_std, z_*, lp.i.*, dec.i.*, blend_shapes, lp_activation, dec_activation, optionally train_fps and any
-    range override). metadata: extra META JSON fields.
+    range override). metadata: extra META JSON fields. contact: (candidates, posed_normals) of the body contact
+    (tier_contact; default the top tier's).
     """
     names, parents, joint_template, joint_shapedirs = skeleton_from_body(body)
     input_joints = input_joint_indices(names)
@@ -258,7 +272,8 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None):
     if pinned is not None and len(pinned) > 0:
         weights["pinned"] = np.asarray(pinned, dtype=np.int64)
     if _field(body, "faces") is not None and _field(body, "weights") is not None:   # a body with a surface
-        weights.update(body_anchors(template, body))
+        candidates, posed_normals = contact or (BODY_CONTACT_CANDIDATES, True)
+        weights.update(body_anchors(template, body, candidates=candidates, posed_normals=posed_normals))
 
     meta = {"garment": garment_name, "vertices": int(template.shape[0]), "faces": int(weights["faces"].shape[0])}
     body_source = _field(body, "source", None)

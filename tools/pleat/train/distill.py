@@ -278,7 +278,8 @@ def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=Tr
             "tier": report["tier"], "distillation": {k: v for k, v in report.items()},
             "teacher": str(teacher) if teacher else None,
             "training": dict({"preset": setup.cfg.get("preset")}, **(training or {}))}
-    weights = ga.weights_from_garment(garment, setup.body, net, metadata=meta, name=setup.name)
+    weights = ga.weights_from_garment(garment, setup.body, net, metadata=meta, name=setup.name,
+                                      contact=ga.tier_contact(report["tier"]))
     write_asset(str(path), weights, fp16=fp16, onnx=onnx)
     return weights
 
