@@ -47,8 +47,6 @@ typedef struct plGlDeformerDesc
 	uint32_t body_point_count;                // P
 	const uint16_t* body_anchor_candidates;   // [N][C], PLEAT_NO_CONTACT_CANDIDATE = empty; NULL: vertex v's point is v
 	uint32_t body_anchor_candidate_count;     // C (1 with NULL candidates)
-	const uint16_t* body_anchor_faces;        // [P][R][2] or NULL: the points' normals from the posed faces around them
-	uint32_t body_anchor_face_count;          // R (0 with NULL faces)
 	const uint16_t* body_anchor_ring;         // [P][R] (BARG) or NULL: each point's ring, for the posed body's normal
 	uint32_t body_anchor_ring_count;          // R (3..PLEAT_MAX_POINT_RING; 0 with NULL rings)
 	// Host-context mode only, optional (0 = the deformer owns its output buffers): GL buffer names the engine renders

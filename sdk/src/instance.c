@@ -197,8 +197,8 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 			desc.body_point_count = a->body_point_count;
 			desc.body_anchor_candidates = a->body_anchor_candidates;
 			desc.body_anchor_candidate_count = a->body_anchor_candidate_count;
-			desc.body_anchor_faces = NULL; // (the GL path's ring normals: not yet)
-			desc.body_anchor_face_count = 0;
+			desc.body_anchor_ring = a->body_anchor_ring;
+			desc.body_anchor_ring_count = a->body_anchor_ring_count;
 		}
 		desc.host_position_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_position_buffer : 0;
 		desc.host_normal_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_normal_buffer : 0;

@@ -100,7 +100,6 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 #define PLEAT_NO_CONTACT_CANDIDATE 0xFFFFu
 // At most this many points in a body point's ring (BARG): the body mesh has at most 8 around a vertex.
 #define PLEAT_MAX_POINT_RING 8
-#define PLEAT_MAX_POINT_FACES 8 // TEMPORARY: the GL path until it takes rings
 // The candidates almost as near as the nearest blend into one plane (body_contact.c says why): the share of the
 // nearest squared distance, and a floor in metres, within which a candidate still counts.
 #define PLEAT_CONTACT_BLEND_SHARE 0.1f

@@ -1,12 +1,14 @@
 // GPU modes in a batch (issue 13): plStepInstances runs a group of GPU-mode instances of one asset with ONE dispatch
-// per shader pass (blend shapes, skinning, posing the body points, the body-contact push, face normals, normals gather:
-// the instance in gl_WorkGroupID.y), and every instance ends where stepping it alone with plInstance_Step ends — the
-// same results, the same positions and normals (read back, and in the engine's vertex buffers in host-context mode)
-// within the GL-vs-CPU tolerance of test_gl_instance (2e-5 m, 1e-3 per normal component; on llvmpipe the two are in
-// fact equal), and the same as the CPU path within that tolerance. The crowd: different β, body contact on and off (the
-// asset carries body points 2 mm behind the sheet and candidate points beside it, plTestAsset_AddBodyAnchors, so
-// contact moves vertices), a network rate (steps that re-blend the held weights), read-backs for some instances and
-// none for others. Skips (exit 77 through cmocka's skip) without a GL 4.3 context.
+// per shader pass (blend shapes, skinning, posing the body points, their normals from the posed body rings, the
+// body-contact push, face normals, normals gather: the instance in gl_WorkGroupID.y), and every instance ends where
+// stepping it alone with plInstance_Step ends — the same results, the same positions and normals (read back, and in
+// the engine's vertex buffers in host-context mode) within the GL-vs-CPU tolerance of test_gl_instance (2e-5 m, 1e-3
+// per normal component; on llvmpipe the two are in fact equal), and the same as the CPU path within that tolerance.
+// The crowd: different β, body contact on and off (the asset carries body points 2 mm behind the sheet, each interior
+// one with the ring of grid points around it (asset 1.2, BARG: its normal comes from the posed ring), and candidate
+// points beside it, plTestAsset_AddBodyAnchors, so contact moves vertices), a network rate (steps that re-blend the held
+// weights), read-backs for some instances and none for others. Skips (exit 77 through cmocka's skip) without a GL 4.3
+// context.
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -47,6 +49,7 @@ static int plSetup( void** state )
 	plTestAsset* model = plTestAsset_Create( &params );
 	assert_non_null( model );
 	assert_true( plTestAsset_AddBodyAnchors( model, 0.002f ) );
+	assert_non_null( model->body_ring ); // the points' normals from the posed rings: the batch's second posing pass
 	assert_int_equal( plTestRig_Init( &fixture->rig, model, NULL ), PLEAT_RESULT_OK );
 	plTestAsset_Destroy( model );
 	assert_true( fixture->rig.info.has_body_contact );
@@ -182,8 +185,9 @@ static void plRunCrowd( plBatchFixture* fixture, plGpuMode mode )
 		assert_true( plStepInstances( fixture->rig.context, crowd.batch, inputs, outputs[0], batch_results,
 									  PLEAT_TEST_CROWD ) >= 0 );
 		uint64_t dispatches = atomic_load( &g_plGlDispatches ) - before;
-		// one per pass for the whole crowd: blend, skinning, body points, body contact, face normals, gather
-		assert_int_equal( dispatches, 6 );
+		// one per pass for the whole crowd: blend, skinning, body points, their ring normals, body contact, face
+		// normals, gather
+		assert_int_equal( dispatches, 7 );
 		for ( uint32_t i = 0; i < PLEAT_TEST_CROWD; ++i )
 		{
 			assert_int_equal( plInstance_Step( crowd.single[i], &inputs[i], &outputs[1][i] ), batch_results[i] );
@@ -233,7 +237,7 @@ static void plRunCrowd( plBatchFixture* fixture, plGpuMode mode )
 		free( rows );
 	}
 	print_message( "%s, %d instances, %d frames: max |batch - one by one| position %.3g m, normal %.3g; max |batch - "
-				   "cpu| position %.3g m, normal %.3g; 6 dispatches per batch\n",
+				   "cpu| position %.3g m, normal %.3g; 7 dispatches per batch\n",
 				   mode == PLEAT_GPU_MODE_HEADLESS ? "headless" : "host context", PLEAT_TEST_CROWD, PLEAT_TEST_FRAMES,
 				   worst[0][0], worst[0][1], worst[1][0], worst[1][1] );
 	assert_true( worst[0][0] <= PLEAT_TEST_POSITION_TOLERANCE_M && worst[0][1] <= PLEAT_TEST_NORMAL_TOLERANCE );

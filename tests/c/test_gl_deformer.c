@@ -273,12 +273,20 @@ static void test_set_shaped_template_moves_the_output( void** state )
 // tube or the out-of-range index P, and empty slots (PLEAT_NO_CONTACT_CANDIDATE, leading for every fourth vertex);
 // every 97th vertex has only empty slots and stays as skinned. The blend shapes (±3 cm each) push many vertices
 // through the body.
+// With rings (asset 1.2, BARG; R = 8 entries): a cylinder point whose ring + segment is 0 or 1 mod 4 lists its four
+// ring and segment neighbours counter-clockwise seen from outside (up, right, down, left), one that is 2 mod 4 those
+// and the four diagonal ones between them, and then empty entries (0xFFFF); on the first and last ring the missing
+// neighbours are left out (rings of 3 and 5). The others (3 mod 4) and the copies have no ring and keep the blended
+// rest normal. The points with a ring get a rest normal tilted 23° down, which the posed body's normal must replace;
+// the points without a normal are in their neighbours' rings all the same, so their posed positions are needed (and
+// some have a ring themselves, yet never anchor).
 #define PLEAT_TEST_BODY_RINGS 30u
 #define PLEAT_TEST_BODY_SEGMENTS 20u
 #define PLEAT_TEST_BODY_COPIES 20u
 #define PLEAT_TEST_BODY_POINTS ( PLEAT_TEST_BODY_RINGS * PLEAT_TEST_BODY_SEGMENTS + PLEAT_TEST_BODY_COPIES )
 #define PLEAT_TEST_BODY_INFLUENCES 2u
 #define PLEAT_TEST_BODY_CANDIDATES 8u
+#define PLEAT_TEST_BODY_RING 8u
 #define PLEAT_TEST_NO_CANDIDATE 0xFFFFu
 #define PLEAT_TEST_CONTACT_OFFSET_M 0.004f
 // pleat.h BODY CONTACT's blend of the candidates almost as near as the nearest (kernels.h PLEAT_CONTACT_BLEND_SHARE and
@@ -293,12 +301,46 @@ typedef struct plTestBody
 	uint16_t skin_indices[PLEAT_TEST_BODY_POINTS * PLEAT_TEST_BODY_INFLUENCES];
 	float skin_weights[PLEAT_TEST_BODY_POINTS * PLEAT_TEST_BODY_INFLUENCES];
 	uint16_t* candidates; // [N][C]
+	uint16_t rings[PLEAT_TEST_BODY_POINTS * PLEAT_TEST_BODY_RING]; // [P][R]
+	uint32_t ring_count;  // R, 0 = no rings (the desc gets NULL)
 } plTestBody;
 
-static void plTestBody_Build( plTestBody* body, const plTestMesh* mesh, float radius_m )
+// How many neighbours cylinder point q (< rings × segments) lists in its ring away from the ends: 4, 8 or 0.
+static uint32_t plTestBody_RingKind( uint32_t q )
+{
+	static const uint32_t kinds[4] = { 4, 4, 8, 0 };
+	return kinds[( q / PLEAT_TEST_BODY_SEGMENTS + q % PLEAT_TEST_BODY_SEGMENTS ) % 4u];
+}
+
+static void plTestBody_BuildRings( plTestBody* body )
+{
+	const uint32_t base = PLEAT_TEST_BODY_RINGS * PLEAT_TEST_BODY_SEGMENTS, S = PLEAT_TEST_BODY_SEGMENTS;
+	body->ring_count = PLEAT_TEST_BODY_RING;
+	for ( uint32_t e = 0; e < PLEAT_TEST_BODY_POINTS * PLEAT_TEST_BODY_RING; ++e )
+		body->rings[e] = PLEAT_TEST_NO_CANDIDATE;
+	// Counter-clockwise seen from outside: the segment direction × the ring direction points into the cylinder, so
+	// up (+1 ring) comes before right (+1 segment).
+	static const int around_ring[8] = { 1, 1, 0, -1, -1, -1, 0, 1 }, around_segment[8] = { 0, 1, 1, 1, 0, -1, -1, -1 };
+	for ( uint32_t p = 0; p < base; ++p )
+	{
+		uint32_t kind = plTestBody_RingKind( p ), m = 0;
+		int ring = (int)( p / S ), segment = (int)( p % S );
+		for ( uint32_t e = 0; e < 8 && kind > 0; e += 8 / kind )
+		{
+			int r = ring + around_ring[e], s = ( segment + around_segment[e] + (int)S ) % (int)S;
+			if ( r >= 0 && r < (int)PLEAT_TEST_BODY_RINGS )
+				body->rings[(size_t)p * PLEAT_TEST_BODY_RING + m++] = (uint16_t)( (uint32_t)r * S + (uint32_t)s );
+		}
+	}
+}
+
+static void plTestBody_Build( plTestBody* body, const plTestMesh* mesh, float radius_m, int with_rings )
 {
 	const float height = 1.2f; // plTestMesh_Build's tube
 	const uint32_t base = PLEAT_TEST_BODY_RINGS * PLEAT_TEST_BODY_SEGMENTS;
+	body->ring_count = 0;
+	if ( with_rings )
+		plTestBody_BuildRings( body );
 	for ( uint32_t p = 0; p < PLEAT_TEST_BODY_POINTS; ++p )
 	{
 		uint32_t q = p < base ? p : ( p - base ) * 30u + 1u; // a copy of point q
@@ -308,7 +350,7 @@ static void plTestBody_Build( plTestBody* body, const plTestMesh* mesh, float ra
 		body->points[3 * p] = radius_m * cosf( angle );
 		body->points[3 * p + 1] = y;
 		body->points[3 * p + 2] = radius_m * sinf( angle );
-		float tilt = p < base ? 0.0f : 0.5235988f;
+		float tilt = p >= base ? 0.5235988f : with_rings && plTestBody_RingKind( p ) > 0 ? -0.4f : 0.0f;
 		int without = p < base && p % 7 == 0;
 		body->normals[3 * p] = without ? 0.0f : cosf( tilt ) * cosf( angle );
 		body->normals[3 * p + 1] = without ? 0.0f : sinf( tilt );
@@ -363,6 +405,8 @@ static void plAddBody( plGlDeformerDesc* desc, const plTestBody* body )
 	desc->body_point_count = PLEAT_TEST_BODY_POINTS;
 	desc->body_anchor_candidates = body->candidates;
 	desc->body_anchor_candidate_count = PLEAT_TEST_BODY_CANDIDATES;
+	desc->body_anchor_ring = body->ring_count > 0 ? body->rings : NULL;
+	desc->body_anchor_ring_count = body->ring_count;
 }
 
 // What the contact did across a run, to show that the body exercised the rules.
@@ -370,17 +414,20 @@ typedef struct plContactCounts
 {
 	uint32_t pushed;        // vertices moved out
 	uint32_t blended;       // of those, vertices whose plane blends two or more candidates
+	uint32_t from_rings;    // of those, vertices whose plane has a normal from a posed ring in it
+	double ring_turn;       // largest angle (radians) between a usable point's ring normal and its blended rest normal
 	double worst_position;  // largest |GPU − reference| (m)
 	double worst_normal;
 } plContactCounts;
 
 // The body contact of pleat.h in double, written out from the equations (not from body_contact.c): positions [N][3]
-// skinned in, pushed out of the plane blended from the candidates almost as near as the nearest.
+// skinned in, pushed out of the plane blended from the candidates almost as near as the nearest; a point with a ring
+// takes the posed body's normal there (tools/pleat/reference/body_contact.py pose_contact_points).
 static void plReferenceBodyContact( const plTestMesh* mesh, const plTestBody* body, const float* skin_matrices,
 									double offset_m, double* positions, plContactCounts* counts )
 {
 	static double posed[PLEAT_TEST_BODY_POINTS][3], normal[PLEAT_TEST_BODY_POINTS][3];
-	static int usable[PLEAT_TEST_BODY_POINTS];
+	static int usable[PLEAT_TEST_BODY_POINTS], from_ring[PLEAT_TEST_BODY_POINTS];
 	for ( uint32_t p = 0; p < PLEAT_TEST_BODY_POINTS; ++p )
 	{
 		double m[12] = { 0.0 };
@@ -403,6 +450,43 @@ static void plReferenceBodyContact( const plTestMesh* mesh, const plTestBody* bo
 		for ( int row = 0; row < 3 && usable[p]; ++row )
 			normal[p][row] /= length;
 	}
+	// Every point is posed before any normal reads its ring: the ones without a normal too. n = Σ d_i × d_{i+1 mod m}.
+	for ( uint32_t p = 0; p < PLEAT_TEST_BODY_POINTS; ++p )
+	{
+		const uint16_t* ring = body->rings + (size_t)p * body->ring_count;
+		uint32_t m = 0;
+		for ( uint32_t e = 0; e < body->ring_count; ++e )
+			m += ring[e] < PLEAT_TEST_BODY_POINTS;
+		from_ring[p] = m >= 3;
+		if ( !from_ring[p] )
+			continue; // no ring: the blended rest normal stands
+		double sum[3] = { 0.0, 0.0, 0.0 };
+		for ( uint32_t i = 0; i < m; ++i )
+		{
+			double u[3], w[3];
+			for ( int e = 0; e < 3; ++e )
+			{
+				u[e] = posed[ring[i]][e] - posed[p][e];
+				w[e] = posed[ring[( i + 1 ) % m]][e] - posed[p][e];
+			}
+			sum[0] += u[1] * w[2] - u[2] * w[1];
+			sum[1] += u[2] * w[0] - u[0] * w[2];
+			sum[2] += u[0] * w[1] - u[1] * w[0];
+		}
+		double length = sqrt( sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2] );
+		const float* n = body->normals + 3 * p;
+		int was_usable = usable[p];
+		usable[p] = !( n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f ) && length > 1e-12;
+		if ( !usable[p] )
+			continue;
+		double cosine = 0.0; // with the blended rest normal, where that one is a unit normal
+		for ( int e = 0; e < 3; ++e )
+			cosine += normal[p][e] * sum[e] / length;
+		if ( was_usable )
+			counts->ring_turn = fmax( counts->ring_turn, acos( fmin( 1.0, cosine ) ) );
+		for ( int e = 0; e < 3; ++e )
+			normal[p][e] = sum[e] / length;
+	}
 	for ( uint32_t v = 0; v < mesh->vertex_count; ++v )
 	{
 		double* x = positions + 3 * v;
@@ -423,7 +507,7 @@ static void plReferenceBodyContact( const plTestMesh* mesh, const plTestBody* bo
 			continue;
 		double limit = ( 1.0 + PLEAT_TEST_BLEND_SHARE ) * nearest + PLEAT_TEST_BLEND_M * PLEAT_TEST_BLEND_M;
 		double total = 0.0, a[3] = { 0.0, 0.0, 0.0 }, n[3] = { 0.0, 0.0, 0.0 };
-		uint32_t blended = 0;
+		uint32_t blended = 0, rings = 0;
 		for ( uint32_t c = 0; c < PLEAT_TEST_BODY_CANDIDATES; ++c )
 		{
 			double w = limit - d2[c]; // −∞ for empty slots and unusable points
@@ -431,6 +515,7 @@ static void plReferenceBodyContact( const plTestMesh* mesh, const plTestBody* bo
 				continue;
 			total += w;
 			blended += 1;
+			rings += (uint32_t)from_ring[slots[c]];
 			for ( int e = 0; e < 3; ++e )
 			{
 				a[e] += w * posed[slots[c]][e];
@@ -449,6 +534,7 @@ static void plReferenceBodyContact( const plTestMesh* mesh, const plTestBody* bo
 				x[e] += ( offset_m - d ) * n[e] / length;
 			counts->pushed += 1;
 			counts->blended += blended > 1;
+			counts->from_rings += rings > 0;
 		}
 	}
 }
@@ -497,26 +583,25 @@ static void plExpectContactFrame( plTestFixture* fixture, const plTestBody* body
 	assert_true( normal_error <= PLEAT_TEST_NORMAL_TOLERANCE );
 }
 
-static void test_body_contact_pushes_out_of_the_nearest_candidates( void** state )
+// One deformer over 12 frames of motion with contact on (a new β at frame 6), then off; every frame as the reference.
+static void plRunBodyContact( plTestFixture* fixture, int with_rings, plContactCounts* counts )
 {
-	plTestFixture* fixture = *state;
 	plTestEgl_Require( &fixture->engine );
 	const plTestMesh* mesh = &fixture->mesh;
 	plTestBody* body = calloc( 1, sizeof( *body ) );
-	plTestBody_Build( body, mesh, 0.12f );
+	plTestBody_Build( body, mesh, 0.12f, with_rings );
 	plGlDeformerDesc desc = plDescFor( mesh, PLEAT_GL_DEFORMER_HEADLESS, 0 );
 	plAddBody( &desc, body );
 	plGlDeformer* deformer = NULL;
 	assert_int_equal( plGlDeformer_Create( &desc, &fixture->allocator, &deformer ), PLEAT_RESULT_OK );
 	assert_int_equal( plGlDeformer_SetBodyContact( deformer, 1, PLEAT_TEST_CONTACT_OFFSET_M ), PLEAT_RESULT_OK );
-	plContactCounts counts = { 0, 0, 0.0, 0.0 };
 	for ( uint32_t frame = 0; frame < 12; ++frame )
 	{
 		if ( frame == 6 )
 		{
 			// A new β moves the body points with the template (rows N..N+P−1 of the same upload).
 			free( body->candidates ); // built again, the same
-			plTestBody_Build( body, mesh, 0.125f );
+			plTestBody_Build( body, mesh, 0.125f, with_rings );
 			assert_int_equal( plGlDeformer_SetShapedTemplate( deformer, mesh->shaped_template, body->points ),
 							  PLEAT_RESULT_OK );
 		}
@@ -525,33 +610,52 @@ static void test_body_contact_pushes_out_of_the_nearest_candidates( void** state
 											fixture->positions, fixture->normals ),
 						  PLEAT_RESULT_OK );
 		plExpectContactFrame( fixture, body, fixture->blend_weights, fixture->skin_matrices, fixture->positions,
-							  fixture->normals, PLEAT_TEST_CONTACT_OFFSET_M, &counts );
+							  fixture->normals, PLEAT_TEST_CONTACT_OFFSET_M, counts );
 	}
-	print_message( "body contact, P = %u, C = %u: %u vertex pushes over 12 frames, %u of them from a blend of candidates; "
-				   "max position error %.3g m, max normal error %.3g\n",
-				   PLEAT_TEST_BODY_POINTS, PLEAT_TEST_BODY_CANDIDATES, counts.pushed, counts.blended,
-				   counts.worst_position, counts.worst_normal );
-	assert_true( counts.pushed > 1000 );
-	assert_true( counts.blended > 0 );
+	print_message( "body contact, P = %u, C = %u, R = %u: %u vertex pushes over 12 frames, %u of them from a blend of "
+				   "candidates, %u with normals from the posed rings (turned up to %.3g rad from the blended rest "
+				   "normal); max position error %.3g m, max normal error %.3g\n",
+				   PLEAT_TEST_BODY_POINTS, PLEAT_TEST_BODY_CANDIDATES, body->ring_count, counts->pushed,
+				   counts->blended, counts->from_rings, counts->ring_turn, counts->worst_position,
+				   counts->worst_normal );
+	assert_true( counts->pushed > 1000 );
+	assert_true( counts->blended > 0 );
 	// Off: the skinned positions as they are.
 	assert_int_equal( plGlDeformer_SetBodyContact( deformer, 0, PLEAT_TEST_CONTACT_OFFSET_M ), PLEAT_RESULT_OK );
 	assert_int_equal( plGlDeformer_Run( deformer, fixture->blend_weights, fixture->skin_matrices, fixture->positions,
 										fixture->normals ),
 					  PLEAT_RESULT_OK );
 	plExpectContactFrame( fixture, body, fixture->blend_weights, fixture->skin_matrices, fixture->positions,
-						  fixture->normals, -1.0, &counts );
+						  fixture->normals, -1.0, counts );
 	plGlDeformer_Destroy( deformer );
 	free( body->candidates );
 	free( body );
 	plExpectNoLeak( fixture );
 }
 
+static void test_body_contact_pushes_out_of_the_nearest_candidates( void** state )
+{
+	plContactCounts counts = { 0 };
+	plRunBodyContact( *state, 0, &counts );
+	assert_int_equal( counts.from_rings, 0 );
+}
+
+// Asset 1.2 with BARG: the anchorable points with a ring take the posed body's normal (pass 2 of the posing), the
+// others keep the blended rest normal; the ring points without a normal are posed for their neighbours.
+static void test_body_contact_takes_the_normals_of_the_posed_rings( void** state )
+{
+	plContactCounts counts = { 0 };
+	plRunBodyContact( *state, 1, &counts );
+	assert_true( counts.from_rings > 1000 );
+	assert_true( counts.from_rings < counts.pushed ); // and some from points without a ring
+	assert_true( counts.ring_turn > 0.3 );            // the tilted rest normals are replaced, not kept
+}
+
 // The batch path (plGlDeformer_RunBatch, PLEAT_BATCH 1 programs): three deformers of the same mesh in one batch, each
 // with its own body points (β: radius 12, 12.6 and 13.2 cm), pose and contact setting (on at 4 mm, off, on at 1 mm),
-// each as the reference says.
-static void test_body_contact_batch_matches_reference( void** state )
+// each as the reference says; with rings, the batch runs the second posing pass too.
+static void plRunBodyContactBatch( plTestFixture* fixture, int with_rings )
 {
-	plTestFixture* fixture = *state;
 	plTestEgl_Require( &fixture->engine );
 	const plTestMesh* mesh = &fixture->mesh;
 	enum { members_count = 3 };
@@ -563,7 +667,7 @@ static void test_body_contact_batch_matches_reference( void** state )
 	for ( int k = 0; k < members_count; ++k )
 	{
 		bodies[k] = calloc( 1, sizeof( *bodies[k] ) );
-		plTestBody_Build( bodies[k], mesh, 0.12f + 0.006f * (float)k );
+		plTestBody_Build( bodies[k], mesh, 0.12f + 0.006f * (float)k, with_rings );
 		plGlDeformerDesc desc = plDescFor( mesh, PLEAT_GL_DEFORMER_HEADLESS, 0 );
 		plAddBody( &desc, bodies[k] );
 		assert_int_equal( plGlDeformer_Create( &desc, &fixture->allocator, &deformers[k] ), PLEAT_RESULT_OK );
@@ -575,7 +679,7 @@ static void test_body_contact_batch_matches_reference( void** state )
 		positions[k] = malloc( sizeof( float ) * values );
 		normals[k] = malloc( sizeof( float ) * values );
 	}
-	plContactCounts counts = { 0, 0, 0.0, 0.0 };
+	plContactCounts counts = { 0 };
 	for ( uint32_t frame = 0; frame < 4; ++frame )
 	{
 		plGlBatchMember members[members_count];
@@ -588,15 +692,19 @@ static void test_body_contact_batch_matches_reference( void** state )
 		}
 		uint64_t before = atomic_load( &g_plGlDispatches );
 		assert_int_equal( plGlDeformer_RunBatch( deformers[0], members, members_count ), PLEAT_RESULT_OK );
-		// blend shapes, skinning, posing the body points, the push, face normals, normals gather
-		assert_int_equal( atomic_load( &g_plGlDispatches ) - before, 6 );
+		// blend shapes, skinning, posing the body points (with rings: and their normals), the push, face normals,
+		// normals gather
+		assert_int_equal( atomic_load( &g_plGlDispatches ) - before, with_rings ? 7 : 6 );
 		for ( int k = 0; k < members_count; ++k )
 			plExpectContactFrame( fixture, bodies[k], weights[k], matrices[k], positions[k], normals[k], offsets[k],
 								  &counts );
 	}
-	print_message( "body contact in a batch of %d: max position error %.3g m, max normal error %.3g\n", members_count,
-				   counts.worst_position, counts.worst_normal );
+	print_message( "body contact in a batch of %d, R = %u: %u pushes, %u with normals from the posed rings; max "
+				   "position error %.3g m, max normal error %.3g\n",
+				   members_count, bodies[0]->ring_count, counts.pushed, counts.from_rings, counts.worst_position,
+				   counts.worst_normal );
 	assert_true( counts.pushed > 1000 );
+	assert_true( with_rings ? counts.from_rings > 1000 : counts.from_rings == 0 );
 	for ( int k = 0; k < members_count; ++k )
 	{
 		plGlDeformer_Destroy( deformers[k] );
@@ -608,6 +716,16 @@ static void test_body_contact_batch_matches_reference( void** state )
 		free( bodies[k] );
 	}
 	plExpectNoLeak( fixture );
+}
+
+static void test_body_contact_batch_matches_reference( void** state )
+{
+	plRunBodyContactBatch( *state, 0 );
+}
+
+static void test_body_contact_batch_with_rings_matches_reference( void** state )
+{
+	plRunBodyContactBatch( *state, 1 );
 }
 
 // --- host-context mode ---------------------------------------------------------------------------------------------
@@ -825,7 +943,7 @@ static void test_invalid_descriptions_are_rejected( void** state )
 	memcpy( bad_offsets, mesh->adjacency_offsets, sizeof( uint32_t ) * ( mesh->vertex_count + 1 ) );
 	bad_offsets[5] = bad_offsets[6] + 1; // not monotonic
 	plTestBody* body = calloc( 1, sizeof( *body ) );
-	plTestBody_Build( body, mesh, 0.12f );
+	plTestBody_Build( body, mesh, 0.12f, 1 );
 	plTestBody* bad_body = malloc( sizeof( *bad_body ) );
 	*bad_body = *body; // shares body's candidates
 	bad_body->skin_indices[PLEAT_TEST_BODY_INFLUENCES * PLEAT_TEST_BODY_POINTS - 1] = (uint16_t)mesh->joint_count;
@@ -863,6 +981,11 @@ static void test_invalid_descriptions_are_rejected( void** state )
 		case 23: plAddBody( &desc, body ), desc.body_anchor_normals = NULL; break;
 		case 24: plAddBody( &desc, body ), desc.body_anchor_influence_count = 9; break;
 		case 25: plAddBody( &desc, bad_body ); break; // a point skin index >= J
+		// Rings (BARG): R in 3..PLEAT_MAX_POINT_RING with a table, 0 without.
+		case 26: plAddBody( &desc, body ), desc.body_anchor_ring_count = 0; break;
+		case 27: plAddBody( &desc, body ), desc.body_anchor_ring_count = 2; break; // < a triangle's
+		case 28: plAddBody( &desc, body ), desc.body_anchor_ring_count = 9; break; // > the most, 8
+		case 29: plAddBody( &desc, body ), desc.body_anchor_ring = NULL; break;
 		default: goto done;
 		}
 		deformer = (plGlDeformer*)&desc;
@@ -893,7 +1016,9 @@ int main( void )
 		cmocka_unit_test( test_fp16_blend_shapes_match_rounded_reference ),
 		cmocka_unit_test( test_set_shaped_template_moves_the_output ),
 		cmocka_unit_test( test_body_contact_pushes_out_of_the_nearest_candidates ),
+		cmocka_unit_test( test_body_contact_takes_the_normals_of_the_posed_rings ),
 		cmocka_unit_test( test_body_contact_batch_matches_reference ),
+		cmocka_unit_test( test_body_contact_batch_with_rings_matches_reference ),
 		cmocka_unit_test( test_host_context_matches_reference_and_restores_state ),
 		cmocka_unit_test( test_host_context_without_output_buffers_matches_reference ),
 		cmocka_unit_test( test_host_context_without_current_context_is_unavailable ),

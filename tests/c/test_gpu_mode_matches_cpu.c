@@ -6,10 +6,14 @@
 // the GPU re-blends it, the CPU reuses its T_def; both must still agree.
 //
 // With body contact (pleat.h BODY CONTACT) body_contact.comp's two passes run after skinning on the GPU and
-// plBodyPointsJob + plBodyContactJob on the CPU: the stand-in body is a plane 2 mm behind the sheet, with tilted
-// candidate points beside some vertices (asset 1.2, P ≠ N, C > 1: plTestAsset_AddBodyAnchors) or one point per vertex
-// (asset 1.1, no candidate table: plTestAsset_DropBodyCandidates), and the blend shapes (±1 cm) push many vertices
-// through it, so both paths move vertices; they must agree, and differ from contact off.
+// plBodyPointsJob + plBodyPointNormalsJob + plBodyContactJob on the CPU: the stand-in body is a plane 2 mm behind the
+// sheet, with tilted candidate points beside some vertices (asset 1.2, P ≠ N, C > 1: plTestAsset_AddBodyAnchors) whose
+// points behind the interior grid vertices take their normals from the posed ring of points around them (BARG: the
+// sheet's own grid, so they turn with the sheet as it bends; every fifth point has a zero rest normal and never
+// anchors, yet is in its neighbours' rings), the same without the ring table (a 1.2 asset without BARG: the blended
+// rest normals), or one point per vertex (asset 1.1, no candidate or ring table: plTestAsset_DropBodyCandidates), and
+// the blend shapes (±1 cm) push many vertices through it, so both paths move vertices; they must agree, and differ
+// from contact off.
 //
 // Tolerance: 1e-5 m for positions, 1e-3 for normals — the GPU sums in a different order and with its own rounding
 // (the GL engineer's test_gl_deformer measures ~1e-6 m and ~1e-4); a wrong matrix layout or weight gives centimetres.
@@ -26,8 +30,9 @@
 typedef enum plTestBody
 {
 	PLEAT_TEST_NO_BODY,
-	PLEAT_TEST_BODY_CANDIDATES,           // asset 1.2
+	PLEAT_TEST_BODY_CANDIDATES,           // asset 1.2 with the points' rings (BARG)
 	PLEAT_TEST_BODY_ONE_POINT_PER_VERTEX, // asset 1.1
+	PLEAT_TEST_BODY_CANDIDATES_NO_RINGS,  // asset 1.2 without BARG
 } plTestBody;
 
 static void plCompareGpuWithCpu( float network_rate_hz, plTestBody body )
@@ -47,10 +52,21 @@ static void plCompareGpuWithCpu( float network_rate_hz, plTestBody body )
 	{
 		plTestAsset_DropBodyCandidates( built );
 	}
-	if ( body == PLEAT_TEST_BODY_CANDIDATES )
+	if ( body == PLEAT_TEST_BODY_CANDIDATES_NO_RINGS )
 	{
-		// What this case is for: more body points than vertices, and several candidates per vertex.
+		free( built->body_ring );
+		built->body_ring = NULL;
+	}
+	if ( body == PLEAT_TEST_BODY_CANDIDATES || body == PLEAT_TEST_BODY_CANDIDATES_NO_RINGS )
+	{
+		// What these cases are for: more body points than vertices, several candidates per vertex, and (or not) the
+		// points' normals from the posed rings.
 		assert_true( built->body_candidates != NULL && built->P != built->N && built->C > 1 );
+		assert_true( ( built->body_ring != NULL ) == ( body == PLEAT_TEST_BODY_CANDIDATES ) );
+	}
+	if ( body == PLEAT_TEST_BODY_ONE_POINT_PER_VERTEX )
+	{
+		assert_null( built->body_ring );
 	}
 	assert_int_equal( plTestRig_Init( &rig, built, NULL ), PLEAT_RESULT_OK );
 	rig.model = built; // freed by plTestRig_Free
@@ -114,7 +130,8 @@ static void plCompareGpuWithCpu( float network_rate_hz, plTestBody body )
 			worst_n = en > worst_n ? en : worst_n;
 		}
 	}
-	static const char* const bodies[3] = { "none", "candidate points (1.2)", "one point per vertex (1.1)" };
+	static const char* const bodies[4] = { "none", "candidate points and rings (1.2)", "one point per vertex (1.1)",
+										   "candidate points without rings (1.2)" };
 	print_message( "GPU vs CPU instance, network rate %g Hz, body %s: max position error %.3g m, max normal error %.3g "
 				   "(body contact moved vertices by up to %.3g m)\n",
 				   network_rate_hz, bodies[body], worst_p, worst_n, contact_moved );
@@ -151,6 +168,12 @@ static void test_headless_gpu_instance_matches_cpu_instance_with_one_body_point_
 	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_ONE_POINT_PER_VERTEX );
 }
 
+static void test_headless_gpu_instance_matches_cpu_instance_with_body_contact_without_rings( void** state )
+{
+	(void)state;
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_CANDIDATES_NO_RINGS );
+}
+
 static void test_headless_gpu_instance_matches_cpu_instance_between_network_updates( void** state )
 {
 	(void)state;
@@ -163,6 +186,7 @@ int main( void )
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance ),
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_body_contact ),
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_one_body_point_per_vertex ),
+		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_body_contact_without_rings ),
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_between_network_updates ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );

@@ -1,4 +1,5 @@
-// The GL compute path: blend_shapes.comp → skinning.comp (→ body_contact.comp: posing the body points, then the push)
+// The GL compute path: blend_shapes.comp → skinning.comp (→ body_contact.comp: posing the body points, their normals
+// from the posed rings where the asset has them, then the push)
 // → face_normals.comp → normals_gather.comp over GPU-resident asset data, for one instance (plGlDeformer_Run) or for a
 // batch of instances of one mesh with one dispatch per pass (plGlDeformer_RunBatch). See sdk/src/gl_deformer.h for the
 // contract and docs/gpu.md for the buffers, the saved state and the measurements.
@@ -22,7 +23,8 @@ static void plDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y )
 }
 
 // body_contact.comp's constants, from kernels.h so that the CPU kernels and the shader cannot drift apart; then the
-// pass (posing the body points, or the push) and, for a batch's programs, PLEAT_BATCH.
+// pass (posing the body points, their normals from the posed rings, or the push) and, for a batch's programs,
+// PLEAT_BATCH.
 #define PLEAT_GL_STRING_( x ) #x
 #define PLEAT_GL_STRING( x ) PLEAT_GL_STRING_( x )
 #define PLEAT_GL_CONTACT_DEFINES                                                                                       \
@@ -30,6 +32,7 @@ static void plDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y )
 	"#define PLEAT_CONTACT_BLEND_SHARE " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_SHARE ) "\n"                             \
 	"#define PLEAT_CONTACT_BLEND_M " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_M ) "\n"
 #define PLEAT_GL_POSE_POINTS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 1\n"
+#define PLEAT_GL_POINT_NORMALS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 2\n"
 #define PLEAT_GL_BATCH_DEFINES "#define PLEAT_BATCH 1\n"
 
 enum
@@ -38,8 +41,9 @@ enum
 	PLEAT_GL_PROGRAM_SKINNING,
 	PLEAT_GL_PROGRAM_FACE_NORMALS,
 	PLEAT_GL_PROGRAM_NORMALS_GATHER,
-	PLEAT_GL_PROGRAM_BODY_POINTS,  // body_contact.comp, PLEAT_POSE_POINTS 1: assets with body points only (0 otherwise)
-	PLEAT_GL_PROGRAM_BODY_CONTACT, // body_contact.comp, the push: the same
+	PLEAT_GL_PROGRAM_BODY_POINTS,        // body_contact.comp, PLEAT_POSE_POINTS 1: assets with body points (else 0)
+	PLEAT_GL_PROGRAM_BODY_POINT_NORMALS, // body_contact.comp, PLEAT_POSE_POINTS 2: body points with rings (else 0)
+	PLEAT_GL_PROGRAM_BODY_CONTACT,       // body_contact.comp, the push: assets with body points (else 0)
 	PLEAT_GL_PROGRAM_COUNT
 };
 
@@ -50,6 +54,7 @@ typedef struct plGlBatchBuffers
 	uint32_t capacity;                       // members the buffers hold (0: no batch yet)
 	GLuint buffers[PLEAT_GL_BINDING_COUNT];  // per-instance bindings only (0 elsewhere)
 	GLuint points_program;                   // body_contact.comp with PLEAT_BATCH 1, posing (body points only)
+	GLuint normals_program;                  // body_contact.comp with PLEAT_BATCH 1, ring normals (points with rings)
 	GLuint contact_program;                  // body_contact.comp with PLEAT_BATCH 1, the push (body points only)
 	uint64_t* template_keys;                 // [capacity][2]: the (serial, template generation) each slot holds
 	size_t template_keys_bytes;              // as allocated: a reservation that failed in GL keeps capacity 0
@@ -72,6 +77,7 @@ struct plGlDeformer
 	uint32_t anchor_influence_count; // Ka, 0 without body points
 	uint32_t point_count;            // P, 0 without body points
 	uint32_t candidate_count;        // C (1 for the identity table of a 1.1 asset), 0 without body points
+	uint32_t point_ring_count;       // R ring entries per point (asset 1.2, BARG), 0 without rings or body points
 	int body_contact;                // the contact passes run (body points present and enabled)
 	float body_contact_offset_m;     // the clearance the params buffer holds
 
@@ -80,7 +86,8 @@ struct plGlDeformer
 	GLuint owned[PLEAT_GL_BINDING_COUNT];    // buffers the deformer created (0 where the host supplied one)
 	GLuint bindings[PLEAT_GL_BINDING_COUNT]; // what Run binds at each binding point
 
-	void* staging; // conversions on upload and read-backs; staging_bytes = max(16 (N + P), 4 N K, 4 P Ka, 4 N C)
+	// Conversions on upload and read-backs; staging_bytes = max(16 (N + P), 4 N K, 4 P Ka, 4 N C, 4 P R).
+	void* staging;
 	size_t staging_bytes;
 
 	uint64_t serial;              // unique per deformer
@@ -219,14 +226,19 @@ static plResult plValidateDesc( const plGlDeformerDesc* desc )
 			 desc->body_anchor_influence_count > 8 || p == 0 ||
 			 ( desc->body_anchor_candidates == NULL ? c != 1 || p < n : c < 1 || c > PLEAT_MAX_CONTACT_CANDIDATES ) )
 			return PLEAT_RESULT_INVALID_ARGUMENT;
-		if ( ( n + p ) * 16u > 0x7fffffffu || p * 32u > 0x7fffffffu || n * 4u * c > 0x7fffffffu )
+		uint64_t r = desc->body_anchor_ring_count;
+		if ( desc->body_anchor_ring == NULL ? r != 0 : r < 3 || r > PLEAT_MAX_POINT_RING )
+			return PLEAT_RESULT_INVALID_ARGUMENT;
+		if ( ( n + p ) * 16u > 0x7fffffffu || p * 32u > 0x7fffffffu || n * 4u * c > 0x7fffffffu ||
+			 p * 4u * r > 0x7fffffffu )
 			return PLEAT_RESULT_INVALID_ARGUMENT;
 		for ( size_t e = 0; e < (size_t)p * desc->body_anchor_influence_count; ++e )
 		{
 			if ( desc->body_anchor_skin_indices[e] >= desc->joint_count )
 				return PLEAT_RESULT_INVALID_ARGUMENT;
 		}
-		// Candidate indices need no check: the push skips any index >= P as an empty slot.
+		// Candidate and ring indices need no check: the push skips any index >= P as an empty slot, and a ring ends at
+		// its first index >= P (as plBodyPointNormals_Scalar).
 	}
 	// The shaders index with these values unchecked, so they are checked once here (an out-of-range GPU read is
 	// undefined behaviour without robust buffer access).
@@ -374,10 +386,18 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] =
 			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_CONTACT_DEFINES );
 	}
+	uint32_t R = deformer->point_ring_count;
+	if ( R > 0 )
+		deformer->programs[PLEAT_GL_PROGRAM_BODY_POINT_NORMALS] =
+			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POINT_NORMALS_DEFINES );
 	for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
 	{
-		int contact = p == PLEAT_GL_PROGRAM_BODY_POINTS || p == PLEAT_GL_PROGRAM_BODY_CONTACT;
-		if ( deformer->programs[p] == 0 && ( !contact || Ka > 0 ) )
+		int needed = 1;
+		if ( p == PLEAT_GL_PROGRAM_BODY_POINTS || p == PLEAT_GL_PROGRAM_BODY_CONTACT )
+			needed = Ka > 0;
+		if ( p == PLEAT_GL_PROGRAM_BODY_POINT_NORMALS )
+			needed = R > 0;
+		if ( deformer->programs[p] == 0 && needed )
 			return PLEAT_RESULT_GL_ERROR;
 	}
 
@@ -392,7 +412,8 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 								(uint32_t)plShapedRows( deformer ),
 								deformer->point_count,
 								deformer->candidate_count,
-								{ 0, 0 } };
+								R,
+								0 };
 	api->GenBuffers( 1, &deformer->params_buffer );
 	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
 	api->BufferData( GL_UNIFORM_BUFFER, sizeof( params ), &params, GL_STATIC_DRAW );
@@ -456,6 +477,15 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_CONTACT_CANDIDATES, 16, NULL, GL_STATIC_DRAW );
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_POSED_POINTS, 16, NULL, GL_STATIC_DRAW );
 	}
+	if ( R > 0 )
+	{
+		uint32_t* rings = deformer->staging; // u16 → uint, the empty entries (0xFFFF) staying >= P
+		for ( size_t e = 0; e < P * R; ++e )
+			rings[e] = desc->body_anchor_ring[e];
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_POINT_RINGS, P * R * 4, rings, GL_STATIC_DRAW );
+	}
+	else
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_POINT_RINGS, 16, NULL, GL_STATIC_DRAW ); // read by nothing
 	// Read by batches only (plGlDeformer_RunBatch binds its own); a single Run binds this placeholder.
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BATCH_CONTACT, 16, NULL, GL_STATIC_DRAW );
 	return plCheckErrors( api );
@@ -481,9 +511,12 @@ static void plDeleteGlObjects( plGlDeformer* deformer )
 	}
 	if ( deformer->batch.points_program != 0 )
 		api->DeleteProgram( deformer->batch.points_program );
+	if ( deformer->batch.normals_program != 0 )
+		api->DeleteProgram( deformer->batch.normals_program );
 	if ( deformer->batch.contact_program != 0 )
 		api->DeleteProgram( deformer->batch.contact_program );
 	deformer->batch.points_program = 0;
+	deformer->batch.normals_program = 0;
 	deformer->batch.contact_program = 0;
 	deformer->batch.capacity = 0;
 }
@@ -527,17 +560,20 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	deformer->anchor_influence_count = points ? desc->body_anchor_influence_count : 0;
 	deformer->point_count = points ? desc->body_point_count : 0;
 	deformer->candidate_count = points ? desc->body_anchor_candidate_count : 0;
+	deformer->point_ring_count = points ? desc->body_anchor_ring_count : 0;
 	deformer->body_contact = points;
 	deformer->body_contact_offset_m = PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M;
 	// Staging holds the largest upload: N + P vec4 rows (template + body points; also the N rows of a blend shape or a
-	// read-back and the P of the point normals), or the uints of [N][K], [P][Ka] or [N][C].
+	// read-back and the P of the point normals), or the uints of [N][K], [P][Ka], [N][C] or [P][R].
 	size_t rows = plShapedRows( deformer ) * 16;
 	size_t skin = (size_t)desc->vertex_count * 4 * desc->influence_count;
 	size_t point_skin = (size_t)deformer->point_count * 4 * deformer->anchor_influence_count;
 	size_t candidates = (size_t)desc->vertex_count * 4 * deformer->candidate_count;
+	size_t rings = (size_t)deformer->point_count * 4 * deformer->point_ring_count;
 	deformer->staging_bytes = rows > skin ? rows : skin;
 	deformer->staging_bytes = deformer->staging_bytes > point_skin ? deformer->staging_bytes : point_skin;
 	deformer->staging_bytes = deformer->staging_bytes > candidates ? deformer->staging_bytes : candidates;
+	deformer->staging_bytes = deformer->staging_bytes > rings ? deformer->staging_bytes : rings;
 	deformer->staging = plAlloc( allocator, deformer->staging_bytes, 64 );
 	if ( deformer->staging == NULL )
 	{
@@ -665,10 +701,11 @@ plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float
 }
 
 // The shaders in order, one dispatch each with `instances` rows of workgroups in y (1 for a single Run) and a storage
-// barrier between stages: blend_shapes → skinning → (points_program over the P body points, then contact_program over
-// the vertices; 0 = no contact) → face_normals → normals_gather. The buffers and params are bound by the caller.
-static void plRunShaders( const plGlDeformer* deformer, GLuint points_program, GLuint contact_program,
-						  uint32_t instances )
+// barrier between stages: blend_shapes → skinning → (points_program over the P body points, normals_program over them
+// where the asset has rings (0 = none), then contact_program over the vertices; 0 = no contact) → face_normals →
+// normals_gather. The buffers and params are bound by the caller.
+static void plRunShaders( const plGlDeformer* deformer, GLuint points_program, GLuint normals_program,
+						  GLuint contact_program, uint32_t instances )
 {
 	const plGlApi* api = &deformer->api;
 	GLuint groups = ( deformer->vertex_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
@@ -686,6 +723,13 @@ static void plRunShaders( const plGlDeformer* deformer, GLuint points_program, G
 		api->UseProgram( points_program );
 		plDispatch( api, point_groups, instances );
 		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+		if ( normals_program != 0 )
+		{
+			// A point's normal reads the posed positions of the points in its ring.
+			api->UseProgram( normals_program );
+			plDispatch( api, point_groups, instances );
+			api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
+		}
 		// Every vertex reads the posed points of its candidates, which other invocations wrote.
 		api->UseProgram( contact_program );
 		plDispatch( api, groups, instances );
@@ -723,9 +767,10 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 
 	if ( deformer->body_contact )
 		plRunShaders( deformer, deformer->programs[PLEAT_GL_PROGRAM_BODY_POINTS],
+					  deformer->programs[PLEAT_GL_PROGRAM_BODY_POINT_NORMALS],
 					  deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT], 1 );
 	else
-		plRunShaders( deformer, 0, 0, 1 );
+		plRunShaders( deformer, 0, 0, 0, 1 );
 
 	if ( positions != NULL )
 		plReadBack( deformer, deformer->bindings[PLEAT_GL_BINDING_POSITIONS], positions );
@@ -744,7 +789,8 @@ int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member 
 		   lead->face_count == member->face_count && lead->blend_count == member->blend_count &&
 		   lead->influence_count == member->influence_count && lead->joint_count == member->joint_count &&
 		   lead->anchor_influence_count == member->anchor_influence_count &&
-		   lead->point_count == member->point_count && lead->candidate_count == member->candidate_count;
+		   lead->point_count == member->point_count && lead->candidate_count == member->candidate_count &&
+		   lead->point_ring_count == member->point_ring_count;
 }
 
 static GLuint plCreateBatchBuffer( const plGlApi* api, size_t bytes )
@@ -811,6 +857,13 @@ static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
 		batch->points_program = plCompileProgram( api, plGlShaderSource_body_contact,
 												  PLEAT_GL_POSE_POINTS_DEFINES PLEAT_GL_BATCH_DEFINES );
 		if ( batch->points_program == 0 )
+			return PLEAT_RESULT_GL_ERROR;
+	}
+	if ( lead->point_ring_count > 0 && batch->normals_program == 0 )
+	{
+		batch->normals_program = plCompileProgram( api, plGlShaderSource_body_contact,
+												   PLEAT_GL_POINT_NORMALS_DEFINES PLEAT_GL_BATCH_DEFINES );
+		if ( batch->normals_program == 0 )
 			return PLEAT_RESULT_GL_ERROR;
 	}
 	if ( p > 0 && batch->contact_program == 0 )
@@ -957,9 +1010,10 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 
 	// The single Run's dispatches with the members in y: one per pass for the whole batch.
 	if ( contact )
-		plRunShaders( lead, lead->batch.points_program, lead->batch.contact_program, count );
+		plRunShaders( lead, lead->batch.points_program, lead->batch.normals_program, lead->batch.contact_program,
+					  count );
 	else
-		plRunShaders( lead, 0, 0, count );
+		plRunShaders( lead, 0, 0, 0, count );
 
 	plDeliverBatchOutputs( lead, members, count );
 	result = plCheckErrors( api );

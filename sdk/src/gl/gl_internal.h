@@ -19,7 +19,7 @@ typedef struct plGlSavedState
 {
 	GLint program;                                      // GL_CURRENT_PROGRAM
 	GLint storage_buffer;                               // GL_SHADER_STORAGE_BUFFER_BINDING (generic)
-	GLint storage_buffers[PLEAT_GL_BINDING_COUNT];      // indexed GL_SHADER_STORAGE_BUFFER_BINDING 0..18
+	GLint storage_buffers[PLEAT_GL_BINDING_COUNT];      // indexed GL_SHADER_STORAGE_BUFFER_BINDING 0..19
 	GLint64 storage_starts[PLEAT_GL_BINDING_COUNT];     // GL_SHADER_STORAGE_BUFFER_START
 	GLint64 storage_sizes[PLEAT_GL_BINDING_COUNT];      // GL_SHADER_STORAGE_BUFFER_SIZE
 	GLint uniform_buffer;                               // GL_UNIFORM_BUFFER_BINDING (generic)

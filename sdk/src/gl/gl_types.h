@@ -18,7 +18,8 @@ typedef struct plGlDeformParams
 	uint32_t shaped_rows;            // rows of the shaped-template buffer per instance: N, or N + P with body points
 	uint32_t point_count;            // P body points (0 without)
 	uint32_t candidate_count;        // C candidate points per vertex (1 for the identity table of a 1.1 asset)
-	uint32_t pad[2];                 // std140 rounds the block to 16 bytes
+	uint32_t point_ring_count;       // R entries of each body point's ring (asset 1.2, BARG; 0 without)
+	uint32_t pad;                    // std140 rounds the block to 16 bytes
 } plGlDeformParams;
 _Static_assert( sizeof( plGlDeformParams ) == 48, "std140 plGlDeformParams is 48 bytes" );
 
@@ -59,9 +60,10 @@ typedef enum plGlBinding
 	PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES = 14, // uint [P][Ka]
 	PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS = 15, // float [P][Ka]
 	PLEAT_GL_BINDING_BATCH_CONTACT = 16,    // vec4 [instances] (enabled, offset_m, 0, 0) body_contact.comp, batches only
-	PLEAT_GL_BINDING_POSED_POINTS = 17,     // vec4 [P][2] (a, usable), (n, 0)  body_contact.comp posing → push
+	PLEAT_GL_BINDING_POSED_POINTS = 17,     // vec4 [P][2] (a, anchorable), (n, usable) body_contact.comp posing → push
 	PLEAT_GL_BINDING_CONTACT_CANDIDATES = 18, // uint [N][C] body point indices, >= P = empty slot (push)
-	PLEAT_GL_BINDING_COUNT = 19,
+	PLEAT_GL_BINDING_POINT_RINGS = 19,      // uint [P][R] each point's ring, then indices >= P (posed normals)
+	PLEAT_GL_BINDING_COUNT = 20,
 } plGlBinding;
 
 // Batches (plGlDeformer_RunBatch): the buffers above marked per instance hold [instances] blocks of the size given
@@ -71,7 +73,7 @@ typedef enum plGlBinding
 // skinning, candidates) are shared by the batch.
 
 // Workgroup size of every shader (layout(local_size_x = 64)); dispatch ceil(N / 64) groups (ceil(F / 64) for
-// face_normals.comp, ceil(P / 64) for body_contact.comp's posing pass).
+// face_normals.comp, ceil(P / 64) for body_contact.comp's two posing passes).
 #define PLEAT_GL_WORKGROUP_SIZE 64u
 
 #endif

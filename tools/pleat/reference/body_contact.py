@@ -57,7 +57,7 @@ def pose_contact_points(shaped_points, point_normals, point_skin_indices, point_
         following = (np.arange(ring.shape[1])[None, :] + 1) % np.maximum(m, 1)[:, None]
         cross = np.cross(d, np.take_along_axis(d, following[..., None], axis=1))
         cross *= (np.arange(ring.shape[1])[None, :] < m[:, None])[..., None]
-        n = np.where((m >= 3)[:, None], cross.sum(axis=1), n)
+        n = np.where((m >= 1)[:, None], cross.sum(axis=1), n)   # (a valid asset has m = 0 or m >= 3)
     length = np.linalg.norm(n, axis=1)
     anchorable = np.any(np.asarray(point_normals) != 0.0, axis=1)
     usable = anchorable & (length > MIN_NORMAL_LENGTH)
