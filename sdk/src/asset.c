@@ -501,6 +501,13 @@ static plResult plParseBodyContact( const uint8_t* data, const plSectionTable* t
 	a->body_anchor_influence_count = Ka;
 	a->body_point_count = P;
 	a->body_anchor_candidate_count = C;
+	int fast_ready = P >= N;
+	for ( uint32_t v = 0; fast_ready && a->body_anchor_candidates != NULL && v < N; ++v )
+	{
+		uint16_t first = a->body_anchor_candidates[(size_t)v * C];
+		fast_ready = first == v || first == PLEAT_NO_CONTACT_CANDIDATE;
+	}
+	a->body_contact_fast_ready = fast_ready;
 	return PLEAT_RESULT_OK;
 }
 

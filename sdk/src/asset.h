@@ -62,6 +62,8 @@ typedef struct plAssetData
 	uint32_t body_anchor_candidate_count;     // C (1..PLEAT_MAX_CONTACT_CANDIDATES; 1 for 1.1)
 	const uint16_t* body_anchor_ring;         // [P][R] each point's ring of points (BARG, asset 1.2) or NULL
 	uint32_t body_anchor_ring_count;          // R (3..PLEAT_MAX_POINT_RING), 0 without BARG
+	int body_contact_fast_ready;              // the fast contact can run: P >= N and every vertex's first candidate
+	                                          // is its own point v (or none), so rows 0..N-1 are the 1.1 layout
 	uint32_t pinned_count;
 	const void* onnx_lp;    // OXLP or NULL
 	size_t onnx_lp_size;

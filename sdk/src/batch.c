@@ -405,26 +405,46 @@ static int plClaimScratch( plContextData* ctx, size_t floats )
 	return -1;
 }
 
-int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const plAssetData* a,
+int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const plAssetData* a, int fast_contact,
 					 plInstanceData* const* insts, const float* const* in, float* const* positions,
 					 float* const* normals, uint32_t count )
 {
 	const float* matrices[PLEAT_BATCH_MAX] = { NULL }; // (all of count filled below; GCC's scalar build cannot tell)
+	float* fast_positions[PLEAT_BATCH_MAX];
+	const float* fast_anchors[PLEAT_BATCH_MAX];
+	const float* fast_matrices[PLEAT_BATCH_MAX];
+	float fast_offsets[PLEAT_BATCH_MAX];
+	uint32_t fast_count = 0;
 	for ( uint32_t k = 0; k < count; ++k )
 	{
 		matrices[k] = insts[k]->next_skin_matrices;
+		if ( insts[k]->body_contact && ( fast_contact || insts[k]->body_contact_fast ) && a->body_contact_fast_ready )
+		{
+			fast_positions[fast_count] = positions[k];
+			fast_anchors[fast_count] = insts[k]->shaped_anchors;
+			fast_matrices[fast_count] = matrices[k];
+			fast_offsets[fast_count++] = insts[k]->body_contact_offset_m;
+		}
 	}
 	kernels->skinning_batch( positions, in, count, a->skin_indices, a->skin_weights, a->influence_count, matrices,
 							 a->joint_count, 0, a->vertex_count );
+	// The fast contact of the lanes that run it, in lanes (its batched kernel gives each lane the single kernel's bits)
+	if ( fast_count > 0 )
+	{
+		kernels->body_contact_fast_batch( fast_positions, fast_anchors, fast_offsets, fast_count, a->body_anchor_normals,
+										  a->body_anchor_skin_indices, a->body_anchor_skin_weights,
+										  a->body_anchor_influence_count, fast_matrices, a->joint_count, 0,
+										  a->vertex_count );
+	}
 	// What plDeformCpu runs between skinning and normals: body contact, for the lanes that have it on, each with the
 	// context's single-instance kernels (the batch set's twins), so a lane gets the lone step's bits.
 	// (The jobs only refuse spans the instance did not build, as the batched kernel that ran here before could not
 	// fail at all: the result says nothing about the input.)
 	for ( uint32_t k = 0; k < count; ++k )
 	{
-		if ( insts[k]->body_contact )
+		if ( insts[k]->body_contact && !( ( fast_contact || insts[k]->body_contact_fast ) && a->body_contact_fast_ready ) )
 		{
-			(void)plRunBodyContact( insts[k], positions[k], matrices[k] );
+			(void)plRunBodyContact( insts[k], positions[k], matrices[k], 0 );
 		}
 	}
 	int slot = plClaimScratch( ctx, plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes ) );
@@ -460,7 +480,7 @@ static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void*
 			positions[k] = insts[k]->positions;
 			normals[k] = insts[k]->normals;
 		}
-		if ( plGeometryLanes( g->ctx, g->kernels, g->asset, insts, in, positions, normals, n ) )
+		if ( plGeometryLanes( g->ctx, g->kernels, g->asset, 0, insts, in, positions, normals, n ) )
 		{
 			continue;
 		}

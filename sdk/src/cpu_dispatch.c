@@ -14,6 +14,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 	kernels->pose_body_points = plPoseBodyPoints_Scalar;
 	kernels->body_point_normals = plBodyPointNormals_Scalar;
 	kernels->body_contact = plBodyContact_Scalar;
+	kernels->body_contact_fast = plBodyContactFast_Scalar;
 #if defined( PLEAT_HAVE_AVX2 ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
 	if ( !force_scalar )
 	{
@@ -29,6 +30,7 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 			kernels->normals_scatter = plNormalsScatter_Avx2;
 			kernels->pose_body_points = plPoseBodyPoints_Avx2;
 			kernels->body_contact = plBodyContact_Avx2;
+			kernels->body_contact_fast = plBodyContactFast_Avx2;
 			kernels->body_point_normals = plBodyPointNormals_Avx2;
 			return 1;
 		}

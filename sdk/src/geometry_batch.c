@@ -15,6 +15,20 @@ void plSkinningBatch_Scalar( float* const* out, const float* const* in, uint32_t
 	}
 }
 
+void plBodyContactFastBatch_Scalar( float* const* positions, const float* const* shaped_anchors, const float* offsets_m,
+								uint32_t batch_count, const float* anchor_normals, const uint16_t* anchor_skin_indices,
+								const float* anchor_skin_weights, uint32_t influence_count,
+								const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin,
+								uint32_t v_end )
+{
+	for ( uint32_t b = 0; b < batch_count; ++b )
+	{
+		plBodyContactFast_Scalar( positions[b], 12, shaped_anchors[b], anchor_normals, anchor_skin_indices,
+							  anchor_skin_weights, influence_count, skin_matrices[b], joint_count, offsets_m[b], v_begin,
+							  v_end );
+	}
+}
+
 void plNormalsBatch_Scalar( float* const* normals, const float* const* positions, uint32_t batch_count,
 							uint32_t vertex_count, const uint32_t* faces, uint32_t face_count, float* scratch )
 {

@@ -311,3 +311,83 @@ void plNormalsBatch_Avx2( float* const* normals, const float* const* positions, 
 	}
 }
 
+// Body contact (twin of plBodyContactFast_Avx2), 8 instances per vector: the anchor's blended matrix as skinning's, the
+// posed anchor fma(m_i2, r_z, m_i0 r_x) + fma(m_i3, 1, m_i1 r_y) and the normal fma(m_i2, n_z, m_i0 n_x) +
+// fma(m_i3, 0, m_i1 n_y) per component, then the scalar kernel's length, divisions, plane distance and push
+// (plPushOutOfAnchorPlane8, shared with plBodyContactFast_Avx2) — per lane, each instance with its own anchors (its β)
+// and clearance. A lane whose normal is degenerate, or whose vertex lies beyond the clearance, keeps its position bit
+// for bit.
+void plBodyContactFastBatch_Avx2( float* const* positions, const float* const* shaped_anchors, const float* offsets_m,
+							  uint32_t batch_count, const float* anchor_normals, const uint16_t* anchor_skin_indices,
+							  const float* anchor_skin_weights, uint32_t influence_count,
+							  const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin,
+							  uint32_t v_end )
+{
+	uint32_t J = joint_count < PLEAT_SKIN_COLUMN_JOINTS ? joint_count : PLEAT_SKIN_COLUMN_JOINTS;
+	_Alignas( 64 ) float lanes[( J + 1 ) * 12 * PL_LANES];
+	_Alignas( 64 ) float block_x[3 * PL_LANES * PL_LANES];
+	_Alignas( 64 ) float block_r[3 * PL_LANES * PL_LANES];
+	uint32_t K = influence_count;
+	const plVec one = plVecSet1( 1.0f ), zero = plVecZero();
+	for ( uint32_t b0 = 0; b0 < batch_count; b0 += PL_LANES )
+	{
+		uint32_t n = batch_count - b0 < PL_LANES ? batch_count - b0 : PL_LANES;
+		_Alignas( 32 ) float offset_lanes[PL_LANES] = { 0 };
+		for ( uint32_t l = 0; l < n; ++l )
+		{
+			offset_lanes[l] = offsets_m[b0 + l];
+		}
+		const plVec offset = plVecLoad( offset_lanes );
+		plSkinMatricesToLanes( skin_matrices + b0, n, J, lanes );
+		for ( uint32_t v0 = v_begin; v0 < v_end; v0 += PL_LANES )
+		{
+			uint32_t count = v_end - v0 < PL_LANES ? v_end - v0 : PL_LANES;
+			int any = 0;
+			for ( uint32_t i = 0; i < count && !any; ++i )
+			{
+				const float* rn = anchor_normals + (size_t)( v0 + i ) * 3;
+				any = !( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f );
+			}
+			if ( !any )
+			{
+				continue; // no anchor in the block: nothing moves
+			}
+			plPrefetchLanes( (const float* const*)( positions + b0 ), n, (size_t)v0 + 4 * PL_LANES, v_end, 1 );
+			plPrefetchLanes( shaped_anchors + b0, n, (size_t)v0 + 4 * PL_LANES, v_end, 0 );
+			plToLanes( (const float* const*)( positions + b0 ), n, v0, count, block_x );
+			plToLanes( shaped_anchors + b0, n, v0, count, block_r );
+			for ( uint32_t i = 0; i < count; ++i )
+			{
+				uint32_t v = v0 + i;
+				const float* rn = anchor_normals + (size_t)v * 3;
+				if ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f )
+				{
+					continue; // no anchor
+				}
+				plVec a0[3], a1[3], a2[3], a3[3];
+				const uint16_t* indices = anchor_skin_indices + (size_t)v * K;
+				plBlendMatrixLanes( a0, a1, a2, a3, indices, anchor_skin_weights + (size_t)v * K, K, J, lanes );
+				const float* pr = block_r + (size_t)i * 3 * PL_LANES;
+				plVec rx = plVecLoad( pr ), ry = plVecLoad( pr + PL_LANES ), rz = plVecLoad( pr + 2 * PL_LANES );
+				plVec nx0 = plVecSet1( rn[0] ), ny0 = plVecSet1( rn[1] ), nz0 = plVecSet1( rn[2] );
+				plVec anchor[3], normal[3];
+				for ( int r = 0; r < 3; ++r )
+				{
+					anchor[r] = plVecAdd( plVecFma( a2[r], rz, plVecMul( a0[r], rx ) ),
+										  plVecFma( a3[r], one, plVecMul( a1[r], ry ) ) );
+					normal[r] = plVecAdd( plVecFma( a2[r], nz0, plVecMul( a0[r], nx0 ) ),
+										  plVecFma( a3[r], zero, plVecMul( a1[r], ny0 ) ) );
+				}
+				float* px = block_x + (size_t)i * 3 * PL_LANES;
+				plVec x = plVecLoad( px ), y = plVecLoad( px + PL_LANES ), z = plVecLoad( px + 2 * PL_LANES );
+				plPushOutOfAnchorPlane8( &x, &y, &z, anchor[0], anchor[1], anchor[2], normal[0], normal[1], normal[2],
+										 offset );
+				plVecStore( px, x );
+				plVecStore( px + PL_LANES, y );
+				plVecStore( px + 2 * PL_LANES, z );
+			}
+			plFromLanes( block_x, positions + b0, n, v0, count );
+		}
+	}
+}
+

@@ -99,6 +99,17 @@ static plResult plApplyShape( const plAssetData* a, const float* beta, float* ou
 	return PLEAT_RESULT_OK;
 }
 
+// The contact an instance runs: none, the full one, or the fast one (asked for, or the only one a 1.1 asset has,
+// where the two are the same map) where the asset allows it (plAssetData.body_contact_fast_ready).
+static void plSetContactMode( plInstanceData* inst, int mode )
+{
+	const plAssetData* a = inst->asset;
+	int asset_1_1 = a->body_anchor_candidates == NULL && a->body_anchor_ring == NULL;
+	inst->body_contact = mode != PLEAT_BODY_CONTACT_OFF && a->body_anchors != NULL;
+	inst->body_contact_fast = inst->body_contact && a->body_contact_fast_ready &&
+							  ( mode == PLEAT_BODY_CONTACT_FAST || asset_1_1 );
+}
+
 static int plBodyContactOffsetValid( float offset_m )
 {
 	return isfinite( offset_m ) && offset_m >= 0.0f && offset_m <= PLEAT_BODY_CONTACT_MAX_OFFSET_M;
@@ -279,6 +290,13 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 			   (double)PLEAT_BODY_CONTACT_MAX_OFFSET_M );
 		return PLEAT_RESULT_INVALID_DEF;
 	}
+	if ( def->body_contact < PLEAT_BODY_CONTACT_OFF || def->body_contact > PLEAT_BODY_CONTACT_FAST )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+			   "body_contact %d: must be 0, PLEAT_BODY_CONTACT_ON (1) or PLEAT_BODY_CONTACT_FAST (2)",
+			   def->body_contact );
+		return PLEAT_RESULT_INVALID_DEF;
+	}
 	if ( !( isfinite( def->network_rate_hz ) && def->network_rate_hz >= 0.0f ) )
 	{
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "network_rate_hz %g: must be finite and >= 0",
@@ -348,7 +366,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	inst->asset_handle = def->asset;
 	inst->user_data = def->user_data;
 	inst->network_interval_s = def->network_rate_hz > 0.0f ? 1.0 / def->network_rate_hz : 0.0;
-	inst->body_contact = def->body_contact != 0 && a->body_anchors != NULL;
+	plSetContactMode( inst, def->body_contact );
 	inst->body_contact_offset_m = def->body_contact_offset_m;
 	inst->engine_joint_count = engine_joints;
 	for ( uint32_t j = 0; j < a->joint_count; ++j )
@@ -480,14 +498,16 @@ plResult plInstance_SetNetworkRate( plInstance handle, float network_rate_hz )
 plResult plInstance_SetBodyContact( plInstance handle, int enabled, float offset_m )
 {
 	plInstanceData* inst = plGetInstanceData( handle );
-	plResult r = plCheckHandleThenArguments( inst, plBodyContactOffsetValid( offset_m ) );
+	plResult r = plCheckHandleThenArguments( inst, plBodyContactOffsetValid( offset_m ) &&
+													   enabled >= PLEAT_BODY_CONTACT_OFF &&
+													   enabled <= PLEAT_BODY_CONTACT_FAST );
 	if ( r == PLEAT_RESULT_OK && inst->gl != NULL ) // first, so a GL error leaves both paths as they were
 	{
 		r = plGlDeformer_SetBodyContact( inst->gl, enabled, offset_m );
 	}
 	if ( r == PLEAT_RESULT_OK )
 	{
-		inst->body_contact = enabled != 0 && inst->asset->body_anchors != NULL;
+		plSetContactMode( inst, enabled );
 		inst->body_contact_offset_m = offset_m;
 	}
 	return r;

@@ -40,7 +40,8 @@ typedef struct plInstanceData
 	                           // staggering its characters' updates), 0 again after it
 	int deformed_is_committed; // CPU path: deformed holds T_def of the committed blend weights and current β
 
-	int body_contact;            // non-zero: the body-contact job runs after skinning (the asset has anchors)
+	int body_contact;            // non-zero: the body-contact job runs after skinning (the asset has body points)
+	int body_contact_fast;       // with body_contact: the fast contact (PLEAT_BODY_CONTACT_FAST, or a 1.1 asset's)
 	float body_contact_offset_m; // its clearance (metres)
 
 	float skin_matrices[PLEAT_MAX_JOINTS * 12];      // last committed step
@@ -93,7 +94,12 @@ plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const fl
 plResult plPoseBodyPoints( plInstanceData* inst, const float* skin_matrices, uint32_t begin, uint32_t end );
 plResult plBodyPointNormals( plInstanceData* inst, uint32_t begin, uint32_t end ); // assets with BARG; else nothing
 plResult plPushOutOfBody( plInstanceData* inst, float* positions, uint32_t begin, uint32_t end );
-plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices );
+plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, int fast );
+// The fast contact (PLEAT_BODY_CONTACT_FAST; body_contact_fast.c) for vertices [begin, end): each vertex's own point
+// (the first N rows, plAssetData.body_contact_fast_ready), its turned rest normal. plRunBodyContact with fast (the
+// scene's LBS-only characters) or the instance's mode asking for it runs this instead of the three jobs.
+plResult plRunFastBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, uint32_t begin,
+							   uint32_t end );
 // ---- instance_step.c: the stages of plInstance_Step that plStepInstances (batch.c) runs too ----
 // The batch runs them in the same order for each instance, with f_LP, f_dec and the blend batched in between, so the
 // two paths share every line that decides what a step does (pleat.h: batch = single, bit for bit).
@@ -134,7 +140,7 @@ size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a );
 // in the same order, so every lane gets the single step's bits. Returns 0 when no scratch block was free for the
 // normals' lanes (the caller computes them one by one), else 1. plStepInstances and the scene's LBS-only level.
 struct plBatchKernels;
-int plGeometryLanes( plContextData* ctx, const struct plBatchKernels* kernels, const plAssetData* a,
+int plGeometryLanes( plContextData* ctx, const struct plBatchKernels* kernels, const plAssetData* a, int fast_contact,
 					 plInstanceData* const* insts, const float* const* in, float* const* positions,
 					 float* const* normals, uint32_t count );
 

@@ -44,7 +44,9 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
 	if ( inst->body_contact )
 	{
-		plDeformTask_Record( t, plPushOutOfBody( inst, inst->positions, begin, end ) );
+		plDeformTask_Record( t, inst->body_contact_fast
+									? plRunFastBodyContact( inst, inst->positions, t->skin_matrices, begin, end )
+									: plPushOutOfBody( inst, inst->positions, begin, end ) );
 	}
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 }
@@ -110,8 +112,32 @@ plResult plPushOutOfBody( plInstanceData* inst, float* positions, uint32_t begin
 	return plBodyContactJob_Run( &job );
 }
 
-plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices )
+plResult plRunFastBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, uint32_t begin,
+							   uint32_t end )
 {
+	const plAssetData* a = inst->asset;
+	// rows 0..N-1 of the points are the vertices' own (plAssetData.body_contact_fast_ready)
+	plBodyContactFastJob job = { plMakeSpan( positions, a->vertex_count, 12 ),
+								 inst->shaped_anchors,
+								 a->body_anchor_normals,
+								 a->body_anchor_skin_indices,
+								 a->body_anchor_skin_weights,
+								 a->body_anchor_influence_count,
+								 skin_matrices,
+								 a->joint_count,
+								 inst->body_contact_offset_m,
+								 begin,
+								 end,
+								 &inst->ctx->kernels };
+	return plBodyContactFastJob_Run( &job );
+}
+
+plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, int fast )
+{
+	if ( ( fast || inst->body_contact_fast ) && inst->asset->body_contact_fast_ready )
+	{
+		return plRunFastBodyContact( inst, positions, skin_matrices, 0, inst->asset->vertex_count );
+	}
 	uint32_t P = inst->asset->body_point_count;
 	plResult r = plPoseBodyPoints( inst, skin_matrices, 0, P );
 	r = r == PLEAT_RESULT_OK ? plBodyPointNormals( inst, 0, P ) : r;
@@ -170,7 +196,7 @@ plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const fl
 	const plAssetData* a = inst->asset;
 	plDeformTask task;
 	plDeformTask_Init( &task, inst, blend_weights, skin_matrices, blend );
-	if ( inst->body_contact )
+	if ( inst->body_contact && !inst->body_contact_fast )
 	{
 		plRunTask( runner, plPoseBodyPointsTask, a->body_point_count, 512, &task );
 		if ( a->body_anchor_ring != NULL && plDeformTask_Result( &task ) == PLEAT_RESULT_OK )

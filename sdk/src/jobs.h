@@ -264,6 +264,25 @@ typedef struct plBodyContactJob
 int plBodyContactJob_Validate( const plBodyContactJob* job );
 plResult plBodyContactJob_Run( const plBodyContactJob* job );
 
+// The fast contact (body_contact_fast.c): per vertex its own point, the turned rest normal.
+typedef struct plBodyContactFastJob
+{
+	plSpan positions;                  // [N] xyz, skinned, moved in place, any stride
+	const float* shaped_anchors;       // [N][3] rest anchors of this β (a + Σ_b β_b BASH[b])
+	const float* anchor_normals;       // [N][3] rest unit normals, zero = no anchor
+	const uint16_t* anchor_skin_indices; // [N][Ka]
+	const float* anchor_skin_weights;    // [N][Ka]
+	uint32_t influence_count;          // Ka
+	const float* skin_matrices;        // [J][3][4], the skinning job's
+	uint32_t joint_count;              // J
+	float offset_m;                    // clearance (metres, >= 0)
+	uint32_t vertex_begin, vertex_end;
+	const plKernels* kernels;          // optional: NULL = the scalar kernel
+} plBodyContactFastJob;
+
+int plBodyContactFastJob_Validate( const plBodyContactFastJob* job );
+plResult plBodyContactFastJob_Run( const plBodyContactFastJob* job );
+
 // ---- normals.c: area-weighted vertex normals n_i = normalize(Σ_{faces f ∋ i} cross(x_b − x_a, x_c − x_a)) ----
 // Two algorithms, each with one name on all three sides (C job, GLSL shader, numpy function, same argument names):
 //   face normals + normals gather   plFaceNormalsJob + plNormalsGatherJob, shaders/face_normals.comp +

@@ -122,6 +122,16 @@ typedef void plBodyContactFn( float* positions, uint32_t position_stride_bytes, 
 							  const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
 							  uint32_t v_end );
 
+// The fast body contact (pleat.h PLEAT_BODY_CONTACT_FAST, and asset 1.1's only one; body_contact_fast.c) for vertices
+// [v_begin, v_end): vertex v's anchor is point v (the first N points of an asset whose first candidates are the
+// vertices' own), posed on its own with its rest normal turned by its blended matrix; each vertex closer than offset_m
+// to that plane moves out along its normal. Positions strided (bytes), anchors and normals [N][3], anchor skin [N][K]; a
+// zero rest normal = no anchor; joint indices >= joint_count count as weight 0.
+typedef void plBodyContactFastFn( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
+								  const float* anchor_normals, const uint16_t* anchor_skin_indices,
+								  const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
+								  uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end );
+
 // m = Σ_k w_k M_{j_k} ([3][4] row-major), k in order, from K indices and weights; an index >= joint_count counts
 // with weight 0 (the asset loader rejects it; never read out of bounds even so). The scalar skinning and body-contact
 // kernels blend with this one loop.
@@ -149,6 +159,30 @@ static inline void plBlendJointMatrices( float m[12], const uint16_t* indices, c
 	}
 }
 
+// The end of the body-contact test for one vertex x, shared by the fast contact's scalar and AVX2 kernels: n = (nx, ny, nz)
+// normalised (a length ≤ 1e-12, a degenerate blend, leaves x as it is), d = (x − a)·n, and if d < offset_m
+// x ← x + (offset_m − d)·n.
+static inline void plPushOutOfAnchorPlane( float* x, float ax, float ay, float az, float nx, float ny, float nz,
+										   float offset_m )
+{
+	float length = sqrtf( nx * nx + ny * ny + nz * nz );
+	if ( !( length > 1e-12f ) )
+	{
+		return;
+	}
+	nx /= length;
+	ny /= length;
+	nz /= length;
+	float d = ( x[0] - ax ) * nx + ( x[1] - ay ) * ny + ( x[2] - az ) * nz;
+	if ( d < offset_m )
+	{
+		float push = offset_m - d;
+		x[0] += push * nx;
+		x[1] += push * ny;
+		x[2] += push * nz;
+	}
+}
+
 typedef struct plKernels
 {
 	plMatVecFn* mat_vec;
@@ -160,6 +194,7 @@ typedef struct plKernels
 	plPoseBodyPointsFn* pose_body_points;
 	plBodyPointNormalsFn* body_point_normals;
 	plBodyContactFn* body_contact;
+	plBodyContactFastFn* body_contact_fast;
 } plKernels;
 
 // The variants, declared through the kernel types so that their signatures cannot drift apart.
@@ -169,6 +204,7 @@ plSkinningFn plSkinning_Scalar;
 plPoseBodyPointsFn plPoseBodyPoints_Scalar;
 plBodyPointNormalsFn plBodyPointNormals_Scalar;
 plBodyContactFn plBodyContact_Scalar;
+plBodyContactFastFn plBodyContactFast_Scalar;
 plFaceNormalsFn plFaceNormals_Scalar;
 plNormalsGatherFn plNormalsGather_Scalar;
 plNormalsScatterFn plNormalsScatter_Scalar;
@@ -178,6 +214,7 @@ plBlendShapesFn plBlendShapes_Avx2;
 plSkinningFn plSkinning_Avx2;
 plPoseBodyPointsFn plPoseBodyPoints_Avx2;
 plBodyContactFn plBodyContact_Avx2;
+plBodyContactFastFn plBodyContactFast_Avx2;
 plBodyPointNormalsFn plBodyPointNormals_Avx2;
 plFaceNormalsFn plFaceNormals_Avx2;
 plNormalsGatherFn plNormalsGather_Avx2;

@@ -13,13 +13,15 @@
 //     plBlendShapesBatch_Avx2   ↔ plBlendShapes_Avx2     per element base, then fma(w_j, D_j, ·), j ascending
 //     plSkinningBatch_*         ↔ plSkinning_*           per vertex the blended matrix as an FMA chain over k (AVX2)
 //                                                         or mul + add (scalar), then the same transform expression
+//     plBodyContactFastBatch_*  ↔ plBodyContactFast_*    the anchor's blended matrix, posed anchor and normal as
+//                                                         skinning's, then the same length, plane distance and push
 //     plNormalsBatch_*          ↔ plNormalsScatter_*     per face the same cross product (separate roundings), per
 //                                                         vertex the same ascending-face sum and normalisation
 // The _Avx512 kernels (AVX-512 F/VL/BW/DQ, chosen at run time when the CPU has them) are further twins of the _Avx2
 // single-instance kernels — a 16-wide FMA whose low and high halves are plMatVec_Avx2's even and odd chains, sixteen
 // instances per vector in the lanes form, 16-wide blend tiles — never of a single-instance AVX-512 kernel: a context's
 // single-instance kernels stay the AVX2 set, and a batch on an AVX-512 CPU gives exactly what they give. The AVX-512
-// set keeps the 8-lane AVX2 skinning and normals (body contact runs per instance, plRunBodyContact).
+// set keeps the 8-lane AVX2 skinning, fast body contact and normals (the full contact runs per instance, plRunBodyContact).
 // test_batched_kernels_match_single checks each pair bit for bit, and every variant against the scalar specification.
 #ifndef PLEAT_KERNELS_BATCH_H
 #define PLEAT_KERNELS_BATCH_H
@@ -60,6 +62,14 @@ typedef void plSkinningBatchFn( float* const* out, const float* const* in, uint3
 								const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
 								const float* const* skin_matrices, uint32_t joint_count, uint32_t v_begin,
 								uint32_t v_end );
+// Body contact of batch_count instances of one mesh for vertices [v_begin, v_end): what plBodyContactFastFn does to each
+// instance (positions[b] packed [N][3], moved in place; shaped_anchors[b] its anchors [N][3]; offsets_m[b] its
+// clearance; skin_matrices[b] [J][3][4]); the asset's anchor normals and skinning are shared.
+typedef void plBodyContactFastBatchFn( float* const* positions, const float* const* shaped_anchors, const float* offsets_m,
+								   uint32_t batch_count, const float* anchor_normals,
+								   const uint16_t* anchor_skin_indices, const float* anchor_skin_weights,
+								   uint32_t influence_count, const float* const* skin_matrices, uint32_t joint_count,
+								   uint32_t v_begin, uint32_t v_end );
 // Vertex normals of batch_count instances of one mesh, all vertices: what plNormalsScatterFn gives each instance
 // (positions[b] and normals[b] packed [N][3]). scratch: [plNormalsBatchScratchFloats(N, batch lanes)] floats, 64-byte
 // aligned, shared by the call (the SIMD twins keep the positions and the sums there with the instances as lanes).
@@ -72,6 +82,7 @@ typedef struct plBatchKernels
 	plMatMatLanesFn* mat_mat_lanes; // NULL where the set has none (the MLP job then runs mat_mat)
 	plBlendShapesBatchFn* blend_shapes_batch;
 	plSkinningBatchFn* skinning_batch;
+	plBodyContactFastBatchFn* body_contact_fast_batch;
 	plNormalsBatchFn* normals_batch;
 	uint32_t geometry_lanes; // instances per skinning_batch / normals_batch call that fill its registers (1 = scalar)
 	const char* isa;         // the instruction sets of these kernels, for benchmark reports
@@ -86,9 +97,11 @@ void plBlendShapesBatch_Scalar( float* const* out, const float* const* base, con
 								uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
 								uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 plSkinningBatchFn plSkinningBatch_Scalar;
+plBodyContactFastBatchFn plBodyContactFastBatch_Scalar;
 plNormalsBatchFn plNormalsBatch_Scalar;
 #if defined( PLEAT_HAVE_AVX2 )
 plSkinningBatchFn plSkinningBatch_Avx2;
+plBodyContactFastBatchFn plBodyContactFastBatch_Avx2;
 plNormalsBatchFn plNormalsBatch_Avx2;
 #endif
 #if defined( PLEAT_HAVE_AVX512 )

@@ -818,8 +818,9 @@ static plResult plLbsGeometry( const plSceneData* s, plSceneCharacter* c, float*
 	{
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
-	// the same clearance as the instance's own steps, so a switch to LBS does not pop
-	if ( inst->body_contact && plRunBodyContact( inst, positions, inst->next_skin_matrices ) != PLEAT_RESULT_OK )
+	// the fast contact with the instance's clearance (an LBS-only character is a far one: the full contact would cost
+	// more than its skinning; a switch cross-fades, so it does not pop)
+	if ( inst->body_contact && plRunBodyContact( inst, positions, inst->next_skin_matrices, 1 ) != PLEAT_RESULT_OK )
 	{
 		return PLEAT_RESULT_INTERNAL_ERROR;
 	}
@@ -853,7 +854,7 @@ static void plLbsGeometryLanes( const plSceneData* s, const plBatchKernels* kern
 		positions[k] = group[k]->back_positions;
 		normals[k] = group[k]->back_normals;
 	}
-	if ( plGeometryLanes( s->ctx, kernels, s->tiers[0].asset, insts, in, positions, normals, count ) )
+	if ( plGeometryLanes( s->ctx, kernels, s->tiers[0].asset, 1, insts, in, positions, normals, count ) )
 	{
 		return;
 	}

@@ -106,4 +106,29 @@ static inline void plBlendSkinColumns( __m256* a, __m256* b, const uint16_t* ind
 	*b = sb;
 }
 
+// Eight lanes of plPushOutOfAnchorPlane, the end of the body-contact test: n = (nx, ny, nz) / length with
+// length = sqrt((nx² + ny²) + nz²), d = ((x − ax)·nx + (y − ay)·ny) + (z − az)·nz, and where length > 1e-12 and
+// d < offset, x ← x + (offset − d)·n (other lanes keep their bits). Returns the mask of the lanes that moved. The lanes
+// are vertices in plBodyContactFast_Avx2 and instances in plBodyContactFastBatch_Avx2: one definition, so the two agree bit
+// for bit by construction.
+static inline __m256 plPushOutOfAnchorPlane8( __m256* x, __m256* y, __m256* z, __m256 ax, __m256 ay, __m256 az,
+											  __m256 nx, __m256 ny, __m256 nz, __m256 offset )
+{
+	__m256 length = _mm256_sqrt_ps(
+		_mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
+	__m256 has_direction = _mm256_cmp_ps( length, _mm256_set1_ps( 1e-12f ), _CMP_GT_OQ );
+	nx = _mm256_div_ps( nx, length );
+	ny = _mm256_div_ps( ny, length );
+	nz = _mm256_div_ps( nz, length );
+	__m256 d = _mm256_add_ps(
+		_mm256_add_ps( _mm256_mul_ps( _mm256_sub_ps( *x, ax ), nx ), _mm256_mul_ps( _mm256_sub_ps( *y, ay ), ny ) ),
+		_mm256_mul_ps( _mm256_sub_ps( *z, az ), nz ) );
+	__m256 moves = _mm256_and_ps( has_direction, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) );
+	__m256 push = _mm256_sub_ps( offset, d );
+	*x = _mm256_blendv_ps( *x, _mm256_add_ps( *x, _mm256_mul_ps( push, nx ) ), moves );
+	*y = _mm256_blendv_ps( *y, _mm256_add_ps( *y, _mm256_mul_ps( push, ny ) ), moves );
+	*z = _mm256_blendv_ps( *z, _mm256_add_ps( *z, _mm256_mul_ps( push, nz ) ), moves );
+	return moves;
+}
+
 #endif

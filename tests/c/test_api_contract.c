@@ -352,8 +352,9 @@ static void test_unavailable_backends_are_reported( void** state )
 }
 
 // Body contact's settings: a clearance outside 0 .. PLEAT_BODY_CONTACT_MAX_OFFSET_M or not finite is refused at create
-// (INVALID_DEF) and at run time (INVALID_ARGUMENT, the setting unchanged); on an asset without anchors it is accepted
-// and changes nothing; on one with anchors turning it off gives plain skinning back.
+// (INVALID_DEF) and at run time (INVALID_ARGUMENT, the setting unchanged), and so is a mode other than off, on and
+// fast; on an asset without anchors it is accepted and changes nothing; on one with anchors turning it off gives plain
+// skinning back.
 static void test_body_contact_settings_are_checked( void** state )
 {
 	(void)state;
@@ -376,10 +377,21 @@ static void test_body_contact_settings_are_checked( void** state )
 			assert_int_equal( plCreateInstance( rig.context, &def, &inst ), PLEAT_RESULT_INVALID_DEF );
 		}
 		def.body_contact_offset_m = 0.0f; // allowed: push to the plane itself
+		const int bad_modes[2] = { -1, PLEAT_BODY_CONTACT_FAST + 1 };
+		for ( int i = 0; i < 2; ++i )
+		{
+			def.body_contact = bad_modes[i];
+			assert_int_equal( plCreateInstance( rig.context, &def, &inst ), PLEAT_RESULT_INVALID_DEF );
+		}
+		def.body_contact = PLEAT_BODY_CONTACT_ON;
 		assert_int_equal( plCreateInstance( rig.context, &def, &inst ), PLEAT_RESULT_OK );
 		for ( int i = 0; i < 3; ++i )
 		{
 			assert_int_equal( plInstance_SetBodyContact( inst, 1, bad[i] ), PLEAT_RESULT_INVALID_ARGUMENT );
+		}
+		for ( int i = 0; i < 2; ++i )
+		{
+			assert_int_equal( plInstance_SetBodyContact( inst, bad_modes[i], 0.0f ), PLEAT_RESULT_INVALID_ARGUMENT );
 		}
 		plInstance plain;
 		plInstanceDef plain_def = plDefaultInstanceDef();

@@ -322,8 +322,9 @@ static void test_crowd_equals_one_by_one_avx2_batch_and_no_scratch( void** state
 
 // The scene's LBS-only level steps its characters in lane groups through the batched geometry kernels (scene.c,
 // plStepLbsLevel). Each must get the bits of a lone instance of a zero network — its blend weights are exactly 0, so
-// its T_def is the shaped template and its step is LBS with body contact: positions and normals of 11 characters (a
-// lane group and part of another) with different β and motion, over three frames.
+// its T_def is the shaped template and its step is LBS with the fast body contact (PLEAT_BODY_CONTACT_FAST, which the
+// LBS-only level runs, in lanes): positions and normals of 11 characters (a lane group and part of another) with
+// different β and motion, over three frames.
 static void plRunLbsLevel( int force_scalar )
 {
 	enum
@@ -369,6 +370,7 @@ static void plRunLbsLevel( int force_scalar )
 		idef.asset = asset;
 		idef.beta = beta;
 		idef.beta_count = 2;
+		idef.body_contact = PLEAT_BODY_CONTACT_FAST; // what the scene's LBS-only characters get (pleat.h BODY CONTACT)
 		assert_int_equal( plCreateInstance( context, &idef, &lone[i] ), PLEAT_RESULT_OK );
 	}
 	static float quats[CHARACTERS][64 * 4];

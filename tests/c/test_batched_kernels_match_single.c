@@ -648,9 +648,95 @@ static void test_normals_batch_equals_scatter_per_instance( void** state )
 	}
 }
 
+// The fast body contact: each instance of a batch (its own anchors, clearance and matrices) gets what the single-instance kernel
+// of the same set gives it, bit for bit: vertices without an anchor, degenerate blended normals, vertices beyond the
+// clearance (unchanged) and inside it (pushed), ragged lane groups and vertex ranges, 1..4 influences.
+static void test_fast_body_contact_batch_equals_per_instance( void** state )
+{
+	const plTestSets* k = (const plTestSets*)*state;
+	const uint32_t vertex_counts[] = { 1, 7, 9, 23, 100 };
+	const uint32_t batches[] = { 1, 3, 8, 9, 17 };
+	const uint32_t J = 24;
+	for ( uint32_t s = 0; s < k->count; ++s )
+	{
+		for ( uint32_t K = 1; K <= 4; ++K )
+		{
+			for ( size_t vi = 0; vi < sizeof( vertex_counts ) / sizeof( vertex_counts[0] ); ++vi )
+			{
+				uint32_t nv = vertex_counts[vi];
+				uint16_t* indices = (uint16_t*)malloc( (size_t)nv * K * sizeof( uint16_t ) );
+				float* weights = (float*)malloc( (size_t)nv * K * sizeof( float ) );
+				float* normals = (float*)malloc( (size_t)nv * 3 * sizeof( float ) );
+				plFillSkin( nv, K, J, indices, weights );
+				for ( uint32_t v = 0; v < nv; ++v )
+				{
+					float x = plRand(), y = plRand(), z = plRand(), l = sqrtf( x * x + y * y + z * z ) + 1e-3f;
+					int none = v % 5 == 3; // no anchor
+					normals[3 * v] = none ? 0.0f : x / l;
+					normals[3 * v + 1] = none ? 0.0f : y / l;
+					normals[3 * v + 2] = none ? 0.0f : z / l;
+				}
+				for ( size_t bi = 0; bi < sizeof( batches ) / sizeof( batches[0] ); ++bi )
+				{
+					uint32_t n = batches[bi];
+					float* ps = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
+					float* anchors = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
+					float* mats = (float*)malloc( (size_t)n * J * 12 * sizeof( float ) );
+					float* single = (float*)malloc( (size_t)nv * 3 * sizeof( float ) );
+					float offsets[PLEAT_BATCH_MAX];
+					float* p[PLEAT_BATCH_MAX];
+					const float *r[PLEAT_BATCH_MAX], *m[PLEAT_BATCH_MAX];
+					for ( uint32_t b = 0; b < n; ++b )
+					{
+						for ( uint32_t e = 0; e < J * 12; ++e )
+						{
+							// near a rigid pose (the identity plus noise), all zero for one joint: its vertices blend
+							// a degenerate normal when all their influences name it
+							float identity = ( e % 12 == 0 || e % 12 == 5 || e % 12 == 10 ) ? 1.0f : 0.0f;
+							mats[(size_t)b * J * 12 + e] = e / 12 == 7 ? 0.0f : identity + 0.05f * plRand();
+						}
+						for ( size_t i = 0; i < (size_t)nv * 3; ++i )
+						{
+							anchors[(size_t)b * nv * 3 + i] = 0.1f * plRand();
+							ps[(size_t)b * nv * 3 + i] = anchors[(size_t)b * nv * 3 + i] + 0.01f * plRand();
+						}
+						offsets[b] = 0.002f + 0.001f * (float)( b % 3 );
+						p[b] = ps + (size_t)b * nv * 3;
+						r[b] = anchors + (size_t)b * nv * 3;
+						m[b] = mats + (size_t)b * J * 12;
+					}
+					float* before = (float*)malloc( (size_t)n * nv * 3 * sizeof( float ) );
+					memcpy( before, ps, (size_t)n * nv * 3 * sizeof( float ) );
+					uint32_t begin = nv > 2 ? 1 : 0, end = nv > 8 ? nv - 1 : nv;
+					k->batch[s].body_contact_fast_batch( p, r, offsets, n, normals, indices, weights, K, m, J, begin, end );
+					int moved = 0;
+					for ( uint32_t b = 0; b < n; ++b )
+					{
+						memcpy( single, before + (size_t)b * nv * 3, (size_t)nv * 3 * sizeof( float ) );
+						k->single[s].body_contact_fast( single, 12, r[b], normals, indices, weights, K, m[b], J, offsets[b],
+												   begin, end );
+						assert_memory_equal( single, p[b], (size_t)nv * 3 * sizeof( float ) );
+						moved |= memcmp( single, before + (size_t)b * nv * 3, (size_t)nv * 3 * sizeof( float ) ) != 0;
+					}
+					assert_true( moved || nv * n < 50 ); // the comparison means something: contact moved vertices
+					free( ps );
+					free( anchors );
+					free( mats );
+					free( single );
+					free( before );
+				}
+				free( indices );
+				free( weights );
+				free( normals );
+			}
+		}
+	}
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
+		PLEAT_TEST_WITH_SETS( test_fast_body_contact_batch_equals_per_instance ),
 		PLEAT_TEST_WITH_SETS( test_mat_mat_equals_mat_vec_per_instance ),
 		PLEAT_TEST_WITH_SETS( test_mat_mat_simd_within_rounding_of_scalar_spec ),
 		PLEAT_TEST_WITH_SETS( test_mat_mat_lanes_equals_mat_vec_per_instance ),

@@ -405,6 +405,70 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 	}
 }
 
+// The fast body contact: random anchors around the vertices (so about half are behind their planes and move), every fourth
+// without an anchor, strided positions (other floats untouched), K = 1..8, a joint index out of range, a vertex
+// sub-range. Both kernels compute the same plane test in float; the blended matrix is summed in another grouping,
+// so they agree to rounding: |Δ| ≤ 1e-5 (the inputs are O(1); a wrong column or sign gives O(0.1)).
+static void test_fast_body_contact_avx2_matches_scalar( void** state )
+{
+	const plKernelPair* pair = plRequireAvx2Kernels( state );
+	const uint32_t joint_count = 7, n = 41, stride = 20; // bytes
+	float matrices[7 * 12];
+	for ( uint32_t i = 0; i < joint_count * 12; ++i )
+	{
+		matrices[i] = ( i % 4 == 3 ? 0.3f : 1.0f ) * plRand() + ( i % 5 == 0 ? 1.0f : 0.0f );
+	}
+	float anchors[41 * 3], normals[41 * 3], start[41 * 5];
+	for ( uint32_t v = 0; v < n; ++v )
+	{
+		float nx = plRand(), ny = plRand(), nz = plRand() + 0.1f;
+		float len = sqrtf( nx * nx + ny * ny + nz * nz );
+		normals[3 * v] = v % 4 == 0 ? 0.0f : nx / len;
+		normals[3 * v + 1] = v % 4 == 0 ? 0.0f : ny / len;
+		normals[3 * v + 2] = v % 4 == 0 ? 0.0f : nz / len;
+		for ( int e = 0; e < 3; ++e )
+		{
+			anchors[3 * v + e] = plRand();
+		}
+		for ( int e = 0; e < 5; ++e )
+		{
+			start[5 * v + e] = e < 3 ? anchors[3 * v + e] + 0.2f * plRand() : -77.0f;
+		}
+	}
+	for ( uint32_t K = 1; K <= PLEAT_MAX_INFLUENCES; ++K )
+	{
+		uint16_t indices[41 * 8];
+		float weights[41 * 8];
+		plRandomInfluences( indices, weights, n * K, joint_count );
+		float os[41 * 5], ov[41 * 5];
+		memcpy( os, start, sizeof( os ) );
+		memcpy( ov, start, sizeof( ov ) );
+		const plKernels *scalar = &pair->scalar, *simd = &pair->simd;
+		scalar->body_contact_fast( os, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1,
+							  n - 2 );
+		simd->body_contact_fast( ov, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1, n - 2 );
+		uint32_t moved = 0;
+		for ( uint32_t v = 0; v < n; ++v )
+		{
+			for ( uint32_t e = 0; e < 5; ++e )
+			{
+				float a = os[v * 5 + e], b = ov[v * 5 + e];
+				if ( v < 1 || v >= n - 2 || e >= 3 || v % 4 == 0 )
+				{
+					assert_true( a == start[v * 5 + e] && b == start[v * 5 + e] ); // untouched
+					continue;
+				}
+				moved += a != start[v * 5 + e];
+				if ( fabsf( a - b ) > 1e-5f )
+				{
+					fail_msg( "K=%u vertex %u float %u: scalar %.9g simd %.9g", K, v, e, a, b );
+				}
+			}
+		}
+		assert_true( moved > 0 );
+	}
+}
+
 // Skinning: strided input and output (other floats between vertices stay untouched), K = 1..8 influences, a joint
 // index out of range (weight 0 in both), vertex sub-ranges.
 static void test_skinning_avx2_matches_scalar( void** state )
@@ -655,6 +719,7 @@ int main( void )
 		PLEAT_TEST_WITH_PAIR( test_skinning_avx2_matches_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_pose_body_points_avx2_matches_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_body_contact_avx2_matches_scalar ),
+		PLEAT_TEST_WITH_PAIR( test_fast_body_contact_avx2_matches_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_body_point_normals_avx2_are_bit_identical_to_scalar ),
 		PLEAT_TEST_WITH_PAIR( test_normals_avx2_are_bit_identical_to_scalar ),
 		cmocka_unit_test( test_normals_scatter_is_bit_identical_to_gather ),

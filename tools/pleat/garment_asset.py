@@ -101,10 +101,11 @@ BODY_ANCHOR_MAX_DISTANCE_M = 0.05
 # candidates do not help while the normal is the turned one; with the posed normal 1 candidate 1.11 %, 4 0.96 %,
 # 8 0.91 %. Each candidate costs ~4 ns per vertex and step, the posed normals ~15 ns per point: 4 by default.
 BODY_CONTACT_CANDIDATES = 4
-# Body contact per tier, (candidates, posed normals): the contact costs as much as a small network (docs/benchmarks.md
-# "Body contact"), so the cheaper tiers get less of it, as they get smaller networks: one candidate with the posed
-# normal for medium and small, and the asset 1.1 contact (one point, the turned rest normal) for the coarse xsmall.
-TIER_CONTACT = {"medium": (1, True), "small": (1, True), "xsmall": (1, False)}
+# Body contact per tier, (candidates, posed normals): the full contact costs about what the medium tier's networks cost
+# (docs/benchmarks.md "Body contact"), so the cheaper tiers get less of it, as they get smaller networks: one candidate
+# with the posed normal for medium (+~30 µs on the 1k shirt), and the asset 1.1 contact (one point, the turned rest
+# normal, which is also PLEAT_BODY_CONTACT_FAST) for small and the coarse xsmall, whose steps it would otherwise double.
+TIER_CONTACT = {"medium": (1, True), "small": (1, False), "xsmall": (1, False)}
 
 
 def tier_contact(tier):
@@ -168,28 +169,37 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
         point_normals[far] = 0.0
     else:
         # The candidates, then (posed_normals) the rest of their rings, posed with them so that the runtime can take
-        # the posed body's own normal at each candidate from the points around it. Stored in the order the garment
-        # first reaches them (its vertices in order, each vertex's candidates nearest first, then the ring corners):
-        # the runtime reads a vertex's candidates and a point's ring from rows that neighbouring vertices and points
-        # have just read, not from all over the table.
+        # the posed body's own normal at each candidate from the points around it, in the order the garment first
+        # reaches them (neighbouring vertices read neighbouring rows).
         def first_seen(values):
             values = np.asarray(values, np.int64).ravel()
             _, first = np.unique(values, return_index=True)
             return values[np.sort(first)]
+        # Rows 0..N-1 are the vertices' own nearest body vertices (repeated where two vertices share one), so the
+        # fast contact (pleat.h PLEAT_BODY_CONTACT_FAST) reads them as the 1.1 layout; the other candidates and the
+        # ring corners follow, once each.
         anchors = first_seen(nearest[~far])
         rings = _vertex_rings(faces, len(v_template), anchors) if posed_normals else {}
-        points = first_seen(np.concatenate([anchors] + [rings[v] for v in anchors if v in rings]))
+        own = nearest[:, 0]
+        rest = first_seen(np.concatenate([anchors] + [rings[v] for v in anchors if v in rings]))
+        rest = rest[~np.isin(rest, own[~far])]
+        points = np.concatenate([own, rest])
         slot = np.full(len(v_template), -1, np.int64)
-        slot[points] = np.arange(len(points))
+        slot[rest] = len(own) + np.arange(len(rest))
+        slot[own[~far][::-1]] = np.flatnonzero(~far)[::-1]                   # a vertex's own row; shared: the first
         table = np.full((len(template), C), NO_CANDIDATE, np.int64)
         table[~far] = slot[nearest[~far]]
+        table[~far, 0] = np.flatnonzero(~far)                               # each vertex's first candidate: its own row
+        anchorable = np.zeros(len(points), bool)
+        anchorable[np.unique(table[table != NO_CANDIDATE])] = True
         point_normals = normals[points]
-        point_normals[~np.isin(points, anchors)] = 0.0                     # ring corners only: never an anchor
+        point_normals[~anchorable] = 0.0                                    # far vertices' rows, ring corners
         if posed_normals:
             ring_table = np.full((len(points), BODY_POINT_RING), NO_CANDIDATE, np.int64)
-            for v, r in rings.items():
-                if 3 <= len(r) <= BODY_POINT_RING:                          # else the blended rest normal
-                    ring_table[slot[v], :len(r)] = slot[r]
+            for p in np.flatnonzero(anchorable):
+                r = rings.get(int(points[p]))
+                if r is not None and 3 <= len(r) <= BODY_POINT_RING:        # else the blended rest normal
+                    ring_table[p, :len(r)] = slot[r]
     k = min(influences, skin.shape[1])
     top = np.argsort(-skin[points], axis=1, kind="stable")[:, :k]
     top_weights = np.take_along_axis(skin[points], top, axis=1)

@@ -19,6 +19,17 @@ import numpy as np
 from pleat import REPO_ROOT
 
 
+# plInstanceDef.body_contact's modes (pleat.h BODY CONTACT)
+BODY_CONTACT_OFF, BODY_CONTACT_ON, BODY_CONTACT_FAST = 0, 1, 2
+
+
+def contact_mode(body_contact):
+    """True/False or a mode (0, 1, 2, "fast") → the plInstanceDef.body_contact value."""
+    if body_contact == "fast":
+        return BODY_CONTACT_FAST
+    return int(body_contact) if not isinstance(body_contact, bool) else int(body_contact)
+
+
 class PleatError(RuntimeError):
     def __init__(self, code, name, what):
         super().__init__(f"{what}: {name} ({code})")
@@ -304,7 +315,7 @@ class Instance:
             d.onnxruntime_library = os.fsencode(str(onnxruntime_library))
         d.gpu_mode = GPU_MODES[gpu]
         d.network_rate_hz = float(network_rate_hz)
-        d.body_contact = int(bool(body_contact))
+        d.body_contact = contact_mode(body_contact)
         if body_contact_offset_m is not None:
             d.body_contact_offset_m = float(body_contact_offset_m)
         self.handle = _Handle()
@@ -357,7 +368,7 @@ class Instance:
                "plInstance_SetNetworkRate")
 
     def set_body_contact(self, enabled, offset_m):
-        _check(self.lib, self.lib.plInstance_SetBodyContact(self.handle, int(bool(enabled)), float(offset_m)),
+        _check(self.lib, self.lib.plInstance_SetBodyContact(self.handle, contact_mode(enabled), float(offset_m)),
                "plInstance_SetBodyContact")
 
     def set_shape(self, beta):

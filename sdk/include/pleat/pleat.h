@@ -89,16 +89,21 @@
 // BODY CONTACT (docs/asset-format.md, "Body contact")
 // ==================================================================================================================
 // An asset may carry body points (points of the rest body, each with its normal and the body's own skin weights there)
-// and, per garment vertex, a few candidate points near it (asset 1.2: pleat-pack writes the 8 nearest body vertices;
-// 1.1 had one point per vertex). Each step the points are posed; each vertex takes the blend of its candidates nearest
-// to it in this pose as its anchor, and if it lies closer than body_contact_offset_m to the anchor's tangent plane (or
-// behind it, inside the body) it is moved out along the anchor's normal to that distance; the normals are computed
-// after. This is the simulator's vertex–plane contact measure, applied as a projection: it removes most of the
-// body–garment interpenetration a network leaves on motion it never saw, also where the cloth has slid off its rest
-// neighbour on the body or an arm has come down beside it, for ≈ 5 µs of posing points and ≈ 10 ns per vertex on the
-// 1k shirt. On by default where the asset has body points (plAssetInfo.has_body_contact); plInstanceDef.body_contact
-// = 0 or plInstance_SetBodyContact turns it off. It is continuous in the position (the candidates' weights fall to
-// zero smoothly), so a vertex never jumps when it starts or stops touching or changes anchor.
+// and, per garment vertex, a few candidate points near it (asset 1.2: pleat-pack writes the 4 nearest body vertices
+// and each one's ring of body vertices; 1.1 had one point per vertex). Each step the points are posed, each takes the
+// posed body's own normal from its ring, and each vertex takes the blend of its candidates nearest to it in this pose
+// as its anchor; if it lies closer than body_contact_offset_m to the anchor's tangent plane (or behind it, inside the
+// body) it moves out along the anchor's normal to that distance; the normals are computed after. This is the
+// simulator's vertex–plane contact measure, applied as a projection: it removes most of the body–garment
+// interpenetration a network leaves on motion it never saw, also where the cloth has slid off its rest neighbour on
+// the body or the skin folds at a joint (docs/accuracy.md "Body contact"). It costs about what a small network costs
+// (docs/benchmarks.md "Body contact"), so there is a cheaper mode, PLEAT_BODY_CONTACT_FAST: each vertex's own point
+// only, posed alone, its rest normal turned by its blended matrix (the asset 1.1 contact, and what a scene's LBS-only
+// characters get); it needs the asset's first candidate of every vertex to be its own point (pleat-pack writes it so;
+// otherwise FAST runs the full contact), and the GPU modes run the full contact for it. On by default where the asset
+// has body points (plAssetInfo.has_body_contact); plInstanceDef.body_contact = 0 or plInstance_SetBodyContact turns it
+// off. It is continuous in the position (the candidates' weights fall to zero smoothly), so a vertex never jumps when
+// it starts or stops touching or changes anchor.
 //
 // ==================================================================================================================
 // CROWDS: MANY INSTANCES IN ONE CALL (docs/scene-budget.md)
@@ -253,7 +258,11 @@ extern "C" {
 #define PLEAT_MAX_LAYERS 10
 #define PLEAT_JOINT_NAME_SIZE 32
 #define PLEAT_MATERIAL_COUNT 4
-/// Body contact (BODY CONTACT below): the default clearance and the largest accepted (metres).
+/// Body contact (BODY CONTACT below): the modes of plInstanceDef.body_contact, the default clearance and the largest
+/// accepted (metres).
+#define PLEAT_BODY_CONTACT_OFF 0
+#define PLEAT_BODY_CONTACT_ON 1
+#define PLEAT_BODY_CONTACT_FAST 2
 #define PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M 0.001f
 #define PLEAT_BODY_CONTACT_MAX_OFFSET_M 0.05f
 
@@ -597,8 +606,9 @@ typedef struct plInstanceDef
 	float network_rate_hz;             ///< run the networks at most this often (Hz, e.g. the asset's train_fps under a
 	                                   ///< 60–120 fps game loop); steps in between skin the last learned deformation
 	                                   ///< with the new pose (UPDATE RATE above). 0 = every step (default)
-	int body_contact;                  ///< non-zero (default): keep vertices outside the body where the asset carries
-	                                   ///< body anchors (BODY CONTACT above); 0 = plain skinning
+	int body_contact;                  ///< PLEAT_BODY_CONTACT_ON (1, default): keep vertices outside the body where the
+	                                   ///< asset carries body points (BODY CONTACT above); PLEAT_BODY_CONTACT_FAST (2):
+	                                   ///< the cheaper contact; 0 = plain skinning; other values: INVALID_DEF
 	float body_contact_offset_m;       ///< clearance kept from the body (metres, 0 .. PLEAT_BODY_CONTACT_MAX_OFFSET_M;
 	                                   ///< default PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M = 1 mm); outside or not
 	                                   ///< finite: PLEAT_RESULT_INVALID_DEF
@@ -682,10 +692,11 @@ PLEAT_API plResult plInstance_Reset( plInstance instance );
 /// far from the camera. The time already gathered since the last network update is kept. INVALID_ARGUMENT if not
 /// finite or negative (nothing changes).
 PLEAT_API plResult plInstance_SetNetworkRate( plInstance instance, float network_rate_hz );
-/// Turn body contact on or off and set its clearance (BODY CONTACT above; plInstanceDef.body_contact and
-/// body_contact_offset_m). Applies from the next step. INVALID_ARGUMENT if offset_m is not finite or outside
-/// 0 .. 0.05 m (nothing changes); turning it on for an asset without body anchors is OK and changes nothing. GPU
-/// modes: a GL error (GL_ERROR, GL_UNAVAILABLE) leaves the setting as it was.
+/// Set body contact (0, PLEAT_BODY_CONTACT_ON or PLEAT_BODY_CONTACT_FAST) and its clearance (BODY CONTACT above;
+/// plInstanceDef.body_contact and body_contact_offset_m). Applies from the next step. INVALID_ARGUMENT if the mode is
+/// not one of those or offset_m is not finite or outside 0 .. 0.05 m (nothing changes); turning it on for an asset
+/// without body points is OK and changes nothing. GPU modes: a GL error (GL_ERROR, GL_UNAVAILABLE) leaves the setting
+/// as it was.
 PLEAT_API plResult plInstance_SetBodyContact( plInstance instance, int enabled, float offset_m );
 /// Set the body shape β ([beta_count] unitless, missing entries 0); recomputes the shaped template and J(β) once.
 /// Values outside [beta_min, beta_max] are clamped (PLEAT_RESULT_CLAMPED). GPU modes upload the new template first:

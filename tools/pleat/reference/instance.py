@@ -71,7 +71,9 @@ class Instance:
     def __init__(self, asset, beta=None, material=None, network_rate_hz=0.0, body_contact=True,
                  body_contact_offset_m=BODY_CONTACT_OFFSET_M):
         self.asset = asset
-        # plInstanceDef.body_contact / body_contact_offset_m: on where the asset carries body anchors (asset 1.1)
+        # plInstanceDef.body_contact / body_contact_offset_m: on where the asset carries body points; "fast" (or 2,
+        # PLEAT_BODY_CONTACT_FAST): each vertex's own point with its turned rest normal, where the asset's rows
+        # 0..N-1 are the vertices' own (else the full contact, as the runtime does)
         self.body_contact = bool(body_contact) and asset.get("body_anchor") is not None
         self.body_contact_offset_m = float(np.float32(body_contact_offset_m))
         if self.body_contact:
@@ -80,6 +82,11 @@ class Instance:
             self.anchor_skin_weights = np.asarray(asset["body_anchor_skin_weights"], np.float64)
             self.anchor_candidates = asset.get("body_anchor_candidates")     # None: one point per vertex (1.1)
             self.anchor_ring = asset.get("body_anchor_ring")                 # None: rotated rest normals
+            N, table = len(asset["template"]), self.anchor_candidates
+            fast_ready = len(self.anchor_normals) >= N and (
+                table is None or bool(np.all((table[:, 0] == np.arange(N)) | (table[:, 0] == 0xFFFF))))
+            self.body_contact_fast = fast_ready and (body_contact in (2, "fast") or (
+                table is None and self.anchor_ring is None))
         self.parents = np.asarray(asset["joint_parents"], np.int64)
         self.input_joints = np.asarray(asset["input_joints"], np.int64)
         self.faces = np.asarray(asset["faces"], np.int64)
@@ -204,7 +211,12 @@ class Instance:
         with np.errstate(all="ignore"):
             deformed = blend_shapes(self.shaped_template, self.blend, blend_weights)
             positions = skinning(deformed, self.skin_indices, self.skin_weights, skin_matrices)
-            if self.body_contact:
+            if self.body_contact and self.body_contact_fast:               # rows 0..N-1: one point per vertex
+                N = len(positions)
+                positions = body_contact(positions, self.shaped_anchors[:N], self.anchor_normals[:N],
+                                         self.anchor_skin_indices[:N], self.anchor_skin_weights[:N], skin_matrices,
+                                         self.body_contact_offset_m)
+            elif self.body_contact:
                 positions = body_contact(positions, self.shaped_anchors, self.anchor_normals, self.anchor_skin_indices,
                                          self.anchor_skin_weights, skin_matrices, self.body_contact_offset_m,
                                          self.anchor_candidates, self.anchor_ring)
