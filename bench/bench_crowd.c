@@ -4,7 +4,7 @@
 //
 // usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [--asset LABEL=PATH ...] [--counts 1,8,64,256]
 //                          [--workers 1,2] [--seconds S] [--rounds R] [--clock wall|cpu] [--batch-isa best|avx2]
-//                          [--out crowd.json]
+//                          [--body-contact on|fast|off] [--out crowd.json]
 //        pleat_bench_crowd --scene --case case.bin --tier T0.pleat [--tier T1.pleat ...] --tier-errors e0,..,lbs
 //                          --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] [--workers 1|2]
 //                          [--out scene.json]
@@ -49,6 +49,10 @@
 
 #if defined( __x86_64__ ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
 #include <immintrin.h>
+
+// --body-contact on|fast|off (the crowd sweep's instances; default on, plInstanceDef's default): the full contact runs
+// per instance and is not batched, the fast one is batched in lanes (pleat.h BODY CONTACT).
+static int g_crowdContact = PLEAT_BODY_CONTACT_ON;
 #define CROWD_FMA_PROBE 1
 #endif
 
@@ -211,6 +215,7 @@ static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t worke
 		idef.beta = beta;
 		idef.beta_count = motion->beta_count < info.beta_count ? motion->beta_count : info.beta_count;
 		idef.engine_joint_count = motion->joint_count;
+		idef.body_contact = g_crowdContact;
 		ok = idef.beta_count >= 2 && plCreateInstance( context, &idef, &sets[i] ) == PLEAT_RESULT_OK;
 	}
 	uint32_t frame = 0, iterations = 0;
@@ -631,6 +636,10 @@ int main( int argc, char** argv )
 			g_benchClock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
 		else if ( strcmp( argv[i], "--batch-isa" ) == 0 )
 			batch_isa_arg = argv[i + 1];
+		else if ( strcmp( argv[i], "--body-contact" ) == 0 )
+			g_crowdContact = strcmp( argv[i + 1], "fast" ) == 0 ? PLEAT_BODY_CONTACT_FAST
+							 : strcmp( argv[i + 1], "off" ) == 0 ? PLEAT_BODY_CONTACT_OFF
+																 : PLEAT_BODY_CONTACT_ON;
 		else if ( strcmp( argv[i], "--asset" ) == 0 && asset_count < CROWD_MAX_ASSETS )
 		{
 			char* eq = strchr( argv[i + 1], '=' );

@@ -101,11 +101,11 @@ BODY_ANCHOR_MAX_DISTANCE_M = 0.05
 # candidates do not help while the normal is the turned one; with the posed normal 1 candidate 1.11 %, 4 0.96 %,
 # 8 0.91 %. Each candidate costs ~4 ns per vertex and step, the posed normals ~15 ns per point: 4 by default.
 BODY_CONTACT_CANDIDATES = 4
-# Body contact per tier, (candidates, posed normals): the full contact costs about what the medium tier's networks cost
-# (docs/benchmarks.md "Body contact"), so the cheaper tiers get less of it, as they get smaller networks: one candidate
-# with the posed normal for medium (+~30 µs on the 1k shirt), and the asset 1.1 contact (one point, the turned rest
-# normal, which is also PLEAT_BODY_CONTACT_FAST) for small and the coarse xsmall, whose steps it would otherwise double.
-TIER_CONTACT = {"medium": (1, True), "small": (1, False), "xsmall": (1, False)}
+# Body contact per tier, (candidates, posed normals): the full contact costs about what the medium tier's networks
+# cost, and a crowd step cannot batch it (it is per instance: docs/benchmarks.md "Body contact"), so only the top tier
+# gets it; the cheaper tiers keep the asset 1.1 contact (one point, the turned rest normal, batched in lanes; also
+# PLEAT_BODY_CONTACT_FAST), which scenes of many characters can afford (docs/scene-budget.md).
+TIER_CONTACT = {"medium": (1, False), "small": (1, False), "xsmall": (1, False)}
 
 
 def tier_contact(tier):
