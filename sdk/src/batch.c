@@ -333,6 +333,9 @@ size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a )
 		if ( kernels.geometry_lanes > 1 )
 		{
 			floats = plNormalsBatchScratchFloats( a->vertex_count, kernels.geometry_lanes );
+			size_t contact = kernels.body_contact_batch != NULL ? plBodyContactBatchScratchFloats( a->body_point_count )
+																 : 0;
+			floats = contact > floats ? contact : floats;
 		}
 		if ( kernels.mat_mat_lanes != NULL )
 		{
@@ -438,13 +441,45 @@ int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const pl
 	}
 	// What plDeformCpu runs between skinning and normals: body contact, for the lanes that have it on, each with the
 	// context's single-instance kernels (the batch set's twins), so a lane gets the lone step's bits.
-	// (The jobs only refuse spans the instance did not build, as the batched kernel that ran here before could not
-	// fail at all: the result says nothing about the input.)
+	// The full contact: in lanes where the set has the kernel and a scratch block is free, else instance by instance.
+	// (The jobs only refuse spans the instance did not build: the result says nothing about the input.)
+	float* full_positions[PLEAT_BATCH_MAX];
+	const float* full_points[PLEAT_BATCH_MAX];
+	const float* full_matrices[PLEAT_BATCH_MAX];
+	float full_offsets[PLEAT_BATCH_MAX];
+	uint32_t full_count = 0;
 	for ( uint32_t k = 0; k < count; ++k )
 	{
 		if ( insts[k]->body_contact && !( ( fast_contact || insts[k]->body_contact_fast ) && a->body_contact_fast_ready ) )
 		{
-			(void)plRunBodyContact( insts[k], positions[k], matrices[k], 0 );
+			full_positions[full_count] = positions[k];
+			full_points[full_count] = insts[k]->shaped_anchors;
+			full_matrices[full_count] = matrices[k];
+			full_offsets[full_count++] = insts[k]->body_contact_offset_m;
+		}
+	}
+	int contact_slot = full_count > 1 && kernels->body_contact_batch != NULL
+						   ? plClaimScratch( ctx, plBodyContactBatchScratchFloats( a->body_point_count ) )
+						   : -1;
+	if ( contact_slot >= 0 )
+	{
+		kernels->body_contact_batch( full_positions, full_points, full_offsets, full_count, a->body_anchor_normals,
+									 a->body_anchor_skin_indices, a->body_anchor_skin_weights,
+									 a->body_anchor_influence_count, full_matrices, a->joint_count,
+									 a->body_point_count, a->body_anchor_candidates, a->body_anchor_candidate_count,
+									 a->body_anchor_ring, a->body_anchor_ring_count, a->vertex_count,
+									 ctx->batch_scratch[contact_slot] );
+		atomic_store_explicit( &ctx->batch_scratch_busy[contact_slot], 0, memory_order_release );
+	}
+	else
+	{
+		for ( uint32_t k = 0; k < count; ++k )
+		{
+			if ( insts[k]->body_contact &&
+				 !( ( fast_contact || insts[k]->body_contact_fast ) && a->body_contact_fast_ready ) )
+			{
+				(void)plRunBodyContact( insts[k], positions[k], matrices[k], 0 );
+			}
 		}
 	}
 	int slot = plClaimScratch( ctx, plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes ) );

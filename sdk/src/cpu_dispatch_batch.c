@@ -48,18 +48,18 @@ typedef struct plKernelTwins
 
 static const plKernelTwins s_plKernelTwins[] = {
 	{ plMatVec_Scalar, plBlendShapes_Scalar, plSkinning_Scalar, plPoseBodyPoints_Scalar, plNormalsScatter_Scalar,
-	  { plMatMat_Scalar, NULL, plBlendShapesBatch_Scalar, plSkinningBatch_Scalar, plBodyContactFastBatch_Scalar,
+	  { plMatMat_Scalar, NULL, plBlendShapesBatch_Scalar, plSkinningBatch_Scalar, plBodyContactFastBatch_Scalar, NULL,
 		plNormalsBatch_Scalar, 1, "scalar" } },
 #if defined( PLEAT_HAVE_AVX2 )
 	{ plMatVec_Avx2, plBlendShapes_Avx2, plSkinning_Avx2, plPoseBodyPoints_Avx2, plNormalsScatter_Avx2,
 	  { plMatMat_Avx2, NULL, plBlendShapesBatch_Avx2, plSkinningBatch_Avx2, plBodyContactFastBatch_Avx2,
-		plNormalsBatch_Avx2, 8, "avx2+fma+f16c" } },
+		plBodyContactBatch_Avx2, plNormalsBatch_Avx2, 8, "avx2+fma+f16c" } },
 #endif
 };
 
 int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatchKernels* out )
 {
-	const plBatchKernels none = { NULL, NULL, NULL, NULL, NULL, NULL, 1, "scalar" };
+	const plBatchKernels none = { NULL, NULL, NULL, NULL, NULL, NULL, NULL, 1, "scalar" };
 	*out = none;
 	for ( size_t i = 0; i < sizeof( s_plKernelTwins ) / sizeof( s_plKernelTwins[0] ); ++i )
 	{

@@ -391,3 +391,187 @@ void plBodyContactFastBatch_Avx2( float* const* positions, const float* const* s
 	}
 }
 
+
+// The full body contact (twin of plPoseBodyPoints_Avx2, plBodyPointNormals_Avx2 and plBodyContact_Avx2) of up to 8
+// instances of one asset, the instances in the lanes: the posed points go to scratch as [P][8 rows][8 lanes] (a_x, a_y,
+// a_z, usable, n_x, n_y, n_z, anchorable), so that a ring point's or a candidate's row is one aligned 8-lane load for
+// all instances at once instead of a gather per instance. Per lane the operations of the single kernels in their order
+// (the posing's blend and FMAs as plPoseAnchor, as plBodyContactFastBatch_Avx2 does; the ring sums and the push as the
+// scalar kernels, which the single AVX2 twins match), so every instance gets its lone step's bits (what
+// plStepInstances promises). Why: the full contact runs per instance and a crowd step could not batch it (60 µs an
+// instance on the 1k shirt, docs/benchmarks.md "Body contact"); in lanes the points' rows are shared loads.
+void plBodyContactBatch_Avx2( float* const* positions, const float* const* shaped_points, const float* offsets_m,
+							  uint32_t batch_count, const float* point_normals, const uint16_t* skin_indices,
+							  const float* skin_weights, uint32_t influence_count, const float* const* skin_matrices,
+							  uint32_t joint_count, uint32_t point_count, const uint16_t* candidates,
+							  uint32_t candidate_count, const uint16_t* rings, uint32_t ring_count, uint32_t vertex_count,
+							  float* scratch )
+{
+	uint32_t J = joint_count < PLEAT_SKIN_COLUMN_JOINTS ? joint_count : PLEAT_SKIN_COLUMN_JOINTS;
+	_Alignas( 64 ) float lanes[( J + 1 ) * 12 * PL_LANES];
+	_Alignas( 64 ) float block[3 * PL_LANES * PL_LANES];
+	uint32_t K = influence_count, n = batch_count < PL_LANES ? batch_count : PL_LANES;
+	const plVec one = plVecSet1( 1.0f ), zero = plVecZero(), infinity = plVecSet1( INFINITY );
+	const plVec tiny = plVecSet1( 1e-12f );
+	plSkinMatricesToLanes( skin_matrices, n, J, lanes );
+#define PL_ROW( p, e ) ( scratch + ( (size_t)( p ) * 8 + ( e ) ) * PL_LANES )
+	// 1. the points posed, eight points at a time through the lanes transpose of their shaped rows
+	for ( uint32_t p0 = 0; p0 < point_count; p0 += PL_LANES )
+	{
+		uint32_t count = point_count - p0 < PL_LANES ? point_count - p0 : PL_LANES;
+		plToLanes( shaped_points, n, p0, count, block );
+		for ( uint32_t i = 0; i < count; ++i )
+		{
+			uint32_t p = p0 + i;
+			const float* rn = point_normals + (size_t)p * 3;
+			plVec a0[3], a1[3], a2[3], a3[3];
+			plBlendMatrixLanes( a0, a1, a2, a3, skin_indices + (size_t)p * K, skin_weights + (size_t)p * K, K, J, lanes );
+			const float* pr = block + (size_t)i * 3 * PL_LANES;
+			plVec rx = plVecLoad( pr ), ry = plVecLoad( pr + PL_LANES ), rz = plVecLoad( pr + 2 * PL_LANES );
+			plVec nx0 = plVecSet1( rn[0] ), ny0 = plVecSet1( rn[1] ), nz0 = plVecSet1( rn[2] );
+			plVec normal[3];
+			for ( int r = 0; r < 3; ++r )
+			{
+				plVecStore( PL_ROW( p, r ), plVecAdd( plVecFma( a2[r], rz, plVecMul( a0[r], rx ) ),
+													  plVecFma( a3[r], one, plVecMul( a1[r], ry ) ) ) );
+				normal[r] = plVecAdd( plVecFma( a2[r], nz0, plVecMul( a0[r], nx0 ) ),
+									  plVecFma( a3[r], zero, plVecMul( a1[r], ny0 ) ) );
+			}
+			int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
+			plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( normal[0], normal[0] ), plVecMul( normal[1], normal[1] ) ),
+												plVecMul( normal[2], normal[2] ) ) );
+			plVec usable = anchorable ? _mm256_cmp_ps( length, tiny, _CMP_GT_OQ ) : zero;
+			plVecStore( PL_ROW( p, 3 ), _mm256_and_ps( one, usable ) );
+			for ( int r = 0; r < 3; ++r )
+			{
+				plVecStore( PL_ROW( p, 4 + r ), _mm256_and_ps( _mm256_div_ps( normal[r], length ), usable ) );
+			}
+			plVecStore( PL_ROW( p, 7 ), anchorable ? one : zero );
+		}
+	}
+	// 2. the posed body's normals from the rings (after every point is posed: a ring reads its neighbours' rows)
+	for ( uint32_t p = 0; rings != NULL && p < point_count; ++p )
+	{
+		const uint16_t* ring = rings + (size_t)p * ring_count;
+		const float* rn = point_normals + (size_t)p * 3;
+		if ( ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f ) || ring[0] >= point_count )
+		{
+			continue;
+		}
+		plVec ox = plVecLoad( PL_ROW( p, 0 ) ), oy = plVecLoad( PL_ROW( p, 1 ) ), oz = plVecLoad( PL_ROW( p, 2 ) );
+		plVec dx[PLEAT_MAX_POINT_RING], dy[PLEAT_MAX_POINT_RING], dz[PLEAT_MAX_POINT_RING];
+		uint32_t m = 0;
+		while ( m < ring_count && ring[m] < point_count )
+		{
+			dx[m] = plVecSub( plVecLoad( PL_ROW( ring[m], 0 ) ), ox );
+			dy[m] = plVecSub( plVecLoad( PL_ROW( ring[m], 1 ) ), oy );
+			dz[m] = plVecSub( plVecLoad( PL_ROW( ring[m], 2 ) ), oz );
+			m++;
+		}
+		plVec nx = zero, ny = zero, nz = zero;
+		for ( uint32_t i = 0; i < m; ++i )
+		{
+			uint32_t j = i + 1 < m ? i + 1 : 0;
+			nx = plVecAdd( nx, plVecSub( plVecMul( dy[i], dz[j] ), plVecMul( dz[i], dy[j] ) ) );
+			ny = plVecAdd( ny, plVecSub( plVecMul( dz[i], dx[j] ), plVecMul( dx[i], dz[j] ) ) );
+			nz = plVecAdd( nz, plVecSub( plVecMul( dx[i], dy[j] ), plVecMul( dy[i], dx[j] ) ) );
+		}
+		plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( nx, nx ), plVecMul( ny, ny ) ), plVecMul( nz, nz ) ) );
+		plVec usable = _mm256_cmp_ps( length, tiny, _CMP_GT_OQ );
+		plVecStore( PL_ROW( p, 3 ), _mm256_and_ps( one, usable ) );
+		plVecStore( PL_ROW( p, 4 ), _mm256_and_ps( _mm256_div_ps( nx, length ), usable ) );
+		plVecStore( PL_ROW( p, 5 ), _mm256_and_ps( _mm256_div_ps( ny, length ), usable ) );
+		plVecStore( PL_ROW( p, 6 ), _mm256_and_ps( _mm256_div_ps( nz, length ), usable ) );
+	}
+	// 3. the push, eight vertices at a time through the lanes transpose of the instances' positions
+	_Alignas( 32 ) float offset_lanes[PL_LANES] = { 0 };
+	for ( uint32_t l = 0; l < n; ++l )
+	{
+		offset_lanes[l] = offsets_m[l];
+	}
+	const plVec offset = plVecLoad( offset_lanes );
+	const plVec margin = plVecSet1( PLEAT_CONTACT_BLEND_M * PLEAT_CONTACT_BLEND_M );
+	const plVec share = plVecSet1( 1.0f + PLEAT_CONTACT_BLEND_SHARE );
+	uint32_t C = candidate_count;
+	for ( uint32_t v0 = 0; v0 < vertex_count; v0 += PL_LANES )
+	{
+		uint32_t count = vertex_count - v0 < PL_LANES ? vertex_count - v0 : PL_LANES;
+		plToLanes( (const float* const*)positions, n, v0, count, block );
+		int moved = 0;
+		for ( uint32_t i = 0; i < count; ++i )
+		{
+			uint32_t v = v0 + i;
+			float* px = block + (size_t)i * 3 * PL_LANES;
+			plVec x = plVecLoad( px ), y = plVecLoad( px + PL_LANES ), z = plVecLoad( px + 2 * PL_LANES );
+			plVec d2[PLEAT_MAX_CONTACT_CANDIDATES];
+			uint32_t slot[PLEAT_MAX_CONTACT_CANDIDATES];
+			uint32_t used = 0;
+			plVec nearest = infinity;
+			for ( uint32_t c = 0; c < C; ++c )
+			{
+				uint32_t p = candidates != NULL ? candidates[(size_t)v * C + c] : v;
+				if ( p >= point_count )
+				{
+					continue; // an empty slot, for every instance
+				}
+				plVec dx = plVecSub( x, plVecLoad( PL_ROW( p, 0 ) ) ), dy = plVecSub( y, plVecLoad( PL_ROW( p, 1 ) ) );
+				plVec dz = plVecSub( z, plVecLoad( PL_ROW( p, 2 ) ) );
+				plVec d = plVecAdd( plVecAdd( plVecMul( dx, dx ), plVecMul( dy, dy ) ), plVecMul( dz, dz ) );
+				d2[used] = _mm256_blendv_ps( infinity, d, _mm256_cmp_ps( plVecLoad( PL_ROW( p, 3 ) ), zero, _CMP_NEQ_OQ ) );
+				slot[used++] = p;
+				nearest = _mm256_min_ps( nearest, d2[used - 1] );
+			}
+			plVec anchored = _mm256_cmp_ps( nearest, infinity, _CMP_LT_OQ );
+			if ( _mm256_movemask_ps( anchored ) == 0 )
+			{
+				continue;
+			}
+			plVec limit = plVecAdd( plVecMul( share, nearest ), margin );
+			plVec total = zero, sx = zero, sy = zero, sz = zero, nx = zero, ny = zero, nz = zero;
+			for ( uint32_t k = 0; k < used; ++k )
+			{
+				plVec w = plVecSub( limit, d2[k] );
+				plVec inside = _mm256_cmp_ps( w, zero, _CMP_GT_OQ );
+				if ( _mm256_movemask_ps( inside ) == 0 )
+				{
+					continue; // no instance weighs it: every sum would add +0
+				}
+				w = _mm256_and_ps( w, inside );
+				uint32_t p = slot[k];
+				total = plVecAdd( total, w );
+				sx = plVecAdd( sx, plVecMul( w, plVecLoad( PL_ROW( p, 0 ) ) ) );
+				sy = plVecAdd( sy, plVecMul( w, plVecLoad( PL_ROW( p, 1 ) ) ) );
+				sz = plVecAdd( sz, plVecMul( w, plVecLoad( PL_ROW( p, 2 ) ) ) );
+				nx = plVecAdd( nx, plVecMul( w, plVecLoad( PL_ROW( p, 4 ) ) ) );
+				ny = plVecAdd( ny, plVecMul( w, plVecLoad( PL_ROW( p, 5 ) ) ) );
+				nz = plVecAdd( nz, plVecMul( w, plVecLoad( PL_ROW( p, 6 ) ) ) );
+			}
+			plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( nx, nx ), plVecMul( ny, ny ) ), plVecMul( nz, nz ) ) );
+			plVec pushes = _mm256_and_ps( _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) ),
+										  _mm256_cmp_ps( length, tiny, _CMP_GT_OQ ) );
+			sx = _mm256_div_ps( sx, total );
+			sy = _mm256_div_ps( sy, total );
+			sz = _mm256_div_ps( sz, total );
+			nx = _mm256_div_ps( nx, length );
+			ny = _mm256_div_ps( ny, length );
+			nz = _mm256_div_ps( nz, length );
+			plVec d = plVecAdd( plVecAdd( plVecMul( plVecSub( x, sx ), nx ), plVecMul( plVecSub( y, sy ), ny ) ),
+								plVecMul( plVecSub( z, sz ), nz ) );
+			plVec moves = _mm256_and_ps( pushes, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) );
+			if ( _mm256_movemask_ps( moves ) == 0 )
+			{
+				continue;
+			}
+			plVec push = plVecSub( offset, d );
+			plVecStore( px, _mm256_blendv_ps( x, plVecAdd( x, plVecMul( push, nx ) ), moves ) );
+			plVecStore( px + PL_LANES, _mm256_blendv_ps( y, plVecAdd( y, plVecMul( push, ny ) ), moves ) );
+			plVecStore( px + 2 * PL_LANES, _mm256_blendv_ps( z, plVecAdd( z, plVecMul( push, nz ) ), moves ) );
+			moved = 1;
+		}
+		if ( moved )
+		{
+			plFromLanes( block, positions, n, v0, count );
+		}
+	}
+#undef PL_ROW
+}
