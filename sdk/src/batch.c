@@ -413,73 +413,63 @@ int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const pl
 					 float* const* normals, uint32_t count )
 {
 	const float* matrices[PLEAT_BATCH_MAX] = { NULL }; // (all of count filled below; GCC's scalar build cannot tell)
-	float* fast_positions[PLEAT_BATCH_MAX];
-	const float* fast_anchors[PLEAT_BATCH_MAX];
-	const float* fast_matrices[PLEAT_BATCH_MAX];
-	float fast_offsets[PLEAT_BATCH_MAX];
-	uint32_t fast_count = 0;
+	// The lanes with body contact, by which contact they run (plRunsFastContact): the fast one and the full one.
+	plInstanceData* contact_insts[2][PLEAT_BATCH_MAX];
+	float* contact_positions[2][PLEAT_BATCH_MAX];
+	const float* contact_points[2][PLEAT_BATCH_MAX];
+	const float* contact_matrices[2][PLEAT_BATCH_MAX];
+	float contact_offsets[2][PLEAT_BATCH_MAX];
+	uint32_t contact_count[2] = { 0, 0 };
+	enum
+	{
+		FAST = 0,
+		FULL = 1
+	};
 	for ( uint32_t k = 0; k < count; ++k )
 	{
 		matrices[k] = insts[k]->next_skin_matrices;
-		if ( insts[k]->body_contact && ( fast_contact || insts[k]->body_contact_fast ) && a->body_contact_fast_ready )
+		if ( insts[k]->body_contact )
 		{
-			fast_positions[fast_count] = positions[k];
-			fast_anchors[fast_count] = insts[k]->shaped_anchors;
-			fast_matrices[fast_count] = matrices[k];
-			fast_offsets[fast_count++] = insts[k]->body_contact_offset_m;
+			int kind = plRunsFastContact( insts[k], fast_contact ) ? FAST : FULL;
+			uint32_t i = contact_count[kind]++;
+			contact_insts[kind][i] = insts[k];
+			contact_positions[kind][i] = positions[k];
+			contact_points[kind][i] = insts[k]->shaped_anchors;
+			contact_matrices[kind][i] = matrices[k];
+			contact_offsets[kind][i] = insts[k]->body_contact_offset_m;
 		}
 	}
 	kernels->skinning_batch( positions, in, count, a->skin_indices, a->skin_weights, a->influence_count, matrices,
 							 a->joint_count, 0, a->vertex_count );
-	// The fast contact of the lanes that run it, in lanes (its batched kernel gives each lane the single kernel's bits)
-	if ( fast_count > 0 )
+	// What plDeformCpu runs between skinning and normals, with each lane getting its lone step's bits. The fast
+	// contact in lanes (its batched kernel gives each lane the single kernel's bits).
+	if ( contact_count[FAST] > 0 )
 	{
-		kernels->body_contact_fast_batch( fast_positions, fast_anchors, fast_offsets, fast_count, a->body_anchor_normals,
-										  a->body_anchor_skin_indices, a->body_anchor_skin_weights,
-										  a->body_anchor_influence_count, fast_matrices, a->joint_count, 0,
-										  a->vertex_count );
+		kernels->body_contact_fast_batch( contact_positions[FAST], contact_points[FAST], contact_offsets[FAST],
+										  contact_count[FAST], a->body_anchor_normals, a->body_anchor_skin_indices,
+										  a->body_anchor_skin_weights, a->body_anchor_influence_count,
+										  contact_matrices[FAST], a->joint_count, 0, a->vertex_count );
 	}
-	// What plDeformCpu runs between skinning and normals: body contact, for the lanes that have it on, each with the
-	// context's single-instance kernels (the batch set's twins), so a lane gets the lone step's bits.
 	// The full contact: in lanes where the set has the kernel and a scratch block is free, else instance by instance.
 	// (The jobs only refuse spans the instance did not build: the result says nothing about the input.)
-	float* full_positions[PLEAT_BATCH_MAX];
-	const float* full_points[PLEAT_BATCH_MAX];
-	const float* full_matrices[PLEAT_BATCH_MAX];
-	float full_offsets[PLEAT_BATCH_MAX];
-	uint32_t full_count = 0;
-	for ( uint32_t k = 0; k < count; ++k )
-	{
-		if ( insts[k]->body_contact && !( ( fast_contact || insts[k]->body_contact_fast ) && a->body_contact_fast_ready ) )
-		{
-			full_positions[full_count] = positions[k];
-			full_points[full_count] = insts[k]->shaped_anchors;
-			full_matrices[full_count] = matrices[k];
-			full_offsets[full_count++] = insts[k]->body_contact_offset_m;
-		}
-	}
-	int contact_slot = full_count > 1 && kernels->body_contact_batch != NULL
+	int contact_slot = contact_count[FULL] > 1 && kernels->body_contact_batch != NULL
 						   ? plClaimScratch( ctx, plBodyContactBatchScratchFloats( a->body_point_count ) )
 						   : -1;
 	if ( contact_slot >= 0 )
 	{
-		kernels->body_contact_batch( full_positions, full_points, full_offsets, full_count, a->body_anchor_normals,
-									 a->body_anchor_skin_indices, a->body_anchor_skin_weights,
-									 a->body_anchor_influence_count, full_matrices, a->joint_count,
-									 a->body_point_count, a->body_anchor_candidates, a->body_anchor_candidate_count,
-									 a->body_anchor_ring, a->body_anchor_ring_count, a->vertex_count,
-									 ctx->batch_scratch[contact_slot] );
+		kernels->body_contact_batch( contact_positions[FULL], contact_points[FULL], contact_offsets[FULL],
+									 contact_count[FULL], a->body_anchor_normals, a->body_anchor_skin_indices,
+									 a->body_anchor_skin_weights, a->body_anchor_influence_count,
+									 contact_matrices[FULL], a->joint_count, a->body_point_count,
+									 a->body_anchor_candidates, a->body_anchor_candidate_count, a->body_anchor_ring,
+									 a->body_anchor_ring_count, a->vertex_count, ctx->batch_scratch[contact_slot] );
 		atomic_store_explicit( &ctx->batch_scratch_busy[contact_slot], 0, memory_order_release );
 	}
 	else
 	{
-		for ( uint32_t k = 0; k < count; ++k )
+		for ( uint32_t i = 0; i < contact_count[FULL]; ++i )
 		{
-			if ( insts[k]->body_contact &&
-				 !( ( fast_contact || insts[k]->body_contact_fast ) && a->body_contact_fast_ready ) )
-			{
-				(void)plRunBodyContact( insts[k], positions[k], matrices[k], 0 );
-			}
+			(void)plRunBodyContact( contact_insts[FULL][i], contact_positions[FULL][i], contact_matrices[FULL][i], 0 );
 		}
 	}
 	int slot = plClaimScratch( ctx, plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes ) );

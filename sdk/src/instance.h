@@ -95,6 +95,13 @@ plResult plPoseBodyPoints( plInstanceData* inst, const float* skin_matrices, uin
 plResult plBodyPointNormals( plInstanceData* inst, uint32_t begin, uint32_t end ); // assets with BARG; else nothing
 plResult plPushOutOfBody( plInstanceData* inst, float* positions, uint32_t begin, uint32_t end );
 plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, int fast );
+// Whether inst's contact is the fast one: its mode says so (body_contact_fast, which already needs an asset that
+// allows it), or force_fast (the scene's LBS-only level) where the asset allows it. 0 without contact.
+static inline int plRunsFastContact( const plInstanceData* inst, int force_fast )
+{
+	return inst->body_contact &&
+		   ( inst->body_contact_fast || ( force_fast && inst->asset->body_contact_fast_ready ) );
+}
 // The fast contact (PLEAT_BODY_CONTACT_FAST; body_contact_fast.c) for vertices [begin, end): each vertex's own point
 // (the first N rows, plAssetData.body_contact_fast_ready), its turned rest normal. plRunBodyContact with fast (the
 // scene's LBS-only characters) or the instance's mode asking for it runs this instead of the three jobs.

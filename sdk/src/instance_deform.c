@@ -134,7 +134,7 @@ plResult plRunFastBodyContact( plInstanceData* inst, float* positions, const flo
 
 plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, int fast )
 {
-	if ( ( fast || inst->body_contact_fast ) && inst->asset->body_contact_fast_ready )
+	if ( plRunsFastContact( inst, fast ) )
 	{
 		return plRunFastBodyContact( inst, positions, skin_matrices, 0, inst->asset->vertex_count );
 	}
