@@ -166,25 +166,13 @@ void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, con
 				nz += w * a[6];
 			}
 		}
-		float length = sqrtf( nx * nx + ny * ny + nz * nz );
-		if ( !( total > 0.0f ) || !( length > 1e-12f ) )
+		if ( !( total > 0.0f ) )
 		{
-			continue; // normals that cancel (a thin body part seen from its edge): no direction to push along
+			continue;
 		}
-		ax /= total;
-		ay /= total;
-		az /= total;
-		nx /= length;
-		ny /= length;
-		nz /= length;
-		float d = ( x[0] - ax ) * nx + ( x[1] - ay ) * ny + ( x[2] - az ) * nz;
-		if ( d < offset_m )
-		{
-			float push = offset_m - d;
-			x[0] += push * nx;
-			x[1] += push * ny;
-			x[2] += push * nz;
-		}
+		// the blended plane: normals that cancel (a thin body part seen from its edge) leave no direction to push
+		// along, and plPushOutOfAnchorPlane leaves the vertex as it is
+		plPushOutOfAnchorPlane( x, ax / total, ay / total, az / total, nx, ny, nz, offset_m );
 	}
 }
 

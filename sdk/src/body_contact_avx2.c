@@ -95,7 +95,7 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 										 : candidates != NULL ? (int32_t)candidates[(size_t)v * C + c] : (int32_t)v;
 			}
 		}
-		const __m256 x = _mm256_load_ps( px ), y = _mm256_load_ps( py ), z = _mm256_load_ps( pz );
+		__m256 x = _mm256_load_ps( px ), y = _mm256_load_ps( py ), z = _mm256_load_ps( pz );
 		__m256 ax[PLEAT_MAX_CONTACT_CANDIDATES], ay[PLEAT_MAX_CONTACT_CANDIDATES], az[PLEAT_MAX_CONTACT_CANDIDATES];
 		__m256 d2[PLEAT_MAX_CONTACT_CANDIDATES];
 		__m256i offsets[PLEAT_MAX_CONTACT_CANDIDATES];
@@ -142,30 +142,23 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 			ny = _mm256_add_ps( ny, _mm256_mul_ps( w, _mm256_i32gather_ps( posed + 5, offsets[c], 4 ) ) );
 			nz = _mm256_add_ps( nz, _mm256_mul_ps( w, _mm256_i32gather_ps( posed + 6, offsets[c], 4 ) ) );
 		}
-		__m256 length = _mm256_sqrt_ps(
-			_mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
-		__m256 pushes = _mm256_and_ps( _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) ),
-									   _mm256_cmp_ps( length, _mm256_set1_ps( 1e-12f ), _CMP_GT_OQ ) );
-		sx = _mm256_div_ps( sx, total );
-		sy = _mm256_div_ps( sy, total );
-		sz = _mm256_div_ps( sz, total );
-		nx = _mm256_div_ps( nx, length );
-		ny = _mm256_div_ps( ny, length );
-		nz = _mm256_div_ps( nz, length );
-		__m256 d = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( _mm256_sub_ps( x, sx ), nx ),
-												 _mm256_mul_ps( _mm256_sub_ps( y, sy ), ny ) ),
-								  _mm256_mul_ps( _mm256_sub_ps( z, sz ), nz ) );
-		__m256 offset = _mm256_set1_ps( offset_m );
-		int moves = _mm256_movemask_ps( _mm256_and_ps( pushes, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) ) );
+		// The blended plane through plPushOutOfAnchorPlane8, the scalar push's operations lane by lane; a lane without a
+		// usable candidate or weight gets a zero normal, which the helper leaves where it is.
+		__m256 weighed = _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) );
+		nx = _mm256_and_ps( nx, weighed );
+		ny = _mm256_and_ps( ny, weighed );
+		nz = _mm256_and_ps( nz, weighed );
+		int moves = _mm256_movemask_ps( plPushOutOfAnchorPlane8( &x, &y, &z, _mm256_div_ps( sx, total ),
+																 _mm256_div_ps( sy, total ), _mm256_div_ps( sz, total ),
+																 nx, ny, nz, _mm256_set1_ps( offset_m ) ) );
 		if ( moves == 0 )
 		{
 			continue;
 		}
-		__m256 push = _mm256_sub_ps( offset, d );
 		_Alignas( 32 ) float rx[8], ry[8], rz[8];
-		_mm256_store_ps( rx, _mm256_add_ps( x, _mm256_mul_ps( push, nx ) ) );
-		_mm256_store_ps( ry, _mm256_add_ps( y, _mm256_mul_ps( push, ny ) ) );
-		_mm256_store_ps( rz, _mm256_add_ps( z, _mm256_mul_ps( push, nz ) ) );
+		_mm256_store_ps( rx, x );
+		_mm256_store_ps( ry, y );
+		_mm256_store_ps( rz, z );
 		for ( uint32_t i = 0; i < count; ++i )
 		{
 			if ( moves & ( 1 << i ) )

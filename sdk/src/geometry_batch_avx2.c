@@ -311,6 +311,24 @@ void plNormalsBatch_Avx2( float* const* normals, const float* const* positions, 
 	}
 }
 
+// A body point posed in the lanes from its blended matrix (plBlendMatrixLanes) and rest position (per lane) and rest
+// normal (shared): the posed point fma(m_i2, r_z, m_i0 r_x) + fma(m_i3, 1, m_i1 r_y) and the unnormalised normal
+// fma(m_i2, n_z, m_i0 n_x) + fma(m_i3, 0, m_i1 n_y) per component, plPoseAnchor's operations per lane. Both contacts'
+// lanes kernels pose with it.
+static inline void plPosePointLanes( plVec point[3], plVec normal[3], const plVec a0[3], const plVec a1[3],
+									 const plVec a2[3], const plVec a3[3], plVec rx, plVec ry, plVec rz,
+									 const float* rest_normal )
+{
+	const plVec one = plVecSet1( 1.0f ), zero = plVecZero();
+	plVec nx0 = plVecSet1( rest_normal[0] ), ny0 = plVecSet1( rest_normal[1] ), nz0 = plVecSet1( rest_normal[2] );
+	for ( int r = 0; r < 3; ++r )
+	{
+		point[r] = plVecAdd( plVecFma( a2[r], rz, plVecMul( a0[r], rx ) ), plVecFma( a3[r], one, plVecMul( a1[r], ry ) ) );
+		normal[r] =
+			plVecAdd( plVecFma( a2[r], nz0, plVecMul( a0[r], nx0 ) ), plVecFma( a3[r], zero, plVecMul( a1[r], ny0 ) ) );
+	}
+}
+
 // Body contact (twin of plBodyContactFast_Avx2), 8 instances per vector: the anchor's blended matrix as skinning's, the
 // posed anchor fma(m_i2, r_z, m_i0 r_x) + fma(m_i3, 1, m_i1 r_y) and the normal fma(m_i2, n_z, m_i0 n_x) +
 // fma(m_i3, 0, m_i1 n_y) per component, then the scalar kernel's length, divisions, plane distance and push
@@ -328,7 +346,6 @@ void plBodyContactFastBatch_Avx2( float* const* positions, const float* const* s
 	_Alignas( 64 ) float block_x[3 * PL_LANES * PL_LANES];
 	_Alignas( 64 ) float block_r[3 * PL_LANES * PL_LANES];
 	uint32_t K = influence_count;
-	const plVec one = plVecSet1( 1.0f ), zero = plVecZero();
 	for ( uint32_t b0 = 0; b0 < batch_count; b0 += PL_LANES )
 	{
 		uint32_t n = batch_count - b0 < PL_LANES ? batch_count - b0 : PL_LANES;
@@ -368,16 +385,9 @@ void plBodyContactFastBatch_Avx2( float* const* positions, const float* const* s
 				const uint16_t* indices = anchor_skin_indices + (size_t)v * K;
 				plBlendMatrixLanes( a0, a1, a2, a3, indices, anchor_skin_weights + (size_t)v * K, K, J, lanes );
 				const float* pr = block_r + (size_t)i * 3 * PL_LANES;
-				plVec rx = plVecLoad( pr ), ry = plVecLoad( pr + PL_LANES ), rz = plVecLoad( pr + 2 * PL_LANES );
-				plVec nx0 = plVecSet1( rn[0] ), ny0 = plVecSet1( rn[1] ), nz0 = plVecSet1( rn[2] );
 				plVec anchor[3], normal[3];
-				for ( int r = 0; r < 3; ++r )
-				{
-					anchor[r] = plVecAdd( plVecFma( a2[r], rz, plVecMul( a0[r], rx ) ),
-										  plVecFma( a3[r], one, plVecMul( a1[r], ry ) ) );
-					normal[r] = plVecAdd( plVecFma( a2[r], nz0, plVecMul( a0[r], nx0 ) ),
-										  plVecFma( a3[r], zero, plVecMul( a1[r], ny0 ) ) );
-				}
+				plPosePointLanes( anchor, normal, a0, a1, a2, a3, plVecLoad( pr ), plVecLoad( pr + PL_LANES ),
+								  plVecLoad( pr + 2 * PL_LANES ), rn );
 				float* px = block_x + (size_t)i * 3 * PL_LANES;
 				plVec x = plVecLoad( px ), y = plVecLoad( px + PL_LANES ), z = plVecLoad( px + 2 * PL_LANES );
 				plPushOutOfAnchorPlane8( &x, &y, &z, anchor[0], anchor[1], anchor[2], normal[0], normal[1], normal[2],
@@ -427,15 +437,12 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 			plVec a0[3], a1[3], a2[3], a3[3];
 			plBlendMatrixLanes( a0, a1, a2, a3, skin_indices + (size_t)p * K, skin_weights + (size_t)p * K, K, J, lanes );
 			const float* pr = block + (size_t)i * 3 * PL_LANES;
-			plVec rx = plVecLoad( pr ), ry = plVecLoad( pr + PL_LANES ), rz = plVecLoad( pr + 2 * PL_LANES );
-			plVec nx0 = plVecSet1( rn[0] ), ny0 = plVecSet1( rn[1] ), nz0 = plVecSet1( rn[2] );
-			plVec normal[3];
+			plVec point[3], normal[3];
+			plPosePointLanes( point, normal, a0, a1, a2, a3, plVecLoad( pr ), plVecLoad( pr + PL_LANES ),
+							  plVecLoad( pr + 2 * PL_LANES ), rn );
 			for ( int r = 0; r < 3; ++r )
 			{
-				plVecStore( PL_ROW( p, r ), plVecAdd( plVecFma( a2[r], rz, plVecMul( a0[r], rx ) ),
-													  plVecFma( a3[r], one, plVecMul( a1[r], ry ) ) ) );
-				normal[r] = plVecAdd( plVecFma( a2[r], nz0, plVecMul( a0[r], nx0 ) ),
-									  plVecFma( a3[r], zero, plVecMul( a1[r], ny0 ) ) );
+				plVecStore( PL_ROW( p, r ), point[r] );
 			}
 			int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
 			plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( normal[0], normal[0] ), plVecMul( normal[1], normal[1] ) ),
@@ -546,26 +553,19 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 				ny = plVecAdd( ny, plVecMul( w, plVecLoad( PL_ROW( p, 5 ) ) ) );
 				nz = plVecAdd( nz, plVecMul( w, plVecLoad( PL_ROW( p, 6 ) ) ) );
 			}
-			plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( nx, nx ), plVecMul( ny, ny ) ), plVecMul( nz, nz ) ) );
-			plVec pushes = _mm256_and_ps( _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) ),
-										  _mm256_cmp_ps( length, tiny, _CMP_GT_OQ ) );
-			sx = _mm256_div_ps( sx, total );
-			sy = _mm256_div_ps( sy, total );
-			sz = _mm256_div_ps( sz, total );
-			nx = _mm256_div_ps( nx, length );
-			ny = _mm256_div_ps( ny, length );
-			nz = _mm256_div_ps( nz, length );
-			plVec d = plVecAdd( plVecAdd( plVecMul( plVecSub( x, sx ), nx ), plVecMul( plVecSub( y, sy ), ny ) ),
-								plVecMul( plVecSub( z, sz ), nz ) );
-			plVec moves = _mm256_and_ps( pushes, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) );
-			if ( _mm256_movemask_ps( moves ) == 0 )
+			// the blended plane through plPushOutOfAnchorPlane8 (a lane without a usable candidate or weight: a zero
+			// normal, which it leaves where it is)
+			plVec weighed = _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) );
+			if ( _mm256_movemask_ps( plPushOutOfAnchorPlane8( &x, &y, &z, _mm256_div_ps( sx, total ),
+															  _mm256_div_ps( sy, total ), _mm256_div_ps( sz, total ),
+															  _mm256_and_ps( nx, weighed ), _mm256_and_ps( ny, weighed ),
+															  _mm256_and_ps( nz, weighed ), offset ) ) == 0 )
 			{
 				continue;
 			}
-			plVec push = plVecSub( offset, d );
-			plVecStore( px, _mm256_blendv_ps( x, plVecAdd( x, plVecMul( push, nx ) ), moves ) );
-			plVecStore( px + PL_LANES, _mm256_blendv_ps( y, plVecAdd( y, plVecMul( push, ny ) ), moves ) );
-			plVecStore( px + 2 * PL_LANES, _mm256_blendv_ps( z, plVecAdd( z, plVecMul( push, nz ) ), moves ) );
+			plVecStore( px, x );
+			plVecStore( px + PL_LANES, y );
+			plVecStore( px + 2 * PL_LANES, z );
 			moved = 1;
 		}
 		if ( moved )

@@ -159,7 +159,7 @@ static inline void plBlendJointMatrices( float m[12], const uint16_t* indices, c
 	}
 }
 
-// The end of the body-contact test for one vertex x, shared by the fast contact's scalar and AVX2 kernels: n = (nx, ny, nz)
+// The end of the body-contact test for one vertex x, shared by the scalar and AVX2 kernels of both contacts: n = (nx, ny, nz)
 // normalised (a length ≤ 1e-12, a degenerate blend, leaves x as it is), d = (x − a)·n, and if d < offset_m
 // x ← x + (offset_m − d)·n.
 static inline void plPushOutOfAnchorPlane( float* x, float ax, float ay, float az, float nx, float ny, float nz,

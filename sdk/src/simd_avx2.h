@@ -109,8 +109,9 @@ static inline void plBlendSkinColumns( __m256* a, __m256* b, const uint16_t* ind
 // Eight lanes of plPushOutOfAnchorPlane, the end of the body-contact test: n = (nx, ny, nz) / length with
 // length = sqrt((nx² + ny²) + nz²), d = ((x − ax)·nx + (y − ay)·ny) + (z − az)·nz, and where length > 1e-12 and
 // d < offset, x ← x + (offset − d)·n (other lanes keep their bits). Returns the mask of the lanes that moved. The lanes
-// are vertices in plBodyContactFast_Avx2 and instances in plBodyContactFastBatch_Avx2: one definition, so the two agree bit
-// for bit by construction.
+// are vertices in plBodyContactFast_Avx2 and plBodyContact_Avx2, instances in plBodyContactFastBatch_Avx2 and
+// plBodyContactBatch_Avx2 (the full contacts with their blended plane): one definition, so they agree bit for bit by
+// construction, and with plPushOutOfAnchorPlane, which the scalar kernels share.
 static inline __m256 plPushOutOfAnchorPlane8( __m256* x, __m256* y, __m256* z, __m256 ax, __m256 ay, __m256 az,
 											  __m256 nx, __m256 ny, __m256 nz, __m256 offset )
 {
