@@ -22,7 +22,7 @@ clipping, Adam):
 
 usage: PYTHONPATH=tools .venv/bin/python bench/train_throughput.py [--preset default] [--garment tshirt]
            [--rounds 5] [--iterations 3] [--steps 5] [--windows 8] [--worker] [--compile 1,8] [--ddp] [--bf16]
-           [--threads 1]
+           [--threads 1] [--device cpu] [--data-workers 1] [--nearest auto]
            [--stages stage1,ablation,record,stage2]
            [--json out/bench/train_throughput.json]
 """
@@ -51,6 +51,8 @@ class Variant:
         w0, c0 = time.perf_counter(), self.cpu_clock()
         for _ in range(iterations):
             self.step()
+        if torch.cuda.is_available():
+            torch.cuda.synchronize()
         self.wall.append((time.perf_counter() - w0) / iterations)
         self.cpu.append((self.cpu_clock() - c0) / iterations)
 
@@ -121,8 +123,13 @@ def ddp_variant(setup, clips, cfg, steps, windows, w, bf16=False, use_compile=Fa
     return Variant(name, 2 * (windows // 2), step, close, lambda: sum(cpu))
 
 
-def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(), ddp=False, bf16=False):
-    c1 = cfg["stage1"]
+def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(), ddp=False, bf16=False,
+                    device_setup=None, data_workers=1, nearest="auto"):
+    """The stage-1 variants. device_setup: the batched variants' setup on another device (--device cuda; the
+    per-window baseline stays on the CPU, the old path as it ran); data_workers: how many worker processes the
+    "+ worker" variants use; nearest: stage1.nearest of the batched variants."""
+    c1 = dict(cfg["stage1"], nearest=nearest)
+    device_setup = device_setup or setup
     w = core.loss_weights(c1, 0, 0.6)            # rollouts of `steps`, collision weight on its ramp
     floor = c1.get("loss_norm_floor", 1.0)
 
@@ -146,17 +153,23 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
 
     def batched(k, use_worker, use_compile=False, use_bf16=False):
         model, opt = model_and_opt()
+        model = model.to(device_setup.device)
+        opt = core.make_optimizer(model, c1["lr"], c1.get("blend_lr_scale", 1.0))
         net = batching.BatchedStage1(model, bf16=use_bf16)
         if use_compile:
             net = batching.compiled(net)
-        source = batching.WindowSource(setup, clips, np.random.default_rng(1), k, worker=use_worker)
+        on_device = config.nearest_on_device(c1, device_setup.device)
+        source = batching.WindowSource(device_setup, clips, np.random.default_rng(1), k,
+                                       workers=data_workers if use_worker else 0, drop_trees=on_device)
         c = dict(c1, compile=use_compile, autocast_bf16=use_bf16)
 
         def step():                       # core.train_stage1 (the default)
-            objective, _ = batching.stage1_iteration(setup, net, source, c, steps, w, steps)
+            objective, _ = batching.stage1_iteration(device_setup, net, source, c, steps, w, steps)
             optimizer_step(model, opt, objective, c1["grad_clip"])
-        return Variant(f"batched K={k}" + (" + worker" if use_worker else "") + (" + compile" if use_compile else "")
-                       + (" + bf16" if use_bf16 else ""), k, step, source.close, _cpu_clock(source))
+        workers = f" + {data_workers} workers" if data_workers > 1 else " + worker"
+        return Variant(f"batched K={k}" + (workers if use_worker else "") + (" + compile" if use_compile else "")
+                       + (" + bf16" if use_bf16 else "") + (" + nearest on device" if on_device else ""),
+                       k, step, source.close, _cpu_clock(source))
 
     out = [per_window(), batched(1, False)]
     if windows > 1:
@@ -279,6 +292,12 @@ def main():
                    "under stage1.autocast_bf16 (needs native bf16: AVX-512 BF16 or AMX); the DDP one also compiled "
                    "when --compile is given")
     p.add_argument("--threads", type=int, default=1, help="torch threads (the trainer's default is 1)")
+    p.add_argument("--device", default="cpu", help="stage 1: the batched variants' device (e.g. cuda; the "
+                   "per-window baseline stays on the CPU)")
+    p.add_argument("--data-workers", type=int, default=1, help="stage 1: worker processes of the --worker variants "
+                   "(stage1.data_worker; more than one pays on a many-core machine with a GPU trainer)")
+    p.add_argument("--nearest", default="auto", choices=("auto", "kdtree", "torch"),
+                   help="stage 1: stage1.nearest of the batched variants (auto: torch on a GPU)")
     p.add_argument("--stages", default="stage1,ablation,record,stage2")
     p.add_argument("--json", default=None, help="also write the results here")
     args = p.parse_args()
@@ -289,10 +308,12 @@ def main():
     groups = {}
     stages = args.stages.split(",")
     if "stage1" in stages:
-        if args.bf16 and not config.native_bf16("cpu"):
-            p.error("--bf16: this CPU has no native bfloat16 (AVX-512 BF16 or AMX)")
+        if args.bf16 and not config.native_bf16(args.device):
+            p.error(f"--bf16: {args.device} has no native bfloat16 (a CPU: AVX-512 BF16 or AMX)")
+        device_setup = core.Setup(cfg, args.garment, args.device) if args.device != "cpu" else None
         groups["stage1"] = stage1_variants(setup, clips, cfg, args.steps, args.windows, args.worker,
-                                           [int(k) for k in args.compile.split(",") if k], args.ddp, args.bf16)
+                                           [int(k) for k in args.compile.split(",") if k], args.ddp, args.bf16,
+                                           device_setup, args.data_workers, args.nearest)
     if "ablation" in stages:
         groups["ablation"] = ablation_variants(setup, clips, cfg, args.steps, args.worker)
     if "record" in stages:

@@ -176,6 +176,71 @@ def test_data_worker_prepares_the_same_windows_as_the_trainer_would(tiny_physics
         there.close()
 
 
+def test_several_data_workers_hand_out_the_windows_in_order(tiny_physics):
+    """Three workers, round robin, three iterations ahead: on a steady schedule the windows are the in-process
+    source's, in order; across a change of rollout length every window has the new length (the three guesses
+    that missed are drawn and prepared again) and closing with jobs in flight returns."""
+    _, setup, clips = tiny_physics
+    here = batching.WindowSource(setup, clips, np.random.default_rng(4), 2)
+    there = batching.WindowSource(setup, clips, np.random.default_rng(4), 2, workers=3)
+    try:
+        assert len(there.procs) == 3
+        for _ in range(5):
+            a, b = there.next(1, 1), here.next(1)
+            for key in ("A", "body", "beta", "material"):
+                np.testing.assert_array_equal(a[key], b[key])
+            for key in core.LOSS_TERMS:
+                np.testing.assert_array_equal(a["lbs_terms"][key], b["lbs_terms"][key])
+        assert there.worker_cpu_s > 0
+        for _ in range(5):
+            a = there.next(2, 2)
+            assert a["A"].shape[1] == 2 + 3 and len(a["trees"][0]) == 2 + 3
+    finally:
+        there.close()
+    assert not there.procs
+
+
+def test_nearest_on_the_device_is_the_kdtree_one(tiny_physics):
+    """stage1.nearest = "torch": exact float32 distances on the trainer's device instead of the prepared KD-trees.
+    The same nearest body vertex (up to near-ties), and on fixed windows the same losses and gradients within
+    float32 tolerance; a source with drop_trees hands out windows without trees, which then take this path."""
+    from scipy.spatial import cKDTree
+    cfg, setup, clips = tiny_physics
+    win = batching.prepare(batching.kinematics(setup), _picks(setup, clips, 6, 3), STEPS)
+    x = batching.WindowBatch(setup, win).states[2]
+    body = torch.as_tensor(win["body"][:, 3], dtype=torch.float32)
+    dist, idx = batching.nearest_on_device(x, body, max_elements=x.shape[1] * body.shape[1] * 2)  # two groups
+    for k in range(len(x)):
+        d_ref, i_ref = cKDTree(win["body"][k, 3]).query(x[k].numpy().astype(np.float64))
+        np.testing.assert_allclose(dist[k].numpy(), d_ref, rtol=0, atol=2e-6)
+        differ = idx[k].numpy() != i_ref
+        # a different index only where another body vertex is as near, to float32 rounding
+        np.testing.assert_allclose(np.linalg.norm(win["body"][k, 3][idx[k].numpy()[differ]] - x[k].numpy()[differ],
+                                                  axis=1), d_ref[differ], atol=2e-6)
+        assert differ.mean() < 0.01
+    w = _weights(cfg)
+    torch.manual_seed(0)
+    model = core.Stage1Model(setup)
+    results = []
+    for nearest in ("kdtree", "torch"):
+        model.zero_grad()
+        batch = batching.WindowBatch(setup, win, nearest=nearest)
+        assert batch.on_device == (nearest == "torch")
+        graph, net = batching.block_graph(setup, batch.K), batching.BatchedStage1(model)
+
+        def predict(f):
+            node, edges, body_e, recv = batch.features(f)
+            return net(node, edges, body_e, recv, graph, batch.K)[1]
+
+        loss, _ = batching.rollout(batch, STEPS, w, predict)
+        loss.sum().backward()
+        results.append((loss.detach().numpy(), _grads(model)))
+    np.testing.assert_allclose(results[1][0], results[0][0], rtol=1e-5)
+    _assert_grads_close(results[0][1], results[1][1])
+    source = batching.WindowSource(setup, clips, np.random.default_rng(4), 2, drop_trees=True)
+    assert "trees" not in source.next(1) and batching.WindowBatch(setup, source.next(1)).on_device
+
+
 def test_vertex_major_compressor_is_the_einsum_one(tiny_physics):
     """compress with K > 1 runs vertex-major: within float32 rounding the same Z and gradients as the einsum form
     that K = 1 keeps (another summation order)."""
@@ -219,3 +284,19 @@ def test_compiled_terms_are_the_eager_ones_and_follow_the_collision_ramp(tiny_ph
             atol = 1e-5 if k == "gravity" else 1e-9
             torch.testing.assert_close(comp[k], eager[k], rtol=1e-4, atol=atol, msg=k)
     assert float(out[False][1]["friction"].max()) > float(out[False][0]["friction"].max()) > 0
+
+
+def test_data_worker_and_nearest_settings():
+    """stage1.data_worker: false / true / a count; stage1.nearest: auto (torch on a GPU only), kdtree, torch;
+    anything else is refused before training."""
+    from pleat.train import config
+    assert [config.data_workers({"data_worker": v}) for v in (False, True, 0, 3)] == [0, 1, 0, 3]
+    assert config.data_workers({}) == 0
+    for bad in (-1, "2", 1.5):
+        with pytest.raises(ValueError):
+            config.data_workers({"data_worker": bad})
+    assert not config.nearest_on_device({}, "cpu") and config.nearest_on_device({}, "cuda")
+    assert config.nearest_on_device({"nearest": "torch"}, "cpu")
+    assert not config.nearest_on_device({"nearest": "kdtree"}, "cuda")
+    with pytest.raises(ValueError):
+        config.nearest_on_device({"nearest": "gpu"}, "cpu")

@@ -23,6 +23,7 @@ and so are the losses: `tests/python/test_train_batching.py` checks that every w
 and the gradients equal the per-window path's on fixed windows. With K windows an iteration's loss is the mean
 over its windows of loss / LBS loss; K = 1 is the paper's batch of one.
 """
+import collections
 import contextlib
 import time
 
@@ -190,12 +191,14 @@ def prepare(kin, picks, lbs_steps=None):
 class _Prepared:
     """The clip list and kinematics a data worker prepares windows from (held by the worker process)."""
 
-    def __init__(self, kin, clips, asset_stub=None):
-        self.kin, self.clips, self.asset_stub = kin, clips, asset_stub
+    def __init__(self, kin, clips, asset_stub=None, drop_trees=False):
+        self.kin, self.clips, self.asset_stub, self.drop_trees = kin, clips, asset_stub, drop_trees
 
     def __call__(self, picks, static=False, lbs_steps=None):
         picks = [dict(p, clip=self.clips[p["clip_index"]]) for p in picks]
         win = prepare(self.kin, picks, lbs_steps)
+        if self.drop_trees:
+            win.pop("trees")
         if static:
             win["static"] = np.stack([static_inputs(self.asset_stub, p) for p in picks])
         return win
@@ -223,23 +226,43 @@ def _worker_loop(prepared, conn):
 
 class WindowSource:
     """K windows per call, drawn from `rng` in the order `core.sample_window` draws them, prepared (kinematics,
-    rest geometry, KD-trees, LBS-only terms, optionally X_c rows) here or, with `worker=True`, in a forked process
-    one call ahead: while torch trains on iteration i, the worker prepares the windows of iteration i + 1
-    (numpy/scipy only; it never touches torch). `steps` is guessed one call ahead by `next_steps`; when a guess misses (the rollout
-    schedule moved on, 4 times a run), the prepared windows are dropped and new ones drawn and prepared here."""
+    rest geometry, KD-trees, LBS-only terms, optionally X_c rows) here or, with `workers` ≥ 1, in that many forked
+    processes that many calls ahead: while torch trains on iteration i, the workers prepare iterations i + 1 … i +
+    workers, round robin (numpy/scipy only; they never touch torch). One worker is what two cores can use; more pay
+    where the trainer has a GPU and the machine more cores (docs/training.md, "On a GPU"). `steps` is guessed ahead
+    by `next_steps`; when a guess misses (the rollout schedule moved on, 4 times a run), those windows are dropped and
+    new ones drawn and prepared here. `worker` (bool) is the older spelling of workers = 1. With `drop_trees` the
+    KD-trees stay in the worker (the trainer finds nearest body vertices on its device: `nearest="torch"`), which
+    spares pickling them across the pipe."""
 
-    def __init__(self, setup, clips, rng, windows, static=False, worker=False):
+    def __init__(self, setup, clips, rng, windows, static=False, worker=False, workers=None, drop_trees=False):
         self.setup, self.clips, self.rng, self.K, self.static = setup, clips, rng, int(windows), static
-        self.prepared = _Prepared(kinematics(setup), clips, setup.asset_stub if static else None)
-        self.pending, self.proc, self.conn = None, None, None
-        self.worker_cpu_s = 0.0          # the worker process's CPU time as of its last handed-out windows
-        if worker:
+        self.prepared = _Prepared(kinematics(setup), clips, setup.asset_stub if static else None, drop_trees)
+        self.pending = collections.deque()     # (worker index, guessed steps) per job in flight, oldest first
+        self.procs, self.conns, self.next_worker = [], [], 0
+        self.worker_cpu = []                   # each worker's CPU time as of its last handed-out windows
+        count = int(workers) if workers is not None else int(bool(worker))
+        if count > 0:
             import multiprocessing as mp
             ctx = mp.get_context("fork")
-            self.conn, child = ctx.Pipe()
-            self.proc = ctx.Process(target=_worker_loop, args=(self.prepared, child), daemon=True)
-            self.proc.start()
-            child.close()
+            for _ in range(count):
+                conn, child = ctx.Pipe()
+                proc = ctx.Process(target=_worker_loop, args=(self.prepared, child), daemon=True)
+                proc.start()
+                child.close()
+                self.procs.append(proc)
+                self.conns.append(conn)
+                self.worker_cpu.append(0.0)
+
+    @property
+    def proc(self):
+        """The first worker process, or None without workers (what callers test for a worker)."""
+        return self.procs[0] if self.procs else None
+
+    @property
+    def worker_cpu_s(self):
+        """The workers' CPU time, summed, as of their last handed-out windows (for the bench's totals)."""
+        return float(sum(self.worker_cpu))
 
     def _picks(self, steps):
         picks = [sample_pick(self.setup, self.clips, self.rng, steps + 3) for _ in range(self.K)]
@@ -248,30 +271,33 @@ class WindowSource:
         return picks
 
     def next(self, steps, next_steps=None):
-        """The windows of this iteration (rollouts of `steps`), and with a worker, start preparing the next
-        iteration's (of `next_steps`, default `steps`)."""
+        """The windows of this iteration (rollouts of `steps`), and with workers, keep each of them preparing a
+        later iteration's (of `next_steps`, default `steps`)."""
         win = None
-        if self.pending is not None:
-            pend_steps, self.pending = self.pending, None
-            win = self.conn.recv()
-            self.worker_cpu_s = win.pop("worker_cpu_s")
-            if pend_steps != steps:
+        if self.pending:
+            w, guess = self.pending.popleft()
+            win = self.conns[w].recv()
+            self.worker_cpu[w] = win.pop("worker_cpu_s")
+            if guess != steps:
                 win = None
         if win is None:
             win = self.prepared(self._picks(steps), self.static, steps)
-        if self.proc is not None:
-            n = steps if next_steps is None else next_steps
-            self.conn.send((self._picks(n), self.static, n))
-            self.pending = n
+        n = steps if next_steps is None else next_steps
+        while len(self.pending) < len(self.procs):
+            w = self.next_worker
+            self.next_worker = (w + 1) % len(self.procs)
+            self.conns[w].send((self._picks(n), self.static, n))
+            self.pending.append((w, n))
         return win
 
     def close(self):
-        if self.proc is not None:
-            if self.pending is not None:
-                self.conn.recv()
-            self.conn.send(None)
-            self.proc.join(timeout=10)
-            self.proc = None
+        for w, _ in self.pending:
+            self.conns[w].recv()
+        self.pending.clear()
+        for conn, proc in zip(self.conns, self.procs):
+            conn.send(None)
+            proc.join(timeout=10)
+        self.procs, self.conns = [], []
 
 
 # ---- the batch in torch ----------------------------------------------------------------------------------------
@@ -282,8 +308,11 @@ def _f32(a, device):
 class WindowBatch:
     """K windows of one iteration in torch, with the garments' rollout states [K, N, 3]."""
 
-    def __init__(self, setup, win, compiled_terms=False):
+    def __init__(self, setup, win, compiled_terms=False, nearest="auto"):
         d = self.device = setup.device
+        # "kdtree": the prepared KD-trees on the CPU; "torch": exact distances on the device (`nearest_on_device`);
+        # "auto": the trees where the windows carry them
+        self.on_device = nearest == "torch" or (nearest == "auto" and "trees" not in win)
         self.terms = _compiled_terms() if compiled_terms else terms
         self.setup, self.win = setup, win
         self.K, self.F = win["A"].shape[:2]
@@ -301,7 +330,7 @@ class WindowBatch:
         self.rest = {k: _f32(v, d) for k, v in win["rest"].items()}
         self.material = _f32(win["material"], d)
         self.material01 = _f32(win["material01"], d)
-        self.trees = win["trees"]
+        self.trees = None if self.on_device else win["trees"]
         self.near = {}
         self.kidx = torch.arange(self.K, device=d)
         self.rest_edges = []
@@ -312,12 +341,16 @@ class WindowBatch:
         self.states = [lbs[:, 0], lbs[:, 1], lbs[:, 2]]
 
     def nearest(self, f):
-        """Nearest body vertex of frame f to the garment state of frame f (dist, index [K, N]); a state is queried
-        once although both the loss of frame f and the features predicting f + 1 need it."""
+        """Nearest body vertex of frame f to the garment state of frame f (dist, index [K, N], torch on the device);
+        a state is queried once although both the loss of frame f and the features predicting f + 1 need it."""
         if f not in self.near:
-            x = self.states[f].detach().cpu().numpy()
-            out = [self.trees[k][f].query(x[k]) for k in range(self.K)]
-            self.near[f] = (np.stack([o[0] for o in out]), np.stack([o[1] for o in out]))
+            if self.on_device:
+                self.near[f] = nearest_on_device(self.states[f].detach(), self.body_t[:, f])
+            else:
+                x = self.states[f].detach().cpu().numpy()
+                out = [self.trees[k][f].query(x[k]) for k in range(self.K)]
+                self.near[f] = (torch.as_tensor(np.stack([o[0] for o in out]), device=self.device),
+                                torch.as_tensor(np.stack([o[1] for o in out]), device=self.device))
         return self.near[f]
 
     def features(self, f):
@@ -344,16 +377,14 @@ class WindowBatch:
                                     self.material01[:, None].expand(K, E, 4), dt30.expand(K, E, 1)],
                                    -1).reshape(K * E, -1))
         dist, idx = self.nearest(f - 1)
-        kk, vv = np.nonzero(dist < s.cfg["model"]["body_radius_m"])
-        k_t = torch.as_tensor(kk, device=self.device)
-        recv_local = torch.as_tensor(vv, device=self.device)
-        bi = torch.as_tensor(idx[kk, vv], device=self.device)
+        k_t, recv_local = torch.nonzero(dist < s.cfg["model"]["body_radius_m"], as_tuple=True)    # row-major
+        bi = idx[k_t, recv_local]
         xr = x0[k_t, recv_local]
         rel = torch.stack([self.body_t[k_t, f - 1, bi] - xr, self.body_t[k_t, f, bi] - xr], 1)     # [E_b, 2, 3]
-        # rows are grouped by window (np.nonzero is row-major): one product with each window's heading, the same
+        # rows are grouped by window (torch.nonzero is row-major): one product with each window's heading, the same
         # numbers as a per-row product with its gathered copy, without gathering E_b 3×3 matrices
         b_t, b_n = torch.cat([r.reshape(-1, 3) @ HT[k] for k, r in
-                              enumerate(rel.split(np.bincount(kk, minlength=K).tolist()))]).view(-1, 2, 3).unbind(1)
+                              enumerate(rel.split(torch.bincount(k_t, minlength=K).tolist()))]).view(-1, 2, 3).unbind(1)
         body = torch.cat([b_t, b_n, b_t.norm(dim=-1, keepdim=True), b_n.norm(dim=-1, keepdim=True),
                           self.dt30[k_t, f, None]], -1)
         return node, edges, body, k_t * N + recv_local
@@ -367,13 +398,29 @@ class WindowBatch:
         """Equation-4 terms of the newest state (frame f) per window, [K] each."""
         x, x_t, x_tm1 = self.states[-1], self.states[-2], self.states[-3]
         _, idx = self.nearest(f)
-        idx = torch.as_tensor(idx, device=self.device)
         k = self.kidx[:, None]
         if self.terms is not terms:        # compiled: the weight as a tensor, so its ramp recompiles nothing
             collision_weight = torch.tensor(float(collision_weight), device=self.device)
         return self.terms(torch_mesh(self.setup), x, x_t, x_tm1, self.material, self.dt2[:, f],
                           self.body_t[k, f, idx], self.body_n[k, f, idx], self.body_t[k, f - 1, idx], self.rest,
                           collision_weight)
+
+
+def nearest_on_device(x, body, max_elements=1 << 24):
+    """The body vertex nearest each garment vertex, by exact distances on x's device (`stage1.nearest` = "torch"):
+    x [K, N, 3], body [K, V, 3] → (distance, index) [K, N]. What the KD-trees give, in float32 (a near-tie between
+    two body vertices may resolve the other way); it spares the trainer the CPU round trip of every rollout step,
+    which on a GPU is most of an iteration (docs/training.md, "On a GPU"). Windows go in groups of at most
+    `max_elements` distances (K = 32 on the 1k shirt would be 415 MB at once)."""
+    K, N, V = x.shape[0], x.shape[1], body.shape[1]
+    step = max(1, int(max_elements) // max(1, N * V))
+    dist, idx = [], []
+    for k in range(0, K, step):
+        d = torch.cdist(x[k:k + step], body[k:k + step], compute_mode="donot_use_mm_for_euclid_dist")
+        m = d.min(-1)
+        dist.append(m.values)
+        idx.append(m.indices)
+    return torch.cat(dist), torch.cat(idx)
 
 
 class Mesh:

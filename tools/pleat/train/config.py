@@ -128,3 +128,26 @@ def batched_path(c1):
     """Whether the physics-loss stages run the batched path (batching.py; default) or the per-window one
     (`--set stage1.batched=false`, kept for the A/B comparison in bench/train_throughput.py)."""
     return bool(c1.get("batched", True))
+
+
+def data_workers(c1):
+    """`stage1.data_worker`: how many forked processes prepare the physics stages' windows ahead of the trainer
+    (batching.WindowSource). false / 0: none; true / 1: one (what two cores can use); n: n, round robin (a GPU
+    trainer on a many-core machine)."""
+    value = c1.get("data_worker", False)
+    if isinstance(value, bool):
+        return int(value)
+    if not isinstance(value, int) or value < 0:
+        raise ValueError(f"stage1.data_worker must be false, true or a count >= 0, not {value!r}")
+    return value
+
+
+def nearest_on_device(c1, device):
+    """`stage1.nearest`: where the batched path finds each garment vertex's nearest body vertex in every rollout
+    step. "kdtree": the KD-trees prepared with the windows, queried on the CPU; "torch": exact distances on the
+    trainer's device (batching.nearest_on_device; float32, so a near-tie may resolve the other way); "auto"
+    (default): torch on a GPU, the trees on a CPU, where they are much cheaper than all distances."""
+    value = c1.get("nearest", "auto")
+    if value not in ("auto", "kdtree", "torch"):
+        raise ValueError(f"stage1.nearest must be \"auto\", \"kdtree\" or \"torch\", not {value!r}")
+    return value == "torch" or (value == "auto" and torch.device(device).type == "cuda")
