@@ -105,11 +105,10 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 			__m256i index = _mm256_load_si256( (const __m256i*)slots[c] );
 			__m256i valid = _mm256_cmpgt_epi32( limit, index ); // an empty slot (0xFFFF) or an index past P: out
 			offsets[c] = _mm256_and_si256( _mm256_mullo_epi32( index, row ), valid );
-			__m256 usable = _mm256_and_ps( _mm256_castsi256_ps( valid ),
-										   _mm256_cmp_ps( _mm256_i32gather_ps( posed + 3, offsets[c], 4 ), zero, _CMP_NEQ_OQ ) );
-			ax[c] = _mm256_i32gather_ps( posed, offsets[c], 4 );
-			ay[c] = _mm256_i32gather_ps( posed + 1, offsets[c], 4 );
-			az[c] = _mm256_i32gather_ps( posed + 2, offsets[c], 4 );
+			__m256 flag;
+			plGatherPairs8( &ax[c], &ay[c], posed, offsets[c] );
+			plGatherPairs8( &az[c], &flag, posed + 2, offsets[c] );
+			__m256 usable = _mm256_and_ps( _mm256_castsi256_ps( valid ), _mm256_cmp_ps( flag, zero, _CMP_NEQ_OQ ) );
 			__m256 dx = _mm256_sub_ps( x, ax[c] ), dy = _mm256_sub_ps( y, ay[c] ), dz = _mm256_sub_ps( z, az[c] );
 			__m256 d = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( dx, dx ), _mm256_mul_ps( dy, dy ) ),
 									  _mm256_mul_ps( dz, dz ) );
@@ -138,9 +137,12 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 			sx = _mm256_add_ps( sx, _mm256_mul_ps( w, ax[c] ) );
 			sy = _mm256_add_ps( sy, _mm256_mul_ps( w, ay[c] ) );
 			sz = _mm256_add_ps( sz, _mm256_mul_ps( w, az[c] ) );
-			nx = _mm256_add_ps( nx, _mm256_mul_ps( w, _mm256_i32gather_ps( posed + 4, offsets[c], 4 ) ) );
-			ny = _mm256_add_ps( ny, _mm256_mul_ps( w, _mm256_i32gather_ps( posed + 5, offsets[c], 4 ) ) );
-			nz = _mm256_add_ps( nz, _mm256_mul_ps( w, _mm256_i32gather_ps( posed + 6, offsets[c], 4 ) ) );
+			__m256 gx, gy, gz, anchorable;
+			plGatherPairs8( &gx, &gy, posed + 4, offsets[c] );
+			plGatherPairs8( &gz, &anchorable, posed + 6, offsets[c] );
+			nx = _mm256_add_ps( nx, _mm256_mul_ps( w, gx ) );
+			ny = _mm256_add_ps( ny, _mm256_mul_ps( w, gy ) );
+			nz = _mm256_add_ps( nz, _mm256_mul_ps( w, gz ) );
 		}
 		// The blended plane through plPushOutOfAnchorPlane8, the scalar push's operations lane by lane; a lane without a
 		// usable candidate or weight gets a zero normal, which the helper leaves where it is.
@@ -209,9 +211,9 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 		}
 		__m256i own = _mm256_mullo_epi32( _mm256_add_epi32( _mm256_set1_epi32( (int32_t)p0 ), lane ), row );
 		own = _mm256_and_si256( own, _mm256_cmpgt_epi32( _mm256_set1_epi32( (int32_t)count ), lane ) ); // past: row 0
-		__m256 px = _mm256_i32gather_ps( posed, own, 4 );
-		__m256 py = _mm256_i32gather_ps( posed + 1, own, 4 );
-		__m256 pz = _mm256_i32gather_ps( posed + 2, own, 4 );
+		__m256 px, py, pz, flag;
+		plGatherPairs8( &px, &py, posed, own );
+		plGatherPairs8( &pz, &flag, posed + 2, own );
 		__m256 dx[PLEAT_MAX_POINT_RING], dy[PLEAT_MAX_POINT_RING], dz[PLEAT_MAX_POINT_RING];
 		__m256 used[PLEAT_MAX_POINT_RING];
 		for ( uint32_t s = 0; s < R; ++s )
@@ -220,9 +222,12 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 			__m256i valid = _mm256_cmpgt_epi32( limit, index );
 			__m256i offset = _mm256_and_si256( _mm256_mullo_epi32( index, row ), valid );
 			used[s] = _mm256_castsi256_ps( valid );
-			dx[s] = _mm256_sub_ps( _mm256_i32gather_ps( posed, offset, 4 ), px );
-			dy[s] = _mm256_sub_ps( _mm256_i32gather_ps( posed + 1, offset, 4 ), py );
-			dz[s] = _mm256_sub_ps( _mm256_i32gather_ps( posed + 2, offset, 4 ), pz );
+			__m256 ax, ay, az, usable;
+			plGatherPairs8( &ax, &ay, posed, offset );
+			plGatherPairs8( &az, &usable, posed + 2, offset );
+			dx[s] = _mm256_sub_ps( ax, px );
+			dy[s] = _mm256_sub_ps( ay, py );
+			dz[s] = _mm256_sub_ps( az, pz );
 		}
 		__m256 nx = zero, ny = zero, nz = zero;
 		for ( uint32_t s = 0; s < R; ++s )

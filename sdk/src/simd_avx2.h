@@ -112,6 +112,20 @@ static inline void plBlendSkinColumns( __m256* a, __m256* b, const uint16_t* ind
 // are vertices in plBodyContactFast_Avx2 and plBodyContact_Avx2, instances in plBodyContactFastBatch_Avx2 and
 // plBodyContactBatch_Avx2 (the full contacts with their blended plane): one definition, so they agree bit for bit by
 // construction, and with plPushOutOfAnchorPlane, which the scalar kernels share.
+// Two float columns (a, b) of eight rows at row offsets `offsets` (floats from `base`; row r's pair at base + offsets[r]):
+// two 64-bit gathers of four pairs each and a deinterleave, instead of two 32-bit gathers of eight floats each. The
+// values are the ones the 32-bit gathers load; gathers cost per element, so this loads half as many.
+static inline void plGatherPairs8( __m256* a, __m256* b, const float* base, __m256i offsets )
+{
+	__m256 lo = _mm256_castpd_ps( _mm256_i32gather_pd( (const double*)base, _mm256_castsi256_si128( offsets ), 4 ) );
+	__m256 hi = _mm256_castpd_ps( _mm256_i32gather_pd( (const double*)base, _mm256_extracti128_si256( offsets, 1 ), 4 ) );
+	// lo = (a0 b0 a1 b1 | a2 b2 a3 b3), hi = (a4 b4 a5 b5 | a6 b6 a7 b7)
+	__m256 even = _mm256_shuffle_ps( lo, hi, 0x88 ); // (a0 a1 a4 a5 | a2 a3 a6 a7)
+	__m256 odd = _mm256_shuffle_ps( lo, hi, 0xDD );	 // (b0 b1 b4 b5 | b2 b3 b6 b7)
+	*a = _mm256_castpd_ps( _mm256_permute4x64_pd( _mm256_castps_pd( even ), 0xD8 ) );
+	*b = _mm256_castpd_ps( _mm256_permute4x64_pd( _mm256_castps_pd( odd ), 0xD8 ) );
+}
+
 static inline __m256 plPushOutOfAnchorPlane8( __m256* x, __m256* y, __m256* z, __m256 ax, __m256 ay, __m256 az,
 											  __m256 nx, __m256 ny, __m256 nz, __m256 offset )
 {
