@@ -117,6 +117,48 @@ def test_pack_one_candidate_with_rest_normals_writes_the_asset_1_1_block(tmp_pat
     assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates", "17"]) != 0
 
 
+def test_pack_takes_candidates_chosen_elsewhere(tmp_path):
+    """--contact-candidates-from FILE.npz (candidate_vertices: body vertex ids [N, C], -1 none; pleat-train
+    contact-candidates chooses them from simulated frames): each vertex's first candidate is still its rest-nearest
+    body vertex, the others are the file's in its order (a repeat dropped), far vertices have none, every candidate has
+    its ring; META says where they came from; a bad file or a count that disagrees is refused."""
+    from scipy.spatial import cKDTree
+    body, w, pick, src = _garment_on_the_body(tmp_path)
+    N, C = len(w["template"]), 5
+    rng = np.random.default_rng(3)
+    given = rng.integers(0, body.num_vertices, (N, C))
+    given[:, 0] = 0                                                    # ignored: the first stays the rest-nearest
+    given[1, 2] = given[1, 1]                                          # a repeat: dropped, the rest moves up
+    given[2, 3:] = -1                                                  # fewer candidates
+    np.savez(tmp_path / "cand.npz", candidate_vertices=given)
+    out = tmp_path / "out.pleat"
+    assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates-from",
+                      str(tmp_path / "cand.npz")]) == 0
+    back = pa.read_asset(out.read_bytes())
+    meta = _unchanged_but_contact(back, pa.read_asset(src.read_bytes()))
+    assert meta["candidates"] == C and meta["candidates_from"] == "simulated frames"
+    _, vertex = cKDTree(body.v_template).query(back["body_anchor"].astype(np.float64))
+    table = back["body_anchor_candidates"].astype(int)
+    P = len(vertex)
+    own = cKDTree(body.v_template).query(w["template"])[1]
+    far = cKDTree(body.v_template).query(w["template"])[0] > 0.05
+    for i in np.flatnonzero(~far):
+        ids = [int(vertex[t]) for t in table[i] if t < P]
+        expect = list(dict.fromkeys([int(own[i])] + [int(g) for g in given[i, 1:] if g >= 0]))
+        assert ids == expect, i
+    assert np.all(table[far] == pa.NO_CANDIDATE)
+    ring = back["body_anchor_ring"].astype(int)
+    assert all(ring[t, 0] < P for t in np.unique(table[table < P]))     # every candidate has its ring
+    np.savez(tmp_path / "bad.npz", candidate_vertices=given[:, :, None])
+    assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates-from",
+                      str(tmp_path / "bad.npz")]) != 0
+    np.savez(tmp_path / "far.npz", candidate_vertices=np.full((N, C), body.num_vertices))
+    assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates-from",
+                      str(tmp_path / "far.npz")]) != 0
+    assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates", "4",
+                      "--contact-candidates-from", str(tmp_path / "cand.npz")]) != 0
+
+
 def test_pack_name_and_metadata_override(tmp_path, weights_file):
     out = tmp_path / "a.pleat"
     assert pack.main([str(weights_file), "-o", str(out), "--name", "shirt", "--metadata", '{"loss": 0.5}']) == 0

@@ -226,7 +226,8 @@ def test_an_ensemble_packed_as_one_network_is_the_mean_of_its_members(tiny_setup
                                               dec_hidden=(12,)))
 
 
-@pytest.mark.parametrize("argv", [["simsup-contact"], ["simsup-tiers"], ["simsup-ensemble", "--members", "one"]])
+@pytest.mark.parametrize("argv", [["simsup-contact"], ["simsup-tiers"], ["simsup-ensemble", "--members", "one"],
+                                  ["contact-candidates"]])
 def test_simsup_commands_missing_inputs_are_usage_errors(argv, tmp_path, capsys):
     """pleat-train's simsup commands without what they need end as a usage error (status 2) that names it."""
     from pleat.train import cli
@@ -234,6 +235,46 @@ def test_simsup_commands_missing_inputs_are_usage_errors(argv, tmp_path, capsys)
         cli.main(argv + ["--out", str(tmp_path)])
     assert e.value.code == 2
     assert ("--data" if argv[0] != "simsup-ensemble" else "--members") in capsys.readouterr().err
+
+
+def test_contact_candidates_are_the_body_vertices_nearest_in_the_frames(tiny_setup, tmp_path):
+    """contact.candidate_vertices: per garment vertex its rest-nearest body vertex, then the body vertices nearest to
+    it in the sequences' frames, most often first (only where it is within the radius), then further rest neighbours
+    — checked against the whole body posed by its own forward kinematics (pleat.eval.scene.posed_body), and the
+    table written to a run folder is what the run's assets are packed with."""
+    from scipy.spatial import cKDTree
+
+    from pleat.eval import scene as S
+    setup = tiny_setup
+    clips = simsup._clips("train", 30.0, setup.body)
+    clip = simdata.cut(clips[sorted(clips)[0]], 0, 12)
+    beta = np.zeros(setup.B)
+    beta[1] = -1.0
+    s = simdata.sequence(setup, clip, beta, np.array(simdata.ga.MATERIAL_DEFAULT))
+    s["disp"] = np.zeros((clip.num_frames, setup.N, 3))
+    s["disp"][:, :, 1] = -0.004                                   # the garment 4 mm lower than its skin
+    table = contact.candidate_vertices(setup, [s], 6, stride=1, radius_m=0.02)
+    body_v, _ = S.posed_body(setup.body, clip, beta)
+    A = simdata.blend_matrices(setup, s["M"])
+    x = np.einsum("tnab,tnb->tna", A[..., :3], setup.shaped(beta)[None] + s["disp"]) + A[..., 3]
+    counts = [dict() for _ in range(setup.N)]
+    for t in range(len(x)):
+        d, j = cKDTree(body_v[t]).query(x[t])
+        for i in np.flatnonzero(d < 0.02):
+            counts[i][j[i]] = counts[i].get(j[i], 0) + 1
+    _, own = cKDTree(setup.body.v_template).query(setup.template)
+    assert np.array_equal(table[:, 0], own)
+    checked = 0
+    for i, c in enumerate(counts):
+        ranked = sorted(c.values(), reverse=True)
+        if len(ranked) >= 2 and ranked[0] > ranked[1]:            # a clear favourite (no tie to order)
+            top = max(c, key=c.get)
+            assert top == table[i, 0] or top == table[i, 1], i
+            checked += 1
+        assert len(set(table[i])) == 6 and (table[i] >= 0).all()
+    assert checked > setup.N // 10
+    written = simsup.write_contact_candidates(tmp_path / simsup.CANDIDATES_FILE, setup, [s], 6)
+    assert np.array_equal(simsup.run_contact_candidates(tmp_path), written)
 
 
 def test_teacher_only_sequences_are_new_unsimulated_frames_of_the_training_motion(tiny_setup):

@@ -141,7 +141,7 @@ def _vertex_rings(faces, vertex_count, vertices):
 
 
 def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance_m=BODY_ANCHOR_MAX_DISTANCE_M,
-                 candidates=BODY_CONTACT_CANDIDATES, posed_normals=True):
+                 candidates=BODY_CONTACT_CANDIDATES, posed_normals=True, candidate_vertices=None):
     """The body-contact keys of the weights file for a garment template [N, 3] on the mean body: the body points
     (rest body vertices: position, shape directions [B, P, 3], unit normal, and their top `influences` skin joints and
     weights, renormalised; in the order the garment reaches them), per garment vertex its `candidates` nearest points,
@@ -162,6 +162,17 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     distance, nearest = cKDTree(v_template).query(np.asarray(template, np.float64), k=C)
     distance, nearest = distance.reshape(len(template), C), nearest.reshape(len(template), C)
     far = distance[:, 0] > max_distance_m                                   # no candidates at all
+    if candidate_vertices is not None:      # chosen from simulated frames (pleat.train.contact.candidate_vertices)
+        given = np.asarray(candidate_vertices, np.int64)
+        if given.shape != (len(template), C) or given.min() < -1 or given.max() >= len(v_template):
+            raise ValueError(f"candidate_vertices: expected body vertex ids in [0, {len(v_template)}) or -1, "
+                             f"shape [{len(template)}, {C}]; got shape {given.shape}")
+        # each vertex's own row stays its rest-nearest body vertex (the fast contact reads it); a repeat of a
+        # candidate would weigh its point twice
+        rows = np.concatenate([nearest[:, :1], given[:, 1:]], axis=1)
+        nearest = np.array([list(dict.fromkeys(r[r >= 0])) + [-1] * (C - len(set(r[r >= 0]))) for r in rows],
+                           np.int64)
+    valid = nearest >= 0                                                    # -1: an empty slot
     ring_table = None
     if C == 1 and not posed_normals:
         points, table = nearest[:, 0], None                                 # asset 1.1: point i is vertex i's
@@ -178,7 +189,7 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
         # Rows 0..N-1 are the vertices' own nearest body vertices (repeated where two vertices share one), so the
         # fast contact (pleat.h PLEAT_BODY_CONTACT_FAST) reads them as the 1.1 layout; the other candidates and the
         # ring corners follow, once each.
-        anchors = first_seen(nearest[~far])
+        anchors = first_seen(nearest[~far][valid[~far]])
         rings = _vertex_rings(faces, len(v_template), anchors) if posed_normals else {}
         own = nearest[:, 0]
         rest = first_seen(np.concatenate([anchors] + [rings[v] for v in anchors if v in rings]))
@@ -188,7 +199,7 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
         slot[rest] = len(own) + np.arange(len(rest))
         slot[own[~far][::-1]] = np.flatnonzero(~far)[::-1]                   # a vertex's own row; shared: the first
         table = np.full((len(template), C), NO_CANDIDATE, np.int64)
-        table[~far] = slot[nearest[~far]]
+        table[~far] = np.where(valid[~far], slot[np.maximum(nearest[~far], 0)], NO_CANDIDATE)
         table[~far, 0] = np.flatnonzero(~far)                               # each vertex's first candidate: its own row
         anchorable = np.zeros(len(points), bool)
         anchorable[np.unique(table[table != NO_CANDIDATE])] = True
@@ -217,8 +228,9 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     return out
 
 
-def body_contact_meta(anchors):
-    """The META entry that says how an asset's body anchors were made."""
+def body_contact_meta(anchors, from_frames=False):
+    """The META entry that says how an asset's body anchors were made (from_frames: the candidates were chosen from
+    simulated frames, body_anchors(candidate_vertices=…))."""
     table = anchors.get("body_anchor_candidates")
     if table is None:
         anchored = int(np.count_nonzero(np.linalg.norm(anchors["body_anchor_normal"], axis=1)))
@@ -228,18 +240,20 @@ def body_contact_meta(anchors):
                 "max_distance_m": BODY_ANCHOR_MAX_DISTANCE_M}
     from pleat.asset import NO_CANDIDATE
     rings = anchors.get("body_anchor_ring")
-    return {"anchors": f"the {table.shape[1]} nearest rest body vertices per garment vertex (candidates; the runtime "
-                       "blends those nearest in the pose), each with its own top-"
+    chosen = (f"the nearest rest body vertex and the {table.shape[1] - 1} body vertices most often nearest in "
+              "simulated frames" if from_frames else f"the {table.shape[1]} nearest rest body vertices")
+    return {"anchors": f"{chosen} per garment vertex (candidates; the runtime blends those nearest in the pose), "
+                       "each with its own top-"
                        f"{anchors['body_anchor_skin_indices'].shape[1]} skin weights and "
                        + ("its ring of body vertices (the posed body's normal)" if rings is not None
                           else "its rest normal (turned by the blended matrix)"),
             "points": int(len(anchors["body_anchor"])), "candidates": int(table.shape[1]),
-            "posed_normals": rings is not None,
+            "posed_normals": rings is not None, "candidates_from": "simulated frames" if from_frames else "rest",
             "anchored_vertices": int(np.count_nonzero(table[:, 0] != NO_CANDIDATE)), "vertices": int(len(table)),
             "max_distance_m": BODY_ANCHOR_MAX_DISTANCE_M}
 
 
-def weights_from_garment(garment, body, network=None, metadata=None, name=None, contact=None):
+def weights_from_garment(garment, body, network=None, metadata=None, name=None, contact=None, contact_candidates=None):
     """The weights dict pleat-pack / pleat.asset.write_asset reads (docs/asset-format.md key names).
 
     garment: a pleat.garment Garment, a dict or an npz with template, faces, skin_indices, skin_weights, shape_blend
@@ -247,7 +261,9 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None, 
     J_regressor, parents, joint_names). network: None for the LBS-only model, else a dict with the trained keys
     (x_mean, x_std, z_*, lp.i.*, dec.i.*, blend_shapes, lp_activation, dec_activation, optionally train_fps and any
     range override). metadata: extra META JSON fields. contact: (candidates, posed_normals) of the body contact
-    (tier_contact; default the top tier's).
+    (tier_contact; default the top tier's). contact_candidates: body vertex ids [N, C] chosen from simulated frames
+    (pleat.train.contact.candidate_vertices) for a full contact (more than one candidate or posed normals); C then
+    replaces the contact's count. The 1.1 block (one point, rest normals) ignores them.
     """
     names, parents, joint_template, joint_shapedirs = skeleton_from_body(body)
     input_joints = input_joint_indices(names)
@@ -281,16 +297,21 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None, 
     pinned = _field(garment, "pinned", None)
     if pinned is not None and len(pinned) > 0:
         weights["pinned"] = np.asarray(pinned, dtype=np.int64)
+    given = None
     if _field(body, "faces") is not None and _field(body, "weights") is not None:   # a body with a surface
         candidates, posed_normals = contact or (BODY_CONTACT_CANDIDATES, True)
-        weights.update(body_anchors(template, body, candidates=candidates, posed_normals=posed_normals))
+        if contact_candidates is not None and (candidates > 1 or posed_normals):
+            given = np.asarray(contact_candidates, np.int64)
+            candidates = given.shape[1]
+        weights.update(body_anchors(template, body, candidates=candidates, posed_normals=posed_normals,
+                                    candidate_vertices=given))
 
     meta = {"garment": garment_name, "vertices": int(template.shape[0]), "faces": int(weights["faces"].shape[0])}
     body_source = _field(body, "source", None)
     if body_source is not None:
         meta["body"] = str(np.asarray(body_source))
     if "body_anchor" in weights:
-        meta["body_contact"] = body_contact_meta(weights)
+        meta["body_contact"] = body_contact_meta(weights, from_frames=given is not None)
     if network is None:
         weights.update(lbs_only_network(template.shape[0], input_count_without_latent(len(input_joints), beta_count)))
         meta["model"] = LBS_ONLY_MODEL

@@ -76,6 +76,11 @@ def build_parser():
     p.add_argument("--contact-candidates", type=int, default=None, metavar="C",
                    help="with --body-contact: candidate body points per garment vertex (1..16, default 4; "
                         "docs/asset-format.md \"Body contact\")")
+    p.add_argument("--contact-candidates-from", metavar="NPZ",
+                   help="with --body-contact: each garment vertex's candidates after its rest-nearest body vertex, "
+                        "as body vertex ids [N, C] (-1: none) under 'candidate_vertices' (pleat-train "
+                        "contact-candidates: the body vertices nearest to it in simulated frames); C sets "
+                        "--contact-candidates")
     p.add_argument("--contact-rest-normals", action="store_true",
                    help="with --body-contact: turn each point's rest normal by its blended matrix instead of taking "
                         "the posed body's normal (cheaper, less exact near the joints); with --contact-candidates 1 "
@@ -115,14 +120,34 @@ def main(argv=None):
         from pleat.garment_asset import BODY_CONTACT_CANDIDATES, body_anchors, body_contact_meta
         if a.contact_candidates is not None and not 1 <= a.contact_candidates <= pa.MAX_CONTACT_CANDIDATES:
             raise InputError("--contact-candidates", f"{a.contact_candidates}: must be 1..{pa.MAX_CONTACT_CANDIDATES}")
+        given = None
+        if a.contact_candidates_from:
+            try:
+                with np.load(a.contact_candidates_from, allow_pickle=False) as z:
+                    given = np.asarray(z["candidate_vertices"], np.int64)
+            except Exception as e:   # noqa: BLE001 - numpy raises many kinds on a bad file
+                if isinstance(e, OSError) and e.filename is not None:
+                    raise
+                raise not_npz(a.contact_candidates_from, e, "a candidates file ('candidate_vertices')") from None
+            if given.ndim != 2 or not 1 <= given.shape[1] <= pa.MAX_CONTACT_CANDIDATES:
+                raise InputError(a.contact_candidates_from,
+                                 f"candidate_vertices: expected [N, C] with C in 1..{pa.MAX_CONTACT_CANDIDATES}, "
+                                 f"got {given.shape}")
+            if a.contact_candidates is not None and a.contact_candidates != given.shape[1]:
+                raise InputError("--contact-candidates", f"{a.contact_candidates}: the candidates file has "
+                                                         f"{given.shape[1]}")
+            a.contact_candidates = given.shape[1]
         for key in ("body_anchor_candidates", "body_anchor_ring"):   # the new block replaces any earlier one whole
             weights.pop(key, None)
-        weights.update(body_anchors(weights["template"], BodyModel.load(a.body_contact or None),
-                                    candidates=a.contact_candidates or BODY_CONTACT_CANDIDATES,
-                                    posed_normals=not a.contact_rest_normals))
+        try:
+            weights.update(body_anchors(weights["template"], BodyModel.load(a.body_contact or None),
+                                        candidates=a.contact_candidates or BODY_CONTACT_CANDIDATES,
+                                        posed_normals=not a.contact_rest_normals, candidate_vertices=given))
+        except ValueError as e:
+            raise InputError(a.contact_candidates_from or "--body-contact", str(e)) from None
         if weights.get("metadata_json") is not None:
             meta = json.loads(str(weights["metadata_json"]))
-            meta["body_contact"] = body_contact_meta(weights)
+            meta["body_contact"] = body_contact_meta(weights, from_frames=given is not None)
             weights["metadata_json"] = json.dumps(meta, sort_keys=True)
     if a.name is not None:
         weights["garment_name"] = a.name

@@ -10,11 +10,14 @@ from pleat.cli import add_quiet, command
 def build_parser():
     p = argparse.ArgumentParser(prog="pleat-train", description=__doc__)
     p.add_argument("command", choices=["stage1", "stage2", "ablation", "pack", "all", "simsup", "simsup-tiers",
-                                        "simsup-contact", "simsup-ensemble"],
+                                        "simsup-contact", "simsup-ensemble", "contact-candidates"],
                    help="simsup: the simulator-supervised recipe (simulate, fit, pack; docs/training.md); "
                         "simsup-tiers: cheaper tiers distilled from the simsup model in --out; "
                         "simsup-contact: the contact-aware fine-tune of the simsup model in --out; "
-                        "simsup-ensemble: the mean of the simsup runs --members packed as one network in --out")
+                        "simsup-ensemble: the mean of the simsup runs --members packed as one network in --out; "
+                        "contact-candidates: each garment vertex's body-contact candidates from the simulated frames "
+                        "of --data (simsup.contact_candidates of them), into the run folder --out (its later assets "
+                        "use them) or an npz --out for pleat-pack --contact-candidates-from")
     p.add_argument("--preset", default="tiny", help="configs/<preset>.json (tiny, default)")
     p.add_argument("--config", default=None, help="a config file instead of the preset")
     p.add_argument("--set", action="append", default=[], metavar="KEY=JSON",
@@ -120,6 +123,20 @@ def main(argv=None):
                              iterations=overrides.get("simsup.iterations"), progress=progress,
                              teacher_frames=overrides.get("simsup.tier_teacher_frames"), seed=overrides.get("seed"),
                              keep_runs=args.keep_runs, workers=overrides.get("simsup.fit_workers"))
+    if args.command == "contact-candidates":
+        from pleat.train import simsup
+        if not args.data:
+            parser.error("contact-candidates needs --data (simulated datasets: simsup --export)")
+        count = int(cfg["simsup"].get("contact_candidates", 16))
+        if not 2 <= count <= 16:
+            parser.error(f"simsup.contact_candidates={count}: must be 2..16")
+        setup = core.Setup(cfg, args.garment, "cpu")
+        _, seqs, _, _, _ = simsup.load_datasets(setup, args.data, simsup._clips("train", cfg["fps"], setup.body),
+                                                simsup._clips("validation", cfg["fps"], setup.body),
+                                                cfg["simsup"]["validation_frames"])
+        out = args.out if str(args.out).endswith(".npz") else f"{args.out}/{simsup.CANDIDATES_FILE}"
+        simsup.write_contact_candidates(out, setup, seqs, count, progress=True)
+        print(f"wrote {out}")
     if args.command == "ablation":
         core.train_ablation(cfg, args.garment, args.out, args.resume, args.device, progress, args.max_minutes)
         print("ablation done")

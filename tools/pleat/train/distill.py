@@ -270,8 +270,9 @@ def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iter
 
 
 def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=True, teacher=None, model=None,
-              training=None, onnx=False):
-    """Write the tier with the training pack code (network_weights → weights_from_garment → write_asset)."""
+              training=None, onnx=False, contact_candidates=None):
+    """Write the tier with the training pack code (network_weights → weights_from_garment → write_asset);
+    contact_candidates: the body contact's candidates from simulated frames (weights_from_garment)."""
     from pleat.asset import write_asset
     net = core.network_weights(shim, lp.lp, block, norms, fps)
     meta = {"model": model or f"pleat tier {report['tier']}: inference block distilled from the stage-1 teacher",
@@ -279,7 +280,7 @@ def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=Tr
             "teacher": str(teacher) if teacher else None,
             "training": dict({"preset": setup.cfg.get("preset")}, **(training or {}))}
     weights = ga.weights_from_garment(garment, setup.body, net, metadata=meta, name=setup.name,
-                                      contact=ga.tier_contact(report["tier"]))
+                                      contact=ga.tier_contact(report["tier"]), contact_candidates=contact_candidates)
     write_asset(str(path), weights, fp16=fp16, onnx=onnx)
     return weights
 

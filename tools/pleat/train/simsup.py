@@ -205,6 +205,8 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
             return None, None
     seqs, val = seqs + user_train, val + user_val
     frames = int(sum(len(s["disp"]) for s in seqs))
+    if int(c.get("contact_candidates", 0)) > 1 and seqs:  # the top tier's body contact, from where the cloth was
+        write_contact_candidates(out / CANDIDATES_FILE, setup, seqs, c["contact_candidates"], progress=progress)
     run.log({"data": {"segments": len(seqs), "frames": frames, "planned_segments": len(segments),
                       "simulation_cpu_s": sim_cpu, "validation_cpu_s": val_cpu, "wall_s": time.time() - t_start}})
     if progress:
@@ -276,8 +278,36 @@ def write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary,
     distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=tier_name), cfg["fps"],
                       fp16=c.get("fp16", True), teacher="reference simulator",
                       model=model_name(report, contact=contact_tuned), training=summary,
-                      onnx=bool(c.get("onnx", False)))
+                      onnx=bool(c.get("onnx", False)), contact_candidates=run_contact_candidates(out))
     return path
+
+
+CANDIDATES_FILE = "contact_candidates.npz"
+
+
+def run_contact_candidates(out):
+    """The run folder's body-contact candidates from simulated frames (write_contact_candidates), or None."""
+    path = Path(out) / CANDIDATES_FILE
+    if not path.is_file():
+        return None
+    with np.load(path, allow_pickle=False) as z:
+        return np.asarray(z["candidate_vertices"], np.int64)
+
+
+def write_contact_candidates(path, setup, seqs, count, stride=3, progress=False):
+    """Each garment vertex's body-contact candidates, chosen from the simulated frames of `seqs`
+    (pleat.train.contact.candidate_vertices), to `path` (a run folder's CANDIDATES_FILE: every asset the run packs
+    afterwards uses them; or any npz for pleat-pack --contact-candidates-from). Returns the table."""
+    from pleat.train import contact
+    t0 = time.time()
+    table = contact.candidate_vertices(setup, seqs, int(count), stride=int(stride))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, candidate_vertices=table)
+    if progress:
+        print(f"simsup: {count} contact candidates per vertex from {len(seqs)} simulated sequences "
+              f"({time.time() - t0:.0f} s) -> {path}", file=sys.stderr)
+    return table
 
 
 def model_name(report, contact=False):
