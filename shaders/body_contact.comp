@@ -16,7 +16,9 @@
 //   PLEAT_POSE_POINTS 0 (plBodyContact_Scalar, candidate_weights + body_contact), one invocation per vertex:
 //     m = min over usable candidates |x - a_c|^2
 //     w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE) m + PLEAT_CONTACT_BLEND_M^2 - |x - a_c|^2)
-//     a = sum w_c a_c / sum w_c,  n = normalize(sum w_c n_c),  d = dot(x - a, n),  x += max(0, offset - d) * n
+//     a = sum w_c a_c / sum w_c,  n = normalize(sum w_c n_c),  d = dot(x - a, n),  x += r max(0, offset - d) n
+//     with the reach r = clamp((FAR^2 - m) / (FAR^2 - NEAR^2), 0, 1) (plContactReach: a plane centimetres away says
+//     little about where the body is; r = 0 leaves the vertex as it is)
 // A posed point is two rows, (a, anchorable), (n, usable), not the CPU's (a, usable), (n, anchorable): pass 2 reads
 // the first row of the points around it while it sets usable, so usable lives in the second row, the only one pass 2
 // writes (of its own point only): no invocation writes what another one reads.
@@ -27,7 +29,8 @@
 // them. They are skinned with the body's own weights (not the garment's diffused ones), so a is where the body surface
 // is; the normal from the posed ring because the blended matrix turns the rest normal by the joints' rotations only,
 // which tilts it off the stretched and folded skin at the shoulders, armpits and waist (docs/accuracy.md "Body
-// contact"). PLEAT_MAX_CONTACT_CANDIDATES, PLEAT_CONTACT_BLEND_SHARE and PLEAT_CONTACT_BLEND_M come from
+// contact"). PLEAT_MAX_CONTACT_CANDIDATES, PLEAT_CONTACT_BLEND_SHARE, PLEAT_CONTACT_BLEND_M and the two
+// PLEAT_CONTACT_REACH_* come from
 // sdk/src/kernels.h (gl_deformer.c injects them after the #version line, with the pass and batch defines).
 // Batches (plStepInstances, sdk/src/gl/gl_deformer.c plGlDeformer_RunBatch): gl_WorkGroupID.y is the instance, and
 // every per-instance buffer holds one block per instance at that index; a single instance is instance 0. The batch's
@@ -56,6 +59,7 @@ layout(std140, binding = 0) uniform plGlDeformParams
 	uint point_count;            // P
 	uint candidate_count;        // C
 	uint point_ring_count;       // R entries of each body point's ring (0: no BARG, pass 2 is not run)
+	uint contact_reach;          // 1: the push fades with the nearest candidate's distance (a candidate table); 0: not
 };
 
 #if PLEAT_BATCH
@@ -198,12 +202,15 @@ void main()
 		}
 	}
 	float len = length(n);
-	if (!(total > 0.0) || !(len > 1e-12))
-		return; // normals that cancel (a thin body part seen from its edge): no direction to push along
+	float near2 = PLEAT_CONTACT_REACH_NEAR_M * PLEAT_CONTACT_REACH_NEAR_M;
+	float far2 = PLEAT_CONTACT_REACH_FAR_M * PLEAT_CONTACT_REACH_FAR_M;
+	float reach = contact_reach != 0u ? clamp((far2 - nearest) / (far2 - near2), 0.0, 1.0) : 1.0;
+	if (!(total > 0.0) || !(len > 1e-12) || !(reach > 0.0))
+		return; // normals that cancel (a thin body part seen from its edge), or a plane too far: no push
 	a /= total;
 	n /= len;
 	float d = dot(x - a, n);
 	if (d < offset_m)
-		positions[instance * vertex_count + i] = vec4(x + (offset_m - d) * n, 1.0);
+		positions[instance * vertex_count + i] = vec4(x + ((offset_m - d) * reach) * n, 1.0);
 }
 #endif

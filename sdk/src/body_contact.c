@@ -166,13 +166,14 @@ void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, con
 				nz += w * a[6];
 			}
 		}
-		if ( !( total > 0.0f ) )
+		float reach = candidates != NULL ? plContactReach( nearest ) : 1.0f; // a 1.1 table: the whole push
+		if ( !( total > 0.0f ) || !( reach > 0.0f ) )
 		{
-			continue;
+			continue; // no weight, or the nearest candidate too far for its plane to say where the body is
 		}
 		// the blended plane: normals that cancel (a thin body part seen from its edge) leave no direction to push
 		// along, and plPushOutOfAnchorPlane leaves the vertex as it is
-		plPushOutOfAnchorPlane( x, ax / total, ay / total, az / total, nx, ny, nz, offset_m );
+		plPushOutOfAnchorPlane( x, ax / total, ay / total, az / total, nx, ny, nz, offset_m, reach );
 	}
 }
 

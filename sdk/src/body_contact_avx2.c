@@ -146,13 +146,16 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 		}
 		// The blended plane through plPushOutOfAnchorPlane8, the scalar push's operations lane by lane; a lane without a
 		// usable candidate or weight gets a zero normal, which the helper leaves where it is.
-		__m256 weighed = _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) );
+		// A lane whose nearest candidate is beyond the reach (plContactReach) is left as it is too.
+		__m256 reach = candidates != NULL ? plContactReach8( nearest ) : _mm256_set1_ps( 1.0f ); // 1.1: whole push
+		__m256 weighed = _mm256_and_ps( _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) ),
+										_mm256_cmp_ps( reach, zero, _CMP_GT_OQ ) );
 		nx = _mm256_and_ps( nx, weighed );
 		ny = _mm256_and_ps( ny, weighed );
 		nz = _mm256_and_ps( nz, weighed );
 		int moves = _mm256_movemask_ps( plPushOutOfAnchorPlane8( &x, &y, &z, _mm256_div_ps( sx, total ),
 																 _mm256_div_ps( sy, total ), _mm256_div_ps( sz, total ),
-																 nx, ny, nz, _mm256_set1_ps( offset_m ) ) );
+																 nx, ny, nz, _mm256_set1_ps( offset_m ), reach ) );
 		if ( moves == 0 )
 		{
 			continue;
@@ -292,7 +295,7 @@ void plBodyContactFast_Avx2( float* positions, uint32_t position_stride_bytes, c
 	_Alignas( 32 ) float columns[PLEAT_SKIN_COLUMN_FLOATS];
 	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
 	uint32_t K = influence_count;
-	const __m256 offset = _mm256_set1_ps( offset_m );
+	const __m256 offset = _mm256_set1_ps( offset_m ), one = _mm256_set1_ps( 1.0f ); // the fast contact: full reach
 	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
 	{
 		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
@@ -333,7 +336,7 @@ void plBodyContactFast_Avx2( float* positions, uint32_t position_stride_bytes, c
 		plRowsOf8( &ax, &ay, &az, anchor );
 		plRowsOf8( &nx, &ny, &nz, normal );
 		plRowsOf8( &x, &y, &z, position );
-		int moves = _mm256_movemask_ps( plPushOutOfAnchorPlane8( &x, &y, &z, ax, ay, az, nx, ny, nz, offset ) );
+		int moves = _mm256_movemask_ps( plPushOutOfAnchorPlane8( &x, &y, &z, ax, ay, az, nx, ny, nz, offset, one ) );
 		if ( moves == 0 )
 		{
 			continue;

@@ -47,7 +47,7 @@ void plBodyContactFast_Scalar( float* positions, uint32_t position_stride_bytes,
 		float ny = m[4] * rest_normal[0] + m[5] * rest_normal[1] + m[6] * rest_normal[2];
 		float nz = m[8] * rest_normal[0] + m[9] * rest_normal[1] + m[10] * rest_normal[2];
 		float* x = (float*)( (uint8_t*)positions + (size_t)v * position_stride_bytes );
-		plPushOutOfAnchorPlane( x, ax, ay, az, nx, ny, nz, offset_m );
+		plPushOutOfAnchorPlane( x, ax, ay, az, nx, ny, nz, offset_m, 1.0f );
 	}
 }
 

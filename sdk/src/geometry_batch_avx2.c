@@ -391,7 +391,7 @@ void plBodyContactFastBatch_Avx2( float* const* positions, const float* const* s
 				float* px = block_x + (size_t)i * 3 * PL_LANES;
 				plVec x = plVecLoad( px ), y = plVecLoad( px + PL_LANES ), z = plVecLoad( px + 2 * PL_LANES );
 				plPushOutOfAnchorPlane8( &x, &y, &z, anchor[0], anchor[1], anchor[2], normal[0], normal[1], normal[2],
-										 offset );
+										 offset, plVecSet1( 1.0f ) );
 				plVecStore( px, x );
 				plVecStore( px + PL_LANES, y );
 				plVecStore( px + 2 * PL_LANES, z );
@@ -555,11 +555,14 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 			}
 			// the blended plane through plPushOutOfAnchorPlane8 (a lane without a usable candidate or weight: a zero
 			// normal, which it leaves where it is)
-			plVec weighed = _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) );
+			// and, as the single kernels, none where the nearest candidate is beyond the reach (plContactReach8)
+			plVec reach = candidates != NULL ? plContactReach8( nearest ) : plVecSet1( 1.0f );
+			plVec weighed = _mm256_and_ps( _mm256_and_ps( anchored, _mm256_cmp_ps( total, zero, _CMP_GT_OQ ) ),
+										   _mm256_cmp_ps( reach, zero, _CMP_GT_OQ ) );
 			if ( _mm256_movemask_ps( plPushOutOfAnchorPlane8( &x, &y, &z, _mm256_div_ps( sx, total ),
 															  _mm256_div_ps( sy, total ), _mm256_div_ps( sz, total ),
 															  _mm256_and_ps( nx, weighed ), _mm256_and_ps( ny, weighed ),
-															  _mm256_and_ps( nz, weighed ), offset ) ) == 0 )
+															  _mm256_and_ps( nz, weighed ), offset, reach ) ) == 0 )
 			{
 				continue;
 			}

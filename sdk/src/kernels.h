@@ -104,6 +104,13 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 // nearest squared distance, and a floor in metres, within which a candidate still counts.
 #define PLEAT_CONTACT_BLEND_SHARE 0.1f
 #define PLEAT_CONTACT_BLEND_M 0.001f
+// How far a candidate's plane reaches (the full contact only): a vertex whose nearest usable candidate is within
+// PLEAT_CONTACT_REACH_NEAR_M gets the whole push, one beyond PLEAT_CONTACT_REACH_FAR_M none, and in between a share
+// that falls linearly in the squared distance (continuous, so a vertex never jumps). A plane centimetres away says
+// little about where the body is: where the cloth had slid far from every candidate (the hem during a kick), pushing
+// out of it drove vertices 4–5 cm into the belly, against 15 mm for the network alone (docs/accuracy.md).
+#define PLEAT_CONTACT_REACH_NEAR_M 0.03f
+#define PLEAT_CONTACT_REACH_FAR_M 0.05f
 typedef void plPoseBodyPointsFn( float* posed, const float* shaped_points, const float* point_normals,
 								 const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
 								 const float* skin_matrices, uint32_t joint_count, uint32_t p_begin, uint32_t p_end );
@@ -117,7 +124,8 @@ typedef void plBodyPointNormalsFn( float* posed, uint32_t point_count, const uin
 // The push for vertices [v_begin, v_end): of each vertex's usable candidates (candidates [N][C], an index >= P or
 // PLEAT_NO_CONTACT_CANDIDATE = an empty slot; NULL = vertex v's point is v, C = 1), with m the nearest squared distance,
 // w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE)·m + PLEAT_CONTACT_BLEND_M² − |x − a_c|²), a = Σ w_c a_c / Σ w_c and
-// n = normalize(Σ w_c n_c) (slot order); d = (x − a)·n and if d < offset_m x ← x + (offset_m − d)·n.
+// n = normalize(Σ w_c n_c) (slot order); d = (x − a)·n and if d < offset_m x ← x + r·(offset_m − d)·n with the reach
+// r = plContactReach(m) with a candidate table, 1 without (a vertex with r = 0 is left as it is).
 typedef void plBodyContactFn( float* positions, uint32_t position_stride_bytes, const float* posed, uint32_t point_count,
 							  const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
 							  uint32_t v_end );
@@ -159,11 +167,22 @@ static inline void plBlendJointMatrices( float m[12], const uint16_t* indices, c
 	}
 }
 
+// The full contact's reach at a vertex whose nearest usable candidate is sqrt(nearest) away: 1 within
+// PLEAT_CONTACT_REACH_NEAR_M, 0 beyond PLEAT_CONTACT_REACH_FAR_M, linear in the squared distance between (the scalar
+// and SIMD kernels and the shader compute it alike).
+static inline float plContactReach( float nearest )
+{
+	const float near2 = PLEAT_CONTACT_REACH_NEAR_M * PLEAT_CONTACT_REACH_NEAR_M;
+	const float far2 = PLEAT_CONTACT_REACH_FAR_M * PLEAT_CONTACT_REACH_FAR_M;
+	float r = ( far2 - nearest ) / ( far2 - near2 );
+	return r < 0.0f ? 0.0f : ( r > 1.0f ? 1.0f : r );
+}
+
 // The end of the body-contact test for one vertex x, shared by the scalar and AVX2 kernels of both contacts: n = (nx, ny, nz)
 // normalised (a length ≤ 1e-12, a degenerate blend, leaves x as it is), d = (x − a)·n, and if d < offset_m
-// x ← x + (offset_m − d)·n.
+// x ← x + reach·(offset_m − d)·n (the fast contact's reach is 1, and a product with 1 changes no bit).
 static inline void plPushOutOfAnchorPlane( float* x, float ax, float ay, float az, float nx, float ny, float nz,
-										   float offset_m )
+										   float offset_m, float reach )
 {
 	float length = sqrtf( nx * nx + ny * ny + nz * nz );
 	if ( !( length > 1e-12f ) )
@@ -176,7 +195,7 @@ static inline void plPushOutOfAnchorPlane( float* x, float ax, float ay, float a
 	float d = ( x[0] - ax ) * nx + ( x[1] - ay ) * ny + ( x[2] - az ) * nz;
 	if ( d < offset_m )
 	{
-		float push = offset_m - d;
+		float push = ( offset_m - d ) * reach;
 		x[0] += push * nx;
 		x[1] += push * ny;
 		x[2] += push * nz;

@@ -115,6 +115,15 @@ static inline void plBlendSkinColumns( __m256* a, __m256* b, const uint16_t* ind
 // Two float columns (a, b) of eight rows at row offsets `offsets` (floats from `base`; row r's pair at base + offsets[r]):
 // two 64-bit gathers of four pairs each and a deinterleave, instead of two 32-bit gathers of eight floats each. The
 // values are the ones the 32-bit gathers load; gathers cost per element, so this loads half as many.
+// Eight lanes of plContactReach (the same operations).
+static inline __m256 plContactReach8( __m256 nearest )
+{
+	const float near2 = PLEAT_CONTACT_REACH_NEAR_M * PLEAT_CONTACT_REACH_NEAR_M;
+	const float far2 = PLEAT_CONTACT_REACH_FAR_M * PLEAT_CONTACT_REACH_FAR_M;
+	__m256 r = _mm256_div_ps( _mm256_sub_ps( _mm256_set1_ps( far2 ), nearest ), _mm256_set1_ps( far2 - near2 ) );
+	return _mm256_min_ps( _mm256_max_ps( r, _mm256_setzero_ps() ), _mm256_set1_ps( 1.0f ) );
+}
+
 static inline void plGatherPairs8( __m256* a, __m256* b, const float* base, __m256i offsets )
 {
 	__m256 lo = _mm256_castpd_ps( _mm256_i32gather_pd( (const double*)base, _mm256_castsi256_si128( offsets ), 4 ) );
@@ -127,7 +136,7 @@ static inline void plGatherPairs8( __m256* a, __m256* b, const float* base, __m2
 }
 
 static inline __m256 plPushOutOfAnchorPlane8( __m256* x, __m256* y, __m256* z, __m256 ax, __m256 ay, __m256 az,
-											  __m256 nx, __m256 ny, __m256 nz, __m256 offset )
+											  __m256 nx, __m256 ny, __m256 nz, __m256 offset, __m256 reach )
 {
 	__m256 length = _mm256_sqrt_ps(
 		_mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
@@ -139,7 +148,7 @@ static inline __m256 plPushOutOfAnchorPlane8( __m256* x, __m256* y, __m256* z, _
 		_mm256_add_ps( _mm256_mul_ps( _mm256_sub_ps( *x, ax ), nx ), _mm256_mul_ps( _mm256_sub_ps( *y, ay ), ny ) ),
 		_mm256_mul_ps( _mm256_sub_ps( *z, az ), nz ) );
 	__m256 moves = _mm256_and_ps( has_direction, _mm256_cmp_ps( d, offset, _CMP_LT_OQ ) );
-	__m256 push = _mm256_sub_ps( offset, d );
+	__m256 push = _mm256_mul_ps( _mm256_sub_ps( offset, d ), reach );
 	*x = _mm256_blendv_ps( *x, _mm256_add_ps( *x, _mm256_mul_ps( push, nx ) ), moves );
 	*y = _mm256_blendv_ps( *y, _mm256_add_ps( *y, _mm256_mul_ps( push, ny ) ), moves );
 	*z = _mm256_blendv_ps( *z, _mm256_add_ps( *z, _mm256_mul_ps( push, nz ) ), moves );

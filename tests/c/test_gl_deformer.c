@@ -293,6 +293,10 @@ static void test_set_shaped_template_moves_the_output( void** state )
 // PLEAT_CONTACT_BLEND_M; the reference keeps its own copy of the rule).
 #define PLEAT_TEST_BLEND_SHARE 0.1
 #define PLEAT_TEST_BLEND_M 0.001
+// The push's reach (kernels.h PLEAT_CONTACT_REACH_NEAR_M / _FAR_M, plContactReach): whole within 3 cm of the nearest
+// usable candidate, none beyond 5 cm, linear in the squared distance between.
+#define PLEAT_TEST_REACH_NEAR_M 0.03
+#define PLEAT_TEST_REACH_FAR_M 0.05
 
 typedef struct plTestBody
 {
@@ -415,6 +419,8 @@ typedef struct plContactCounts
 	uint32_t pushed;        // vertices moved out
 	uint32_t blended;       // of those, vertices whose plane blends two or more candidates
 	uint32_t from_rings;    // of those, vertices whose plane has a normal from a posed ring in it
+	uint32_t faded;         // of those, vertices pushed by a share (their nearest candidate 3–5 cm away)
+	uint32_t beyond;        // vertices behind the plane left alone: their nearest candidate beyond the reach
 	double ring_turn;       // largest angle (radians) between a usable point's ring normal and its blended rest normal
 	double worst_position;  // largest |GPU − reference| (m)
 	double worst_normal;
@@ -523,15 +529,24 @@ static void plReferenceBodyContact( const plTestMesh* mesh, const plTestBody* bo
 			}
 		}
 		double length = sqrt( n[0] * n[0] + n[1] * n[1] + n[2] * n[2] );
+		double near2 = PLEAT_TEST_REACH_NEAR_M * PLEAT_TEST_REACH_NEAR_M;
+		double far2 = PLEAT_TEST_REACH_FAR_M * PLEAT_TEST_REACH_FAR_M;
+		double reach = fmin( 1.0, fmax( 0.0, ( far2 - nearest ) / ( far2 - near2 ) ) );
 		if ( !( length > 1e-12 ) )
 			continue;
 		double d = 0.0;
 		for ( int e = 0; e < 3; ++e )
 			d += ( x[e] - a[e] / total ) * n[e] / length;
+		if ( !( reach > 0.0 ) )
+		{
+			counts->beyond += d < offset_m;
+			continue;
+		}
 		if ( d < offset_m )
 		{
+			counts->faded += reach < 1.0;
 			for ( int e = 0; e < 3; ++e )
-				x[e] += ( offset_m - d ) * n[e] / length;
+				x[e] += ( offset_m - d ) * reach * n[e] / length;
 			counts->pushed += 1;
 			counts->blended += blended > 1;
 			counts->from_rings += rings > 0;
@@ -614,12 +629,14 @@ static void plRunBodyContact( plTestFixture* fixture, int with_rings, plContactC
 	}
 	print_message( "body contact, P = %u, C = %u, R = %u: %u vertex pushes over 12 frames, %u of them from a blend of "
 				   "candidates, %u with normals from the posed rings (turned up to %.3g rad from the blended rest "
-				   "normal); max position error %.3g m, max normal error %.3g\n",
+				   "normal), %u by a share of the push, %u left beyond the reach; max position error %.3g m, max "
+				   "normal error %.3g\n",
 				   PLEAT_TEST_BODY_POINTS, PLEAT_TEST_BODY_CANDIDATES, body->ring_count, counts->pushed,
-				   counts->blended, counts->from_rings, counts->ring_turn, counts->worst_position,
-				   counts->worst_normal );
+				   counts->blended, counts->from_rings, counts->ring_turn, counts->faded, counts->beyond,
+				   counts->worst_position, counts->worst_normal );
 	assert_true( counts->pushed > 1000 );
 	assert_true( counts->blended > 0 );
+	assert_true( counts->faded > 100 && counts->beyond > 100 ); // the reach shaped the run at both ends
 	// Off: the skinned positions as they are.
 	assert_int_equal( plGlDeformer_SetBodyContact( deformer, 0, PLEAT_TEST_CONTACT_OFFSET_M ), PLEAT_RESULT_OK );
 	assert_int_equal( plGlDeformer_Run( deformer, fixture->blend_weights, fixture->skin_matrices, fixture->positions,

@@ -574,33 +574,38 @@ static void test_body_contact_by_hand( void** state )
 	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_INVALID_ARGUMENT );
 }
 
-// Candidates (asset 1.2), all on joint 0 (the identity): p0 at the origin, normal +Y; p1 at (0.1, 0, 0), normal +X;
-// p2 at (0.05, 0, 0) with a zero normal (never usable); offset 0.002. The blend margin: (1 + 0.1)·m + (1 mm)².
-//   v0 = (0.09, −0.001, 0), candidates (p0, p1, empty): m = 0.000101 (p1); p0 at 0.008101 is outside the margin
-//       (0.0001121), so the plane is p1's alone → d = −0.01 along +X, moved by 0.012 → (0.102, −0.001, 0), although
+// Candidates (asset 1.2), all on joint 0 (the identity): p0 at the origin, normal +Y; p1 at (0.04, 0, 0), normal +X;
+// p2 at (0.02, 0, 0) with a zero normal (never usable); offset 0.002. The blend margin: (1 + 0.1)·m + (1 mm)²; the
+// reach (plContactReach): 1 within 3 cm of the nearest usable candidate, 0 beyond 5 cm, linear in m between.
+//   v0 = (0.036, −0.001, 0), candidates (p0, p1, empty): m = 0.000017 (p1); p0 at 0.001297 is outside the margin
+//       (0.0000197), so the plane is p1's alone → d = −0.004 along +X, moved by 0.006 → (0.042, −0.001, 0), although
 //       it is behind p0's plane too.
-//   v1 = (0.05, −0.001, 0), candidates (p2, p0, p1): p2 is nearest but unusable; p0 and p1 are exactly as far (0.05 =
-//       0.1 − 0.05 in binary), equal weights → a = (0.05, 0, 0), n = (√½, √½, 0), d = −0.001·√½ → moved by
-//       (0.002 + 0.001·√½)·n = 0.00191421356 per axis → (0.05191421356, 0.00091421356, 0).
+//   v1 = (0.02, −0.001, 0), candidates (p2, p0, p1): p2 is nearest but unusable; p0 and p1 are exactly as far (0.02 =
+//       0.04 − 0.02 in binary), equal weights → a = (0.02, 0, 0), n = (√½, √½, 0), d = −0.001·√½ → moved by
+//       (0.002 + 0.001·√½)·n = 0.00191421356 per axis → (0.02191421356, 0.00091421356, 0).
 //   v2 = (0, −1, 0), candidates (empty, 7 ≥ P, empty): none → untouched, however deep.
+//   v3 = (0, −0.04, 0), candidates (p0): m = 0.0016, reach (0.0025 − 0.0016) / (0.0025 − 0.0009) = 0.5625; d = −0.04
+//       → moved by 0.5625 · 0.042 = 0.023625 along +Y → (0, −0.016375, 0).
+//   v4 = (0, −0.06, 0), candidates (p0): 6 cm from its only candidate, beyond the reach → untouched.
 static void test_body_contact_blends_the_nearest_usable_candidates_by_hand( void** state )
 {
 	(void)state;
-	float positions[3 * 3] = { 0.09f, -0.001f, 0, 0.05f, -0.001f, 0, 0, -1.0f, 0 };
-	const float points[3 * 3] = { 0, 0, 0, 0.1f, 0, 0, 0.05f, 0, 0 };
+	float positions[5 * 3] = { 0.036f, -0.001f, 0, 0.02f, -0.001f, 0, 0, -1.0f, 0, 0, -0.04f, 0, 0, -0.06f, 0 };
+	const float points[3 * 3] = { 0, 0, 0, 0.04f, 0, 0, 0.02f, 0, 0 };
 	const float normals[3 * 3] = { 0, 1, 0, 1, 0, 0, 0, 0, 0 };
 	const uint16_t indices[3] = { 0, 0, 0 };
 	const float weights[3] = { 1, 1, 1 };
 	const float matrices[12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0 };
-	const uint16_t candidates[3 * 3] = { 0, 1, PLEAT_NO_CONTACT_CANDIDATE, 2, 0, 1, PLEAT_NO_CONTACT_CANDIDATE, 7,
-										 PLEAT_NO_CONTACT_CANDIDATE };
+	const uint16_t E = PLEAT_NO_CONTACT_CANDIDATE;
+	const uint16_t candidates[5 * 3] = { 0, 1, E, 2, 0, 1, E, 7, E, 0, E, E, 0, E, E };
 	float posed[3 * PLEAT_POSED_POINT_FLOATS];
 	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 3, 0, 3, NULL };
 	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
-	plBodyContactJob job = { plMakeSpan( positions, 3, 12 ), posed, 3, candidates, 3, 0.002f, 0, 3, NULL };
+	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), posed, 3, candidates, 3, 0.002f, 0, 5, NULL };
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
-	const float expected[3 * 3] = { 0.102f, -0.001f, 0, 0.05191421356f, 0.00091421356f, 0, 0, -1.0f, 0 };
-	for ( int i = 0; i < 9; ++i )
+	const float expected[5 * 3] = { 0.042f, -0.001f, 0, 0.02191421356f, 0.00091421356f, 0, 0, -1.0f, 0,
+									0, -0.016375f, 0, 0, -0.06f, 0 };
+	for ( int i = 0; i < 15; ++i )
 	{
 		assert_float_equal( positions[i], expected[i], 1e-6f );
 	}

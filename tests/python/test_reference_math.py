@@ -326,11 +326,12 @@ def test_random_weights_recurrence_is_contractive():
 def test_body_contact_pushes_each_vertex_out_of_its_nearest_candidates_blended_plane(asset):
     """The contact job against its definition (pleat.h BODY CONTACT), recomputed here point by point and vertex by
     vertex (the points' normals from their posed rings where they have rings): the usable candidates within the margin of the nearest, (1 + η)·m + ε², blend with weights
-    max(0, margin − d²) into one plane; afterwards every anchored vertex is at least offset_m in front of it; vertices
-    that were are untouched; the others moved along n by exactly offset − d. The golden tube's blend shapes push many
-    through the stand-in body, and its candidates overlap, so the test sees both kinds of vertex, single candidates
-    and blends of several."""
-    from pleat.reference.body_contact import CONTACT_BLEND_M, CONTACT_BLEND_SHARE
+    max(0, margin − d²) into one plane; a vertex behind it moves along n by r·(offset − d), r the reach: 1 within 3 cm
+    of the nearest candidate, 0 beyond 5 cm, linear in m between (those within reach end at least offset_m in front);
+    vertices in front are untouched. The golden tube's blend shapes push many through the stand-in body, and its
+    candidates overlap, so the test sees single candidates and blends of several, and pushes at every reach."""
+    from pleat.reference.body_contact import (CONTACT_BLEND_M, CONTACT_BLEND_SHARE, CONTACT_REACH_FAR_M,
+                                              CONTACT_REACH_NEAR_M)
     motion = clip(6, seed=5)
     offset = 0.002
     plain, contact = Instance(asset, body_contact=False), Instance(asset, body_contact_offset_m=offset)
@@ -338,7 +339,7 @@ def test_body_contact_pushes_each_vertex_out_of_its_nearest_candidates_blended_p
     points = f("body_anchor") + np.einsum("b,bnc->nc", plain.beta, f("body_anchor_shape"))
     table = np.asarray(asset["body_anchor_candidates"], int)
     P = len(points)
-    moved_total, blended = 0, 0
+    moved_total, blended, faded, beyond = 0, 0, 0, 0
     for k in range(6):
         before, _ = plain.step(*(m[k] for m in motion))
         after, _ = contact.step(*(m[k] for m in motion))
@@ -357,7 +358,10 @@ def test_body_contact_pushes_each_vertex_out_of_its_nearest_candidates_blended_p
             if not near:
                 np.testing.assert_array_equal(after[v], before[v])
                 continue
-            margin = (1 + CONTACT_BLEND_SHARE) * min(d2 for d2, _ in near) + CONTACT_BLEND_M ** 2
+            nearest = min(d2 for d2, _ in near)
+            reach = min(1.0, max(0.0, (CONTACT_REACH_FAR_M ** 2 - nearest)
+                                 / (CONTACT_REACH_FAR_M ** 2 - CONTACT_REACH_NEAR_M ** 2)))
+            margin = (1 + CONTACT_BLEND_SHARE) * nearest + CONTACT_BLEND_M ** 2
             weights = [(margin - d2, p) for d2, p in near if d2 < margin]
             blended += len(weights) > 1
             total = sum(w for w, _ in weights)
@@ -365,11 +369,15 @@ def test_body_contact_pushes_each_vertex_out_of_its_nearest_candidates_blended_p
             normal = sum(w * n[p] for w, p in weights)
             normal /= np.linalg.norm(normal)
             d = np.dot(before[v] - anchor, normal)
-            if d < offset:
+            if d < offset and reach > 0:
                 moved_total += 1
-                np.testing.assert_allclose(after[v], before[v] + (offset - d) * normal, rtol=0, atol=1e-10)
+                faded += reach < 1
+                np.testing.assert_allclose(after[v], before[v] + reach * (offset - d) * normal, rtol=0, atol=1e-10)
             else:
+                beyond += d < offset
                 np.testing.assert_array_equal(after[v], before[v])
-            assert np.dot(after[v] - anchor, normal) >= offset - 1e-10
+            if reach == 1:
+                assert np.dot(after[v] - anchor, normal) >= offset - 1e-10
     assert 0 < moved_total < 6 * len(table)
     assert blended > 0                   # several candidates within the margin: the blend is exercised
+    assert faded > 0 and beyond > 0      # and pushes by a share, and vertices beyond the reach

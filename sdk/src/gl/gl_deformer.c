@@ -30,7 +30,9 @@ static void plDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y )
 #define PLEAT_GL_CONTACT_DEFINES                                                                                       \
 	"#define PLEAT_MAX_CONTACT_CANDIDATES " PLEAT_GL_STRING( PLEAT_MAX_CONTACT_CANDIDATES ) "\n"                       \
 	"#define PLEAT_CONTACT_BLEND_SHARE " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_SHARE ) "\n"                             \
-	"#define PLEAT_CONTACT_BLEND_M " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_M ) "\n"
+	"#define PLEAT_CONTACT_BLEND_M " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_M ) "\n"                                     \
+	"#define PLEAT_CONTACT_REACH_NEAR_M " PLEAT_GL_STRING( PLEAT_CONTACT_REACH_NEAR_M ) "\n"                           \
+	"#define PLEAT_CONTACT_REACH_FAR_M " PLEAT_GL_STRING( PLEAT_CONTACT_REACH_FAR_M ) "\n"
 #define PLEAT_GL_POSE_POINTS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 1\n"
 #define PLEAT_GL_POINT_NORMALS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 2\n"
 #define PLEAT_GL_BATCH_DEFINES "#define PLEAT_BATCH 1\n"
@@ -413,7 +415,7 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 								deformer->point_count,
 								deformer->candidate_count,
 								R,
-								0 };
+								desc->body_anchor_candidates != NULL ? 1u : 0u };
 	api->GenBuffers( 1, &deformer->params_buffer );
 	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
 	api->BufferData( GL_UNIFORM_BUFFER, sizeof( params ), &params, GL_STATIC_DRAW );

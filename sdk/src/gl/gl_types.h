@@ -19,7 +19,8 @@ typedef struct plGlDeformParams
 	uint32_t point_count;            // P body points (0 without)
 	uint32_t candidate_count;        // C candidate points per vertex (1 for the identity table of a 1.1 asset)
 	uint32_t point_ring_count;       // R entries of each body point's ring (asset 1.2, BARG; 0 without)
-	uint32_t pad;                    // std140 rounds the block to 16 bytes
+	uint32_t contact_reach;          // 1: the push fades with the nearest candidate's distance (an asset with a
+									 // candidate table, BACA), 0: the whole push (a 1.1 asset's identity table)
 } plGlDeformParams;
 _Static_assert( sizeof( plGlDeformParams ) == 48, "std140 plGlDeformParams is 48 bytes" );
 

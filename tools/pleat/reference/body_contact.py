@@ -37,6 +37,19 @@ NO_CANDIDATE = 0xFFFF
 # The blend of candidates almost as near as the nearest (PLEAT_CONTACT_BLEND_SHARE, PLEAT_CONTACT_BLEND_M in kernels.h)
 CONTACT_BLEND_SHARE = 0.1
 CONTACT_BLEND_M = 0.001
+# How far a candidate's plane reaches (the full contact; PLEAT_CONTACT_REACH_* in kernels.h): the whole push where
+# the nearest usable candidate is within NEAR, none beyond FAR, linear in the squared distance between
+CONTACT_REACH_NEAR_M = 0.03
+CONTACT_REACH_FAR_M = 0.05
+
+
+def contact_reach(nearest_d2):
+    """The push's share for vertices whose nearest usable candidate is at squared distance `nearest_d2` (plContactReach:
+    a plane centimetres away says little about where the body is; where the cloth had slid far from every candidate,
+    pushing out of it drove vertices 4–5 cm into the belly)."""
+    near2, far2 = CONTACT_REACH_NEAR_M ** 2, CONTACT_REACH_FAR_M ** 2
+    with np.errstate(invalid="ignore"):
+        return np.clip((far2 - np.asarray(nearest_d2, np.float64)) / (far2 - near2), 0.0, 1.0)
 
 
 def pose_contact_points(shaped_points, point_normals, point_skin_indices, point_skin_weights, skin_matrices,
@@ -82,10 +95,11 @@ def candidate_weights(positions, posed_points, usable, candidates):
 
 
 def body_contact(positions, shaped_points, point_normals, point_skin_indices, point_skin_weights, skin_matrices,
-                 offset_m, candidates=None, point_rings=None):
+                 offset_m, candidates=None, point_rings=None, reach=False):
     """positions [N, 3] (skinned), the body points [P, 3] / [P, 3] / [P, K] / [P, K], skin_matrices [J, 3, 4],
     candidates [N, C] or None (P = N, each vertex its own point) → positions [N, 3] outside the blended tangent plane
-    of the nearest candidates by at least offset_m."""
+    of the nearest candidates by at least offset_m; with `reach` (the full contact) the push scaled by contact_reach
+    of the nearest usable candidate's squared distance (the fast contact pushes in full)."""
     x = np.asarray(positions, np.float64)
     a, n, usable = pose_contact_points(shaped_points, point_normals, point_skin_indices, point_skin_weights,
                                        skin_matrices, point_rings)
@@ -99,4 +113,10 @@ def body_contact(positions, shaped_points, point_normals, point_skin_indices, po
     normal = normal / np.where(has, length, 1.0)[:, None]
     d = np.einsum("ni,ni->n", x - anchor, normal)
     push = np.where(has & (d < offset_m), offset_m - d, 0.0)
+    if reach and candidates is not None:       # a candidate table (asset 1.2); 1.1's one point pushes in full
+        d2 = np.sum((a[index] - x[:, None, :]) ** 2, axis=-1)
+        valid = (np.asarray(candidates) < len(a)) if candidates is not None else np.ones((len(x), 1), bool)
+        valid &= usable[index]
+        nearest = np.min(np.where(valid, d2, np.inf), axis=1)
+        push = push * contact_reach(nearest)
     return x + push[:, None] * normal

@@ -219,7 +219,7 @@ class Instance:
             elif self.body_contact:
                 positions = body_contact(positions, self.shaped_anchors, self.anchor_normals, self.anchor_skin_indices,
                                          self.anchor_skin_weights, skin_matrices, self.body_contact_offset_m,
-                                         self.anchor_candidates, self.anchor_ring)
+                                         self.anchor_candidates, self.anchor_ring, reach=True)
             vertex_normals = normals(positions, self.faces, self.adjacency_offsets, self.adjacency_faces)
         return positions, vertex_normals, bool(np.all(np.isfinite(positions)) and np.all(np.isfinite(vertex_normals)))
 
