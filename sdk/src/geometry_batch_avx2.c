@@ -537,13 +537,10 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 			plVec total = zero, sx = zero, sy = zero, sz = zero, nx = zero, ny = zero, nz = zero;
 			for ( uint32_t k = 0; k < used; ++k )
 			{
+				// No branch on "no instance weighs it": with 16 candidates that test mispredicted often, and a lane
+				// without weight adds w = +0 to every sum, which leaves its bits as the single kernels' skip does.
 				plVec w = plVecSub( limit, d2[k] );
-				plVec inside = _mm256_cmp_ps( w, zero, _CMP_GT_OQ );
-				if ( _mm256_movemask_ps( inside ) == 0 )
-				{
-					continue; // no instance weighs it: every sum would add +0
-				}
-				w = _mm256_and_ps( w, inside );
+				w = _mm256_and_ps( w, _mm256_cmp_ps( w, zero, _CMP_GT_OQ ) );
 				uint32_t p = slot[k];
 				total = plVecAdd( total, w );
 				sx = plVecAdd( sx, plVecMul( w, plVecLoad( PL_ROW( p, 0 ) ) ) );
