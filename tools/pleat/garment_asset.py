@@ -100,6 +100,9 @@ BODY_ANCHOR_MAX_DISTANCE_M = 0.05
 # per vertex with the turned rest normal (asset 1.1) leaves 1.27 % of vertex-frames inside the body, and more
 # candidates do not help while the normal is the turned one; with the posed normal 1 candidate 1.11 %, 4 0.96 %,
 # 8 0.91 %. Each candidate costs ~4 ns per vertex and step, the posed normals ~15 ns per point: 4 by default.
+# Where simulated frames are at hand, the candidates after the first are chosen from them instead (the body vertices
+# most often nearest to the vertex there, pleat.train.contact.candidate_vertices; 16 of them: 0.31 % inside against
+# 0.50 % for the 16 rest-nearest and 0.60 % for 4, the same error; docs/accuracy.md "Body contact").
 BODY_CONTACT_CANDIDATES = 4
 # Body contact per tier, (candidates, posed normals): the full contact costs about what the medium tier's networks
 # cost, and a crowd step cannot batch it (it is per instance: docs/benchmarks.md "Body contact"), so only the top tier

@@ -89,11 +89,13 @@
 // BODY CONTACT (docs/asset-format.md, "Body contact")
 // ==================================================================================================================
 // An asset may carry body points (points of the rest body, each with its normal and the body's own skin weights there)
-// and, per garment vertex, a few candidate points near it (asset 1.2: pleat-pack writes the 4 nearest body vertices
-// and each one's ring of body vertices; 1.1 had one point per vertex). Each step the points are posed, each takes the
-// posed body's own normal from its ring, and each vertex takes the blend of its candidates nearest to it in this pose
-// as its anchor; if it lies closer than body_contact_offset_m to the anchor's tangent plane (or behind it, inside the
-// body) it moves out along the anchor's normal to that distance; the normals are computed after. This is the
+// and, per garment vertex, a few candidate points near it (asset 1.2: pleat-pack writes the 4 nearest body vertices,
+// or up to 16 chosen where simulated cloth was, and each one's ring of body vertices; 1.1 had one point per vertex).
+// Each step the points are posed, each takes the posed body's own normal from its ring, and each vertex takes the blend
+// of its candidates nearest to it in this pose as its anchor; if it lies closer than body_contact_offset_m to the
+// anchor's tangent plane (or behind it, inside the body) it moves out along the anchor's normal to that distance — the
+// whole way where its nearest candidate is within 3 cm, not at all beyond 5 cm (a plane that far says little about
+// where the body is), a share in between; the normals are computed after. This is the
 // simulator's vertex–plane contact measure, applied as a projection: it removes most of the body–garment
 // interpenetration a network leaves on motion it never saw, also where the cloth has slid off its rest neighbour on
 // the body or the skin folds at a joint (docs/accuracy.md "Body contact"). It costs about what a small network costs
