@@ -84,7 +84,8 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
                                               "simsup.dec_iterations": 10, "simsup.contact_iterations": 3,
                                               "simsup.ensemble_members": 2, "simsup.member_tier": "member",
                                               "simsup.tier": "large", "simsup.input_noise": 0.1,
-                                              "simsup.students": 2, "simsup.tier_teacher_frames": 30})
+                                              "simsup.students": 2, "simsup.tier_teacher_frames": 30,
+                                              "simsup.contact_candidates": 6})
     path2, summary2 = simsup.train(cfg2, "tshirt", tmp_path / "b", progress=False, data=str(data))
     assert summary2["frames"] == 16
     fit = summary2["fit"]
@@ -100,6 +101,10 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
     meta = json.loads(w["metadata_json"])
     assert meta["training"]["recipe"] == "simulator-supervised"
     assert meta["training"]["contact"]["iterations"] == 3
+    # the top tier's contact candidates came from the run's simulated frames (written once, used by every pack)
+    assert (tmp_path / "b" / simsup.CANDIDATES_FILE).is_file()
+    assert meta["body_contact"]["candidates_from"] == "simulated frames" and meta["body_contact"]["candidates"] == 6
+    assert w["body_anchor_candidates"].shape == (len(w["template"]), 6)
     assert meta["model"].startswith("pleat simulator-supervised: the mean of 2 member networks distilled from a fit")
     assert w["lp.0.weight"].shape[0] == 512 and w["blend_shapes"].shape[0] == fit["blend"]
     # the contact fine-tune kept the members apart: the blocks between them are still exactly zero, so the runtime
