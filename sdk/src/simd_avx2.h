@@ -106,15 +106,6 @@ static inline void plBlendSkinColumns( __m256* a, __m256* b, const uint16_t* ind
 	*b = sb;
 }
 
-// Eight lanes of plPushOutOfAnchorPlane, the end of the body-contact test: n = (nx, ny, nz) / length with
-// length = sqrt((nx² + ny²) + nz²), d = ((x − ax)·nx + (y − ay)·ny) + (z − az)·nz, and where length > 1e-12 and
-// d < offset, x ← x + (offset − d)·n (other lanes keep their bits). Returns the mask of the lanes that moved. The lanes
-// are vertices in plBodyContactFast_Avx2 and plBodyContact_Avx2, instances in plBodyContactFastBatch_Avx2 and
-// plBodyContactBatch_Avx2 (the full contacts with their blended plane): one definition, so they agree bit for bit by
-// construction, and with plPushOutOfAnchorPlane, which the scalar kernels share.
-// Two float columns (a, b) of eight rows at row offsets `offsets` (floats from `base`; row r's pair at base + offsets[r]):
-// two 64-bit gathers of four pairs each and a deinterleave, instead of two 32-bit gathers of eight floats each. The
-// values are the ones the 32-bit gathers load; gathers cost per element, so this loads half as many.
 // Eight lanes of plContactReach (the same operations).
 static inline __m256 plContactReach8( __m256 nearest )
 {
@@ -124,6 +115,9 @@ static inline __m256 plContactReach8( __m256 nearest )
 	return _mm256_min_ps( _mm256_max_ps( r, _mm256_setzero_ps() ), _mm256_set1_ps( 1.0f ) );
 }
 
+// Two float columns (a, b) of eight rows at row offsets `offsets` (floats from `base`; row r's pair at base + offsets[r]):
+// two 64-bit gathers of four pairs each and a deinterleave, instead of two 32-bit gathers of eight floats each. The
+// values are the ones the 32-bit gathers load; gathers cost per element, so this loads half as many.
 static inline void plGatherPairs8( __m256* a, __m256* b, const float* base, __m256i offsets )
 {
 	__m256 lo = _mm256_castpd_ps( _mm256_i32gather_pd( (const double*)base, _mm256_castsi256_si128( offsets ), 4 ) );
@@ -135,6 +129,13 @@ static inline void plGatherPairs8( __m256* a, __m256* b, const float* base, __m2
 	*b = _mm256_castpd_ps( _mm256_permute4x64_pd( _mm256_castps_pd( odd ), 0xD8 ) );
 }
 
+// Eight lanes of plPushOutOfAnchorPlane, the end of the body-contact test: n = (nx, ny, nz) / length with
+// length = sqrt((nx² + ny²) + nz²), d = ((x − ax)·nx + (y − ay)·ny) + (z − az)·nz, and where length > 1e-12 and
+// d < offset, x ← x + reach·(offset − d)·n (other lanes keep their bits; reach is each lane's share of its push,
+// plContactReach8, 1 for the fast contact). Returns the mask of the lanes that moved. The lanes are vertices in
+// plBodyContactFast_Avx2 and plBodyContact_Avx2, instances in plBodyContactFastBatch_Avx2 and plBodyContactBatch_Avx2
+// (the full contacts with their blended plane): one definition, so they agree bit for bit by construction, and with
+// plPushOutOfAnchorPlane, which the scalar kernels share.
 static inline __m256 plPushOutOfAnchorPlane8( __m256* x, __m256* y, __m256* z, __m256 ax, __m256 ay, __m256 az,
 											  __m256 nx, __m256 ny, __m256 nz, __m256 offset, __m256 reach )
 {
