@@ -325,10 +325,40 @@ static void test_body_point_normals_avx2_are_bit_identical_to_scalar( void** sta
 	}
 }
 
+// The body-contact twins' outputs os (scalar) and ov (SIMD) from the same start, five floats a vertex (x, y, z, then two
+// that no kernel may touch) over the vertex range [1, n − 2): outside it, in the two extra floats and (without_anchor)
+// at every fourth vertex, both are the start's bits; inside, they agree within `tolerance`. Returns how many floats
+// moved, so that a test can require that the contact did something.
+static uint32_t plExpectContactTwins( const float* os, const float* ov, const float* start, uint32_t n,
+									  int without_anchor, float tolerance, const char* what, uint32_t which )
+{
+	uint32_t moved = 0;
+	for ( uint32_t v = 0; v < n; ++v )
+	{
+		for ( uint32_t e = 0; e < 5; ++e )
+		{
+			float a = os[v * 5 + e], b = ov[v * 5 + e];
+			if ( v < 1 || v >= n - 2 || e >= 3 || ( without_anchor && v % 4 == 0 ) )
+			{
+				assert_true( a == start[v * 5 + e] && b == start[v * 5 + e] ); // untouched
+				continue;
+			}
+			moved += a != start[v * 5 + e];
+			if ( fabsf( a - b ) > tolerance )
+			{
+				fail_msg( "%s=%u vertex %u float %u: scalar %.9g simd %.9g", what, which, v, e, a, b );
+			}
+		}
+	}
+	return moved;
+}
+
 // The push: random posed points (every fifth unusable), C = 1..16 candidates per vertex with empty slots (0xFFFF and
 // indices past P), a vertex without any, near ties (pairs of points equally far from a vertex), strided positions
-// (other floats untouched) and a vertex sub-range. The blend's sums run in another order in the SIMD kernel, so the
-// two agree to rounding: |Δ| ≤ 1e-6 m on O(1) coordinates (a wrong weight or lane gives 1e-3 and more).
+// (other floats untouched) and a vertex sub-range. Points and vertices lie within a few centimetres of each other, so
+// with the candidate table vertices get the whole push, a share of it or none (plContactReach: 3–5 cm). The blend's
+// sums run in another order in the SIMD kernel, so the two agree to rounding: |Δ| ≤ 1e-6 m (a wrong weight, reach or
+// lane gives 1e-4 and more).
 static void test_body_contact_avx2_matches_scalar( void** state )
 {
 	const plKernelPair* pair = plRequireAvx2Kernels( state );
@@ -340,7 +370,7 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 		float nx = plRand(), ny = plRand(), nz = plRand() + 0.1f;
 		float len = sqrtf( nx * nx + ny * ny + nz * nz );
 		int usable = p % 5 != 2;
-		float row[8] = { 0.3f * plRand(), 0.3f * plRand(), 0.3f * plRand(), usable ? 1.0f : 0.0f,
+		float row[8] = { 0.03f * plRand(), 0.03f * plRand(), 0.03f * plRand(), usable ? 1.0f : 0.0f,
 						 usable ? nx / len : 0.0f, usable ? ny / len : 0.0f, usable ? nz / len : 0.0f, 0.0f };
 		memcpy( r, row, sizeof( row ) );
 	}
@@ -349,7 +379,7 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 	{
 		for ( int e = 0; e < 5; ++e )
 		{
-			start[5 * v + e] = e < 3 ? 0.3f * plRand() : -77.0f;
+			start[5 * v + e] = e < 3 ? 0.03f * plRand() : -77.0f;
 		}
 	}
 	// vertex 4 halfway between points 0 and 1: a tie inside the margin
@@ -357,6 +387,7 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 	{
 		start[5 * 4 + e] = 0.5f * ( posed[e] + posed[PLEAT_POSED_POINT_FLOATS + e] );
 	}
+	uint32_t reach_kinds[3] = { 0, 0, 0 }; // vertices with the whole push, a share of it, none (of the table passes)
 	for ( uint32_t C = 1; C <= PLEAT_MAX_CONTACT_CANDIDATES; ++C )
 	{
 		uint16_t candidates[n * PLEAT_MAX_CONTACT_CANDIDATES];
@@ -373,6 +404,24 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 				candidates[v * C + 1] = 1;
 			}
 		}
+		for ( uint32_t v = 1; v < n - 2; ++v )
+		{
+			float nearest = INFINITY;
+			for ( uint32_t c = 0; c < C; ++c )
+			{
+				uint32_t p = candidates[v * C + c];
+				const float* a = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
+				if ( p < P && a[3] != 0.0f )
+				{
+					float dx = start[5 * v] - a[0], dy = start[5 * v + 1] - a[1], dz = start[5 * v + 2] - a[2];
+					nearest = fminf( nearest, dx * dx + dy * dy + dz * dz );
+				}
+			}
+			if ( nearest < INFINITY )
+			{
+				reach_kinds[nearest <= 0.03f * 0.03f ? 0 : nearest < 0.05f * 0.05f ? 1 : 2] += 1;
+			}
+		}
 		float os[n * 5], ov[n * 5];
 		memcpy( os, start, sizeof( os ) );
 		memcpy( ov, start, sizeof( ov ) );
@@ -383,26 +432,9 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 			pair->scalar.body_contact( os, stride, posed, P, table, count, 0.05f, 1, n - 2 );
 			pair->simd.body_contact( ov, stride, posed, P, table, count, 0.05f, 1, n - 2 );
 		}
-		uint32_t moved = 0;
-		for ( uint32_t v = 0; v < n; ++v )
-		{
-			for ( uint32_t e = 0; e < 5; ++e )
-			{
-				float a = os[v * 5 + e], b = ov[v * 5 + e];
-				if ( v < 1 || v >= n - 2 || e >= 3 )
-				{
-					assert_true( a == start[v * 5 + e] && b == start[v * 5 + e] ); // untouched
-					continue;
-				}
-				moved += a != start[v * 5 + e];
-				if ( fabsf( a - b ) > 1e-6f )
-				{
-					fail_msg( "C=%u vertex %u float %u: scalar %.9g simd %.9g", C, v, e, a, b );
-				}
-			}
-		}
-		assert_true( moved > 0 );
+		assert_true( plExpectContactTwins( os, ov, start, n, 0, 1e-6f, "C", C ) > 0 );
 	}
+	assert_true( reach_kinds[0] > 0 && reach_kinds[1] > 0 && reach_kinds[2] > 0 ); // every reach was compared
 }
 
 // The fast body contact: random anchors around the vertices (so about half are behind their planes and move), every fourth
@@ -447,25 +479,7 @@ static void test_fast_body_contact_avx2_matches_scalar( void** state )
 		scalar->body_contact_fast( os, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1,
 							  n - 2 );
 		simd->body_contact_fast( ov, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1, n - 2 );
-		uint32_t moved = 0;
-		for ( uint32_t v = 0; v < n; ++v )
-		{
-			for ( uint32_t e = 0; e < 5; ++e )
-			{
-				float a = os[v * 5 + e], b = ov[v * 5 + e];
-				if ( v < 1 || v >= n - 2 || e >= 3 || v % 4 == 0 )
-				{
-					assert_true( a == start[v * 5 + e] && b == start[v * 5 + e] ); // untouched
-					continue;
-				}
-				moved += a != start[v * 5 + e];
-				if ( fabsf( a - b ) > 1e-5f )
-				{
-					fail_msg( "K=%u vertex %u float %u: scalar %.9g simd %.9g", K, v, e, a, b );
-				}
-			}
-		}
-		assert_true( moved > 0 );
+		assert_true( plExpectContactTwins( os, ov, start, n, 1, 1e-5f, "K", K ) > 0 );
 	}
 }
 

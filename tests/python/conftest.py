@@ -1,6 +1,6 @@
 """Shared pytest configuration: tests marked `slow` run only with PLEAT_SLOW_TESTS=1 (the default run stays short);
 the shipped body as a session fixture (`body`); the tiny training preset with its setup and physics clips
-(`tiny_physics`)."""
+(`tiny_physics`); the C runtime's Python binding (`c_runtime`)."""
 import os
 
 import pytest
@@ -23,6 +23,15 @@ def tiny_physics():
     cfg = core.load_config("tiny")
     setup = core.Setup(cfg, "tshirt", "cpu")
     return cfg, setup, core.physics_clips(cfg, setup.body)
+
+
+@pytest.fixture(scope="module")
+def c_runtime():
+    """pleat.runtime, the C library's binding; skips where libpleat.so is not built."""
+    runtime = pytest.importorskip("pleat.runtime")
+    if runtime.find_library() is None:
+        pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
+    return runtime
 
 
 def pytest_configure(config):

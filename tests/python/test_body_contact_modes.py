@@ -3,22 +3,14 @@
 fast one (PLEAT_BODY_CONTACT_FAST: each vertex's own point, its turned rest normal), step by step; the two modes
 differ, and both keep the garment out of the stand-in body where plain skinning does not."""
 import numpy as np
-import pytest
 
 from pleat import asset as pa
 from pleat.reference import Instance
 from pleat.reference.golden import random_motion, random_weights
 
 
-def _runtime():
-    runtime = pytest.importorskip("pleat.runtime")
-    if runtime.find_library() is None:
-        pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
-    return runtime
-
-
-def test_full_and_fast_contact_match_their_numpy_twins_and_differ():
-    runtime = _runtime()
+def test_full_and_fast_contact_match_their_numpy_twins_and_differ(c_runtime):
+    runtime = c_runtime
     data = pa.write_asset(None, random_weights(vertices=300, latent=6, blend=4, lp_hidden=(16,), dec_hidden=(8,),
                                                seed=3))
     asset = pa.read_asset(data)

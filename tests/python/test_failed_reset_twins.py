@@ -2,7 +2,6 @@
 dress the body without the learned deformation — zero latent, zero blend weights, the shaped template skinned with the
 pose — commit that, and report NUMERIC_RESET (plInstance_Step's contract in pleat.h)."""
 import numpy as np
-import pytest
 
 from pleat import asset as pa
 from pleat.reference.body_contact import body_contact
@@ -32,20 +31,13 @@ def _overflowing_weights():
     return w
 
 
-def _runtime():
-    runtime = pytest.importorskip("pleat.runtime")
-    if runtime.find_library() is None:
-        pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
-    return runtime
-
-
-def test_non_finite_from_the_reset_state_dresses_the_body_without_learned_deformation_in_both_twins():
+def test_non_finite_from_the_reset_state_dresses_the_body_without_learned_deformation_in_both_twins(c_runtime):
     data = pa.write_asset(None, _overflowing_weights())
     asset = pa.read_asset(data)
     rot, tr, rr, dt = random_motion(3, seed=4)
     beta = np.linspace(-1.0, 1.0, np.asarray(asset["shape_blend"]).shape[0])
     reference = Instance(asset, beta)
-    runtime = _runtime()
+    runtime = c_runtime
     with runtime.Context() as ctx:
         c_asset = ctx.load_asset(data)
         c_inst = ctx.create_instance(c_asset, beta=beta)
