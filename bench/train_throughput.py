@@ -60,7 +60,7 @@ class Variant:
 def _cpu_clock(source):
     """CPU seconds of a variant: this process's, plus its data worker's when it has one (as the worker last reported
     them, one iteration behind: over a measurement of n iterations that is still n preparations)."""
-    return (lambda: time.process_time() + source.worker_cpu_s) if source.proc is not None else time.process_time
+    return (lambda: time.process_time() + source.worker_cpu_s) if source.procs else time.process_time
 
 
 def optimizer_step(model, opt, objective, grad_clip):
@@ -158,7 +158,7 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
         net = batching.BatchedStage1(model, bf16=use_bf16)
         if use_compile:
             net = batching.compiled(net)
-        on_device = config.nearest_on_device(c1, device_setup.device)
+        on_device = config.searches_on_device(c1, device_setup.device)
         source = batching.WindowSource(device_setup, clips, np.random.default_rng(1), k,
                                        workers=data_workers if use_worker else 0, drop_trees=on_device)
         c = dict(c1, compile=use_compile, autocast_bf16=use_bf16)
@@ -218,7 +218,7 @@ def ablation_variants(setup, clips, cfg, steps, worker):
     def batched(use_worker):
         model, opt = model_and_opt()
         source = batching.WindowSource(setup, clips, np.random.default_rng(1), ca["batch"], static=True,
-                                       worker=use_worker)
+                                       workers=int(use_worker))
         z_lo, z_hi = np.full(setup.L, np.inf), np.full(setup.L, -np.inf)
 
         def step():                       # core.train_ablation (the default)

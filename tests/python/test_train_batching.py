@@ -158,7 +158,7 @@ def test_data_worker_prepares_the_same_windows_as_the_trainer_would(tiny_physics
     the windows are drawn again)."""
     _, setup, clips = tiny_physics
     here = batching.WindowSource(setup, clips, np.random.default_rng(3), 2, static=True)
-    there = batching.WindowSource(setup, clips, np.random.default_rng(3), 2, static=True, worker=True)
+    there = batching.WindowSource(setup, clips, np.random.default_rng(3), 2, static=True, workers=1)
     try:
         schedule = [1, 1, 2, 2]
         for i, steps in enumerate(schedule):
@@ -295,8 +295,8 @@ def test_data_worker_and_nearest_settings():
     for bad in (-1, "2", 1.5):
         with pytest.raises(ValueError):
             config.data_workers({"data_worker": bad})
-    assert not config.nearest_on_device({}, "cpu") and config.nearest_on_device({}, "cuda")
-    assert config.nearest_on_device({"nearest": "torch"}, "cpu")
-    assert not config.nearest_on_device({"nearest": "kdtree"}, "cuda")
+    assert not config.searches_on_device({}, "cpu") and config.searches_on_device({}, "cuda")
+    assert config.searches_on_device({"nearest": "torch"}, "cpu")
+    assert not config.searches_on_device({"nearest": "kdtree"}, "cuda")
     with pytest.raises(ValueError):
-        config.nearest_on_device({"nearest": "gpu"}, "cpu")
+        config.searches_on_device({"nearest": "gpu"}, "cpu")

@@ -172,9 +172,8 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
                              f"shape [{len(template)}, {C}]; got shape {given.shape}")
         # each vertex's own row stays its rest-nearest body vertex (the fast contact reads it); a repeat of a
         # candidate would weigh its point twice
-        rows = np.concatenate([nearest[:, :1], given[:, 1:]], axis=1)
-        nearest = np.array([list(dict.fromkeys(r[r >= 0])) + [-1] * (C - len(set(r[r >= 0]))) for r in rows],
-                           np.int64)
+        rows = [list(dict.fromkeys(r[r >= 0])) for r in np.concatenate([nearest[:, :1], given[:, 1:]], axis=1)]
+        nearest = np.array([r + [-1] * (C - len(r)) for r in rows], np.int64)
     valid = nearest >= 0                                                    # -1: an empty slot
     ring_table = None
     if C == 1 and not posed_normals:

@@ -5,7 +5,7 @@ import torch
 from tqdm import tqdm
 
 from pleat.train.config import (LOSS_TERMS, Budget, batched_path, data_workers, loss_weights, make_optimizer,
-                                nearest_on_device, rollout_steps, run_fraction)
+                                searches_on_device, rollout_steps, run_fraction)
 from pleat.train.data import Window, sample_window, to_t
 from pleat.train.ddp import stop_everywhere, wrap_ddp
 from pleat.train.models import AblationModel
@@ -72,7 +72,7 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
     if batched:     # the batch's windows through the model together (batching.py; the same losses, tested)
         from pleat.train import batching
         source = batching.WindowSource(setup, clips, rng, ca["batch"], static=True, workers=data_workers(c1),
-                                       drop_trees=nearest_on_device(c1, dev))
+                                       drop_trees=searches_on_device(c1, dev))
     bar = tqdm(range(start, ca["iterations"]), disable=not progress or rank != 0, desc="ablation")
     for it in bar:
         s = run_fraction(sched, it, budget.elapsed(), budget.budget_s)

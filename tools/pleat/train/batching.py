@@ -231,21 +231,19 @@ class WindowSource:
     workers, round robin (numpy/scipy only; they never touch torch). One worker is what two cores can use; more pay
     where the trainer has a GPU and the machine more cores (docs/training.md, "On a GPU"). `steps` is guessed ahead
     by `next_steps`; when a guess misses (the rollout schedule moved on, 4 times a run), those windows are dropped and
-    new ones drawn and prepared here. `worker` (bool) is the older spelling of workers = 1. With `drop_trees` the
-    KD-trees stay in the worker (the trainer finds nearest body vertices on its device: `nearest="torch"`), which
+    new ones drawn and prepared here. With `drop_trees` the KD-trees stay in the worker (the trainer finds nearest body vertices on its device: `nearest="torch"`), which
     spares pickling them across the pipe."""
 
-    def __init__(self, setup, clips, rng, windows, static=False, worker=False, workers=None, drop_trees=False):
+    def __init__(self, setup, clips, rng, windows, static=False, workers=0, drop_trees=False):
         self.setup, self.clips, self.rng, self.K, self.static = setup, clips, rng, int(windows), static
         self.prepared = _Prepared(kinematics(setup), clips, setup.asset_stub if static else None, drop_trees)
         self.pending = collections.deque()     # (worker index, guessed steps) per job in flight, oldest first
         self.procs, self.conns, self.next_worker = [], [], 0
         self.worker_cpu = []                   # each worker's CPU time as of its last handed-out windows
-        count = int(workers) if workers is not None else int(bool(worker))
-        if count > 0:
+        if workers > 0:
             import multiprocessing as mp
             ctx = mp.get_context("fork")
-            for _ in range(count):
+            for _ in range(int(workers)):
                 conn, child = ctx.Pipe()
                 proc = ctx.Process(target=_worker_loop, args=(self.prepared, child), daemon=True)
                 proc.start()
@@ -253,11 +251,6 @@ class WindowSource:
                 self.procs.append(proc)
                 self.conns.append(conn)
                 self.worker_cpu.append(0.0)
-
-    @property
-    def proc(self):
-        """The first worker process, or None without workers (what callers test for a worker)."""
-        return self.procs[0] if self.procs else None
 
     @property
     def worker_cpu_s(self):

@@ -142,7 +142,7 @@ def data_workers(c1):
     return value
 
 
-def nearest_on_device(c1, device):
+def searches_on_device(c1, device):
     """`stage1.nearest`: where the batched path finds each garment vertex's nearest body vertex in every rollout
     step. "kdtree": the KD-trees prepared with the windows, queried on the CPU; "torch": exact distances on the
     trainer's device (batching.nearest_on_device; float32, so a near-tie may resolve the other way); "auto"

@@ -9,7 +9,7 @@ from tqdm import tqdm
 
 from pleat.train import sources
 from pleat.train.config import (LOSS_TERMS, Budget, autocast_bf16, batched_path, data_workers, loss_weights,
-                                make_optimizer, nearest_on_device, rollout_steps, run_fraction, weighted)
+                                make_optimizer, searches_on_device, rollout_steps, run_fraction, weighted)
 from pleat.train.data import Setup, Window, physics_clips, sample_window
 from pleat.train.ddp import device_for, dist_info, stop_everywhere, wrap_ddp
 from pleat.train.models import Stage1Model
@@ -44,7 +44,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
         net = batching.BatchedStage1(model, bf16=bf16)
         ddp = wrap_ddp(batching.compiled(net) if c1.get("compile") else net, world, dev)
         source = batching.WindowSource(setup, clips, rng, c1.get("windows_per_iteration", 1),
-                                       workers=data_workers(c1), drop_trees=nearest_on_device(c1, dev))
+                                       workers=data_workers(c1), drop_trees=searches_on_device(c1, dev))
     else:
         ddp = wrap_ddp(model, world, dev)
     bar = tqdm(range(start, c1["iterations"]), disable=not progress or rank != 0, desc="stage1")
