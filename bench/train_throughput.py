@@ -22,7 +22,8 @@ clipping, Adam):
 
 usage: PYTHONPATH=tools .venv/bin/python bench/train_throughput.py [--preset default] [--garment tshirt]
            [--rounds 5] [--iterations 3] [--steps 5] [--windows 8] [--worker] [--compile 1,8] [--ddp] [--bf16]
-           [--threads 1] [--device cpu] [--data-workers 1] [--nearest auto]
+           [--threads 1] [--device cpu] [--data-workers 1] [--nearest auto[,kdtree]]
+           [--more-windows 64,128]
            [--stages stage1,ablation,record,stage2]
            [--json out/bench/train_throughput.json]
 """
@@ -124,11 +125,13 @@ def ddp_variant(setup, clips, cfg, steps, windows, w, bf16=False, use_compile=Fa
 
 
 def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(), ddp=False, bf16=False,
-                    device_setup=None, data_workers=1, nearest="auto"):
+                    device_setup=None, data_workers=1, nearest=("auto",), more_windows=()):
     """The stage-1 variants. device_setup: the batched variants' setup on another device (--device cuda; the
     per-window baseline stays on the CPU, the old path as it ran); data_workers: how many worker processes the
-    "+ worker" variants use; nearest: stage1.nearest of the batched variants."""
-    c1 = dict(cfg["stage1"], nearest=nearest)
+    "+ worker" variants use; nearest: stage1.nearest of the batched variants (the first), each further one
+    measured once more with the "+ worker" variant; more_windows: further K measured with the "+ worker" variant
+    (one run can then find where a GPU stops gaining from larger batches)."""
+    c1 = dict(cfg["stage1"], nearest=nearest[0])
     device_setup = device_setup or setup
     w = core.loss_weights(c1, 0, 0.6)            # rollouts of `steps`, collision weight on its ramp
     floor = c1.get("loss_norm_floor", 1.0)
@@ -151,24 +154,25 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
             optimizer_step(model, opt, loss / scale, c1["grad_clip"])
         return Variant("per-window (old)", 1, step)
 
-    def batched(k, use_worker, use_compile=False, use_bf16=False):
+    def batched(k, use_worker, use_compile=False, use_bf16=False, nearest_mode=None):
+        c1_k = c1 if nearest_mode is None else dict(c1, nearest=nearest_mode)
         model, opt = model_and_opt()
         model = model.to(device_setup.device)
         opt = core.make_optimizer(model, c1["lr"], c1.get("blend_lr_scale", 1.0))
         net = batching.BatchedStage1(model, bf16=use_bf16)
         if use_compile:
             net = batching.compiled(net)
-        on_device = config.searches_on_device(c1, device_setup.device)
+        on_device = config.searches_on_device(c1_k, device_setup.device)
         source = batching.WindowSource(device_setup, clips, np.random.default_rng(1), k,
                                        workers=data_workers if use_worker else 0, drop_trees=on_device)
-        c = dict(c1, compile=use_compile, autocast_bf16=use_bf16)
+        c = dict(c1_k, compile=use_compile, autocast_bf16=use_bf16)
 
         def step():                       # core.train_stage1 (the default)
             objective, _ = batching.stage1_iteration(device_setup, net, source, c, steps, w, steps)
             optimizer_step(model, opt, objective, c1["grad_clip"])
         workers = f" + {data_workers} workers" if data_workers > 1 else " + worker"
         return Variant(f"batched K={k}" + (workers if use_worker else "") + (" + compile" if use_compile else "")
-                       + (" + bf16" if use_bf16 else "") + (" + nearest on device" if on_device else ""),
+                       + (" + bf16" if use_bf16 else "") + (" + nearest on device" if on_device else " + KD-trees"),
                        k, step, source.close, _cpu_clock(source))
 
     out = [per_window(), batched(1, False)]
@@ -180,6 +184,12 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
         out.append(batched(windows, True))
         if bf16:
             out.append(batched(windows, True, use_bf16=True))
+        for mode in nearest[1:]:
+            out.append(batched(windows, True, nearest_mode=mode))
+        for k in more_windows:
+            out.append(batched(k, True))
+            if bf16:
+                out.append(batched(k, True, use_bf16=True))
     for k in compile_windows:
         out.append(batched(k, worker, True))
         if bf16:
@@ -296,11 +306,18 @@ def main():
                    "per-window baseline stays on the CPU)")
     p.add_argument("--data-workers", type=int, default=1, help="stage 1: worker processes of the --worker variants "
                    "(stage1.data_worker; more than one pays on a many-core machine with a GPU trainer)")
-    p.add_argument("--nearest", default="auto", choices=("auto", "kdtree", "torch"),
-                   help="stage 1: stage1.nearest of the batched variants (auto: torch on a GPU)")
+    p.add_argument("--nearest", default="auto",
+                   help="stage 1: stage1.nearest of the batched variants (auto: torch on a GPU); a comma list "
+                        "(torch,kdtree) also measures the --worker variant with each further one")
+    p.add_argument("--more-windows", default="", help="stage 1: further K (e.g. 64,128) measured with --worker")
     p.add_argument("--stages", default="stage1,ablation,record,stage2")
     p.add_argument("--json", default=None, help="also write the results here")
     args = p.parse_args()
+    nearest = tuple(args.nearest.split(","))
+    if any(n not in ("auto", "kdtree", "torch") for n in nearest):
+        p.error(f"--nearest: each of auto, kdtree, torch, not {args.nearest!r}")
+    if args.more_windows and not args.worker:
+        p.error("--more-windows measures the --worker variants: add --worker")
     torch.set_num_threads(args.threads)
     cfg = core.load_config(args.preset)
     setup = core.Setup(cfg, args.garment, "cpu")
@@ -313,7 +330,8 @@ def main():
         device_setup = core.Setup(cfg, args.garment, args.device) if args.device != "cpu" else None
         groups["stage1"] = stage1_variants(setup, clips, cfg, args.steps, args.windows, args.worker,
                                            [int(k) for k in args.compile.split(",") if k], args.ddp, args.bf16,
-                                           device_setup, args.data_workers, args.nearest)
+                                           device_setup, args.data_workers, nearest,
+                                           [int(k) for k in args.more_windows.split(",") if k])
     if "ablation" in stages:
         groups["ablation"] = ablation_variants(setup, clips, cfg, args.steps, args.worker)
     if "record" in stages:
@@ -340,7 +358,7 @@ def main():
               "load_after": open("/proc/loadavg").read().strip(), "stages": {}}
     for stage, variants in groups.items():
         base = variants[0]
-        print(f"\n{stage}: {'variant':28s} {'it/s wall':>10s} {'win/s wall':>10s} {'win/s cpu':>10s} "
+        print(f"\n{stage}: {'variant':52s} {'it/s wall':>10s} {'win/s wall':>10s} {'win/s cpu':>10s} "
               f"{'x wall':>7s} {'x cpu':>7s}   (x = median over rounds of the per-window speed-up against "
               f"{base.name})")
         rows = []
@@ -348,7 +366,7 @@ def main():
             wall, cpu = statistics.median(v.wall), statistics.median(v.cpu)
             xw = statistics.median((b / base.windows) / (a / v.windows) for a, b in zip(v.wall, base.wall))
             xc = statistics.median((b / base.windows) / (a / v.windows) for a, b in zip(v.cpu, base.cpu))
-            print(f"{'':8s}{v.name:28s} {1 / wall:10.3f} {v.windows / wall:10.3f} {v.windows / cpu:10.3f} "
+            print(f"{'':8s}{v.name:52s} {1 / wall:10.3f} {v.windows / wall:10.3f} {v.windows / cpu:10.3f} "
                   f"{xw:7.2f} {xc:7.2f}")
             rows.append({"variant": v.name, "windows_per_iteration": v.windows, "iterations_per_s_wall": 1 / wall,
                          "windows_per_s_wall": v.windows / wall, "windows_per_s_cpu": v.windows / cpu,
