@@ -307,7 +307,7 @@ def main():
     p.add_argument("--data-workers", type=int, default=1, help="stage 1: worker processes of the --worker variants "
                    "(stage1.data_worker; more than one pays on a many-core machine with a GPU trainer)")
     p.add_argument("--nearest", default="auto",
-                   help="stage 1: stage1.nearest of the batched variants (auto: torch on a GPU); a comma list "
+                   help="stage 1: stage1.nearest of the batched variants (auto: the KD-trees); a comma list "
                         "(torch,kdtree) also measures the --worker variant with each further one")
     p.add_argument("--more-windows", default="", help="stage 1: further K (e.g. 64,128) measured with --worker")
     p.add_argument("--stages", default="stage1,ablation,record,stage2")

@@ -287,7 +287,8 @@ def test_compiled_terms_are_the_eager_ones_and_follow_the_collision_ramp(tiny_ph
 
 
 def test_data_worker_and_nearest_settings():
-    """stage1.data_worker: false / true / a count; stage1.nearest: auto (torch on a GPU only), kdtree, torch;
+    """stage1.data_worker: false / true / a count; stage1.nearest: auto (the trees, also on a GPU, where
+    they measured faster), kdtree, torch;
     anything else is refused before training."""
     from pleat.train import config
     assert [config.data_workers({"data_worker": v}) for v in (False, True, 0, 3)] == [0, 1, 0, 3]
@@ -295,7 +296,8 @@ def test_data_worker_and_nearest_settings():
     for bad in (-1, "2", 1.5):
         with pytest.raises(ValueError):
             config.data_workers({"data_worker": bad})
-    assert not config.searches_on_device({}, "cpu") and config.searches_on_device({}, "cuda")
+    assert not config.searches_on_device({}, "cpu") and not config.searches_on_device({}, "cuda")
+    assert config.searches_on_device({"nearest": "torch"}, "cuda")
     assert config.searches_on_device({"nearest": "torch"}, "cpu")
     assert not config.searches_on_device({"nearest": "kdtree"}, "cuda")
     with pytest.raises(ValueError):
