@@ -73,16 +73,9 @@ def test_invalid_rates_are_rejected(small):
             Instance(asset, case["beta"], case["material"], network_rate_hz=bad)
 
 
-def _c_runtime():
-    runtime = pytest.importorskip("pleat.runtime")
-    if runtime.find_library() is None:
-        pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
-    return runtime
-
-
 @pytest.mark.parametrize("rate, dt", [(30.0, 1 / 60), (24.0, 1 / 90), (32.0, 1 / 64)])
-def test_c_runtime_matches_the_reference_with_a_network_rate(small, rate, dt):
-    runtime = _c_runtime()
+def test_c_runtime_matches_the_reference_with_a_network_rate(small, rate, dt, c_runtime):
+    runtime = c_runtime
     out, asset, case = small
     ref = Instance(asset, case["beta"], case["material"], network_rate_hz=rate)
     with runtime.Context() as ctx:
@@ -107,8 +100,8 @@ def test_c_runtime_matches_the_reference_with_a_network_rate(small, rate, dt):
         c_asset.close()
 
 
-def test_c_half_rate_equals_full_rate_on_every_other_pose_bit_for_bit(small):
-    runtime = _c_runtime()
+def test_c_half_rate_equals_full_rate_on_every_other_pose_bit_for_bit(small, c_runtime):
+    runtime = c_runtime
     out, _, case = small
     with runtime.Context() as ctx:
         c_asset = ctx.load_asset((out / "asset.pleat").read_bytes())

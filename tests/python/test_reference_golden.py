@@ -121,16 +121,9 @@ def run_c(runtime, ctx, small, case, **instance_kw):
     asset.close()
 
 
-def c_runtime():
-    runtime = pytest.importorskip("pleat.runtime")
-    if runtime.find_library() is None:
-        pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
-    return runtime
-
-
 @pytest.mark.parametrize("force_scalar", [False, True])
-def test_c_runtime_matches_the_reference(small, force_scalar):
-    runtime = c_runtime()
+def test_c_runtime_matches_the_reference(small, force_scalar, c_runtime):
+    runtime = c_runtime
     case = golden.read_case(small / "case.bin")
     with runtime.Context(force_scalar=force_scalar) as ctx:
         run_c(runtime, ctx, small, case)
@@ -139,8 +132,8 @@ def test_c_runtime_matches_the_reference(small, force_scalar):
         assert ctx.live_bytes == after_first          # a second asset + instance cycle leaks nothing
 
 
-def test_c_runtime_with_onnxruntime_backend_matches_the_reference(small, tmp_path):
-    runtime = c_runtime()
+def test_c_runtime_with_onnxruntime_backend_matches_the_reference(small, tmp_path, c_runtime):
+    runtime = c_runtime
     ort = pytest.importorskip("onnxruntime")
     libs = sorted((Path(ort.__file__).parent / "capi").glob("libonnxruntime.so*"))
     if not libs:

@@ -15,13 +15,6 @@ from pleat.reference.input_assembly import clamp_beta
 ASSET = Path(__file__).resolve().parents[2] / "assets" / "tshirt.pleat"
 
 
-def _c_runtime():
-    runtime = pytest.importorskip("pleat.runtime")
-    if runtime.find_library() is None:
-        pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
-    return runtime
-
-
 def _expect_rest_pose(pose, parents, joints):
     np.testing.assert_array_equal(pose["parents"], parents)
     # Both sides form J(β) in double and round once to float; the sums' order differs (C adds β_b · J_shapedirs[b] in
@@ -33,8 +26,8 @@ def _expect_rest_pose(pose, parents, joints):
 
 
 @pytest.mark.parametrize("beta", [None, [1.5, -2.0, 0.5], [9.0, -9.0]])
-def test_rest_pose_matches_the_reference(beta):
-    runtime = _c_runtime()
+def test_rest_pose_matches_the_reference(beta, c_runtime):
+    runtime = c_runtime
     data = ASSET.read_bytes()
     asset = read_asset(data)
     parents = np.asarray(asset["joint_parents"], np.int64)
