@@ -3,7 +3,8 @@
 Writes OUT_DIR/asset_fp32.pleat (with the OXLP/OXDC ONNX sections, same fp32 weights), OUT_DIR/asset_fp16.pleat and
 OUT_DIR/case.bin (the golden motion format; only the poses are meaningful here, the expected outputs are zero because
 the benchmark does not check them). Network sizes are the reference ones of pleat.reference.golden.random_weights:
-L = 128, D = 128, latent predictor 3 x 512 hidden, decoder 2 x 512 hidden, K = 4, Jin = 19, B = 10, ReLU.
+L = 128, D = 128, latent predictor 3 x 512 hidden, decoder 2 x 512 hidden, K = 4, Jin = 19, B = 10, ReLU; no body
+contact.
 """
 import argparse
 import sys
@@ -24,7 +25,11 @@ def main(argv=None):
     a = p.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    weights = random_weights(vertices=a.vertices, seed=a.seed)
+    # No body contact: the paper's reference sizes are the network and the mesh, and the documented runs measured them
+    # without it. golden's default has carried a stand-in body since the body contact came (57ecc83); its contact adds
+    # ≈ 175 µs a step here, so a fresh out/bench measured another step than a kept one. The contact's cost is
+    # measured on the t-shirt, which carries a real one.
+    weights = random_weights(vertices=a.vertices, seed=a.seed, body_contact=False)
     try:
         write_asset(out / "asset_fp32.pleat", weights, onnx=True)
     except ImportError as error:  # pleat.onnx_export missing: Pleat-only numbers
