@@ -118,12 +118,9 @@ def test_shipped_tier_assets_have_their_tiers_sizes_and_a_trained_network():
     assert total < 10e6
 
 
-def test_pareto_command_writes_the_chart_and_quotes_its_command_line(tmp_path):
+def test_pareto_command_writes_the_chart_and_quotes_its_command_line(tmp_path, c_runtime):
     """pleat-pareto end to end on one small asset, times only: the page, the chart, and the command that remakes it."""
-    from pleat import runtime
     from pleat.asset import write_asset
-    if runtime.find_library() is None:
-        pytest.skip("libpleat.so not built")
     asset = tmp_path / "small.pleat"
     write_asset(asset, random_weights(vertices=120, latent=4, blend=4, lp_hidden=(8,), dec_hidden=(8,), seed=1))
     assert pareto.main(["--assets", str(asset), "--no-tiers", "--no-error", "--repeats", "1", "--out", str(tmp_path),

@@ -17,10 +17,8 @@ def test_shipped_asset_has_onnx_sections():
     assert len(w.get("onnx_decoder") or b"") > 1000
 
 
-def test_shipped_asset_through_onnxruntime_matches_the_cpu_backend():
-    runtime = pytest.importorskip("pleat.runtime")
-    if runtime.find_library() is None:
-        pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
+def test_shipped_asset_through_onnxruntime_matches_the_cpu_backend(c_runtime):
+    runtime = c_runtime
     ort = pytest.importorskip("onnxruntime")
     libs = sorted((Path(ort.__file__).parent / "capi").glob("libonnxruntime.so*"))
     if not libs:
