@@ -162,7 +162,7 @@ def stage1_variants(setup, clips, cfg, steps, windows, worker, compile_windows=(
         net = batching.BatchedStage1(model, bf16=use_bf16)
         if use_compile:
             net = batching.compiled(net)
-        on_device = config.searches_on_device(c1_k, device_setup.device)
+        on_device = config.searches_on_device(c1_k)
         source = batching.WindowSource(device_setup, clips, np.random.default_rng(1), k,
                                        workers=data_workers if use_worker else 0, drop_trees=on_device)
         c = dict(c1_k, compile=use_compile, autocast_bf16=use_bf16)

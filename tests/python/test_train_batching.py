@@ -296,9 +296,8 @@ def test_data_worker_and_nearest_settings():
     for bad in (-1, "2", 1.5):
         with pytest.raises(ValueError):
             config.data_workers({"data_worker": bad})
-    assert not config.searches_on_device({}, "cpu") and not config.searches_on_device({}, "cuda")
-    assert config.searches_on_device({"nearest": "torch"}, "cuda")
-    assert config.searches_on_device({"nearest": "torch"}, "cpu")
-    assert not config.searches_on_device({"nearest": "kdtree"}, "cuda")
+    assert not config.searches_on_device({}) and not config.searches_on_device({"nearest": "auto"})
+    assert config.searches_on_device({"nearest": "torch"})
+    assert not config.searches_on_device({"nearest": "kdtree"})
     with pytest.raises(ValueError):
-        config.searches_on_device({"nearest": "gpu"}, "cpu")
+        config.searches_on_device({"nearest": "gpu"})

@@ -79,8 +79,9 @@ def pose_contact_points(shaped_points, point_normals, point_skin_indices, point_
 
 def candidate_weights(positions, posed_points, usable, candidates):
     """positions [N, 3], posed points [P, 3] and their usability [P], candidates [N, C] (NO_CANDIDATE = empty; None =
-    the identity, C = 1) → the candidates' point indices [N, C] (0 where empty) and their blend weights [N, C] (0 for
-    empty slots, unusable points and candidates outside the margin; all 0 for a vertex without candidates)."""
+    the identity, C = 1) → the candidates' point indices [N, C] (0 where empty), their blend weights [N, C] (0 for
+    empty slots, unusable points and candidates outside the margin; all 0 for a vertex without candidates) and the
+    nearest usable candidate's squared distance [N] (inf without one; the full contact's reach reads it)."""
     x = np.asarray(positions, np.float64)
     N = len(x)
     cand = np.arange(N)[:, None] if candidates is None else np.asarray(candidates, np.int64)
@@ -91,7 +92,7 @@ def candidate_weights(positions, posed_points, usable, candidates):
     m = np.min(np.where(valid, d2, np.inf), axis=1, keepdims=True)
     with np.errstate(invalid="ignore"):
         w = np.maximum(0.0, (1.0 + CONTACT_BLEND_SHARE) * m + CONTACT_BLEND_M ** 2 - d2)
-    return safe, np.where(valid, w, 0.0)
+    return safe, np.where(valid, w, 0.0), m[:, 0]
 
 
 def body_contact(positions, shaped_points, point_normals, point_skin_indices, point_skin_weights, skin_matrices,
@@ -103,7 +104,7 @@ def body_contact(positions, shaped_points, point_normals, point_skin_indices, po
     x = np.asarray(positions, np.float64)
     a, n, usable = pose_contact_points(shaped_points, point_normals, point_skin_indices, point_skin_weights,
                                        skin_matrices, point_rings)
-    index, w = candidate_weights(x, a, usable, candidates)
+    index, w, nearest = candidate_weights(x, a, usable, candidates)
     total = w.sum(axis=1)
     has = total > 0.0
     anchor = np.einsum("nc,nci->ni", w, a[index]) / np.where(has, total, 1.0)[:, None]
@@ -114,9 +115,5 @@ def body_contact(positions, shaped_points, point_normals, point_skin_indices, po
     d = np.einsum("ni,ni->n", x - anchor, normal)
     push = np.where(has & (d < offset_m), offset_m - d, 0.0)
     if reach and candidates is not None:       # a candidate table (asset 1.2); 1.1's one point pushes in full
-        d2 = np.sum((a[index] - x[:, None, :]) ** 2, axis=-1)
-        valid = (np.asarray(candidates) < len(a)) if candidates is not None else np.ones((len(x), 1), bool)
-        valid &= usable[index]
-        nearest = np.min(np.where(valid, d2, np.inf), axis=1)
         push = push * contact_reach(nearest)
     return x + push[:, None] * normal

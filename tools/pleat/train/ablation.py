@@ -72,7 +72,7 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
     if batched:     # the batch's windows through the model together (batching.py; the same losses, tested)
         from pleat.train import batching
         source = batching.WindowSource(setup, clips, rng, ca["batch"], static=True, workers=data_workers(c1),
-                                       drop_trees=searches_on_device(c1, dev))
+                                       drop_trees=searches_on_device(c1))
     bar = tqdm(range(start, ca["iterations"]), disable=not progress or rank != 0, desc="ablation")
     for it in bar:
         s = run_fraction(sched, it, budget.elapsed(), budget.budget_s)

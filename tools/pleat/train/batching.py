@@ -231,8 +231,8 @@ class WindowSource:
     workers, round robin (numpy/scipy only; they never touch torch). One worker is what two cores can use; more pay
     where the trainer has a GPU and the machine more cores (docs/training.md, "On a GPU"). `steps` is guessed ahead
     by `next_steps`; when a guess misses (the rollout schedule moved on, 4 times a run), those windows are dropped and
-    new ones drawn and prepared here. With `drop_trees` the KD-trees stay in the worker (the trainer finds nearest body vertices on its device: `nearest="torch"`), which
-    spares pickling them across the pipe."""
+    new ones drawn and prepared here. With `drop_trees` the KD-trees stay in the worker (the trainer finds nearest
+    body vertices on its device: `nearest="torch"`), which spares pickling them across the pipe."""
 
     def __init__(self, setup, clips, rng, windows, static=False, workers=0, drop_trees=False):
         self.setup, self.clips, self.rng, self.K, self.static = setup, clips, rng, int(windows), static

@@ -44,7 +44,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
         net = batching.BatchedStage1(model, bf16=bf16)
         ddp = wrap_ddp(batching.compiled(net) if c1.get("compile") else net, world, dev)
         source = batching.WindowSource(setup, clips, rng, c1.get("windows_per_iteration", 1),
-                                       workers=data_workers(c1), drop_trees=searches_on_device(c1, dev))
+                                       workers=data_workers(c1), drop_trees=searches_on_device(c1))
     else:
         ddp = wrap_ddp(model, world, dev)
     bar = tqdm(range(start, c1["iterations"]), disable=not progress or rank != 0, desc="stage1")
