@@ -401,7 +401,6 @@ void plBodyContactFastBatch_Avx2( float* const* positions, const float* const* s
 	}
 }
 
-
 // The full body contact (twin of plPoseBodyPoints_Avx2, plBodyPointNormals_Avx2 and plBodyContact_Avx2) of up to 8
 // instances of one asset, the instances in the lanes: the posed points go to scratch as [P][8 rows][8 lanes] (a_x, a_y,
 // a_z, usable, n_x, n_y, n_z, anchorable), so that a ring point's or a candidate's row is one aligned 8-lane load for
