@@ -17,7 +17,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reexpress_clips import _quat_power, reexpress  # noqa: E402
 
-from pleat.asset import read_asset
 from pleat.body import BodyModel
 from pleat.eval import scene as S
 from pleat.eval.reference import cached_simulate
@@ -59,9 +58,8 @@ def run(weights, clip_inputs, clip_skin):
     return np.array(out)
 
 
-data = open("assets/tshirt.pleat", "rb").read()
-weights = read_asset(data)
-lbs_w = read_asset(S.lbs_only_bytes(weights))
+_, weights = S.read_weights("assets/tshirt.pleat")
+lbs_w = S.lbs_only_weights(weights)
 body = BodyModel.load(None)
 garment = S.garment_from_asset(weights)
 beta = np.zeros(len(weights["shape_blend"]), np.float32)
