@@ -1,10 +1,11 @@
 // Crowd timings for docs/scene-budget.md and the "crowd" keys of out/bench/step.json (run by scripts/bench.sh; not a
 // test): per-instance µs of plStepInstances against stepping the same number of instances one by one with
-// plInstance_Step, in the same run.
+// plInstance_Step, in the same run. Built as pleat_bench_crowd_phases (against the PLEAT_STEP_PHASES library copy)
+// every entry also gets "batch_phase_us_per_instance": the batch's stages (sdk/src/step_phases.h), per instance.
 //
 // usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [--asset LABEL=PATH ...] [--counts 1,8,64,256]
 //                          [--workers 1,2] [--seconds S] [--rounds R] [--clock wall|cpu] [--batch-isa best|avx2]
-//                          [--body-contact on|fast|off] [--out crowd.json]
+//                          [--body-contact on|fast|off] [--only batch|single] [--out crowd.json]
 //        pleat_bench_crowd --scene --case case.bin --tier T0.pleat [--tier T1.pleat ...] --tier-errors e0,..,lbs
 //                          --budgets B0,B1,.. [--characters 100] [--frames 120] [--clock cpu] [--workers 1|2]
 //                          [--out scene.json]
@@ -42,6 +43,7 @@
 #include "bench_support.h"
 #include "kernels_batch.h"
 #include "pleat/pleat.h"
+#include "step_phases.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -56,6 +58,10 @@ static int g_crowdContact = PLEAT_BODY_CONTACT_ON;
 #define CROWD_FMA_PROBE 1
 #endif
 
+// --only batch|single (for a profiler: perf then sees one side alone): the other set is not stepped, its time is 0
+// and bit_identical is not checked (reported null).
+static int g_crowdOnly = 0; // 0 both, 'b' batch, 's' single
+
 #define CROWD_MAX_ASSETS 8
 #define CROWD_MAX_COUNTS 8
 #define CROWD_MAX_ITERATIONS 4000
@@ -69,6 +75,7 @@ typedef struct CrowdResult
 	double batch_min_us, single_min_us; // per instance, minima
 	int bit_identical;
 	int all_ok;
+	double phase_us[PLEAT_BATCH_PHASE_COUNT]; // pleat_bench_crowd_phases: the batch's stages, µs per instance (means)
 } CrowdResult;
 
 static uint32_t ParseList( const char* text, uint32_t* out, uint32_t capacity )
@@ -231,6 +238,10 @@ static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t worke
 		for ( int pass = 0; pass < 2; ++pass )
 		{
 			int batch = ( pass == 0 ) == ( iterations % 2 == 0 );
+			if ( g_crowdOnly != 0 && g_crowdOnly != ( batch ? 'b' : 's' ) )
+			{
+				continue;
+			}
 			double t0 = BenchNowUs();
 			if ( batch )
 			{
@@ -249,6 +260,9 @@ static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t worke
 		frame += 1;
 		if ( frame <= 2 )
 		{
+#if defined( PLEAT_STEP_PHASES )
+			plBatchPhaseReset();
+#endif
 			continue; // warm-up: first steps, caches, page faults
 		}
 		batch_samples[iterations] = batch_us / n;
@@ -259,7 +273,7 @@ static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t worke
 			break;
 		}
 	}
-	int identical = ok;
+	int identical = ok && g_crowdOnly == 0;
 	for ( uint32_t k = 0; identical && k < n; ++k )
 	{
 		const float *pa, *pb, *na, *nb;
@@ -278,6 +292,12 @@ static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t worke
 	result->batch_min_us = iterations > 0 ? batch_samples[0] : 0.0;
 	result->single_min_us = iterations > 0 ? single_samples[0] : 0.0;
 	result->bit_identical = identical;
+#if defined( PLEAT_STEP_PHASES )
+	for ( int p = 0; p < PLEAT_BATCH_PHASE_COUNT; ++p )
+	{
+		result->phase_us[p] = iterations > 0 ? g_plBatchPhaseUs[p] / ( (double)iterations * n ) : 0.0;
+	}
+#endif
 	free( sets );
 	free( inputs );
 	free( results );
@@ -636,6 +656,8 @@ int main( int argc, char** argv )
 			g_benchClock = strcmp( argv[i + 1], "cpu" ) == 0 ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC;
 		else if ( strcmp( argv[i], "--batch-isa" ) == 0 )
 			batch_isa_arg = argv[i + 1];
+		else if ( strcmp( argv[i], "--only" ) == 0 )
+			g_crowdOnly = argv[i + 1][0] == 'b' ? 'b' : argv[i + 1][0] == 's' ? 's' : 0;
 		else if ( strcmp( argv[i], "--body-contact" ) == 0 )
 			g_crowdContact = strcmp( argv[i + 1], "fast" ) == 0 ? PLEAT_BODY_CONTACT_FAST
 							 : strcmp( argv[i + 1], "off" ) == 0 ? PLEAT_BODY_CONTACT_OFF
@@ -663,7 +685,7 @@ int main( int argc, char** argv )
 	{
 		fprintf( stderr, "usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [...] [--counts 1,8,64,256] "
 						 "[--workers 1,2] [--seconds S] [--rounds R] [--clock wall|cpu] [--batch-isa best|avx2] "
-						 "[--out crowd.json]\n" );
+						 "[--only batch|single] [--out crowd.json]\n" );
 		return 2;
 	}
 	if ( rounds < 1 || rounds > CROWD_MAX_ROUNDS )
@@ -765,10 +787,14 @@ int main( int argc, char** argv )
 	{
 		// The rounds of case k: medians of the per-round medians, the least minimum, all bit-identical and ok.
 		CrowdResult r = results[k];
-		double batch[CROWD_MAX_ROUNDS], single[CROWD_MAX_ROUNDS];
+		double batch[CROWD_MAX_ROUNDS], single[CROWD_MAX_ROUNDS], phase[PLEAT_BATCH_PHASE_COUNT][CROWD_MAX_ROUNDS];
 		for ( uint32_t round = 0; round < used; ++round )
 		{
 			const CrowdResult* q = &results[round * cases + k];
+			for ( int p = 0; p < PLEAT_BATCH_PHASE_COUNT; ++p )
+			{
+				phase[p][round] = q->phase_us[p];
+			}
 			batch[round] = q->batch_us;
 			single[round] = q->single_us;
 			r.batch_min_us = q->batch_min_us < r.batch_min_us ? q->batch_min_us : r.batch_min_us;
@@ -776,6 +802,10 @@ int main( int argc, char** argv )
 			r.bit_identical = r.bit_identical && q->bit_identical;
 			r.all_ok = r.all_ok && q->all_ok;
 			r.iterations += round > 0 ? q->iterations : 0;
+		}
+		for ( int p = 0; p < PLEAT_BATCH_PHASE_COUNT; ++p )
+		{
+			r.phase_us[p] = BenchMedian( phase[p], used );
 		}
 		r.batch_us = BenchMedian( batch, used );
 		r.single_us = BenchMedian( single, used );
@@ -811,16 +841,25 @@ int main( int argc, char** argv )
 				 "\"batch_vs_single_step_1_worker\": %.3f, \"step_macs\": %.0f, "
 				 "\"compute_floor_us_per_instance\": %.2f, \"floor_vs_single_step_1_worker\": %.3f, "
 				 "\"iterations\": %u, \"rounds\": %u, "
-				 "\"bit_identical\": %s, \"all_steps_ok\": %s}",
+				 "\"bit_identical\": %s, \"all_steps_ok\": %s",
 				 first ? "" : ",\n", r.label, r.workers, r.count, isa, isa, r.count > 1 ? batch_isa : isa, r.batch_us,
 				 r.single_us, r.batch_min_us, r.single_min_us, r.single_us > 0.0 ? r.batch_us / r.single_us : 0.0,
 				 single_step_us > 0.0 ? r.batch_us / single_step_us : 0.0,
 				 single_step_1_worker_us > 0.0 ? r.batch_us / single_step_1_worker_us : 0.0, asset_macs[asset_index],
 				 floor_us, single_step_1_worker_us > 0.0 ? floor_us / single_step_1_worker_us : 0.0, r.iterations, used,
-				 r.bit_identical ? "true" : "false", r.all_ok ? "true" : "false" );
+				 g_crowdOnly != 0 ? "null" : r.bit_identical ? "true" : "false", r.all_ok ? "true" : "false" );
+#if defined( PLEAT_STEP_PHASES )
+		fprintf( out,
+				 ", \"batch_phase_us_per_instance\": {\"prepare\": %.2f, \"networks\": %.2f, \"blend\": %.2f, "
+				 "\"geometry\": %.2f, \"finish\": %.2f}",
+				 r.phase_us[PLEAT_BATCH_PHASE_PREPARE], r.phase_us[PLEAT_BATCH_PHASE_NETWORKS],
+				 r.phase_us[PLEAT_BATCH_PHASE_BLEND], r.phase_us[PLEAT_BATCH_PHASE_GEOMETRY],
+				 r.phase_us[PLEAT_BATCH_PHASE_FINISH] );
+#endif
+		fprintf( out, "}" );
 		fflush( out );
 		first = 0;
-		failed |= !r.bit_identical || !r.all_ok;
+		failed |= ( g_crowdOnly == 0 && !r.bit_identical ) || !r.all_ok;
 	}
 	free( results );
 	fprintf( out, "\n  ],\n  \"loadavg_end\": %.2f\n}\n", BenchLoadAverage() );

@@ -5,7 +5,8 @@
 # Environment: BUILD_DIR (default build/bench), ITERATIONS (default 2000), WARMUP (200), SCALAR_ITERATIONS (300),
 # CLOCK (wall, default, or cpu = the thread's CPU time, for a busy shared machine), PLEAT_ONNXRUNTIME_LIBRARY (default:
 # libonnxruntime.so* of the onnxruntime wheel in .venv). OUT_JSON (default out/bench/step.json). The crowd sweep:
-# CROWD_COUNTS (1,8,64,256), CROWD_SECONDS (0.5 per case and round), CROWD_ROUNDS (3), CROWD_CLOCK (wall).
+# CROWD_COUNTS (1,8,64,256), CROWD_SECONDS (0.5 per case and round), CROWD_ROUNDS (3), CROWD_CLOCK (wall); then the
+# 64-instance crowd's stages (pleat_bench_crowd_phases, "crowd_phases").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if ! setup_log=$(scripts/setup.sh 2>&1); then echo "$setup_log" >&2; exit 1; fi
@@ -14,7 +15,7 @@ OUT=out/bench
 PY="$PWD/.venv/bin/python"
 
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPLEAT_BUILD_TESTS=OFF -DPLEAT_PYTHON="$PY" >/dev/null
-cmake --build "$BUILD_DIR" --target pleat_bench_step pleat_bench_phases pleat_bench_crowd >/dev/null
+cmake --build "$BUILD_DIR" --target pleat_bench_step pleat_bench_phases pleat_bench_crowd pleat_bench_crowd_phases >/dev/null
 
 mkdir -p "$OUT"
 if [ ! -f "$OUT/asset_fp32.pleat" ] || [ ! -f "$OUT/asset_fp16.pleat" ] || [ ! -f "$OUT/case.bin" ] \
@@ -54,11 +55,19 @@ ort_args=()
   --counts "${CROWD_COUNTS:-1,8,64,256}" --workers 1,2 --seconds "${CROWD_SECONDS:-0.5}" --rounds "${CROWD_ROUNDS:-3}" \
   --clock "${CROWD_CLOCK:-wall}" \
   --out "$OUT/crowd.json"
-"$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" "$OUT/crowd.json" <<'PY'
+# Where a 64-instance crowd step's time goes (the library copy built with PLEAT_STEP_PHASES: prepare, networks, blend,
+# geometry, finish per instance), one round; merged in as "crowd_phases".
+"$BUILD_DIR/bench/pleat_bench_crowd_phases" --case "$OUT/case.bin" \
+  --asset tshirt_fp32="$OUT/tshirt_fp32.pleat" --asset tshirt_fp16="$OUT/tshirt_fp16.pleat" \
+  --asset reference_fp32="$OUT/asset_fp32.pleat" --asset reference_fp16="$OUT/asset_fp16.pleat" \
+  --counts 64 --workers 1,2 --seconds "${CROWD_SECONDS:-0.5}" --rounds 1 --only batch --clock "${CROWD_CLOCK:-wall}" \
+  --out "$OUT/crowd_phases.json"
+"$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" "$OUT/crowd.json" "$OUT/crowd_phases.json" <<'PY'
 import json, sys
 step = json.load(open(sys.argv[1]))
 step["phase_us"] = json.load(open(sys.argv[2]))
 step["crowd"] = json.load(open(sys.argv[3]))
+step["crowd_phases"] = json.load(open(sys.argv[4]))
 json.dump(step, open(sys.argv[1], "w"), indent=2)
 PY
 cat "${OUT_JSON:-$OUT/step.json}"

@@ -19,6 +19,7 @@
 #include "instance.h"
 
 #include "jobs_batch.h"
+#include "step_phases.h"
 
 #include <stdatomic.h>
 #include <string.h>
@@ -612,16 +613,22 @@ static void plResetEntry( plBatchEntry* e )
 
 static void plRunGroup( plBatchGroup* g )
 {
+	PLEAT_BATCH_PHASE_START();
 	plRunTask( &g->ctx->runner, plPrepareTask, g->count, 1, g );
+	PLEAT_BATCH_PHASE( PLEAT_BATCH_PHASE_PREPARE );
 	plRunNetworks( g );
+	PLEAT_BATCH_PHASE( PLEAT_BATCH_PHASE_NETWORKS );
 	if ( g->asset != NULL && g->entries[0].inst->gl != NULL )
 	{
 		plRunGpu( g ); // a group is all CPU or all one GPU mode
+		PLEAT_BATCH_PHASE( PLEAT_BATCH_PHASE_GEOMETRY );
 	}
 	else
 	{
 		plRunBlend( g );
+		PLEAT_BATCH_PHASE( PLEAT_BATCH_PHASE_BLEND );
 		plRunGeometry( g );
+		PLEAT_BATCH_PHASE( PLEAT_BATCH_PHASE_GEOMETRY );
 		plRunTask( &g->ctx->runner, plFinishTask, g->count, 1, g );
 	}
 	for ( uint32_t i = 0; i < g->count; ++i )
@@ -631,6 +638,7 @@ static void plRunGroup( plBatchGroup* g )
 			plResetEntry( &g->entries[i] );
 		}
 	}
+	PLEAT_BATCH_PHASE( PLEAT_BATCH_PHASE_FINISH );
 }
 
 // ---- the call ----

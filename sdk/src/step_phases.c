@@ -1,4 +1,4 @@
-// Per-phase timing of plInstance_Step (step_phases.h); compiled only into the benchmark's pleat_phases library.
+// Per-phase timing of plInstance_Step and plStepInstances (step_phases.h); compiled only into the benchmark's pleat_phases library.
 #define _POSIX_C_SOURCE 200809L
 #include "step_phases.h"
 
@@ -6,8 +6,10 @@
 #include <time.h>
 
 double g_plStepPhaseUs[PLEAT_PHASE_COUNT];
+double g_plBatchPhaseUs[PLEAT_BATCH_PHASE_COUNT];
 int g_plStepPhaseClock = CLOCK_MONOTONIC; // the bench sets CLOCK_THREAD_CPUTIME_ID for --clock cpu
-static double s_last_us;
+// Apart: a batch's prepare stage runs the single step's own marks for every instance.
+static double s_last_us, s_batch_last_us;
 
 static double plPhaseNowUs( void )
 {
@@ -31,4 +33,21 @@ void plStepPhaseMark( plStepPhase phase )
 	double now = plPhaseNowUs();
 	g_plStepPhaseUs[phase] += now - s_last_us;
 	s_last_us = now;
+}
+
+void plBatchPhaseReset( void )
+{
+	memset( g_plBatchPhaseUs, 0, sizeof( g_plBatchPhaseUs ) );
+}
+
+void plBatchPhaseStart( void )
+{
+	s_batch_last_us = plPhaseNowUs();
+}
+
+void plBatchPhaseMark( plBatchPhase phase )
+{
+	double now = plPhaseNowUs();
+	g_plBatchPhaseUs[phase] += now - s_batch_last_us;
+	s_batch_last_us = now;
 }

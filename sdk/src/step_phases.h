@@ -1,7 +1,8 @@
-// Internal: per-phase timing of plInstance_Step, for the benchmark only. The shipped library is compiled without
-// PLEAT_STEP_PHASES, so PLEAT_STEP_PHASE() is empty there; bench/CMakeLists.txt builds a second copy of the library
-// with it (pleat_phases) for pleat_bench_phases. Each mark adds the time since the previous mark to the named phase.
-// One instance stepped by one thread (the phase totals are plain globals).
+// Internal: per-phase timing of plInstance_Step and of plStepInstances, for the benchmark only. The shipped library is
+// compiled without PLEAT_STEP_PHASES, so the marks are empty there; bench/CMakeLists.txt builds a second copy of the
+// library with it (pleat_phases) for pleat_bench_phases and pleat_bench_crowd_phases. Each mark adds the time since
+// the previous mark of its kind to the named phase. One caller thread (the phase totals are plain globals); a batch's
+// phases are that thread's wall time, the work of any helper workers included.
 #ifndef PLEAT_STEP_PHASES_H
 #define PLEAT_STEP_PHASES_H
 
@@ -21,17 +22,36 @@ typedef enum plStepPhase
 	PLEAT_PHASE_COUNT
 } plStepPhase;
 
+// The stages of one asset's group in plStepInstances (batch.c plRunGroup).
+typedef enum plBatchPhase
+{
+	PLEAT_BATCH_PHASE_PREPARE,  // per instance: validation, FK, X_c (plPrepareEntry)
+	PLEAT_BATCH_PHASE_NETWORKS, // f_LP and f_dec for the group, with their guards
+	PLEAT_BATCH_PHASE_BLEND,    // blend shapes for the group
+	PLEAT_BATCH_PHASE_GEOMETRY, // skinning, body contact and normals in lanes (GPU modes: the whole deformation and commit)
+	PLEAT_BATCH_PHASE_FINISH,   // per instance: finite scans and commit (plFinishEntry), numeric resets
+	PLEAT_BATCH_PHASE_COUNT
+} plBatchPhase;
+
 #if defined( PLEAT_STEP_PHASES )
-extern double g_plStepPhaseUs[PLEAT_PHASE_COUNT]; // accumulated µs per phase since the last plStepPhaseReset
-extern int g_plStepPhaseClock;                    // a clockid_t; CLOCK_MONOTONIC by default
+extern double g_plStepPhaseUs[PLEAT_PHASE_COUNT];        // accumulated µs per phase since the last plStepPhaseReset
+extern double g_plBatchPhaseUs[PLEAT_BATCH_PHASE_COUNT]; // the same for batches (plBatchPhaseReset)
+extern int g_plStepPhaseClock;                           // a clockid_t; CLOCK_MONOTONIC by default
 void plStepPhaseReset( void );
 void plStepPhaseStart( void );
 void plStepPhaseMark( plStepPhase phase );
+void plBatchPhaseReset( void );
+void plBatchPhaseStart( void );
+void plBatchPhaseMark( plBatchPhase phase );
 #define PLEAT_STEP_PHASE_START() plStepPhaseStart()
 #define PLEAT_STEP_PHASE( phase ) plStepPhaseMark( phase )
+#define PLEAT_BATCH_PHASE_START() plBatchPhaseStart()
+#define PLEAT_BATCH_PHASE( phase ) plBatchPhaseMark( phase )
 #else
 #define PLEAT_STEP_PHASE_START() ( (void)0 )
 #define PLEAT_STEP_PHASE( phase ) ( (void)0 )
+#define PLEAT_BATCH_PHASE_START() ( (void)0 )
+#define PLEAT_BATCH_PHASE( phase ) ( (void)0 )
 #endif
 
 #endif
