@@ -31,10 +31,11 @@ typedef enum BlendCold
 	BLEND_COLD_INSTANCES, // each instance's base and output rows
 	BLEND_COLD_SHAPES,
 	BLEND_COLD_BOTH,
+	BLEND_COLD_TLB, // cold_both, and the TLB's entries evicted too (a load from each page of a large buffer)
 	BLEND_CASES
 } BlendCold;
 
-static const char* const k_caseNames[BLEND_CASES] = { "warm", "cold_instances", "cold_shapes", "cold_both" };
+static const char* const k_caseNames[BLEND_CASES] = { "warm", "cold_instances", "cold_shapes", "cold_both", "cold_both_tlb" };
 
 static void FlushBytes( const void* p, size_t bytes )
 {
@@ -49,6 +50,8 @@ static void FlushBytes( const void* p, size_t bytes )
 	(void)bytes;
 #endif
 }
+
+static size_t g_rowAlign = 64;
 
 static uint32_t ArgU32( int argc, char** argv, const char* name, uint32_t fallback )
 {
@@ -66,6 +69,7 @@ int main( int argc, char** argv )
 {
 	uint32_t N = ArgU32( argc, argv, "--vertices", 4424 ), D = ArgU32( argc, argv, "--shapes", 128 );
 	uint32_t B = ArgU32( argc, argv, "--instances", 64 ), iterations = ArgU32( argc, argv, "--iterations", 21 );
+	g_rowAlign = ArgU32( argc, argv, "--row-align", 64 );
 	const char* out_path = NULL;
 	for ( int i = 1; i + 1 < argc; ++i )
 	{
@@ -95,8 +99,8 @@ int main( int argc, char** argv )
 	}
 	for ( uint32_t b = 0; b < B; ++b )
 	{
-		out[b] = ok ? (float*)aligned_alloc( 64, row_bytes ) : NULL;
-		base[b] = ok ? (float*)aligned_alloc( 64, row_bytes ) : NULL;
+		out[b] = ok ? (float*)aligned_alloc( g_rowAlign, row_bytes ) : NULL;
+		base[b] = ok ? (float*)aligned_alloc( g_rowAlign, row_bytes ) : NULL;
 		weights[b] = ok ? (float*)aligned_alloc( 64, ( D * 4 + 63 ) & ~(size_t)63 ) : NULL;
 		ok = ok && out[b] != NULL && base[b] != NULL && weights[b] != NULL;
 		for ( size_t i = 0; ok && i < plane; ++i )
@@ -124,6 +128,13 @@ int main( int argc, char** argv )
 			 "  \"iterations\": %u,\n  \"loadavg_start\": %.2f,\n  \"results\": [\n",
 			 batch.isa, N, D, B, iterations, BenchLoadAverage() );
 	double samples[BLEND_MAX_ITERATIONS];
+	size_t tlb_bytes = (size_t)256 << 20; // 65,536 pages: more than any TLB level holds
+	volatile unsigned char* tlb_pages = (volatile unsigned char*)malloc( tlb_bytes );
+	unsigned tlb_sink = 0;
+	for ( size_t q = 0; tlb_pages != NULL && q < tlb_bytes; q += 4096 )
+	{
+		tlb_pages[q] = 1;
+	}
 	int first = 1;
 	for ( int fp16 = 0; fp16 <= 1; ++fp16 )
 	{
@@ -137,9 +148,20 @@ int main( int argc, char** argv )
 				continue;
 			}
 #endif
+			if ( c == BLEND_COLD_TLB && tlb_pages == NULL )
+			{
+				continue;
+			}
 			for ( uint32_t it = 0; it <= iterations; ++it ) // iteration 0 warms up
 			{
-				if ( c == BLEND_COLD_INSTANCES || c == BLEND_COLD_BOTH )
+				if ( c == BLEND_COLD_TLB )
+				{
+					for ( size_t q = 0; q < tlb_bytes; q += 4096 )
+					{
+						tlb_sink += tlb_pages[q];
+					}
+				}
+				if ( c == BLEND_COLD_INSTANCES || c == BLEND_COLD_BOTH || c == BLEND_COLD_TLB )
 				{
 					for ( uint32_t b = 0; b < B; ++b )
 					{
@@ -147,7 +169,7 @@ int main( int argc, char** argv )
 						FlushBytes( out[b], row_bytes );
 					}
 				}
-				if ( c == BLEND_COLD_SHAPES || c == BLEND_COLD_BOTH )
+				if ( c == BLEND_COLD_SHAPES || c == BLEND_COLD_BOTH || c == BLEND_COLD_TLB )
 				{
 					FlushBytes( shapes, shape_bytes );
 				}
@@ -180,5 +202,7 @@ int main( int argc, char** argv )
 	}
 	free( shapes32 );
 	free( shapes16 );
+	free( (void*)tlb_pages );
+	(void)tlb_sink;
 	return 0;
 }
