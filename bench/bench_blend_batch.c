@@ -4,7 +4,9 @@
 // state a crowd step leaves them in after its other stages. Why: the crowd's blend stage is slower than this kernel
 // warm, and this tells how much of that is memory (docs/benchmarks.md, "Where a crowd step's time goes").
 //
-// usage: pleat_bench_blend_batch [--vertices 4424] [--shapes 128] [--instances 64] [--iterations 21] [--out blend.json]
+// usage: pleat_bench_blend_batch [--vertices 4424] [--shapes 128] [--instances 64] [--iterations 21] [--row-align 64]
+//                                [--batch-isa best|avx2] [--out blend.json]
+// (--row-align: the alignment of every instance's rows; --batch-isa avx2 caps the kernels at the AVX2 twins.)
 //
 // Per case the median over the iterations of (the call's wall time) / B, and the multiply-adds a second (B · D · 3N
 // over the call's time).
@@ -74,6 +76,10 @@ int main( int argc, char** argv )
 	for ( int i = 1; i + 1 < argc; ++i )
 	{
 		out_path = strcmp( argv[i], "--out" ) == 0 ? argv[i + 1] : out_path;
+		if ( strcmp( argv[i], "--batch-isa" ) == 0 )
+		{
+			g_plBatchIsaLimit = strcmp( argv[i + 1], "avx2" ) == 0 ? PLEAT_BATCH_ISA_AVX2 : PLEAT_BATCH_ISA_AVX512;
+		}
 	}
 	plKernels single;
 	plBatchKernels batch;

@@ -6,29 +6,39 @@
 // a tile of 16 elements (two vectors) × 4 instances keeps 8 accumulators in registers while j runs over all D shapes:
 // per shape 2 shape loads and 4 weight broadcasts feed 8 FMAs, and the tile's column of every shape (D cache lines) is
 // read from memory once, then from L1 for the other instances of the batch. The shapes' lines four tiles ahead, and
-// each instance's base and output lines, are prefetched in software: D strided streams plus two per instance are far
-// more than the hardware prefetchers follow.
+// each instance's base and output lines, are prefetched in software, the column's lines shared out over the instance
+// groups: D strided streams plus two per instance are far more than the hardware prefetchers follow.
 #include "kernels_batch.h"
 #include "simd_avx2.h"
-
-static inline void plPrefetchColumn( const void* shapes, int fp16, size_t plane, uint32_t blend_count, size_t i )
-{
-	size_t element_bytes = fp16 ? 2 : 4;
-	const char* p = (const char*)shapes + i * element_bytes;
-	for ( uint32_t j = 0; j < blend_count; ++j )
-	{
-		_mm_prefetch( p + (size_t)j * plane * element_bytes, _MM_HINT_T0 );
-	}
-}
 
 // An instance's base and output a few tiles ahead of element i: its two sequential streams are 2 of the batch's many
 // interleaved ones, more than the hardware prefetchers follow (measured ~30 % faster at N = 4,424, 64 instances).
 // Prefetches never fault, so running past the end of the arrays is harmless.
 #define PLEAT_BLEND_PREFETCH_ELEMENTS 128
-static inline void plPrefetchInstance( const float* base, float* out, size_t i )
+
+// What a tile call prefetches before its shape steps: its instances' base and output lines a few tiles ahead, and the
+// shapes first, first + step, ... of the column four tiles ahead (column NULL: none). The column's D lines are shared
+// out over the tile's instance groups: all at the tile's start they overflow the miss buffers and arrive late
+// (pleat_bench_blend_batch).
+typedef struct plBlendAhead
 {
-	_mm_prefetch( (const char*)( base + i + PLEAT_BLEND_PREFETCH_ELEMENTS ), _MM_HINT_T0 );
-	__builtin_prefetch( out + i + PLEAT_BLEND_PREFETCH_ELEMENTS, 1, 3 );
+	const char* column;  // shape 0's line of that column
+	size_t plane_bytes;  // from one shape's line to the next
+	uint32_t first, step;
+} plBlendAhead;
+
+static inline void plPrefetchTile( const plBlendAhead* ahead, const float* const* base, float* const* out,
+								   uint32_t count, uint32_t blend_count, size_t i )
+{
+	for ( uint32_t k = 0; k < count; ++k )
+	{
+		_mm_prefetch( (const char*)( base[k] + i + PLEAT_BLEND_PREFETCH_ELEMENTS ), _MM_HINT_T0 );
+		__builtin_prefetch( out[k] + i + PLEAT_BLEND_PREFETCH_ELEMENTS, 1, 3 );
+	}
+	for ( uint32_t j = ahead->first; ahead->column != NULL && j < blend_count; j += ahead->step )
+	{
+		_mm_prefetch( ahead->column + (size_t)j * ahead->plane_bytes, _MM_HINT_T0 );
+	}
 }
 
 // fp16 shapes of up to this many blend shapes are widened per tile into a 16 KB stack buffer.
@@ -37,13 +47,10 @@ static inline void plPrefetchInstance( const float* base, float* out, size_t i )
 // Elements [i, i + 16) of four instances; the shapes' elements start at shape_i, plane apart.
 static inline void plBlendTile16x4( float* const* out, const float* const* base, const float* const* weights,
 									const void* shapes, int fp16, uint32_t blend_count, size_t plane, size_t shape_i,
-									size_t i )
+									size_t i, const plBlendAhead* ahead )
 {
 	const float *w0 = weights[0], *w1 = weights[1], *w2 = weights[2], *w3 = weights[3];
-	for ( int k = 0; k < 4; ++k )
-	{
-		plPrefetchInstance( base[k], out[k], i );
-	}
+	plPrefetchTile( ahead, base, out, 4, blend_count, i );
 	__m256 a0 = _mm256_loadu_ps( base[0] + i ), a1 = _mm256_loadu_ps( base[0] + i + 8 );
 	__m256 b0 = _mm256_loadu_ps( base[1] + i ), b1 = _mm256_loadu_ps( base[1] + i + 8 );
 	__m256 c0 = _mm256_loadu_ps( base[2] + i ), c1 = _mm256_loadu_ps( base[2] + i + 8 );
@@ -77,9 +84,10 @@ static inline void plBlendTile16x4( float* const* out, const float* const* base,
 
 // Elements [i, i + 16) of one instance.
 static inline void plBlendTile16x1( float* out, const float* base, const float* w, const void* shapes, int fp16,
-									uint32_t blend_count, size_t plane, size_t shape_i, size_t i )
+									uint32_t blend_count, size_t plane, size_t shape_i, size_t i,
+									const plBlendAhead* ahead )
 {
-	plPrefetchInstance( base, out, i );
+	plPrefetchTile( ahead, &base, &out, 1, blend_count, i );
 	__m256 a0 = _mm256_loadu_ps( base + i ), a1 = _mm256_loadu_ps( base + i + 8 );
 	size_t o = shape_i;
 	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
@@ -128,12 +136,13 @@ void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const
 	float widened[PLEAT_BLEND_WIDEN_SHAPES * 16];
 	int widen = shapes_fp16 && blend_count <= PLEAT_BLEND_WIDEN_SHAPES && batch_count > 4;
 	size_t i = start;
+	size_t element_bytes = shapes_fp16 ? 2 : 4;
+	uint32_t groups = batch_count / 4 + batch_count % 4; // the tile calls below: fours, then ones
 	for ( ; i + 16 <= end; i += 16 )
 	{
-		if ( i + 80 <= end )
-		{
-			plPrefetchColumn( shapes, shapes_fp16, plane, blend_count, i + 64 );
-		}
+		// the column four tiles ahead, its shapes shared out over the tile's instance groups
+		plBlendAhead ahead = { i + 80 <= end ? (const char*)shapes + ( i + 64 ) * element_bytes : NULL,
+							   plane * element_bytes, 0, groups };
 		const void* tile_shapes = shapes;
 		int tile_fp16 = shapes_fp16;
 		size_t tile_plane = plane, tile_i = i;
@@ -149,15 +158,15 @@ void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const
 			tile_shapes = widened, tile_fp16 = 0, tile_plane = 16, tile_i = 0;
 		}
 		uint32_t b = 0;
-		for ( ; b + 4 <= batch_count; b += 4 )
+		for ( ; b + 4 <= batch_count; b += 4, ++ahead.first )
 		{
 			plBlendTile16x4( out + b, base + b, weights + b, tile_shapes, tile_fp16, blend_count, tile_plane, tile_i,
-							 i );
+							 i, &ahead );
 		}
-		for ( ; b < batch_count; ++b )
+		for ( ; b < batch_count; ++b, ++ahead.first )
 		{
 			plBlendTile16x1( out[b], base[b], weights[b], tile_shapes, tile_fp16, blend_count, tile_plane, tile_i,
-							 i );
+							 i, &ahead );
 		}
 	}
 	for ( uint32_t b = 0; b < batch_count && i < end; ++b )
