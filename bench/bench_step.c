@@ -377,8 +377,8 @@ static double TimeStreamFloor( const uint8_t* asset_bytes, size_t asset_size, in
 static double* g_phase_samples; // [PLEAT_PHASE_COUNT][iterations] per-phase µs of each timed step, when set
 static const char* const k_phase_names[PLEAT_PHASE_COUNT] = { "validate", "fk", "input_assembly", "lp_mlp",
 															   "latent_guard_dec_mlp", "blend_shapes", "skinning",
-															   "face_normals", "vertex_normals", "guards",
-															   "commit_copy" };
+															   "body_contact", "face_normals", "vertex_normals",
+															   "guards", "commit_copy" };
 #endif
 
 typedef struct StepConfig

@@ -61,19 +61,34 @@ void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const floa
 	}
 }
 
-// AVX2 twin of plBodyContact_Scalar, eight vertices per vector: slot by slot, the candidate rows of the eight by
-// gathers (position and usable, then the normal); the nearest, the
-// weights and the sums lane by lane in the scalar kernel's order (an unusable or empty slot, or one outside the
-// margin, adds w = 0, which leaves every sum's bits as they were), so the two agree bit for bit. Why lanes of vertices
-// and not of candidates: a vertex's work is one long chain (distances, nearest, weights, sums, a square root, three
-// divisions), so one vertex at a time ran at its latency, ~23 ns; eight chains side by side run at the gathers' pace.
+// Eight (x, y, z, ·) vectors, vertex i in v[i], as three 8-lane rows x, y, z (lane i = vertex i): register shuffles, so
+// the rows are never read back from eight narrow stores (a load that spans several stores cannot be forwarded and
+// waits for them to retire; building the rows in memory cost more than the arithmetic).
+static inline void plRowsOf8( __m256* x, __m256* y, __m256* z, const __m128* v )
+{
+	__m256 t0 = _mm256_set_m128( v[4], v[0] ), t1 = _mm256_set_m128( v[5], v[1] );
+	__m256 t2 = _mm256_set_m128( v[6], v[2] ), t3 = _mm256_set_m128( v[7], v[3] );
+	__m256 lo01 = _mm256_unpacklo_ps( t0, t1 ), hi01 = _mm256_unpackhi_ps( t0, t1 ); // (x0 x1 y0 y1), (z0 z1 · ·)
+	__m256 lo23 = _mm256_unpacklo_ps( t2, t3 ), hi23 = _mm256_unpackhi_ps( t2, t3 );
+	*x = _mm256_shuffle_ps( lo01, lo23, _MM_SHUFFLE( 1, 0, 1, 0 ) );
+	*y = _mm256_shuffle_ps( lo01, lo23, _MM_SHUFFLE( 3, 2, 3, 2 ) );
+	*z = _mm256_shuffle_ps( hi01, hi23, _MM_SHUFFLE( 1, 0, 1, 0 ) );
+}
+
+// AVX2 twin of plBodyContact_Scalar, eight vertices per vector: slot by slot, the eight candidates' whole posed rows
+// (8 floats: position, usable, normal, anchorable) loaded and transposed into their fields' lanes (plTranspose8x8);
+// the nearest, the weights and the sums lane by lane in the scalar kernel's order (an unusable or empty slot, or one
+// outside the margin, adds w = 0, which leaves every sum's bits as they were), so the two agree bit for bit. Why lanes
+// of vertices and not of candidates: a vertex's work is one long chain (distances, nearest, weights, sums, a square
+// root, three divisions), so one vertex at a time ran at its latency, ~23 ns. Why rows and a transpose: the 64-bit
+// gathers of field pairs they replace cost 41 µs for the shipped t-shirt's push (16 candidates), the rows 23.5.
 void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const float* posed, uint32_t point_count,
 						 const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
 						 uint32_t v_end )
 {
 	uint32_t C = candidate_count;
 	const __m256 zero = _mm256_setzero_ps(), infinity = _mm256_set1_ps( INFINITY );
-	const __m256i row = _mm256_set1_epi32( PLEAT_POSED_POINT_FLOATS ), limit = _mm256_set1_epi32( (int32_t)point_count );
+	const __m256i limit = _mm256_set1_epi32( (int32_t)point_count );
 	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
 	{
 		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
@@ -97,17 +112,25 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 		}
 		__m256 x = _mm256_load_ps( px ), y = _mm256_load_ps( py ), z = _mm256_load_ps( pz );
 		__m256 ax[PLEAT_MAX_CONTACT_CANDIDATES], ay[PLEAT_MAX_CONTACT_CANDIDATES], az[PLEAT_MAX_CONTACT_CANDIDATES];
+		__m256 cnx[PLEAT_MAX_CONTACT_CANDIDATES], cny[PLEAT_MAX_CONTACT_CANDIDATES], cnz[PLEAT_MAX_CONTACT_CANDIDATES];
 		__m256 d2[PLEAT_MAX_CONTACT_CANDIDATES];
-		__m256i offsets[PLEAT_MAX_CONTACT_CANDIDATES];
 		__m256 nearest = infinity;
 		for ( uint32_t c = 0; c < C; ++c )
 		{
 			__m256i index = _mm256_load_si256( (const __m256i*)slots[c] );
 			__m256i valid = _mm256_cmpgt_epi32( limit, index ); // an empty slot (0xFFFF) or an index past P: out
-			offsets[c] = _mm256_and_si256( _mm256_mullo_epi32( index, row ), valid );
-			__m256 flag;
-			plGatherPairs8( &ax[c], &ay[c], posed, offsets[c] );
-			plGatherPairs8( &az[c], &flag, posed + 2, offsets[c] );
+			// the eight candidates' whole rows (an invalid one reads row 0, masked below), transposed: field f of
+			// every lane's candidate in rows[f]
+			__m256 rows[8];
+			for ( int i = 0; i < 8; ++i )
+			{
+				uint32_t p = (uint32_t)slots[c][i] < point_count ? (uint32_t)slots[c][i] : 0u;
+				rows[i] = _mm256_loadu_ps( posed + (size_t)p * PLEAT_POSED_POINT_FLOATS );
+			}
+			plTranspose8x8( rows );
+			ax[c] = rows[0], ay[c] = rows[1], az[c] = rows[2];
+			cnx[c] = rows[4], cny[c] = rows[5], cnz[c] = rows[6];
+			__m256 flag = rows[3];
 			__m256 usable = _mm256_and_ps( _mm256_castsi256_ps( valid ), _mm256_cmp_ps( flag, zero, _CMP_NEQ_OQ ) );
 			__m256 dx = _mm256_sub_ps( x, ax[c] ), dy = _mm256_sub_ps( y, ay[c] ), dz = _mm256_sub_ps( z, az[c] );
 			__m256 d = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( dx, dx ), _mm256_mul_ps( dy, dy ) ),
@@ -127,20 +150,17 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 		for ( uint32_t c = 0; c < C; ++c )
 		{
 			__m256 w = _mm256_sub_ps( margin_limit, d2[c] );
-			// No branch on "no lane weighs this slot": with many candidates it mispredicted more than the gathers it
-			// saved cost (16 candidates: the push 49 -> 46 us); a lane without weight adds w = +0 to every sum, which
-			// leaves its bits as the scalar kernel's skip does.
+			// No branch on "no lane weighs this slot": with many candidates it mispredicted more than the loads it
+			// saved cost (16 candidates: the push 49 -> 46 us, with gathers then); a lane without weight adds w = +0 to
+			// every sum, which leaves its bits as the scalar kernel's skip does.
 			w = _mm256_and_ps( w, _mm256_cmp_ps( w, zero, _CMP_GT_OQ ) );
 			total = _mm256_add_ps( total, w );
 			sx = _mm256_add_ps( sx, _mm256_mul_ps( w, ax[c] ) );
 			sy = _mm256_add_ps( sy, _mm256_mul_ps( w, ay[c] ) );
 			sz = _mm256_add_ps( sz, _mm256_mul_ps( w, az[c] ) );
-			__m256 gx, gy, gz, anchorable;
-			plGatherPairs8( &gx, &gy, posed + 4, offsets[c] );
-			plGatherPairs8( &gz, &anchorable, posed + 6, offsets[c] );
-			nx = _mm256_add_ps( nx, _mm256_mul_ps( w, gx ) );
-			ny = _mm256_add_ps( ny, _mm256_mul_ps( w, gy ) );
-			nz = _mm256_add_ps( nz, _mm256_mul_ps( w, gz ) );
+			nx = _mm256_add_ps( nx, _mm256_mul_ps( w, cnx[c] ) );
+			ny = _mm256_add_ps( ny, _mm256_mul_ps( w, cny[c] ) );
+			nz = _mm256_add_ps( nz, _mm256_mul_ps( w, cnz[c] ) );
 		}
 		// The blended plane through plPushOutOfAnchorPlane8, the scalar push's operations lane by lane; a lane without a
 		// usable candidate or weight gets a zero normal, which the helper leaves where it is.
@@ -176,7 +196,8 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 }
 
 // AVX2 twin of plBodyPointNormals_Scalar, eight points per vector: their own positions and, slot by slot, their ring
-// points' positions by gathers from the posed rows; d_i = a_{r_i} − a_p, and the cross product of each d_i with the
+// points' positions, each from the first four floats of a posed row turned into lanes (plRowsOf8: 19 µs for the
+// shipped t-shirt's rings against 27 with gathers); d_i = a_{r_i} − a_p, and the cross product of each d_i with the
 // next, the last slot of each lane closing on its d_0 (a blend where the next slot is past the lane's ring). The same
 // operations in the same order as the scalar kernel, lane by lane (no contraction), so the two agree bit for bit. Why
 // lanes of points: a point's normal is one chain (the fan's sum, a square root, three divisions), so one point at a
@@ -185,7 +206,6 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 							  uint32_t p_begin, uint32_t p_end )
 {
 	uint32_t R = ring_count;
-	const __m256i row = _mm256_set1_epi32( PLEAT_POSED_POINT_FLOATS ), lane = _mm256_setr_epi32( 0, 1, 2, 3, 4, 5, 6, 7 );
 	const __m256i limit = _mm256_set1_epi32( (int32_t)point_count );
 	const __m256 zero = _mm256_setzero_ps();
 	for ( uint32_t p0 = p_begin; p0 < p_end; p0 += 8 )
@@ -210,22 +230,28 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 		{
 			continue;
 		}
-		__m256i own = _mm256_mullo_epi32( _mm256_add_epi32( _mm256_set1_epi32( (int32_t)p0 ), lane ), row );
-		own = _mm256_and_si256( own, _mm256_cmpgt_epi32( _mm256_set1_epi32( (int32_t)count ), lane ) ); // past: row 0
-		__m256 px, py, pz, flag;
-		plGatherPairs8( &px, &py, posed, own );
-		plGatherPairs8( &pz, &flag, posed + 2, own );
+		// the eight points' own positions (a lane past the range reads row 0 and changes nothing)
+		__m128 v[8];
+		for ( uint32_t i = 0; i < 8; ++i )
+		{
+			v[i] = _mm_loadu_ps( posed + (size_t)( i < count ? p0 + i : 0u ) * PLEAT_POSED_POINT_FLOATS ); // past: row 0
+		}
+		__m256 px, py, pz;
+		plRowsOf8( &px, &py, &pz, v );
 		__m256 dx[PLEAT_MAX_POINT_RING], dy[PLEAT_MAX_POINT_RING], dz[PLEAT_MAX_POINT_RING];
 		__m256 used[PLEAT_MAX_POINT_RING];
 		for ( uint32_t s = 0; s < R; ++s )
 		{
 			__m256i index = _mm256_load_si256( (const __m256i*)slots[s] );
 			__m256i valid = _mm256_cmpgt_epi32( limit, index );
-			__m256i offset = _mm256_and_si256( _mm256_mullo_epi32( index, row ), valid );
 			used[s] = _mm256_castsi256_ps( valid );
-			__m256 ax, ay, az, usable;
-			plGatherPairs8( &ax, &ay, posed, offset );
-			plGatherPairs8( &az, &usable, posed + 2, offset );
+			for ( uint32_t i = 0; i < 8; ++i )
+			{
+				uint32_t q = (uint32_t)slots[s][i] < point_count ? (uint32_t)slots[s][i] : 0u; // an empty slot: row 0
+				v[i] = _mm_loadu_ps( posed + (size_t)q * PLEAT_POSED_POINT_FLOATS );
+			}
+			__m256 ax, ay, az;
+			plRowsOf8( &ax, &ay, &az, v );
 			dx[s] = _mm256_sub_ps( ax, px );
 			dy[s] = _mm256_sub_ps( ay, py );
 			dz[s] = _mm256_sub_ps( az, pz );
@@ -265,20 +291,6 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 			}
 		}
 	}
-}
-
-// Eight (x, y, z, ·) vectors, vertex i in v[i], as three 8-lane rows x, y, z (lane i = vertex i): register shuffles, so
-// the rows are never read back from eight narrow stores (a load that spans several stores cannot be forwarded and
-// waits for them to retire; building the rows in memory cost more than the arithmetic).
-static inline void plRowsOf8( __m256* x, __m256* y, __m256* z, const __m128* v )
-{
-	__m256 t0 = _mm256_set_m128( v[4], v[0] ), t1 = _mm256_set_m128( v[5], v[1] );
-	__m256 t2 = _mm256_set_m128( v[6], v[2] ), t3 = _mm256_set_m128( v[7], v[3] );
-	__m256 lo01 = _mm256_unpacklo_ps( t0, t1 ), hi01 = _mm256_unpackhi_ps( t0, t1 ); // (x0 x1 y0 y1), (z0 z1 · ·)
-	__m256 lo23 = _mm256_unpacklo_ps( t2, t3 ), hi23 = _mm256_unpackhi_ps( t2, t3 );
-	*x = _mm256_shuffle_ps( lo01, lo23, _MM_SHUFFLE( 1, 0, 1, 0 ) );
-	*y = _mm256_shuffle_ps( lo01, lo23, _MM_SHUFFLE( 3, 2, 3, 2 ) );
-	*z = _mm256_shuffle_ps( hi01, hi23, _MM_SHUFFLE( 1, 0, 1, 0 ) );
 }
 
 // AVX2 + FMA twin of plBodyContactFast_Scalar, in two passes over blocks of 8 vertices: per vertex the anchor posed as

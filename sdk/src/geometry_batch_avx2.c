@@ -45,30 +45,6 @@ typedef __m256 plVec;
 	_mm256_and_ps( _mm256_div_ps( _mm256_set1_ps( 1.0f ), length ),                                                    \
 				   _mm256_cmp_ps( length, _mm256_setzero_ps(), _CMP_GT_OQ ) )
 
-// r[i][j] ↔ r[j][i] for an 8×8 block of floats in 8 registers.
-static inline void plTransposeLanes( __m256 r[8] )
-{
-	__m256 t[8], s[8];
-	for ( int i = 0; i < 4; ++i )
-	{
-		t[2 * i] = _mm256_unpacklo_ps( r[2 * i], r[2 * i + 1] );
-		t[2 * i + 1] = _mm256_unpackhi_ps( r[2 * i], r[2 * i + 1] );
-	}
-	for ( int g = 0; g < 2; ++g )
-	{
-		s[4 * g] = _mm256_shuffle_ps( t[4 * g], t[4 * g + 2], 0x44 );
-		s[4 * g + 1] = _mm256_shuffle_ps( t[4 * g], t[4 * g + 2], 0xEE );
-		s[4 * g + 2] = _mm256_shuffle_ps( t[4 * g + 1], t[4 * g + 3], 0x44 );
-		s[4 * g + 3] = _mm256_shuffle_ps( t[4 * g + 1], t[4 * g + 3], 0xEE );
-	}
-	for ( int c = 0; c < 4; ++c )
-	{
-		r[c] = _mm256_permute2f128_ps( s[c], s[4 + c], 0x20 );
-		r[4 + c] = _mm256_permute2f128_ps( s[c], s[4 + c], 0x31 );
-	}
-}
-
-
 // Lanes of a group beyond batch_count read this (zeros) and are never written back.
 static const float s_plZeroBlock[3 * PL_LANES] = { 0 };
 
@@ -93,7 +69,7 @@ static inline void plToLanes( const float* const* src, uint32_t n, uint32_t v0, 
 				r[b] = plVecLoadU( padded + q * PL_LANES );
 			}
 		}
-		plTransposeLanes( r );
+		plTranspose8x8( r );
 		for ( int t = 0; t < PL_LANES; ++t )
 		{
 			plVecStore( dst + (size_t)( q * PL_LANES + t ) * PL_LANES, r[t] );
@@ -137,7 +113,7 @@ static inline void plFromLanes( const float* src, float* const* dst, uint32_t n,
 		{
 			r[t] = plVecLoad( src + (size_t)( q * PL_LANES + t ) * PL_LANES );
 		}
-		plTransposeLanes( r );
+		plTranspose8x8( r );
 		for ( uint32_t b = 0; b < n; ++b )
 		{
 			float* d = dst[b] + (size_t)v0 * 3;

@@ -42,13 +42,14 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 						   a->influence_count, t->skin_matrices, a->joint_count, plMakeSpan( inst->positions, n, 12 ),
 						   begin, end, &inst->ctx->kernels };
 	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 	if ( inst->body_contact )
 	{
 		plDeformTask_Record( t, inst->body_contact_fast
 									? plRunFastBodyContact( inst, inst->positions, t->skin_matrices, begin, end )
 									: plPushOutOfBody( inst, inst->positions, begin, end ) );
+		PLEAT_STEP_PHASE( PLEAT_PHASE_CONTACT );
 	}
-	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 }
 
 // Before the blend-and-skin task: the body points in this pose, which any vertex's push may read, then (a second
@@ -207,6 +208,7 @@ plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const fl
 		{
 			return plDeformTask_Result( &task );
 		}
+		PLEAT_STEP_PHASE( PLEAT_PHASE_CONTACT );
 	}
 	plRunTask( runner, plBlendAndSkinTask, a->vertex_count, 256, &task );
 	if ( plDeformTask_Result( &task ) != PLEAT_RESULT_OK )

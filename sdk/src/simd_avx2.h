@@ -115,18 +115,28 @@ static inline __m256 plContactReach8( __m256 nearest )
 	return _mm256_min_ps( _mm256_max_ps( r, _mm256_setzero_ps() ), _mm256_set1_ps( 1.0f ) );
 }
 
-// Two float columns (a, b) of eight rows at row offsets `offsets` (floats from `base`; row r's pair at base + offsets[r]):
-// two 64-bit gathers of four pairs each and a deinterleave, instead of two 32-bit gathers of eight floats each. The
-// values are the ones the 32-bit gathers load; gathers cost per element, so this loads half as many.
-static inline void plGatherPairs8( __m256* a, __m256* b, const float* base, __m256i offsets )
+// r[i][j] <-> r[j][i] for an 8x8 block of floats in 8 registers: eight instances' blocks into lanes and back
+// (geometry_batch_avx2.c), eight 8-float rows into their fields' lanes (body_contact_avx2.c; cheaper than gathers).
+static inline void plTranspose8x8( __m256 r[8] )
 {
-	__m256 lo = _mm256_castpd_ps( _mm256_i32gather_pd( (const double*)base, _mm256_castsi256_si128( offsets ), 4 ) );
-	__m256 hi = _mm256_castpd_ps( _mm256_i32gather_pd( (const double*)base, _mm256_extracti128_si256( offsets, 1 ), 4 ) );
-	// lo = (a0 b0 a1 b1 | a2 b2 a3 b3), hi = (a4 b4 a5 b5 | a6 b6 a7 b7)
-	__m256 even = _mm256_shuffle_ps( lo, hi, 0x88 ); // (a0 a1 a4 a5 | a2 a3 a6 a7)
-	__m256 odd = _mm256_shuffle_ps( lo, hi, 0xDD );	 // (b0 b1 b4 b5 | b2 b3 b6 b7)
-	*a = _mm256_castpd_ps( _mm256_permute4x64_pd( _mm256_castps_pd( even ), 0xD8 ) );
-	*b = _mm256_castpd_ps( _mm256_permute4x64_pd( _mm256_castps_pd( odd ), 0xD8 ) );
+	__m256 t[8], s[8];
+	for ( int i = 0; i < 4; ++i )
+	{
+		t[2 * i] = _mm256_unpacklo_ps( r[2 * i], r[2 * i + 1] );
+		t[2 * i + 1] = _mm256_unpackhi_ps( r[2 * i], r[2 * i + 1] );
+	}
+	for ( int g = 0; g < 2; ++g )
+	{
+		s[4 * g] = _mm256_shuffle_ps( t[4 * g], t[4 * g + 2], 0x44 );
+		s[4 * g + 1] = _mm256_shuffle_ps( t[4 * g], t[4 * g + 2], 0xEE );
+		s[4 * g + 2] = _mm256_shuffle_ps( t[4 * g + 1], t[4 * g + 3], 0x44 );
+		s[4 * g + 3] = _mm256_shuffle_ps( t[4 * g + 1], t[4 * g + 3], 0xEE );
+	}
+	for ( int c = 0; c < 4; ++c )
+	{
+		r[c] = _mm256_permute2f128_ps( s[c], s[4 + c], 0x20 );
+		r[4 + c] = _mm256_permute2f128_ps( s[c], s[4 + c], 0x31 );
+	}
 }
 
 // Eight lanes of plPushOutOfAnchorPlane, the end of the body-contact test: n = (nx, ny, nz) / length with

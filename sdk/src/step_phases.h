@@ -15,6 +15,7 @@ typedef enum plStepPhase
 	PLEAT_PHASE_DEC,          // latent guard + f_dec
 	PLEAT_PHASE_BLEND,        // blend shapes: T + G_S(β) + Σ_j w_j D_j
 	PLEAT_PHASE_SKIN,         // linear blend skinning
+	PLEAT_PHASE_CONTACT,      // body contact: the body points posed, their ring normals, the push (0 without contact)
 	PLEAT_PHASE_FACE_NORMALS, // per-face normals (0 on one thread: the scatter pass below does both)
 	PLEAT_PHASE_GATHER,       // per-vertex normals (gather + normalise; on one thread the whole normals scatter)
 	PLEAT_PHASE_GUARDS,       // non-finite scans of y, weights, matrices, positions, normals
