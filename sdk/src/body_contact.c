@@ -26,7 +26,8 @@ int plBodyPointsJob_Validate( const plBodyPointsJob* job )
 	return job != NULL && job->shaped_points != NULL && job->point_normals != NULL && job->skin_indices != NULL &&
 		   job->skin_weights != NULL && job->skin_matrices != NULL && job->posed != NULL && job->influence_count >= 1 &&
 		   job->influence_count <= PLEAT_MAX_INFLUENCES && job->joint_count > 0 &&
-		   job->point_begin <= job->point_end && job->point_end <= job->point_count;
+		   job->point_begin <= job->point_end && job->point_end <= job->point_count &&
+		   ( job->rings == NULL || ( job->ring_count >= 1 && job->ring_count <= PLEAT_MAX_POINT_RING ) );
 }
 
 int plBodyContactJob_Validate( const plBodyContactJob* job )
@@ -44,7 +45,8 @@ int plBodyContactJob_Validate( const plBodyContactJob* job )
 
 void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const float* point_normals,
 							  const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-							  const float* skin_matrices, uint32_t joint_count, uint32_t p_begin, uint32_t p_end )
+							  const float* skin_matrices, uint32_t joint_count, const uint16_t* rings, uint32_t ring_count,
+							  uint32_t point_count, uint32_t p_begin, uint32_t p_end )
 {
 	uint32_t K = influence_count;
 	for ( uint32_t p = p_begin; p < p_end; ++p )
@@ -60,6 +62,12 @@ void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const fl
 		out[1] = m[4] * r[0] + m[5] * r[1] + m[6] * r[2] + m[7];
 		out[2] = m[8] * r[0] + m[9] * r[1] + m[10] * r[2] + m[11];
 		int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
+		out[7] = anchorable ? 1.0f : 0.0f;
+		if ( anchorable && rings != NULL && rings[(size_t)p * ring_count] < point_count )
+		{
+			out[3] = out[4] = out[5] = out[6] = 0.0f; // the ring normals set them
+			continue;
+		}
 		float nx = m[0] * rn[0] + m[1] * rn[1] + m[2] * rn[2];
 		float ny = m[4] * rn[0] + m[5] * rn[1] + m[6] * rn[2];
 		float nz = m[8] * rn[0] + m[9] * rn[1] + m[10] * rn[2];
@@ -69,7 +77,6 @@ void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const fl
 		out[4] = usable ? nx / length : 0.0f;
 		out[5] = usable ? ny / length : 0.0f;
 		out[6] = usable ? nz / length : 0.0f;
-		out[7] = anchorable ? 1.0f : 0.0f;
 	}
 }
 
@@ -187,7 +194,8 @@ plResult plBodyPointsJob_Run( const plBodyPointsJob* job )
 									 ? job->kernels->pose_body_points
 									 : plPoseBodyPoints_Scalar;
 	kernel( job->posed, job->shaped_points, job->point_normals, job->skin_indices, job->skin_weights,
-			job->influence_count, job->skin_matrices, job->joint_count, job->point_begin, job->point_end );
+			job->influence_count, job->skin_matrices, job->joint_count, job->rings,
+			job->rings != NULL ? job->ring_count : 0, job->point_count, job->point_begin, job->point_end );
 	return PLEAT_RESULT_OK;
 }
 

@@ -27,7 +27,8 @@ static inline void plPoseAnchor( __m128* anchor, __m128* normal, const float* r,
 
 void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const float* point_normals,
 							const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-							const float* skin_matrices, uint32_t joint_count, uint32_t p_begin, uint32_t p_end )
+							const float* skin_matrices, uint32_t joint_count, const uint16_t* rings,
+							uint32_t ring_count, uint32_t point_count, uint32_t p_begin, uint32_t p_end )
 {
 	_Alignas( 32 ) float columns[PLEAT_SKIN_COLUMN_FLOATS];
 	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
@@ -48,9 +49,16 @@ void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const floa
 			plPoseAnchor( &point, &normal, r, rn, skin_indices + (size_t)p * K, skin_weights + (size_t)p * K, K, J,
 						  columns );
 		}
+		int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
+		if ( anchorable && rings != NULL && rings[(size_t)p * ring_count] < point_count )
+		{
+			// (a, 0), (0, 0, 0, 1): the ring normals set usable and the normal (3.4 % of the t-shirt's step)
+			_mm_storeu_ps( out, _mm_insert_ps( point, point, 0x08 ) );
+			_mm_storeu_ps( out + 4, _mm_set_ps( 1.0f, 0.0f, 0.0f, 0.0f ) );
+			continue;
+		}
 		_Alignas( 16 ) float n[4];
 		_mm_store_ps( n, normal );
-		int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
 		float length = sqrtf( n[0] * n[0] + n[1] * n[1] + n[2] * n[2] );
 		int usable = anchorable && length > 1e-12f;
 		// (a_x, a_y, a_z, usable): every point's position, a face corner's too

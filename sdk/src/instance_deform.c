@@ -94,7 +94,9 @@ plResult plPoseBodyPoints( plInstanceData* inst, const float* skin_matrices, uin
 							a->body_point_count,
 							begin,
 							end,
-							&inst->ctx->kernels };
+							&inst->ctx->kernels,
+							a->body_anchor_ring, // plBodyPointNormals follows every posing
+							a->body_anchor_ring_count };
 	return plBodyPointsJob_Run( &job );
 }
 

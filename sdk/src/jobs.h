@@ -232,6 +232,8 @@ typedef struct plBodyPointsJob
 	uint32_t point_count;              // P
 	uint32_t point_begin, point_end;
 	const plKernels* kernels;          // optional: NULL = the scalar kernel
+	const uint16_t* rings;             // optional: [P][R] (BARG): the points whose normals plBodyPointNormalsJob sets
+	uint32_t ring_count;               // R, with rings
 } plBodyPointsJob;
 
 int plBodyPointsJob_Validate( const plBodyPointsJob* job );

@@ -93,7 +93,9 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 // into posed[p] = (a_x, a_y, a_z, usable, n_x, n_y, n_z, anchorable) (PLEAT_POSED_POINT_FLOATS floats, 32-byte rows):
 // every point's position; anchorable is 1 where the rest normal is non-zero, usable where also the blended normal is
 // longer than 1e-12 (else 0, and the normal 0). Rest points and normals [P][3], point skin [P][K]; joint indices
-// >= joint_count count as weight 0.
+// >= joint_count count as weight 0. With rings (NULL: none), an anchorable point with a ring (rings[p][0] < P) gets
+// usable and its normal as 0: the ring normals below overwrite them, so its blended normal (a square root, three
+// divisions) is not worked out.
 #define PLEAT_POSED_POINT_FLOATS 8
 // At most this many candidate body points per garment vertex (asset 1.2, BACA), and the index of an empty slot.
 #define PLEAT_MAX_CONTACT_CANDIDATES 16
@@ -113,7 +115,8 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 #define PLEAT_CONTACT_REACH_FAR_M 0.05f
 typedef void plPoseBodyPointsFn( float* posed, const float* shaped_points, const float* point_normals,
 								 const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-								 const float* skin_matrices, uint32_t joint_count, uint32_t p_begin, uint32_t p_end );
+								 const float* skin_matrices, uint32_t joint_count, const uint16_t* rings,
+								 uint32_t ring_count, uint32_t point_count, uint32_t p_begin, uint32_t p_end );
 // The posed body's normals at the anchorable points [p_begin, p_end) with a ring (asset 1.2, BARG; rings [P][R]: m ≥ 3
 // point indices counter-clockwise from outside, then indices >= P): with d_i = a_{r_i} − a_p,
 // n = Σ_i d_i × d_{(i+1) mod m} (the area-weighted normal of the closed fan), read from the posed positions that

@@ -810,7 +810,8 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 			for ( uint32_t b = 0; b < n; ++b )
 			{
 				memcpy( single, before[b], sizeof( single ) );
-				k->single[s].pose_body_points( posed, points[b], normals, indices, weights, K, mats[b], J, 0, P );
+				k->single[s].pose_body_points( posed, points[b], normals, indices, weights, K, mats[b], J, rings, R, P, 0,
+											  P );
 				k->single[s].body_point_normals( posed, P, rings, R, 0, P );
 				k->single[s].body_contact( single, 12, posed, P, candidates, C, offsets[b], 0, NV );
 				assert_memory_equal( single, ps[b], sizeof( single ) );

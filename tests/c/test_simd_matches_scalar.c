@@ -256,8 +256,51 @@ static void test_pose_body_points_avx2_matches_scalar( void** state )
 		{
 			os[i] = ov[i] = -77.0f;
 		}
-		pair->scalar.pose_body_points( os, points, normals, indices, weights, K, matrices, joint_count, 1, n - 2 );
-		pair->simd.pose_body_points( ov, points, normals, indices, weights, K, matrices, joint_count, 1, n - 2 );
+		pair->scalar.pose_body_points( os, points, normals, indices, weights, K, matrices, joint_count, NULL, 0, n, 1,
+									   n - 2 );
+		pair->simd.pose_body_points( ov, points, normals, indices, weights, K, matrices, joint_count, NULL, 0, n, 1,
+									 n - 2 );
+		// With rings: every third point has one (its first slot < n); the others' are empty or past n. Those points,
+		// when anchorable, get usable and the normal 0 (the ring normals set them) and the rest of their row as
+		// without rings; every other row is the same as without rings, bit for bit (the same kernel).
+		enum { R = 3 };
+		uint16_t rings[41 * R];
+		for ( uint32_t p = 0; p < n; ++p )
+		{
+			rings[p * R] = p % 3 == 0 ? (uint16_t)( ( p + 1 ) % n ) : p % 3 == 1 ? 0xFFFFu : (uint16_t)( n + p );
+			rings[p * R + 1] = (uint16_t)( ( p + 2 ) % n );
+			rings[p * R + 2] = (uint16_t)( ( p + 3 ) % n );
+		}
+		for ( int simd = 0; simd < 2; ++simd )
+		{
+			float with[41 * PLEAT_POSED_POINT_FLOATS];
+			const float* without = simd ? ov : os;
+			for ( uint32_t i = 0; i < n * PLEAT_POSED_POINT_FLOATS; ++i )
+			{
+				with[i] = -77.0f;
+			}
+			( simd ? pair->simd : pair->scalar )
+				.pose_body_points( with, points, normals, indices, weights, K, matrices, joint_count, rings, R, n, 1,
+								   n - 2 );
+			uint32_t skipped = 0;
+			for ( uint32_t p = 0; p < n; ++p )
+			{
+				const float* w = with + p * PLEAT_POSED_POINT_FLOATS;
+				const float* o = without + p * PLEAT_POSED_POINT_FLOATS;
+				int ring_point = p >= 1 && p < n - 2 && p % 3 == 0 && p % 4 != 0; // p % 4 == 0: not an anchor
+				if ( ring_point )
+				{
+					assert_memory_equal( w, o, 3 * sizeof( float ) );
+					assert_true( w[3] == 0.0f && w[4] == 0.0f && w[5] == 0.0f && w[6] == 0.0f && w[7] == 1.0f );
+					skipped++;
+				}
+				else
+				{
+					assert_memory_equal( w, o, PLEAT_POSED_POINT_FLOATS * sizeof( float ) );
+				}
+			}
+			assert_true( skipped > 0 );
+		}
 		uint32_t usable = 0;
 		for ( uint32_t p = 0; p < n; ++p )
 		{
