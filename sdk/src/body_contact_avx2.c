@@ -83,6 +83,10 @@ static inline void plRowsOf8( __m256* x, __m256* y, __m256* z, const __m128* v )
 	*z = _mm256_shuffle_ps( hi01, hi23, _MM_SHUFFLE( 1, 0, 1, 0 ) );
 }
 
+// What an empty candidate slot (PLEAT_NO_CONTACT_CANDIDATE, an index past P, a lane past the range) reads: usable 0,
+// so its distance is infinite and its weight 0, and its zero fields add +0 to every sum, as the scalar kernel's skip.
+static const float s_plNoRow[PLEAT_POSED_POINT_FLOATS] = { 0 };
+
 // AVX2 twin of plBodyContact_Scalar, eight vertices per vector: slot by slot, the eight candidates' whole posed rows
 // (8 floats: position, usable, normal, anchorable) loaded and transposed into their fields' lanes (plTranspose8x8);
 // the nearest, the weights and the sums lane by lane in the scalar kernel's order (an unusable or empty slot, or one
@@ -96,50 +100,36 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 {
 	uint32_t C = candidate_count;
 	const __m256 zero = _mm256_setzero_ps(), infinity = _mm256_set1_ps( INFINITY );
-	const __m256i limit = _mm256_set1_epi32( (int32_t)point_count );
 	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
 	{
 		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
-		_Alignas( 32 ) float px[8] = { 0 }, py[8] = { 0 }, pz[8] = { 0 };
-		_Alignas( 32 ) int32_t slots[PLEAT_MAX_CONTACT_CANDIDATES][8];
+		// the eight positions, (x, y) by an 8-byte load and z alone (no read past a vertex), turned into lanes
+		__m128 position[8];
 		for ( uint32_t i = 0; i < 8; ++i )
 		{
-			uint32_t v = v0 + i;
-			if ( i < count )
-			{
-				const float* x = (const float*)( (const uint8_t*)positions + (size_t)v * position_stride_bytes );
-				px[i] = x[0];
-				py[i] = x[1];
-				pz[i] = x[2];
-			}
-			for ( uint32_t c = 0; c < C; ++c )
-			{
-				slots[c][i] = i >= count ? (int32_t)PLEAT_NO_CONTACT_CANDIDATE
-										 : candidates != NULL ? (int32_t)candidates[(size_t)v * C + c] : (int32_t)v;
-			}
+			const float* q = (const float*)( (const uint8_t*)positions + (size_t)( v0 + ( i < count ? i : 0 ) ) *
+																		  position_stride_bytes );
+			position[i] = _mm_movelh_ps( _mm_castsi128_ps( _mm_loadl_epi64( (const __m128i*)q ) ), _mm_load_ss( q + 2 ) );
 		}
-		__m256 x = _mm256_load_ps( px ), y = _mm256_load_ps( py ), z = _mm256_load_ps( pz );
+		__m256 x, y, z;
+		plRowsOf8( &x, &y, &z, position );
 		__m256 ax[PLEAT_MAX_CONTACT_CANDIDATES], ay[PLEAT_MAX_CONTACT_CANDIDATES], az[PLEAT_MAX_CONTACT_CANDIDATES];
 		__m256 cnx[PLEAT_MAX_CONTACT_CANDIDATES], cny[PLEAT_MAX_CONTACT_CANDIDATES], cnz[PLEAT_MAX_CONTACT_CANDIDATES];
 		__m256 d2[PLEAT_MAX_CONTACT_CANDIDATES];
 		__m256 nearest = infinity;
 		for ( uint32_t c = 0; c < C; ++c )
 		{
-			__m256i index = _mm256_load_si256( (const __m256i*)slots[c] );
-			__m256i valid = _mm256_cmpgt_epi32( limit, index ); // an empty slot (0xFFFF) or an index past P: out
-			// the eight candidates' whole rows (an invalid one reads row 0, masked below), transposed: field f of
-			// every lane's candidate in rows[f]
+			// the eight candidates' whole rows, transposed: field f of every lane's candidate in rows[f]
 			__m256 rows[8];
-			for ( int i = 0; i < 8; ++i )
+			for ( uint32_t i = 0; i < 8; ++i )
 			{
-				uint32_t p = (uint32_t)slots[c][i] < point_count ? (uint32_t)slots[c][i] : 0u;
-				rows[i] = _mm256_loadu_ps( posed + (size_t)p * PLEAT_POSED_POINT_FLOATS );
+				uint32_t p = i >= count ? point_count : candidates != NULL ? candidates[(size_t)( v0 + i ) * C + c] : v0 + i;
+				rows[i] = _mm256_loadu_ps( p < point_count ? posed + (size_t)p * PLEAT_POSED_POINT_FLOATS : s_plNoRow );
 			}
 			plTranspose8x8( rows );
 			ax[c] = rows[0], ay[c] = rows[1], az[c] = rows[2];
 			cnx[c] = rows[4], cny[c] = rows[5], cnz[c] = rows[6];
-			__m256 flag = rows[3];
-			__m256 usable = _mm256_and_ps( _mm256_castsi256_ps( valid ), _mm256_cmp_ps( flag, zero, _CMP_NEQ_OQ ) );
+			__m256 usable = _mm256_cmp_ps( rows[3], zero, _CMP_NEQ_OQ );
 			__m256 dx = _mm256_sub_ps( x, ax[c] ), dy = _mm256_sub_ps( y, ay[c] ), dz = _mm256_sub_ps( z, az[c] );
 			__m256 d = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( dx, dx ), _mm256_mul_ps( dy, dy ) ),
 									  _mm256_mul_ps( dz, dz ) );
