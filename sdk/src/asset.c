@@ -904,10 +904,44 @@ static plLogItem plLogItemForLoadResult( plResult r )
 	}
 }
 
+// The single step's packed copies of the networks' block layers (kernels.h plLayer.packed), in one block.
+static plResult plPackBlockLayers( plContextData* ctx, plAssetData* asset )
+{
+	size_t total = 0;
+	for ( uint32_t i = 0; i < asset->lp_layer_count + asset->dec_layer_count; ++i )
+	{
+		const plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
+		total += ( plPackedLayerBytes( l ) + 63 ) & ~(size_t)63;
+	}
+	if ( total == 0 )
+	{
+		return PLEAT_RESULT_OK;
+	}
+	uint8_t* block = (uint8_t*)plAlloc( &ctx->allocator, total, 64 );
+	if ( block == NULL )
+	{
+		return PLEAT_RESULT_OUT_OF_MEMORY;
+	}
+	asset->packed_block = block;
+	asset->packed_size = total;
+	for ( uint32_t i = 0; i < asset->lp_layer_count + asset->dec_layer_count; ++i )
+	{
+		plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
+		size_t bytes = plPackedLayerBytes( l );
+		if ( bytes > 0 )
+		{
+			plPackLayer( l, block );
+			block += ( bytes + 63 ) & ~(size_t)63;
+		}
+	}
+	return PLEAT_RESULT_OK;
+}
+
 // The asset table's destroy callback (plDestroyObjectFn), also what plDestroyAsset frees with.
 static void plAssetData_Destroy( plContextData* ctx, void* object )
 {
 	plAssetData* asset = (plAssetData*)object;
+	plFree( &ctx->allocator, asset->packed_block, asset->packed_size );
 	plFree( &ctx->allocator, asset->owned_block, asset->owned_size );
 	plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
 }
@@ -971,6 +1005,10 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	}
 	if ( r == PLEAT_RESULT_OK )
 	{
+		r = plPackBlockLayers( ctx, asset );
+	}
+	if ( r == PLEAT_RESULT_OK )
+	{
 		r = plSlotTable_Insert( ctx, &ctx->assets, asset, plAssetData_Destroy, &out_asset->index1,
 								&out_asset->generation );
 	}
@@ -980,6 +1018,7 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, item, "%s (%s)%s%s", plResultString( r ),
 			   def->path != NULL ? def->path : "memory", asset->rejected_detail[0] != '\0' ? ": " : "",
 			   asset->rejected_detail );
+		plFree( &ctx->allocator, asset->packed_block, asset->packed_size );
 		plFree( &ctx->allocator, owned, owned_size );
 		plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
 		return r;

@@ -13,6 +13,8 @@ typedef struct plAssetData
 	size_t size;
 	void* owned_block;    // non-NULL if the SDK allocated (and must free) the block
 	size_t owned_size;
+	void* packed_block;   // the packed copies of the block layers (plLayer.packed), or NULL
+	size_t packed_size;
 	uint32_t instance_count; // live instances using this asset
 
 	// CONF

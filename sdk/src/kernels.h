@@ -29,6 +29,12 @@ typedef struct plLayer
 	// them at load: a packed ensemble's block-diagonal layers, pleat.train.ensemble, cost what its members cost).
 	uint32_t block_count;
 	plLayerBlock blocks[PLEAT_MAX_LAYER_BLOCKS];
+	// The single step's copy of a block layer whose windows all have one width: row r's weights over its block's
+	// window only, [out][packed_width] (plPackLayer; the asset packs at load, NULL: none). Read in place, such a layer
+	// streams its zero blocks too, as the hardware prefetchers follow each row past its window; the copy gives each
+	// window's products in the same order, so the same bits.
+	const void* packed;
+	uint32_t packed_width;
 } plLayer;
 
 // The layer's blocks as the MLP jobs run them: block_count blocks, or one dense block covering the layer.
@@ -46,6 +52,10 @@ uint64_t plLayerMacs( const plLayer* layer );
 // Finds the blocks of a layer whose weights are block-structured (rows in 2, 3, 4, 6 or 8 equal parts, each with zeros
 // outside one column window) when that saves at least a quarter of the multiply-adds; leaves block_count 0 otherwise.
 void plFindLayerBlocks( plLayer* layer );
+// Bytes of the layer's packed copy (plLayer.packed): 0 unless it has blocks whose windows all have one width > 0.
+size_t plPackedLayerBytes( const plLayer* layer );
+// Copies each row's window into dst (plPackedLayerBytes of them) and points layer->packed at it.
+void plPackLayer( plLayer* layer, void* dst );
 
 // Activation on the hidden layers (asset CONF lp_activation / dec_activation).
 #define PLEAT_ACTIVATION_RELU 1

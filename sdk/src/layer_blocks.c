@@ -6,6 +6,8 @@
 // are the dense product's bits (the skipped terms are exact zeros; tests/c/test_layer_blocks.c).
 #include "kernels.h"
 
+#include <string.h>
+
 uint32_t plLayerBlocks( const plLayer* layer, plLayerBlock* blocks )
 {
 	if ( layer->block_count == 0 || layer->block_count > PLEAT_MAX_LAYER_BLOCKS )
@@ -105,4 +107,39 @@ void plFindLayerBlocks( plLayer* layer )
 			}
 		}
 	}
+}
+
+size_t plPackedLayerBytes( const plLayer* layer )
+{
+	if ( layer->block_count < 2 || layer->block_count > PLEAT_MAX_LAYER_BLOCKS )
+	{
+		return 0;
+	}
+	uint32_t width = layer->blocks[0].col_end - layer->blocks[0].col_begin;
+	for ( uint32_t i = 1; i < layer->block_count; ++i )
+	{
+		if ( layer->blocks[i].col_end - layer->blocks[i].col_begin != width )
+		{
+			return 0; // ragged windows: the kernels' tails would differ between blocks of one stride
+		}
+	}
+	return (size_t)layer->out_count * width * ( layer->weight_fp16 ? 2u : 4u );
+}
+
+void plPackLayer( plLayer* layer, void* dst )
+{
+	size_t element = layer->weight_fp16 ? 2u : 4u;
+	uint32_t width = layer->blocks[0].col_end - layer->blocks[0].col_begin;
+	for ( uint32_t i = 0; i < layer->block_count; ++i )
+	{
+		const plLayerBlock* b = &layer->blocks[i];
+		for ( uint32_t r = b->row_begin; r < b->row_end; ++r )
+		{
+			memcpy( (uint8_t*)dst + (size_t)r * width * element,
+					(const uint8_t*)layer->weight + ( (size_t)r * layer->in_count + b->col_begin ) * element,
+					width * element );
+		}
+	}
+	layer->packed = dst;
+	layer->packed_width = width;
 }

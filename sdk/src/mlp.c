@@ -52,7 +52,17 @@ static void plMatVecTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 	for ( uint32_t i = 0; i < block_count; ++i )
 	{
 		uint32_t rb, re;
-		if ( plBlockRowsWithin( &blocks[i], begin, end, &rb, &re ) )
+		if ( !plBlockRowsWithin( &blocks[i], begin, end, &rb, &re ) )
+		{
+			continue;
+		}
+		if ( l->packed != NULL )
+		{
+			// the packed copy: the block's input window, each row's weights contiguous (kernels.h plLayer)
+			t->kernels->mat_vec( t->out, t->x + blocks[i].col_begin, l->packed, l->weight_fp16, l->bias,
+								 l->packed_width, 0, l->packed_width, rb, re );
+		}
+		else
 		{
 			t->kernels->mat_vec( t->out, t->x, l->weight, l->weight_fp16, l->bias, l->in_count, blocks[i].col_begin,
 								 blocks[i].col_end, rb, re );

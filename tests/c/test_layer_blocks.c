@@ -249,6 +249,83 @@ static void test_blocked_chain_gives_the_dense_bits( void** state )
 	}
 }
 
+// The single step's packed copies (plPackLayer): a chain whose block layers have windows of one width (two members of
+// 64 in the hidden layer, three of 48 at the output) packs them, the dense first layer and a ragged one do not, and
+// the single job gives the same bits with the copies, without them (blocks read in place) and dense, every kernel
+// set, fp32 and fp16.
+static void test_packed_block_layers_give_the_same_bits( void** state )
+{
+	(void)state;
+	enum
+	{
+		IN = 37,
+		HIDDEN = 128,
+		MIDDLE = 144,
+		OUT = 27
+	};
+	const uint32_t dense_cols[2] = { 0, IN }, pair[3] = { 0, 64, 128 }, triple[4] = { 0, 48, 96, 144 },
+				   ragged[3] = { 0, 60, 120 };
+	plSets sets = plGetSets();
+	for ( int fp16 = 0; fp16 < 2; ++fp16 )
+	{
+		plBlockLayer t[3] = { plBlockLayer_Make( IN, HIDDEN, 1, dense_cols, UINT32_MAX, fp16 ),
+							 plBlockLayer_Make( HIDDEN, MIDDLE, 2, pair, UINT32_MAX, fp16 ),
+							 plBlockLayer_Make( MIDDLE, OUT, 3, triple, UINT32_MAX, fp16 ) };
+		plLayer dense[3], blocked[3], packed[3];
+		void* copies[3] = { NULL, NULL, NULL };
+		for ( int l = 0; l < 3; ++l )
+		{
+			dense[l] = t[l].layer;
+			plFindLayerBlocks( &t[l].layer );
+			blocked[l] = t[l].layer;
+			packed[l] = t[l].layer;
+			size_t bytes = plPackedLayerBytes( &packed[l] );
+			if ( bytes > 0 )
+			{
+				copies[l] = malloc( bytes );
+				plPackLayer( &packed[l], copies[l] );
+			}
+		}
+		assert_null( copies[0] ); // dense: nothing to pack
+		assert_non_null( copies[1] );
+		assert_non_null( copies[2] );
+		assert_int_equal( packed[1].packed_width, 64 );
+		assert_int_equal( packed[2].packed_width, 48 );
+		plBlockLayer r = plBlockLayer_Make( 120, 80, 2, ragged, UINT32_MAX, fp16 ); // windows 64 and 72 wide
+		plFindLayerBlocks( &r.layer );
+		assert_int_equal( r.layer.block_count, 2 );
+		assert_int_equal( plPackedLayerBytes( &r.layer ), 0 );
+		plBlockLayer_Free( &r );
+		float x[IN], scratch[2 * MIDDLE], y_dense[OUT], y_blocked[OUT], y_packed[OUT];
+		for ( uint32_t s = 0; s < sets.count; ++s )
+		{
+			for ( int trial = 0; trial < 4; ++trial )
+			{
+				for ( uint32_t c = 0; c < IN; ++c )
+				{
+					x[c] = 2.0f * plRand();
+				}
+				plLayer* chains[3] = { dense, blocked, packed };
+				float* outs[3] = { y_dense, y_blocked, y_packed };
+				for ( int k = 0; k < 3; ++k )
+				{
+					plMlpJob job = { chains[k], 3, PLEAT_ACTIVATION_RELU, plMakeConstSpan( x, IN, 4 ),
+									 plMakeSpan( outs[k], OUT, 4 ), plMakeSpan( scratch, 2 * MIDDLE, 4 ), &sets.single[s],
+									 NULL };
+					assert_int_equal( plMlpJob_Run( &job ), PLEAT_RESULT_OK );
+				}
+				assert_memory_equal( y_dense, y_blocked, sizeof( y_dense ) );
+				assert_memory_equal( y_dense, y_packed, sizeof( y_dense ) );
+			}
+		}
+		for ( int l = 0; l < 3; ++l )
+		{
+			free( copies[l] );
+			plBlockLayer_Free( &t[l] );
+		}
+	}
+}
+
 // The shipped t-shirt is the mean of two fits packed as one network (pleat.train.ensemble): its f_LP hidden and output
 // layers and its decoder layers load with two blocks each, so a step does about what the two members do.
 static void test_shipped_ensemble_loads_with_blocks( void** state )
@@ -280,6 +357,32 @@ static void test_shipped_ensemble_loads_with_blocks( void** state )
 				   a.lp_layer_count + a.dec_layer_count, 100.0 * (double)blocked / (double)dense );
 	assert_int_equal( with_blocks, a.lp_layer_count - 1 + a.dec_layer_count ); // all but f_LP's first layer
 	assert_true( blocked < dense * 3 / 4 );
+	// Loaded through the API, those layers get their packed copies (their windows are the members' widths), in the
+	// asset's memory: destroying the asset leaves the context's live bytes where they were.
+	plContextDef cdef = plDefaultContextDef();
+	plContext context;
+	assert_int_equal( plCreateContext( &cdef, &context ), PLEAT_RESULT_OK );
+	uint64_t live_before = 0, live_after = 0;
+	assert_int_equal( plContext_GetLiveBytes( context, &live_before ), PLEAT_RESULT_OK );
+	plAssetDef adef = plDefaultAssetDef();
+	adef.data = bytes;
+	adef.size = size;
+	plAsset asset;
+	assert_int_equal( plLoadAsset( context, &adef, &asset ), PLEAT_RESULT_OK );
+	const plAssetData* loaded = plGetAssetData( asset );
+	assert_non_null( loaded );
+	uint32_t packed = 0;
+	for ( uint32_t i = 0; i < loaded->lp_layer_count + loaded->dec_layer_count; ++i )
+	{
+		const plLayer* l = i < loaded->lp_layer_count ? &loaded->lp[i] : &loaded->dec[i - loaded->lp_layer_count];
+		packed += l->packed != NULL;
+		assert_true( ( l->packed != NULL ) == ( l->block_count == 2 ) );
+	}
+	assert_int_equal( packed, with_blocks );
+	plDestroyAsset( asset );
+	assert_int_equal( plContext_GetLiveBytes( context, &live_after ), PLEAT_RESULT_OK );
+	assert_int_equal( live_after, live_before );
+	plDestroyContext( context );
 	free( bytes );
 }
 
@@ -292,6 +395,7 @@ int main( int argc, char** argv )
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_finds_the_blocks_of_ensemble_layers_and_none_where_they_do_not_pay ),
 		cmocka_unit_test( test_blocked_chain_gives_the_dense_bits ),
+		cmocka_unit_test( test_packed_block_layers_give_the_same_bits ),
 		cmocka_unit_test( test_shipped_ensemble_loads_with_blocks ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
