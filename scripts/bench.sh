@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Benchmark (not a test): builds Pleat in Release, makes the 4,424-vertex reference-size assets (bench/make_assets.py)
-# and runs bench/bench_step.c, then the per-phase breakdown (pleat_bench_phases --phases, merged in as "phase_us");
-# writes out/bench/step.json and prints it. See docs/benchmarks.md.
+# and runs bench/bench_step.c, then the per-phase breakdown (pleat_bench_phases --phases, merged in as "phase_us", and
+# for the shipped t-shirt as "tshirt_phase_us"); writes out/bench/step.json and prints it. See docs/benchmarks.md.
 # Environment: BUILD_DIR (default build/bench), ITERATIONS (default 2000), WARMUP (200), SCALAR_ITERATIONS (300),
 # CLOCK (wall, default, or cpu = the thread's CPU time, for a busy shared machine), PLEAT_ONNXRUNTIME_LIBRARY (default:
 # libonnxruntime.so* of the onnxruntime wheel in .venv). OUT_JSON (default out/bench/step.json). The crowd sweep:
@@ -45,6 +45,11 @@ ort_args=()
 "$BUILD_DIR/bench/pleat_bench_phases" --phases --asset "$OUT/asset_fp32.pleat" --asset-fp16 "$OUT/asset_fp16.pleat" \
   --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" --clock "${CLOCK:-wall}" \
   --out "$OUT/phases.json"
+# The same phases for the shipped t-shirt (fp32 and fp16, the shipped precision): its full body contact shows there
+# (body_contact); merged in as "tshirt_phase_us".
+"$BUILD_DIR/bench/pleat_bench_phases" --phases --asset "$OUT/tshirt_fp32.pleat" --asset-fp16 "$OUT/tshirt_fp16.pleat" \
+  --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" --clock "${CLOCK:-wall}" \
+  --out "$OUT/tshirt_phases.json"
 # Crowds (issue 13, docs/scene-budget.md): plStepInstances against one-by-one plInstance_Step, per instance, for 1, 8,
 # 64 and 256 instances of the shipped t-shirt and of the reference-size assets, 1 and 2 workers, the whole sweep three
 # times (medians over the rounds: a neighbour busy for a few seconds spoils one round, not the number); merged in as
@@ -62,12 +67,14 @@ ort_args=()
   --asset reference_fp32="$OUT/asset_fp32.pleat" --asset reference_fp16="$OUT/asset_fp16.pleat" \
   --counts 64 --workers 1,2 --seconds "${CROWD_SECONDS:-0.5}" --rounds 1 --only batch --clock "${CROWD_CLOCK:-wall}" \
   --out "$OUT/crowd_phases.json"
-"$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" "$OUT/crowd.json" "$OUT/crowd_phases.json" <<'PY'
+"$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" "$OUT/crowd.json" "$OUT/crowd_phases.json" \
+  "$OUT/tshirt_phases.json" <<'PY'
 import json, sys
 step = json.load(open(sys.argv[1]))
 step["phase_us"] = json.load(open(sys.argv[2]))
 step["crowd"] = json.load(open(sys.argv[3]))
 step["crowd_phases"] = json.load(open(sys.argv[4]))
+step["tshirt_phase_us"] = json.load(open(sys.argv[5]))
 json.dump(step, open(sys.argv[1], "w"), indent=2)
 PY
 cat "${OUT_JSON:-$OUT/step.json}"
