@@ -194,8 +194,8 @@ plResult plBodyPointsJob_Run( const plBodyPointsJob* job )
 									 ? job->kernels->pose_body_points
 									 : plPoseBodyPoints_Scalar;
 	kernel( job->posed, job->shaped_points, job->point_normals, job->skin_indices, job->skin_weights,
-			job->influence_count, job->skin_matrices, job->joint_count, job->rings,
-			job->rings != NULL ? job->ring_count : 0, job->point_count, job->point_begin, job->point_end );
+			job->influence_count, job->skin_matrices, job->joint_count, job->rings, job->ring_count, job->point_count,
+			job->point_begin, job->point_end );
 	return PLEAT_RESULT_OK;
 }
 

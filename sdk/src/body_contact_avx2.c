@@ -69,6 +69,13 @@ void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const floa
 	}
 }
 
+// A vertex's (x, y, z, 0): (x, y) by an unaligned 8-byte load (positions are only 4-byte aligned), z alone, so nothing
+// past the vertex is read.
+static inline __m128 plLoadPosition( const float* x )
+{
+	return _mm_movelh_ps( _mm_castsi128_ps( _mm_loadl_epi64( (const __m128i*)x ) ), _mm_load_ss( x + 2 ) );
+}
+
 // Eight (x, y, z, ·) vectors, vertex i in v[i], as three 8-lane rows x, y, z (lane i = vertex i): register shuffles, so
 // the rows are never read back from eight narrow stores (a load that spans several stores cannot be forwarded and
 // waits for them to retire; building the rows in memory cost more than the arithmetic).
@@ -103,13 +110,12 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
 	{
 		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
-		// the eight positions, (x, y) by an 8-byte load and z alone (no read past a vertex), turned into lanes
+		// the eight positions turned into lanes (a lane past the range reads the block's first vertex)
 		__m128 position[8];
 		for ( uint32_t i = 0; i < 8; ++i )
 		{
-			const float* q = (const float*)( (const uint8_t*)positions + (size_t)( v0 + ( i < count ? i : 0 ) ) *
-																		  position_stride_bytes );
-			position[i] = _mm_movelh_ps( _mm_castsi128_ps( _mm_loadl_epi64( (const __m128i*)q ) ), _mm_load_ss( q + 2 ) );
+			position[i] = plLoadPosition( (const float*)( (const uint8_t*)positions +
+														  (size_t)( v0 + ( i < count ? i : 0 ) ) * position_stride_bytes ) );
 		}
 		__m256 x, y, z;
 		plRowsOf8( &x, &y, &z, position );
@@ -322,8 +328,7 @@ void plBodyContactFast_Avx2( float* positions, uint32_t position_stride_bytes, c
 			}
 			any = 1;
 			const float* x = (const float*)( (const uint8_t*)positions + (size_t)v * position_stride_bytes );
-			// (x, y) by an unaligned 8-byte load (positions are only 4-byte aligned), z alone: no read past the vertex
-			position[i] = _mm_movelh_ps( _mm_castsi128_ps( _mm_loadl_epi64( (const __m128i*)x ) ), _mm_load_ss( x + 2 ) );
+			position[i] = plLoadPosition( x );
 			const float* r = shaped_anchors + (size_t)v * 3;
 			if ( K == 4 ) // the common case: a constant trip count, fully unrolled
 			{

@@ -1,4 +1,5 @@
-// Per-phase timing of plInstance_Step and plStepInstances (step_phases.h); compiled only into the benchmark's pleat_phases library.
+// Per-phase timing of plInstance_Step and plStepInstances (step_phases.h); compiled only into the benchmark's
+// pleat_phases library.
 #define _POSIX_C_SOURCE 200809L
 #include "step_phases.h"
 
@@ -28,11 +29,17 @@ void plStepPhaseStart( void )
 	s_last_us = plPhaseNowUs();
 }
 
-void plStepPhaseMark( plStepPhase phase )
+// The time since *last into *total, and now becomes *last.
+static void plPhaseAdd( double* total, double* last )
 {
 	double now = plPhaseNowUs();
-	g_plStepPhaseUs[phase] += now - s_last_us;
-	s_last_us = now;
+	*total += now - *last;
+	*last = now;
+}
+
+void plStepPhaseMark( plStepPhase phase )
+{
+	plPhaseAdd( &g_plStepPhaseUs[phase], &s_last_us );
 }
 
 void plBatchPhaseReset( void )
@@ -47,7 +54,5 @@ void plBatchPhaseStart( void )
 
 void plBatchPhaseMark( plBatchPhase phase )
 {
-	double now = plPhaseNowUs();
-	g_plBatchPhaseUs[phase] += now - s_batch_last_us;
-	s_batch_last_us = now;
+	plPhaseAdd( &g_plBatchPhaseUs[phase], &s_batch_last_us );
 }
