@@ -123,10 +123,9 @@ int main( int argc, char** argv )
 		fprintf( stderr, "pleat_bench_blend_batch: out of memory\n" );
 		return 1;
 	}
-	FILE* f = out_path != NULL ? fopen( out_path, "w" ) : stdout;
+	FILE* f = BenchOpenOutput( "pleat_bench_blend_batch", out_path );
 	if ( f == NULL )
 	{
-		fprintf( stderr, "pleat_bench_blend_batch: cannot write %s\n", out_path );
 		return 1;
 	}
 	fprintf( f,
@@ -196,10 +195,7 @@ int main( int argc, char** argv )
 		}
 	}
 	fprintf( f, "\n  ],\n  \"loadavg_end\": %.2f\n}\n", BenchLoadAverage() );
-	if ( f != stdout )
-	{
-		fclose( f );
-	}
+	BenchCloseOutput( f );
 	for ( uint32_t b = 0; b < B; ++b )
 	{
 		free( out[b] );

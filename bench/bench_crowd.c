@@ -550,7 +550,7 @@ static int RunScene( int argc, char** argv )
 	}
 	double lbs = MeasureDetail( tier_paths, tier_count, &motion, characters, calibration_frames,
 								( plDetail ){ -1, 0.0f }, rates, 2 );
-	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
+	FILE* out = BenchOpenOutput( "pleat_bench_crowd", out_path );
 	if ( out == NULL || lbs <= 0.0 )
 		return 1;
 	fprintf( out, "{\n  \"clock\": \"%s\",\n  \"workers\": %u,\n  \"characters\": %u,\n  \"frames\": %u,\n"
@@ -612,8 +612,7 @@ static int RunScene( int argc, char** argv )
 		SceneRig_Free( &rig );
 	}
 	fprintf( out, "\n  ]\n}\n" );
-	if ( out != stdout )
-		fclose( out );
+	BenchCloseOutput( out );
 	free( samples );
 	BenchFreeMotion( &motion );
 	if ( g_scenePool != NULL )
@@ -731,10 +730,9 @@ int main( int argc, char** argv )
 		asset_macs[a] = AssetStepMacs( paths[a] );
 	}
 
-	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
+	FILE* out = BenchOpenOutput( "pleat_bench_crowd", out_path );
 	if ( out == NULL )
 	{
-		fprintf( stderr, "pleat_bench_crowd: cannot write %s\n", out_path );
 		return 1;
 	}
 	fprintf( out,
@@ -863,10 +861,7 @@ int main( int argc, char** argv )
 	}
 	free( results );
 	fprintf( out, "\n  ],\n  \"loadavg_end\": %.2f\n}\n", BenchLoadAverage() );
-	if ( out != stdout )
-	{
-		fclose( out );
-	}
+	BenchCloseOutput( out );
 	BenchFreeMotion( &motion );
 	return failed;
 }

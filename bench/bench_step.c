@@ -685,7 +685,7 @@ int main( int argc, char** argv )
 #if defined( PLEAT_STEP_PHASES )
 	if ( phases )
 	{
-		FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
+		FILE* out = BenchOpenOutput( "pleat_bench_phases", out_path );
 		if ( out == NULL )
 			return 1;
 		fprintf( out, "{\n" );
@@ -719,8 +719,7 @@ int main( int argc, char** argv )
 				return Fail( path, result );
 		}
 		fprintf( out, "\n}\n" );
-		if ( out != stdout )
-			fclose( out );
+		BenchCloseOutput( out );
 		return 0;
 	}
 #endif
@@ -855,10 +854,9 @@ int main( int argc, char** argv )
 	if ( have_pool )
 		BenchTwoWorkers_Stop( &pool );
 
-	FILE* out = out_path != NULL ? fopen( out_path, "w" ) : stdout;
+	FILE* out = BenchOpenOutput( "pleat_bench_step", out_path );
 	if ( out == NULL )
 	{
-		fprintf( stderr, "pleat_bench_step: cannot write %s\n", out_path );
 		return 1;
 	}
 	fprintf( out, "{\n" );
@@ -898,8 +896,7 @@ int main( int argc, char** argv )
 	fprintf( out, "  \"scalar_iterations\": %u,\n", scalar_iterations );
 	PrintJsonNumber( out, "scalar_step_us", scalar_us, 1 );
 	fprintf( out, "}\n" );
-	if ( out != stdout )
-		fclose( out );
+	BenchCloseOutput( out );
 	BenchFreeMotion( &motion );
 	free( asset_bytes );
 	free( fp16_bytes );

@@ -110,6 +110,24 @@ plFrameInput BenchMotionFrame( const BenchMotion* motion, uint32_t frame )
 	return in;
 }
 
+FILE* BenchOpenOutput( const char* program, const char* path )
+{
+	FILE* f = path != NULL ? fopen( path, "w" ) : stdout;
+	if ( f == NULL )
+	{
+		fprintf( stderr, "%s: cannot write %s\n", program, path );
+	}
+	return f;
+}
+
+void BenchCloseOutput( FILE* f )
+{
+	if ( f != NULL && f != stdout )
+	{
+		fclose( f );
+	}
+}
+
 // ---- two workers ----
 
 #define BENCH_CHUNKS 4u

@@ -8,6 +8,7 @@
 #include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <time.h>
 
 // CLOCK_MONOTONIC (wall time, the default) or CLOCK_THREAD_CPUTIME_ID (this thread's CPU time).
@@ -19,6 +20,10 @@ double BenchMedian( double* values, size_t count );
 double BenchLoadAverage( void );
 // The whole file in a 64-byte aligned block (free with free()), NULL on failure.
 uint8_t* BenchReadFile( const char* path, size_t* out_size );
+// Where a program writes its JSON: path, or stdout when path is NULL; NULL, with a message naming the program on
+// stderr, when the file cannot be opened. BenchCloseOutput closes it (never stdout).
+FILE* BenchOpenOutput( const char* program, const char* path );
+void BenchCloseOutput( FILE* f );
 
 // The poses of a case.bin (tools/pleat/reference/golden.py writes it; the expected outputs are not read).
 typedef struct BenchMotion
