@@ -420,6 +420,11 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 				plVecStore( PL_ROW( p, r ), point[r] );
 			}
 			int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
+			plVecStore( PL_ROW( p, 7 ), anchorable ? one : zero );
+			if ( anchorable && rings != NULL && rings[(size_t)p * ring_count] < point_count )
+			{
+				continue; // the ring pass below writes rows 3-6 (usable, normal): a square root and three divisions
+			}
 			plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( normal[0], normal[0] ), plVecMul( normal[1], normal[1] ) ),
 												plVecMul( normal[2], normal[2] ) ) );
 			plVec usable = anchorable ? _mm256_cmp_ps( length, tiny, _CMP_GT_OQ ) : zero;
@@ -428,7 +433,6 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 			{
 				plVecStore( PL_ROW( p, 4 + r ), _mm256_and_ps( _mm256_div_ps( normal[r], length ), usable ) );
 			}
-			plVecStore( PL_ROW( p, 7 ), anchorable ? one : zero );
 		}
 	}
 	// 2. the posed body's normals from the rings (after every point is posed: a ring reads its neighbours' rows)
@@ -510,12 +514,24 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 			}
 			plVec limit = plVecAdd( plVecMul( share, nearest ), margin );
 			plVec total = zero, sx = zero, sy = zero, sz = zero, nx = zero, ny = zero, nz = zero;
+			// The weights first, and a bit per candidate that some instance weighs; the sums then visit only those, in
+			// candidate order. A lane without weight has w = +0, and sums that start at +0 never hold -0, so adding
+			// its w · row (±0) leaves them as the single kernels' skip does: skipping a candidate no lane weighs is
+			// exact. (A branch per candidate mispredicted often; the list is built without one.)
+			uint32_t weighed_k[PLEAT_MAX_CONTACT_CANDIDATES];
+			uint32_t weighed_count = 0;
 			for ( uint32_t k = 0; k < used; ++k )
 			{
-				// No branch on "no instance weighs it": with 16 candidates that test mispredicted often, and a lane
-				// without weight adds w = +0 to every sum, which leaves its bits as the single kernels' skip does.
 				plVec w = plVecSub( limit, d2[k] );
-				w = _mm256_and_ps( w, _mm256_cmp_ps( w, zero, _CMP_GT_OQ ) );
+				plVec positive = _mm256_cmp_ps( w, zero, _CMP_GT_OQ );
+				d2[k] = _mm256_and_ps( w, positive );
+				weighed_k[weighed_count] = k;
+				weighed_count += _mm256_movemask_ps( positive ) != 0;
+			}
+			for ( uint32_t j = 0; j < weighed_count; ++j )
+			{
+				uint32_t k = weighed_k[j];
+				plVec w = d2[k];
 				uint32_t p = slot[k];
 				total = plVecAdd( total, w );
 				sx = plVecAdd( sx, plVecMul( w, plVecLoad( PL_ROW( p, 0 ) ) ) );

@@ -46,12 +46,16 @@ typedef void plBlendShapesBatchFn( float* const* out, const float* const* base, 
 								   uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 
 // The lanes form of a mat-mat (sixteen instances per vector): yt[g][r][l] = bias[r] + Σ_c W[r][c] · xt[g][c][l] over
-// columns [col_begin, col_end) for rows [row_begin, row_end) of every lane group g < group_count, each (r, instance) with its single-instance twin's
-// arithmetic; xt is [group_count][in_count][16], yt [group_count][out_count][16], both 64-byte aligned (lanes past a
-// batch's instances hold anything finite, and their results are not used). fp16 weights: in_count <= 1024.
-typedef void plMatMatLanesFn( float* yt, const float* xt, uint32_t group_count, const void* weight, int weight_fp16,
-							  const float* bias, uint32_t in_count, uint32_t out_count, uint32_t col_begin,
-							  uint32_t col_end, uint32_t row_begin, uint32_t row_end );
+// columns [col_begin, col_end) for rows [row_begin, row_end) of every lane group g < group_count, each (r, instance)
+// with its single-instance twin's arithmetic; xt is [group_count][in_count][16], yt [group_count][out_count][16], both
+// 64-byte aligned (lanes past a batch's instances hold anything finite, and their results are not used). Row r's
+// window W[r][col_begin..col_end) starts at element r · weight_stride of `window`: the layer in place (window = the
+// weights + col_begin, stride in_count) or its packed copy (plLayer.packed, stride packed_width). fp16 weights:
+// col_end - col_begin <= 1024.
+typedef void plMatMatLanesFn( float* yt, const float* xt, uint32_t group_count, const void* window,
+							  size_t weight_stride, int weight_fp16, const float* bias, uint32_t in_count,
+							  uint32_t out_count, uint32_t col_begin, uint32_t col_end, uint32_t row_begin,
+							  uint32_t row_end );
 #define PLEAT_LANES 16
 #define PLEAT_LANES_MAX_FP16_COLUMNS 1024
 

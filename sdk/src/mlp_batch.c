@@ -51,8 +51,13 @@ static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 		}
 		if ( t->yt != NULL )
 		{
-			t->kernels->mat_mat_lanes( t->yt, t->xt, t->group_count, l->weight, l->weight_fp16, l->bias, l->in_count,
-									   l->out_count, cb, ce, rb, re );
+			// the packed copy where the layer has one: each row's window contiguous, one stream for the prefetchers
+			// (read in place, the windows' rows alternate with the zero blocks')
+			size_t element = l->weight_fp16 ? 2 : 4;
+			const void* window = l->packed != NULL ? l->packed : (const char*)l->weight + cb * element;
+			size_t stride = l->packed != NULL ? l->packed_width : l->in_count;
+			t->kernels->mat_mat_lanes( t->yt, t->xt, t->group_count, window, stride, l->weight_fp16, l->bias,
+									   l->in_count, l->out_count, cb, ce, rb, re );
 		}
 		else
 		{

@@ -188,7 +188,8 @@ void plMatMat_Avx512( float* const* out, const float* const* x, uint32_t batch_c
 // Rows [r, r + R) of lane group xt ([in][16]) into yt ([out_count][16]), one half (even = 0: columns 16k + l and the
 // final 8-wide step's; odd = 1: columns 16k + 8 + l) of the partial sums into acc[R][8].
 static PLEAT_ALWAYS_INLINE void plLanesHalf( const int R, int odd, const float* const w[3], const float* xt,
-											 uint32_t in_count, const float* const* ahead, __m512 acc[3][8] )
+											 uint32_t in_count, const char* const* ahead, size_t ahead_step,
+											 __m512 acc[3][8] )
 {
 	__m512 a[3][8];
 	for ( int r = 0; r < R; ++r )
@@ -210,7 +211,7 @@ static PLEAT_ALWAYS_INLINE void plLanesHalf( const int R, int odd, const float* 
 			// have evicted the networks since the last batch)
 			for ( int r = 0; r < 3; ++r )
 			{
-				_mm_prefetch( (const char*)( ahead[r] + 16 * (size_t)k ), _MM_HINT_T0 );
+				_mm_prefetch( ahead[r] + ahead_step * k, _MM_HINT_T0 );
 			}
 		}
 		if ( k == steps && ( odd || in_count - 16 * steps < 8 ) )
@@ -246,11 +247,12 @@ static PLEAT_ALWAYS_INLINE void plLanesHalf( const int R, int odd, const float* 
 }
 
 static PLEAT_ALWAYS_INLINE void plLanesRows( const int R, const float* const w[3], const float* bias, const float* xt,
-											 uint32_t in_count, const float* const* ahead, float* yt )
+											 uint32_t in_count, const char* const* ahead, size_t ahead_step,
+											 float* yt )
 {
 	__m512 even[3][8], odd[3][8];
-	plLanesHalf( R, 0, w, xt, in_count, ahead, even );
-	plLanesHalf( R, 1, w, xt, in_count, NULL, odd );
+	plLanesHalf( R, 0, w, xt, in_count, ahead, ahead_step, even );
+	plLanesHalf( R, 1, w, xt, in_count, NULL, 0, odd );
 	uint32_t tail = in_count - in_count % 8;
 	for ( int r = 0; r < R; ++r )
 	{
@@ -270,11 +272,13 @@ static PLEAT_ALWAYS_INLINE void plLanesRows( const int R, const float* const w[3
 	}
 }
 
-void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, const void* weight, int weight_fp16,
-						   const float* bias, uint32_t in_count, uint32_t out_count, uint32_t col_begin,
-						   uint32_t col_end, uint32_t row_begin, uint32_t row_end )
+void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, const void* window,
+						   size_t weight_stride, int weight_fp16, const float* bias, uint32_t in_count,
+						   uint32_t out_count, uint32_t col_begin, uint32_t col_end, uint32_t row_begin,
+						   uint32_t row_end )
 {
 	uint32_t columns = col_end - col_begin;
+	size_t row_bytes = weight_stride * ( weight_fp16 ? 2 : 4 );
 	_Alignas( 64 ) float widened[3 * PLEAT_MM512_WIDEN_COLUMNS];
 	for ( uint32_t r = row_begin; r < row_end; )
 	{
@@ -282,40 +286,43 @@ void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, con
 		const float* w[3];
 		for ( int i = 0; i < 3; ++i )
 		{
-			uint32_t row = r + (uint32_t)( i < rows ? i : 0 );
-			w[i] = (const float*)weight + (size_t)row * in_count + col_begin;
+			const char* row = (const char*)window + (size_t)( r + (uint32_t)( i < rows ? i : 0 ) ) * row_bytes;
+			w[i] = (const float*)row;
 			if ( weight_fp16 )
 			{
-				// widened once per row tile for every lane group (exact); the caller keeps in_count within the buffer
+				// widened once per row tile for every lane group (exact); the caller keeps the window within the buffer
 				float* dst = widened + (size_t)i * PLEAT_MM512_WIDEN_COLUMNS;
-				plWidenRow( dst, (const uint16_t*)weight + (size_t)row * in_count + col_begin, columns );
+				plWidenRow( dst, (const uint16_t*)row, columns );
 				w[i] = dst;
 			}
 		}
-		// the next tile's rows (fp32; fp16 rows are widened from a stream the hardware prefetcher follows)
-		const float* next[3];
-		int prefetch = !weight_fp16 && r + 3 < row_end;
+		// The next tile's rows, a line per row per 16-column step of the first group (fp16 rows, half as long, take
+		// each line twice): other stages of the step have evicted the networks since the last batch, and the widening
+		// stalled on them (a fifth of this kernel's time with fp16 weights, measured) without.
+		const char* next[3];
+		int prefetch = r + 3 < row_end;
 		for ( int i = 0; i < 3; ++i )
 		{
 			uint32_t row = r + 3 + (uint32_t)i < row_end ? r + 3 + (uint32_t)i : r + 3;
-			next[i] = (const float*)weight + (size_t)( prefetch ? row : 0 ) * in_count + col_begin;
+			next[i] = (const char*)window + (size_t)( prefetch ? row : 0 ) * row_bytes;
 		}
 		for ( uint32_t g = 0; g < group_count; ++g )
 		{
 			const float* x = xt + ( (size_t)g * in_count + col_begin ) * 16;
 			float* y = yt + ( (size_t)g * out_count + r ) * 16;
-			const float* const* ahead = prefetch && g == 0 ? next : NULL;
+			const char* const* ahead = prefetch && g == 0 ? next : NULL;
+			size_t step = weight_fp16 ? 32 : 64; // bytes of 16 columns
 			if ( rows == 3 )
 			{
-				plLanesRows( 3, w, bias + r, x, columns, ahead, y );
+				plLanesRows( 3, w, bias + r, x, columns, ahead, step, y );
 			}
 			else if ( rows == 2 )
 			{
-				plLanesRows( 2, w, bias + r, x, columns, ahead, y );
+				plLanesRows( 2, w, bias + r, x, columns, ahead, step, y );
 			}
 			else
 			{
-				plLanesRows( 1, w, bias + r, x, columns, ahead, y );
+				plLanesRows( 1, w, bias + r, x, columns, ahead, step, y );
 			}
 		}
 		r += (uint32_t)rows;

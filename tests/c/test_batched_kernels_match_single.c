@@ -193,7 +193,8 @@ static void test_mat_mat_simd_within_rounding_of_scalar_spec( void** state )
 
 // The lanes form of the mat-mat (sixteen instances per vector, where the set has one) against the single-instance
 // mat-vec of the same set for every instance, bit for bit: 16-wide steps, the 8-wide step, scalar tails, row tiles
-// of 3 and the rows left over, a partial lane group, fp32 and fp16.
+// of 3 and the rows left over, a partial lane group, fp32 and fp16, every column or a window of them (in place and
+// packed).
 static void test_mat_mat_lanes_equals_mat_vec_per_instance( void** state )
 {
 	const plTestSets* k = (const plTestSets*)*state;
@@ -237,17 +238,38 @@ static void test_mat_mat_lanes_equals_mat_vec_per_instance( void** state )
 						}
 					}
 					const void* weights = fp16 ? (const void*)layer.w16 : (const void*)layer.w;
+					size_t element = fp16 ? 2 : 4;
 					uint32_t begin = out > 3 ? 1 : 0; // a row range starting at an odd row, as a worker gets
-					k->batch[s].mat_mat_lanes( yt, xt, groups, weights, fp16, layer.bias, in, out, 0, in, begin, out );
-					for ( uint32_t b = 0; b < n; ++b )
+					// every column; a window [cb, in) read in place; the same window from a packed copy
+					// ([out][in - cb], as plPackLayer makes): all three against the single job's mat-vec
+					uint32_t cb = in / 3;
+					char* packed = (char*)malloc( (size_t)out * ( in - cb ) * element );
+					for ( uint32_t r = 0; r < out; ++r )
 					{
-						k->single[s].mat_vec( single, xs + (size_t)b * in, weights, fp16, layer.bias, in, 0, in, begin, out );
-						for ( uint32_t r = begin; r < out; ++r )
+						memcpy( packed + (size_t)r * ( in - cb ) * element,
+								(const char*)weights + ( (size_t)r * in + cb ) * element, ( in - cb ) * element );
+					}
+					for ( int form = 0; form < 3; ++form )
+					{
+						uint32_t col = form == 0 ? 0 : cb;
+						const void* window = form == 2 ? (const void*)packed
+													   : (const void*)( (const char*)weights + col * element );
+						size_t stride = form == 2 ? in - cb : in;
+						k->batch[s].mat_mat_lanes( yt, xt, groups, window, stride, fp16, layer.bias, in, out, col, in,
+												   begin, out );
+						for ( uint32_t b = 0; b < n; ++b )
 						{
-							float lane = yt[( (size_t)( b / PLEAT_LANES ) * out + r ) * PLEAT_LANES + b % PLEAT_LANES];
-							assert_memory_equal( &single[r], &lane, sizeof( float ) );
+							k->single[s].mat_vec( single, xs + (size_t)b * in, weights, fp16, layer.bias, in, col, in,
+												  begin, out );
+							for ( uint32_t r = begin; r < out; ++r )
+							{
+								float lane =
+									yt[( (size_t)( b / PLEAT_LANES ) * out + r ) * PLEAT_LANES + b % PLEAT_LANES];
+								assert_memory_equal( &single[r], &lane, sizeof( float ) );
+							}
 						}
 					}
+					free( packed );
 					free( layer.w );
 					free( xs );
 					free( xt );
