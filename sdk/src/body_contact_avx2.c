@@ -107,6 +107,10 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 {
 	uint32_t C = candidate_count;
 	const __m256 zero = _mm256_setzero_ps(), infinity = _mm256_set1_ps( INFINITY );
+	// the squared distance at which plContactReach8 reaches 0 (the whole push without candidates: 1.1)
+	const __m256 beyond_reach = candidates != NULL
+									? _mm256_set1_ps( PLEAT_CONTACT_REACH_FAR_M * PLEAT_CONTACT_REACH_FAR_M )
+									: infinity;
 	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
 	{
 		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
@@ -143,9 +147,9 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 			nearest = _mm256_min_ps( nearest, d2[c] );
 		}
 		__m256 anchored = _mm256_cmp_ps( nearest, infinity, _CMP_LT_OQ ); // lanes with a usable candidate
-		if ( _mm256_movemask_ps( anchored ) == 0 )
+		if ( _mm256_movemask_ps( _mm256_and_ps( anchored, _mm256_cmp_ps( nearest, beyond_reach, _CMP_LT_OQ ) ) ) == 0 )
 		{
-			continue;
+			continue; // no lane has a usable candidate within the reach: the push below would leave every lane
 		}
 		const float margin = PLEAT_CONTACT_BLEND_M * PLEAT_CONTACT_BLEND_M;
 		__m256 margin_limit = _mm256_add_ps( _mm256_mul_ps( _mm256_set1_ps( 1.0f + PLEAT_CONTACT_BLEND_SHARE ), nearest ),

@@ -479,6 +479,9 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 	const plVec margin = plVecSet1( PLEAT_CONTACT_BLEND_M * PLEAT_CONTACT_BLEND_M );
 	const plVec share = plVecSet1( 1.0f + PLEAT_CONTACT_BLEND_SHARE );
 	uint32_t C = candidate_count;
+	// the squared distance at which plContactReach8 reaches 0 (the whole push without candidates: 1.1's fast contact)
+	const plVec beyond_reach = candidates != NULL ? plVecSet1( PLEAT_CONTACT_REACH_FAR_M * PLEAT_CONTACT_REACH_FAR_M )
+												  : infinity;
 	for ( uint32_t v0 = 0; v0 < vertex_count; v0 += PL_LANES )
 	{
 		uint32_t count = vertex_count - v0 < PL_LANES ? vertex_count - v0 : PL_LANES;
@@ -508,9 +511,10 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 				nearest = _mm256_min_ps( nearest, d2[used - 1] );
 			}
 			plVec anchored = _mm256_cmp_ps( nearest, infinity, _CMP_LT_OQ );
-			if ( _mm256_movemask_ps( anchored ) == 0 )
+			if ( _mm256_movemask_ps( _mm256_and_ps( anchored, _mm256_cmp_ps( nearest, beyond_reach, _CMP_LT_OQ ) ) ) ==
+				 0 )
 			{
-				continue;
+				continue; // no lane has a usable candidate within the reach: the push below would leave every lane
 			}
 			plVec limit = plVecAdd( plVecMul( share, nearest ), margin );
 			plVec total = zero, sx = zero, sy = zero, sz = zero, nx = zero, ny = zero, nz = zero;
