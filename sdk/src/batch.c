@@ -37,6 +37,7 @@ typedef struct plBatchEntry
 	int needs_reset;   // a non-finite value appeared: the numeric reset runs for it on the calling thread
 	int blend;         // the blend stage writes its T_def this step
 	int geometry_done; // the batched skinning and normals wrote its positions and normals this step
+	int finished;      // plFinishEntry ran (in the geometry task, right after its lane group)
 	int read_back;     // GPU modes: the outputs are wanted on the CPU (as plInstance_Step decides it)
 } plBatchEntry;
 
@@ -484,6 +485,36 @@ int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const pl
 	return 1;
 }
 
+// ---- per instance, after the geometry: guards, commit ----
+
+static void plFinishEntry( plBatchEntry* e )
+{
+	if ( e->finished || e->result != PLEAT_RESULT_OK || e->needs_reset )
+	{
+		return;
+	}
+	plInstanceData* inst = e->inst;
+	if ( !e->geometry_done )
+	{
+		// The blend already wrote T_def; skinning (with body contact) and normals of this worker's whole instance run
+		// unsplit here (their results do not depend on the split).
+		plResult r = plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, 0, NULL );
+		if ( r != PLEAT_RESULT_OK )
+		{
+			e->result = r;
+			return;
+		}
+	}
+	size_t n3 = (size_t)inst->asset->vertex_count * 3;
+	if ( !( plAllFiniteFloats( inst->positions, n3 ) && plAllFiniteFloats( inst->normals, n3 ) ) )
+	{
+		e->needs_reset = 1;
+		return;
+	}
+	plCommit( inst, e->update.run, 0, e->input->dt_s, 1, e->output );
+	e->result = plStepResult( inst, 0, &e->update, e->input->dt_s );
+}
+
 // Lane groups [begin, end) of the members through plGeometryLanes. Every instance keeps its own positions and normals
 // buffers; only the normals' lanes live in the context's scratch.
 static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
@@ -508,6 +539,15 @@ static void plGeometryTask( uint32_t begin, uint32_t end, uint32_t worker, void*
 		}
 		if ( plGeometryLanes( g->ctx, g->kernels, g->asset, 0, insts, in, positions, normals, n ) )
 		{
+			// The finish (finite check, commit, copy out) while the lane group's positions and normals are still in
+			// this core's cache: after the whole batch's geometry they were out in L3 (a finish stage of 2.8 µs an
+			// instance for the shipped t-shirt).
+			for ( uint32_t k = 0; k < n; ++k )
+			{
+				plBatchEntry* e = &g->entries[g->members[m0 + k]];
+				plFinishEntry( e );
+				e->finished = 1;
+			}
 			continue;
 		}
 		for ( uint32_t k = 0; k < n; ++k )
@@ -548,38 +588,12 @@ static void plRunGeometry( plBatchGroup* g )
 	plRunTask( &g->ctx->runner, plGeometryTask, ( g->member_count + lanes - 1 ) / lanes, 1, g );
 	if ( atomic_load_explicit( &g->blend_result, memory_order_relaxed ) != (int)PLEAT_RESULT_OK )
 	{
-		plFailMembers( g, PLEAT_RESULT_INTERNAL_ERROR );
-	}
-}
-
-// ---- per instance, after the geometry: guards, commit ----
-
-static void plFinishEntry( plBatchEntry* e )
-{
-	if ( e->result != PLEAT_RESULT_OK || e->needs_reset )
-	{
-		return;
-	}
-	plInstanceData* inst = e->inst;
-	if ( !e->geometry_done )
-	{
-		// The blend already wrote T_def; skinning (with body contact) and normals of this worker's whole instance run
-		// unsplit here (their results do not depend on the split).
-		plResult r = plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, 0, NULL );
-		if ( r != PLEAT_RESULT_OK )
+		for ( uint32_t m = 0; m < g->member_count; ++m )
 		{
-			e->result = r;
-			return;
+			plBatchEntry* e = &g->entries[g->members[m]];
+			e->result = e->finished ? e->result : PLEAT_RESULT_INTERNAL_ERROR; // (a finished one has committed)
 		}
 	}
-	size_t n3 = (size_t)inst->asset->vertex_count * 3;
-	if ( !( plAllFiniteFloats( inst->positions, n3 ) && plAllFiniteFloats( inst->normals, n3 ) ) )
-	{
-		e->needs_reset = 1;
-		return;
-	}
-	plCommit( inst, e->update.run, 0, e->input->dt_s, 1, e->output );
-	e->result = plStepResult( inst, 0, &e->update, e->input->dt_s );
 }
 
 static void plFinishTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
