@@ -32,6 +32,7 @@ typedef struct plMatMatTask
 	float* yt; // lanes form: [group_count][out_count][PLEAT_LANES]
 	const float* xt;
 	uint32_t group_count;
+	uint32_t activation; // lanes form: applied to the task's rows (0: none, the last layer)
 } plMatMatTask;
 
 // Rows [begin, end) block by block (plLayerBlocks), each over its own column window, as the single job runs them.
@@ -64,6 +65,13 @@ static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 			t->kernels->mat_mat( t->out, t->x, t->batch_count, l->weight, l->weight_fp16, l->bias, l->in_count, cb,
 								 ce, rb, re );
 		}
+	}
+	// The activation of the rows just written, per lane group (element-wise: where it runs does not change a bit),
+	// on this worker while they are in its cache instead of over the whole layer on the calling thread after it.
+	for ( uint32_t g = 0; t->yt != NULL && t->activation != 0 && g < t->group_count; ++g )
+	{
+		plApplyActivation( t->yt + ( (size_t)g * l->out_count + begin ) * PLEAT_LANES, ( end - begin ) * PLEAT_LANES,
+						   t->activation );
 	}
 }
 
@@ -148,38 +156,44 @@ static int plUseLanes( const plMlpBatchJob* job )
 	return 1;
 }
 
-static void plRunLanes( const plMlpBatchJob* job )
+// The inputs of lane groups [begin, end) transposed: xt[g][c][l] = inputs[16 g + l][c], zero in lanes past the batch.
+static void plTransposeInputsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
-	uint32_t n = job->batch_count, groups = ( n + PLEAT_LANES - 1 ) / PLEAT_LANES;
-	size_t half = job->lanes_floats / 2 & ~(size_t)15;
-	float* buffers[2] = { job->lanes, job->lanes + half };
-	// The inputs transposed: xt[g][c][l] = inputs[16 g + l][c], zero in lanes past the batch.
-	uint32_t in_count = job->layers[0].in_count;
-	float* xt = buffers[0];
-	for ( uint32_t g = 0; g < groups; ++g )
+	(void)worker;
+	const plMlpBatchJob* job = (const plMlpBatchJob*)context;
+	uint32_t n = job->batch_count, in_count = job->layers[0].in_count;
+	for ( uint32_t g = begin; g < end; ++g )
 	{
 		for ( uint32_t l = 0; l < PLEAT_LANES; ++l )
 		{
 			uint32_t b = g * PLEAT_LANES + l;
 			const float* x = b < n ? (const float*)job->inputs[b].ptr : NULL;
-			float* column = xt + (size_t)g * in_count * PLEAT_LANES + l;
+			float* column = job->lanes + (size_t)g * in_count * PLEAT_LANES + l;
 			for ( uint32_t c = 0; c < in_count; ++c )
 			{
 				column[(size_t)c * PLEAT_LANES] = x != NULL ? x[c] : 0.0f;
 			}
 		}
 	}
+}
+
+static void plRunLanes( const plMlpBatchJob* job )
+{
+	uint32_t n = job->batch_count, groups = ( n + PLEAT_LANES - 1 ) / PLEAT_LANES;
+	size_t half = job->lanes_floats / 2 & ~(size_t)15;
+	float* buffers[2] = { job->lanes, job->lanes + half };
+	plRunTask( job->runner, plTransposeInputsTask, groups, 1, (void*)job ); // into buffers[0]
 	for ( uint32_t i = 0; i < job->layer_count; ++i )
 	{
 		const plLayer* layer = &job->layers[i];
 		float* yt = buffers[( i + 1 ) & 1u];
-		plMatMatTask task = {
-			.kernels = job->kernels, .layer = layer, .yt = yt, .xt = buffers[i & 1u], .group_count = groups };
+		plMatMatTask task = { .kernels = job->kernels,
+							  .layer = layer,
+							  .yt = yt,
+							  .xt = buffers[i & 1u],
+							  .group_count = groups,
+							  .activation = i + 1 < job->layer_count ? job->activation : 0 };
 		plRunTask( job->runner, plMatMatTaskRun, layer->out_count, 64, &task );
-		if ( i + 1 < job->layer_count )
-		{
-			plApplyActivation( yt, groups * layer->out_count * PLEAT_LANES, job->activation ); // element-wise
-		}
 	}
 	// The outputs back per instance.
 	const float* yt = buffers[job->layer_count & 1u];
