@@ -379,7 +379,8 @@ void plBodyContactFastBatch_Avx2( float* const* positions, const float* const* s
 
 // The full body contact (twin of plPoseBodyPoints_Avx2, plBodyPointNormals_Avx2 and plBodyContact_Avx2) of up to 8
 // instances of one asset, the instances in the lanes: the posed points go to scratch as [P][8 rows][8 lanes] (a_x, a_y,
-// a_z, usable, n_x, n_y, n_z, anchorable), so that a ring point's or a candidate's row is one aligned 8-lane load for
+// a_z, penalty, n_x, n_y, n_z, unused; penalty = +0 where the point is usable, +inf where not, so that a distance plus
+// its penalty is the kernels' "usable ? d : inf" with one addition), so that a ring point's or a candidate's row is one aligned 8-lane load for
 // all instances at once instead of a gather per instance. Per lane the operations of the single kernels in their order
 // (the posing's blend and FMAs as plPoseAnchor, as plBodyContactFastBatch_Avx2 does; the ring sums and the push as the
 // scalar kernels, which the single AVX2 twins match), so every instance gets its lone step's bits (what
@@ -396,7 +397,7 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 	_Alignas( 64 ) float lanes[( J + 1 ) * 12 * PL_LANES];
 	_Alignas( 64 ) float block[3 * PL_LANES * PL_LANES];
 	uint32_t K = influence_count, n = batch_count < PL_LANES ? batch_count : PL_LANES;
-	const plVec one = plVecSet1( 1.0f ), zero = plVecZero(), infinity = plVecSet1( INFINITY );
+	const plVec zero = plVecZero(), infinity = plVecSet1( INFINITY );
 	const plVec tiny = plVecSet1( 1e-12f );
 	plSkinMatricesToLanes( skin_matrices, n, J, lanes );
 #define PL_ROW( p, e ) ( scratch + ( (size_t)( p ) * 8 + ( e ) ) * PL_LANES )
@@ -420,7 +421,6 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 				plVecStore( PL_ROW( p, r ), point[r] );
 			}
 			int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
-			plVecStore( PL_ROW( p, 7 ), anchorable ? one : zero );
 			if ( anchorable && rings != NULL && rings[(size_t)p * ring_count] < point_count )
 			{
 				continue; // the ring pass below writes rows 3-6 (usable, normal): a square root and three divisions
@@ -428,7 +428,7 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 			plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( normal[0], normal[0] ), plVecMul( normal[1], normal[1] ) ),
 												plVecMul( normal[2], normal[2] ) ) );
 			plVec usable = anchorable ? _mm256_cmp_ps( length, tiny, _CMP_GT_OQ ) : zero;
-			plVecStore( PL_ROW( p, 3 ), _mm256_and_ps( one, usable ) );
+			plVecStore( PL_ROW( p, 3 ), _mm256_andnot_ps( usable, infinity ) );
 			for ( int r = 0; r < 3; ++r )
 			{
 				plVecStore( PL_ROW( p, 4 + r ), _mm256_and_ps( _mm256_div_ps( normal[r], length ), usable ) );
@@ -464,7 +464,7 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 		}
 		plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( nx, nx ), plVecMul( ny, ny ) ), plVecMul( nz, nz ) ) );
 		plVec usable = _mm256_cmp_ps( length, tiny, _CMP_GT_OQ );
-		plVecStore( PL_ROW( p, 3 ), _mm256_and_ps( one, usable ) );
+		plVecStore( PL_ROW( p, 3 ), _mm256_andnot_ps( usable, infinity ) );
 		plVecStore( PL_ROW( p, 4 ), _mm256_and_ps( _mm256_div_ps( nx, length ), usable ) );
 		plVecStore( PL_ROW( p, 5 ), _mm256_and_ps( _mm256_div_ps( ny, length ), usable ) );
 		plVecStore( PL_ROW( p, 6 ), _mm256_and_ps( _mm256_div_ps( nz, length ), usable ) );
@@ -506,7 +506,7 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 				plVec dx = plVecSub( x, plVecLoad( PL_ROW( p, 0 ) ) ), dy = plVecSub( y, plVecLoad( PL_ROW( p, 1 ) ) );
 				plVec dz = plVecSub( z, plVecLoad( PL_ROW( p, 2 ) ) );
 				plVec d = plVecAdd( plVecAdd( plVecMul( dx, dx ), plVecMul( dy, dy ) ), plVecMul( dz, dz ) );
-				d2[used] = _mm256_blendv_ps( infinity, d, _mm256_cmp_ps( plVecLoad( PL_ROW( p, 3 ) ), zero, _CMP_NEQ_OQ ) );
+				d2[used] = plVecAdd( d, plVecLoad( PL_ROW( p, 3 ) ) ); // d + 0 = d (d >= +0), d + inf = inf
 				slot[used++] = p;
 				nearest = _mm256_min_ps( nearest, d2[used - 1] );
 			}
