@@ -904,8 +904,9 @@ static plLogItem plLogItemForLoadResult( plResult r )
 	}
 }
 
-// The single step's packed copies of the networks' block layers (kernels.h plLayer.packed), in one block.
-static plResult plPackBlockLayers( plContextData* ctx, plAssetData* asset )
+// What the load derives for the kernels, in one block: the single step's packed copies of the networks' block layers
+// (kernels.h plLayer.packed) and the body's rings in lanes for the AVX2 ring normals (plRingLanes).
+static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 {
 	size_t total = 0;
 	for ( uint32_t i = 0; i < asset->lp_layer_count + asset->dec_layer_count; ++i )
@@ -913,6 +914,10 @@ static plResult plPackBlockLayers( plContextData* ctx, plAssetData* asset )
 		const plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
 		total += ( plPackedLayerBytes( l ) + 63 ) & ~(size_t)63;
 	}
+	size_t ring_lanes = asset->body_anchor_ring != NULL
+							? plRingLanesCount( asset->body_point_count, asset->body_anchor_ring_count ) * sizeof( int32_t )
+							: 0;
+	total += ring_lanes;
 	if ( total == 0 )
 	{
 		return PLEAT_RESULT_OK;
@@ -922,8 +927,8 @@ static plResult plPackBlockLayers( plContextData* ctx, plAssetData* asset )
 	{
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
-	asset->packed_block = block;
-	asset->packed_size = total;
+	asset->derived_block = block;
+	asset->derived_size = total;
 	for ( uint32_t i = 0; i < asset->lp_layer_count + asset->dec_layer_count; ++i )
 	{
 		plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
@@ -934,6 +939,11 @@ static plResult plPackBlockLayers( plContextData* ctx, plAssetData* asset )
 			block += ( bytes + 63 ) & ~(size_t)63;
 		}
 	}
+	if ( ring_lanes > 0 )
+	{
+		plRingLanes( (int32_t*)block, asset->body_anchor_ring, asset->body_anchor_ring_count, asset->body_point_count );
+		asset->body_anchor_ring_lanes = (const int32_t*)block;
+	}
 	return PLEAT_RESULT_OK;
 }
 
@@ -941,7 +951,7 @@ static plResult plPackBlockLayers( plContextData* ctx, plAssetData* asset )
 static void plAssetData_Destroy( plContextData* ctx, void* object )
 {
 	plAssetData* asset = (plAssetData*)object;
-	plFree( &ctx->allocator, asset->packed_block, asset->packed_size );
+	plFree( &ctx->allocator, asset->derived_block, asset->derived_size );
 	plFree( &ctx->allocator, asset->owned_block, asset->owned_size );
 	plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
 }
@@ -1005,7 +1015,7 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	}
 	if ( r == PLEAT_RESULT_OK )
 	{
-		r = plPackBlockLayers( ctx, asset );
+		r = plDeriveKernelData( ctx, asset );
 	}
 	if ( r == PLEAT_RESULT_OK )
 	{
@@ -1018,7 +1028,7 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, item, "%s (%s)%s%s", plResultString( r ),
 			   def->path != NULL ? def->path : "memory", asset->rejected_detail[0] != '\0' ? ": " : "",
 			   asset->rejected_detail );
-		plFree( &ctx->allocator, asset->packed_block, asset->packed_size );
+		plFree( &ctx->allocator, asset->derived_block, asset->derived_size );
 		plFree( &ctx->allocator, owned, owned_size );
 		plFree( &ctx->allocator, asset, sizeof( plAssetData ) );
 		return r;

@@ -13,8 +13,8 @@ typedef struct plAssetData
 	size_t size;
 	void* owned_block;    // non-NULL if the SDK allocated (and must free) the block
 	size_t owned_size;
-	void* packed_block;   // the packed copies of the block layers (plLayer.packed), or NULL
-	size_t packed_size;
+	void* derived_block;  // what the load derives for the kernels (plDeriveKernelData), or NULL
+	size_t derived_size;
 	uint32_t instance_count; // live instances using this asset
 
 	// CONF
@@ -64,6 +64,7 @@ typedef struct plAssetData
 	uint32_t body_anchor_candidate_count;     // C (1..PLEAT_MAX_CONTACT_CANDIDATES; 1 for 1.1)
 	const uint16_t* body_anchor_ring;         // [P][R] each point's ring of points (BARG, asset 1.2) or NULL
 	uint32_t body_anchor_ring_count;          // R (3..PLEAT_MAX_POINT_RING), 0 without BARG
+	const int32_t* body_anchor_ring_lanes;    // the rings in lanes (plRingLanes; in derived_block), with the rings
 	int body_contact_fast_ready;              // the fast contact can run: P >= N and every vertex's first candidate
 	                                          // is its own point v (or none), so rows 0..N-1 are the 1.1 layout
 	uint32_t pinned_count;

@@ -80,9 +80,32 @@ void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const fl
 	}
 }
 
-void plBodyPointNormals_Scalar( float* posed, uint32_t point_count, const uint16_t* rings, uint32_t ring_count,
-								uint32_t p_begin, uint32_t p_end )
+size_t plRingLanesCount( uint32_t point_count, uint32_t ring_count )
 {
+	return (size_t)( ( point_count + 7 ) / 8 ) * ring_count * 8;
+}
+
+void plRingLanes( int32_t* dst, const uint16_t* rings, uint32_t ring_count, uint32_t point_count )
+{
+	uint32_t R = ring_count;
+	for ( uint32_t b = 0; b < ( point_count + 7 ) / 8; ++b )
+	{
+		for ( uint32_t s = 0; s < R; ++s )
+		{
+			for ( uint32_t i = 0; i < 8; ++i )
+			{
+				uint32_t p = 8 * b + i;
+				uint32_t q = p < point_count ? rings[(size_t)p * R + s] : point_count;
+				dst[( (size_t)b * R + s ) * 8 + i] = q < point_count ? (int32_t)q : INT32_MIN;
+			}
+		}
+	}
+}
+
+void plBodyPointNormals_Scalar( float* posed, uint32_t point_count, const uint16_t* rings, uint32_t ring_count,
+								const int32_t* ring_lanes, uint32_t p_begin, uint32_t p_end )
+{
+	(void)ring_lanes;
 	uint32_t R = ring_count;
 	for ( uint32_t p = p_begin; p < p_end; ++p )
 	{
@@ -210,7 +233,8 @@ plResult plBodyPointNormalsJob_Run( const plBodyPointNormalsJob* job )
 	plBodyPointNormalsFn* kernel = job->kernels != NULL && job->kernels->body_point_normals != NULL
 									   ? job->kernels->body_point_normals
 									   : plBodyPointNormals_Scalar;
-	kernel( job->posed, job->point_count, job->rings, job->ring_count, job->point_begin, job->point_end );
+	kernel( job->posed, job->point_count, job->rings, job->ring_count, job->ring_lanes, job->point_begin,
+			job->point_end );
 	return PLEAT_RESULT_OK;
 }
 

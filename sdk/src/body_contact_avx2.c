@@ -209,40 +209,44 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 // next, the last slot of each lane closing on its d_0 (a blend where the next slot is past the lane's ring). The same
 // operations in the same order as the scalar kernel, lane by lane (no contraction), so the two agree bit for bit. Why
 // lanes of points: a point's normal is one chain (the fan's sum, a square root, three divisions), so one point at a
-// time (16-byte rows, shuffles for the cross products) ran at its latency, ~25 ns a point against ~11 here.
+// time (16-byte rows, shuffles for the cross products) ran at its latency, ~25 ns a point against ~11 here. The slots
+// come from the rings in lanes (plRingLanes, built at load): one load gives a slot's eight indices and which are used.
+// Built here per block of eight, from the rings, they were a quarter of the kernel's work (the t-shirt's step 100.4
+// -> 93.7 µs without). A block may begin before p_begin or end past p_end: the lanes outside are computed, not written.
 void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t* rings, uint32_t ring_count,
-							  uint32_t p_begin, uint32_t p_end )
+							  const int32_t* ring_lanes, uint32_t p_begin, uint32_t p_end )
 {
-	uint32_t R = ring_count;
-	const __m256i limit = _mm256_set1_epi32( (int32_t)point_count );
-	const __m256 zero = _mm256_setzero_ps();
-	for ( uint32_t p0 = p_begin; p0 < p_end; p0 += 8 )
+	if ( ring_lanes == NULL )
 	{
-		uint32_t count = p_end - p0 < 8 ? p_end - p0 : 8;
-		// Ring indices slot by slot, points across the lanes (a lane past the range, not an anchor or without a ring:
-		// every slot empty), and whether any lane changes.
-		_Alignas( 32 ) int32_t slots[PLEAT_MAX_POINT_RING][8];
-		int any = 0;
+		plBodyPointNormals_Scalar( posed, point_count, rings, ring_count, NULL, p_begin, p_end );
+		return;
+	}
+	uint32_t R = ring_count;
+	const __m256 zero = _mm256_setzero_ps();
+	const __m256i none = _mm256_set1_epi32( -1 ); // an index > -1 is used; INT32_MIN (an empty slot) is not
+	for ( uint32_t p0 = p_begin & ~7u; p0 < p_end; p0 += 8 )
+	{
+		const int32_t* slots = ring_lanes + (size_t)( p0 / 8 ) * R * 8;
+		// the lanes that change: in the range, an anchor (row 7) and with a ring (slot 0 used)
+		int changes = _mm256_movemask_ps(
+			_mm256_castsi256_ps( _mm256_cmpgt_epi32( _mm256_load_si256( (const __m256i*)slots ), none ) ) );
 		for ( uint32_t i = 0; i < 8; ++i )
 		{
 			uint32_t p = p0 + i;
-			const float* out = i < count ? posed + (size_t)p * PLEAT_POSED_POINT_FLOATS : NULL;
-			int changes = out != NULL && out[7] != 0.0f && rings[(size_t)p * R] < point_count;
-			any |= changes;
-			for ( uint32_t s = 0; s < R; ++s )
+			if ( p < p_begin || p >= p_end || posed[(size_t)p * PLEAT_POSED_POINT_FLOATS + 7] == 0.0f )
 			{
-				slots[s][i] = changes ? (int32_t)rings[(size_t)p * R + s] : (int32_t)PLEAT_NO_CONTACT_CANDIDATE;
+				changes &= ~( 1 << i );
 			}
 		}
-		if ( !any )
+		if ( changes == 0 )
 		{
 			continue;
 		}
-		// the eight points' own positions (a lane past the range reads row 0 and changes nothing)
+		// the eight points' own positions (a lane past P reads row 0 and changes nothing)
 		__m128 v[8];
 		for ( uint32_t i = 0; i < 8; ++i )
 		{
-			v[i] = _mm_loadu_ps( posed + (size_t)( i < count ? p0 + i : 0u ) * PLEAT_POSED_POINT_FLOATS ); // past: row 0
+			v[i] = _mm_loadu_ps( posed + (size_t)( p0 + i < point_count ? p0 + i : 0u ) * PLEAT_POSED_POINT_FLOATS );
 		}
 		__m256 px, py, pz;
 		plRowsOf8( &px, &py, &pz, v );
@@ -250,13 +254,12 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 		__m256 used[PLEAT_MAX_POINT_RING];
 		for ( uint32_t s = 0; s < R; ++s )
 		{
-			__m256i index = _mm256_load_si256( (const __m256i*)slots[s] );
-			__m256i valid = _mm256_cmpgt_epi32( limit, index );
-			used[s] = _mm256_castsi256_ps( valid );
+			const int32_t* slot = slots + (size_t)s * 8;
+			used[s] = _mm256_castsi256_ps( _mm256_cmpgt_epi32( _mm256_load_si256( (const __m256i*)slot ), none ) );
 			for ( uint32_t i = 0; i < 8; ++i )
 			{
-				uint32_t q = (uint32_t)slots[s][i] < point_count ? (uint32_t)slots[s][i] : 0u; // an empty slot: row 0
-				v[i] = _mm_loadu_ps( posed + (size_t)q * PLEAT_POSED_POINT_FLOATS );
+				// the index's low 16 bits (INT32_MIN's are 0: an empty slot reads row 0, which its mask leaves out)
+				v[i] = _mm_loadu_ps( posed + (size_t)( (uint32_t)slot[i] & 0xFFFFu ) * PLEAT_POSED_POINT_FLOATS );
 			}
 			__m256 ax, ay, az;
 			plRowsOf8( &ax, &ay, &az, v );
@@ -287,9 +290,9 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 		_mm256_store_ps( ry, _mm256_and_ps( _mm256_div_ps( ny, length ), usable ) );
 		_mm256_store_ps( rz, _mm256_and_ps( _mm256_div_ps( nz, length ), usable ) );
 		_mm256_store_ps( ru, _mm256_and_ps( _mm256_set1_ps( 1.0f ), usable ) );
-		for ( uint32_t i = 0; i < count; ++i )
+		for ( uint32_t i = 0; i < 8; ++i )
 		{
-			if ( slots[0][i] < (int32_t)point_count ) // the lanes that change
+			if ( changes & ( 1 << i ) )
 			{
 				float* out = posed + (size_t)( p0 + i ) * PLEAT_POSED_POINT_FLOATS;
 				out[3] = ru[i];

@@ -75,8 +75,14 @@ plResult plBodyPointNormals( plInstanceData* inst, uint32_t begin, uint32_t end 
 	{
 		return PLEAT_RESULT_OK; // asset 1.1: the blended rest normals stand
 	}
-	plBodyPointNormalsJob job = { inst->posed_points, a->body_point_count, a->body_anchor_ring,
-								  a->body_anchor_ring_count, begin, end, &inst->ctx->kernels };
+	plBodyPointNormalsJob job = { inst->posed_points,
+								  a->body_point_count,
+								  a->body_anchor_ring,
+								  a->body_anchor_ring_count,
+								  begin,
+								  end,
+								  &inst->ctx->kernels,
+								  a->body_anchor_ring_lanes };
 	return plBodyPointNormalsJob_Run( &job );
 }
 

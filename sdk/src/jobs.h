@@ -247,6 +247,7 @@ typedef struct plBodyPointNormalsJob
 	uint32_t ring_count;               // R
 	uint32_t point_begin, point_end;
 	const plKernels* kernels;          // optional: NULL = the scalar kernel
+	const int32_t* ring_lanes;         // optional: the rings in lanes (plRingLanes), for the AVX2 kernel
 } plBodyPointNormalsJob;
 
 plResult plBodyPointNormalsJob_Run( const plBodyPointNormalsJob* job );

@@ -131,9 +131,16 @@ typedef void plPoseBodyPointsFn( float* posed, const float* shaped_points, const
 // point indices counter-clockwise from outside, then indices >= P): with d_i = a_{r_i} − a_p,
 // n = Σ_i d_i × d_{(i+1) mod m} (the area-weighted normal of the closed fan), read from the posed positions that
 // plPoseBodyPointsFn wrote for every point; then usable = |n| > 1e-12, n normalised. A point without a ring, or not
-// anchorable, keeps its row. Writes only the normal and usable of the points in the range.
+// anchorable, keeps its row. Writes only the normal and usable of the points in the range. ring_lanes (optional): the
+// same rings in lanes (plRingLanes), which the AVX2 kernel reads (without them it runs the scalar kernel, the same bits).
 typedef void plBodyPointNormalsFn( float* posed, uint32_t point_count, const uint16_t* rings, uint32_t ring_count,
-								   uint32_t p_begin, uint32_t p_end );
+								   const int32_t* ring_lanes, uint32_t p_begin, uint32_t p_end );
+// The rings [P][R] in lanes for the AVX2 ring normals: [ceil(P / 8)][R][8] int32, slot s of point 8 b + i at [b][s][i]
+// (INT32_MIN where the slot is empty: an index >= P, or a lane past P). The AVX2 kernel then loads a slot's eight
+// indices and its mask at once; building them per call from the rings was a quarter of its work (asset.c builds them
+// at load, plRingLanesCount int32 of them).
+size_t plRingLanesCount( uint32_t point_count, uint32_t ring_count );
+void plRingLanes( int32_t* dst, const uint16_t* rings, uint32_t ring_count, uint32_t point_count );
 // The push for vertices [v_begin, v_end): of each vertex's usable candidates (candidates [N][C], an index >= P or
 // PLEAT_NO_CONTACT_CANDIDATE = an empty slot; NULL = vertex v's point is v, C = 1), with m the nearest squared distance,
 // w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE)·m + PLEAT_CONTACT_BLEND_M² − |x − a_c|²), a = Σ w_c a_c / Σ w_c and

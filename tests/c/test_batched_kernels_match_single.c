@@ -788,6 +788,8 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 									: c == 2 && v % 4 == 0 ? (uint16_t)( P + v ) : (uint16_t)q;
 		}
 	}
+	_Alignas( 32 ) int32_t ring_lanes[( P + 7 ) / 8 * R * 8]; // the single step's rings in lanes, as the asset has them
+	plRingLanes( ring_lanes, rings, R, P );
 	// (a machine without AVX2 has only the scalar set, which runs each instance alone: nothing to compare)
 	for ( uint32_t s = 0; s < k->count; ++s )
 	{
@@ -834,7 +836,7 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 				memcpy( single, before[b], sizeof( single ) );
 				k->single[s].pose_body_points( posed, points[b], normals, indices, weights, K, mats[b], J, rings, R, P, 0,
 											  P );
-				k->single[s].body_point_normals( posed, P, rings, R, 0, P );
+				k->single[s].body_point_normals( posed, P, rings, R, ring_lanes, 0, P );
 				k->single[s].body_contact( single, 12, posed, P, candidates, C, offsets[b], 0, NV );
 				assert_memory_equal( single, ps[b], sizeof( single ) );
 				moved |= memcmp( single, before[b], sizeof( single ) ) != 0;

@@ -633,7 +633,7 @@ static void test_body_point_normals_from_rings_by_hand( void** state )
 	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 5, 0, 5, NULL, NULL, 0 };
 	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
 	assert_float_equal( posed[3 * PLEAT_POSED_POINT_FLOATS + 0], -1.0f, 0.0f ); // a corner is posed too
-	plBodyPointNormalsJob job = { posed, 5, rings, 4, 0, 5, NULL };
+	plBodyPointNormalsJob job = { posed, 5, rings, 4, 0, 5, NULL, NULL };
 	assert_int_equal( plBodyPointNormalsJob_Run( &job ), PLEAT_RESULT_OK );
 	const float expected[5][4] = { { 1, 0, 0, 1 }, { 1, 0, 1, 0 }, { 0, 0, 0, 0 }, { 0, 0, 0, 0 }, { 0, 0, 0, 0 } };
 	for ( int p = 0; p < 5; ++p )

@@ -351,10 +351,30 @@ static void test_body_point_normals_avx2_are_bit_identical_to_scalar( void** sta
 		}
 		float os[P * PLEAT_POSED_POINT_FLOATS], ov[P * PLEAT_POSED_POINT_FLOATS];
 		memcpy( os, start, sizeof( os ) );
-		memcpy( ov, start, sizeof( ov ) );
-		pair->scalar.body_point_normals( os, P, rings, R, 2, P - 3 );
-		pair->simd.body_point_normals( ov, P, rings, R, 2, P - 3 );
-		assert_memory_equal( os, ov, sizeof( os ) );
+		pair->scalar.body_point_normals( os, P, rings, R, NULL, 2, P - 3 );
+		// the SIMD kernel with the rings in lanes (as the asset gives them), over the whole range and over two ranges
+		// split inside a block of eight, as two workers may get them; and without them (its scalar fallback)
+		_Alignas( 32 ) int32_t lanes[( P + 7 ) / 8 * 8 * 8];
+		assert_true( plRingLanesCount( P, R ) <= sizeof( lanes ) / sizeof( lanes[0] ) );
+		plRingLanes( lanes, rings, R, P );
+		for ( int form = 0; form < 3; ++form )
+		{
+			memcpy( ov, start, sizeof( ov ) );
+			if ( form == 0 )
+			{
+				pair->simd.body_point_normals( ov, P, rings, R, lanes, 2, P - 3 );
+			}
+			else if ( form == 1 )
+			{
+				pair->simd.body_point_normals( ov, P, rings, R, lanes, 2, 21 );
+				pair->simd.body_point_normals( ov, P, rings, R, lanes, 21, P - 3 );
+			}
+			else
+			{
+				pair->simd.body_point_normals( ov, P, rings, R, NULL, 2, P - 3 );
+			}
+			assert_memory_equal( os, ov, sizeof( os ) );
+		}
 		uint32_t changed = 0;
 		for ( uint32_t p = 0; p < P; ++p )
 		{
