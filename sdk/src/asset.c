@@ -905,7 +905,8 @@ static plLogItem plLogItemForLoadResult( plResult r )
 }
 
 // What the load derives for the kernels, in one block: the single step's packed copies of the networks' block layers
-// (kernels.h plLayer.packed) and the body's rings in lanes for the AVX2 ring normals (plRingLanes).
+// (kernels.h plLayer.packed), the body's rings in lanes for the AVX2 ring normals (plRingLanes) and the contact
+// candidates as posed rows' offsets for the AVX2 push (plContactRowOffsets).
 static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 {
 	size_t total = 0;
@@ -917,7 +918,12 @@ static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 	size_t ring_lanes = asset->body_anchor_ring != NULL
 							? plRingLanesCount( asset->body_point_count, asset->body_anchor_ring_count ) * sizeof( int32_t )
 							: 0;
-	total += ring_lanes;
+	total += ( ring_lanes + 63 ) & ~(size_t)63;
+	uint32_t C = asset->body_anchor_candidates != NULL ? asset->body_anchor_candidate_count : 1;
+	size_t row_offsets = asset->body_point_count > 0
+							 ? plContactRowOffsetsCount( asset->vertex_count, C ) * sizeof( uint32_t )
+							 : 0;
+	total += row_offsets;
 	if ( total == 0 )
 	{
 		return PLEAT_RESULT_OK;
@@ -943,6 +949,13 @@ static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 	{
 		plRingLanes( (int32_t*)block, asset->body_anchor_ring, asset->body_anchor_ring_count, asset->body_point_count );
 		asset->body_anchor_ring_lanes = (const int32_t*)block;
+		block += ( ring_lanes + 63 ) & ~(size_t)63;
+	}
+	if ( row_offsets > 0 )
+	{
+		plContactRowOffsets( (uint32_t*)block, asset->body_anchor_candidates, C, asset->vertex_count,
+							 asset->body_point_count );
+		asset->body_contact_row_offsets = (const uint32_t*)block;
 	}
 	return PLEAT_RESULT_OK;
 }

@@ -65,6 +65,8 @@ typedef struct plAssetData
 	const uint16_t* body_anchor_ring;         // [P][R] each point's ring of points (BARG, asset 1.2) or NULL
 	uint32_t body_anchor_ring_count;          // R (3..PLEAT_MAX_POINT_RING), 0 without BARG
 	const int32_t* body_anchor_ring_lanes;    // the rings in lanes (plRingLanes; in derived_block), with the rings
+	const uint32_t* body_contact_row_offsets; // the candidates as posed rows' offsets (plContactRowOffsets; in
+											  // derived_block), with body points
 	int body_contact_fast_ready;              // the fast contact can run: P >= N and every vertex's first candidate
 	                                          // is its own point v (or none), so rows 0..N-1 are the 1.1 layout
 	uint32_t pinned_count;

@@ -80,6 +80,30 @@ void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const fl
 	}
 }
 
+size_t plContactRowOffsetsCount( uint32_t vertex_count, uint32_t candidate_count )
+{
+	return (size_t)( ( vertex_count + 7 ) / 8 ) * candidate_count * 8;
+}
+
+void plContactRowOffsets( uint32_t* dst, const uint16_t* candidates, uint32_t candidate_count, uint32_t vertex_count,
+						  uint32_t point_count )
+{
+	uint32_t C = candidate_count;
+	for ( uint32_t b = 0; b < ( vertex_count + 7 ) / 8; ++b )
+	{
+		for ( uint32_t c = 0; c < C; ++c )
+		{
+			for ( uint32_t i = 0; i < 8; ++i )
+			{
+				uint32_t v = 8 * b + i;
+				uint32_t p = v >= vertex_count ? point_count : candidates != NULL ? candidates[(size_t)v * C + c] : v;
+				p = p < point_count ? p : point_count;
+				dst[( (size_t)b * C + c ) * 8 + i] = p * PLEAT_POSED_POINT_FLOATS * (uint32_t)sizeof( float );
+			}
+		}
+	}
+}
+
 size_t plRingLanesCount( uint32_t point_count, uint32_t ring_count )
 {
 	return (size_t)( ( point_count + 7 ) / 8 ) * ring_count * 8;
@@ -145,9 +169,10 @@ void plBodyPointNormals_Scalar( float* posed, uint32_t point_count, const uint16
 }
 
 void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, const float* posed, uint32_t point_count,
-						   const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
-						   uint32_t v_end )
+						   const uint16_t* candidates, uint32_t candidate_count, const uint32_t* row_offsets,
+						   float offset_m, uint32_t v_begin, uint32_t v_end )
 {
+	(void)row_offsets;
 	uint32_t C = candidate_count;
 	for ( uint32_t v = v_begin; v < v_end; ++v )
 	{
@@ -247,6 +272,6 @@ plResult plBodyContactJob_Run( const plBodyContactJob* job )
 	plBodyContactFn* kernel = job->kernels != NULL && job->kernels->body_contact != NULL ? job->kernels->body_contact
 																						  : plBodyContact_Scalar;
 	kernel( (float*)job->positions.ptr, job->positions.stride_bytes, job->posed, job->point_count, job->candidates,
-			job->candidate_count, job->offset_m, job->vertex_begin, job->vertex_end );
+			job->candidate_count, job->row_offsets, job->offset_m, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }

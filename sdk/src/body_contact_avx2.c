@@ -90,36 +90,42 @@ static inline void plRowsOf8( __m256* x, __m256* y, __m256* z, const __m128* v )
 	*z = _mm256_shuffle_ps( hi01, hi23, _MM_SHUFFLE( 1, 0, 1, 0 ) );
 }
 
-// What an empty candidate slot (PLEAT_NO_CONTACT_CANDIDATE, an index past P, a lane past the range) reads: usable 0,
-// so its distance is infinite and its weight 0, and its zero fields add +0 to every sum, as the scalar kernel's skip.
-static const float s_plNoRow[PLEAT_POSED_POINT_FLOATS] = { 0 };
-
 // AVX2 twin of plBodyContact_Scalar, eight vertices per vector: slot by slot, the eight candidates' whole posed rows
 // (8 floats: position, usable, normal, anchorable) loaded and transposed into their fields' lanes (plTranspose8x8);
 // the nearest, the weights and the sums lane by lane in the scalar kernel's order (an unusable or empty slot, or one
 // outside the margin, adds w = 0, which leaves every sum's bits as they were), so the two agree bit for bit. Why lanes
 // of vertices and not of candidates: a vertex's work is one long chain (distances, nearest, weights, sums, a square
 // root, three divisions), so one vertex at a time ran at its latency, ~23 ns. Why rows and a transpose: the 64-bit
-// gathers of field pairs they replace cost 41 µs for the shipped t-shirt's push (16 candidates), the rows 23.5.
+// gathers of field pairs they replace cost 41 µs for the shipped t-shirt's push (16 candidates), the rows 23.5. Each
+// row comes from the slots' byte offsets in lanes (plContactRowOffsets, built at load; an empty slot reads the zero row
+// P): one load per lane (the t-shirt's step 94.6 -> 91.8 µs against finding the row per lane from the candidates).
+// Blocks of eight are the offsets' (from a multiple of 8): a lane outside [v_begin, v_end) takes the range's first
+// vertex and is never written.
 void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const float* posed, uint32_t point_count,
-						 const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
-						 uint32_t v_end )
+						 const uint16_t* candidates, uint32_t candidate_count, const uint32_t* row_offsets,
+						 float offset_m, uint32_t v_begin, uint32_t v_end )
 {
+	if ( row_offsets == NULL )
+	{
+		plBodyContact_Scalar( positions, position_stride_bytes, posed, point_count, candidates, candidate_count, NULL,
+							  offset_m, v_begin, v_end );
+		return;
+	}
 	uint32_t C = candidate_count;
 	const __m256 zero = _mm256_setzero_ps(), infinity = _mm256_set1_ps( INFINITY );
 	// the squared distance at which plContactReach8 reaches 0 (the whole push without candidates: 1.1)
 	const __m256 beyond_reach = candidates != NULL
 									? _mm256_set1_ps( PLEAT_CONTACT_REACH_FAR_M * PLEAT_CONTACT_REACH_FAR_M )
 									: infinity;
-	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
+	for ( uint32_t v0 = v_begin & ~7u; v0 < v_end; v0 += 8 )
 	{
-		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
-		// the eight positions turned into lanes (a lane past the range reads the block's first vertex)
+		const uint32_t* block = row_offsets + (size_t)( v0 / 8 ) * C * 8;
+		// the eight positions turned into lanes (a lane outside the range reads the range's first vertex)
 		__m128 position[8];
 		for ( uint32_t i = 0; i < 8; ++i )
 		{
-			position[i] = plLoadPosition( (const float*)( (const uint8_t*)positions +
-														  (size_t)( v0 + ( i < count ? i : 0 ) ) * position_stride_bytes ) );
+			uint32_t v = v0 + i >= v_begin && v0 + i < v_end ? v0 + i : v_begin;
+			position[i] = plLoadPosition( (const float*)( (const uint8_t*)positions + (size_t)v * position_stride_bytes ) );
 		}
 		__m256 x, y, z;
 		plRowsOf8( &x, &y, &z, position );
@@ -130,11 +136,11 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 		for ( uint32_t c = 0; c < C; ++c )
 		{
 			// the eight candidates' whole rows, transposed: field f of every lane's candidate in rows[f]
+			const uint32_t* offsets = block + (size_t)c * 8;
 			__m256 rows[8];
 			for ( uint32_t i = 0; i < 8; ++i )
 			{
-				uint32_t p = i >= count ? point_count : candidates != NULL ? candidates[(size_t)( v0 + i ) * C + c] : v0 + i;
-				rows[i] = _mm256_loadu_ps( p < point_count ? posed + (size_t)p * PLEAT_POSED_POINT_FLOATS : s_plNoRow );
+				rows[i] = _mm256_loadu_ps( (const float*)( (const uint8_t*)posed + offsets[i] ) );
 			}
 			plTranspose8x8( rows );
 			ax[c] = rows[0], ay[c] = rows[1], az[c] = rows[2];
@@ -190,9 +196,9 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 		_mm256_store_ps( rx, x );
 		_mm256_store_ps( ry, y );
 		_mm256_store_ps( rz, z );
-		for ( uint32_t i = 0; i < count; ++i )
+		for ( uint32_t i = 0; i < 8; ++i )
 		{
-			if ( moves & ( 1 << i ) )
+			if ( ( moves & ( 1 << i ) ) && v0 + i >= v_begin && v0 + i < v_end )
 			{
 				float* p = (float*)( (uint8_t*)positions + (size_t)( v0 + i ) * position_stride_bytes );
 				p[0] = rx[i];

@@ -399,7 +399,10 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 						 (size_t)a->face_count * 4 * sizeof( float ),
 						 def->gpu_mode != PLEAT_GPU_MODE_NONE ? n3 : 0,
 						 a->body_anchors != NULL ? 2 * p3 : 0,
-						 a->body_anchors != NULL ? (size_t)a->body_point_count * PLEAT_POSED_POINT_FLOATS * sizeof( float ) : 0 };
+						 // posed points, and a zero row P after them: the empty slots' (plContactRowOffsets)
+						 a->body_anchors != NULL
+							 ? (size_t)( a->body_point_count + 1 ) * PLEAT_POSED_POINT_FLOATS * sizeof( float )
+							 : 0 };
 	size_t total = 0;
 	for ( int i = 0; i < 15; ++i )
 	{

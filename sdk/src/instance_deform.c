@@ -117,7 +117,8 @@ plResult plPushOutOfBody( plInstanceData* inst, float* positions, uint32_t begin
 							 inst->body_contact_offset_m,
 							 begin,
 							 end,
-							 &inst->ctx->kernels };
+							 &inst->ctx->kernels,
+							 a->body_contact_row_offsets };
 	return plBodyContactJob_Run( &job );
 }
 

@@ -262,6 +262,8 @@ typedef struct plBodyContactJob
 	float offset_m;                    // clearance (metres, >= 0)
 	uint32_t vertex_begin, vertex_end;
 	const plKernels* kernels;          // optional: NULL = the scalar kernel
+	const uint32_t* row_offsets;       // optional: plContactRowOffsets of the candidates, for the AVX2 kernel (posed
+									   // then has a zero row P)
 } plBodyContactJob;
 
 int plBodyContactJob_Validate( const plBodyContactJob* job );

@@ -145,10 +145,20 @@ void plRingLanes( int32_t* dst, const uint16_t* rings, uint32_t ring_count, uint
 // PLEAT_NO_CONTACT_CANDIDATE = an empty slot; NULL = vertex v's point is v, C = 1), with m the nearest squared distance,
 // w_c = max(0, (1 + PLEAT_CONTACT_BLEND_SHARE)·m + PLEAT_CONTACT_BLEND_M² − |x − a_c|²), a = Σ w_c a_c / Σ w_c and
 // n = normalize(Σ w_c n_c) (slot order); d = (x − a)·n and if d < offset_m x ← x + r·(offset_m − d)·n with the reach
-// r = plContactReach(m) with a candidate table, 1 without (a vertex with r = 0 is left as it is).
+// r = plContactReach(m) with a candidate table, 1 without (a vertex with r = 0 is left as it is). row_offsets
+// (optional): the same slots as posed rows' byte offsets in lanes (plContactRowOffsets), which the AVX2 kernel reads
+// (without them it runs the scalar kernel, the same bits); an empty slot's is row P's, which posed then holds as zeros.
 typedef void plBodyContactFn( float* positions, uint32_t position_stride_bytes, const float* posed, uint32_t point_count,
-							  const uint16_t* candidates, uint32_t candidate_count, float offset_m, uint32_t v_begin,
-							  uint32_t v_end );
+							  const uint16_t* candidates, uint32_t candidate_count, const uint32_t* row_offsets,
+							  float offset_m, uint32_t v_begin, uint32_t v_end );
+// The candidates [N][C] (NULL: vertex v's point is v, C = 1) as posed rows' byte offsets in lanes for the AVX2 push:
+// [ceil(N / 8)][C][8] uint32, slot c of vertex 8 b + i at [b][c][i] = its point · PLEAT_POSED_POINT_FLOATS · 4, and an
+// empty slot (an index >= P, or a lane past N) row P's, a zero row: usable 0, so no distance and no weight, as the
+// scalar kernel's skip. A lane's row is then one load from posed + its offset; finding it per lane (the index, the
+// empty test, the zero row) was a third of the push's instructions (asset.c builds them at load).
+size_t plContactRowOffsetsCount( uint32_t vertex_count, uint32_t candidate_count );
+void plContactRowOffsets( uint32_t* dst, const uint16_t* candidates, uint32_t candidate_count, uint32_t vertex_count,
+						  uint32_t point_count );
 
 // The fast body contact (pleat.h PLEAT_BODY_CONTACT_FAST, and asset 1.1's only one; body_contact_fast.c) for vertices
 // [v_begin, v_end): vertex v's anchor is point v (the first N points of an asset whose first candidates are the

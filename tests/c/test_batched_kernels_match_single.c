@@ -790,6 +790,8 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 	}
 	_Alignas( 32 ) int32_t ring_lanes[( P + 7 ) / 8 * R * 8]; // the single step's rings in lanes, as the asset has them
 	plRingLanes( ring_lanes, rings, R, P );
+	uint32_t row_offsets[( NV + 7 ) / 8 * C * 8]; // and its candidates as posed rows' offsets
+	plContactRowOffsets( row_offsets, candidates, C, NV, P );
 	// (a machine without AVX2 has only the scalar set, which runs each instance alone: nothing to compare)
 	for ( uint32_t s = 0; s < k->count; ++s )
 	{
@@ -800,7 +802,7 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 		for ( uint32_t n = 1; n <= 8; n += 3 )
 		{
 			static float ps[8][NV * 3], before[8][NV * 3], points[8][P * 3], mats[8][J * 12], single[NV * 3];
-			static float posed[P * PLEAT_POSED_POINT_FLOATS], scratch[P * 64];
+			static float posed[( P + 1 ) * PLEAT_POSED_POINT_FLOATS], scratch[P * 64]; // (row P zero: row offsets)
 			float offsets[8];
 			float* pp[8];
 			const float *rr[8], *mm[8];
@@ -837,7 +839,7 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 				k->single[s].pose_body_points( posed, points[b], normals, indices, weights, K, mats[b], J, rings, R, P, 0,
 											  P );
 				k->single[s].body_point_normals( posed, P, rings, R, ring_lanes, 0, P );
-				k->single[s].body_contact( single, 12, posed, P, candidates, C, offsets[b], 0, NV );
+				k->single[s].body_contact( single, 12, posed, P, candidates, C, row_offsets, offsets[b], 0, NV );
 				assert_memory_equal( single, ps[b], sizeof( single ) );
 				moved |= memcmp( single, before[b], sizeof( single ) ) != 0;
 			}

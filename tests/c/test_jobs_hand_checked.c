@@ -547,7 +547,7 @@ static void test_body_contact_by_hand( void** state )
 	plBodyPointsJob pose = { anchors, normals, indices, weights, 2, matrices, 2, posed, 5, 0, 5, NULL, NULL, 0 };
 	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
 	// One point per vertex (asset 1.1: no candidate table, vertex v's point is v).
-	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), posed, 5, NULL, 1, 0.002f, 0, 5, NULL };
+	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), posed, 5, NULL, 1, 0.002f, 0, 5, NULL, NULL };
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
 	const float expected[5 * 3] = { 0, 0.002f, 0, 0.3f, 0.010f, 0, 0.998f, 0.5f, 0, 0, -1.0f, 0,
 									0.5f - 0.00141421356f, 0.00141421356f, 0 };
@@ -601,7 +601,7 @@ static void test_body_contact_blends_the_nearest_usable_candidates_by_hand( void
 	float posed[3 * PLEAT_POSED_POINT_FLOATS];
 	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 3, 0, 3, NULL, NULL, 0 };
 	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
-	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), posed, 3, candidates, 3, 0.002f, 0, 5, NULL };
+	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), posed, 3, candidates, 3, 0.002f, 0, 5, NULL, NULL };
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
 	const float expected[5 * 3] = { 0.042f, -0.001f, 0, 0.02191421356f, 0.00091421356f, 0, 0, -1.0f, 0,
 									0, -0.016375f, 0, 0, -0.06f, 0 };

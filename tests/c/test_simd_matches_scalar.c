@@ -426,7 +426,7 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 {
 	const plKernelPair* pair = plRequireAvx2Kernels( state );
 	enum { n = 37, P = 53, stride = 20 };
-	float posed[P * PLEAT_POSED_POINT_FLOATS];
+	float posed[( P + 1 ) * PLEAT_POSED_POINT_FLOATS] = { 0 }; // and the zero row P, the empty slots' (row offsets)
 	for ( uint32_t p = 0; p < P; ++p )
 	{
 		float* r = posed + p * PLEAT_POSED_POINT_FLOATS;
@@ -485,17 +485,35 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 				reach_kinds[nearest <= 0.03f * 0.03f ? 0 : nearest < 0.05f * 0.05f ? 1 : 2] += 1;
 			}
 		}
-		float os[n * 5], ov[n * 5];
-		memcpy( os, start, sizeof( os ) );
-		memcpy( ov, start, sizeof( ov ) );
-		for ( int pass = 0; pass < 2; ++pass ) // pass 1: the identity table (C = 1, vertex v's point is v)
+		// the SIMD kernel with the row offsets (as the asset gives them): over the range, and over it split inside a
+		// block of eight as two workers may get it; and without them (its scalar fallback)
+		uint32_t offsets[2][( n + 7 ) / 8 * PLEAT_MAX_CONTACT_CANDIDATES * 8];
+		assert_true( plContactRowOffsetsCount( n, C ) <= sizeof( offsets[0] ) / sizeof( offsets[0][0] ) );
+		plContactRowOffsets( offsets[0], candidates, C, n, P );
+		plContactRowOffsets( offsets[1], NULL, 1, n, P );
+		for ( int form = 0; form < 3; ++form )
 		{
-			const uint16_t* table = pass == 0 ? candidates : NULL;
-			uint32_t count = pass == 0 ? C : 1;
-			pair->scalar.body_contact( os, stride, posed, P, table, count, 0.05f, 1, n - 2 );
-			pair->simd.body_contact( ov, stride, posed, P, table, count, 0.05f, 1, n - 2 );
+			float os[n * 5], ov[n * 5];
+			memcpy( os, start, sizeof( os ) );
+			memcpy( ov, start, sizeof( ov ) );
+			for ( int pass = 0; pass < 2; ++pass ) // pass 1: the identity table (C = 1, vertex v's point is v)
+			{
+				const uint16_t* table = pass == 0 ? candidates : NULL;
+				uint32_t count = pass == 0 ? C : 1;
+				const uint32_t* rows = form == 2 ? NULL : offsets[pass];
+				pair->scalar.body_contact( os, stride, posed, P, table, count, NULL, 0.05f, 1, n - 2 );
+				if ( form == 1 )
+				{
+					pair->simd.body_contact( ov, stride, posed, P, table, count, rows, 0.05f, 1, 13 );
+					pair->simd.body_contact( ov, stride, posed, P, table, count, rows, 0.05f, 13, n - 2 );
+				}
+				else
+				{
+					pair->simd.body_contact( ov, stride, posed, P, table, count, rows, 0.05f, 1, n - 2 );
+				}
+			}
+			assert_true( plExpectContactTwins( os, ov, start, n, 0, 1e-6f, "C", C ) > 0 );
 		}
-		assert_true( plExpectContactTwins( os, ov, start, n, 0, 1e-6f, "C", C ) > 0 );
 	}
 	assert_true( reach_kinds[0] > 0 && reach_kinds[1] > 0 && reach_kinds[2] > 0 ); // every reach was compared
 }
