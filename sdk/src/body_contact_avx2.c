@@ -230,81 +230,110 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 	uint32_t R = ring_count;
 	const __m256 zero = _mm256_setzero_ps();
 	const __m256i none = _mm256_set1_epi32( -1 ); // an index > -1 is used; INT32_MIN (an empty slot) is not
-	for ( uint32_t p0 = p_begin & ~7u; p0 < p_end; p0 += 8 )
+	enum { CHUNK = 16 };
+	for ( uint32_t c0 = p_begin & ~7u; c0 < p_end; c0 += 8 * CHUNK )
 	{
-		const int32_t* slots = ring_lanes + (size_t)( p0 / 8 ) * R * 8;
-		// the lanes that change: in the range, an anchor (row 7) and with a ring (slot 0 used)
-		int changes = _mm256_movemask_ps(
-			_mm256_castsi256_ps( _mm256_cmpgt_epi32( _mm256_load_si256( (const __m256i*)slots ), none ) ) );
-		for ( uint32_t i = 0; i < 8; ++i )
+		// Two passes over a chunk of blocks: the fans' sums, then the square roots and divisions. In one pass each
+		// block ended on that chain (~40 cycles), which the next block's loads could not hide.
+		__m256 sums[CHUNK][3];
+		int block_changes[CHUNK];
+		uint32_t blocks = 0;
+		for ( uint32_t p0 = c0; p0 < p_end && blocks < CHUNK; p0 += 8, ++blocks )
 		{
-			uint32_t p = p0 + i;
-			if ( p < p_begin || p >= p_end || posed[(size_t)p * PLEAT_POSED_POINT_FLOATS + 7] == 0.0f )
-			{
-				changes &= ~( 1 << i );
-			}
-		}
-		if ( changes == 0 )
-		{
-			continue;
-		}
-		// the eight points' own positions (a lane past P reads row 0 and changes nothing)
-		__m128 v[8];
-		for ( uint32_t i = 0; i < 8; ++i )
-		{
-			v[i] = _mm_loadu_ps( posed + (size_t)( p0 + i < point_count ? p0 + i : 0u ) * PLEAT_POSED_POINT_FLOATS );
-		}
-		__m256 px, py, pz;
-		plRowsOf8( &px, &py, &pz, v );
-		__m256 dx[PLEAT_MAX_POINT_RING], dy[PLEAT_MAX_POINT_RING], dz[PLEAT_MAX_POINT_RING];
-		__m256 used[PLEAT_MAX_POINT_RING];
-		for ( uint32_t s = 0; s < R; ++s )
-		{
-			const int32_t* slot = slots + (size_t)s * 8;
-			used[s] = _mm256_castsi256_ps( _mm256_cmpgt_epi32( _mm256_load_si256( (const __m256i*)slot ), none ) );
+			const int32_t* slots = ring_lanes + (size_t)( p0 / 8 ) * R * 8;
+			// the lanes that change: in the range, an anchor (row 7) and with a ring (slot 0 used)
+			int changes = _mm256_movemask_ps(
+				_mm256_castsi256_ps( _mm256_cmpgt_epi32( _mm256_load_si256( (const __m256i*)slots ), none ) ) );
 			for ( uint32_t i = 0; i < 8; ++i )
 			{
-				// the index's low 16 bits (INT32_MIN's are 0: an empty slot reads row 0, which its mask leaves out)
-				v[i] = _mm_loadu_ps( posed + (size_t)( (uint32_t)slot[i] & 0xFFFFu ) * PLEAT_POSED_POINT_FLOATS );
+				uint32_t p = p0 + i;
+				if ( p < p_begin || p >= p_end || posed[(size_t)p * PLEAT_POSED_POINT_FLOATS + 7] == 0.0f )
+				{
+					changes &= ~( 1 << i );
+				}
 			}
-			__m256 ax, ay, az;
-			plRowsOf8( &ax, &ay, &az, v );
-			dx[s] = _mm256_sub_ps( ax, px );
-			dy[s] = _mm256_sub_ps( ay, py );
-			dz[s] = _mm256_sub_ps( az, pz );
-		}
-		__m256 nx = zero, ny = zero, nz = zero;
-		for ( uint32_t s = 0; s < R; ++s )
-		{
-			// the next slot, or d_0 where the next is past this lane's ring (or s is the last slot)
-			__m256 next_used = s + 1 < R ? used[s + 1] : zero;
-			__m256 vx = _mm256_blendv_ps( dx[0], s + 1 < R ? dx[s + 1] : dx[0], next_used );
-			__m256 vy = _mm256_blendv_ps( dy[0], s + 1 < R ? dy[s + 1] : dy[0], next_used );
-			__m256 vz = _mm256_blendv_ps( dz[0], s + 1 < R ? dz[s + 1] : dz[0], next_used );
-			__m256 cx = _mm256_sub_ps( _mm256_mul_ps( dy[s], vz ), _mm256_mul_ps( dz[s], vy ) );
-			__m256 cy = _mm256_sub_ps( _mm256_mul_ps( dz[s], vx ), _mm256_mul_ps( dx[s], vz ) );
-			__m256 cz = _mm256_sub_ps( _mm256_mul_ps( dx[s], vy ), _mm256_mul_ps( dy[s], vx ) );
-			nx = _mm256_blendv_ps( nx, _mm256_add_ps( nx, cx ), used[s] );
-			ny = _mm256_blendv_ps( ny, _mm256_add_ps( ny, cy ), used[s] );
-			nz = _mm256_blendv_ps( nz, _mm256_add_ps( nz, cz ), used[s] );
-		}
-		__m256 length = _mm256_sqrt_ps(
-			_mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
-		__m256 usable = _mm256_cmp_ps( length, _mm256_set1_ps( 1e-12f ), _CMP_GT_OQ );
-		_Alignas( 32 ) float rx[8], ry[8], rz[8], ru[8];
-		_mm256_store_ps( rx, _mm256_and_ps( _mm256_div_ps( nx, length ), usable ) );
-		_mm256_store_ps( ry, _mm256_and_ps( _mm256_div_ps( ny, length ), usable ) );
-		_mm256_store_ps( rz, _mm256_and_ps( _mm256_div_ps( nz, length ), usable ) );
-		_mm256_store_ps( ru, _mm256_and_ps( _mm256_set1_ps( 1.0f ), usable ) );
-		for ( uint32_t i = 0; i < 8; ++i )
-		{
-			if ( changes & ( 1 << i ) )
+			block_changes[blocks] = changes;
+			if ( changes == 0 )
 			{
-				float* out = posed + (size_t)( p0 + i ) * PLEAT_POSED_POINT_FLOATS;
-				out[3] = ru[i];
-				out[4] = rx[i];
-				out[5] = ry[i];
-				out[6] = rz[i];
+				continue;
+			}
+			// the eight points' own positions (a lane past P reads row 0 and changes nothing)
+			__m128 v[8];
+			for ( uint32_t i = 0; i < 8; ++i )
+			{
+				v[i] = _mm_loadu_ps( posed + (size_t)( p0 + i < point_count ? p0 + i : 0u ) * PLEAT_POSED_POINT_FLOATS );
+			}
+			__m256 px, py, pz;
+			plRowsOf8( &px, &py, &pz, v );
+			__m256 dx[PLEAT_MAX_POINT_RING], dy[PLEAT_MAX_POINT_RING], dz[PLEAT_MAX_POINT_RING];
+			__m256 used[PLEAT_MAX_POINT_RING];
+			for ( uint32_t s = 0; s < R; ++s )
+			{
+				const int32_t* slot = slots + (size_t)s * 8;
+				used[s] = _mm256_castsi256_ps( _mm256_cmpgt_epi32( _mm256_load_si256( (const __m256i*)slot ), none ) );
+				for ( uint32_t i = 0; i < 8; ++i )
+				{
+					// the index's low 16 bits (INT32_MIN's are 0: an empty slot reads row 0, which its mask leaves out)
+					v[i] = _mm_loadu_ps( posed + (size_t)( (uint32_t)slot[i] & 0xFFFFu ) * PLEAT_POSED_POINT_FLOATS );
+				}
+				__m256 ax, ay, az;
+				plRowsOf8( &ax, &ay, &az, v );
+				dx[s] = _mm256_sub_ps( ax, px );
+				dy[s] = _mm256_sub_ps( ay, py );
+				dz[s] = _mm256_sub_ps( az, pz );
+			}
+			__m256 nx = zero, ny = zero, nz = zero;
+			for ( uint32_t s = 0; s < R; ++s )
+			{
+				// the next slot, or d_0 where the next is past this lane's ring (or s is the last slot)
+				__m256 next_used = s + 1 < R ? used[s + 1] : zero;
+				__m256 vx = _mm256_blendv_ps( dx[0], s + 1 < R ? dx[s + 1] : dx[0], next_used );
+				__m256 vy = _mm256_blendv_ps( dy[0], s + 1 < R ? dy[s + 1] : dy[0], next_used );
+				__m256 vz = _mm256_blendv_ps( dz[0], s + 1 < R ? dz[s + 1] : dz[0], next_used );
+				__m256 cx = _mm256_sub_ps( _mm256_mul_ps( dy[s], vz ), _mm256_mul_ps( dz[s], vy ) );
+				__m256 cy = _mm256_sub_ps( _mm256_mul_ps( dz[s], vx ), _mm256_mul_ps( dx[s], vz ) );
+				__m256 cz = _mm256_sub_ps( _mm256_mul_ps( dx[s], vy ), _mm256_mul_ps( dy[s], vx ) );
+				nx = _mm256_blendv_ps( nx, _mm256_add_ps( nx, cx ), used[s] );
+				ny = _mm256_blendv_ps( ny, _mm256_add_ps( ny, cy ), used[s] );
+				nz = _mm256_blendv_ps( nz, _mm256_add_ps( nz, cz ), used[s] );
+			}
+			sums[blocks][0] = nx;
+			sums[blocks][1] = ny;
+			sums[blocks][2] = nz;
+		}
+		for ( uint32_t k = 0; k < blocks; ++k )
+		{
+			int changes = block_changes[k];
+			if ( changes == 0 )
+			{
+				continue;
+			}
+			__m256 nx = sums[k][0], ny = sums[k][1], nz = sums[k][2];
+			__m256 length = _mm256_sqrt_ps( _mm256_add_ps(
+				_mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
+			__m256 usable = _mm256_cmp_ps( length, _mm256_set1_ps( 1e-12f ), _CMP_GT_OQ );
+			// (usable, n) per lane: the four rows turned into eight (u, x, y, z) vectors, one 16-byte store each
+			__m256 ru = _mm256_and_ps( _mm256_set1_ps( 1.0f ), usable );
+			__m256 rx = _mm256_and_ps( _mm256_div_ps( nx, length ), usable );
+			__m256 ry = _mm256_and_ps( _mm256_div_ps( ny, length ), usable );
+			__m256 rz = _mm256_and_ps( _mm256_div_ps( nz, length ), usable );
+			__m256 ux_lo = _mm256_unpacklo_ps( ru, rx ), ux_hi = _mm256_unpackhi_ps( ru, rx ); // u0 x0 u1 x1 | u4 x4 ..
+			__m256 yz_lo = _mm256_unpacklo_ps( ry, rz ), yz_hi = _mm256_unpackhi_ps( ry, rz );
+			__m256 q0 = _mm256_shuffle_ps( ux_lo, yz_lo, _MM_SHUFFLE( 1, 0, 1, 0 ) ); // lanes 0 | 4
+			__m256 q1 = _mm256_shuffle_ps( ux_lo, yz_lo, _MM_SHUFFLE( 3, 2, 3, 2 ) ); // lanes 1 | 5
+			__m256 q2 = _mm256_shuffle_ps( ux_hi, yz_hi, _MM_SHUFFLE( 1, 0, 1, 0 ) ); // lanes 2 | 6
+			__m256 q3 = _mm256_shuffle_ps( ux_hi, yz_hi, _MM_SHUFFLE( 3, 2, 3, 2 ) ); // lanes 3 | 7
+			__m128 lane[8] = { _mm256_castps256_ps128( q0 ),   _mm256_castps256_ps128( q1 ),
+							   _mm256_castps256_ps128( q2 ),   _mm256_castps256_ps128( q3 ),
+							   _mm256_extractf128_ps( q0, 1 ), _mm256_extractf128_ps( q1, 1 ),
+							   _mm256_extractf128_ps( q2, 1 ), _mm256_extractf128_ps( q3, 1 ) };
+			uint32_t p0 = c0 + 8 * k;
+			for ( uint32_t i = 0; i < 8; ++i )
+			{
+				if ( changes & ( 1 << i ) )
+				{
+					_mm_storeu_ps( posed + (size_t)( p0 + i ) * PLEAT_POSED_POINT_FLOATS + 3, lane[i] );
+				}
 			}
 		}
 	}
