@@ -352,62 +352,83 @@ void plBodyContactFast_Avx2( float* positions, uint32_t position_stride_bytes, c
 	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
 	uint32_t K = influence_count;
 	const __m256 offset = _mm256_set1_ps( offset_m ), one = _mm256_set1_ps( 1.0f ); // the fast contact: full reach
-	for ( uint32_t v0 = v_begin; v0 < v_end; v0 += 8 )
+	enum { CHUNK = 8 };
+	for ( uint32_t c0 = v_begin; c0 < v_end; c0 += 8 * CHUNK )
 	{
-		uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
-		// per lane: anchor, normal and position; a lane without an anchor (or past the end) gets zeros, and its
-		// zero normal fails the length test below, as the scalar kernel returns early
-		__m128 anchor[8], normal[8], position[8];
-		int any = 0;
-		for ( uint32_t i = 0; i < 8; ++i )
+		// Two passes over a chunk of blocks: the anchors posed into lanes, then the pushes. In one pass each block
+		// ended on the push's square root and divisions, which the next block's posing did not hide.
+		__m256 lanes[CHUNK][9];
+		int any_lane[CHUNK];
+		uint32_t blocks = 0;
+		for ( uint32_t v0 = c0; v0 < v_end && blocks < CHUNK; v0 += 8, ++blocks )
 		{
-			uint32_t v = v0 + i;
-			const float* rn = i < count ? anchor_normals + (size_t)v * 3 : NULL;
-			if ( rn == NULL || ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f ) )
+			uint32_t count = v_end - v0 < 8 ? v_end - v0 : 8;
+			// per lane: anchor, normal and position; a lane without an anchor (or past the end) gets zeros, and its
+			// zero normal fails the length test below, as the scalar kernel returns early
+			__m128 anchor[8], normal[8], position[8];
+			int any = 0;
+			for ( uint32_t i = 0; i < 8; ++i )
 			{
-				anchor[i] = normal[i] = position[i] = _mm_setzero_ps();
+				uint32_t v = v0 + i;
+				const float* rn = i < count ? anchor_normals + (size_t)v * 3 : NULL;
+				if ( rn == NULL || ( rn[0] == 0.0f && rn[1] == 0.0f && rn[2] == 0.0f ) )
+				{
+					anchor[i] = normal[i] = position[i] = _mm_setzero_ps();
+					continue;
+				}
+				any = 1;
+				const float* x = (const float*)( (const uint8_t*)positions + (size_t)v * position_stride_bytes );
+				position[i] = plLoadPosition( x );
+				const float* r = shaped_anchors + (size_t)v * 3;
+				if ( K == 4 ) // the common case: a constant trip count, fully unrolled
+				{
+					plPoseAnchor( anchor + i, normal + i, r, rn, anchor_skin_indices + (size_t)v * 4,
+								  anchor_skin_weights + (size_t)v * 4, 4, J, columns );
+				}
+				else
+				{
+					plPoseAnchor( anchor + i, normal + i, r, rn, anchor_skin_indices + (size_t)v * K,
+								  anchor_skin_weights + (size_t)v * K, K, J, columns );
+				}
+			}
+			any_lane[blocks] = any;
+			if ( !any )
+			{
 				continue;
 			}
-			any = 1;
-			const float* x = (const float*)( (const uint8_t*)positions + (size_t)v * position_stride_bytes );
-			position[i] = plLoadPosition( x );
-			const float* r = shaped_anchors + (size_t)v * 3;
-			if ( K == 4 ) // the common case: a constant trip count, fully unrolled
+			__m256* l = lanes[blocks];
+			plRowsOf8( &l[0], &l[1], &l[2], anchor );
+			plRowsOf8( &l[3], &l[4], &l[5], normal );
+			plRowsOf8( &l[6], &l[7], &l[8], position );
+		}
+		for ( uint32_t k = 0; k < blocks; ++k )
+		{
+			if ( !any_lane[k] )
 			{
-				plPoseAnchor( anchor + i, normal + i, r, rn, anchor_skin_indices + (size_t)v * 4,
-							  anchor_skin_weights + (size_t)v * 4, 4, J, columns );
+				continue;
 			}
-			else
+			uint32_t v0 = c0 + 8 * k, count = v_end - v0 < 8 ? v_end - v0 : 8;
+			__m256* l = lanes[k];
+			__m256 x = l[6], y = l[7], z = l[8];
+			int moves = _mm256_movemask_ps( plPushOutOfAnchorPlane8( &x, &y, &z, l[0], l[1], l[2], l[3], l[4], l[5],
+																	 offset, one ) );
+			if ( moves == 0 )
 			{
-				plPoseAnchor( anchor + i, normal + i, r, rn, anchor_skin_indices + (size_t)v * K,
-							  anchor_skin_weights + (size_t)v * K, K, J, columns );
+				continue;
 			}
-		}
-		if ( !any )
-		{
-			continue;
-		}
-		__m256 ax, ay, az, nx, ny, nz, x, y, z;
-		plRowsOf8( &ax, &ay, &az, anchor );
-		plRowsOf8( &nx, &ny, &nz, normal );
-		plRowsOf8( &x, &y, &z, position );
-		int moves = _mm256_movemask_ps( plPushOutOfAnchorPlane8( &x, &y, &z, ax, ay, az, nx, ny, nz, offset, one ) );
-		if ( moves == 0 )
-		{
-			continue;
-		}
-		_Alignas( 32 ) float rows[3 * 8];
-		_mm256_store_ps( rows, x );
-		_mm256_store_ps( rows + 8, y );
-		_mm256_store_ps( rows + 16, z );
-		for ( uint32_t i = 0; i < count; ++i )
-		{
-			if ( moves & ( 1 << i ) )
+			_Alignas( 32 ) float rows[3 * 8];
+			_mm256_store_ps( rows, x );
+			_mm256_store_ps( rows + 8, y );
+			_mm256_store_ps( rows + 16, z );
+			for ( uint32_t i = 0; i < count; ++i )
 			{
-				float* p = (float*)( (uint8_t*)positions + (size_t)( v0 + i ) * position_stride_bytes );
-				p[0] = rows[i];
-				p[1] = rows[8 + i];
-				p[2] = rows[16 + i];
+				if ( moves & ( 1 << i ) )
+				{
+					float* p = (float*)( (uint8_t*)positions + (size_t)( v0 + i ) * position_stride_bytes );
+					p[0] = rows[i];
+					p[1] = rows[8 + i];
+					p[2] = rows[16 + i];
+				}
 			}
 		}
 	}
