@@ -48,7 +48,7 @@ static void plCpuDeform( const plTestMesh* mesh, const plKernels* kernels, const
 	};
 	plSkinningJob skin = {
 		plMakeConstSpan( deformed, n, 12 ), mesh->skin_indices, mesh->skin_weights, mesh->influence_count, matrices,
-		mesh->joint_count, plMakeSpan( positions, n, 12 ), 0, n, kernels,
+		mesh->joint_count, plMakeSpan( positions, n, 12 ), 0, n, kernels, NULL,
 	};
 	plFaceNormalsJob face = {
 		plMakeConstSpan( positions, n, 12 ), mesh->faces, mesh->face_count, face_normals, 0, mesh->face_count, kernels,

@@ -905,8 +905,9 @@ static plLogItem plLogItemForLoadResult( plResult r )
 }
 
 // What the load derives for the kernels, in one block: the single step's packed copies of the networks' block layers
-// (kernels.h plLayer.packed), the body's rings in lanes for the AVX2 ring normals (plRingLanes) and the contact
-// candidates as posed rows' offsets for the AVX2 push (plContactRowOffsets).
+// (kernels.h plLayer.packed), the body's rings in lanes for the AVX2 ring normals (plRingLanes), the contact
+// candidates as posed rows' offsets for the AVX2 push (plContactRowOffsets) and the garment's and body points' skin
+// indices as column-block offsets for the AVX2 skinning and posing (plSkinColumnOffsets).
 static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 {
 	size_t total = 0;
@@ -923,7 +924,12 @@ static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 	size_t row_offsets = asset->body_point_count > 0
 							 ? plContactRowOffsetsCount( asset->vertex_count, C ) * sizeof( uint32_t )
 							 : 0;
-	total += row_offsets;
+	total += ( row_offsets + 63 ) & ~(size_t)63;
+	size_t skin_offsets = (size_t)asset->vertex_count * asset->influence_count * sizeof( uint32_t );
+	size_t body_offsets = asset->body_point_count > 0 ? (size_t)asset->body_point_count *
+															asset->body_anchor_influence_count * sizeof( uint32_t )
+													  : 0;
+	total += ( ( skin_offsets + 63 ) & ~(size_t)63 ) + body_offsets;
 	if ( total == 0 )
 	{
 		return PLEAT_RESULT_OK;
@@ -956,6 +962,20 @@ static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 		plContactRowOffsets( (uint32_t*)block, asset->body_anchor_candidates, C, asset->vertex_count,
 							 asset->body_point_count );
 		asset->body_contact_row_offsets = (const uint32_t*)block;
+		block += ( row_offsets + 63 ) & ~(size_t)63;
+	}
+	if ( skin_offsets > 0 )
+	{
+		plSkinColumnOffsets( (uint32_t*)block, asset->skin_indices,
+							 (size_t)asset->vertex_count * asset->influence_count, asset->joint_count );
+		asset->skin_column_offsets = (const uint32_t*)block;
+		block += ( skin_offsets + 63 ) & ~(size_t)63;
+	}
+	if ( body_offsets > 0 )
+	{
+		plSkinColumnOffsets( (uint32_t*)block, asset->body_anchor_skin_indices,
+							 (size_t)asset->body_point_count * asset->body_anchor_influence_count, asset->joint_count );
+		asset->body_anchor_column_offsets = (const uint32_t*)block;
 	}
 	return PLEAT_RESULT_OK;
 }

@@ -67,6 +67,9 @@ typedef struct plAssetData
 	const int32_t* body_anchor_ring_lanes;    // the rings in lanes (plRingLanes; in derived_block), with the rings
 	const uint32_t* body_contact_row_offsets; // the candidates as posed rows' offsets (plContactRowOffsets; in
 											  // derived_block), with body points
+	const uint32_t* skin_column_offsets;      // skin_indices as column-block offsets (plSkinColumnOffsets; in
+											  // derived_block)
+	const uint32_t* body_anchor_column_offsets; // body_anchor_skin_indices the same way, with body points
 	int body_contact_fast_ready;              // the fast contact can run: P >= N and every vertex's first candidate
 	                                          // is its own point v (or none), so rows 0..N-1 are the 1.1 layout
 	uint32_t pinned_count;

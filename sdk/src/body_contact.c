@@ -45,9 +45,11 @@ int plBodyContactJob_Validate( const plBodyContactJob* job )
 
 void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const float* point_normals,
 							  const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-							  const float* skin_matrices, uint32_t joint_count, const uint16_t* rings, uint32_t ring_count,
-							  uint32_t point_count, uint32_t p_begin, uint32_t p_end )
+							  const uint32_t* column_offsets, const float* skin_matrices, uint32_t joint_count,
+							  const uint16_t* rings, uint32_t ring_count, uint32_t point_count, uint32_t p_begin,
+							  uint32_t p_end )
 {
+	(void)column_offsets;
 	uint32_t K = influence_count;
 	for ( uint32_t p = p_begin; p < p_end; ++p )
 	{
@@ -242,8 +244,8 @@ plResult plBodyPointsJob_Run( const plBodyPointsJob* job )
 									 ? job->kernels->pose_body_points
 									 : plPoseBodyPoints_Scalar;
 	kernel( job->posed, job->shaped_points, job->point_normals, job->skin_indices, job->skin_weights,
-			job->influence_count, job->skin_matrices, job->joint_count, job->rings, job->ring_count, job->point_count,
-			job->point_begin, job->point_end );
+			job->influence_count, job->column_offsets, job->skin_matrices, job->joint_count, job->rings, job->ring_count,
+			job->point_count, job->point_begin, job->point_end );
 	return PLEAT_RESULT_OK;
 }
 

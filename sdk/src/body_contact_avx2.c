@@ -8,27 +8,39 @@
 
 #include <math.h>
 
-// One point: its posed position and unnormalised normal, each (x, y, z, 0).
-static inline void plPoseAnchor( __m128* anchor, __m128* normal, const float* r, const float* rn,
-								 const uint16_t* indices, const float* weights, uint32_t K, uint32_t J,
-								 const float* columns )
+// A point posed by its blended matrix (a, b) = ((c0 | c1), (c2 | c3)): c0·r_x + c1·r_y + c2·r_z + c3, (x, y, z, 0).
+static inline __m128 plPosePoint( __m256 a, __m256 b, const float* r )
 {
-	__m256 a, b;
-	plBlendSkinColumns( &a, &b, indices, weights, K, J, columns );
 	__m256 rxy = _mm256_set_m128( _mm_broadcast_ss( r + 1 ), _mm_broadcast_ss( r + 0 ) );
 	__m256 rz1 = _mm256_set_m128( _mm_set1_ps( 1.0f ), _mm_broadcast_ss( r + 2 ) );
 	__m256 sa = _mm256_fmadd_ps( b, rz1, _mm256_mul_ps( a, rxy ) );
+	return _mm_add_ps( _mm256_castps256_ps128( sa ), _mm256_extractf128_ps( sa, 1 ) );
+}
+
+// Its rest normal turned by the same matrix, unnormalised: c0·n_x + c1·n_y + c2·n_z, (x, y, z, 0).
+static inline __m128 plTurnNormal( __m256 a, __m256 b, const float* rn )
+{
 	__m256 nxy = _mm256_set_m128( _mm_broadcast_ss( rn + 1 ), _mm_broadcast_ss( rn + 0 ) );
 	__m256 nz0 = _mm256_set_m128( _mm_setzero_ps(), _mm_broadcast_ss( rn + 2 ) );
 	__m256 sn = _mm256_fmadd_ps( b, nz0, _mm256_mul_ps( a, nxy ) );
-	*anchor = _mm_add_ps( _mm256_castps256_ps128( sa ), _mm256_extractf128_ps( sa, 1 ) );
-	*normal = _mm_add_ps( _mm256_castps256_ps128( sn ), _mm256_extractf128_ps( sn, 1 ) );
+	return _mm_add_ps( _mm256_castps256_ps128( sn ), _mm256_extractf128_ps( sn, 1 ) );
+}
+
+// One anchor: its posed position and unnormalised normal; offsets: its column blocks (plSkinColumnOffsets).
+static inline void plPoseAnchor( __m128* anchor, __m128* normal, const float* r, const float* rn,
+								 const uint32_t* offsets, const float* weights, uint32_t K, const float* columns )
+{
+	__m256 a, b;
+	plBlendSkinOffsets( &a, &b, offsets, weights, K, columns );
+	*anchor = plPosePoint( a, b, r );
+	*normal = plTurnNormal( a, b, rn );
 }
 
 void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const float* point_normals,
 							const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-							const float* skin_matrices, uint32_t joint_count, const uint16_t* rings,
-							uint32_t ring_count, uint32_t point_count, uint32_t p_begin, uint32_t p_end )
+							const uint32_t* column_offsets, const float* skin_matrices, uint32_t joint_count,
+							const uint16_t* rings, uint32_t ring_count, uint32_t point_count, uint32_t p_begin,
+							uint32_t p_end )
 {
 	_Alignas( 32 ) float columns[PLEAT_SKIN_COLUMN_FLOATS];
 	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
@@ -37,26 +49,34 @@ void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const floa
 	{
 		float* out = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
 		const float* rn = point_normals + (size_t)p * 3;
-		__m128 point, normal;
 		const float* r = shaped_points + (size_t)p * 3;
+		// the point's column blocks: from the table, or worked out from its indices (the same offsets)
+		uint32_t own[PLEAT_MAX_INFLUENCES];
+		const uint32_t* offsets = column_offsets != NULL ? column_offsets + (size_t)p * K : own;
+		if ( column_offsets == NULL )
+		{
+			plSkinColumnOffsetsOf( own, skin_indices + (size_t)p * K, K, J );
+		}
+		__m256 a, b;
 		if ( K == 4 ) // the common case: a constant trip count, fully unrolled
 		{
-			plPoseAnchor( &point, &normal, r, rn, skin_indices + (size_t)p * 4, skin_weights + (size_t)p * 4, 4, J,
-						  columns );
+			plBlendSkinOffsets( &a, &b, offsets, skin_weights + (size_t)p * 4, 4, columns );
 		}
 		else
 		{
-			plPoseAnchor( &point, &normal, r, rn, skin_indices + (size_t)p * K, skin_weights + (size_t)p * K, K, J,
-						  columns );
+			plBlendSkinOffsets( &a, &b, offsets, skin_weights + (size_t)p * K, K, columns );
 		}
+		__m128 point = plPosePoint( a, b, r );
 		int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
 		if ( anchorable && rings != NULL && rings[(size_t)p * ring_count] < point_count )
 		{
-			// (a, 0), (0, 0, 0, 1): the ring normals set usable and the normal (3.4 % of the t-shirt's step)
+			// (a, 0), (0, 0, 0, 1): the ring normals set usable and the normal (3.4 % of the t-shirt's step); the
+			// turned normal is not even formed
 			_mm_storeu_ps( out, _mm_insert_ps( point, point, 0x08 ) );
 			_mm_storeu_ps( out + 4, _mm_set_ps( 1.0f, 0.0f, 0.0f, 0.0f ) );
 			continue;
 		}
+		__m128 normal = plTurnNormal( a, b, rn );
 		_Alignas( 16 ) float n[4];
 		_mm_store_ps( n, normal );
 		float length = sqrtf( n[0] * n[0] + n[1] * n[1] + n[2] * n[2] );
@@ -345,8 +365,9 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 // rounding (test_simd_matches_scalar).
 void plBodyContactFast_Avx2( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
 						 const float* anchor_normals, const uint16_t* anchor_skin_indices,
-						 const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
-						 uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end )
+						 const float* anchor_skin_weights, uint32_t influence_count,
+						 const uint32_t* column_offsets, const float* skin_matrices, uint32_t joint_count,
+						 float offset_m, uint32_t v_begin, uint32_t v_end )
 {
 	_Alignas( 32 ) float columns[PLEAT_SKIN_COLUMN_FLOATS];
 	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
@@ -380,15 +401,21 @@ void plBodyContactFast_Avx2( float* positions, uint32_t position_stride_bytes, c
 				const float* x = (const float*)( (const uint8_t*)positions + (size_t)v * position_stride_bytes );
 				position[i] = plLoadPosition( x );
 				const float* r = shaped_anchors + (size_t)v * 3;
+				uint32_t own[PLEAT_MAX_INFLUENCES];
+				const uint32_t* offsets = column_offsets != NULL ? column_offsets + (size_t)v * K : own;
+				if ( column_offsets == NULL )
+				{
+					plSkinColumnOffsetsOf( own, anchor_skin_indices + (size_t)v * K, K, J );
+				}
 				if ( K == 4 ) // the common case: a constant trip count, fully unrolled
 				{
-					plPoseAnchor( anchor + i, normal + i, r, rn, anchor_skin_indices + (size_t)v * 4,
-								  anchor_skin_weights + (size_t)v * 4, 4, J, columns );
+					plPoseAnchor( anchor + i, normal + i, r, rn, offsets, anchor_skin_weights + (size_t)v * 4, 4,
+								  columns );
 				}
 				else
 				{
-					plPoseAnchor( anchor + i, normal + i, r, rn, anchor_skin_indices + (size_t)v * K,
-								  anchor_skin_weights + (size_t)v * K, K, J, columns );
+					plPoseAnchor( anchor + i, normal + i, r, rn, offsets, anchor_skin_weights + (size_t)v * K, K,
+								  columns );
 				}
 			}
 			any_lane[blocks] = any;

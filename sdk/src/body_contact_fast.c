@@ -25,9 +25,11 @@ int plBodyContactFastJob_Validate( const plBodyContactFastJob* job )
 
 void plBodyContactFast_Scalar( float* positions, uint32_t position_stride_bytes, const float* shaped_anchors,
 						   const float* anchor_normals, const uint16_t* anchor_skin_indices,
-						   const float* anchor_skin_weights, uint32_t influence_count, const float* skin_matrices,
-						   uint32_t joint_count, float offset_m, uint32_t v_begin, uint32_t v_end )
+						   const float* anchor_skin_weights, uint32_t influence_count,
+						   const uint32_t* column_offsets, const float* skin_matrices, uint32_t joint_count,
+						   float offset_m, uint32_t v_begin, uint32_t v_end )
 {
+	(void)column_offsets;
 	uint32_t K = influence_count;
 	for ( uint32_t v = v_begin; v < v_end; ++v )
 	{
@@ -60,7 +62,7 @@ plResult plBodyContactFastJob_Run( const plBodyContactFastJob* job )
 	plBodyContactFastFn* kernel = job->kernels != NULL && job->kernels->body_contact_fast != NULL ? job->kernels->body_contact_fast
 																						  : plBodyContactFast_Scalar;
 	kernel( (float*)job->positions.ptr, job->positions.stride_bytes, job->shaped_anchors, job->anchor_normals,
-			job->anchor_skin_indices, job->anchor_skin_weights, job->influence_count, job->skin_matrices,
-			job->joint_count, job->offset_m, job->vertex_begin, job->vertex_end );
+			job->anchor_skin_indices, job->anchor_skin_weights, job->influence_count, job->column_offsets,
+			job->skin_matrices, job->joint_count, job->offset_m, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }

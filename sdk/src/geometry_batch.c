@@ -10,7 +10,7 @@ void plSkinningBatch_Scalar( float* const* out, const float* const* in, uint32_t
 {
 	for ( uint32_t b = 0; b < batch_count; ++b )
 	{
-		plSkinning_Scalar( out[b], 12, in[b], 12, skin_indices, skin_weights, influence_count, skin_matrices[b],
+		plSkinning_Scalar( out[b], 12, in[b], 12, skin_indices, skin_weights, influence_count, NULL, skin_matrices[b],
 						   joint_count, v_begin, v_end );
 	}
 }
@@ -24,8 +24,8 @@ void plBodyContactFastBatch_Scalar( float* const* positions, const float* const*
 	for ( uint32_t b = 0; b < batch_count; ++b )
 	{
 		plBodyContactFast_Scalar( positions[b], 12, shaped_anchors[b], anchor_normals, anchor_skin_indices,
-							  anchor_skin_weights, influence_count, skin_matrices[b], joint_count, offsets_m[b], v_begin,
-							  v_end );
+							  anchor_skin_weights, influence_count, NULL, skin_matrices[b], joint_count, offsets_m[b],
+							  v_begin, v_end );
 	}
 }
 

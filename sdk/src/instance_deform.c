@@ -38,9 +38,17 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 		plDeformTask_Record( t, plBlendShapesJob_Run( &blend ) );
 		PLEAT_STEP_PHASE( PLEAT_PHASE_BLEND );
 	}
-	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ), a->skin_indices, a->skin_weights,
-						   a->influence_count, t->skin_matrices, a->joint_count, plMakeSpan( inst->positions, n, 12 ),
-						   begin, end, &inst->ctx->kernels };
+	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ),
+						   a->skin_indices,
+						   a->skin_weights,
+						   a->influence_count,
+						   t->skin_matrices,
+						   a->joint_count,
+						   plMakeSpan( inst->positions, n, 12 ),
+						   begin,
+						   end,
+						   &inst->ctx->kernels,
+						   a->skin_column_offsets };
 	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 	if ( inst->body_contact )
@@ -102,7 +110,8 @@ plResult plPoseBodyPoints( plInstanceData* inst, const float* skin_matrices, uin
 							end,
 							&inst->ctx->kernels,
 							a->body_anchor_ring, // plBodyPointNormals follows every posing
-							a->body_anchor_ring_count };
+							a->body_anchor_ring_count,
+							a->body_anchor_column_offsets };
 	return plBodyPointsJob_Run( &job );
 }
 
@@ -138,7 +147,8 @@ plResult plRunFastBodyContact( plInstanceData* inst, float* positions, const flo
 								 inst->body_contact_offset_m,
 								 begin,
 								 end,
-								 &inst->ctx->kernels };
+								 &inst->ctx->kernels,
+								 a->body_anchor_column_offsets }; // the first N points' rows are the vertices' anchors
 	return plBodyContactFastJob_Run( &job );
 }
 

@@ -211,6 +211,7 @@ typedef struct plSkinningJob
 	plSpan output;             // [N] xyz, any stride (may not alias positions)
 	uint32_t vertex_begin, vertex_end;
 	const plKernels* kernels;     // optional: NULL = the scalar kernel
+	const uint32_t* column_offsets; // optional: plSkinColumnOffsets of skin_indices, for the AVX2 kernel
 } plSkinningJob;
 
 int plSkinningJob_Validate( const plSkinningJob* job );
@@ -234,6 +235,7 @@ typedef struct plBodyPointsJob
 	const plKernels* kernels;          // optional: NULL = the scalar kernel
 	const uint16_t* rings;             // optional: [P][R] (BARG): the points whose normals plBodyPointNormalsJob sets
 	uint32_t ring_count;               // R, with rings
+	const uint32_t* column_offsets;    // optional: plSkinColumnOffsets of skin_indices, for the AVX2 kernel
 } plBodyPointsJob;
 
 int plBodyPointsJob_Validate( const plBodyPointsJob* job );
@@ -283,6 +285,7 @@ typedef struct plBodyContactFastJob
 	float offset_m;                    // clearance (metres, >= 0)
 	uint32_t vertex_begin, vertex_end;
 	const plKernels* kernels;          // optional: NULL = the scalar kernel
+	const uint32_t* column_offsets;    // optional: plSkinColumnOffsets of anchor_skin_indices, for the AVX2 kernel
 } plBodyContactFastJob;
 
 int plBodyContactFastJob_Validate( const plBodyContactFastJob* job );

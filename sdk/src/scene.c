@@ -813,7 +813,8 @@ static plResult plLbsGeometry( const plSceneData* s, plSceneCharacter* c, float*
 						   plMakeSpan( positions, n, 12 ),
 						   0,
 						   n,
-						   &s->ctx->kernels };
+						   &s->ctx->kernels,
+						   a->skin_column_offsets };
 	if ( plSkinningJob_Run( &skin ) != PLEAT_RESULT_OK )
 	{
 		return PLEAT_RESULT_INTERNAL_ERROR;

@@ -6,6 +6,7 @@
 #ifndef PLEAT_SIMD_AVX2_H
 #define PLEAT_SIMD_AVX2_H
 #include "kernels.h"
+#include "pleat/pleat.h" // PLEAT_MAX_INFLUENCES
 
 #include <immintrin.h>
 #include <math.h>
@@ -64,7 +65,6 @@ static inline float plDotRow2( const float* x, const void* weight, int weight_fp
 // The skinning matrices as columns, two registers per joint: (c0 | c1) and (c2 | c3) with c_i = (m0i, m1i, m2i, 0),
 // joints at 16-float strides, plus an all-zero block after the last (an out-of-range index reads it: weight × 0).
 // columns: 32-byte aligned, PLEAT_SKIN_COLUMN_FLOATS floats. Returns the joints laid out (joint_count capped at 64).
-#define PLEAT_SKIN_COLUMN_JOINTS 64 // PLEAT_MAX_JOINTS (pleat.h); the asset loader enforces it
 #define PLEAT_SKIN_COLUMN_FLOATS ( ( PLEAT_SKIN_COLUMN_JOINTS + 1 ) * 16 )
 static inline uint32_t plSkinColumns( float* columns, const float* skin_matrices, uint32_t joint_count )
 {
@@ -89,21 +89,30 @@ static inline uint32_t plSkinColumns( float* columns, const float* skin_matrices
 }
 
 // Σ_k w_k M_{j_k} in column form: *a = (c0 | c1), *b = (c2 | c3) of the blended matrix, 2 FMAs per influence, k in
-// order. J: what plSkinColumns returned.
-static inline void plBlendSkinColumns( __m256* a, __m256* b, const uint16_t* indices, const float* weights, uint32_t K,
-									   uint32_t J, const float* columns )
+// order; offsets: the joints' column blocks in bytes (plSkinColumnOffsets).
+static inline void plBlendSkinOffsets( __m256* a, __m256* b, const uint32_t* offsets, const float* weights, uint32_t K,
+									   const float* columns )
 {
 	__m256 sa = _mm256_setzero_ps(), sb = _mm256_setzero_ps();
 	for ( uint32_t k = 0; k < K; ++k )
 	{
-		uint32_t joint = indices[k] < J ? indices[k] : J; // the zero block
-		const float* c = columns + (size_t)joint * 16;
+		const float* c = (const float*)( (const uint8_t*)columns + offsets[k] );
 		__m256 w = _mm256_broadcast_ss( weights + k );
 		sa = _mm256_fmadd_ps( w, _mm256_load_ps( c ), sa );
 		sb = _mm256_fmadd_ps( w, _mm256_load_ps( c + 8 ), sb );
 	}
 	*a = sa;
 	*b = sb;
+}
+
+// One vertex's or point's offsets from its K indices, where the kernel has no table (plSkinColumnOffsets' values): J is
+// what plSkinColumns returned, and an index past it reads the zero block.
+static inline void plSkinColumnOffsetsOf( uint32_t* offsets, const uint16_t* indices, uint32_t K, uint32_t J )
+{
+	for ( uint32_t k = 0; k < K; ++k )
+	{
+		offsets[k] = ( indices[k] < J ? indices[k] : J ) * 16u * (uint32_t)sizeof( float );
+	}
 }
 
 // Eight lanes of plContactReach (the same operations).

@@ -14,10 +14,21 @@ int plSkinningJob_Validate( const plSkinningJob* job )
 		   PLEAT_SPAN_HOLDS( job->output, 12, n ) && job->positions.ptr != job->output.ptr;
 }
 
+void plSkinColumnOffsets( uint32_t* dst, const uint16_t* indices, size_t count, uint32_t joint_count )
+{
+	uint32_t J = joint_count < PLEAT_SKIN_COLUMN_JOINTS ? joint_count : PLEAT_SKIN_COLUMN_JOINTS;
+	for ( size_t e = 0; e < count; ++e )
+	{
+		dst[e] = ( indices[e] < J ? indices[e] : J ) * 16u * (uint32_t)sizeof( float );
+	}
+}
+
 void plSkinning_Scalar( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
 						const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-						const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
+						const uint32_t* column_offsets, const float* skin_matrices, uint32_t joint_count,
+						uint32_t v_begin, uint32_t v_end )
 {
+	(void)column_offsets;
 	uint32_t K = influence_count;
 	for ( uint32_t v = v_begin; v < v_end; ++v )
 	{
@@ -43,6 +54,6 @@ plResult plSkinningJob_Run( const plSkinningJob* job )
 																				  : plSkinning_Scalar;
 	kernel( (float*)job->output.ptr, job->output.stride_bytes, (const float*)job->positions.ptr,
 			job->positions.stride_bytes, job->skin_indices, job->skin_weights, job->influence_count,
-			job->skin_matrices, job->joint_count, job->vertex_begin, job->vertex_end );
+			job->column_offsets, job->skin_matrices, job->joint_count, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }

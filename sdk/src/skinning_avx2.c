@@ -8,11 +8,12 @@
 // the same range (its first float is rewritten right after).
 #include "simd_avx2.h"
 
-static inline void plSkinVertex( float* q, int store16, const float* p, const uint16_t* idx, const float* wt,
-								 uint32_t K, uint32_t joint_count, const float* columns )
+// offsets: the vertex's column-block offsets (plSkinColumnOffsets)
+static inline void plSkinVertex( float* q, int store16, const float* p, const uint32_t* offsets, const float* wt,
+								 uint32_t K, const float* columns )
 {
 	__m256 a, b;
-	plBlendSkinColumns( &a, &b, idx, wt, K, joint_count, columns );
+	plBlendSkinOffsets( &a, &b, offsets, wt, K, columns );
 	__m256 xy = _mm256_set_m128( _mm_broadcast_ss( p + 1 ), _mm_broadcast_ss( p + 0 ) );
 	__m256 z1 = _mm256_set_m128( _mm_set1_ps( 1.0f ), _mm_broadcast_ss( p + 2 ) );
 	__m256 s = _mm256_fmadd_ps( b, z1, _mm256_mul_ps( a, xy ) );
@@ -30,7 +31,8 @@ static inline void plSkinVertex( float* q, int store16, const float* p, const ui
 
 void plSkinning_Avx2( float* out, uint32_t out_stride_bytes, const float* in, uint32_t in_stride_bytes,
 					  const uint16_t* skin_indices, const float* skin_weights, uint32_t influence_count,
-					  const float* skin_matrices, uint32_t joint_count, uint32_t v_begin, uint32_t v_end )
+					  const uint32_t* column_offsets, const float* skin_matrices, uint32_t joint_count,
+					  uint32_t v_begin, uint32_t v_end )
 {
 	_Alignas( 32 ) float columns[PLEAT_SKIN_COLUMN_FLOATS];
 	uint32_t J = plSkinColumns( columns, skin_matrices, joint_count );
@@ -41,13 +43,20 @@ void plSkinning_Avx2( float* out, uint32_t out_stride_bytes, const float* in, ui
 		const float* p = (const float*)( (const uint8_t*)in + (size_t)v * in_stride_bytes );
 		float* q = (float*)( (uint8_t*)out + (size_t)v * out_stride_bytes );
 		int store16 = packed && v + 1 < v_end;
+		// the vertex's column blocks: from the table, or worked out from its indices (the same offsets)
+		uint32_t own[PLEAT_MAX_INFLUENCES];
+		const uint32_t* offsets = column_offsets != NULL ? column_offsets + (size_t)v * K : own;
+		if ( column_offsets == NULL )
+		{
+			plSkinColumnOffsetsOf( own, skin_indices + (size_t)v * K, K, J );
+		}
 		if ( K == 4 ) // the common case: a constant trip count, fully unrolled
 		{
-			plSkinVertex( q, store16, p, skin_indices + (size_t)v * 4, skin_weights + (size_t)v * 4, 4, J, columns );
+			plSkinVertex( q, store16, p, offsets, skin_weights + (size_t)v * 4, 4, columns );
 		}
 		else
 		{
-			plSkinVertex( q, store16, p, skin_indices + (size_t)v * K, skin_weights + (size_t)v * K, K, J, columns );
+			plSkinVertex( q, store16, p, offsets, skin_weights + (size_t)v * K, K, columns );
 		}
 	}
 }

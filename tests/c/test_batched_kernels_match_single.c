@@ -570,23 +570,28 @@ static void test_skinning_batch_equals_skinning_per_instance( void** state )
 					}
 					uint32_t begin = nv > 2 ? 1 : 0, end = nv > 8 ? nv - 1 : nv;
 					k->batch[s].skinning_batch( out, in, n, indices, weights, K, m, J, begin, end );
+					// the single kernel as the step runs it: with the asset's column offsets
+					uint32_t* columns = (uint32_t*)malloc( (size_t)nv * K * sizeof( uint32_t ) );
+					plSkinColumnOffsets( columns, indices, (size_t)nv * K, J );
 					for ( uint32_t b = 0; b < n; ++b )
 					{
 						for ( size_t i = 0; i < (size_t)nv * 3; ++i )
 						{
 							single[i] = -7.0f;
 						}
-						k->single[s].skinning( single, 12, in[b], 12, indices, weights, K, m[b], J, begin, end );
+						k->single[s].skinning( single, 12, in[b], 12, indices, weights, K, columns, m[b], J, begin,
+											   end );
 						assert_memory_equal( single, out[b], (size_t)nv * 3 * sizeof( float ) );
 						if ( s > 0 )
 						{
-							plSkinning_Scalar( single, 12, in[b], 12, indices, weights, K, m[b], J, begin, end );
+							plSkinning_Scalar( single, 12, in[b], 12, indices, weights, K, NULL, m[b], J, begin, end );
 							for ( size_t i = (size_t)begin * 3; i < (size_t)end * 3; ++i )
 							{
 								assert_true( fabsf( single[i] - out[b][i] ) <= 1e-5f * ( 1.0f + fabsf( single[i] ) ) );
 							}
 						}
 					}
+					free( columns );
 					free( ins );
 					free( outs );
 					free( mats );
@@ -731,12 +736,14 @@ static void test_fast_body_contact_batch_equals_per_instance( void** state )
 					memcpy( before, ps, (size_t)n * nv * 3 * sizeof( float ) );
 					uint32_t begin = nv > 2 ? 1 : 0, end = nv > 8 ? nv - 1 : nv;
 					k->batch[s].body_contact_fast_batch( p, r, offsets, n, normals, indices, weights, K, m, J, begin, end );
+					uint32_t* columns = (uint32_t*)malloc( (size_t)nv * K * sizeof( uint32_t ) );
+					plSkinColumnOffsets( columns, indices, (size_t)nv * K, J );
 					int moved = 0;
 					for ( uint32_t b = 0; b < n; ++b )
 					{
 						memcpy( single, before + (size_t)b * nv * 3, (size_t)nv * 3 * sizeof( float ) );
-						k->single[s].body_contact_fast( single, 12, r[b], normals, indices, weights, K, m[b], J, offsets[b],
-												   begin, end );
+						k->single[s].body_contact_fast( single, 12, r[b], normals, indices, weights, K, columns, m[b], J,
+													   offsets[b], begin, end );
 						assert_memory_equal( single, p[b], (size_t)nv * 3 * sizeof( float ) );
 						moved |= memcmp( single, before + (size_t)b * nv * 3, (size_t)nv * 3 * sizeof( float ) ) != 0;
 					}
@@ -746,6 +753,7 @@ static void test_fast_body_contact_batch_equals_per_instance( void** state )
 					free( mats );
 					free( single );
 					free( before );
+					free( columns );
 				}
 				free( indices );
 				free( weights );
@@ -792,6 +800,8 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 	plRingLanes( ring_lanes, rings, R, P );
 	uint32_t row_offsets[( NV + 7 ) / 8 * C * 8]; // and its candidates as posed rows' offsets
 	plContactRowOffsets( row_offsets, candidates, C, NV, P );
+	uint32_t column_offsets[P * K]; // and its skin as column-block offsets
+	plSkinColumnOffsets( column_offsets, indices, (size_t)P * K, J );
 	// (a machine without AVX2 has only the scalar set, which runs each instance alone: nothing to compare)
 	for ( uint32_t s = 0; s < k->count; ++s )
 	{
@@ -836,7 +846,8 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 			for ( uint32_t b = 0; b < n; ++b )
 			{
 				memcpy( single, before[b], sizeof( single ) );
-				k->single[s].pose_body_points( posed, points[b], normals, indices, weights, K, mats[b], J, rings, R, P, 0,
+				k->single[s].pose_body_points( posed, points[b], normals, indices, weights, K, column_offsets, mats[b], J,
+											   rings, R, P, 0,
 											  P );
 				k->single[s].body_point_normals( posed, P, rings, R, ring_lanes, 0, P );
 				k->single[s].body_contact( single, 12, posed, P, candidates, C, row_offsets, offsets[b], 0, NV );

@@ -236,7 +236,7 @@ static void test_skinning_writes_interleaved_span( void** state )
 	{
 		out[i] = -7.0f;
 	}
-	plSkinningJob job = { plMakeConstSpan( rest, 2, 12 ), idx, w, 2, m, 2, plMakeSpan( out, 2, 32 ), 0, 2, NULL };
+	plSkinningJob job = { plMakeConstSpan( rest, 2, 12 ), idx, w, 2, m, 2, plMakeSpan( out, 2, 32 ), 0, 2, NULL, NULL };
 	assert_int_equal( plSkinningJob_Run( &job ), PLEAT_RESULT_OK );
 	// v0: 0.25 · ((1,2,3) + (1,0,0)) + 0.75 · (2,4,6) = (0.5,0.5,0.75) + (1.5,3,4.5) = (2, 3.5, 5.25).
 	assert_float_equal( out[0], 2.0f, 1e-6 );
@@ -262,7 +262,7 @@ static void test_jobs_reject_invalid_spans( void** state )
 	float w[2] = { 1, 1 };
 	float m[12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0 };
 	float out[2 * 3];
-	plSkinningJob good = { plMakeConstSpan( rest, 2, 12 ), idx, w, 1, m, 1, plMakeSpan( out, 2, 12 ), 0, 2, NULL };
+	plSkinningJob good = { plMakeConstSpan( rest, 2, 12 ), idx, w, 1, m, 1, plMakeSpan( out, 2, 12 ), 0, 2, NULL, NULL };
 	assert_true( plSkinningJob_Validate( &good ) );
 	plSkinningJob bad[7];
 	for ( int i = 0; i < 7; ++i )
@@ -544,7 +544,7 @@ static void test_body_contact_by_hand( void** state )
 	const float weights[5 * 2] = { 1, 0, 1, 0, 1, 0, 1, 0, 0.5f, 0.5f };
 	const float matrices[2 * 12] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, /* joint 1: */ 0, -1, 0, 1, 1, 0, 0, 0, 0, 0, 1, 0 };
 	float posed[5 * PLEAT_POSED_POINT_FLOATS];
-	plBodyPointsJob pose = { anchors, normals, indices, weights, 2, matrices, 2, posed, 5, 0, 5, NULL, NULL, 0 };
+	plBodyPointsJob pose = { anchors, normals, indices, weights, 2, matrices, 2, posed, 5, 0, 5, NULL, NULL, 0, NULL };
 	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
 	// One point per vertex (asset 1.1: no candidate table, vertex v's point is v).
 	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), posed, 5, NULL, 1, 0.002f, 0, 5, NULL, NULL };
@@ -599,7 +599,7 @@ static void test_body_contact_blends_the_nearest_usable_candidates_by_hand( void
 	const uint16_t E = PLEAT_NO_CONTACT_CANDIDATE;
 	const uint16_t candidates[5 * 3] = { 0, 1, E, 2, 0, 1, E, 7, E, 0, E, E, 0, E, E };
 	float posed[3 * PLEAT_POSED_POINT_FLOATS];
-	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 3, 0, 3, NULL, NULL, 0 };
+	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 3, 0, 3, NULL, NULL, 0, NULL };
 	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
 	plBodyContactJob job = { plMakeSpan( positions, 5, 12 ), posed, 3, candidates, 3, 0.002f, 0, 5, NULL, NULL };
 	assert_int_equal( plBodyContactJob_Run( &job ), PLEAT_RESULT_OK );
@@ -630,7 +630,7 @@ static void test_body_point_normals_from_rings_by_hand( void** state )
 	const uint16_t rings[5 * 4] = { 1, 2, 3, 4, /* p1 */ E, E, E, E, /* p2 */ 1, 3, 1, E, /* p3 */ E, E, E, E,
 									/* p4 */ 0, 1, 2, E };
 	float posed[5 * PLEAT_POSED_POINT_FLOATS];
-	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 5, 0, 5, NULL, NULL, 0 };
+	plBodyPointsJob pose = { points, normals, indices, weights, 1, matrices, 1, posed, 5, 0, 5, NULL, NULL, 0, NULL };
 	assert_int_equal( plBodyPointsJob_Run( &pose ), PLEAT_RESULT_OK );
 	assert_float_equal( posed[3 * PLEAT_POSED_POINT_FLOATS + 0], -1.0f, 0.0f ); // a corner is posed too
 	plBodyPointNormalsJob job = { posed, 5, rings, 4, 0, 5, NULL, NULL };

@@ -256,10 +256,22 @@ static void test_pose_body_points_avx2_matches_scalar( void** state )
 		{
 			os[i] = ov[i] = -77.0f;
 		}
-		pair->scalar.pose_body_points( os, points, normals, indices, weights, K, matrices, joint_count, NULL, 0, n, 1,
-									   n - 2 );
-		pair->simd.pose_body_points( ov, points, normals, indices, weights, K, matrices, joint_count, NULL, 0, n, 1,
+		pair->scalar.pose_body_points( os, points, normals, indices, weights, K, NULL, matrices, joint_count, NULL, 0, n,
+									   1, n - 2 );
+		pair->simd.pose_body_points( ov, points, normals, indices, weights, K, NULL, matrices, joint_count, NULL, 0, n, 1,
 									 n - 2 );
+		// with the column offsets the asset gives it: the same bits as without
+		uint32_t offsets[41 * 8];
+		plSkinColumnOffsets( offsets, indices, n * K, joint_count );
+		float oo[41 * PLEAT_POSED_POINT_FLOATS];
+		memcpy( oo, os, sizeof( oo ) ); // (the rows outside the range as the others')
+		pair->simd.pose_body_points( oo, points, normals, indices, weights, K, offsets, matrices, joint_count, NULL, 0,
+									 n, 1, n - 2 );
+		for ( uint32_t p = 1; p < n - 2; ++p )
+		{
+			assert_memory_equal( oo + p * PLEAT_POSED_POINT_FLOATS, ov + p * PLEAT_POSED_POINT_FLOATS,
+								 PLEAT_POSED_POINT_FLOATS * sizeof( float ) );
+		}
 		// With rings: every third point has one (its first slot < n); the others' are empty or past n. Those points,
 		// when anchorable, get usable and the normal 0 (the ring normals set them) and the rest of their row as
 		// without rings; every other row is the same as without rings, bit for bit (the same kernel).
@@ -280,8 +292,8 @@ static void test_pose_body_points_avx2_matches_scalar( void** state )
 				with[i] = -77.0f;
 			}
 			( simd ? pair->simd : pair->scalar )
-				.pose_body_points( with, points, normals, indices, weights, K, matrices, joint_count, rings, R, n, 1,
-								   n - 2 );
+				.pose_body_points( with, points, normals, indices, weights, K, simd ? offsets : NULL, matrices,
+								   joint_count, rings, R, n, 1, n - 2 );
 			uint32_t skipped = 0;
 			for ( uint32_t p = 0; p < n; ++p )
 			{
@@ -557,10 +569,19 @@ static void test_fast_body_contact_avx2_matches_scalar( void** state )
 		memcpy( os, start, sizeof( os ) );
 		memcpy( ov, start, sizeof( ov ) );
 		const plKernels *scalar = &pair->scalar, *simd = &pair->simd;
-		scalar->body_contact_fast( os, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1,
-							  n - 2 );
-		simd->body_contact_fast( ov, stride, anchors, normals, indices, weights, K, matrices, joint_count, 0.01f, 1, n - 2 );
+		scalar->body_contact_fast( os, stride, anchors, normals, indices, weights, K, NULL, matrices, joint_count, 0.01f,
+								   1, n - 2 );
+		simd->body_contact_fast( ov, stride, anchors, normals, indices, weights, K, NULL, matrices, joint_count, 0.01f, 1,
+								 n - 2 );
 		assert_true( plExpectContactTwins( os, ov, start, n, 1, 1e-5f, "K", K ) > 0 );
+		// with the column offsets the asset gives it: the same bits as without
+		uint32_t offsets[41 * 8];
+		plSkinColumnOffsets( offsets, indices, n * K, joint_count );
+		float oo[41 * 5];
+		memcpy( oo, start, sizeof( oo ) );
+		simd->body_contact_fast( oo, stride, anchors, normals, indices, weights, K, offsets, matrices, joint_count, 0.01f,
+								 1, n - 2 );
+		assert_memory_equal( oo, ov, sizeof( oo ) );
 	}
 }
 
@@ -590,8 +611,18 @@ static void test_skinning_avx2_matches_scalar( void** state )
 		{
 			os[i] = ov[i] = -77.0f;
 		}
-		pair->scalar.skinning( os, out_stride, in, in_stride, indices, weights, K, matrices, joint_count, 2, n - 1 );
-		pair->simd.skinning( ov, out_stride, in, in_stride, indices, weights, K, matrices, joint_count, 2, n - 1 );
+		pair->scalar.skinning( os, out_stride, in, in_stride, indices, weights, K, NULL, matrices, joint_count, 2, n - 1 );
+		pair->simd.skinning( ov, out_stride, in, in_stride, indices, weights, K, NULL, matrices, joint_count, 2, n - 1 );
+		// with the column offsets the asset gives it: the same bits as without
+		uint32_t offsets[37 * 8];
+		plSkinColumnOffsets( offsets, indices, n * K, joint_count );
+		float oo[37 * 7];
+		for ( uint32_t i = 0; i < n * 7; ++i )
+		{
+			oo[i] = -77.0f;
+		}
+		pair->simd.skinning( oo, out_stride, in, in_stride, indices, weights, K, offsets, matrices, joint_count, 2, n - 1 );
+		assert_memory_equal( oo, ov, sizeof( oo ) );
 		for ( uint32_t v = 0; v < n; ++v )
 		{
 			for ( uint32_t e = 0; e < 7; ++e )
