@@ -134,7 +134,7 @@ static void plMatMatWindow( float* const* out, const float* const* x, uint32_t b
 				}
 				for ( ; c < columns; ++c )
 				{
-					widened[k * columns + c] = plHalfToFloat( w16[base[k] + c] );
+					widened[k * columns + c] = _cvtsh_ss( w16[base[k] + c] );
 				}
 				tile_base[k] = (size_t)k * columns;
 			}

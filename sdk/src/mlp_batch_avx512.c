@@ -37,7 +37,7 @@ static inline void plWidenRow( float* dst, const uint16_t* w16, uint32_t columns
 	}
 	for ( ; c < columns; ++c )
 	{
-		dst[c] = plHalfToFloat( w16[c] );
+		dst[c] = _cvtsh_ss( w16[c] );
 	}
 }
 
