@@ -64,10 +64,10 @@ void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const fl
 		out[1] = m[4] * r[0] + m[5] * r[1] + m[6] * r[2] + m[7];
 		out[2] = m[8] * r[0] + m[9] * r[1] + m[10] * r[2] + m[11];
 		int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
-		out[7] = anchorable ? 1.0f : 0.0f;
+		out[3] = anchorable ? 1.0f : 0.0f;
 		if ( anchorable && rings != NULL && rings[(size_t)p * ring_count] < point_count )
 		{
-			out[3] = out[4] = out[5] = out[6] = 0.0f; // the ring normals set them
+			out[4] = out[5] = out[6] = out[7] = 0.0f; // the ring normals set them
 			continue;
 		}
 		float nx = m[0] * rn[0] + m[1] * rn[1] + m[2] * rn[2];
@@ -75,10 +75,10 @@ void plPoseBodyPoints_Scalar( float* posed, const float* shaped_points, const fl
 		float nz = m[8] * rn[0] + m[9] * rn[1] + m[10] * rn[2];
 		float length = sqrtf( nx * nx + ny * ny + nz * nz );
 		int usable = anchorable && length > 1e-12f; // a degenerate blend: no plane to keep the vertex out of
-		out[3] = usable ? 1.0f : 0.0f;
 		out[4] = usable ? nx / length : 0.0f;
 		out[5] = usable ? ny / length : 0.0f;
 		out[6] = usable ? nz / length : 0.0f;
+		out[7] = usable ? 1.0f : 0.0f;
 	}
 }
 
@@ -137,7 +137,7 @@ void plBodyPointNormals_Scalar( float* posed, uint32_t point_count, const uint16
 	{
 		float* out = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
 		const uint16_t* ring = rings + (size_t)p * R;
-		if ( out[7] == 0.0f || ring[0] >= point_count )
+		if ( out[3] == 0.0f || ring[0] >= point_count )
 		{
 			continue; // not an anchor, or no ring: the row stands
 		}
@@ -163,10 +163,10 @@ void plBodyPointNormals_Scalar( float* posed, uint32_t point_count, const uint16
 		}
 		float length = sqrtf( nx * nx + ny * ny + nz * nz );
 		int usable = length > 1e-12f;
-		out[3] = usable ? 1.0f : 0.0f;
 		out[4] = usable ? nx / length : 0.0f;
 		out[5] = usable ? ny / length : 0.0f;
 		out[6] = usable ? nz / length : 0.0f;
+		out[7] = usable ? 1.0f : 0.0f;
 	}
 }
 
@@ -192,7 +192,7 @@ void plBodyContact_Scalar( float* positions, uint32_t position_stride_bytes, con
 				continue; // an empty slot (PLEAT_NO_CONTACT_CANDIDATE)
 			}
 			const float* a = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
-			if ( a[3] == 0.0f )
+			if ( a[7] == 0.0f )
 			{
 				continue; // not usable in this pose
 			}

@@ -70,10 +70,10 @@ void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const floa
 		int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
 		if ( anchorable && rings != NULL && rings[(size_t)p * ring_count] < point_count )
 		{
-			// (a, 0), (0, 0, 0, 1): the ring normals set usable and the normal (3.4 % of the t-shirt's step); the
+			// (a, 1), (0, 0, 0, 0): the ring normals set the normal and usable (3.4 % of the t-shirt's step); the
 			// turned normal is not even formed
-			_mm_storeu_ps( out, _mm_insert_ps( point, point, 0x08 ) );
-			_mm_storeu_ps( out + 4, _mm_set_ps( 1.0f, 0.0f, 0.0f, 0.0f ) );
+			_mm_storeu_ps( out, _mm_insert_ps( point, _mm_set_ss( 1.0f ), 0x30 ) );
+			_mm_storeu_ps( out + 4, _mm_setzero_ps() );
 			continue;
 		}
 		__m128 normal = plTurnNormal( a, b, rn );
@@ -81,11 +81,11 @@ void plPoseBodyPoints_Avx2( float* posed, const float* shaped_points, const floa
 		_mm_store_ps( n, normal );
 		float length = sqrtf( n[0] * n[0] + n[1] * n[1] + n[2] * n[2] );
 		int usable = anchorable && length > 1e-12f;
-		// (a_x, a_y, a_z, usable): every point's position, a face corner's too
-		_mm_storeu_ps( out, _mm_insert_ps( point, _mm_set_ss( usable ? 1.0f : 0.0f ), 0x30 ) );
-		// (n, anchorable): lane 3 of the normal is 0, so 0 / length = 0 before the flag goes in
+		// (a_x, a_y, a_z, anchorable): every point's position, a face corner's too
+		_mm_storeu_ps( out, _mm_insert_ps( point, _mm_set_ss( anchorable ? 1.0f : 0.0f ), 0x30 ) );
+		// (n, usable): lane 3 of the normal is 0, so 0 / length = 0 before the flag goes in
 		__m128 unit = usable ? _mm_div_ps( normal, _mm_set1_ps( length ) ) : _mm_setzero_ps();
-		_mm_storeu_ps( out + 4, _mm_insert_ps( unit, _mm_set_ss( anchorable ? 1.0f : 0.0f ), 0x30 ) );
+		_mm_storeu_ps( out + 4, _mm_insert_ps( unit, _mm_set_ss( usable ? 1.0f : 0.0f ), 0x30 ) );
 	}
 }
 
@@ -111,7 +111,7 @@ static inline void plRowsOf8( __m256* x, __m256* y, __m256* z, const __m128* v )
 }
 
 // AVX2 twin of plBodyContact_Scalar, eight vertices per vector: slot by slot, the eight candidates' whole posed rows
-// (8 floats: position, usable, normal, anchorable) loaded and transposed into their fields' lanes (plTranspose8x8);
+// (8 floats: position, anchorable, normal, usable) loaded and transposed into their fields' lanes (plTranspose8x8);
 // the nearest, the weights and the sums lane by lane in the scalar kernel's order (an unusable or empty slot, or one
 // outside the margin, adds w = 0, which leaves every sum's bits as they were), so the two agree bit for bit. Why lanes
 // of vertices and not of candidates: a vertex's work is one long chain (distances, nearest, weights, sums, a square
@@ -165,7 +165,7 @@ void plBodyContact_Avx2( float* positions, uint32_t position_stride_bytes, const
 			plTranspose8x8( rows );
 			ax[c] = rows[0], ay[c] = rows[1], az[c] = rows[2];
 			cnx[c] = rows[4], cny[c] = rows[5], cnz[c] = rows[6];
-			__m256 usable = _mm256_cmp_ps( rows[3], zero, _CMP_NEQ_OQ );
+			__m256 usable = _mm256_cmp_ps( rows[7], zero, _CMP_NEQ_OQ );
 			__m256 dx = _mm256_sub_ps( x, ax[c] ), dy = _mm256_sub_ps( y, ay[c] ), dz = _mm256_sub_ps( z, az[c] );
 			__m256 d = _mm256_add_ps( _mm256_add_ps( _mm256_mul_ps( dx, dx ), _mm256_mul_ps( dy, dy ) ),
 									  _mm256_mul_ps( dz, dz ) );
@@ -261,13 +261,13 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 		for ( uint32_t p0 = c0; p0 < p_end && blocks < CHUNK; p0 += 8, ++blocks )
 		{
 			const int32_t* slots = ring_lanes + (size_t)( p0 / 8 ) * R * 8;
-			// the lanes that change: in the range, an anchor (row 7) and with a ring (slot 0 used)
+			// the lanes that change: in the range, an anchor (float 3) and with a ring (slot 0 used)
 			int changes = _mm256_movemask_ps(
 				_mm256_castsi256_ps( _mm256_cmpgt_epi32( _mm256_load_si256( (const __m256i*)slots ), none ) ) );
 			for ( uint32_t i = 0; i < 8; ++i )
 			{
 				uint32_t p = p0 + i;
-				if ( p < p_begin || p >= p_end || posed[(size_t)p * PLEAT_POSED_POINT_FLOATS + 7] == 0.0f )
+				if ( p < p_begin || p >= p_end || posed[(size_t)p * PLEAT_POSED_POINT_FLOATS + 3] == 0.0f )
 				{
 					changes &= ~( 1 << i );
 				}
@@ -332,17 +332,18 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 			__m256 length = _mm256_sqrt_ps( _mm256_add_ps(
 				_mm256_add_ps( _mm256_mul_ps( nx, nx ), _mm256_mul_ps( ny, ny ) ), _mm256_mul_ps( nz, nz ) ) );
 			__m256 usable = _mm256_cmp_ps( length, _mm256_set1_ps( 1e-12f ), _CMP_GT_OQ );
-			// (usable, n) per lane: the four rows turned into eight (u, x, y, z) vectors, one 16-byte store each
-			__m256 ru = _mm256_and_ps( _mm256_set1_ps( 1.0f ), usable );
+			// (n, usable) per lane: the four rows turned into eight (x, y, z, u) vectors, one 16-byte store each into
+			// the second half of the point's row (the half no other point's ring pass reads)
 			__m256 rx = _mm256_and_ps( _mm256_div_ps( nx, length ), usable );
 			__m256 ry = _mm256_and_ps( _mm256_div_ps( ny, length ), usable );
 			__m256 rz = _mm256_and_ps( _mm256_div_ps( nz, length ), usable );
-			__m256 ux_lo = _mm256_unpacklo_ps( ru, rx ), ux_hi = _mm256_unpackhi_ps( ru, rx ); // u0 x0 u1 x1 | u4 x4 ..
-			__m256 yz_lo = _mm256_unpacklo_ps( ry, rz ), yz_hi = _mm256_unpackhi_ps( ry, rz );
-			__m256 q0 = _mm256_shuffle_ps( ux_lo, yz_lo, _MM_SHUFFLE( 1, 0, 1, 0 ) ); // lanes 0 | 4
-			__m256 q1 = _mm256_shuffle_ps( ux_lo, yz_lo, _MM_SHUFFLE( 3, 2, 3, 2 ) ); // lanes 1 | 5
-			__m256 q2 = _mm256_shuffle_ps( ux_hi, yz_hi, _MM_SHUFFLE( 1, 0, 1, 0 ) ); // lanes 2 | 6
-			__m256 q3 = _mm256_shuffle_ps( ux_hi, yz_hi, _MM_SHUFFLE( 3, 2, 3, 2 ) ); // lanes 3 | 7
+			__m256 ru = _mm256_and_ps( _mm256_set1_ps( 1.0f ), usable );
+			__m256 xy_lo = _mm256_unpacklo_ps( rx, ry ), xy_hi = _mm256_unpackhi_ps( rx, ry ); // x0 y0 x1 y1 | x4 y4 ..
+			__m256 zu_lo = _mm256_unpacklo_ps( rz, ru ), zu_hi = _mm256_unpackhi_ps( rz, ru );
+			__m256 q0 = _mm256_shuffle_ps( xy_lo, zu_lo, _MM_SHUFFLE( 1, 0, 1, 0 ) ); // lanes 0 | 4
+			__m256 q1 = _mm256_shuffle_ps( xy_lo, zu_lo, _MM_SHUFFLE( 3, 2, 3, 2 ) ); // lanes 1 | 5
+			__m256 q2 = _mm256_shuffle_ps( xy_hi, zu_hi, _MM_SHUFFLE( 1, 0, 1, 0 ) ); // lanes 2 | 6
+			__m256 q3 = _mm256_shuffle_ps( xy_hi, zu_hi, _MM_SHUFFLE( 3, 2, 3, 2 ) ); // lanes 3 | 7
 			__m128 lane[8] = { _mm256_castps256_ps128( q0 ),   _mm256_castps256_ps128( q1 ),
 							   _mm256_castps256_ps128( q2 ),   _mm256_castps256_ps128( q3 ),
 							   _mm256_extractf128_ps( q0, 1 ), _mm256_extractf128_ps( q1, 1 ),
@@ -352,7 +353,7 @@ void plBodyPointNormals_Avx2( float* posed, uint32_t point_count, const uint16_t
 			{
 				if ( changes & ( 1 << i ) )
 				{
-					_mm_storeu_ps( posed + (size_t)( p0 + i ) * PLEAT_POSED_POINT_FLOATS + 3, lane[i] );
+					_mm_storeu_ps( posed + (size_t)( p0 + i ) * PLEAT_POSED_POINT_FLOATS + 4, lane[i] );
 				}
 			}
 		}

@@ -111,12 +111,14 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 
 // Body contact (pleat.h BODY CONTACT, body_contact.c), in three kernels:
 // Posing the body points [p_begin, p_end): M_p = Σ_k w_pk M_{j_pk}, a = M_p · (r_p, 1), n = normalize(M_p[:, :3] · n_p)
-// into posed[p] = (a_x, a_y, a_z, usable, n_x, n_y, n_z, anchorable) (PLEAT_POSED_POINT_FLOATS floats, 32-byte rows):
+// into posed[p] = (a_x, a_y, a_z, anchorable, n_x, n_y, n_z, usable) (PLEAT_POSED_POINT_FLOATS floats, 32-byte rows):
 // every point's position; anchorable is 1 where the rest normal is non-zero, usable where also the blended normal is
 // longer than 1e-12 (else 0, and the normal 0). Rest points and normals [P][3], point skin [P][K]; joint indices
 // >= joint_count count as weight 0. With rings (NULL: none), an anchorable point with a ring (rings[p][0] < P) gets
-// usable and its normal as 0: the ring normals below overwrite them, so its blended normal (a square root, three
-// divisions) is not worked out.
+// its normal and usable as 0: the ring normals below overwrite them, so its blended normal (a square root, three
+// divisions) is not worked out. The halves are the GL path's (shaders/body_contact.comp): the ring normals read the
+// first half of other points' rows and write the second half of their own, so workers that split the points never
+// write what another one reads (until stop 29 usable sat in the first half, which a neighbour's ring pass read).
 #define PLEAT_POSED_POINT_FLOATS 8
 // At most this many candidate body points per garment vertex (asset 1.2, BACA), and the index of an empty slot.
 #define PLEAT_MAX_CONTACT_CANDIDATES 16

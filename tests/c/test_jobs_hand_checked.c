@@ -555,7 +555,10 @@ static void test_body_contact_by_hand( void** state )
 	{
 		assert_float_equal( positions[i], expected[i], 1e-6f );
 	}
-	assert_float_equal( posed[3 * PLEAT_POSED_POINT_FLOATS + 3], 0.0f, 0.0f ); // the zero normal: never usable
+	assert_float_equal( posed[3 * PLEAT_POSED_POINT_FLOATS + 3], 0.0f, 0.0f ); // the zero normal: not anchorable,
+	assert_float_equal( posed[3 * PLEAT_POSED_POINT_FLOATS + 7], 0.0f, 0.0f ); // never usable
+	assert_float_equal( posed[0 * PLEAT_POSED_POINT_FLOATS + 3], 1.0f, 0.0f ); // (a, anchorable), (n, usable)
+	assert_float_equal( posed[0 * PLEAT_POSED_POINT_FLOATS + 7], 1.0f, 0.0f );
 	// A vertex range leaves the rest alone; a negative or non-finite offset is refused, and so are a candidate count
 	// without a table, more candidates than the limit, fewer points than vertices without a table, a point range past P.
 	positions[1] = -0.005f;
@@ -635,13 +638,13 @@ static void test_body_point_normals_from_rings_by_hand( void** state )
 	assert_float_equal( posed[3 * PLEAT_POSED_POINT_FLOATS + 0], -1.0f, 0.0f ); // a corner is posed too
 	plBodyPointNormalsJob job = { posed, 5, rings, 4, 0, 5, NULL, NULL };
 	assert_int_equal( plBodyPointNormalsJob_Run( &job ), PLEAT_RESULT_OK );
-	const float expected[5][4] = { { 1, 0, 0, 1 }, { 1, 0, 1, 0 }, { 0, 0, 0, 0 }, { 0, 0, 0, 0 }, { 0, 0, 0, 0 } };
+	const float expected[5][4] = { { 0, 0, 1, 1 }, { 0, 1, 0, 1 }, { 0, 0, 0, 0 }, { 0, 0, 0, 0 }, { 0, 0, 0, 0 } };
 	for ( int p = 0; p < 5; ++p )
 	{
 		const float* row = posed + p * PLEAT_POSED_POINT_FLOATS;
 		for ( int e = 0; e < 4; ++e )
 		{
-			assert_float_equal( row[3 + e], expected[p][e], 1e-7f ); // usable, then n
+			assert_float_equal( row[4 + e], expected[p][e], 1e-7f ); // n, then usable: the row's second half
 		}
 	}
 	job.ring_count = PLEAT_MAX_POINT_RING + 1;

@@ -302,8 +302,8 @@ static void test_pose_body_points_avx2_matches_scalar( void** state )
 				int ring_point = p >= 1 && p < n - 2 && p % 3 == 0 && p % 4 != 0; // p % 4 == 0: not an anchor
 				if ( ring_point )
 				{
-					assert_memory_equal( w, o, 3 * sizeof( float ) );
-					assert_true( w[3] == 0.0f && w[4] == 0.0f && w[5] == 0.0f && w[6] == 0.0f && w[7] == 1.0f );
+					assert_memory_equal( w, o, 4 * sizeof( float ) ); // (a, anchorable) as without rings
+					assert_true( w[3] == 1.0f && w[4] == 0.0f && w[5] == 0.0f && w[6] == 0.0f && w[7] == 0.0f );
 					skipped++;
 				}
 				else
@@ -324,7 +324,7 @@ static void test_pose_body_points_avx2_matches_scalar( void** state )
 					assert_true( a == -77.0f && b == -77.0f ); // outside the range: untouched
 					continue;
 				}
-				if ( e == 3 ) // usable: never without a normal (a zero blend, all weight on bad joints, is not either)
+				if ( e == 7 ) // usable: never without a normal (a zero blend, all weight on bad joints, is not either)
 				{
 					assert_true( a == b && ( a == 0.0f || ( a == 1.0f && p % 4 != 0 ) ) );
 					usable += a == 1.0f;
@@ -353,7 +353,7 @@ static void test_body_point_normals_avx2_are_bit_identical_to_scalar( void** sta
 		for ( uint32_t p = 0; p < P; ++p )
 		{
 			float* r = start + p * PLEAT_POSED_POINT_FLOATS;
-			float row[8] = { plRand(), plRand(), plRand(), 1.0f, 0.0f, 1.0f, 0.0f, p % 6 == 4 ? 0.0f : 1.0f };
+			float row[8] = { plRand(), plRand(), plRand(), p % 6 == 4 ? 0.0f : 1.0f, 0.0f, 1.0f, 0.0f, 1.0f };
 			memcpy( r, row, sizeof( row ) );
 			uint32_t m = p % 7 == 2 ? 0 : 3 + p % ( R - 2 ); // 0 or 3..R
 			for ( uint32_t s = 0; s < R; ++s )
@@ -445,8 +445,8 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 		float nx = plRand(), ny = plRand(), nz = plRand() + 0.1f;
 		float len = sqrtf( nx * nx + ny * ny + nz * nz );
 		int usable = p % 5 != 2;
-		float row[8] = { 0.03f * plRand(), 0.03f * plRand(), 0.03f * plRand(), usable ? 1.0f : 0.0f,
-						 usable ? nx / len : 0.0f, usable ? ny / len : 0.0f, usable ? nz / len : 0.0f, 0.0f };
+		float row[8] = { 0.03f * plRand(), 0.03f * plRand(), 0.03f * plRand(), 1.0f, usable ? nx / len : 0.0f,
+						 usable ? ny / len : 0.0f,         usable ? nz / len : 0.0f,  usable ? 1.0f : 0.0f };
 		memcpy( r, row, sizeof( row ) );
 	}
 	float start[n * 5];
@@ -486,7 +486,7 @@ static void test_body_contact_avx2_matches_scalar( void** state )
 			{
 				uint32_t p = candidates[v * C + c];
 				const float* a = posed + (size_t)p * PLEAT_POSED_POINT_FLOATS;
-				if ( p < P && a[3] != 0.0f )
+				if ( p < P && a[7] != 0.0f )
 				{
 					float dx = start[5 * v] - a[0], dy = start[5 * v + 1] - a[1], dz = start[5 * v + 2] - a[2];
 					nearest = fminf( nearest, dx * dx + dy * dy + dz * dz );
