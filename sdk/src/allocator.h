@@ -17,4 +17,11 @@ void* plAllocZeroed( const plAllocator* allocator, size_t size, size_t align );
 // ptr may be NULL; size must be the size passed to plAlloc.
 void plFree( const plAllocator* allocator, void* ptr, size_t size );
 
+// v rounded up to a whole number of 64-byte lines: the parts carved out of one 64-byte-aligned plAlloc block (an
+// instance's buffers, a scene's, an asset's derived tables) each start on a line of their own.
+static inline size_t plAlign64( size_t v )
+{
+	return ( v + 63u ) & ~(size_t)63u;
+}
+
 #endif

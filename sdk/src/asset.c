@@ -904,78 +904,83 @@ static plLogItem plLogItemForLoadResult( plResult r )
 	}
 }
 
+// The next `bytes` of a derived block (NULL for none), each part starting on a 64-byte line.
+static void* plTakeDerived( uint8_t** cursor, size_t bytes )
+{
+	if ( bytes == 0 )
+	{
+		return NULL;
+	}
+	void* part = *cursor;
+	*cursor += plAlign64( bytes );
+	return part;
+}
+
 // What the load derives for the kernels, in one block: the single step's packed copies of the networks' block layers
 // (kernels.h plLayer.packed), the body's rings in lanes for the AVX2 ring normals (plRingLanes), the contact
 // candidates as posed rows' offsets for the AVX2 push (plContactRowOffsets) and the garment's and body points' skin
 // indices as column-block offsets for the AVX2 skinning and posing (plSkinColumnOffsets).
 static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 {
-	size_t total = 0;
-	for ( uint32_t i = 0; i < asset->lp_layer_count + asset->dec_layer_count; ++i )
-	{
-		const plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
-		total += ( plPackedLayerBytes( l ) + 63 ) & ~(size_t)63;
-	}
-	size_t ring_lanes = asset->body_anchor_ring != NULL
+	uint32_t layer_count = asset->lp_layer_count + asset->dec_layer_count;
+	uint32_t C = asset->body_anchor_candidates != NULL ? asset->body_anchor_candidate_count : 1;
+	size_t N = asset->vertex_count, P = asset->body_point_count;
+	size_t ring_bytes = asset->body_anchor_ring != NULL
 							? plRingLanesCount( asset->body_point_count, asset->body_anchor_ring_count ) * sizeof( int32_t )
 							: 0;
-	total += ( ring_lanes + 63 ) & ~(size_t)63;
-	uint32_t C = asset->body_anchor_candidates != NULL ? asset->body_anchor_candidate_count : 1;
-	size_t row_offsets = asset->body_point_count > 0
-							 ? plContactRowOffsetsCount( asset->vertex_count, C ) * sizeof( uint32_t )
-							 : 0;
-	total += ( row_offsets + 63 ) & ~(size_t)63;
-	size_t skin_offsets = (size_t)asset->vertex_count * asset->influence_count * sizeof( uint32_t );
-	size_t body_offsets = asset->body_point_count > 0 ? (size_t)asset->body_point_count *
-															asset->body_anchor_influence_count * sizeof( uint32_t )
-													  : 0;
-	total += ( ( skin_offsets + 63 ) & ~(size_t)63 ) + body_offsets;
+	size_t row_bytes = P > 0 ? plContactRowOffsetsCount( asset->vertex_count, C ) * sizeof( uint32_t ) : 0;
+	size_t skin_count = N * asset->influence_count, body_count = P * asset->body_anchor_influence_count;
+	size_t total = plAlign64( ring_bytes ) + plAlign64( row_bytes ) + plAlign64( skin_count * sizeof( uint32_t ) ) +
+				   plAlign64( body_count * sizeof( uint32_t ) );
+	for ( uint32_t i = 0; i < layer_count; ++i )
+	{
+		const plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
+		total += plAlign64( plPackedLayerBytes( l ) );
+	}
 	if ( total == 0 )
 	{
 		return PLEAT_RESULT_OK;
 	}
-	uint8_t* block = (uint8_t*)plAlloc( &ctx->allocator, total, 64 );
-	if ( block == NULL )
+	uint8_t* cursor = (uint8_t*)plAlloc( &ctx->allocator, total, 64 );
+	if ( cursor == NULL )
 	{
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
-	asset->derived_block = block;
+	asset->derived_block = cursor;
 	asset->derived_size = total;
-	for ( uint32_t i = 0; i < asset->lp_layer_count + asset->dec_layer_count; ++i )
+	for ( uint32_t i = 0; i < layer_count; ++i )
 	{
 		plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
-		size_t bytes = plPackedLayerBytes( l );
-		if ( bytes > 0 )
+		void* copy = plTakeDerived( &cursor, plPackedLayerBytes( l ) );
+		if ( copy != NULL )
 		{
-			plPackLayer( l, block );
-			block += ( bytes + 63 ) & ~(size_t)63;
+			plPackLayer( l, copy );
 		}
 	}
-	if ( ring_lanes > 0 )
+	int32_t* ring_lanes = (int32_t*)plTakeDerived( &cursor, ring_bytes );
+	if ( ring_lanes != NULL )
 	{
-		plRingLanes( (int32_t*)block, asset->body_anchor_ring, asset->body_anchor_ring_count, asset->body_point_count );
-		asset->body_anchor_ring_lanes = (const int32_t*)block;
-		block += ( ring_lanes + 63 ) & ~(size_t)63;
+		plRingLanes( ring_lanes, asset->body_anchor_ring, asset->body_anchor_ring_count, asset->body_point_count );
+		asset->body_anchor_ring_lanes = ring_lanes;
 	}
-	if ( row_offsets > 0 )
+	uint32_t* row_offsets = (uint32_t*)plTakeDerived( &cursor, row_bytes );
+	if ( row_offsets != NULL )
 	{
-		plContactRowOffsets( (uint32_t*)block, asset->body_anchor_candidates, C, asset->vertex_count,
+		plContactRowOffsets( row_offsets, asset->body_anchor_candidates, C, asset->vertex_count,
 							 asset->body_point_count );
-		asset->body_contact_row_offsets = (const uint32_t*)block;
-		block += ( row_offsets + 63 ) & ~(size_t)63;
+		asset->body_contact_row_offsets = row_offsets;
 	}
-	if ( skin_offsets > 0 )
+	uint32_t* skin_offsets = (uint32_t*)plTakeDerived( &cursor, skin_count * sizeof( uint32_t ) );
+	if ( skin_offsets != NULL )
 	{
-		plSkinColumnOffsets( (uint32_t*)block, asset->skin_indices,
-							 (size_t)asset->vertex_count * asset->influence_count, asset->joint_count );
-		asset->skin_column_offsets = (const uint32_t*)block;
-		block += ( skin_offsets + 63 ) & ~(size_t)63;
+		plSkinColumnOffsets( skin_offsets, asset->skin_indices, skin_count, asset->joint_count );
+		asset->skin_column_offsets = skin_offsets;
 	}
-	if ( body_offsets > 0 )
+	uint32_t* body_offsets = (uint32_t*)plTakeDerived( &cursor, body_count * sizeof( uint32_t ) );
+	if ( body_offsets != NULL )
 	{
-		plSkinColumnOffsets( (uint32_t*)block, asset->body_anchor_skin_indices,
-							 (size_t)asset->body_point_count * asset->body_anchor_influence_count, asset->joint_count );
-		asset->body_anchor_column_offsets = (const uint32_t*)block;
+		plSkinColumnOffsets( body_offsets, asset->body_anchor_skin_indices, body_count, asset->joint_count );
+		asset->body_anchor_column_offsets = body_offsets;
 	}
 	return PLEAT_RESULT_OK;
 }

@@ -380,8 +380,8 @@ void plBodyContactFastBatch_Avx2( float* const* positions, const float* const* s
 // The full body contact (twin of plPoseBodyPoints_Avx2, plBodyPointNormals_Avx2 and plBodyContact_Avx2) of up to 8
 // instances of one asset, the instances in the lanes: the posed points go to scratch as [P][8 rows][8 lanes] (a_x, a_y,
 // a_z, penalty, n_x, n_y, n_z, unused; penalty = +0 where the point is usable, +inf where not, so that a distance plus
-// its penalty is the kernels' "usable ? d : inf" with one addition), so that a ring point's or a candidate's row is one aligned 8-lane load for
-// all instances at once instead of a gather per instance. Per lane the operations of the single kernels in their order
+// its penalty is the kernels' "usable ? d : inf" with one addition), so that a ring point's or a candidate's row is
+// one aligned 8-lane load for all instances at once instead of a gather per instance. Per lane the operations of the single kernels in their order
 // (the posing's blend and FMAs as plPoseAnchor, as plBodyContactFastBatch_Avx2 does; the ring sums and the push as the
 // scalar kernels, which the single AVX2 twins match), so every instance gets its lone step's bits (what
 // plStepInstances promises). Why: the full contact runs per instance and a crowd step could not batch it (60 µs an
@@ -423,7 +423,7 @@ void plBodyContactBatch_Avx2( float* const* positions, const float* const* shape
 			int anchorable = rn[0] != 0.0f || rn[1] != 0.0f || rn[2] != 0.0f;
 			if ( anchorable && rings != NULL && rings[(size_t)p * ring_count] < point_count )
 			{
-				continue; // the ring pass below writes rows 3-6 (usable, normal): a square root and three divisions
+				continue; // the ring pass below writes rows 3-6 (penalty, normal): a square root and three divisions
 			}
 			plVec length = plVecSqrt( plVecAdd( plVecAdd( plVecMul( normal[0], normal[0] ), plVecMul( normal[1], normal[1] ) ),
 												plVecMul( normal[2], normal[2] ) ) );

@@ -117,11 +117,6 @@ static int plBodyContactOffsetValid( float offset_m )
 
 // ---- create / destroy ----
 
-static size_t plAlign64( size_t v )
-{
-	return ( v + 63u ) & ~(size_t)63u;
-}
-
 // The instance table's destroy callback (plDestroyObjectFn), also what plDestroyInstance frees with.
 static void plInstanceData_Destroy( plContextData* ctx, void* object )
 {

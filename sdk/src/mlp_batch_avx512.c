@@ -278,7 +278,7 @@ void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, con
 						   uint32_t row_end )
 {
 	uint32_t columns = col_end - col_begin;
-	size_t row_bytes = weight_stride * ( weight_fp16 ? 2 : 4 );
+	size_t row_bytes = weight_stride * ( weight_fp16 ? 2 : 4 ), ahead_step = weight_fp16 ? 32 : 64; // 16 columns' bytes
 	_Alignas( 64 ) float widened[3 * PLEAT_MM512_WIDEN_COLUMNS];
 	for ( uint32_t r = row_begin; r < row_end; )
 	{
@@ -311,18 +311,17 @@ void plMatMatLanes_Avx512( float* yt, const float* xt, uint32_t group_count, con
 			const float* x = xt + ( (size_t)g * in_count + col_begin ) * 16;
 			float* y = yt + ( (size_t)g * out_count + r ) * 16;
 			const char* const* ahead = prefetch && g == 0 ? next : NULL;
-			size_t step = weight_fp16 ? 32 : 64; // bytes of 16 columns
 			if ( rows == 3 )
 			{
-				plLanesRows( 3, w, bias + r, x, columns, ahead, step, y );
+				plLanesRows( 3, w, bias + r, x, columns, ahead, ahead_step, y );
 			}
 			else if ( rows == 2 )
 			{
-				plLanesRows( 2, w, bias + r, x, columns, ahead, step, y );
+				plLanesRows( 2, w, bias + r, x, columns, ahead, ahead_step, y );
 			}
 			else
 			{
-				plLanesRows( 1, w, bias + r, x, columns, ahead, step, y );
+				plLanesRows( 1, w, bias + r, x, columns, ahead, ahead_step, y );
 			}
 		}
 		r += (uint32_t)rows;

@@ -152,11 +152,6 @@ static void plBuildLevels( plSceneData* s, const plSceneDef* def )
 
 // ---- create / destroy ----
 
-static size_t plAlign64( size_t v )
-{
-	return ( v + 63u ) & ~(size_t)63u;
-}
-
 static void plDestroyCharacter( plSceneData* s, plSceneCharacter* c )
 {
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
