@@ -31,7 +31,7 @@ MIN_FRAME_TIME_S = 1e-4          # 10 kHz: faster is not mocap, it is a units mi
 MAX_FRAME_TIME_S = 10.0
 MAX_DURATION_S = 3600.0
 MAX_POSITION = 1e6               # |root / offset coordinates| in source units (cm: 10 km)
-MAX_BVH_DEPTH = 256              # real skeletons are < 40 deep (fingers included)
+MAX_BVH_DEPTH = 256              # joints nested, root included (BVH and ASF); real skeletons are < 40 deep
 MAX_JOINTS = 1024
 QUAT_MIN_NORM = 1e-6
 _SUFFIXES = (".txt", ".json", ".bvh", ".amc", ".npz")
@@ -718,7 +718,33 @@ def read_asf(path):
                 raise MotionFileError(path, f"the hierarchy names bone {n!r}, which :bonedata does not define")
     if len(bones) < 2 or not hierarchy:
         raise MotionFileError(path, "has no bones (:bonedata) or no :hierarchy")
-    return bones, hierarchy, order_root
+    # Parents first, and only the bones that hang from the root: what read_amc indexes joints by.
+    order = _asf_parents_first(path, hierarchy)
+    return bones, {child: hierarchy[child] for child in order[1:]}, order_root
+
+
+def _asf_parents_first(path, hierarchy):
+    """The root, then the bones of `hierarchy` (child → parent) that hang from it, parents first: by depth, and within
+    a depth in the order the file lists them (the order of a level-by-level walk). Linear in the bones: each bone's
+    depth is found once, by walking up to the first bone whose depth is known. Bones on a cycle or under a parent that
+    is not the root's descendant are left out. Nesting deeper than a BVH may (MAX_BVH_DEPTH joints, the root included)
+    is refused: no skeleton is that deep, and a file that claims it is malformed."""
+    depth = {"root": 0}
+    for bone in hierarchy:
+        chain, n = [], bone
+        while n not in depth and n in hierarchy:
+            depth[n] = None  # on this walk: meeting it again means a cycle
+            chain.append(n)
+            n = hierarchy[n]
+        d = depth.get(n)  # None: a cycle, or a top bone other than the root
+        d = -1 if d is None else d
+        for c in reversed(chain):
+            d = d + 1 if d >= 0 else -1
+            if d >= MAX_BVH_DEPTH:
+                raise MotionFileError(path, f"bones nest more than {MAX_BVH_DEPTH} deep (at {c!r}); a skeleton is "
+                                            "not this deep: the file is malformed")
+            depth[c] = d
+    return ["root"] + sorted((b for b in hierarchy if b != "root" and depth[b] > 0), key=depth.__getitem__)
 
 
 def read_amc(path, asf_path=None):
@@ -727,13 +753,7 @@ def read_amc(path, asf_path=None):
     if not asf_path.is_file():
         raise MotionFileError(path, f"no ASF skeleton {asf_path.name} beside it")
     bones, hierarchy, order_root = read_asf(asf_path)
-    # bones in hierarchy order (parents first)
-    names = ["root"]
-    while True:
-        added = [c for c, p in hierarchy.items() if p in names and c not in names]
-        if not added:
-            break
-        names += added
+    names = ["root"] + list(hierarchy)  # read_asf lists the bones parents first
     idx = {n: i for i, n in enumerate(names)}
     parents = np.array([-1] + [idx[hierarchy[n]] for n in names[1:]])
     # a bone rotates about its start (= the end of its parent): rest position of "joint" b is its start
