@@ -2,7 +2,7 @@
 // made, then the CRC-32, then meaning (dims, index ranges, finite values). Loads from memory (in place or copied to an
 // aligned block) or from a file.
 #if !defined( _WIN32 ) && !defined( _POSIX_C_SOURCE )
-#define _POSIX_C_SOURCE 200809L // fstat, fileno (plReadFile)
+#define _POSIX_C_SOURCE 200809L // stat, open, fstat, fcntl, fdopen (plOpenRegularFile)
 #endif
 #include "asset.h"
 #include "core.h"
@@ -14,6 +14,10 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#if !defined( _WIN32 )
+#include <fcntl.h>
+#include <unistd.h>
+#endif
 
 #if defined( __BYTE_ORDER__ ) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "Pleat assets are little-endian and read in place; a big-endian port needs a byte-swapping loader"
@@ -822,42 +826,99 @@ plAssetDef plDefaultAssetDef( void )
 	return def;
 }
 
-// The size of an open file, from the file system, if it is a regular file; IO_ERROR for anything else. fopen succeeds
-// on a directory on POSIX systems and fseek/ftell then report LONG_MAX (a FIFO or a device has no size at all), which
-// once became a 2^63-byte allocation request; only a regular file's size is something to allocate for.
-static plResult plRegularFileSize( FILE* file, uint64_t* out_size )
+#if !defined( _WIN32 )
+// What a path names when it is not a regular file, for the log.
+static const char* plFileKind( mode_t mode )
+{
+	return S_ISDIR( mode ) ? "a directory" : S_ISFIFO( mode ) ? "a FIFO" : S_ISSOCK( mode ) ? "a socket" :
+		   S_ISCHR( mode ) || S_ISBLK( mode ) ? "a device" : "not a regular file";
+}
+#endif
+
+// Opens an asset file for reading, and its size, only if it is a regular file; IO_ERROR for anything else, with the
+// reason in detail. Only a regular file's size is something to allocate for (fopen succeeds on a directory on POSIX
+// systems and fseek/ftell then report LONG_MAX, which once became a 2^63-byte request), and only a regular file can be
+// opened without waiting: open() on a FIFO blocks until a writer comes, for ever if none does. So the path is checked
+// with stat before anything is opened, and opened with O_NONBLOCK and checked again with fstat, in case something
+// else took the path in between.
+static plResult plOpenRegularFile( const char* path, FILE** out_file, uint64_t* out_size, char* detail,
+								   size_t detail_size )
 {
 #if defined( _WIN32 )
+	FILE* file = fopen( path, "rb" );
+	if ( file == NULL )
+	{
+		snprintf( detail, detail_size, "cannot be opened" );
+		return PLEAT_RESULT_IO_ERROR;
+	}
 	struct _stat64 info;
 	if ( _fstat64( _fileno( file ), &info ) != 0 || ( info.st_mode & _S_IFMT ) != _S_IFREG || info.st_size < 0 )
 	{
+		snprintf( detail, detail_size, "not a regular file" );
+		fclose( file );
 		return PLEAT_RESULT_IO_ERROR;
 	}
 #else
 	struct stat info;
-	if ( fstat( fileno( file ), &info ) != 0 || !S_ISREG( info.st_mode ) || info.st_size < 0 )
+	if ( stat( path, &info ) != 0 )
 	{
+		snprintf( detail, detail_size, "cannot be opened (no such file, or no permission)" );
+		return PLEAT_RESULT_IO_ERROR;
+	}
+	if ( !S_ISREG( info.st_mode ) )
+	{
+		snprintf( detail, detail_size, "not a regular file (%s)", plFileKind( info.st_mode ) );
+		return PLEAT_RESULT_IO_ERROR;
+	}
+	int fd = open( path, O_RDONLY | O_NONBLOCK | O_CLOEXEC );
+	if ( fd < 0 )
+	{
+		snprintf( detail, detail_size, "cannot be opened" );
+		return PLEAT_RESULT_IO_ERROR;
+	}
+	FILE* file = NULL;
+	int flags = fcntl( fd, F_GETFL );
+	if ( fstat( fd, &info ) != 0 || info.st_size < 0 )
+	{
+		snprintf( detail, detail_size, "cannot be read" );
+	}
+	else if ( !S_ISREG( info.st_mode ) )
+	{
+		snprintf( detail, detail_size, "not a regular file (%s)", plFileKind( info.st_mode ) );
+	}
+	// Reads of a regular file never wait anyway; the flag goes so that stdio sees an ordinary descriptor.
+	else if ( flags == -1 || fcntl( fd, F_SETFL, flags & ~O_NONBLOCK ) == -1 ||
+			  ( file = fdopen( fd, "rb" ) ) == NULL )
+	{
+		snprintf( detail, detail_size, "cannot be opened" );
+	}
+	if ( file == NULL )
+	{
+		close( fd );
 		return PLEAT_RESULT_IO_ERROR;
 	}
 #endif
+	*out_file = file;
 	*out_size = (uint64_t)info.st_size;
 	return PLEAT_RESULT_OK;
 }
 
-static plResult plReadFile( plContextData* ctx, const char* path, void** out_block, size_t* out_size )
+// Reads a whole asset file into a 64-byte aligned block; detail (for the log) says why it could not.
+static plResult plReadFile( plContextData* ctx, const char* path, void** out_block, size_t* out_size, char* detail,
+							size_t detail_size )
 {
-	FILE* file = fopen( path, "rb" );
-	if ( file == NULL )
-	{
-		return PLEAT_RESULT_IO_ERROR;
-	}
+	FILE* file = NULL;
 	uint64_t length = 0;
-	plResult r = plRegularFileSize( file, &length );
-	if ( r == PLEAT_RESULT_OK && length == 0 )
+	plResult r = plOpenRegularFile( path, &file, &length, detail, detail_size );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
+	}
+	if ( length == 0 )
 	{
 		r = PLEAT_RESULT_TRUNCATED;
 	}
-	else if ( r == PLEAT_RESULT_OK && (uint64_t)(size_t)length != length )
+	else if ( (uint64_t)(size_t)length != length )
 	{
 		r = PLEAT_RESULT_OUT_OF_MEMORY; // a 32-bit process cannot hold it
 	}
@@ -872,6 +933,7 @@ static plResult plReadFile( plContextData* ctx, const char* path, void** out_blo
 		else if ( fread( block, 1, (size_t)length, file ) != (size_t)length )
 		{
 			r = PLEAT_RESULT_IO_ERROR; // shorter than it was a moment ago, or a read error
+			snprintf( detail, detail_size, "read failed or the file shrank" );
 		}
 	}
 	fclose( file );
@@ -1019,7 +1081,7 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	size_t size = 0;
 	if ( def->path != NULL )
 	{
-		r = plReadFile( ctx, def->path, &owned, &owned_size );
+		r = plReadFile( ctx, def->path, &owned, &owned_size, asset->rejected_detail, sizeof( asset->rejected_detail ) );
 		block = (const uint8_t*)owned;
 		size = owned_size;
 	}

@@ -1,6 +1,7 @@
 // What plLoadAsset is handed may be hostile or simply wrong, and the failure must be clean (issue 14, defects 4 and 6):
 // - a path that names a directory (or anything but a regular file) is PLEAT_RESULT_IO_ERROR, decided before any
-//   allocation is sized from the file (a directory's "size" from ftell is LONG_MAX);
+//   allocation is sized from the file (a directory's "size" from ftell is LONG_MAX); a FIFO with no writer is refused
+//   at once rather than blocking the load forever in open();
 // - an embedded ONNX model (OXLP, OXDC) that keeps tensor data outside itself — TensorProto.data_location = EXTERNAL
 //   or external_data entries such as location = "secret.bin", in an initializer, a node attribute, a subgraph or a
 //   sparse tensor — or that asks ONNX Runtime for session options ("ort_config" metadata) makes the asset
@@ -8,13 +9,17 @@
 //   that file from the working directory and use it as weights. Malformed protobuf is INVALID_ASSET_DATA too.
 // The ONNX models are written here byte by byte (protobuf wire format, field numbers of onnx.proto), so the test needs
 // neither the onnx package nor ONNX Runtime; a self-contained twin of each model must still load.
+#define _POSIX_C_SOURCE 200809L // mkdtemp, mkfifo, alarm
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <signal.h>
 #include <stdio.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "test_common.h"
 
@@ -78,6 +83,55 @@ static void test_loading_a_directory_is_io_error_without_a_huge_allocation( void
 	assert_int_equal( live, 0 );
 	assert_int_equal( plDestroyContext( context ), PLEAT_RESULT_OK );
 	assert_int_equal( host.live_bytes, 0 );
+}
+
+// A FIFO nobody writes to: opening it for reading waits for a writer, for ever. The load must see that it is not a
+// regular file without waiting; an alarm turns a load that blocks into a failure of this test instead of a hang.
+static char g_fifo_folder[] = "/tmp/pleat_fifo_XXXXXX";
+static char g_fifo_path[64];
+
+static void plLoadBlocked( int signal_number )
+{
+	(void)signal_number;
+	static const char message[] = "FAIL: plLoadAsset blocked on a FIFO with no writer\n";
+	ssize_t ignored = write( 2, message, sizeof( message ) - 1 );
+	(void)ignored;
+	unlink( g_fifo_path );
+	rmdir( g_fifo_folder );
+	_exit( 1 );
+}
+
+static void test_loading_a_fifo_without_a_writer_fails_at_once( void** state )
+{
+	(void)state;
+	char* folder = g_fifo_folder;
+	char* path = g_fifo_path;
+	assert_non_null( mkdtemp( folder ) );
+	snprintf( path, sizeof( g_fifo_path ), "%s/garment.pleat", folder );
+	assert_int_equal( mkfifo( path, 0600 ), 0 );
+	plTestLog log;
+	memset( &log, 0, sizeof( log ) );
+	plContextDef cdef = plDefaultContextDef();
+	cdef.log = plTestLog_Record;
+	cdef.log_context = &log;
+	plContext context;
+	assert_int_equal( plCreateContext( &cdef, &context ), PLEAT_RESULT_OK );
+	plAssetDef adef = plDefaultAssetDef();
+	adef.path = path;
+	plAsset asset;
+	void ( *previous )( int ) = signal( SIGALRM, plLoadBlocked );
+	alarm( 5 );
+	plResult r = plLoadAsset( context, &adef, &asset );
+	alarm( 0 );
+	signal( SIGALRM, previous );
+	assert_int_equal( r, PLEAT_RESULT_IO_ERROR );
+	assert_false( plAsset_IsValid( asset ) );
+	assert_int_equal( log.last_error_item, PLEAT_LOG_ASSET_IO_ERROR );
+	assert_non_null( strstr( log.last_error, path ) );
+	assert_non_null( strstr( log.last_error, "not a regular file" ) );
+	assert_int_equal( plDestroyContext( context ), PLEAT_RESULT_OK );
+	assert_int_equal( unlink( path ), 0 );
+	assert_int_equal( rmdir( folder ), 0 );
 }
 
 // The regular-file path still works (the same asset written to disk and loaded by path).
@@ -524,6 +578,7 @@ int main( void )
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_loading_a_directory_is_io_error_without_a_huge_allocation ),
+		cmocka_unit_test( test_loading_a_fifo_without_a_writer_fails_at_once ),
 		cmocka_unit_test( test_loading_a_regular_file_by_path_still_works ),
 		cmocka_unit_test( test_onnx_initializer_with_external_data_is_rejected_at_load ),
 		cmocka_unit_test( test_onnx_external_data_markers_are_each_rejected ),

@@ -545,7 +545,9 @@ typedef struct plAssetInfo
 
 /// An asset def with defaults and the validity cookie.
 PLEAT_API plAssetDef plDefaultAssetDef( void );
-/// Load and validate an asset (structure, then content, then CRC-32 unless skipped).
+/// Load and validate an asset (structure, then content, then CRC-32 unless skipped). A path must name a regular file:
+/// a directory, FIFO, socket or device is IO_ERROR at once (checked before it is opened, so a FIFO without a writer
+/// cannot block the call), with the reason in the ASSET_IO_ERROR log line.
 PLEAT_API plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_asset );
 /// Destroy an asset; PLEAT_RESULT_ASSET_IN_USE (and nothing happens) while instances use it.
 PLEAT_API plResult plDestroyAsset( plAsset asset );
