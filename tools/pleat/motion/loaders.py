@@ -34,7 +34,7 @@ MAX_POSITION = 1e6               # |root / offset coordinates| in source units (
 MAX_BVH_DEPTH = 256              # joints nested, root included (BVH and ASF); real skeletons are < 40 deep
 MAX_JOINTS = 1024
 QUAT_MIN_NORM = 1e-6
-_SUFFIXES = (".txt", ".json", ".bvh", ".amc", ".npz")
+_SUFFIXES = (".txt", ".json", ".bvh", ".amc", ".npz", ".gltf", ".glb")
 
 
 class MotionFileError(InputError):
@@ -115,9 +115,12 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
             raise InputError(joint_map_file, f"--joint-map applies to BVH and ASF/AMC skeletons; {path.name} is a "
                                              "Pleat clip already on the body")
         return (clip, match) if with_match else clip
-    fps = kw.pop("fps", None)
+    fps, animation = kw.pop("fps", None), kw.pop("animation", None)
     if fmt == "bvh":
         src = _reading(path, "BVH", read_bvh, path)
+    elif fmt == "gltf":     # glTF / GLB: pleat.motion.gltf (animation: name or index, default the first)
+        from pleat.motion.gltf import read_gltf
+        src = _reading(path, "glTF", read_gltf, path, fps, animation)
     elif fmt == "amc":
         src = _reading(path, "ASF/AMC", read_amc, path)
         src.fps = float(fps or 120.0)
@@ -139,7 +142,7 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
                                [n for n, has in zip(src.names, src.animated) if has])
             return (clip, match) if with_match else clip
     spread = None
-    if fmt in ("bvh", "amc"):
+    if fmt in ("bvh", "amc", "gltf"):
         animated = [n for n, has in zip(src.names, getattr(src, "animated", [True] * len(src.names))) if has]
         if joint_map is not None:
             match = JointMatch(dict(joint_map), {k: "joint_map argument" for k in joint_map}, list(src.names),
@@ -191,9 +194,11 @@ def _format_of(path):
     suffix = path.suffix.lower()
     if suffix not in _SUFFIXES:
         raise MotionFileError(path, f"unknown motion format {path.suffix or '(no suffix)'!r}: use DeepMimic .txt/"
-                                    ".json, .bvh, .amc (+ .asf), AMASS .npz or a Pleat clip .npz")
+                                    ".json, .bvh, .amc (+ .asf), .gltf/.glb, AMASS .npz or a Pleat clip .npz")
     if suffix == ".bvh":
         return "bvh"
+    if suffix in (".gltf", ".glb"):
+        return "gltf"
     if suffix == ".amc":
         return "amc"
     if suffix == ".npz":
