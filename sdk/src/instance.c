@@ -12,6 +12,21 @@ plInstanceData* plGetInstanceData( plInstance handle )
 	return ctx != NULL ? (plInstanceData*)plSlotTable_Get( &ctx->instances, handle.index1, handle.generation ) : NULL;
 }
 
+// In host-context mode every GL call needs the engine's context current on the calling thread; the GL path answers
+// GL_UNAVAILABLE when none is (it would otherwise do nothing and report success). The code alone does not say that
+// the fix is on the engine's side, so the log does.
+plResult plLogIfNoGlContext( const plInstanceData* inst, plResult r, const char* function )
+{
+	if ( r == PLEAT_RESULT_GL_UNAVAILABLE )
+	{
+		plLog( inst->ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_GL_UNAVAILABLE,
+			   "%s: no GL context is current on the calling thread (host-context mode: make the engine's context "
+			   "current first); nothing changed",
+			   function );
+	}
+	return r;
+}
+
 int plInstance_IsValid( plInstance handle )
 {
 	return plGetInstanceData( handle ) != NULL;
@@ -501,7 +516,8 @@ plResult plInstance_SetBodyContact( plInstance handle, int enabled, float offset
 													   enabled <= PLEAT_BODY_CONTACT_FAST );
 	if ( r == PLEAT_RESULT_OK && inst->gl != NULL ) // first, so a GL error leaves both paths as they were
 	{
-		r = plGlDeformer_SetBodyContact( inst->gl, enabled, offset_m );
+		r = plLogIfNoGlContext( inst, plGlDeformer_SetBodyContact( inst->gl, enabled, offset_m ),
+								"plInstance_SetBodyContact" );
 	}
 	if ( r == PLEAT_RESULT_OK )
 	{
@@ -540,7 +556,8 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 	plResult r = plApplyShape( a, clamped_beta, inst->deformed, rest_joints, next_anchors );
 	if ( r == PLEAT_RESULT_OK && inst->gl != NULL )
 	{
-		r = plGlDeformer_SetShapedTemplate( inst->gl, inst->deformed, next_anchors );
+		r = plLogIfNoGlContext( inst, plGlDeformer_SetShapedTemplate( inst->gl, inst->deformed, next_anchors ),
+								"plInstance_SetShape" );
 	}
 	if ( r != PLEAT_RESULT_OK )
 	{

@@ -77,6 +77,9 @@ typedef struct plInstanceData
 
 // The live instance a handle names (its context's generation included), or NULL.
 plInstanceData* plGetInstanceData( plInstance handle );
+// Logs that a GPU-mode call of the instance (function: its public name) found no GL context current and changed
+// nothing, when r is PLEAT_RESULT_GL_UNAVAILABLE; returns r.
+plResult plLogIfNoGlContext( const plInstanceData* inst, plResult r, const char* function );
 
 // CPU path: T_def = shaped template + Σ_j w_j D_j (unless blend is 0: deformed already holds T_def for these weights),
 // then skinning with skin_matrices into positions, then normals, split over runner's workers (the context's for a

@@ -490,7 +490,7 @@ plResult plInstance_Step( plInstance handle, const plFrameInput* input, const pl
 	r = plStepFromHistory( inst, &update, read_back, &finite );
 	if ( r != PLEAT_RESULT_OK )
 	{
-		return r;
+		return plLogIfNoGlContext( inst, r, "plInstance_Step" );
 	}
 	int reset = !finite;
 	if ( reset )

@@ -3,7 +3,10 @@
 // exactly as it was: positions and normals (read back into scratch, committed only on success), latent, blend weights,
 // skinning matrices, and the caller's output spans. A GL error inside plInstance_SetShape (the engine called it with
 // another GL context current, where the instance's buffer names do not exist) leaves β, J(β) and the shaped template
-// as they were (issue 14, defect 5). Skips (77) without an EGL surfaceless GL 4.3 context.
+// as they were (issue 14, defect 5). With no GL context current at all, plInstance_SetShape and plInstance_Step
+// return PLEAT_RESULT_GL_UNAVAILABLE and change nothing (GL calls without a context are silently ignored, so nothing
+// else would notice: β would be committed on the CPU and never reach the GPU). Skips (77) without an EGL surfaceless
+// GL 4.3 context.
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -206,11 +209,100 @@ static void test_gl_error_in_set_shape_changes_nothing( void** state )
 	plTestEgl_Destroy( &engine );
 }
 
+// Two host-context instances step in lockstep; the engine then calls plInstance_SetShape and plInstance_Step on one of
+// them with no GL context current on the thread. Both calls must fail with GL_UNAVAILABLE and leave it exactly as it
+// was: the same β, and the same outputs as its twin, bit for bit, once the context is current again. (Before the fix
+// both returned OK: β was committed on the CPU but never uploaded, and the later steps drifted from the twin.)
+static void test_no_current_context_in_set_shape_and_step_changes_nothing( void** state )
+{
+	(void)state;
+	plTestEglContext engine;
+	plTestRig rig;
+	plEngineRig_Create( &engine, &rig );
+	const plTestAsset* model = rig.model;
+	uint32_t n = rig.info.vertex_count;
+	plInstanceDef idef = plDefaultInstanceDef();
+	idef.asset = rig.asset;
+	idef.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT;
+	plInstance lost, twin;
+	plResult r = plCreateInstance( rig.context, &idef, &lost );
+	if ( r == PLEAT_RESULT_GL_UNAVAILABLE )
+	{
+		plTestRig_Free( &rig );
+		plTestEgl_Destroy( &engine );
+		skip();
+	}
+	assert_int_equal( r, PLEAT_RESULT_OK );
+	assert_int_equal( plCreateInstance( rig.context, &idef, &twin ), PLEAT_RESULT_OK );
+
+	size_t bytes = (size_t)n * 3 * sizeof( float );
+	float* out_lost = (float*)malloc( 2 * bytes );
+	float* out_twin = (float*)malloc( 2 * bytes );
+	plStepOutput output_lost = { out_lost, 12, out_lost + (size_t)n * 3, 12, n };
+	plStepOutput output_twin = { out_twin, 12, out_twin + (size_t)n * 3, 12, n };
+	float q[64 * 4];
+	for ( uint32_t t = 0; t < 3; ++t )
+	{
+		plFrameInput in = plTestMotion( t, model->J, q );
+		assert_int_equal( plInstance_Step( lost, &in, &output_lost ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( twin, &in, &output_twin ), PLEAT_RESULT_OK );
+	}
+	assert_memory_equal( out_lost, out_twin, 2 * bytes );
+	float beta_before[16], material_before[4], beta_after[16], material_after[4];
+	assert_int_equal( plInstance_GetShape( lost, beta_before, 16, material_before ), PLEAT_RESULT_OK );
+	float latent_before[64], latent_after[64];
+	assert_int_equal( plInstance_GetLatent( lost, latent_before, 64 ), PLEAT_RESULT_OK );
+
+	plTestEgl_Release( &engine );
+	const float beta[2] = { 1.5f, -0.5f };
+	assert_int_equal( plInstance_SetShape( lost, beta, 2 ), PLEAT_RESULT_GL_UNAVAILABLE );
+	for ( size_t i = 0; i < (size_t)n * 6; ++i )
+	{
+		out_lost[i] = -7.0f;
+	}
+	plFrameInput lost_frame = plTestMotion( 3, model->J, q );
+	assert_int_equal( plInstance_Step( lost, &lost_frame, &output_lost ), PLEAT_RESULT_GL_UNAVAILABLE );
+	for ( size_t i = 0; i < (size_t)n * 6; ++i )
+	{
+		assert_true( out_lost[i] == -7.0f );
+	}
+	assert_true( plTestEgl_MakeCurrent( &engine ) );
+
+	assert_int_equal( plInstance_GetShape( lost, beta_after, 16, material_after ), PLEAT_RESULT_OK );
+	assert_memory_equal( beta_after, beta_before, rig.info.beta_count * sizeof( float ) );
+	assert_memory_equal( material_after, material_before, sizeof( material_before ) );
+	assert_int_equal( plInstance_GetLatent( lost, latent_after, 64 ), PLEAT_RESULT_OK );
+	assert_memory_equal( latent_after, latent_before, rig.info.latent_count * sizeof( float ) );
+	for ( uint32_t t = 3; t < 6; ++t )
+	{
+		plFrameInput in = plTestMotion( t, model->J, q );
+		assert_int_equal( plInstance_Step( lost, &in, &output_lost ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( twin, &in, &output_twin ), PLEAT_RESULT_OK );
+		assert_memory_equal( out_lost, out_twin, 2 * bytes );
+	}
+
+	// With the context current the same shape call works and changes the output.
+	assert_int_equal( plInstance_SetShape( lost, beta, 2 ), PLEAT_RESULT_OK );
+	plFrameInput in = plTestMotion( 6, model->J, q );
+	assert_int_equal( plInstance_Step( lost, &in, &output_lost ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_Step( twin, &in, &output_twin ), PLEAT_RESULT_OK );
+	assert_memory_not_equal( out_lost, out_twin, bytes );
+
+	assert_int_equal( plDestroyInstance( lost ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyInstance( twin ), PLEAT_RESULT_OK );
+	free( out_lost );
+	free( out_twin );
+	plTestRig_Free( &rig );
+	plTestEgl_Release( &engine );
+	plTestEgl_Destroy( &engine );
+}
+
 int main( void )
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_gl_error_in_step_changes_nothing ),
 		cmocka_unit_test( test_gl_error_in_set_shape_changes_nothing ),
+		cmocka_unit_test( test_no_current_context_in_set_shape_and_step_changes_nothing ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

@@ -585,7 +585,8 @@ typedef enum plMlpBackend
 typedef enum plGpuMode
 {
 	PLEAT_GPU_MODE_NONE = 0,         ///< CPU (default)
-	PLEAT_GPU_MODE_HOST_CONTEXT = 1, ///< GL 4.3 compute in the engine's context, current on the calling thread
+	PLEAT_GPU_MODE_HOST_CONTEXT = 1, ///< GL 4.3 compute in the engine's context, current on the calling thread for
+	                                 ///< every call on the instance (with none current: GL_UNAVAILABLE, nothing changed)
 	PLEAT_GPU_MODE_HEADLESS = 2,     ///< GL 4.3 compute in a headless context the SDK creates (EGL, OSMesa fallback)
 } plGpuMode;
 /// Deprecated spellings of the plGpuMode constants (before they took the PLEAT_<TYPE>_ prefix of every other enum).

@@ -142,11 +142,23 @@ void plGlRestoreState( const plGlApi* api, const plGlSavedState* state )
 	api->UseProgram( (GLuint)state->program );
 }
 
-// Makes the deformer's GL usable for one call: headless → make our context current; host → save the engine's state.
+// Non-zero if some GL context is current on the calling thread. GL calls made without one do nothing and raise no
+// error (glGetError answers GL_NO_ERROR too), so without this check an upload or a run "succeeds" having done nothing;
+// glGetString is the one query every GL answers with NULL when no context is current (through libepoxy, for GLX and
+// EGL alike, which is how the engine's context is reached).
+static int plHostContextIsCurrent( const plGlApi* api )
+{
+	return api->GetString( GL_VERSION ) != NULL;
+}
+
+// Makes the deformer's GL usable for one call: headless → make our context current; host → check that the engine has
+// a context current (GL_UNAVAILABLE if not, before anything is touched), then save its state.
 static plResult plBegin( plGlDeformer* deformer )
 {
 	if ( deformer->mode == PLEAT_GL_DEFORMER_HEADLESS )
 		return plGlContext_Enter( deformer->context );
+	if ( !plHostContextIsCurrent( &deformer->api ) )
+		return PLEAT_RESULT_GL_UNAVAILABLE;
 	plGlSaveState( &deformer->api, &deformer->saved );
 	return PLEAT_RESULT_OK;
 }
@@ -597,7 +609,7 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	{
 		plGlApi_LoadEpoxy( &deformer->api );
 		// Without a current context epoxy cannot resolve anything beyond GL 1.x; glGetString answers NULL then.
-		if ( deformer->api.GetString( GL_VERSION ) == NULL )
+		if ( !plHostContextIsCurrent( &deformer->api ) )
 		{
 			plFreeDeformer( deformer );
 			return PLEAT_RESULT_GL_UNAVAILABLE;
