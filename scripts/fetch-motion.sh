@@ -37,28 +37,37 @@ with zipfile.ZipFile(wheel) as z:
 PY
 
 echo "fetch-motion: DeepMimic clips at commit $DEEPMIMIC_COMMIT from GitHub"
-fetch() { curl -fsSL --retry 2 --connect-timeout 10 -o "$2" "$1"; }
-github_ok=1
-fetch_github() {
-  fetch "$DEEPMIMIC_RAW/LICENSE" "$DEST/deepmimic_github/LICENSE-DeepMimic-MIT.txt" || return 1
-  for clip in dance_spin jog sideflip stealthy_walk zombie_walk; do
-    fetch "$DEEPMIMIC_RAW/data/motions/humanoid3d_$clip.txt" "$DEST/deepmimic_github/humanoid3d_$clip.txt" || return 1
+# A file is written under its name only once complete, so a failed download leaves nothing the loaders would list.
+fetch() { if curl -fsSL --retry 2 --connect-timeout 10 -o "$2.part" "$1"; then mv "$2.part" "$2"; else rm -f "$2.part"; return 1; fi; }
+GITHUB_CLIPS="dance_spin jog sideflip stealthy_walk zombie_walk long/long_walk1 long/long_walk2 long/long_walk3
+  long/long_zombie long/stealthy_walk0 long/stealthy_walk1"
+failed=()          # what could not be fetched: paths under DEST without .txt
+if fetch "$DEEPMIMIC_RAW/LICENSE" "$DEST/deepmimic_github/LICENSE-DeepMimic-MIT.txt"; then
+  for clip in $GITHUB_CLIPS; do
+    name="humanoid3d_${clip#long/}"; dir="data/motions"; [ "$clip" != "${clip#long/}" ] && dir="data/motions/long"
+    fetch "$DEEPMIMIC_RAW/$dir/$name.txt" "$DEST/deepmimic_github/$name.txt" || failed+=("deepmimic_github/$name")
   done
-  for clip in long_walk1 long_walk2 long_walk3 long_zombie stealthy_walk0 stealthy_walk1; do
-    fetch "$DEEPMIMIC_RAW/data/motions/long/humanoid3d_$clip.txt" "$DEST/deepmimic_github/humanoid3d_$clip.txt" || return 1
-  done
-}
-if ! fetch_github; then
-  # The pybullet clips (walks, run, jump, turns, ...) are enough for the tests and the demo; the long takes used for
-  # validation need GitHub. Leave no half-fetched folder behind: the loaders would list its clips.
-  github_ok=0
-  rm -rf "$DEST/deepmimic_github"
-  echo "fetch-motion: WARNING: GitHub unreachable; only the 20 pybullet clips were fetched (long walks missing)" >&2
+else
+  # unreachable (or the licence is gone): the clips are not tried one by one (each would wait for its time-out),
+  # and without the licence none of them is kept
+  failed+=(deepmimic_github/LICENSE-DeepMimic-MIT)
+  for clip in $GITHUB_CLIPS; do failed+=("deepmimic_github/humanoid3d_${clip#long/}"); done
+  rmdir "$DEST/deepmimic_github" 2>/dev/null || true
+fi
+missing_clips=$(printf '%s\n' "${failed[@]}" | grep -c /humanoid3d_ || true)
+fetched=$((31 - missing_clips))
+if [ "$missing_clips" -gt 0 ]; then
+  # Training uses the clips that are there and warns about the others; pleat-motion list shows them as missing.
+  echo "fetch-motion: WARNING: $missing_clips clips could not be fetched from GitHub, $fetched of the 31 are in" \
+       "$DEST; missing: $(printf '%s\n' "${failed[@]}" | grep /humanoid3d_ | paste -sd' ')" >&2
   [ "${REQUIRE_ALL:-0}" = 1 ] && exit 1
 fi
 
 echo "fetch-motion: checking SHA-256 sums"
-verify() { if [ $github_ok = 1 ]; then cat; else grep -v deepmimic_github; fi | (cd "$DEST" && sha256sum -c --quiet); }
+verify() {
+  if [ ${#failed[@]} -gt 0 ]; then grep -v -F -f <(printf './%s.txt\n' "${failed[@]}"); else cat; fi \
+    | (cd "$DEST" && sha256sum -c --quiet)
+}
 verify <<'SUMS'
 885cd516a8420acb7c3e0b1a7119913b686495001ae564e3229740460e8cff59  ./deepmimic_pybullet/LICENSE-pybullet-zlib.txt
 ffc5e117f69364e239eeedc86d6a30ab854500a375a1c137a405f1b7652905e6  ./deepmimic_pybullet/humanoid3d_backflip.txt
@@ -94,4 +103,4 @@ c531a43a375137edc9f1371cab5f65e86d6d669d15a4d029e42259338f8ab44e  ./deepmimic_gi
 e63156dc618a819f9d25391c58cd95a3f02496e7f3f9689fd86541824a632e03  ./deepmimic_github/humanoid3d_stealthy_walk1.txt
 6935eaa0a83a0ca13fbf4aaba58efa391f582a83436875fe08212b2029bcfbac  ./deepmimic_github/humanoid3d_zombie_walk.txt
 SUMS
-if [ $github_ok = 1 ]; then echo "fetch-motion: 31 clips in $DEST verified"; else echo "fetch-motion: 20 pybullet clips in $DEST verified"; fi
+echo "fetch-motion: $fetched clips in $DEST verified"

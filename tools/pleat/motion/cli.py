@@ -11,20 +11,24 @@ DIR_HELP = "motion folder (default: $PLEAT_MOTION_DIR, ../shared/motion, data/mo
 JOINT_MAP_HELP = ("JSON file {\"source joint\": \"body joint\" or null} for a BVH or ASF/AMC skeleton whose names "
                   "are not recognised (merged over the Mixamo table and the name guesses)")
 
+ANIMATION_HELP = "glTF / GLB: the animation to read, by name or index (default: the first)"
+
 
 def build_parser():
     ap = argparse.ArgumentParser(prog="pleat-motion", description=__doc__)
     sub = ap.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
-    ls = sub.add_parser("list", help="clips found in the motion folder, with frames, fps and split")
+    ls = sub.add_parser("list", help="clips found in the motion folder, with frames, fps and split, then the split's "
+                                     "clips that are missing")
     ls.add_argument("--dir", default=None, help=DIR_HELP)
     add_quiet(ls)
     cv = sub.add_parser("convert", help="retarget one clip onto the body and write a clip npz")
-    cv.add_argument("clip", help="clip name (as `list` prints it) or a .txt/.json/.bvh/.amc/.npz file")
+    cv.add_argument("clip", help="clip name (as `list` prints it) or a .txt/.json/.bvh/.amc/.gltf/.glb/.npz file")
     cv.add_argument("--out", required=True, help="output file: the clip npz (Clip.save)")
     cv.add_argument("--fps", type=positive_float, default=30.0, help="frame rate the clip is resampled to")
     cv.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     cv.add_argument("--dir", default=None, help=DIR_HELP)
     cv.add_argument("--joint-map", default=None, metavar="FILE", help=JOINT_MAP_HELP)
+    cv.add_argument("--animation", default=None, metavar="NAME", help=ANIMATION_HELP)
     cv.add_argument("--mirror", action="store_true", help="left-right mirror")
     cv.add_argument("--speed", type=positive_float, default=1.0, help="time scale (2 = twice as fast)")
     add_quiet(cv)
@@ -32,6 +36,7 @@ def build_parser():
                                        "writes nothing")
     jt.add_argument("clip", help="clip name or motion file")
     jt.add_argument("--joint-map", default=None, metavar="FILE", help=JOINT_MAP_HELP)
+    jt.add_argument("--animation", default=None, metavar="NAME", help=ANIMATION_HELP)
     jt.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     jt.add_argument("--dir", default=None, help=DIR_HELP)
     jt.add_argument("--json", action="store_true", help="print the match as JSON instead of a table")
@@ -65,9 +70,13 @@ def main(args):
     if args.cmd == "list":
         for name, path in list_clips(args.dir).items():
             print(f"{name:50s} {_info(path)}  {split_mod.split_of(name) or '-'}")
+        # the split's clips that are not there (a fetch that could not reach a source): training leaves them out
+        for name in split_mod.missing(args.dir):
+            print(f"{name:50s} {'MISSING (scripts/fetch-motion.sh fetches it)':38s}  {split_mod.split_of(name)}")
     elif args.cmd == "joints":
         body = BodyModel.load(args.body or default_body_path())
-        _, match = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map, with_match=True)
+        _, match = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map, with_match=True,
+                             animation=args.animation)
         if args.json:
             print(json.dumps(match.as_dict(), indent=1))
         else:
@@ -75,7 +84,7 @@ def main(args):
     elif args.cmd == "convert":
         body = BodyModel.load(args.body or default_body_path())
         clip, match = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map,
-                                with_match=True)
+                                with_match=True, animation=args.animation)
         if args.speed != 1.0:
             clip = clip.time_scaled(args.speed)
         if args.mirror:

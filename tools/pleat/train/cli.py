@@ -1,10 +1,12 @@
 """pleat-train: stage1 | stage2 | ablation | pack | all (see docs/training.md)."""
 import argparse
 import json
+import os
 import sys
 import time
+from pathlib import Path
 
-from pleat.cli import add_quiet, command
+from pleat.cli import InputError, add_quiet, command
 
 
 def build_parser():
@@ -66,6 +68,30 @@ def build_parser():
     return p
 
 
+class NewPaths:
+    """What a command creates under its --out (a folder or a file), so that a failed one can take it away again: a
+    bad input writes nothing (docs/tools.md). Paths that were there before are never touched; the commands read
+    their inputs before they write, and this catches what a late input error would leave."""
+
+    def __init__(self, out):
+        self.out = Path(out)
+        self.before = set(self._paths())
+
+    def _paths(self):
+        if not self.out.exists() and not self.out.is_symlink():
+            return []
+        if not self.out.is_dir() or self.out.is_symlink():
+            return [self.out]
+        return [self.out] + [Path(root) / n for root, dirs, files in os.walk(self.out) for n in dirs + files]
+
+    def remove(self):
+        for p in sorted(set(self._paths()) - self.before, key=lambda p: len(p.parts), reverse=True):
+            try:
+                p.rmdir() if p.is_dir() and not p.is_symlink() else p.unlink()
+            except OSError:        # a folder that still holds what was there before; a file already gone
+                pass
+
+
 @command("pleat-train")
 def main(argv=None):
     parser = build_parser()
@@ -75,6 +101,15 @@ def main(argv=None):
     except ImportError:
         print("pleat-train needs PyTorch: pip install 'pleat-tools[train]'", file=sys.stderr)
         return 2
+    created = NewPaths(args.out)
+    try:
+        return _run(parser, args)
+    except (InputError, OSError):
+        created.remove()
+        raise
+
+
+def _run(parser, args):
     from pleat.train import core
 
     overrides = {}

@@ -23,14 +23,16 @@ import torch
 from pleat.train import core, distill, forkpool, simdata, sources
 
 
-def _clips(split, fps, body):
-    """{split name: the pleat.motion Clip at `fps`, named by its split name} for the training or validation split."""
+def _clips(split, fps, body, required=True):
+    """{split name: the pleat.motion Clip at `fps`, named by its split name} for the training or validation clips
+    that the motion folder has (pleat.motion.split.available: the missing ones are left out with one warning; none
+    is an error unless not `required`)."""
     from dataclasses import replace
 
     from pleat.motion import load_clip
-    from pleat.motion.split import TRAINING, VALIDATION
+    from pleat.motion.split import available
     return {n: replace(load_clip(n, body=body).resample(fps), name=n)
-            for n in (TRAINING if split == "train" else VALIDATION)}
+            for n in available(split, required=required)}
 
 
 def load_datasets(setup, data, train_clips, val_clips, validation_frames):
@@ -128,6 +130,10 @@ def import_dataset(path, setup, train_clips, val_clips, validation_frames):
     with np.load(_val_path(path), allow_pickle=False) as z:
         names = json.loads(str(z["val_segments"]))
         val_pos = [z[f"val_positions_{i}"] for i in range(len(names))]
+    gone = sorted({seg.clip for seg in segs if seg.clip not in train_clips} | set(names) - set(val_clips))
+    if gone:       # simulated on clips this motion folder lacks: their X_c rows cannot be rebuilt
+        from pleat.cli import InputError
+        raise InputError(path, f"was simulated on clips that are not in the motion folder: {', '.join(gone)}")
     seqs, o = [], 0
     for seg, T in zip(segs, lengths):
         clip = simdata.cut(simdata.variant_clip(train_clips[seg.clip], seg.variant), seg.start, seg.frames)
@@ -155,14 +161,32 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
           data=None, export=None, user_sims=None, user_only=False):
     from pleat.eval.reference import DEFAULT_CACHE
     from pleat.eval.tiers import tier
+    from pleat.cli import InputError
     t_start = time.time()
     c = cfg["simsup"]
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     cache_dir = Path(cache_dir or DEFAULT_CACHE)
+    if user_only and not user_sims:
+        raise InputError(None, "--user-sim-only needs at least one --user-sim training simulation")
     setup = core.Setup(cfg, garment, "cpu")
-    run = core.Run(out, "simsup", cfg, 0)
     budget_s = 60.0 * max_minutes if max_minutes else None
+
+    # 1. inputs, all read and checked before the run folder is written (a bad input leaves nothing behind): the
+    # user's own simulations first, since they are the likeliest to be wrong, then the split's clips that are there
+    user_train, user_val, user_info = user_simulations(setup, user_sims, cfg["fps"], None, progress)
+    if user_only and not user_train:
+        raise InputError(None, "--user-sim-only needs at least one --user-sim training simulation (all given have "
+                               "role=validation)")
+    # --user-sim-only trains on no clip of the split, and validates on the split's clips only without a user
+    # validation simulation (then on those that are there, if any)
+    train_clips = {} if user_only else _clips("train", cfg["fps"], setup.body)
+    val_clips = {} if user_only and user_val else _clips("validation", cfg["fps"], setup.body, required=not user_only)
+    if c.get("validation_limit"):
+        val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
+    loaded = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"]) if data else None
+    run = core.Run(out, "simsup", cfg, 0)
+    for info in user_info:
+        run.log({"user_simulation": info})
 
     def log(rec):
         run.log(rec)
@@ -170,24 +194,13 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
             print(f"simsup: segment {rec['segment']} {rec['clip']} ({rec['variant']}) {rec['cpu_s']} CPU s",
                   file=sys.stderr)
 
-    # 1. data
-    train_clips = _clips("train", cfg["fps"], setup.body)
-    val_clips = _clips("validation", cfg["fps"], setup.body)
-    if c.get("validation_limit"):
-        val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
-    segments = simdata.plan_segments(list(train_clips.values()), c, setup.B, cfg["seed"])
+    # 2. data
+    segments = simdata.plan_segments(list(train_clips.values()), c, setup.B, cfg["seed"]) if train_clips else []
     # skip_segments: a second machine continues the same plan where the first stopped
     segments = segments[int(c.get("skip_segments", 0)):]
     segments = segments[:int(c["max_segments"])] if c.get("max_segments") else segments
-    user_train, user_val, user_info = user_simulations(setup, user_sims, cfg["fps"], run.log, progress)
-    if user_only:
-        if not user_train:
-            from pleat.cli import InputError
-            raise InputError(None, "--user-sim-only needs at least one --user-sim training simulation")
-        segments, val_clips = [], ({} if user_val else val_clips)
     if data:
-        done, seqs, val, sim_cpu, val_cpu = load_datasets(setup, data, train_clips, val_clips,
-                                                          c["validation_frames"])
+        done, seqs, val, sim_cpu, val_cpu = loaded
     else:
         val, val_cpu = [], 0.0
         if not c.get("skip_validation"):    # a second data machine need not simulate the validation clips again
@@ -212,7 +225,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     if progress:
         print(f"simsup: {len(seqs)} segments, {frames} frames simulated ({sim_cpu / 3600:.2f} CPU h)", file=sys.stderr)
 
-    # 2. fit: one model at simsup.tier, or (ensemble_members > 1) that many fits at simsup.member_tier from
+    # 3. fit: one model at simsup.tier, or (ensemble_members > 1) that many fits at simsup.member_tier from
     # consecutive seeds, averaged into one network at simsup.tier's sizes (pleat.train.ensemble)
     spec = tier(c["tier"])
     dev = core.device_for(device, 0)
@@ -248,7 +261,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                                                      fit_deadline, progress, student_tier=c["second_student_tier"])
     fit_s = time.time() - t_fit
     val_err = posed_errors(lp, block, val, setup.L)
-    # 3. pack
+    # 4. pack
     cpu_h = (sim_cpu + val_cpu) / 3600.0 + fit_s * max(1, torch.get_num_threads()) / 3600.0
     summary = {"recipe": "simulator-supervised", "segments": len(seqs), "frames": frames,
                "clips": sorted(train_clips), "variants": list(c["variants"]),
@@ -361,6 +374,8 @@ def teacher_only_sequences(setup, train_clips, frames, seed):
     price of a rollout, so a tier needs not stop at the frames the simulator could afford (docs/training.md)."""
     c = setup.cfg["simsup"]
     out, total = [], 0
+    if not train_clips:            # --user-sim-only: no clip of the split to label
+        return out
     for seg in simdata.plan_segments(list(train_clips.values()), c, setup.B, int(seed) + 1000):
         if total >= frames:
             break

@@ -1,6 +1,8 @@
 """Where training gets the body, garment, motion and energies from: pleat.body, pleat.garment, pleat.motion and
-pleat.physics, nothing else. A missing module, body file or clip is an error, never a silent substitute. `used`
-records what was read (paths, garment spec, loaders); it is written into the run config and the asset's META.
+pleat.physics, nothing else. A missing module or body file is an error, never a silent substitute; clips of the split
+that the motion folder lacks are left out with a warning (pleat.motion.split.available), and a split with none is an
+error. `used` records what was read (paths, garment spec, loaders); it is written into the run config and the asset's
+META.
 """
 from pathlib import Path
 
@@ -73,7 +75,8 @@ class _Clip:
 
 def _motion_clips(split, fps, body_model=None, count_limit=None):
     from pleat.motion import load_clip, split as motion_split
-    names = motion_split.TRAINING if split == "train" else motion_split.VALIDATION
+    # the split's clips that are in the motion folder (one warning names the missing ones; none at all is an error)
+    names = motion_split.available(split)
     names = names[:count_limit] if count_limit else names
     result = []
     for name in names:
