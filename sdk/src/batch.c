@@ -22,6 +22,7 @@
 #include "step_phases.h"
 
 #include <stdatomic.h>
+#include <stdio.h>
 #include <string.h>
 
 // Instances looked at together when forming groups (a bitmap of this many bits on the stack).
@@ -751,6 +752,9 @@ plResult plStepInstances( plContext context, const plInstance* instances, const 
 			const plStepOutput* out = outputs != NULL ? &outputs[s] : NULL;
 			if ( first == NULL )
 			{
+				char detail[64];
+				snprintf( detail, sizeof( detail ), "at instances[%u] is stale or of another context", s );
+				plLogStaleInstance( ctx, instances[s], __func__, detail );
 				plRecord( &outcome, out_results, s, PLEAT_RESULT_INVALID_HANDLE );
 				continue;
 			}

@@ -27,6 +27,25 @@ plResult plLogIfNoGlContext( const plInstanceData* inst, plResult r, const char*
 	return r;
 }
 
+// A handle that names no live instance is almost always a use after plDestroyInstance, and INVALID_HANDLE alone does
+// not say which call or which handle it was; the log does, where the handle's context is still alive to receive it.
+void plLogStaleInstance( const plContextData* ctx, plInstance handle, const char* function, const char* detail )
+{
+	plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_STALE_HANDLE, "%s: handle (slot %u, generation %u) %s",
+		   function, handle.index1, handle.generation, detail );
+}
+
+plInstanceData* plLookupInstance( plInstance handle, const char* function )
+{
+	plInstanceData* inst = plGetInstanceData( handle );
+	if ( inst == NULL )
+	{
+		plLogStaleInstance( plGetContext( handle.context ), handle, function,
+							"is stale: its instance was destroyed" );
+	}
+	return inst;
+}
+
 int plInstance_IsValid( plInstance handle )
 {
 	return plGetInstanceData( handle ) != NULL;
@@ -334,6 +353,23 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 				return PLEAT_RESULT_JOINT_COUNT_MISMATCH;
 			}
 		}
+		// One engine joint driving two asset joints would give both the same local rotation: no skeleton means that,
+		// it is a map built wrong (a name matched twice), and the garment would bend in two places at once.
+		for ( uint32_t j = 1; j < a->joint_count; ++j )
+		{
+			for ( uint32_t k = 0; k < j; ++k )
+			{
+				if ( def->joint_map[j] >= 0 && def->joint_map[k] == def->joint_map[j] )
+				{
+					plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+						   "joint_map[%u] (asset joint '%s') and joint_map[%u] (asset joint '%s') are both engine joint "
+						   "%d: an engine joint drives at most one asset joint",
+						   k, a->joint_names + (size_t)k * PLEAT_JOINT_NAME_SIZE, j,
+						   a->joint_names + (size_t)j * PLEAT_JOINT_NAME_SIZE, (int)def->joint_map[j] );
+					return PLEAT_RESULT_INVALID_DEF;
+				}
+			}
+		}
 	}
 	else if ( engine_joints != a->joint_count )
 	{
@@ -477,14 +513,17 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 
 plResult plDestroyInstance( plInstance handle )
 {
+	if ( plLookupInstance( handle, __func__ ) == NULL )
+	{
+		return PLEAT_RESULT_INVALID_HANDLE;
+	}
 	plContextData* ctx = plGetContext( handle.context );
-	return ctx != NULL ? plSlotTable_Destroy( ctx, &ctx->instances, handle.index1, handle.generation )
-					   : PLEAT_RESULT_INVALID_HANDLE;
+	return plSlotTable_Destroy( ctx, &ctx->instances, handle.index1, handle.generation );
 }
 
 plResult plInstance_Reset( plInstance handle )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	if ( inst == NULL )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
@@ -498,7 +537,7 @@ plResult plInstance_Reset( plInstance handle )
 
 plResult plInstance_SetNetworkRate( plInstance handle, float network_rate_hz )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	plResult r = plCheckHandleThenArguments( inst, isfinite( network_rate_hz ) && network_rate_hz >= 0.0f );
 	if ( r == PLEAT_RESULT_OK )
 	{
@@ -510,7 +549,7 @@ plResult plInstance_SetNetworkRate( plInstance handle, float network_rate_hz )
 
 plResult plInstance_SetBodyContact( plInstance handle, int enabled, float offset_m )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	plResult r = plCheckHandleThenArguments( inst, plBodyContactOffsetValid( offset_m ) &&
 													   enabled >= PLEAT_BODY_CONTACT_OFF &&
 													   enabled <= PLEAT_BODY_CONTACT_FAST );
@@ -529,7 +568,7 @@ plResult plInstance_SetBodyContact( plInstance handle, int enabled, float offset
 
 plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t beta_count )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	if ( inst == NULL )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
@@ -579,7 +618,7 @@ plResult plInstance_SetShape( plInstance handle, const float* beta, uint32_t bet
 
 plResult plInstance_SetMaterial( plInstance handle, const float material[4] )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	plResult r = plCheckHandleThenArguments( inst, material != NULL );
 	if ( r == PLEAT_RESULT_OK && !plAllFiniteFloats( material, 4 ) )
 	{
@@ -599,9 +638,10 @@ plResult plInstance_SetMaterial( plInstance handle, const float material[4] )
 
 // The two getters that lend the instance's last per-vertex output ([N][3], valid until the next step or destroy):
 // which picks positions (0) or normals (1).
-static plResult plLendVertexArray( plInstance handle, int which, const float** out_array, uint32_t* out_count )
+static plResult plLendVertexArray( plInstance handle, int which, const float** out_array, uint32_t* out_count,
+								   const char* function )
 {
-	const plInstanceData* inst = plGetInstanceData( handle );
+	const plInstanceData* inst = plLookupInstance( handle, function );
 	plResult r = plCheckArgumentsThenHandle( out_array != NULL, inst );
 	if ( r != PLEAT_RESULT_INVALID_ARGUMENT )
 	{
@@ -616,12 +656,12 @@ static plResult plLendVertexArray( plInstance handle, int which, const float** o
 
 plResult plInstance_GetPositions( plInstance handle, const float** out_positions, uint32_t* out_count )
 {
-	return plLendVertexArray( handle, 0, out_positions, out_count );
+	return plLendVertexArray( handle, 0, out_positions, out_count, __func__ );
 }
 
 plResult plInstance_GetNormals( plInstance handle, const float** out_normals, uint32_t* out_count )
 {
-	return plLendVertexArray( handle, 1, out_normals, out_count );
+	return plLendVertexArray( handle, 1, out_normals, out_count, __func__ );
 }
 
 // The getters that copy one of the instance's float arrays out: the caller's capacity must hold all of it.
@@ -641,7 +681,7 @@ static plResult plCopyFloatsOut( const float* source, size_t count, float* out, 
 
 plResult plInstance_GetSkinMatrices( plInstance handle, float* out, uint32_t joint_count )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	if ( inst == NULL )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
@@ -652,7 +692,7 @@ plResult plInstance_GetSkinMatrices( plInstance handle, float* out, uint32_t joi
 
 plResult plInstance_GetLatent( plInstance handle, float* out, uint32_t latent_count )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	if ( inst == NULL )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
@@ -662,7 +702,7 @@ plResult plInstance_GetLatent( plInstance handle, float* out, uint32_t latent_co
 
 plResult plInstance_GetBlendWeights( plInstance handle, float* out, uint32_t blend_count )
 {
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	if ( inst == NULL )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;
@@ -672,7 +712,7 @@ plResult plInstance_GetBlendWeights( plInstance handle, float* out, uint32_t ble
 
 plResult plInstance_GetShape( plInstance handle, float* out_beta, uint32_t beta_count, float out_material[4] )
 {
-	const plInstanceData* inst = plGetInstanceData( handle );
+	const plInstanceData* inst = plLookupInstance( handle, __func__ );
 	plResult r =
 		plCheckHandleThenArguments( inst, ( out_beta != NULL || beta_count == 0 ) && beta_count <= PLEAT_MAX_BETAS );
 	if ( r != PLEAT_RESULT_OK )
@@ -692,7 +732,7 @@ plResult plInstance_GetShape( plInstance handle, float* out_beta, uint32_t beta_
 
 plResult plInstance_GetAsset( plInstance handle, plAsset* out_asset )
 {
-	const plInstanceData* inst = plGetInstanceData( handle );
+	const plInstanceData* inst = plLookupInstance( handle, __func__ );
 	plResult r = plCheckArgumentsThenHandle( out_asset != NULL, inst );
 	if ( r == PLEAT_RESULT_OK )
 	{
@@ -707,7 +747,7 @@ plResult plInstance_GetAsset( plInstance handle, plAsset* out_asset )
 
 plResult plInstance_GetUserData( plInstance handle, void** out_user_data )
 {
-	const plInstanceData* inst = plGetInstanceData( handle );
+	const plInstanceData* inst = plLookupInstance( handle, __func__ );
 	if ( out_user_data != NULL )
 	{
 		*out_user_data = inst != NULL ? inst->user_data : NULL;
@@ -717,7 +757,7 @@ plResult plInstance_GetUserData( plInstance handle, void** out_user_data )
 
 plResult plInstance_GetRestPose( plInstance handle, plRestJoint* out_joints, uint32_t joint_capacity )
 {
-	const plInstanceData* inst = plGetInstanceData( handle );
+	const plInstanceData* inst = plLookupInstance( handle, __func__ );
 	plResult r = plCheckArgumentsThenHandle( out_joints != NULL, inst );
 	if ( r == PLEAT_RESULT_OK && joint_capacity < inst->asset->joint_count )
 	{

@@ -77,6 +77,11 @@ typedef struct plInstanceData
 
 // The live instance a handle names (its context's generation included), or NULL.
 plInstanceData* plGetInstanceData( plInstance handle );
+// plGetInstanceData for a public entry point: a handle that names no live instance is logged (INSTANCE_STALE_HANDLE,
+// with function, the caller's name) where its context is alive.
+plInstanceData* plLookupInstance( plInstance handle, const char* function );
+// Logs INSTANCE_STALE_HANDLE: "function: handle (slot, generation) detail". ctx may be NULL (then nothing is logged).
+void plLogStaleInstance( const plContextData* ctx, plInstance handle, const char* function, const char* detail );
 // Logs that a GPU-mode call of the instance (function: its public name) found no GL context current and changed
 // nothing, when r is PLEAT_RESULT_GL_UNAVAILABLE; returns r.
 plResult plLogIfNoGlContext( const plInstanceData* inst, plResult r, const char* function );

@@ -462,7 +462,7 @@ plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpd
 plResult plInstance_Step( plInstance handle, const plFrameInput* input, const plStepOutput* output )
 {
 	PLEAT_STEP_PHASE_START();
-	plInstanceData* inst = plGetInstanceData( handle );
+	plInstanceData* inst = plLookupInstance( handle, __func__ );
 	if ( inst == NULL )
 	{
 		return PLEAT_RESULT_INVALID_HANDLE;

@@ -1,5 +1,6 @@
 // Error reporting through the log callback: every plCreateInstance rejection logs PLEAT_LOG_INSTANCE_BAD_DEF naming
-// the def field (and entry); a bad joint rotation is reported with the ENGINE's joint index when a joint map is used;
+// the def field (and entry), two asset joints mapped to one engine joint naming both entries; a call through a stale
+// instance handle logs PLEAT_LOG_INSTANCE_STALE_HANDLE naming the function; a bad joint rotation is reported with the ENGINE's joint index when a joint map is used;
 // an ONNX Runtime library that cannot be found is reported with PLEAT_ONNXRUNTIME_LIBRARY. (The headless GL report is
 // checked in test_gl_headless_reports_platform.c, which needs the GL build.)
 #include <setjmp.h>
@@ -92,6 +93,7 @@ static const plBadDefCase s_bad_def_cases[] = {
 	{ "GPU mode", PLEAT_RESULT_INVALID_DEF, "gpu_mode 9" },
 	{ "network rate", PLEAT_RESULT_INVALID_DEF, "network_rate_hz" },
 	{ "cookie", PLEAT_RESULT_INVALID_DEF, "internal_cookie" },
+	{ "two asset joints on one engine joint", PLEAT_RESULT_INVALID_DEF, "joint_map[1]" },
 };
 
 static void plMutate( size_t index, plInstanceDef* def, int32_t* map, float* material, float* beta )
@@ -109,6 +111,7 @@ static void plMutate( size_t index, plInstanceDef* def, int32_t* map, float* mat
 		case 8: def->gpu_mode = (plGpuMode)9; break;
 		case 9: def->network_rate_hz = NAN; break;
 		case 10: def->internal_cookie = 0; break;
+		case 11: map[3] = 2; break; // asset joints 1 and 3 both on engine joint 2
 		default: fail();
 	}
 }
@@ -140,6 +143,55 @@ static void test_create_failures_name_the_def_field( void** state )
 	assert_int_equal( plCreateInstance( r->rig.context, &def, &inst ), PLEAT_RESULT_JOINT_COUNT_MISMATCH );
 	assert_non_null( strstr( r->log.message, r->model->joint_names[3] ) );
 	assert_non_null( strstr( r->log.message, "-1..7 (engine_joint_count 8)" ) );
+	// One engine joint cannot drive two asset joints: the message names both entries, both joints and the engine
+	// joint. Several identity (-1) entries are fine.
+	int32_t shared[5] = { -1, 6, 0, 6, -1 };
+	def = plMappedDef( r, shared );
+	assert_int_equal( plCreateInstance( r->rig.context, &def, &inst ), PLEAT_RESULT_INVALID_DEF );
+	print_message( "  logged: %s\n", r->log.message );
+	assert_non_null( strstr( r->log.message, "joint_map[1]" ) );
+	assert_non_null( strstr( r->log.message, "joint_map[3]" ) );
+	assert_non_null( strstr( r->log.message, r->model->joint_names[1] ) );
+	assert_non_null( strstr( r->log.message, r->model->joint_names[3] ) );
+	assert_non_null( strstr( r->log.message, "engine joint 6" ) );
+	int32_t identities[5] = { -1, 6, -1, 5, -1 };
+	def = plMappedDef( r, identities );
+	assert_int_equal( plCreateInstance( r->rig.context, &def, &inst ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyInstance( inst ), PLEAT_RESULT_OK );
+	plLogRig_Destroy( r );
+}
+
+// A call through the handle of a destroyed instance returns INVALID_HANDLE and logs INSTANCE_STALE_HANDLE with the
+// function's name (as a stale asset in an instance def is logged); asking plInstance_IsValid logs nothing.
+static void test_stale_instance_handle_is_logged( void** state )
+{
+	(void)state;
+	plLogRig* r = plLogRig_Create( NULL, 0 );
+	plInstanceDef def = plDefaultInstanceDef();
+	def.asset = r->rig.asset;
+	plInstance stale;
+	assert_int_equal( plCreateInstance( r->rig.context, &def, &stale ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyInstance( stale ), PLEAT_RESULT_OK );
+	int before = r->log.count;
+	assert_false( plInstance_IsValid( stale ) );
+	assert_int_equal( r->log.count, before );
+
+	float q[64 * 4];
+	plFrameInput in = plTestMotion( 0, r->rig.info.joint_count, q );
+	assert_int_equal( plInstance_Step( stale, &in, NULL ), PLEAT_RESULT_INVALID_HANDLE );
+	plExpectLogged( &r->log, before, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_STALE_HANDLE, "plInstance_Step" );
+	before = r->log.count;
+	const float beta[1] = { 0.5f };
+	assert_int_equal( plInstance_SetShape( stale, beta, 1 ), PLEAT_RESULT_INVALID_HANDLE );
+	plExpectLogged( &r->log, before, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_STALE_HANDLE, "plInstance_SetShape" );
+	before = r->log.count;
+	assert_int_equal( plDestroyInstance( stale ), PLEAT_RESULT_INVALID_HANDLE );
+	plExpectLogged( &r->log, before, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_STALE_HANDLE, "plDestroyInstance" );
+	before = r->log.count;
+	plResult result = PLEAT_RESULT_OK;
+	assert_int_equal( plStepInstances( r->rig.context, &stale, &in, NULL, &result, 1 ), PLEAT_RESULT_INVALID_HANDLE );
+	assert_int_equal( result, PLEAT_RESULT_INVALID_HANDLE );
+	plExpectLogged( &r->log, before, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_STALE_HANDLE, "plStepInstances" );
 	plLogRig_Destroy( r );
 }
 
@@ -220,6 +272,7 @@ int main( void )
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_create_failures_name_the_def_field ),
 		cmocka_unit_test( test_bad_rotation_names_the_engine_joint ),
+		cmocka_unit_test( test_stale_instance_handle_is_logged ),
 		cmocka_unit_test( test_missing_onnxruntime_library_names_the_variable ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );

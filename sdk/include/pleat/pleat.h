@@ -371,6 +371,7 @@ PLEAT_API plVersion plGetVersion( void );
 	X( INSTANCE_INPUT_CLAMPED, 22, "an input was clamped to its range" )                                              \
 	X( INSTANCE_BAD_INPUT, 23, "a step input was rejected" )                                                          \
 	X( INSTANCE_BAD_DEF, 24, "instance def rejected" )                                                                \
+	X( INSTANCE_STALE_HANDLE, 25, "an instance handle names no live instance (destroyed, or of another context)" )    \
 	X( BACKEND_UNAVAILABLE, 30, "ONNX Runtime backend unavailable" )                                                  \
 	X( GL_UNAVAILABLE, 31, "GL deformer unavailable" )                                                                \
 	X( GL_HEADLESS_CONTEXT, 32, "headless GL context created" )                                                       \
@@ -599,6 +600,7 @@ typedef struct plInstanceDef
 {
 	plAsset asset;                     ///< the garment asset (required)
 	const int32_t* joint_map;          ///< [joint_map_count]: engine joint index per asset joint, -1 = identity;
+	                                   ///< each engine joint at most once (else INVALID_DEF, both entries logged);
 	                                   ///< NULL = the engine uses the asset's joint order
 	uint32_t joint_map_count;          ///< must equal the asset's joint count when joint_map is set (count)
 	uint32_t engine_joint_count;       ///< joints per plFrameInput (count); 0 = the asset's joint count
@@ -663,7 +665,8 @@ PLEAT_API plInstanceDef plDefaultInstanceDef( void );
 PLEAT_API plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstance* out_instance );
 /// Destroy an instance.
 PLEAT_API plResult plDestroyInstance( plInstance instance );
-/// Non-zero if the handle names a live instance.
+/// Non-zero if the handle names a live instance (asking logs nothing; every other call through a stale handle
+/// returns INVALID_HANDLE and logs INSTANCE_STALE_HANDLE with the function's name).
 PLEAT_API int plInstance_IsValid( plInstance instance );
 /// Advance one frame: the pose is frame t+1. Writes positions/normals to output (may be NULL) and to the instance's
 /// own buffers. Returns OK, CLAMPED (dt clamped) or NUMERIC_RESET; an error changes nothing.
