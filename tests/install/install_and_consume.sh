@@ -23,6 +23,22 @@ pc=$(find "$prefix" -name pleat.pc -print -quit)
 pcdir=$(dirname "$pc")
 say "installed into $prefix"
 
+# One version everywhere: the installed header's PLEAT_VERSION_* is what the CMake package (asked for EXACT below),
+# pleat.pc and the shared library's file name must say, and the soname carries its major.
+header="$prefix/include/pleat/pleat.h"
+[ -f "$header" ] || fail "no pleat.h installed"
+version_part() { sed -n "s/^#define PLEAT_VERSION_$1 \([0-9][0-9]*\)\$/\1/p" "$header"; }
+major=$(version_part MAJOR) minor=$(version_part MINOR) patch=$(version_part PATCH)
+[ -n "$major" ] && [ -n "$minor" ] && [ -n "$patch" ] || fail "pleat.h has no PLEAT_VERSION_MAJOR/MINOR/PATCH"
+version="$major.$minor.$patch"
+pc_version=$(sed -n 's/^Version: //p' "$pc")
+[ "$pc_version" = "$version" ] || fail "pleat.pc says Version: $pc_version, pleat.h says $version"
+library=$(find "$prefix" -name "libpleat.so.$version" -print -quit)
+[ -n "$library" ] || { find "$prefix" -name 'libpleat.so*'; fail "no libpleat.so.$version installed (pleat.h says $version)"; }
+soname=$(readelf -d "$library" | sed -n 's/.*Library soname: \[\(.*\)\].*/\1/p')
+[ "$soname" = "libpleat.so.$major" ] || fail "libpleat.so.$version has soname '$soname', not libpleat.so.$major"
+say "version $version: pleat.h, pleat.pc, libpleat.so.$version (soname $soname)"
+
 # What a shared-library consumer reads never asks for epoxy: only pleat.pc's Libs.private (static links) names it, and
 # the shared library's CMake export set does not mention it.
 if grep -n -i epoxy "$pc" | grep -v ':Libs.private:'; then fail "pleat.pc asks for epoxy outside Libs.private"; fi
@@ -38,7 +54,8 @@ epoxy_include=$(pkg-config --variable=includedir epoxy 2>/dev/null || true)
 # must still configure, link and run.
 if [ -n "$epoxy_pcdir" ]; then
   CMAKE_PREFIX_PATH="$prefix" cmake -S "$source/tests/install/consumer" -B "$work/static-consumer" -G "Unix Makefiles" \
-    -DPLEAT_SAMPLE_DIR="$source/samples/minimal" -DPLEAT_CONSUMER_STATIC=ON >"$work/static-consumer.log" 2>&1 &&
+    -DPLEAT_SAMPLE_DIR="$source/samples/minimal" -DPLEAT_REQUIRED_VERSION="$version" -DPLEAT_CONSUMER_STATIC=ON \
+    >"$work/static-consumer.log" 2>&1 &&
     cmake --build "$work/static-consumer" >>"$work/static-consumer.log" 2>&1 ||
     { cat "$work/static-consumer.log"; fail "the COMPONENTS static consumer"; }
   "$work/static-consumer/consumer" "$asset" 10 >"$work/static-consumer.out" 2>&1 &&
@@ -85,9 +102,10 @@ run() { # program: run it on the asset, require the retarget line and finite out
   say "\$1: \$(grep 'T-pose' "\$1.out")"
 }
 
-# 1. CMake: find_package(Pleat) from CMAKE_PREFIX_PATH.
+# 1. CMake: find_package(Pleat <pleat.h's version> EXACT) from CMAKE_PREFIX_PATH.
 cmake -S "$source/tests/install/consumer" -B "$work/cmake-consumer" -G "Unix Makefiles" \
-  -DPLEAT_SAMPLE_DIR="$source/samples/minimal" -DPLEAT_CONSUMER_EXPECT_NO_STATIC=\$hidden >"$work/cmake-consumer.log" 2>&1 ||
+  -DPLEAT_SAMPLE_DIR="$source/samples/minimal" -DPLEAT_REQUIRED_VERSION="$version" \
+  -DPLEAT_CONSUMER_EXPECT_NO_STATIC=\$hidden >"$work/cmake-consumer.log" 2>&1 ||
   { cat "$work/cmake-consumer.log"; fail "configuring the find_package consumer"; }
 cmake --build "$work/cmake-consumer" >>"$work/cmake-consumer.log" 2>&1 ||
   { cat "$work/cmake-consumer.log"; fail "building the find_package consumer"; }

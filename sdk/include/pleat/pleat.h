@@ -248,7 +248,8 @@ extern "C" {
 #define PLEAT_DEPRECATED( message )
 #endif
 
-/// Version of this header (major.minor.patch).
+/// Version of this header (major.minor.patch). The one place the SDK's version is set: the build reads these three
+/// lines (CMakeLists.txt) for the CMake package, pleat.pc and the shared library's name and soname.
 #define PLEAT_VERSION_MAJOR 0
 #define PLEAT_VERSION_MINOR 2
 #define PLEAT_VERSION_PATCH 0
