@@ -142,3 +142,38 @@ def test_pleat_eval_that_fails_to_write_its_report_keeps_the_old_one(tmp_path):
     assert run.stderr.startswith("pleat-eval: error: ") and len(run.stderr.strip().splitlines()) == 1
     assert json.loads(target.read_text()) == {"old": True}
     assert [p.name for p in tmp_path.iterdir()] == ["report.json"]
+
+
+def _temporaries(folder):
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith(".tmp"))
+
+
+def test_the_next_write_removes_the_temporary_a_killed_writer_left(tmp_path):
+    """A writer killed mid-write (SIGKILL: no cleanup runs) leaves its hidden temporary file; the next write of the same
+    target removes it. A temporary of a writer that is still running, and one of another target, stay."""
+    target = tmp_path / "tshirt.pleat"
+    target.write_bytes(b"old")
+    killed = textwrap.dedent(f"""
+        import os, signal, sys
+        sys.path.insert(0, {str(REPO / "tools")!r})
+        from pleat import fileio
+        with fileio.atomic_write({str(target)!r}, "wb") as fh:
+            fh.write(b"half an asset")
+            fh.flush()
+            os.kill(os.getpid(), signal.SIGKILL)
+    """)
+    child = subprocess.Popen([sys.executable, "-c", killed])
+    child.wait()
+    left = _temporaries(tmp_path)
+    assert len(left) == 1 and left[0].startswith(".tshirt.pleat."), left
+    assert target.read_bytes() == b"old"
+    # One from a writer of the same target that is still running (this test's parent process: alive, not us), and
+    # one that the killed writer left for another target whose name starts the same way.
+    live = tmp_path / f".tshirt.pleat.{os.getppid()}.abcd1234.tmp"
+    live.write_bytes(b"being written")
+    other = tmp_path / f".tshirt.pleat.bak.{child.pid}.abcd1234.tmp"
+    other.write_bytes(b"another target")
+
+    fileio.write_bytes(target, b"new")
+    assert target.read_bytes() == b"new"
+    assert _temporaries(tmp_path) == sorted([live.name, other.name])

@@ -701,15 +701,16 @@ def load_weights(path):
 
 
 def save_weights(path, weights):
-    """Writes a weights dict as .npz or .safetensors (the inverse of load_weights)."""
+    """Writes a weights dict as .npz or .safetensors (the inverse of load_weights), atomically (pleat.fileio)."""
+    from pleat.fileio import save_npz, write_bytes
     path = Path(path)
     strings = {k: v for k, v in weights.items() if isinstance(v, str) or k == "joint_names"}
     arrays = {k: np.ascontiguousarray(v) for k, v in weights.items() if k not in strings and v is not None}
     if path.suffix == ".safetensors":
-        from safetensors.numpy import save_file
+        from safetensors.numpy import save
         meta = {k: (json.dumps([str(n) for n in v]) if k == "joint_names" else v) for k, v in strings.items()}
         arrays = {k: (np.asarray(v, dtype=np.float32) if np.asarray(v).ndim == 0 else v) for k, v in arrays.items()}
-        save_file(arrays, str(path), metadata=meta)
+        write_bytes(path, save(arrays, metadata=meta))
     else:
-        np.savez(path, **arrays, **{k: (np.array([str(n) for n in v]) if k == "joint_names" else np.array(v))
+        save_npz(path, **arrays, **{k: (np.array([str(n) for n in v]) if k == "joint_names" else np.array(v))
                                     for k, v in strings.items()})

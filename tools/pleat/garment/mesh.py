@@ -195,7 +195,8 @@ def read_obj(path):
 
 
 def write_obj(path, vertices, faces):
-    with open(path, "w") as fh:
+    from pleat.fileio import atomic_write
+    with atomic_write(path, "w") as fh:
         for p in vertices:
             fh.write(f"v {p[0]:.6f} {p[1]:.6f} {p[2]:.6f}\n")
         for a, b, c in faces:

@@ -371,8 +371,14 @@ def compare_static_forces(v, faces, pins, material, equilibrium, newton_python, 
     result = dict(max_vertex_weight_N=float(weight[free].max()),
                   gravity_max_difference_N=float(np.abs(nw["gravity"] - gravity)[free].max()),
                   newton_rest_angle_max_rad=float(np.abs(nw["edge_rest_angle"]).max()), configurations=rows)
-    (out / "static_forces.json").write_text(json.dumps(result, indent=2) + "\n")
+    _write_json(out / "static_forces.json", result)
     return result
+
+
+def _write_json(path, result):
+    """A report of the pleat side, atomically (pleat.fileio; imported here: the newton side has no pleat)."""
+    from pleat.fileio import write_text
+    write_text(path, json.dumps(result, indent=2) + "\n")
 
 
 def _summary(x, v, pins):
@@ -426,7 +432,7 @@ def static_main(v, faces, pins, material, args, out):
                   free_length_m=float(length))
     result["forces"] = compare_static_forces(v, faces, pins, material, pl["positions"], args.newton_python, out)
     result["first_substep"] = first_substep(v, faces, pins, material, pl["positions"], args, out)
-    (out / "static.json").write_text(json.dumps(result, indent=2) + "\n")
+    _write_json(out / "static.json", result)
     print(json.dumps(result, indent=2))
     return 0
 
@@ -527,8 +533,9 @@ def main(args):
         result["difference"] = dict(max_vertex_distance_m=float(d.max()), mean_vertex_distance_m=float(d.mean()),
                                     **{f"{k[:-2]}_diff_m": result["newton"][k] - result["pleat"][k]
                                        for k in result["pleat"] if k.endswith("_m") and k in result["newton"]})
-        np.savez(out / "positions.npz", pleat=pl["positions"], newton=xn, rest=v, faces=faces)
-    (out / "crosscheck.json").write_text(json.dumps(result, indent=2) + "\n")
+        from pleat.fileio import save_npz
+        save_npz(out / "positions.npz", pleat=pl["positions"], newton=xn, rest=v, faces=faces)
+    _write_json(out / "crosscheck.json", result)
     print(json.dumps(result, indent=2))
     return 0
 

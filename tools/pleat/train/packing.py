@@ -7,6 +7,7 @@ import numpy as np
 import torch
 
 from pleat import garment_asset as ga
+from pleat.fileio import save_npz
 from pleat.train import sources
 from pleat.train.ablation import pose_statistics
 from pleat.train.data import Setup, physics_clips
@@ -77,5 +78,5 @@ def pack(out, model_kind="two-stage", path=None, fp16=False, onnx=False):
     weights = ga.weights_from_garment(setup.garment, setup.body, net, metadata=meta, name=setup.name)
     target = Path(path) if path else out / f"{setup.name}{'' if model_kind == 'two-stage' else '_ablation'}.pleat"
     write_asset(str(target), weights, fp16=fp16, onnx=onnx)
-    np.savez(out / f"{target.stem}_weights.npz", **{k: np.asarray(v) for k, v in weights.items()})
+    save_npz(out / f"{target.stem}_weights.npz", **{k: np.asarray(v) for k, v in weights.items()})
     return target, weights
