@@ -144,14 +144,16 @@ def _vertex_rings(faces, vertex_count, vertices):
 
 
 def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance_m=BODY_ANCHOR_MAX_DISTANCE_M,
-                 candidates=BODY_CONTACT_CANDIDATES, posed_normals=True, candidate_vertices=None):
+                 candidates=BODY_CONTACT_CANDIDATES, posed_normals=True, candidate_vertices=None, collide=None):
     """The body-contact keys of the weights file for a garment template [N, 3] on the mean body: the body points
     (rest body vertices: position, shape directions [B, P, 3], unit normal, and their top `influences` skin joints and
     weights, renormalised; in the order the garment reaches them), per garment vertex its `candidates` nearest points,
     nearest first, and with posed_normals each candidate's ring of body points (asset 1.2). The runtime keeps each
     posed garment vertex outside the blended tangent plane of its candidates nearest to it (pleat.reference.
     body_contact), the simulator's vertex-plane measure. candidates = 1 without posed_normals writes an asset 1.1
-    block (one point per vertex, the blended rest normals: the cheapest contact, for the cheapest tiers)."""
+    block (one point per vertex, the blended rest normals: the cheapest contact, for the cheapest tiers). collide
+    (bool [V], optional): the body vertices the garment collides with (Garment.body_collision_mask); the rest are
+    never a candidate."""
     from scipy.spatial import cKDTree
 
     from pleat.asset import NO_CANDIDATE
@@ -162,8 +164,9 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     skin = np.asarray(_field(body, "weights"), np.float64)                  # [V, J]
     normals = vertex_normals(v_template, faces)
     C = int(candidates)
-    distance, nearest = cKDTree(v_template).query(np.asarray(template, np.float64), k=C)
-    distance, nearest = distance.reshape(len(template), C), nearest.reshape(len(template), C)
+    ids = np.arange(len(v_template)) if collide is None else np.flatnonzero(collide)
+    distance, nearest = cKDTree(v_template[ids]).query(np.asarray(template, np.float64), k=C)
+    distance, nearest = distance.reshape(len(template), C), ids[nearest.reshape(len(template), C)]
     far = distance[:, 0] > max_distance_m                                   # no candidates at all
     if candidate_vertices is not None:      # chosen from simulated frames (pleat.train.contact.candidate_vertices)
         given = np.asarray(candidate_vertices, np.int64)
@@ -305,8 +308,10 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None, 
         if contact_candidates is not None and (candidates > 1 or posed_normals):
             given = np.asarray(contact_candidates, np.int64)
             candidates = given.shape[1]
+        from pleat.garment.garment import body_collision_mask
         weights.update(body_anchors(template, body, candidates=candidates, posed_normals=posed_normals,
-                                    candidate_vertices=given))
+                                    candidate_vertices=given,
+                                    collide=body_collision_mask(_field(garment, "collision_exclude", None), body)))
 
     meta = {"garment": garment_name, "vertices": int(template.shape[0]), "faces": int(weights["faces"].shape[0])}
     body_source = _field(body, "source", None)
@@ -314,6 +319,10 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None, 
         meta["body"] = str(np.asarray(body_source))
     if "body_anchor" in weights:
         meta["body_contact"] = body_contact_meta(weights, from_frames=given is not None)
+    excluded = _field(garment, "collision_exclude", None)
+    if excluded is not None and len(excluded):
+        # by name, so that the evaluation's reference simulation of this asset leaves out the same body parts
+        meta["collision_exclude"] = [str(names[int(j)]) for j in np.asarray(excluded).reshape(-1)]
     if network is None:
         weights.update(lbs_only_network(template.shape[0], input_count_without_latent(len(input_joints), beta_count)))
         meta["model"] = LBS_ONLY_MODEL

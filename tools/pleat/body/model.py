@@ -246,25 +246,34 @@ class BodyCollider:
     creases (armpit, crotch, between the legs when they touch) a point can be classified against the wrong side.
     """
 
-    def __init__(self, vertices, faces):
+    def __init__(self, vertices, faces, collide=None):
+        """`collide` (bool [V], optional): the body vertices the garment collides with; the others are not found
+        by any query (the indices returned are still the whole body's). A skirt leaves out the hands and forearms
+        (`Garment.collision_exclude`): a vertex-based contact cannot tell which side of a thin part a cloth vertex
+        belongs on, so a swinging hand that reaches the skirt carries it along instead of brushing past."""
         from scipy.spatial import cKDTree
         self.vertices = np.asarray(vertices, dtype=np.float64)
         self.faces = np.asarray(faces, dtype=np.int64)
         self.normals = vertex_normals(self.vertices, self.faces)
-        self.tree = cKDTree(self.vertices)
+        self.collide = None if collide is None else np.asarray(collide, bool)
+        self._ids = None if self.collide is None else np.flatnonzero(self.collide)
+        self.tree = cKDTree(self.vertices if self._ids is None else self.vertices[self._ids])
 
     @classmethod
     def lerp(cls, a, b, s):
         """The body a fraction s of the way from collider a to collider b (vertices interpolated linearly)."""
-        return cls((1.0 - s) * a.vertices + s * b.vertices, a.faces)
+        return cls((1.0 - s) * a.vertices + s * b.vertices, a.faces, a.collide)
+
+    def _nearest(self, points, k=1):
+        d, idx = self.tree.query(np.asarray(points, dtype=np.float64), k=k)
+        return d, (idx if self._ids is None else self._ids[idx])
 
     def closest_vertex(self, points):
-        d, idx = self.tree.query(np.asarray(points, dtype=np.float64))
-        return d, idx
+        return self._nearest(points)
 
     def query(self, x):
         """For points x [P, 3]: nearest vertex index, its position p, its normal n and (x − p)·n."""
-        _, idx = self.tree.query(np.asarray(x, np.float64))
+        _, idx = self._nearest(x)
         p = self.vertices[idx]
         n = self.normals[idx]
         d = np.einsum("ij,ij->i", x - p, n)
@@ -281,7 +290,7 @@ class BodyCollider:
     def signed_distance(self, points, k=1):
         """Signed distance [...] (metres, negative inside), index of the closest vertex, and its normal."""
         p = np.asarray(points, dtype=np.float64)
-        d, idx = self.tree.query(p, k=max(1, k))
+        d, idx = self._nearest(p, k=max(1, k))
         if k <= 1:
             idx0 = idx
             diff = p - self.vertices[idx0]

@@ -108,6 +108,7 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     beta = _clamped_beta(weights, beta)
     material = _clamped_material(weights, material)
     garment = S.garment_from_asset(weights)
+    collide = garment.body_collision_mask(body)
 
     own_context = context is None
     ctx = context or runtime.Context()
@@ -138,11 +139,11 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
                   vertices=int(len(weights["template"])), skeleton_mismatch_mm=mismatch,
                   network_rate_hz=float(network_rate_hz),
                   reference=dict(ref_info,
-                                 penetration=_penetration_summary(body_v, body.faces, ref)))
+                                 penetration=_penetration_summary(body_v, body.faces, ref, collide)))
     per_frame = {}
 
     def score(name, positions):
-        sd = S.signed_distances(body_v, body.faces, positions)
+        sd = S.signed_distances(body_v, body.faces, positions, collide)
         s = metrics.score(positions, ref, weights["faces"], garment.shaped(beta), dt, sd)
         per_frame[name] = dict(error_mm=s.pop("per_frame_mean_mm"), penetration_pct=s.pop("per_frame_pct"))
         return s
@@ -170,8 +171,8 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     return report
 
 
-def _penetration_summary(body_v, faces, positions):
-    p = metrics.penetration(S.signed_distances(body_v, faces, positions))
+def _penetration_summary(body_v, faces, positions, collide=None):
+    p = metrics.penetration(S.signed_distances(body_v, faces, positions, collide))
     return dict(penetration_pct=p["penetration_pct"], max_depth_mm=p["max_depth_mm"])
 
 

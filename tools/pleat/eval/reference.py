@@ -43,6 +43,8 @@ def cache_key(garment, body, beta, material, clip, frames, settings, start_pertu
     scene = dict(frames=int(frames), settings=asdict(settings), lead_in=LEAD_IN_FRAMES, hold=HOLD_FRAMES)
     if start_perturbation_m:
         scene["start_perturbation_m"] = float(start_perturbation_m)
+    if len(garment.collision_exclude):     # only when set, so the keys of garments colliding with everything stay
+        scene["collision_exclude"] = [int(j) for j in garment.collision_exclude]
     h.update(json.dumps(scene, sort_keys=True).encode())
     return h.hexdigest()[:32]
 

@@ -57,10 +57,26 @@ def garment_from_asset(weights):
     and the runtime see the same vertices)."""
     from pleat.garment import Garment
     pinned = weights.get("pinned")
+    excluded = collision_exclude(weights)
     return Garment.build(name=str(weights.get("garment_name", "garment")), template=weights["template"],
                          faces=weights["faces"], skin_indices=weights["skin_indices"],
                          skin_weights=weights["skin_weights"], shape_blend=weights["shape_blend"],
-                         pinned=np.zeros(0, np.int32) if pinned is None else pinned)
+                         pinned=np.zeros(0, np.int32) if pinned is None else pinned, collision_exclude=excluded)
+
+
+def collision_exclude(weights):
+    """The body joints (indices) whose parts the asset's garment does not collide with (META collision_exclude,
+    by name; none when absent)."""
+    import json
+    meta = json.loads(str(weights["metadata_json"])) if weights.get("metadata_json") is not None else {}
+    names = [str(n) for n in weights["joint_names"]]
+    return [names.index(n) for n in meta.get("collision_exclude", [])]
+
+
+def collision_mask(weights, body):
+    """bool [V] of the body vertices the asset's garment collides with, or None for all (signed_distances' collide)."""
+    from pleat.garment.garment import body_collision_mask
+    return body_collision_mask(collision_exclude(weights), body)
 
 
 def skeleton_mismatch_mm(weights, body):
@@ -182,12 +198,14 @@ def posed_body(body, clip, beta=None):
     return verts, M
 
 
-def signed_distances(body_vertices, body_faces, garment_positions):
+def signed_distances(body_vertices, body_faces, garment_positions, collide=None):
     """[T, N] signed distance of each garment vertex to the posed body at the same frame (negative inside), from the
     simulator's contact measure (BodyCollider.plane_distance: the tangent plane at the nearest body vertex), so
-    penetration means what the simulator means."""
+    penetration means what the simulator means; `collide` (Garment.body_collision_mask) leaves out the body parts
+    the garment does not collide with, as the simulator does."""
     from pleat.body import BodyCollider
     out = np.empty(garment_positions.shape[:2])
     for t in range(len(garment_positions)):
-        out[t] = BodyCollider(body_vertices[t], body_faces).plane_distance(np.asarray(garment_positions[t], np.float64))
+        out[t] = BodyCollider(body_vertices[t], body_faces, collide).plane_distance(
+            np.asarray(garment_positions[t], np.float64))
     return out

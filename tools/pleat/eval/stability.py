@@ -135,9 +135,9 @@ def _summary(run):
                 latent_in_range=run["latent_in_range"], latent_norm_max=float(run["pleat"].latent_norm.max()))
 
 
-def _penetration(body, clip, beta, positions, frames):
+def _penetration(body, weights, clip, beta, positions, frames):
     bv, _ = S.posed_body(body, _select(clip, frames), beta)
-    return metrics.penetration(S.signed_distances(bv, body.faces, positions[frames]))
+    return metrics.penetration(S.signed_distances(bv, body.faces, positions[frames], S.collision_mask(weights, body)))
 
 
 def _select(clip, frames):
@@ -169,7 +169,7 @@ def _reference_case(ctx, body, data, lbs_data, weights, clip, frames, beta, mate
                pleat_error_mm=float(metrics.vertex_error_mm(r["pleat"].positions, ref).mean()),
                lbs_error_mm=float(metrics.vertex_error_mm(r["lbs"].positions, ref).mean()))
     for k, x in (("pleat", r["pleat"].positions), ("lbs", r["lbs"].positions), ("reference", ref)):
-        pen = _penetration(body, sub, beta, x, np.arange(frames))
+        pen = _penetration(body, weights, sub, beta, x, np.arange(frames))
         out[f"{k}_penetration_pct"], out[f"{k}_max_depth_mm"] = pen["penetration_pct"], pen["max_depth_mm"]
     return out
 
@@ -212,7 +212,7 @@ def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_windo
         if matches_body:
             span = int((20 if quick else 60) * fps)
             idx = np.concatenate([np.arange(0, span, 10), np.arange(chain.num_frames - span, chain.num_frames, 10)])
-            pen = {k: _penetration(body, chain, beta0, run[k].positions, idx) for k in ("pleat", "lbs")}
+            pen = {k: _penetration(body, weights, chain, beta0, run[k].positions, idx) for k in ("pleat", "lbs")}
             series["penetration"] = dict(frames=idx, **{k: np.asarray(v["per_frame_pct"]) for k, v in pen.items()})
             long["penetration"] = {k: dict(penetration_pct=v["penetration_pct"], max_depth_mm=v["max_depth_mm"])
                                    for k, v in pen.items()}
@@ -225,7 +225,7 @@ def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_windo
                 fresh = paired_run(ctx, data, lbs_data, weights, *_motion(sub, weights), 1.0 / fps, beta0,
                                    material)
                 carried = {k: run[k].positions[start:start + ref_frames] for k in ("pleat", "lbs")}
-                ref_pen = _penetration(body, sub, beta0, ref, np.arange(ref_frames))
+                ref_pen = _penetration(body, weights, sub, beta0, ref, np.arange(ref_frames))
                 windows[name] = dict(
                     start_frame=int(start), frames=ref_frames,
                     pleat_error_mm=float(metrics.vertex_error_mm(carried["pleat"], ref).mean()),
@@ -269,7 +269,7 @@ def run_suite(asset_path, out_dir, quick=False, motions=DEFAULT_CLIPS, ref_windo
             entry = dict(component=k, value=v, **_summary(r))
             if matches_body:
                 for m in ("pleat", "lbs"):
-                    p = _penetration(body, c, beta, r[m].positions, pen_idx)
+                    p = _penetration(body, weights, c, beta, r[m].positions, pen_idx)
                     entry[f"{m}_penetration_pct"] = p["penetration_pct"]
                     entry[f"{m}_max_depth_mm"] = p["max_depth_mm"]
             bodies[f"beta{k}={v:+g}"] = entry

@@ -1,5 +1,5 @@
 """The Garment object and its npz file (what pleat-garment writes, the simulator, training and packing read)."""
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -21,16 +21,23 @@ class Garment:
     rest_edge_length: np.ndarray  # [E] f32, m
     vertex_area: np.ndarray       # [N] f32, a third of the adjacent rest area, m²
     vertex_mass: np.ndarray       # [N] f32, kg, at the default areal density MATERIAL_DEFAULT[0]
+    # [X] i32 body joints whose vertices the garment does not collide with (empty: the whole body). Optional in the
+    # npz: files written before it existed collide with the whole body, as they did.
+    collision_exclude: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
 
     @classmethod
-    def build(cls, name, template, faces, skin_indices, skin_weights, shape_blend, pinned):
+    def build(cls, name, template, faces, skin_indices, skin_weights, shape_blend, pinned, collision_exclude=()):
         rest = cloth_rest(template, faces)
         return cls(name=str(name), template=np.asarray(template, np.float32), faces=np.asarray(faces, np.int32),
                    skin_indices=np.asarray(skin_indices, np.int32), skin_weights=np.asarray(skin_weights, np.float32),
                    shape_blend=np.asarray(shape_blend, np.float32), pinned=np.asarray(pinned, np.int32),
                    edges=rest.edges.astype(np.int32), rest_edge_length=rest.edge_length.astype(np.float32),
                    vertex_area=rest.vertex_area.astype(np.float32),
-                   vertex_mass=(MATERIAL_DEFAULT[0] * rest.vertex_area).astype(np.float32))
+                   vertex_mass=(MATERIAL_DEFAULT[0] * rest.vertex_area).astype(np.float32),
+                   collision_exclude=np.asarray(collision_exclude, np.int32).reshape(-1))
+
+    def body_collision_mask(self, body):
+        return body_collision_mask(self.collision_exclude, body)
 
     @property
     def num_vertices(self):
@@ -57,4 +64,15 @@ class Garment:
     @classmethod
     def load(cls, path):
         with np.load(path, allow_pickle=False) as z:
-            return cls(**{f.name: (str(z[f.name]) if f.name == "name" else z[f.name]) for f in fields(cls)})
+            return cls(**{f.name: (str(z[f.name]) if f.name == "name" else z[f.name]) for f in fields(cls)
+                          if f.name in z.files or f.name != "collision_exclude"})
+
+
+def body_collision_mask(collision_exclude, body):
+    """bool [V]: the body vertices a garment collides with (those whose largest skin weight is on a joint not in
+    collision_exclude), or None for the whole body. The simulator's contact, the runtime's contact candidates and
+    the penetration measure all use it, so a garment is never pushed, nor scored, against a part it passes through."""
+    if collision_exclude is None or len(collision_exclude) == 0:
+        return None
+    weights = body["weights"] if isinstance(body, dict) else body.weights
+    return ~np.isin(np.argmax(np.asarray(weights), axis=1), np.asarray(collision_exclude))

@@ -221,7 +221,21 @@ def make_garment(name, vertices=None, body=None, offset_m=None):
         query[below, 2] = c[1] + rel[:, 1] * 0.6
     skin_indices, skin_weights, shape_blend = diffuse_from_body(x, f, body, query_points=query)
     return Garment.build(name=name, template=x, faces=f, skin_indices=skin_indices, skin_weights=skin_weights,
-                         shape_blend=shape_blend, pinned=pinned_vertices(name, x, f))
+                         shape_blend=shape_blend, pinned=pinned_vertices(name, x, f),
+                         collision_exclude=collision_exclude(name))
+
+
+# A skirt hangs where the hands swing: it collides with the trunk and legs only (BodyCollider's `collide`).
+SKIRT_EXCLUDED_JOINTS = ("left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_hand", "right_hand")
+
+
+def collision_exclude(name):
+    """Body joints (indices) whose vertices garment `name` does not collide with: the forearms and hands for the
+    dress, none for the others (their cloth is never where a hand swings through it)."""
+    from ..body.model import SMPL_JOINT_NAMES
+    if name != "dress":
+        return np.zeros(0, np.int32)
+    return np.array([SMPL_JOINT_NAMES.index(j) for j in SKIRT_EXCLUDED_JOINTS], np.int32)
 
 
 def garment_from_obj(path, body=None, name=None, pinned=None):

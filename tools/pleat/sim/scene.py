@@ -126,7 +126,8 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
     shaped_body = body.shaped_vertices(beta)
     body_v = np.einsum("tvij,vj->tvi", A[..., :3], shaped_body) + A[..., 3]
     pins = garment.skin(M, beta)                                     # LBS garment: pinned targets, first frame
-    colliders = [BodyCollider(body_v[0], body.faces)]
+    collide = garment.body_collision_mask(body)
+    colliders = [BodyCollider(body_v[0], body.faces, collide)]
     if lead is not None:
         x, x_prev = lead["x"], lead["x_prev"]
     else:
@@ -144,7 +145,7 @@ def simulate(garment, body, clip, beta=None, material=None, frames=None, setting
     c0 = time.process_time()
     for t in iterator:
         t_frame = time.perf_counter()
-        colliders.append(BodyCollider(body_v[t], body.faces))
+        colliders.append(BodyCollider(body_v[t], body.faces, collide))
         x_new, stats = solver.step(x, x_prev, pin_targets=pins[t], body_t=colliders[t - 1], body_next=colliders[t],
                                    pins_t=pins[t - 1])
         colliders[t - 1] = None
@@ -217,7 +218,8 @@ def _simulate_lead_in(garment, body, clip, beta, solver, settings, frames, hold,
     shaped_body = body.shaped_vertices(beta)
     body_v = np.einsum("tvij,vj->tvi", A[..., :3], shaped_body) + A[..., 3]
     pins = garment.skin(M, beta)
-    prev = BodyCollider(body_v[0], body.faces)
+    collide = garment.body_collision_mask(body)
+    prev = BodyCollider(body_v[0], body.faces, collide)
     x = _perturbed(_pushed_out(pins[0], prev, solver, settings), solver, start_perturbation_m)
     x_prev = x.copy()
     t0 = time.perf_counter()
@@ -226,7 +228,7 @@ def _simulate_lead_in(garment, body, clip, beta, solver, settings, frames, hold,
     substeps = substeps_ok = 0
     ratios = []
     for t in range(1, lead.num_frames):
-        nxt = BodyCollider(body_v[t], body.faces)
+        nxt = BodyCollider(body_v[t], body.faces, collide)
         x_new, stats = solver.step(x, x_prev, pin_targets=pins[t], body_t=prev, body_next=nxt, pins_t=pins[t - 1])
         x = x_new
         x_prev = x - settings.dt_s * stats.velocity

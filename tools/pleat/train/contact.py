@@ -20,6 +20,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from pleat import reference
+from pleat.train import sources
 
 
 def _pad(arrays, T, dtype):
@@ -164,10 +165,15 @@ def candidate_vertices(setup, seqs, count, stride=3, radius_m=CANDIDATE_RADIUS_M
     """Per garment vertex, `count` body vertex ids [N, count] (-1: none): its rest-nearest body vertex first, then
     the body vertices nearest to it in the simulated frames of `seqs` (each with "M" [T, J, 3, 4], "beta" and the
     rest-frame "disp" [T, N, 3], as simsup's training sequences; every `stride`-th frame, and only where the garment
-    is within `radius_m` of the body), most often nearest first, then its further rest neighbours. The whole posed
-    body of `setup.body` is searched, hands included. For `pleat.garment_asset.body_anchors(candidate_vertices=…)`."""
+    is within `radius_m` of the body), most often nearest first, then its further rest neighbours. The posed body of
+    `setup.body` is searched where the garment collides with it (all of it unless the garment's collision_exclude
+    leaves parts out, as the simulator did). For `pleat.garment_asset.body_anchors(candidate_vertices=…)`."""
     import scipy.sparse
+
+    from pleat.garment.garment import body_collision_mask
     body = setup.body
+    collide = body_collision_mask(sources.field(setup.garment, "collision_exclude"), body)
+    ids = np.arange(len(body.v_template)) if collide is None else np.flatnonzero(collide)
     W = scipy.sparse.csr_matrix(np.asarray(body.weights, np.float64))                  # [V, J]: a few joints each
     counts = [dict() for _ in range(setup.N)]
     frames = 0
@@ -182,15 +188,16 @@ def candidate_vertices(setup, seqs, count, stride=3, radius_m=CANDIDATE_RADIUS_M
         rest = setup.shaped(beta)[None] + np.asarray(s["disp"], np.float64)[::stride]
         x = np.einsum("tnab,tnb->tna", A[..., :3], rest) + A[..., 3]
         for t in range(T):
-            d, j = cKDTree(posed_body[t]).query(x[t])
+            d, j = cKDTree(posed_body[t][ids]).query(x[t])
+            j = ids[j]
             for i in np.flatnonzero(d < radius_m):
                 counts[i][int(j[i])] = counts[i].get(int(j[i]), 0) + 1
         frames += T
     if frames == 0:
         raise ValueError("candidate_vertices: no simulated frames")
-    _, rest_nearest = cKDTree(np.asarray(body.v_template, np.float64)).query(np.asarray(setup.template, np.float64),
-                                                                            k=count)
-    rest_nearest = np.asarray(rest_nearest).reshape(setup.N, count)
+    _, rest_nearest = cKDTree(np.asarray(body.v_template, np.float64)[ids]).query(
+        np.asarray(setup.template, np.float64), k=count)
+    rest_nearest = ids[np.asarray(rest_nearest).reshape(setup.N, count)]
     table = np.full((setup.N, count), -1, np.int64)
     for i, c in enumerate(counts):
         ranked = [int(rest_nearest[i, 0])] + sorted(c, key=lambda b: (-c[b], b)) + [int(b) for b in rest_nearest[i]]

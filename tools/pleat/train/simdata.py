@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from pleat import garment_asset as ga
+from pleat.train import sources
 
 # The variants of a training clip the data is drawn from: (name, time scale). Mirroring swaps left and right; a
 # time scale above 1 plays the clip faster (fast motion is where learned cloth breaks first, docs/stability.md);
@@ -133,7 +134,8 @@ def _simulate_segment(segment, deadline):
 def garment_arrays(setup):
     """What pleat.garment.Garment.build needs, from the training setup's garment (the asset's own arrays)."""
     return dict(name=setup.name, template=setup.template, faces=setup.faces, skin_indices=setup.skin_indices,
-                skin_weights=setup.skin_weights, shape_blend=setup.shape_blend, pinned=setup.pinned)
+                skin_weights=setup.skin_weights, shape_blend=setup.shape_blend, pinned=setup.pinned,
+                collision_exclude=np.asarray(sources.field(setup.garment, "collision_exclude", ()), np.int32))
 
 
 def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=None):
