@@ -107,8 +107,8 @@ def write_bvh(path, clip, body, units="cm"):
 
 def pleat_skeleton_scale(src, body):
     """Metres per BVH unit when `src` (a SourceMotion from read_bvh) is the Pleat body's own skeleton (its joint
-    names and rest offsets proportional to J(0)); None when the names differ. Raises MotionFileError when the names
-    are the body's but the rest pose is not (a file written for another body)."""
+    names and rest offsets proportional to J(0)); None when the names or the rest pose differ (the body's names on a
+    T-pose, say: that file is retargeted like any other)."""
     names = [n for n in src.names if not n.endswith("_end")]
     if sorted(names) != sorted(body.joint_names):
         return None
@@ -120,9 +120,7 @@ def pleat_skeleton_scale(src, body):
     err = float(np.abs(a * scale - b).max())
     extent = float(np.abs(b).max())
     if err > REST_TOLERANCE * extent:
-        raise MotionFileError(src.source.split(" ", 1)[-1], f"has the Pleat body's joint names but not its rest "
-                                                            f"pose ({err * 1000:.1f} mm off at the body's scale): "
-                                                            "was it written for another body?")
+        return None
     return scale
 
 

@@ -13,6 +13,10 @@ JOINT_MAP_HELP = ("JSON file {\"source joint\": \"body joint\" or null} for a BV
 
 ANIMATION_HELP = "glTF / GLB: the animation to read, by name or index (default: the first)"
 
+STRICT_HELP = ("refuse a clip whose retargeting check goes beyond what the training clips do (bone directions more "
+               "than 10° off the source's, forearms inside the torso), instead of warning; PLEAT_MOTION_STRICT=1 "
+               "does this in every tool")
+
 
 def build_parser():
     ap = argparse.ArgumentParser(prog="pleat-motion", description=__doc__)
@@ -31,6 +35,7 @@ def build_parser():
     cv.add_argument("--animation", default=None, metavar="NAME", help=ANIMATION_HELP)
     cv.add_argument("--mirror", action="store_true", help="left-right mirror")
     cv.add_argument("--speed", type=positive_float, default=1.0, help="time scale (2 = twice as fast)")
+    cv.add_argument("--strict", action="store_true", help=STRICT_HELP)
     add_quiet(cv)
     jt = sub.add_parser("joints", help="which source joint drives each body joint (matched, unmatched, unused); "
                                        "writes nothing")
@@ -40,6 +45,9 @@ def build_parser():
     jt.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
     jt.add_argument("--dir", default=None, help=DIR_HELP)
     jt.add_argument("--json", action="store_true", help="print the match as JSON instead of a table")
+    jt.add_argument("--out", default=None, metavar="PNG",
+                    help="output file: a preview PNG of the body at the frames the check names")
+    jt.add_argument("--strict", action="store_true", help=STRICT_HELP)
     add_quiet(jt)
     sp = sub.add_parser("split", help="the training / validation split (pleat.motion.split)")
     sp.add_argument("--dir", default=None, help=DIR_HELP)
@@ -75,16 +83,25 @@ def main(args):
             print(f"{name:50s} {'MISSING (scripts/fetch-motion.sh fetches it)':38s}  {split_mod.split_of(name)}")
     elif args.cmd == "joints":
         body = BodyModel.load(args.body or default_body_path())
-        _, match = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map, with_match=True,
-                             animation=args.animation)
+        # the report shows the check whatever it says; --strict still refuses (after the report is printed)
+        clip, match, check = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map,
+                                       with_check=True, check=False, animation=args.animation)
         if args.json:
-            print(json.dumps(match.as_dict(), indent=1))
+            print(json.dumps(dict(match.as_dict(), check=check.as_dict()), indent=1))
         else:
-            print("\n".join(match.lines()))
+            print("\n".join(match.lines() + check.lines()))
+        if check.problems:
+            from pleat.motion.check import report
+            report(check, args.clip, strict=args.strict or None)
+        if args.out:
+            from pleat.motion.check import write_preview
+            write_preview(args.out, clip, body, check)
+            if not args.quiet:
+                print(f"pleat-motion: wrote {args.out}", file=sys.stderr)
     elif args.cmd == "convert":
         body = BodyModel.load(args.body or default_body_path())
         clip, match = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map,
-                                with_match=True, animation=args.animation)
+                                with_match=True, animation=args.animation, strict=args.strict or None)
         if args.speed != 1.0:
             clip = clip.time_scaled(args.speed)
         if args.mirror:

@@ -126,6 +126,7 @@ class JointMatch:
     body_names: tuple = SMPL_JOINT_NAMES
     source_animated: list = field(default=None)   # source joints with rotation channels (None: all)
     shared: dict = field(default_factory=dict)    # body joint → source joint whose rotation it shares (spread)
+    notes: dict = field(default_factory=dict)     # how the structure told the sides apart (pleat.motion.structure)
 
     @property
     def unmatched(self):
@@ -161,14 +162,38 @@ class JointMatch:
         return out
 
 
-def match_joints(source_names, user_map=None, map_path=None, body_names=SMPL_JOINT_NAMES, source_animated=None):
+def _name_tables(names, taken, body_names):
+    """Body joint → (source joint, table) from the names alone: the body's own names, the Mixamo table, then the
+    guesses (CMU BVH, Biovision, Acclaim ASF)."""
+    out, used = {}, set(taken)
+    for raw in names:
+        s = strip_namespace(raw)
+        if s in body_names and s != "pelvis" and raw not in used and s not in out:
+            out[s] = (raw, "body names")
+            used.add(raw)
+    for raw in names:
+        dst = MIXAMO_TO_BODY.get(strip_namespace(raw))
+        if dst and dst != "pelvis" and dst not in out and raw not in used and dst in body_names:
+            out[dst] = (raw, "Mixamo table")
+            used.add(raw)
+    for dst, raw in guess_joint_map([n for n in names if n not in used], root=False).items():
+        if dst != "pelvis" and dst not in out and dst in body_names:
+            out[dst] = (raw, "name guess")
+    return out
+
+
+def match_joints(source_names, user_map=None, map_path=None, body_names=SMPL_JOINT_NAMES, source_animated=None,
+                 parents=None, rest=None, body=None, tips=None, candidate=None):
     """source_names (root first) → JointMatch. user_map: {source name: body name or None} (read_joint_map_file);
-    its source names may be given with or without their namespace."""
+    its source names may be given with or without their namespace. With the rest skeleton (parents, rest
+    positions, the body), joints are matched by structure (pleat.motion.structure) and names only label (or, where
+    the structure finds nothing, fill) the match; without it, by names alone."""
     names = list(source_names)
     by_stripped = {}
     for n in names:
         by_stripped.setdefault(strip_namespace(n), n)
     mapping, origin, taken = {}, {}, set()
+    notes = {}
 
     root = names[0] if names else None
     if user_map:
@@ -187,15 +212,26 @@ def match_joints(source_names, user_map=None, map_path=None, body_names=SMPL_JOI
         mapping["pelvis"] = root
         origin.setdefault("pelvis", "root")
         taken.add(root)
-    for raw in names:
-        dst = MIXAMO_TO_BODY.get(strip_namespace(raw))
-        if dst and dst != "pelvis" and dst not in mapping and raw not in taken and dst in body_names:
+    by_name = _name_tables(names, taken, body_names)
+    if rest is not None and parents is not None and body is not None and len(names) > 1:
+        from pleat.motion.structure import structure_map
+        found, notes = structure_map(names, parents, rest, body, candidate, tips)
+        for dst, raw in found.items():
+            if dst == "pelvis" or dst in mapping or raw in taken or dst not in body_names:
+                continue
             mapping[dst] = raw
-            origin[dst] = "Mixamo table"
+            named = by_name.get(dst)
+            if named and named[0] == raw:
+                origin[dst] = f"structure; {named[1]} agrees"
+            elif named:
+                origin[dst] = f"structure; the names say {named[0]}"
+            else:
+                origin[dst] = "structure"
             taken.add(raw)
-    for dst, raw in guess_joint_map([n for n in names if n not in taken], root=False).items():
-        if dst != "pelvis" and dst not in mapping and dst in body_names:
+    for dst, (raw, table) in by_name.items():
+        if dst not in mapping and raw not in taken:
             mapping[dst] = raw
-            origin[dst] = "name guess"
+            origin[dst] = table
+            taken.add(raw)
     return JointMatch(mapping=mapping, origin=origin, source_names=names, body_names=tuple(body_names),
-                      source_animated=source_animated)
+                      source_animated=source_animated, notes=notes)

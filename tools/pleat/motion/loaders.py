@@ -12,6 +12,7 @@ traceback and never a clip of NaNs.
 """
 import json
 import math
+import os
 import zipfile
 from pathlib import Path
 
@@ -97,16 +98,38 @@ def _clip_name(path):
 
 
 # ---- loading, checked ----------------------------------------------------------------------------------------------
-def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_map_file=None, with_match=False, **kw):
+def strict_from_environment():
+    """PLEAT_MOTION_STRICT=1: every tool refuses a clip that the retargeting check flags (as --strict does)."""
+    return os.environ.get("PLEAT_MOTION_STRICT", "") not in ("", "0")
+
+
+def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_map_file=None, with_match=False,
+              check=True, strict=None, with_check=False, warn=None, **kw):
     """Any supported file or clip name → Clip retargeted onto `body` (default: assets/body.npz).
 
-    joint_map: {body joint: source joint}, the whole map (replaces the name matching); joint_map_file: a JSON file
-    {source joint: body joint or null} (`--joint-map`), merged over the Mixamo table and the name guesses.
-    with_match: also return the JointMatch (what `pleat-motion joints` reports). kw go to `retarget`."""
+    joint_map: {body joint: source joint}, the whole map (replaces the matching); joint_map_file: a JSON file
+    {source joint: body joint or null} (`--joint-map`), whose entries win over the structure and the names.
+    with_match: also return the JointMatch (what `pleat-motion joints` reports). check: measure the result
+    (pleat.motion.check) and warn in one line (`warn`, default stderr) when it goes beyond what the training clips
+    do; strict (default: $PLEAT_MOTION_STRICT): a MotionFileError instead. with_check: return (clip, match, check).
+    kw go to `retarget`."""
     path = resolve_clip(name_or_path, motion_dir)
     body = body or BodyModel.load()
+    strict = strict_from_environment() if strict is None else strict
     user_map = read_joint_map_file(joint_map_file, body.joint_names) if joint_map_file else None
     fmt = _format_of(path)
+
+    def done(clip, match, src=None, mapping=None, spread=None, rest_offsets="limbs"):
+        result = None
+        if check or with_check:
+            from pleat.motion.check import check_retarget, report
+            result = check_retarget(src, mapping, clip, body, spread, rest_offsets)
+            if check:
+                report(result, path, strict, warn)
+        if with_check:
+            return clip, match, result
+        return (clip, match) if with_match else clip
+
     if fmt == "clip":
         clip = _reading(path, "Pleat clip npz", read_clip_file, path, body)
         match = JointMatch({n: n for n in clip.joint_names}, {n: "clip file" for n in clip.joint_names},
@@ -114,7 +137,7 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
         if joint_map_file:
             raise InputError(joint_map_file, f"--joint-map applies to BVH and ASF/AMC skeletons; {path.name} is a "
                                              "Pleat clip already on the body")
-        return (clip, match) if with_match else clip
+        return done(clip, match)
     fps, animation = kw.pop("fps", None), kw.pop("animation", None)
     if fmt == "bvh":
         src = _reading(path, "BVH", read_bvh, path)
@@ -140,15 +163,19 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
             match = JointMatch({n: n for n in body.joint_names}, {n: "Pleat skeleton" for n in body.joint_names},
                                list(src.names), tuple(body.joint_names),
                                [n for n, has in zip(src.names, src.animated) if has])
-            return (clip, match) if with_match else clip
+            return done(clip, match)
     spread = None
+    rest_offsets = "limbs"        # the fixed skeletons: the training clips were made this way
     if fmt in ("bvh", "amc", "gltf"):
         animated = [n for n, has in zip(src.names, getattr(src, "animated", [True] * len(src.names))) if has]
         if joint_map is not None:
             match = JointMatch(dict(joint_map), {k: "joint_map argument" for k in joint_map}, list(src.names),
                                tuple(body.joint_names), animated)
         else:
-            match = match_joints(src.names, user_map, joint_map_file, body.joint_names, animated)
+            match = match_joints(src.names, user_map, joint_map_file, body.joint_names, animated,
+                                 parents=src.parents, rest=src.rest_positions, body=body,
+                                 tips=getattr(src, "tips", None), candidate=getattr(src, "animated", None))
+        rest_offsets = "all"
     else:
         if joint_map_file:
             raise InputError(joint_map_file, f"--joint-map applies to BVH and ASF/AMC skeletons; {path.name} has "
@@ -163,13 +190,13 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
                            animated, shared)
     check_skeleton(src, match, path)
     try:
-        clip = retarget(src, match.mapping, body, spread=spread, **kw)
+        clip = retarget(src, match.mapping, body, spread=spread, rest_offsets=rest_offsets, **kw)
     except InputError:
         raise
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
         raise MotionFileError(path, f"cannot be retargeted onto the body: {exc}") from None
     check_clip(clip, path)
-    return (clip, match) if with_match else clip
+    return done(clip, match, src, match.mapping, spread, rest_offsets)
 
 
 def load_clip_at(name_or_path, body=None, fps=30.0, max_frames=None, **kw):
@@ -478,6 +505,7 @@ def _euler(order, angles_deg, intrinsic):
 
 
 # ---- BVH -----------------------------------------------------------------------------------------------------------
+_SPACE = "\x00"                 # stands for a space inside a joint name while the file is split into words
 _BVH_CHANNELS = {f"{a}{k}": (a, k) for a in "XYZ" for k in ("position", "rotation")}
 
 
@@ -575,8 +603,16 @@ def _bvh_hierarchy(path, tok):
 
 def read_bvh(path):
     path = Path(path)
-    tok = _Tokens(path, _read_text(path).split())
+    # a joint name may have spaces (3ds Max Biped: `JOINT Bip01 L Thigh`): kept as one word while parsing
+    lines = []
+    for line in _read_text(path).splitlines():
+        words = line.split()
+        if len(words) > 2 and words[0] in ("ROOT", "JOINT"):
+            line = f"{words[0]} {_SPACE.join(words[1:])}"
+        lines.append(line)
+    tok = _Tokens(path, "\n".join(lines).split())
     names, parents, offsets, channels = _bvh_hierarchy(path, tok)
+    names = [n.replace(_SPACE, " ") for n in names]
     tok.expect("MOTION", " after the HIERARCHY")
     tok.expect("Frames:", " after MOTION")
     n_frames = tok.number("the Frames: count", integer=True)
@@ -811,6 +847,8 @@ def read_amc(path, asf_path=None):
     src = SourceMotion(name=_clip_name(path), source=f"ASF/AMC {asf_path.name} + {path.name}", fps=120.0,
                        names=names, parents=parents, rest_positions=rest, local_rotations=local, root_positions=root)
     src.animated = [n == "root" or any(d.startswith("r") for d in bones[n]["dof"]) for n in names]
+    # a childless bone still has a length and a direction: where it ends tells which way a foot or a head points
+    src.tips = {i: ends[i] for i in range(1, len(names)) if i not in set(parents.tolist())}
     return src
 
 

@@ -8,8 +8,11 @@ copies *global* segment orientations: for each body joint k mapped to a source j
 
 where W is the source's world rotation, C the yaw that turns the source's rest facing to +Z, and O_k the rest
 offset: the smallest rotation taking the body's rest bone direction (joint k → its child) onto the source's rest
-bone direction, used on the limbs (hips, knees, shoulders, elbows) where the rest poses differ (DeepMimic stands
-with arms down, SMPL in a T-pose, the Pleat body in a wide A-pose). An unmapped body joint moves with its parent
+bone direction. `rest_offsets="all"` (BVH and ASF/AMC skeletons) sets it for every mapped joint but the pelvis and
+the head, with the bone running to the nearest mapped joint down the body's chain (BONE_CHILD), so a T-pose, an
+A-pose or arms hanging down, a raised clavicle or a leaning spine all come out as the source holds them;
+`rest_offsets="limbs"` (the fixed DeepMimic and AMASS skeletons, which the training clips were made with) sets it on
+hips, knees, shoulders and elbows only. An unmapped body joint moves with its parent
 (local rotation identity); `spread` shares one joint's local rotation equally over a chain (DeepMimic's single
 chest joint over spine1..3). The root path is scaled by the ratio of leg lengths, and a constant height offset puts
 the body's lowest point on the ground y = 0 (the 5th percentile over the clip of the per-frame lowest vertex of the
@@ -26,6 +29,12 @@ from pleat.rotations import matrix_to_quat, quat_slerp, quat_to_matrix, rotation
 LIMB_CHILD = {"left_hip": "left_knee", "right_hip": "right_knee", "left_knee": "left_ankle",
               "right_knee": "right_ankle", "left_shoulder": "left_elbow", "right_shoulder": "right_elbow",
               "left_elbow": "left_wrist", "right_elbow": "right_wrist"}
+# The bone that orients each body joint: its child along the chain (pelvis and head have none that says more than the
+# root's facing does; the spine's bone runs to the neck, not to a clavicle).
+BONE_CHILD = {"spine1": "spine2", "spine2": "spine3", "spine3": "neck", "neck": "head",
+              **{f"{s}_{a}": f"{s}_{b}" for s in ("left", "right") for a, b in (
+                  ("hip", "knee"), ("knee", "ankle"), ("ankle", "foot"), ("collar", "shoulder"),
+                  ("shoulder", "elbow"), ("elbow", "wrist"), ("wrist", "hand"))}}
 
 
 @dataclass
@@ -45,13 +54,71 @@ class SourceMotion:
             W[:, s] = self.local_rotations[:, s] if p < 0 else W[:, p] @ self.local_rotations[:, s]
         return W
 
+    def world_positions(self, W=None):
+        """Joint positions per frame [T, S, 3] (source units) by forward kinematics of the rest offsets."""
+        W = self.world_rotations() if W is None else W
+        rest = np.asarray(self.rest_positions, np.float64)
+        P = np.empty(W.shape[:2] + (3,))
+        for s, p in enumerate(self.parents):
+            if p < 0:
+                P[:, s] = self.root_positions
+            else:
+                P[:, s] = P[:, p] + np.einsum("tij,j->ti", W[:, p], rest[s] - rest[p])
+        return P
+
+
+def source_leg_scale(src, mapping, body):
+    """Body leg length / source leg length (hip → knee → ankle on the rest skeletons): metres per source unit."""
+    names = list(body.joint_names)
+    sidx = {n: i for i, n in enumerate(src.names)}
+    J = body.joints()
+    body_leg = _leg_length(J, names.index("left_hip"), names.index("left_knee"), names.index("left_ankle"))
+    src_leg = _leg_length(np.asarray(src.rest_positions, np.float64), sidx[mapping["left_hip"]],
+                          sidx[mapping["left_knee"]], sidx[mapping["left_ankle"]])
+    return body_leg / src_leg
+
 
 def _leg_length(pos, hip, knee, ankle):
     return float(np.linalg.norm(pos[knee] - pos[hip]) + np.linalg.norm(pos[ankle] - pos[knee]))
 
 
-def retarget(src, mapping, body, spread=None, root_scale=None, ground=True, beta=None):
-    """src: SourceMotion; mapping: {body joint name: source joint name}; body: BodyModel → Clip."""
+def source_facing(src, mapping):
+    """C: the yaw that turns the source's rest facing (forward = left × up, left = left hip − right hip) to +Z."""
+    sidx = {n: i for i, n in enumerate(src.names)}
+    rest = np.asarray(src.rest_positions, dtype=np.float64)
+    left = rest[sidx[mapping["left_hip"]]] - rest[sidx[mapping["right_hip"]]]
+    fwd = np.cross(left, [0.0, 1.0, 0.0])
+    return yaw_matrix(-np.arctan2(fwd[0], fwd[2]))
+
+
+def _bone_pairs(src, mapping, body, mode):
+    """{body joint k: (body child c, source joint, source end joint)}: the bones whose rest directions are aligned
+    (see the module doc)."""
+    names = list(body.joint_names)
+    sidx = {n: i for i, n in enumerate(src.names)}
+    children = {}
+    for s, p in enumerate(src.parents):
+        children.setdefault(int(p), []).append(s)
+    out = {}
+    for k, c in (LIMB_CHILD if mode == "limbs" else BONE_CHILD).items():
+        if k not in mapping:
+            continue
+        s = sidx[mapping[k]]
+        end = c
+        if mode != "limbs":
+            # down the body's chain to the first mapped joint (a Biovision spine has no spine1, DeepMimic no wrist)
+            while end not in mapping and end in BONE_CHILD:
+                end = BONE_CHILD[end]
+        if end in mapping:
+            out[k] = (end, s, sidx[mapping[end]])
+        elif len(children.get(s, [])) == 1:
+            out[k] = (c, s, children[s][0])
+    return out
+
+
+def retarget(src, mapping, body, spread=None, root_scale=None, ground=True, beta=None, rest_offsets="limbs"):
+    """src: SourceMotion; mapping: {body joint name: source joint name}; body: BodyModel → Clip. rest_offsets:
+    "limbs" or "all" (see the module doc)."""
     names = list(body.joint_names)
     sidx = {n: i for i, n in enumerate(src.names)}
     for k, s in mapping.items():
@@ -59,31 +126,14 @@ def retarget(src, mapping, body, spread=None, root_scale=None, ground=True, beta
             raise ValueError(f"bad joint map entry {k} → {s}")
     if mapping.get("pelvis") != src.names[0]:
         raise ValueError("the body's pelvis must map to the source root")
-    rest = np.asarray(src.rest_positions, dtype=np.float64)
-    # rest facing of the source: left = left hip − right hip, forward = left × up
-    left = rest[sidx[mapping["left_hip"]]] - rest[sidx[mapping["right_hip"]]]
-    fwd = np.cross(left, [0.0, 1.0, 0.0])
-    yaw = np.arctan2(fwd[0], fwd[2])
-    C = yaw_matrix(-yaw)                                   # source rest facing → +Z
+    C = source_facing(src, mapping)                        # source rest facing → +Z
     W = C @ src.world_rotations() @ C.T                     # [T, S, 3, 3]
-    rest = rest @ C.T
+    rest = np.asarray(src.rest_positions, dtype=np.float64) @ C.T
     root = np.asarray(src.root_positions, dtype=np.float64) @ C.T
     J = body.joints(beta)
-    children = {}
-    for s, p in enumerate(src.parents):
-        children.setdefault(int(p), []).append(s)
 
     offsets = {}
-    for k, c in LIMB_CHILD.items():
-        if k not in mapping:
-            continue
-        s = sidx[mapping[k]]
-        if c in mapping:
-            sc = sidx[mapping[c]]
-        elif len(children.get(s, [])) == 1:
-            sc = children[s][0]
-        else:
-            continue
+    for k, (c, s, sc) in _bone_pairs(src, mapping, body, rest_offsets).items():
         d_src = rest[sc] - rest[s]
         d_body = J[names.index(c)] - J[names.index(k)]
         if np.linalg.norm(d_src) > 1e-9:

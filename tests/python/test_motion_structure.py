@@ -1,0 +1,80 @@
+"""Retargeting by structure and the retargeting check: six naming schemes (Mixamo, Biovision, CMU, 3ds Max Biped,
+Unreal's mannequin, the body's own names) in three rest poses map onto the body with the source's bone directions,
+and a wrong match (Biovision's names read through the Mixamo table) is reported, refused with --strict."""
+import json
+
+import numpy as np
+import pytest
+
+from motion_schemes import SCHEMES, bvh_text, expected_map
+from pleat.motion import cli as motion_cli
+from pleat.motion.check import BONE_LIMIT_DEG, INSIDE_LIMIT
+from pleat.motion.loaders import load_clip
+
+WRONG_BIOVISION = {"LeftShoulder": "left_collar", "RightShoulder": "right_collar"}
+
+
+@pytest.mark.parametrize("pose", ["A", "T", "down"])
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_each_scheme_maps_by_structure_with_the_sources_bone_directions(body, tmp_path, scheme, pose):
+    path = tmp_path / f"{scheme}.bvh"
+    path.write_text(bvh_text(body, scheme, pose))
+    clip, match, check = load_clip(path, body, with_check=True, check=False)
+    want = expected_map(body, scheme)
+    assert {k: match.mapping.get(k) for k in want} == want
+    assert check.problems == []
+    if not (scheme == "body" and pose == "A"):      # the body's own skeleton is read exactly, not retargeted
+        assert check.worst_bone[1] < 1.0 < BONE_LIMIT_DEG and len(check.bone_deg) >= 12
+    # the motion keeps the forearms out of the torso: no more than the arms-down rest pose itself gives
+    assert check.inside_fraction <= (0.2 if pose == "down" else 0.01)
+
+
+@pytest.mark.parametrize("pose", ["A", "T"])
+def test_biovision_names_through_the_mixamo_table_are_reported(body, tmp_path, pose, capsys):
+    path = tmp_path / "bio.bvh"
+    path.write_text(bvh_text(body, "biovision", pose))
+    jmap = tmp_path / "wrong.json"
+    jmap.write_text(json.dumps(WRONG_BIOVISION))
+    _, match, check = load_clip(path, body, joint_map_file=jmap, with_check=True, check=False)
+    assert match.mapping["left_collar"] == "LeftShoulder" and "left_shoulder" not in match.mapping
+    assert check.worst_bone[1] > BONE_LIMIT_DEG and check.problems
+    # every loader warns in one line; --strict refuses in one error line and writes nothing
+    load_clip(path, body, joint_map_file=jmap)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"warning: {path}: bone directions")
+    out = tmp_path / "o.npz"
+    assert motion_cli.main(["convert", str(path), "--joint-map", str(jmap), "--out", str(out), "--strict"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "retargeting check failed (--strict)" in err[0] and not out.exists()
+
+
+def test_structure_not_names_decides_biovisions_shoulder(body, tmp_path):
+    path = tmp_path / "bio.bvh"
+    path.write_text(bvh_text(body, "biovision", "T"))
+    _, match = load_clip(path, body, with_match=True)
+    assert match.mapping["left_collar"] == "LeftCollar" and match.mapping["left_shoulder"] == "LeftShoulder"
+    assert match.origin["left_shoulder"] == "structure"     # no table says LeftShoulder is an upper arm
+    assert match.origin["left_collar"].startswith("structure; the names say")
+
+
+def test_joints_prints_the_check_and_writes_a_preview(body, tmp_path, capsys):
+    path = tmp_path / "unreal.bvh"
+    path.write_text(bvh_text(body, "unreal", "T"))
+    png = tmp_path / "preview.png"
+    assert motion_cli.main(["joints", str(path), "--out", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert "left_shoulder   <- upperarm_l  (structure)" in text
+    assert "worst bone:" in text and "check: within what the training clips do" in text
+    assert png.stat().st_size > 1000
+    assert motion_cli.main(["joints", str(path), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["check"]["problems"] == [] and report["check"]["inside_fraction"] <= INSIDE_LIMIT
+
+
+def test_a_shipped_training_clip_passes_the_check(body):
+    pytest.importorskip("scipy")
+    from pleat.motion.loaders import motion_dirs
+    if not any(d.is_dir() for d in motion_dirs()):
+        pytest.skip("no motion folder")
+    _, _, check = load_clip("deepmimic_pybullet/humanoid3d_walk", body, with_check=True, check=False)
+    assert check.problems == [] and check.worst_bone[1] < 1.0

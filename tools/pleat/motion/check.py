@@ -1,0 +1,276 @@
+"""Is a retargeted clip the source's motion on the body? Two measures that names cannot fool (docs/motion.md,
+"The retargeting report").
+
+**Bone directions.** Each body bone that a joint's rotation aims (BONE_CHILD in pleat.motion.retarget: along the
+spine, neck, arms and legs — not the pelvis's bones to the hips or the chest's to the clavicles, which are fixed
+offsets whose angles only say how the two skeletons' proportions differ) is paired with the source bone that lies where it lies,
+by geometry alone: the body is posed in the source's rest pose (the retarget of an all-identity source frame), the
+source's rest skeleton is turned to face +Z and scaled by the leg-length ratio, and the body bone takes the source
+chain (a joint and a descendant up to three joints down) whose two ends are nearest its two ends — kept only when
+the ends together are within half the bone's length. Then, over the rest frame and up to 60 frames of the clip, the
+angle between the body bone's world direction and its source bone's is measured; a bone's value is its 90th
+percentile, and the clip's is the worst bone's. A right match gives ~0° (the rest offsets make the bones agree,
+and the motion copies world rotations). A wrong one cannot hide: with Biovision's names read through the Mixamo
+table the body's clavicle takes the upper arm's rotation, so the body's upper arm (which lies on the source's upper
+arm) points 17° off in the rest pose already, and the clavicle, lying on the source's clavicle, swings with every
+arm movement. Body bones with no source bone in their place (a skeleton without clavicles, a DeepMimic chest) are
+not measured and are listed as such.
+
+**Limbs inside the torso.** The clip is skinned on the mean body for up to 40 evenly spaced frames; the probes are
+every third vertex of both forearms and hands (the vertices whose largest skin weight is an elbow, wrist or hand), the
+torso is the surface of the vertices whose largest weight is the pelvis or a spine joint, and a probe deeper than
+2 cm behind the torso surface (pleat.body.BodyCollider's signed distance to the posed torso) is inside. The clip's
+value is the largest fraction of probes inside in any sampled frame.
+
+**Limits: what the training clips do.** Measured on the 31 shipped DeepMimic clips (`python -m pleat.motion.check
+--training` prints both numbers per clip): their bone directions agree to 0.0° (every bone their skeleton has is
+aligned), and up to TRAINING_INSIDE = 33 % of the forearm/hand probes are inside the torso (walks 22 %, punch and
+long walks 33 %). That level is not arms through the chest: DeepMimic's arms hang straight down, the hands then
+graze the hips of the A-pose body, and the nearest-vertex sign of an open torso surface counts probes around the
+hips and crotch as inside. So the torso measure is coarse: a clip warns only when it is clearly beyond the training
+clips (INSIDE_LIMIT = 1.5 × their worst, 50 %), and the bone directions are what catch a wrong match — BONE_LIMIT_DEG
+= 10° (the Biovision-through-Mixamo match above: 35° in a T-pose file, 29° in an A-pose one).
+"""
+import sys
+from dataclasses import dataclass, field
+
+import numpy as np
+
+BONE_LIMIT_DEG = 10.0
+TRAINING_INSIDE = 0.333        # measured: the largest fraction over the 31 shipped clips (see the module doc)
+INSIDE_LIMIT = max(1.5 * TRAINING_INSIDE, 0.02)
+INSIDE_DEPTH_M = 0.02
+MAX_BONE_FRAMES = 60
+MAX_SKIN_FRAMES = 40
+PROBE_STRIDE = 3
+MATCH_TOLERANCE = 0.5          # the two ends of a body bone within half its length of the source bone's ends
+TORSO_JOINTS = ("pelvis", "spine1", "spine2", "spine3")
+PROBE_JOINTS = tuple(f"{s}_{j}" for s in ("left", "right") for j in ("elbow", "wrist", "hand"))
+
+
+@dataclass
+class RetargetCheck:
+    """The two measures of one clip (see the module doc)."""
+    bone_deg: dict = field(default_factory=dict)        # body bone "parent→joint" → 90th percentile angle (deg)
+    bone_rest_deg: dict = field(default_factory=dict)   # the same in the rest frame alone
+    bone_source: dict = field(default_factory=dict)     # body bone → "source joint→source joint"
+    unmeasured: list = field(default_factory=list)      # body bones with no source bone in their place
+    inside_fraction: float = 0.0                       # largest fraction of forearm/hand probes inside the torso
+    inside_frame: int = 0                              # the clip frame where it is largest
+    worst_bone_frame: int = 0                          # the clip frame where the worst bone is farthest off
+
+    @property
+    def worst_bone(self):
+        if not self.bone_deg:
+            return None, 0.0
+        k = max(self.bone_deg, key=self.bone_deg.get)
+        return k, self.bone_deg[k]
+
+    @property
+    def problems(self):
+        """One phrase per limit the clip goes beyond (empty when it is within what the training clips do)."""
+        out = []
+        bone, deg = self.worst_bone
+        if deg > BONE_LIMIT_DEG:
+            bad = sorted((k for k, v in self.bone_deg.items() if v > BONE_LIMIT_DEG), key=lambda k: -self.bone_deg[k])
+            out.append(f"bone directions up to {deg:.0f}° off the source's (limit {BONE_LIMIT_DEG:.0f}°: "
+                       + ", ".join(f"{k} {self.bone_deg[k]:.0f}°" for k in bad[:3]) + ")")
+        if self.inside_fraction > INSIDE_LIMIT:
+            out.append(f"{100 * self.inside_fraction:.1f} % of the forearm and hand inside the torso at frame "
+                       f"{self.inside_frame} (limit {100 * INSIDE_LIMIT:.0f} %)")
+        return out
+
+    def lines(self):
+        """The report `pleat-motion joints` prints under the joint table."""
+        out = ["  bone directions, body vs source (90th percentile over the clip; rest pose in brackets):"]
+        for k in sorted(self.bone_deg, key=lambda k: -self.bone_deg[k]):
+            flag = "  <-- over the limit" if self.bone_deg[k] > BONE_LIMIT_DEG else ""
+            out.append(f"    {k:28s} {self.bone_deg[k]:5.1f}° ({self.bone_rest_deg[k]:4.1f}°)  on "
+                       f"{self.bone_source[k]}{flag}")
+        if self.unmeasured:
+            out.append("    not measured (no source bone in that place): " + ", ".join(self.unmeasured))
+        bone, deg = self.worst_bone
+        out.append(f"  worst bone: {bone or '-'} {deg:.1f}° (limit {BONE_LIMIT_DEG:.0f}°); forearms and hands "
+                   f"inside the torso: {100 * self.inside_fraction:.1f} % of them at worst (frame "
+                   f"{self.inside_frame}; limit {100 * INSIDE_LIMIT:.0f} %)")
+        problems = self.problems
+        out.append("  check: " + ("; ".join(problems) if problems else "within what the training clips do"))
+        return out
+
+    def as_dict(self):
+        bone, deg = self.worst_bone
+        return dict(worst_bone=bone, worst_bone_deg=round(deg, 2), bone_deg={k: round(v, 2) for k, v in
+                                                                              self.bone_deg.items()},
+                    bone_source=dict(self.bone_source), unmeasured=list(self.unmeasured),
+                    inside_fraction=round(self.inside_fraction, 4), inside_frame=self.inside_frame,
+                    problems=self.problems)
+
+
+def _frames(n, most):
+    return np.unique(np.linspace(0, n - 1, min(most, n)).astype(np.int64))
+
+
+def _angle_deg(a, b):
+    na, nb = np.linalg.norm(a, axis=-1), np.linalg.norm(b, axis=-1)
+    cos = np.sum(a * b, axis=-1) / np.maximum(na * nb, 1e-12)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def bone_directions(src, mapping, clip, body, spread=None, rest_offsets="limbs"):
+    """The bone-direction measure (module doc) → (bone_deg, bone_rest_deg, bone_source, unmeasured, worst frame)."""
+    from dataclasses import replace as dc_replace
+    from pleat.motion.retarget import BONE_CHILD, retarget, source_facing, source_leg_scale
+    names = list(body.joint_names)
+    S = len(src.names)
+    still = np.broadcast_to(np.eye(3), (2, S, 3, 3)).copy()
+    rest_src = dc_replace(src, local_rotations=still, root_positions=np.zeros((2, 3)) + src.rest_positions[0])
+    posed_rest = retarget(rest_src, mapping, body, spread=spread, root_scale=1.0, ground=False,
+                          rest_offsets=rest_offsets)
+    Jb = posed_rest.joint_positions(body)[0]
+    Jb = Jb - Jb[0]
+    C = source_facing(src, mapping)
+    scale = source_leg_scale(src, mapping, body)
+    rest = np.asarray(src.rest_positions, np.float64)
+    Ps = (rest - rest[0]) @ C.T * scale
+    # source chains: a joint and a descendant up to three joints down, of non-zero length
+    chains = []
+    for b in range(1, S):
+        a, hops = int(src.parents[b]), 1
+        while a >= 0 and hops <= 3:
+            if np.linalg.norm(Ps[b] - Ps[a]) > 1e-6:
+                chains.append((a, b))
+            a, hops = int(src.parents[a]), hops + 1
+    chains = np.array(chains, np.int64).reshape(-1, 2)
+    pairs, unmeasured = {}, []
+    for k in range(1, len(names)):
+        p = int(body.parents[k])
+        length = np.linalg.norm(Jb[k] - Jb[p])
+        label = f"{names[p]}→{names[k]}"
+        if length < 0.01 or not len(chains) or BONE_CHILD.get(names[p]) != names[k]:
+            continue
+        cost = (np.linalg.norm(Ps[chains[:, 0]] - Jb[p], axis=1) + np.linalg.norm(Ps[chains[:, 1]] - Jb[k], axis=1))
+        i = int(np.argmin(cost))
+        if cost[i] <= MATCH_TOLERANCE * length:
+            pairs[label] = (p, k, int(chains[i, 0]), int(chains[i, 1]))
+        else:
+            unmeasured.append(label)
+    frames = _frames(clip.num_frames, MAX_BONE_FRAMES)
+    Jt = clip.joint_positions(body)[frames]
+    Pt = src.world_positions()[frames] @ C.T
+    deg, rest_deg, where, worst_frame, worst = {}, {}, {}, 0, -1.0
+    for label, (p, k, a, b) in pairs.items():
+        rest_angle = float(_angle_deg(Jb[k] - Jb[p], Ps[b] - Ps[a]))
+        angles = _angle_deg(Jt[:, k] - Jt[:, p], Pt[:, b] - Pt[:, a])
+        deg[label] = float(np.percentile(np.concatenate([[rest_angle], angles]), 90))
+        rest_deg[label] = rest_angle
+        where[label] = f"{src.names[a]}→{src.names[b]}"
+        if angles.max() > worst:
+            worst, worst_frame = float(angles.max()), int(frames[int(np.argmax(angles))])
+    return deg, rest_deg, where, unmeasured, worst_frame
+
+
+_TORSO_CACHE = {}
+
+
+def _torso(body):
+    """(torso vertex indices, their faces renumbered, probe vertex indices) of a body, cached."""
+    key = id(body)
+    if key not in _TORSO_CACHE:
+        dominant = np.argmax(body.weights, axis=1)
+        names = list(body.joint_names)
+        torso_mask = np.isin(dominant, [names.index(n) for n in TORSO_JOINTS])
+        torso = np.flatnonzero(torso_mask)
+        faces = body.faces[torso_mask[body.faces].all(axis=1)]
+        renumber = np.full(len(dominant), -1, np.int64)
+        renumber[torso] = np.arange(len(torso))
+        probes = np.flatnonzero(np.isin(dominant, [names.index(n) for n in PROBE_JOINTS]))[::PROBE_STRIDE]
+        _TORSO_CACHE[key] = (torso, renumber[faces], probes, body)
+    return _TORSO_CACHE[key][:3]
+
+
+def limbs_inside_torso(clip, body, beta=None):
+    """The self-intersection measure (module doc) → (largest fraction of probes inside, clip frame)."""
+    from pleat.body.model import BodyCollider
+    torso, faces, probes = _torso(body)
+    frames = _frames(clip.num_frames, MAX_SKIN_FRAMES)
+    G = body.forward_kinematics(clip.local_matrices()[frames], clip.root_translation[frames],
+                                clip.root_matrices()[frames], beta)
+    M = body.skinning_matrices(G, beta)[..., :3, :]
+    v = body.shaped_vertices(beta)
+    best, best_frame = 0.0, int(frames[0])
+    for i, t in enumerate(frames):
+        def posed(idx):
+            A = np.einsum("vk,kij->vij", body.weights[idx], M[i])
+            return np.einsum("vij,vj->vi", A[..., :3], v[idx]) + A[..., 3]
+        d = BodyCollider(posed(torso), faces).signed_distance(posed(probes))[0]
+        frac = float(np.mean(d < -INSIDE_DEPTH_M))
+        if frac > best:
+            best, best_frame = frac, int(t)
+    return best, best_frame
+
+
+def check_retarget(src, mapping, clip, body, spread=None, rest_offsets="limbs"):
+    """Both measures for a clip retargeted from `src` with `mapping` → RetargetCheck. src None (a Pleat clip npz,
+    already on the body): the self-intersection alone."""
+    out = RetargetCheck()
+    if src is not None:
+        (out.bone_deg, out.bone_rest_deg, out.bone_source, out.unmeasured,
+         out.worst_bone_frame) = bone_directions(src, mapping, clip, body, spread, rest_offsets)
+    out.inside_fraction, out.inside_frame = limbs_inside_torso(clip, body)
+    return out
+
+
+def report(check, path, strict=False, warn=None):
+    """A clip beyond the limits: one warning line (`warn`, default stderr), or with `strict` a MotionFileError."""
+    problems = check.problems
+    if not problems:
+        return
+    if strict is None:
+        from pleat.motion.loaders import strict_from_environment
+        strict = strict_from_environment()
+    text = "; ".join(problems) + " — check the joint match with pleat-motion joints"
+    if strict:
+        from pleat.motion.loaders import MotionFileError
+        raise MotionFileError(path, "retargeting check failed (--strict): " + text)
+    (warn or (lambda m: print(m, file=sys.stderr)))(f"warning: {path}: {text}")
+
+
+def write_preview(out, clip, body, check, src=None, mapping=None):
+    """A PNG for the report: the body in the source's rest pose, and at the frames where the worst bone and the
+    deepest forearm are; titles carry the numbers."""
+    from pleat.show import BODY_COLOR, contact_sheet
+    frames = sorted({0, check.worst_bone_frame, check.inside_frame, clip.num_frames // 2})
+    v = clip.skin(body, frames=np.array(frames))
+    panels, titles = [], []
+    for i, t in enumerate(frames):
+        panels.append([(v[i], body.faces, BODY_COLOR)])
+        tag = []
+        if t == check.worst_bone_frame and check.bone_deg:
+            tag.append(f"worst bone {check.worst_bone[1]:.0f}°")
+        if t == check.inside_frame and check.inside_fraction > 0:
+            tag.append(f"{100 * check.inside_fraction:.0f}% inside")
+        titles.append(f"frame {t}" + (": " + ", ".join(tag) if tag else ""))
+    contact_sheet(panels, out, titles)
+
+
+def _training_table():
+    """Both measures on every clip in the motion folder (what sets INSIDE_LIMIT)."""
+    from pleat.body.model import BodyModel
+    from pleat.motion.loaders import list_clips, load_clip
+    body = BodyModel.load()
+    worst_inside, worst_bone = 0.0, 0.0
+    for name in list_clips():
+        _, _, check = load_clip(name, body, with_check=True, check=False)
+        bone, deg = check.worst_bone
+        worst_inside, worst_bone = max(worst_inside, check.inside_fraction), max(worst_bone, deg)
+        print(f"{name:50s} worst bone {bone or '-':24s} {deg:5.1f}°  inside {100 * check.inside_fraction:5.2f} % "
+              f"(frame {check.inside_frame})")
+    print(f"largest: bone {worst_bone:.1f}°, inside {100 * worst_inside:.2f} %")
+
+
+if __name__ == "__main__":
+    if sys.argv[1:] == ["--training"]:
+        _training_table()
+    else:
+        print("usage: python -m pleat.motion.check --training", file=sys.stderr)
+        sys.exit(2)
