@@ -11,9 +11,9 @@ the ends together are within half the bone's length. Then, over the rest frame a
 angle between the body bone's world direction and its source bone's is measured; a bone's value is its 90th
 percentile, and the clip's is the worst bone's. A right match gives ~0° (the rest offsets make the bones agree,
 and the motion copies world rotations). A wrong one cannot hide: with Biovision's names read through the Mixamo
-table the body's clavicle takes the upper arm's rotation, so the body's upper arm (which lies on the source's upper
-arm) points 17° off in the rest pose already, and the clavicle, lying on the source's clavicle, swings with every
-arm movement. Body bones with no source bone in their place (a skeleton without clavicles, a DeepMimic chest) are
+table the body's clavicle takes the upper arm's rotation: the clavicle bone, lying on the source's clavicle, swings
+with every arm movement and is tilted in the rest pose by the rest offset that aims the clavicle and upper arm
+together at the source's upper arm. Body bones with no source bone in their place (a skeleton without clavicles, a DeepMimic chest) are
 not measured and are listed as such.
 
 **Limbs inside the torso.** The clip is skinned on the mean body for up to 40 evenly spaced frames; the probes are
@@ -29,7 +29,8 @@ long walks 33 %). That level is not arms through the chest: DeepMimic's arms han
 graze the hips of the A-pose body, and the nearest-vertex sign of an open torso surface counts probes around the
 hips and crotch as inside. So the torso measure is coarse: a clip warns only when it is clearly beyond the training
 clips (INSIDE_LIMIT = 1.5 × their worst, 50 %), and the bone directions are what catch a wrong match — BONE_LIMIT_DEG
-= 10° (the Biovision-through-Mixamo match above: 35° in a T-pose file, 29° in an A-pose one).
+= 10° (the Biovision-through-Mixamo match above: 26° on the test skeletons in a T-pose and in an A-pose,
+where its forearms stay out of the torso).
 """
 import sys
 from dataclasses import dataclass, field
