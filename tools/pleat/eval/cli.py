@@ -12,7 +12,8 @@ Runs, on the same body, β, material and motion (resampled to 30 fps, cut at --m
            first. Cloth buckles, so two equally valid references drift apart; no method's error below this means
            anything (docs/accuracy.md, "How exact the reference is")
 and scores each with pleat.eval.metrics: mean / p95 vertex error (mm), edge-strain error, jitter (m/s²), penetration
-(share of vertices inside the posed body, %, and the deepest, mm).
+(share of vertices inside the posed body, %, and the deepest, mm); and the same per garment region (pleat.eval.regions:
+the dress's skirt, the pants' crotch, ...) under each method's `regions`.
 """
 import json
 import sys
@@ -91,6 +92,7 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     from pleat import runtime
     from pleat.body import BodyModel
     from pleat.eval.reference import cached_simulate
+    from pleat.eval.regions import garment_regions
 
     from pleat.asset import AssetError
     from pleat.cli import InputError
@@ -109,6 +111,8 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     material = _clamped_material(weights, material)
     garment = S.garment_from_asset(weights)
     collide = garment.body_collision_mask(body)
+    regions = garment_regions(str(weights.get("garment_name")), weights["template"], weights["faces"], body,
+                              weights["skin_indices"], weights["skin_weights"])
 
     own_context = context is None
     ctx = context or runtime.Context()
@@ -138,13 +142,16 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
                   clip=clip.name, frames=int(T), fps=float(clip.fps), beta=beta.tolist(), material=material.tolist(),
                   vertices=int(len(weights["template"])), skeleton_mismatch_mm=mismatch,
                   network_rate_hz=float(network_rate_hz),
+                  region_vertices={k: int(m.sum()) for k, m in regions.items()},
                   reference=dict(ref_info,
                                  penetration=_penetration_summary(body_v, body.faces, ref, collide)))
     per_frame = {}
 
     def score(name, positions):
         sd = S.signed_distances(body_v, body.faces, positions, collide)
-        s = metrics.score(positions, ref, weights["faces"], garment.shaped(beta), dt, sd)
+        rest = garment.shaped(beta)
+        s = metrics.score(positions, ref, weights["faces"], rest, dt, sd)
+        s["regions"] = metrics.score_regions(positions, ref, weights["faces"], rest, regions, sd)
         per_frame[name] = dict(error_mm=s.pop("per_frame_mean_mm"), penetration_pct=s.pop("per_frame_pct"))
         return s
 

@@ -67,3 +67,33 @@ def score(pred, ref, faces, rest_positions, dt_s, signed_distance_m=None):
     if signed_distance_m is not None:
         out.update(penetration(signed_distance_m))
     return out
+
+
+def score_regions(pred, ref, faces, rest_positions, regions, signed_distance_m=None):
+    """score's numbers restricted to each garment region (pleat.eval.regions): {name: {...}}.
+
+    regions: {name: bool [N]}. Per region: `vertices`, mean_mm / p95_mm over the region's vertices and all frames,
+    edge_strain_error over the edges with both ends in the region (`edges`: how many; null when none), and, with
+    signed distances, penetration_pct over the region's vertices. An empty region (a user's mesh under a known
+    garment name, cut differently) reports its zero count and nulls, never NaN."""
+    err = vertex_error_mm(pred, ref)
+    edges = unique_edges(faces)
+    rest = np.asarray(rest_positions, np.float64)
+    rest_lengths = np.linalg.norm(rest[edges[:, 1]] - rest[edges[:, 0]], axis=-1)
+    strain_err = np.abs(edge_strain(pred, edges, rest_lengths) - edge_strain(ref, edges, rest_lengths))
+    d = None if signed_distance_m is None else np.asarray(signed_distance_m, np.float64)
+    out = {}
+    for name, mask in regions.items():
+        m = np.asarray(mask, bool)
+        inner = m[edges[:, 0]] & m[edges[:, 1]]
+        r = {"vertices": int(m.sum()), "edges": int(inner.sum()), "mean_mm": None, "p95_mm": None,
+             "edge_strain_error": None}
+        if m.any():
+            e = err[:, m]
+            r.update(mean_mm=float(e.mean()), p95_mm=float(np.percentile(e, 95)))
+        if inner.any():
+            r["edge_strain_error"] = float(strain_err[:, inner].mean())
+        if d is not None:
+            r["penetration_pct"] = float(100.0 * (d[:, m] < 0.0).mean()) if m.any() else None
+        out[str(name)] = r
+    return out

@@ -8,7 +8,9 @@ Every (asset, clip, β) is pleat-eval's `evaluate` (the C runtime against the ca
 LBS-only twin of the same garment in the same run). Per asset it reports the mean over all runs of: mean and p95
 vertex error (mm), the ratio to LBS-only (mean of the paired per-run ratios, and ratio of the means), the ratio to
 the reference's own spread (with --reference-spread), penetration (% of vertex-frames inside the body) and jitter;
-plus the worst run's ratio to LBS-only and every run's row.
+plus the worst run's ratio to LBS-only and every run's row. `regions` holds the same per garment region
+(pleat.eval.regions: the dress's skirt, the pants' crotch, ...): the means over runs of pleat's and LBS-only's mean
+and p95 error, edge-strain error and penetration, and the ratio of pleat's error to LBS-only's.
 """
 import json
 import sys
@@ -60,6 +62,40 @@ def summarise(rows):
         lm = np.array([r["against_reference_mean"]["lbs"] for r in rows])
         out.update(mean_vs_reference_mean_mm=float(pm.mean()), lbs_vs_reference_mean_mm=float(lm.mean()),
                    ratio_to_lbs_vs_reference_mean=float(pm.mean() / lm.mean()))
+    regions = summarise_regions(rows)
+    if regions is not None:
+        out["regions"] = regions
+    return out
+
+
+REGION_METRICS = ("mean_mm", "p95_mm", "edge_strain_error", "penetration_pct")
+
+
+def _mean_or_none(values):
+    return None if not values or any(v is None for v in values) else float(np.mean(values))
+
+
+def summarise_regions(rows):
+    """{region: means over the runs of pleat's and LBS-only's per-region numbers (lbs_ prefix), ratio_to_lbs (of
+    the mean errors) and ratio_to_lbs_paired (mean of the per-run ratios)}, for the regions every run has; None when a
+    run has no per-region scores. A number some run could not give (an empty region) is null."""
+    if not rows or not all((r.get("pleat") or {}).get("regions") and (r.get("lbs") or {}).get("regions")
+                           for r in rows):
+        return None
+    names = [k for k in rows[0]["pleat"]["regions"] if all(k in r["pleat"]["regions"] for r in rows)]
+    out = {}
+    for name in names:
+        p = [r["pleat"]["regions"][name] for r in rows]
+        lbs = [r["lbs"]["regions"][name] for r in rows]
+        s = {"vertices": p[0]["vertices"]}
+        for m in REGION_METRICS:
+            s[m] = _mean_or_none([x.get(m) for x in p])
+            s["lbs_" + m] = _mean_or_none([x.get(m) for x in lbs])
+        pm, lm = [x["mean_mm"] for x in p], [x["mean_mm"] for x in lbs]
+        ok = all(a is not None and b for a, b in zip(pm, lm))
+        s["ratio_to_lbs"] = float(np.mean(pm) / np.mean(lm)) if ok else None
+        s["ratio_to_lbs_paired"] = float(np.mean(np.divide(pm, lm))) if ok else None
+        out[name] = s
     return out
 
 
@@ -109,6 +145,11 @@ def main(args):
         print(f"{asset}: {s['mean_mm']:.1f} mm (p95 {s['p95_mm']:.1f}) against LBS-only {s['lbs_mean_mm']:.1f} mm, "
               f"ratio {s['ratio_to_lbs']:.2f}; penetration {s['penetration_pct']:.2f} % "
               f"(LBS {s['lbs_penetration_pct']:.2f} %); worse than LBS on {len(s['clips_worse_than_lbs'])} runs")
+        for name, g in s.get("regions", {}).items():
+            if name != "all" and g["mean_mm"] is not None and g["lbs_mean_mm"] is not None:
+                ratio = "" if g["ratio_to_lbs"] is None else f", ratio {g['ratio_to_lbs']:.2f}"
+                print(f"  {name} ({g['vertices']} vertices): {g['mean_mm']:.1f} mm (p95 {g['p95_mm']:.1f}) against "
+                      f"LBS-only {g['lbs_mean_mm']:.1f} mm{ratio}")
     return 0
 
 
