@@ -1,4 +1,4 @@
-# Install rules: headers, libraries, a CMake package and pleat.pc (README, "Install and consume").
+# Install rules: headers, libraries, a CMake package and pleat.pc (docs/integrate.md, "Install and consume").
 #   find_package(Pleat)                       → Pleat::pleat, the shared library: needs nothing else at build time
 #   find_package(Pleat COMPONENTS static)     → also Pleat::pleat_static, which needs libepoxy's pkg-config file when
 #                                               the GL path is built (a static library carries its dependencies)

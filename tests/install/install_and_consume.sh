@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Install → consume, as an integrator does it (README, "Install and consume"): `cmake --install` the build tree into a
+# Install → consume, as an integrator does it (docs/integrate.md, "Install and consume"): `cmake --install` the build tree into a
 # temporary prefix, then build samples/minimal (a T-pose engine skeleton retargeted through the skeleton API) against
 # the installed package twice — with find_package(Pleat) and with pkg-config plus an rpath — and run both on the asset.
 # The consumer builds run without libepoxy's development files: when this machine has them, its headers and .pc
@@ -117,7 +117,7 @@ if grep -i epoxy "$work/cmake-consumer/CMakeFiles/consumer.dir/link.txt" "$work/
 fi
 run "$work/cmake-consumer/consumer"
 
-# 2. pkg-config, with the rpath the README gives.
+# 2. pkg-config, with the rpath docs/integrate.md gives.
 cflags=\$(pkg-config --cflags pleat) libs=\$(pkg-config --libs pleat) libdir=\$(pkg-config --variable=libdir pleat)
 case "\$cflags \$libs" in *epoxy*) fail "pkg-config pleat gives epoxy flags: \$cflags \$libs";; esac
 cc -std=c11 -O1 "$source/samples/minimal/minimal.c" "$source/samples/minimal/retarget.c" \$cflags -o "$work/pkgconfig-consumer" \
