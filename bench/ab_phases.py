@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Paired per-phase A/B of two `pleat_bench_phases` builds (docs/benchmarks.md, "Per-phase breakdown").
+"""Paired per-phase A/B of two `pleat_bench_phases` builds (docs/performance.md, "A step reads bytes; arithmetic is cheap").
 
 Alternates `pleat_bench_phases --phases` of binary A and B for ROUNDS rounds (fp32 and fp16 reference assets) and
 prints, per phase, the median over rounds of each run's per-phase median.
