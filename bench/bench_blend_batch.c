@@ -2,7 +2,7 @@
 // instances of an N-vertex mesh with D shapes, fp32 and fp16 shapes, with its data in cache ("warm") and with the
 // instances' base and output rows, the shapes, or both flushed from every cache level before each call (clflush), the
 // state a crowd step leaves them in after its other stages. Why: the crowd's blend stage is slower than this kernel
-// warm, and this tells how much of that is memory (docs/benchmarks.md, "Where a crowd step's time goes").
+// warm, and this tells how much of that is memory (docs/performance.md, "Where a crowd step's time goes").
 //
 // usage: pleat_bench_blend_batch [--vertices 4424] [--shapes 128] [--instances 64] [--iterations 21] [--row-align 64]
 //                                [--batch-isa best|avx2] [--out blend.json]
