@@ -67,12 +67,12 @@ material = np.asarray(weights["material_default"], np.float32)
 rows = []
 for name in sys.argv[1:]:
     orig = load_clip_at(name, fps=30.0, max_frames=60)
-    path = Path("out/s27/canon") / (Path(name).name + "_spine.npz")
+    path = Path("out/canon") / (Path(name).name + "_spine.npz")
     reexpress(orig, True, 0.0).save(path)
     clip = S.load_motion(str(path), body, 30.0, 60)
     canon = even_spine(clip)
     T = clip.num_frames
-    ref, _ = cached_simulate(garment, body, clip, beta, material, T, cache_dir="out/s27/canon/cache", progress=False)
+    ref, _ = cached_simulate(garment, body, clip, beta, material, T, cache_dir="out/canon/cache", progress=False)
     ref = np.asarray(ref)
 
     def err(p):
