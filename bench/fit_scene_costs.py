@@ -4,7 +4,7 @@
 The model, per character and frame (µs): a tier at full rate = PER_MAC · (MLP + blend-shape multiply-adds) +
 PER_VERTEX · N + FIXED + PER_DISPLAY_VERTEX · N_display (only for a tier on another mesh, carried over to the
 display mesh); between network updates the same without the multiply-adds; LBS-only = LBS_PER_VERTEX · N_display +
-FIXED (its own constant: since stop 24 the scene's LBS-only level runs the batched geometry kernels, a tier's step
+FIXED (its own constant: the scene's LBS-only level runs the batched geometry kernels, a tier's step
 between updates does not). The calibration of each run gives all of these per tier (cost_us, skin_cost_us) and for
 LBS-only: a least-squares fit of the five constants to the levels of every run given, printed with each level's
 measured and modelled cost.
