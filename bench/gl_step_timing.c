@@ -9,7 +9,7 @@
 //    the GPU work; without it Run only queues commands).
 // 2. With an asset: plInstance_Step with gpu_mode PLEAT_GPU_MODE_NONE vs PLEAT_GPU_MODE_HEADLESS over the same motion, stepped
 //    alternately, plus the largest CPU/GL output difference.
-// 3. With an asset and --crowd 1,8,64 (issue 13): per count n, three crowds of n instances of the asset, stepped
+// 3. With an asset and --crowd 1,8,64: per count n, three crowds of n instances of the asset, stepped
 //    alternately frame by frame on the same motion (each instance its own phase): plStepInstances on headless GPU
 //    instances (networks batched on the CPU, one dispatch per shader for the group), plInstance_Step one by one on
 //    headless GPU instances, and plStepInstances on CPU instances (one worker). Per-instance medians. The GPU crowds
