@@ -13,9 +13,9 @@ identity). A source with a real spine and clavicles differs in both. Per clip th
                      angle ~ N(0, d°) each frame, the root moved by N(0, d mm) per axis: the frame-to-frame jitter
                      of optical or inertial capture that a cleaned dataset like DeepMimic's does not have.
 
-    PYTHONPATH=tools .venv/bin/python bench/reexpress_clips.py --out out/s20/ood deepmimic_github/humanoid3d_jog ...
-    PLEAT_LIBRARY=build/eval/libpleat.so pleat-eval-suite --assets assets/tshirt.pleat --clips out/s20/ood/*.npz \
-        --betas 0 --out out/s20/suite_ood.json
+    PYTHONPATH=tools .venv/bin/python bench/reexpress_clips.py --out out/ood deepmimic_github/humanoid3d_jog ...
+    PLEAT_LIBRARY=build/eval/libpleat.so pleat-eval-suite --assets assets/tshirt.pleat --clips out/ood/*.npz \
+        --betas 0 --out out/suite_ood.json
 """
 import argparse
 from dataclasses import replace
