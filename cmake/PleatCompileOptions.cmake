@@ -14,7 +14,7 @@ endfunction()
 # kernels, and outputs must not depend on the worker count, which holds only if a*b + c is rounded twice wherever the
 # source says so. GCC in its default GNU mode (no -std=c11) contracts into FMA wherever -mfma allows it at -O2 and up,
 # and clang contracts within an expression by default, so Release builds differed from the Debug builds CI ran
-# (issue 14). Where a kernel wants an FMA it says so (an FMA intrinsic, fmaf).
+# (a Release-only difference found in review). Where a kernel wants an FMA it says so (an FMA intrinsic, fmaf).
 function(pleat_set_float_semantics target)
   if(CMAKE_C_COMPILER_ID MATCHES "GNU|Clang")
     target_compile_options(${target} PRIVATE -ffp-contract=off)
