@@ -50,7 +50,7 @@ ort_args=()
 "$BUILD_DIR/bench/pleat_bench_phases" --phases --asset "$OUT/tshirt_fp32.pleat" --asset-fp16 "$OUT/tshirt_fp16.pleat" \
   --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" --clock "${CLOCK:-wall}" \
   --out "$OUT/tshirt_phases.json"
-# Crowds (issue 13, docs/scene-budget.md): plStepInstances against one-by-one plInstance_Step, per instance, for 1, 8,
+# Crowds (docs/scene-budget.md): plStepInstances against one-by-one plInstance_Step, per instance, for 1, 8,
 # 64 and 256 instances of the shipped t-shirt and of the reference-size assets, 1 and 2 workers, the whole sweep three
 # times (medians over the rounds: a neighbour busy for a few seconds spoils one round, not the number); merged in as
 # "crowd".
