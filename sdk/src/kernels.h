@@ -118,7 +118,7 @@ typedef void plNormalsScatterFn( float* normals, uint32_t normals_stride_bytes, 
 // its normal and usable as 0: the ring normals below overwrite them, so its blended normal (a square root, three
 // divisions) is not worked out. The halves are the GL path's (shaders/body_contact.comp): the ring normals read the
 // first half of other points' rows and write the second half of their own, so workers that split the points never
-// write what another one reads (until stop 29 usable sat in the first half, which a neighbour's ring pass read).
+// write what another one reads (usable used to sit in the first half, which a neighbour's ring pass read: a benign data race).
 #define PLEAT_POSED_POINT_FLOATS 8
 // At most this many candidate body points per garment vertex (asset 1.2, BACA), and the index of an empty slot.
 #define PLEAT_MAX_CONTACT_CANDIDATES 16
