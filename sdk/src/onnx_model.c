@@ -4,7 +4,7 @@
 // Why: an ONNX model may keep a tensor's bytes outside itself (TensorProto.data_location = EXTERNAL with external_data
 // entries location / offset / length), and ONNX Runtime, given a model as bytes, resolves such a location against the
 // process's working directory: an asset could make the runtime read any file the process can read and use it as
-// weights (issue 14). A model's "ort_config" metadata can likewise set session options (profiling, which writes a
+// weights. A model's "ort_config" metadata can likewise set session options (profiling, which writes a
 // file) where the host has ORT_LOAD_CONFIG_FROM_MODEL set. A Pleat asset is self-contained by definition — pleat-pack
 // embeds every weight inline and writes no such metadata — so a model that does either is rejected, not repaired.
 //
