@@ -17,15 +17,15 @@
 #include <math.h>
 #include <string.h>
 
-// Cost model of a tier when the def gives none (µs, a crowd on one core; docs/scene-budget.md, "Costs"): the batched
+// Cost model of a tier when the def gives none (µs, a crowd on one core; docs/scene-budget.md, "The scene budget"): the batched
 // networks and blend at ~37 GMAC/s, skinning + body contact + normals + guards ~12 ns per vertex, a carry-over to the
 // display mesh (map + normals there) ~12 ns per display vertex, ~2 µs per character of fixed work (validation,
 // forward kinematics, X_c, commit), and the weights and blend shapes streamed once per frame for the whole group at
 // ~150 GB/s of effective overlap. Fitted by bench/fit_scene_costs.py to a pleat_bench_crowd --scene calibration of the
-// shipped tiers (2026-11-25, fixed cost held at the per-phase bench's 2 µs). The fit to stop 24's calibrations gives
+// shipped tiers (2026-11-25, fixed cost held at the per-phase bench's 2 µs). The fit to the later calibrations (staggered updates, batched LBS-only level) gives
 // ~45 GMAC/s, but the crowd renderer, which draws between steps, measures its scenes 8–25 % above these estimates
 // already (caches cold at every frame), so the tiers keep the more cautious constants. The LBS-only level, whose
-// geometry runs the batched kernels in lane groups since stop 24 (plStepLbsLevel), has its own: ~7.6 ns per display
+// geometry runs the batched kernels in lane groups (plStepLbsLevel), has its own: ~7.6 ns per display
 // vertex (the same fit). Measure and pass tier_cost_us for a real budget, or report frame costs
 // (plScene_ReportFrameCost).
 #define PLEAT_COST_US_PER_MAC 0.027e-3
