@@ -19,7 +19,7 @@
 //     a = sum w_c a_c / sum w_c,  n = normalize(sum w_c n_c),  d = dot(x - a, n),  x += r max(0, offset - d) n
 //     with the reach r = clamp((FAR^2 - m) / (FAR^2 - NEAR^2), 0, 1) (plContactReach: a plane centimetres away says
 //     little about where the body is; r = 0 leaves the vertex as it is)
-// A posed point is two rows, (a, anchorable), (n, usable), as the CPU's posed rows are too (since stop 29): pass 2 reads
+// A posed point is two rows, (a, anchorable), (n, usable), as the CPU's posed rows are too: pass 2 reads
 // the first row of the points around it while it sets usable, so usable lives in the second row, the only one pass 2
 // writes (of its own point only): no invocation writes what another one reads.
 // Why a blend of the nearest few and not the nearest alone: the nearest jumps from one point to the next as the vertex
