@@ -1,4 +1,4 @@
-// What plLoadAsset is handed may be hostile or simply wrong, and the failure must be clean (issue 14, defects 4 and 6):
+// What plLoadAsset is handed may be hostile or simply wrong, and the failure must be clean:
 // - a path that names a directory (or anything but a regular file) is PLEAT_RESULT_IO_ERROR, decided before any
 //   allocation is sized from the file (a directory's "size" from ftell is LONG_MAX); a FIFO with no writer is refused
 //   at once rather than blocking the load forever in open();
