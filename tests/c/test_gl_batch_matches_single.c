@@ -1,4 +1,4 @@
-// GPU modes in a batch (issue 13): plStepInstances runs a group of GPU-mode instances of one asset with ONE dispatch
+// GPU modes in a batch (docs/gpu.md, "Batches"): plStepInstances runs a group of GPU-mode instances of one asset with ONE dispatch
 // per shader pass (blend shapes, skinning, posing the body points, their normals from the posed body rings, the
 // body-contact push, face normals, normals gather: the instance in gl_WorkGroupID.y), and every instance ends where
 // stepping it alone with plInstance_Step ends — the same results, the same positions and normals (read back, and in
