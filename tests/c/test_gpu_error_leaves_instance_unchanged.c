@@ -3,7 +3,7 @@
 // exactly as it was: positions and normals (read back into scratch, committed only on success), latent, blend weights,
 // skinning matrices, and the caller's output spans. A GL error inside plInstance_SetShape (the engine called it with
 // another GL context current, where the instance's buffer names do not exist) leaves β, J(β) and the shaped template
-// as they were (issue 14, defect 5). With no GL context current at all, plInstance_SetShape and plInstance_Step
+// as they were. With no GL context current at all, plInstance_SetShape and plInstance_Step
 // return PLEAT_RESULT_GL_UNAVAILABLE and change nothing (GL calls without a context are silently ignored, so nothing
 // else would notice: β would be committed on the CPU and never reach the GPU). Skips (77) without an EGL surfaceless
 // GL 4.3 context.
