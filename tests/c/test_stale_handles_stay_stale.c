@@ -1,7 +1,7 @@
 // A destroyed handle never names another object: not after a new context takes the slot of the context it came from
 // (asset and instance handles carry their context's generation), not after its own slot has been reused more times
 // than a 16-bit generation counts, and not at the end of the 32-bit generations either, where a slot retires instead
-// of wrapping (issue 14, defects 2 and 3; pleat.h, HANDLES). The retirement tests start a slot near its last
+// of wrapping (pleat.h, HANDLES). The retirement tests start a slot near its last
 // generation through the internal tables (core.h) instead of cycling it 2^32 times.
 #include <setjmp.h>
 #include <stdarg.h>
@@ -25,7 +25,7 @@ static int plSameContext( plContext a, plContext b )
 	return memcmp( &a, &b, sizeof( a ) ) == 0;
 }
 
-// Issue 14, defect 2, step by step: context A with an asset and instances i1, i2; A destroyed; context B in the same
+// A handle outliving its context, step by step: context A with an asset and instances i1, i2; A destroyed; context B in the same
 // slot with its own asset and instances m1, m2. A's handles must name nothing in B.
 static void test_handles_of_a_destroyed_context_name_nothing_in_the_context_that_reuses_its_slot( void** state )
 {
@@ -97,7 +97,7 @@ static void test_handles_of_a_destroyed_context_name_nothing_in_the_context_that
 	plTestAsset_Destroy( model );
 }
 
-// Issue 14, defect 3: one instance slot created and destroyed past the point where a 16-bit generation wraps; the
+// A generation that wraps: one instance slot created and destroyed past the point where a 16-bit generation wraps; the
 // first handle of the slot must stay invalid throughout (it named the 65,535th object of the slot before the fix).
 static void test_destroyed_instance_handle_stays_invalid_past_16_bit_generation_wrap( void** state )
 {
