@@ -1,4 +1,4 @@
-"""Atomic writes (issue 14, tools defect 7): pleat-pack, the ONNX export, Clip.save and pleat-eval's report go through
+"""Atomic writes: pleat-pack, the ONNX export, Clip.save and pleat-eval's report go through
 pleat.fileio, so a write that fails part-way leaves the file that was there untouched and no temporary file behind.
 
 The end-to-end cases fail the write for real: a child process lowers RLIMIT_FSIZE below the new file's size, so the
