@@ -1,4 +1,4 @@
-"""Malformed motion files (issue 14, tools defect 8): every CLI that reads a clip prints ONE line on stderr naming the
+"""Malformed motion files: every CLI that reads a clip prints ONE line on stderr naming the
 file and what is wrong, exits with status 1, and writes nothing. The corpus is generated here from small valid files
 of each format (DeepMimic, BVH, ASF/AMC, AMASS npz, Pleat clip npz), each case breaking one thing; the valid bases
 are checked to convert, so each failure is the mutation's."""
