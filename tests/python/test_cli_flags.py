@@ -1,4 +1,4 @@
-"""One CLI family (issue 15, item 8): every tool is a `pleat-*` console script, and every console script's argparse
+"""One CLI family (docs/tools.md): every tool is a `pleat-*` console script, and every console script's argparse
 parser follows the same conventions (docs/tools.md). The parsers are the ones each `main` really builds: the test
 stops `parse_args` and walks the parser it was called on, subcommands included."""
 import argparse
