@@ -1,4 +1,4 @@
-"""`pleat-garment import` (issue 15, item 6): meshes generated here are exported as OBJ (in cm, Z up), glTF with a
+"""`pleat-garment import` (docs/garments.md): meshes generated here are exported as OBJ (in cm, Z up), glTF with a
 .bin, GLB and glTF with a data URI and UV-seam-split vertices, imported, and compared with the garment they came
 from: same vertices in the same order, same faces, the same diffused skin weights and shape blend shapes, the
 generator's pins. A garment pushed into the body is fitted back out; faces turned inward are turned back; pins come
