@@ -1,4 +1,4 @@
-"""A technical artist's own simulation as training data (issue 12 item 2, pleat.train.pointcache): the PC2 layout,
+"""A technical artist's own simulation as training data (pleat.train.pointcache; docs/your-simulation.md): the PC2 layout,
 the checks (one line each), and the round trip — a segment simulated by pleat.sim, written as PC2 (cm, Z up) + OBJ
 + BVH, read back — giving the same training sequence as simdata.sequence on the original positions. Then the DCC
 kit of `pleat-garment scene` and `pleat-train simsup --user-sim` end to end, printing its verdict. Needs torch (the
