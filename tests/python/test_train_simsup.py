@@ -135,7 +135,7 @@ def test_simsup_tiny_end_to_end(tmp_path, capsys):
         b = read_asset((tmp_path / "t2" / f"tshirt_{name}.pleat").read_bytes())
         for key in ("lp.0.weight", "dec.0.weight", "blend_shapes"):
             assert np.array_equal(np.asarray(a[key]), np.asarray(b[key])), (name, key)
-    # the opt-in second round (docs/training.md, stop 24): the students' mean teaches two small students in turn,
+    # the opt-in second round of students (simsup.students; CHANGELOG.md, "Training"): the students' mean teaches two small students in turn,
     # packed at twice the small sizes
     cfg3 = json.loads(json.dumps(cfg2p))
     cfg3["simsup"].update({"second_students": 2, "second_student_tier": "small"})
