@@ -239,11 +239,40 @@ def build_parser():
     m.add_argument("--asset", default=None, help="write joints in this asset's joint order")
     m.add_argument("--out", required=True, help="output file: the PLMOTION clip file")
     add_quiet(m)
+    st = sub.add_parser("stack", help="stack PNG images (contact sheets) top to bottom into one PNG")
+    st.add_argument("images", nargs="+", help="PNG files, top first")
+    st.add_argument("--out", required=True, help="output file: the stacked PNG")
+    add_quiet(st)
     return parser
+
+
+def stack_images(paths, out):
+    """The images top to bottom on a white page as wide as the widest (scripts/demo.sh's wardrobe sheet: a row per
+    garment)."""
+    import io
+
+    import matplotlib.image as mpimg
+
+    from pleat.fileio import write_bytes
+    images = [np.asarray(mpimg.imread(p))[..., :3] for p in paths]
+    width = max(i.shape[1] for i in images)
+    page = np.ones((sum(i.shape[0] for i in images), width, 3), np.float32)
+    y = 0
+    for i in images:
+        page[y:y + i.shape[0], :i.shape[1]] = i
+        y += i.shape[0]
+    buffer = io.BytesIO()
+    mpimg.imsave(buffer, page, format="png")
+    write_bytes(out, buffer.getvalue())
+    return page.shape
 
 
 @command("pleat-render-export", build_parser)
 def main(args):
+    if args.what == "stack":
+        h, w, _ = stack_images(args.images, args.out)
+        print(f"wrote {args.out}: {len(args.images)} images stacked, {w}x{h}")
+        return 0
 
     if args.what == "body" and args.stick:
         if not args.asset:
