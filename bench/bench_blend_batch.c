@@ -73,19 +73,19 @@ int main( int argc, char** argv )
 	uint32_t B = ArgU32( argc, argv, "--instances", 64 ), iterations = ArgU32( argc, argv, "--iterations", 21 );
 	g_rowAlign = ArgU32( argc, argv, "--row-align", 64 );
 	const char* out_path = NULL;
+	plKernelSet max_isa = PLEAT_KERNEL_SET_AVX512;
 	for ( int i = 1; i + 1 < argc; ++i )
 	{
 		out_path = strcmp( argv[i], "--out" ) == 0 ? argv[i + 1] : out_path;
 		if ( strcmp( argv[i], "--batch-isa" ) == 0 )
 		{
-			g_plBatchIsaLimit = strcmp( argv[i + 1], "avx2" ) == 0 ? PLEAT_BATCH_ISA_AVX2 : PLEAT_BATCH_ISA_AVX512;
+			max_isa = strcmp( argv[i + 1], "avx2" ) == 0 ? PLEAT_KERNEL_SET_AVX2 : PLEAT_KERNEL_SET_AVX512;
 		}
 	}
 	plKernels single;
-	plBatchKernels batch;
-	plSelectKernels( &single, 0 );
-	if ( N == 0 || D == 0 || B == 0 || B > BLEND_MAX_INSTANCES || iterations == 0 || iterations > BLEND_MAX_ITERATIONS ||
-		 !plSelectBatchKernels( &single, &batch ) )
+	plChooseKernels( &single, max_isa );
+	plBatchKernels batch = *single.batch;
+	if ( N == 0 || D == 0 || B == 0 || B > BLEND_MAX_INSTANCES || iterations == 0 || iterations > BLEND_MAX_ITERATIONS )
 	{
 		fprintf( stderr, "usage: pleat_bench_blend_batch [--vertices N] [--shapes D] [--instances 1..%d] "
 						 "[--iterations 1..%d] [--out blend.json] (needs the batched kernels)\n",

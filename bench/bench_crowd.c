@@ -181,11 +181,15 @@ static double AssetStepMacs( const char* path )
 	return macs;
 }
 
+// The widest kernel set every context of the run may take (--batch-isa avx2: AVX2).
+static plKernelSet g_maxIsa = PLEAT_KERNEL_SET_AVX512;
+
 // Steps set a with plStepInstances and set b one by one (order by iteration parity), n instances each.
 static int RunCrowd( const char* path, const BenchMotion* motion, uint32_t workers, BenchTwoWorkers* pool, uint32_t n,
 					 double seconds, CrowdResult* result )
 {
 	plContextDef def = plDefaultContextDef();
+	def.max_isa = g_maxIsa;
 	if ( workers == 2 )
 	{
 		BenchTwoWorkers_Install( pool, &def );
@@ -335,6 +339,7 @@ static int SceneRig_Load( SceneRig* rig, const char* const* paths, uint32_t tier
 {
 	memset( rig, 0, sizeof( *rig ) );
 	plContextDef def = plDefaultContextDef();
+	def.max_isa = g_maxIsa;
 	if ( g_scenePool != NULL )
 	{
 		BenchTwoWorkers_Install( g_scenePool, &def );
@@ -702,8 +707,12 @@ int main( int argc, char** argv )
 	}
 	BenchTwoWorkers pool;
 
-	// The kernel set every number was measured with (the SDK's default choice on this CPU).
+	// The kernel set every number was measured with: the SDK's choice on this CPU, capped at AVX2 by --batch-isa avx2
+	// (every context below gets that max_isa). The single-instance kernels are AVX2's in the AVX-512 set too; the
+	// batched ones plStepInstances runs are in the set's table (internal: kernels_batch.h).
+	g_maxIsa = strcmp( batch_isa_arg, "avx2" ) == 0 ? PLEAT_KERNEL_SET_AVX2 : PLEAT_KERNEL_SET_AVX512;
 	plContextDef probe_def = plDefaultContextDef();
+	probe_def.max_isa = g_maxIsa;
 	plContext probe;
 	plKernelSet kernel_set = PLEAT_KERNEL_SET_SCALAR;
 	if ( plCreateContext( &probe_def, &probe ) == PLEAT_RESULT_OK )
@@ -711,14 +720,10 @@ int main( int argc, char** argv )
 		plContext_GetKernelSet( probe, &kernel_set );
 		plDestroyContext( probe );
 	}
-	const char* isa = kernel_set == PLEAT_KERNEL_SET_AVX2 ? "avx2+fma+f16c" : "scalar";
-	// The batched kernels plStepInstances picks for that set (internal: kernels_batch.h), AVX-512 where the CPU has it
-	// unless --batch-isa avx2.
-	g_plBatchIsaLimit = strcmp( batch_isa_arg, "avx2" ) == 0 ? PLEAT_BATCH_ISA_AVX2 : PLEAT_BATCH_ISA_AVX512;
-	plKernels single_kernels;
-	plBatchKernels batch_kernels;
-	plSelectKernels( &single_kernels, 0 );
-	const char* batch_isa = plSelectBatchKernels( &single_kernels, &batch_kernels ) ? batch_kernels.isa : "none";
+	const char* isa = kernel_set != PLEAT_KERNEL_SET_SCALAR ? "avx2+fma+f16c" : "scalar";
+	plKernels kernels;
+	plChooseKernels( &kernels, kernel_set );
+	const char* batch_isa = kernels.batch->isa;
 	double load_start = BenchLoadAverage();
 	// The compute floor's peak at the batch's vector width (16 lanes where the batched MLP and blend kernels are the
 	// AVX-512 ones), and the AVX2 one beside it for the record.

@@ -103,7 +103,7 @@ static void TimeMlps( const plAssetData* asset, const char* ort_library, uint32_
 					  MlpTimes* times )
 {
 	plKernels kernels;
-	plSelectKernels( &kernels, 0 );
+	plChooseKernels( &kernels, PLEAT_KERNEL_SET_AVX512 );
 	uint32_t width = asset->input_count;
 	for ( uint32_t i = 0; i < asset->lp_layer_count; ++i )
 		width = asset->lp[i].out_count > width ? asset->lp[i].out_count : width;
@@ -209,7 +209,7 @@ static double TimePleatMlpOnly( const plAssetData* asset, uint32_t warmup, uint3
 		if ( asset->dec[i].out_count > 1024 )
 			return NAN;
 	plKernels kernels;
-	plSelectKernels( &kernels, 0 );
+	plChooseKernels( &kernels, PLEAT_KERNEL_SET_AVX512 );
 	float* buffers = (float*)aligned_alloc( 64, 4 * 4096 );
 	float* x = buffers;
 	float* latent = buffers + 1024;
@@ -238,7 +238,7 @@ static double TimePleatMlpOnly( const plAssetData* asset, uint32_t warmup, uint3
 static double TimeBlendOnly( const plAssetData* asset, uint32_t warmup, uint32_t iterations )
 {
 	plKernels kernels;
-	plSelectKernels( &kernels, 0 );
+	plChooseKernels( &kernels, PLEAT_KERNEL_SET_AVX512 );
 	size_t floats = (size_t)asset->vertex_count * 3;
 	float* out = (float*)aligned_alloc( 64, ( 4 * floats + 63 ) / 64 * 64 );
 	float* weights = (float*)aligned_alloc( 64, ( 4 * (size_t)asset->blend_count + 63 ) / 64 * 64 );
@@ -423,7 +423,7 @@ static plResult TimeSteps( const StepConfig* config, const BenchMotion* motion, 
 	plKernelSet kernel_set = PLEAT_KERNEL_SET_SCALAR;
 	if ( out_avx2 != NULL && plContext_GetKernelSet( context, &kernel_set ) == PLEAT_RESULT_OK )
 	{
-		*out_avx2 = kernel_set == PLEAT_KERNEL_SET_AVX2;
+		*out_avx2 = kernel_set != PLEAT_KERNEL_SET_SCALAR; // the single-instance kernels are AVX2's in both SIMD sets
 	}
 	plAssetDef adef = plDefaultAssetDef();
 	adef.data = config->asset_bytes;

@@ -104,7 +104,7 @@ static int plTimeDeformation( uint32_t frames )
 		return 1;
 	}
 	plKernels kernels;
-	int avx2 = plSelectKernels( &kernels, 0 );
+	int avx2 = plChooseKernels( &kernels, PLEAT_KERNEL_SET_AVX512 ) != PLEAT_KERNEL_SET_SCALAR;
 	float* weights = malloc( sizeof( float ) * mesh.blend_count );
 	float* matrices = malloc( sizeof( float ) * 12 * mesh.joint_count );
 	float* buffers = malloc( sizeof( float ) * 3 * n * 5 );

@@ -7,6 +7,8 @@
 #include "asset.h"
 #include "core.h"
 #include "jobs.h"
+#include "jobs_batch.h"
+#include "kernels_batch.h"
 #include "onnx_model.h"
 
 #include <math.h>
@@ -1047,6 +1049,34 @@ static plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 	return PLEAT_RESULT_OK;
 }
 
+// Floats of a context scratch block plStepInstances needs for the asset with the context's batched kernels: the
+// transposed networks (the lanes MLP), the lane groups' normals and their full body contact (0 for the scalar set,
+// which has no lanes form). Worked out at load, so that instance creation sizes the context's pool from it.
+static size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a )
+{
+	const plBatchKernels* kernels = ctx->kernels.batch;
+	size_t floats = 0;
+	if ( kernels == NULL )
+	{
+		return 0;
+	}
+	if ( kernels->geometry_lanes > 1 )
+	{
+		floats = plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes );
+		size_t contact = kernels->body_contact_batch != NULL ? plBodyContactBatchScratchFloats( a->body_point_count )
+															 : 0;
+		floats = contact > floats ? contact : floats;
+	}
+	if ( kernels->mat_mat_lanes != NULL )
+	{
+		size_t lp = plMlpBatchLanesFloats( a->lp, a->lp_layer_count, PLEAT_BATCH_MAX );
+		size_t dec = plMlpBatchLanesFloats( a->dec, a->dec_layer_count, PLEAT_BATCH_MAX );
+		floats = lp > floats ? lp : floats;
+		floats = dec > floats ? dec : floats;
+	}
+	return floats;
+}
+
 // The asset table's destroy callback (plDestroyObjectFn), also what plDestroyAsset frees with.
 static void plAssetData_Destroy( plContextData* ctx, void* object )
 {
@@ -1116,6 +1146,7 @@ plResult plLoadAsset( plContext context, const plAssetDef* def, plAsset* out_ass
 	if ( r == PLEAT_RESULT_OK )
 	{
 		r = plDeriveKernelData( ctx, asset );
+		asset->batch_scratch_floats = plBatchScratchFloats( ctx, asset );
 	}
 	if ( r == PLEAT_RESULT_OK )
 	{

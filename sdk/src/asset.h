@@ -15,6 +15,8 @@ typedef struct plAssetData
 	size_t owned_size;
 	void* derived_block;  // what the load derives for the kernels (plDeriveKernelData), or NULL
 	size_t derived_size;
+	size_t batch_scratch_floats; // what plStepInstances's lanes forms need of a context scratch block for this asset
+	                             // with the context's kernels (0: none; instance creation reserves it)
 	uint32_t instance_count; // live instances using this asset
 
 	// CONF

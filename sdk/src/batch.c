@@ -58,8 +58,6 @@ typedef struct plBatchGroup
 	atomic_int blend_result; // a blend or geometry job's error, from whichever worker saw it
 } plBatchGroup;
 
-static int plClaimScratch( plContextData* ctx, size_t floats );
-
 // ---- per instance, before the networks: what plInstance_Step does up to X_c ----
 
 static void plPrepareEntry( plBatchEntry* e )
@@ -125,7 +123,7 @@ static plResult plRunBatchedNetwork( plBatchGroup* g, int lp )
 	{
 		// the transposed chain's scratch (without it the job runs the row-tile kernels: the same results)
 		size_t floats = plMlpBatchLanesFloats( job.layers, job.layer_count, job.batch_count );
-		slot = plClaimScratch( g->ctx, floats );
+		slot = plClaimBatchScratch( g->ctx, floats );
 		if ( slot >= 0 )
 		{
 			job.lanes = g->ctx->batch_scratch[slot];
@@ -135,7 +133,7 @@ static plResult plRunBatchedNetwork( plBatchGroup* g, int lp )
 	plResult r = plMlpBatchJob_Run( &job );
 	if ( slot >= 0 )
 	{
-		atomic_store_explicit( &g->ctx->batch_scratch_busy[slot], 0, memory_order_release );
+		plReleaseBatchScratch( g->ctx, slot );
 	}
 	return r == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 }
@@ -324,93 +322,6 @@ static void plRunGpu( plBatchGroup* g )
 
 // ---- per lane group, after the blend: skinning and normals with the instances as vector lanes ----
 
-// The context's scratch for a group's transposed networks and its lane groups' normals: blocks claimed per use (any
-// thread may step a batch of its own instances at the same time: a group that finds every block taken runs those
-// stages with the scratch-free kernels instead, with the same results).
-size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a )
-{
-	plBatchKernels kernels;
-	size_t floats = 0;
-	if ( plSelectBatchKernelsUpTo( &ctx->kernels, PLEAT_BATCH_ISA_AVX512, &kernels ) )
-	{
-		if ( kernels.geometry_lanes > 1 )
-		{
-			floats = plNormalsBatchScratchFloats( a->vertex_count, kernels.geometry_lanes );
-			size_t contact = kernels.body_contact_batch != NULL ? plBodyContactBatchScratchFloats( a->body_point_count )
-																 : 0;
-			floats = contact > floats ? contact : floats;
-		}
-		if ( kernels.mat_mat_lanes != NULL )
-		{
-			size_t lp = plMlpBatchLanesFloats( a->lp, a->lp_layer_count, PLEAT_BATCH_MAX );
-			size_t dec = plMlpBatchLanesFloats( a->dec, a->dec_layer_count, PLEAT_BATCH_MAX );
-			floats = lp > floats ? lp : floats;
-			floats = dec > floats ? dec : floats;
-		}
-	}
-	return floats;
-}
-
-void plReserveBatchScratch( plContextData* ctx, size_t floats )
-{
-	if ( floats == 0 )
-	{
-		return; // the scalar set runs skinning and normals per instance and has no lanes kernel
-	}
-	uint32_t slots = ctx->runner.worker_count < PLEAT_BATCH_SCRATCH_SLOTS ? ctx->runner.worker_count
-																		  : PLEAT_BATCH_SCRATCH_SLOTS;
-	if ( floats <= ctx->batch_scratch_floats && slots <= ctx->batch_scratch_slots )
-	{
-		return;
-	}
-	floats = floats > ctx->batch_scratch_floats ? floats : ctx->batch_scratch_floats;
-	plFreeBatchScratch( ctx );
-	for ( uint32_t i = 0; i < slots; ++i )
-	{
-		ctx->batch_scratch[i] = (float*)ctx->host_alloc( floats * sizeof( float ), 64, ctx->host_allocator_context );
-		if ( ctx->batch_scratch[i] == NULL )
-		{
-			plFreeBatchScratch( ctx );
-			return;
-		}
-		atomic_init( &ctx->batch_scratch_busy[i], 0 );
-		ctx->batch_scratch_slots = i + 1;
-		ctx->batch_scratch_floats = floats;
-	}
-}
-
-void plFreeBatchScratch( plContextData* ctx )
-{
-	for ( uint32_t i = 0; i < ctx->batch_scratch_slots; ++i )
-	{
-		ctx->host_free( ctx->batch_scratch[i], ctx->batch_scratch_floats * sizeof( float ),
-						ctx->host_allocator_context );
-		ctx->batch_scratch[i] = NULL;
-	}
-	ctx->batch_scratch_slots = 0;
-	ctx->batch_scratch_floats = 0;
-}
-
-// A free scratch block big enough for `floats` (its index), or -1; release it by storing 0 in
-// ctx->batch_scratch_busy[slot].
-static int plClaimScratch( plContextData* ctx, size_t floats )
-{
-	if ( floats > ctx->batch_scratch_floats )
-	{
-		return -1;
-	}
-	for ( uint32_t i = 0; i < ctx->batch_scratch_slots; ++i )
-	{
-		int expected = 0;
-		if ( atomic_compare_exchange_strong_explicit( &ctx->batch_scratch_busy[i], &expected, 1, memory_order_acquire,
-													  memory_order_relaxed ) )
-		{
-			return (int)i;
-		}
-	}
-	return -1;
-}
-
 int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const plAssetData* a, int fast_contact,
 					 plInstanceData* const* insts, const float* const* in, float* const* positions,
 					 float* const* normals, uint32_t count )
@@ -456,7 +367,7 @@ int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const pl
 	// The full contact: in lanes where the set has the kernel and a scratch block is free, else instance by instance.
 	// (The jobs only refuse spans the instance did not build: the result says nothing about the input.)
 	int contact_slot = contact_count[FULL] > 1 && kernels->body_contact_batch != NULL
-						   ? plClaimScratch( ctx, plBodyContactBatchScratchFloats( a->body_point_count ) )
+						   ? plClaimBatchScratch( ctx, plBodyContactBatchScratchFloats( a->body_point_count ) )
 						   : -1;
 	if ( contact_slot >= 0 )
 	{
@@ -466,7 +377,7 @@ int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const pl
 									 contact_matrices[FULL], a->joint_count, a->body_point_count,
 									 a->body_anchor_candidates, a->body_anchor_candidate_count, a->body_anchor_ring,
 									 a->body_anchor_ring_count, a->vertex_count, ctx->batch_scratch[contact_slot] );
-		atomic_store_explicit( &ctx->batch_scratch_busy[contact_slot], 0, memory_order_release );
+		plReleaseBatchScratch( ctx, contact_slot );
 	}
 	else
 	{
@@ -475,14 +386,14 @@ int plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, const pl
 			(void)plRunBodyContact( contact_insts[FULL][i], contact_positions[FULL][i], contact_matrices[FULL][i], 0 );
 		}
 	}
-	int slot = plClaimScratch( ctx, plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes ) );
+	int slot = plClaimBatchScratch( ctx, plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes ) );
 	if ( slot < 0 )
 	{
 		return 0;
 	}
 	kernels->normals_batch( normals, (const float* const*)positions, count, a->vertex_count, a->faces, a->face_count,
 							ctx->batch_scratch[slot] );
-	atomic_store_explicit( &ctx->batch_scratch_busy[slot], 0, memory_order_release );
+	plReleaseBatchScratch( ctx, slot );
 	return 1;
 }
 
@@ -728,12 +639,12 @@ plResult plStepInstances( plContext context, const plInstance* instances, const 
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	plBatchKernels kernels;
-	int batched_kernels = plSelectBatchKernels( &ctx->kernels, &kernels );
+	const plBatchKernels* kernels = ctx->kernels.batch; // the context's, chosen at its creation
+	int batched_kernels = kernels != NULL;
 	plBatchOutcome outcome = { UINT32_MAX, UINT32_MAX, PLEAT_RESULT_OK, PLEAT_RESULT_OK };
 	plBatchGroup group;
 	group.ctx = ctx;
-	group.kernels = &kernels;
+	group.kernels = kernels;
 	for ( uint32_t w0 = 0; w0 < count; w0 += PLEAT_BATCH_WINDOW )
 	{
 		uint32_t w1 = count - w0 > PLEAT_BATCH_WINDOW ? w0 + PLEAT_BATCH_WINDOW : count;

@@ -4,6 +4,7 @@
 #define _DEFAULT_SOURCE // madvise (the default allocator's huge pages)
 #endif
 #include "core.h"
+#include "kernels_batch.h"
 
 #include <stdarg.h>
 #include <stdio.h>
@@ -146,7 +147,7 @@ static void plCountingFree( void* ptr, size_t size, void* user )
 
 plContextDef plDefaultContextDef( void )
 {
-	plContextDef def = { .worker_count = 1, .internal_cookie = PLEAT_DEF_COOKIE };
+	plContextDef def = { .worker_count = 1, .max_isa = PLEAT_KERNEL_SET_AVX512, .internal_cookie = PLEAT_DEF_COOKIE };
 	return def;
 }
 
@@ -161,7 +162,8 @@ plResult plCreateContext( const plContextDef* def, plContext* out_context )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
 	if ( def->internal_cookie != PLEAT_DEF_COOKIE || ( def->alloc == NULL ) != ( def->free == NULL ) ||
-		 ( def->enqueue_task == NULL ) != ( def->finish_task == NULL ) || def->worker_count > 64 )
+		 ( def->enqueue_task == NULL ) != ( def->finish_task == NULL ) || def->worker_count > 64 ||
+		 (int)def->max_isa < (int)PLEAT_KERNEL_SET_SCALAR )
 	{
 		return PLEAT_RESULT_INVALID_DEF;
 	}
@@ -200,16 +202,18 @@ plResult plCreateContext( const plContextDef* def, plContext* out_context )
 	ctx->runner.worker_count = def->enqueue_task != NULL ? ( def->worker_count == 0 ? 1 : def->worker_count ) : 1;
 	ctx->log = def->log;
 	ctx->log_context = def->log_context;
-	int avx2 = plSelectKernels( &ctx->kernels, def->force_scalar );
-	ctx->kernel_set = avx2 ? PLEAT_KERNEL_SET_AVX2 : PLEAT_KERNEL_SET_SCALAR;
+	// The one choice of kernels for the context's life: a max_isa above the widest set this library knows (a newer
+	// header's) asks for the widest; the deprecated force_scalar wins over it.
+	plChooseKernels( &ctx->kernels, def->force_scalar ? PLEAT_KERNEL_SET_SCALAR : def->max_isa );
 	g_plContextTable.generations[slot] += 1;
 	g_plContextTable.contexts[slot] = ctx;
 	ctx->handle.index1 = slot + 1;
 	ctx->handle.generation = g_plContextTable.generations[slot];
 	*out_context = ctx->handle;
 	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_CONTEXT_CREATED, "%u workers", ctx->runner.worker_count );
-	plLog( ctx, PLEAT_LOG_LEVEL_INFO,
-		   ctx->kernel_set == PLEAT_KERNEL_SET_AVX2 ? PLEAT_LOG_KERNELS_AVX2 : PLEAT_LOG_KERNELS_SCALAR, NULL );
+	static const plLogItem kernel_items[] = { PLEAT_LOG_KERNELS_SCALAR, PLEAT_LOG_KERNELS_AVX2,
+											  PLEAT_LOG_KERNELS_AVX512 };
+	plLog( ctx, PLEAT_LOG_LEVEL_INFO, kernel_items[ctx->kernels.set], "%s", ctx->kernels.batch->isa );
 	return PLEAT_RESULT_OK;
 }
 
@@ -230,6 +234,67 @@ plContextData* plGetContext( plContext context )
 int plContext_IsValid( plContext context )
 {
 	return plGetContext( context ) != NULL;
+}
+
+static void plFreeBatchScratch( plContextData* ctx )
+{
+	for ( uint32_t i = 0; i < ctx->batch_scratch_slots; ++i )
+	{
+		ctx->host_free( ctx->batch_scratch[i], ctx->batch_scratch_floats * sizeof( float ), ctx->host_allocator_context );
+		ctx->batch_scratch[i] = NULL;
+	}
+	ctx->batch_scratch_slots = 0;
+	ctx->batch_scratch_floats = 0;
+}
+
+void plReserveBatchScratch( plContextData* ctx, size_t floats )
+{
+	if ( floats == 0 )
+	{
+		return;
+	}
+	uint32_t slots = ctx->runner.worker_count < PLEAT_BATCH_SCRATCH_SLOTS ? ctx->runner.worker_count : PLEAT_BATCH_SCRATCH_SLOTS;
+	if ( floats <= ctx->batch_scratch_floats && slots <= ctx->batch_scratch_slots )
+	{
+		return;
+	}
+	floats = floats > ctx->batch_scratch_floats ? floats : ctx->batch_scratch_floats;
+	plFreeBatchScratch( ctx );
+	for ( uint32_t i = 0; i < slots; ++i )
+	{
+		ctx->batch_scratch[i] = (float*)ctx->host_alloc( floats * sizeof( float ), 64, ctx->host_allocator_context );
+		if ( ctx->batch_scratch[i] == NULL )
+		{
+			plFreeBatchScratch( ctx );
+			return;
+		}
+		atomic_init( &ctx->batch_scratch_busy[i], 0 );
+		ctx->batch_scratch_slots = i + 1;
+		ctx->batch_scratch_floats = floats;
+	}
+}
+
+int plClaimBatchScratch( plContextData* ctx, size_t floats )
+{
+	if ( floats > ctx->batch_scratch_floats )
+	{
+		return -1;
+	}
+	for ( uint32_t i = 0; i < ctx->batch_scratch_slots; ++i )
+	{
+		int expected = 0;
+		if ( atomic_compare_exchange_strong_explicit( &ctx->batch_scratch_busy[i], &expected, 1, memory_order_acquire,
+													  memory_order_relaxed ) )
+		{
+			return (int)i;
+		}
+	}
+	return -1;
+}
+
+void plReleaseBatchScratch( plContextData* ctx, int slot )
+{
+	atomic_store_explicit( &ctx->batch_scratch_busy[slot], 0, memory_order_release );
 }
 
 plResult plDestroyContext( plContext context )
@@ -283,7 +348,7 @@ plResult plContext_GetKernelSet( plContext context, plKernelSet* out_kernel_set 
 	plContextData* ctx = plGetContext( context );
 	if ( out_kernel_set != NULL )
 	{
-		*out_kernel_set = ctx != NULL ? ctx->kernel_set : PLEAT_KERNEL_SET_SCALAR;
+		*out_kernel_set = ctx != NULL ? ctx->kernels.set : PLEAT_KERNEL_SET_SCALAR;
 	}
 	return plCheckArgumentsThenHandle( out_kernel_set != NULL, ctx );
 }
@@ -296,7 +361,7 @@ plResult plContext_UsesAvx2( plContext context, int* out_avx2 )
 	}
 	plKernelSet kernel_set;
 	plResult r = plContext_GetKernelSet( context, &kernel_set );
-	*out_avx2 = kernel_set == PLEAT_KERNEL_SET_AVX2;
+	*out_avx2 = kernel_set == PLEAT_KERNEL_SET_AVX2 || kernel_set == PLEAT_KERNEL_SET_AVX512;
 	return r;
 }
 

@@ -1,6 +1,7 @@
-// Internal: the context, its object tables, logging and the CPU kernel dispatch table. The context knows nothing of
-// assets or instances: each table is told by its first insert how to destroy what it holds (plDestroyObjectFn), so
-// plDestroyContext cleans up without calling into asset.c or instance.c.
+// Internal: the context, its object tables, logging, the CPU kernel table and the workers' scratch pool. The context
+// knows nothing of assets or instances: each table is told by its first insert how to destroy what it holds
+// (plDestroyObjectFn), so plDestroyContext cleans up without calling into asset.c or instance.c; the scratch pool is
+// sized by whoever creates objects (plReserveBatchScratch) and claimed by whoever steps them (plClaimBatchScratch).
 #ifndef PLEAT_CORE_H
 #define PLEAT_CORE_H
 #include "allocator.h"
@@ -28,7 +29,7 @@ typedef struct plSlot
 
 typedef struct plContextData plContextData;
 
-// Scratch blocks for plStepInstances a context keeps (one per worker, at most this many; batch.c).
+// Scratch blocks a context keeps for plStepInstances's lanes forms (one per worker, at most this many).
 #define PLEAT_BATCH_SCRATCH_SLOTS 8
 
 // Frees an object a slot table holds (its owner's destroy, without the slot bookkeeping).
@@ -55,12 +56,12 @@ struct plContextData
 	plLogFn* log;
 	void* log_context;
 
-	plKernels kernels;
-	plKernelSet kernel_set; // which variants kernels holds
+	plKernels kernels; // chosen once at creation (plChooseKernels): the single-instance kernels and their batched twins
 
-	// plStepInstances's scratch for the transposed networks and the batched normals (batch.c): one block per slot,
-	// claimed per use, sized at instance creation for the largest asset so far (plReserveBatchScratch). Context
-	// bookkeeping: through the host hooks, not counted in live_bytes, freed with the context.
+	// The workers' scratch pool (plStepInstances's transposed networks, batched normals and contact): one block per
+	// worker up to PLEAT_BATCH_SCRATCH_SLOTS, claimed per use, grown at instance creation to the largest asset's need so far
+	// (plReserveBatchScratch). Context bookkeeping: through the host hooks, not counted in live_bytes, freed with the
+	// context.
 	float* batch_scratch[PLEAT_BATCH_SCRATCH_SLOTS];
 	size_t batch_scratch_floats; // of every block
 	uint32_t batch_scratch_slots;
@@ -81,11 +82,13 @@ typedef struct plContextTable
 } plContextTable;
 extern plContextTable g_plContextTable;
 
-// plStepInstances's scratch (batch.c): grow the context's blocks to at least `floats` floats (at instance creation;
-// on failure the batch runs the stages that need it with scratch-free kernels, with the same results), and free them
-// (at context destruction).
+// The scratch pool: grow every block to at least `floats` floats (at instance creation; on failure the pool is left
+// empty, and a batch that finds no block big enough runs the stages that need one with scratch-free kernels, with
+// the same results). Claim returns the index of a free block of at least `floats` floats, or -1; release gives it
+// back. Any thread may claim (concurrent plStepInstances calls on different instances).
 void plReserveBatchScratch( plContextData* ctx, size_t floats );
-void plFreeBatchScratch( plContextData* ctx );
+int plClaimBatchScratch( plContextData* ctx, size_t floats );
+void plReleaseBatchScratch( plContextData* ctx, int slot );
 
 // The live context a handle names (index and generation both match), or NULL. Asset and instance lookups go through
 // this with the context handle they carry.

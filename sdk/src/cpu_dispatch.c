@@ -1,9 +1,8 @@
-// Chooses the CPU kernels once per context (CPUID), plus the fp16 conversions every kernel shares.
+// Chooses the CPU kernels once per context (CPUID): the single-instance set and its batched twins in one table.
 #include "kernels.h"
+#include "kernels_batch.h"
 
-#include <string.h>
-
-int plSelectKernels( plKernels* kernels, int force_scalar )
+plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa )
 {
 	kernels->mat_vec = plMatVec_Scalar;
 	kernels->blend_shapes = plBlendShapes_Scalar;
@@ -15,8 +14,9 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 	kernels->body_point_normals = plBodyPointNormals_Scalar;
 	kernels->body_contact = plBodyContact_Scalar;
 	kernels->body_contact_fast = plBodyContactFast_Scalar;
+	kernels->set = PLEAT_KERNEL_SET_SCALAR;
 #if defined( PLEAT_HAVE_AVX2 ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
-	if ( !force_scalar )
+	if ( max_isa >= PLEAT_KERNEL_SET_AVX2 )
 	{
 		__builtin_cpu_init();
 		if ( __builtin_cpu_supports( "avx2" ) && __builtin_cpu_supports( "fma" ) )
@@ -32,90 +32,18 @@ int plSelectKernels( plKernels* kernels, int force_scalar )
 			kernels->body_contact = plBodyContact_Avx2;
 			kernels->body_contact_fast = plBodyContactFast_Avx2;
 			kernels->body_point_normals = plBodyPointNormals_Avx2;
-			return 1;
+			kernels->set = PLEAT_KERNEL_SET_AVX2;
+			// The single-instance kernels stay AVX2: only the batched networks and blend have AVX-512 twins.
+			if ( max_isa >= PLEAT_KERNEL_SET_AVX512 && plBatchKernelsOf( PLEAT_KERNEL_SET_AVX512 ) != NULL &&
+				 plCpuHasAvx512Batch() )
+			{
+				kernels->set = PLEAT_KERNEL_SET_AVX512;
+			}
 		}
 	}
 #else
-	(void)force_scalar;
+	(void)max_isa;
 #endif
-	return 0;
-}
-
-float plHalfToFloat( uint16_t h )
-{
-	uint32_t sign = (uint32_t)( h & 0x8000u ) << 16;
-	uint32_t exponent = ( h >> 10 ) & 0x1Fu;
-	uint32_t mantissa = h & 0x3FFu;
-	uint32_t bits;
-	if ( exponent == 0 )
-	{
-		if ( mantissa == 0 )
-		{
-			bits = sign;
-		}
-		else
-		{
-			// Subnormal half: normalise into a float.
-			int e = -1;
-			do
-			{
-				e++;
-				mantissa <<= 1;
-			} while ( ( mantissa & 0x400u ) == 0 );
-			bits = sign | ( (uint32_t)( 127 - 15 - e ) << 23 ) | ( ( mantissa & 0x3FFu ) << 13 );
-		}
-	}
-	else if ( exponent == 31 )
-	{
-		bits = sign | 0x7F800000u | ( mantissa << 13 );
-	}
-	else
-	{
-		bits = sign | ( ( exponent + 127u - 15u ) << 23 ) | ( mantissa << 13 );
-	}
-	float f;
-	memcpy( &f, &bits, sizeof( f ) );
-	return f;
-}
-
-uint16_t plFloatToHalf( float f )
-{
-	uint32_t bits;
-	memcpy( &bits, &f, sizeof( bits ) );
-	uint32_t sign = ( bits >> 16 ) & 0x8000u;
-	uint32_t exponent = ( bits >> 23 ) & 0xFFu;
-	uint32_t mantissa = bits & 0x7FFFFFu;
-	if ( exponent == 0xFFu )
-	{
-		return (uint16_t)( sign | 0x7C00u | ( mantissa ? 0x200u : 0u ) );
-	}
-	int e = (int)exponent - 127 + 15;
-	if ( e >= 31 )
-	{
-		return (uint16_t)( sign | 0x7C00u );
-	}
-	if ( e <= 0 )
-	{
-		if ( e < -10 )
-		{
-			return (uint16_t)sign;
-		}
-		mantissa |= 0x800000u;
-		uint32_t shift = (uint32_t)( 14 - e );
-		uint32_t half = mantissa >> shift;
-		uint32_t rest = mantissa & ( ( 1u << shift ) - 1u );
-		uint32_t midpoint = 1u << ( shift - 1u );
-		if ( rest > midpoint || ( rest == midpoint && ( half & 1u ) ) )
-		{
-			half++;
-		}
-		return (uint16_t)( sign | half );
-	}
-	uint32_t half = sign | ( (uint32_t)e << 10 ) | ( mantissa >> 13 );
-	uint32_t rest = mantissa & 0x1FFFu;
-	if ( rest > 0x1000u || ( rest == 0x1000u && ( half & 1u ) ) )
-	{
-		half++; // may carry into the exponent, which is the correct rounding
-	}
-	return (uint16_t)half;
+	kernels->batch = plBatchKernelsOf( kernels->set );
+	return kernels->set;
 }

@@ -1,12 +1,9 @@
-// The batched kernels follow the context's choice (cpu_dispatch.c): each single-instance kernel has batched twins with
-// the same arithmetic, so a batch gives what stepping each instance alone gives on that context. The twins of the AVX2
-// kernels come in two widths: AVX2 itself and, where the CPU has AVX-512 F/VL/BW/DQ, AVX-512 for the networks and
-// the blend (kernels_batch.h).
+// The batched twins of each kernel set (kernels_batch.h): each single-instance kernel has batched twins with the same
+// arithmetic, so a batch gives what stepping each instance alone gives on that set. The twins of the AVX2 kernels come
+// in two widths: AVX2 itself and, in PLEAT_KERNEL_SET_AVX512, AVX-512 for the networks and the blend.
 #include "kernels_batch.h"
 
 #include <stddef.h>
-
-plBatchIsa g_plBatchIsaLimit = PLEAT_BATCH_ISA_AVX512;
 
 int plCpuHasAvx512Batch( void )
 {
@@ -35,59 +32,55 @@ size_t plNormalsBatchScratchFloats( uint32_t vertex_count, uint32_t lanes )
 	return 2 * one;
 }
 
-// A single-instance kernel set (the kernels with batched twins) and its twins.
-typedef struct plKernelTwins
-{
-	plMatVecFn* mat_vec;
-	plBlendShapesFn* blend_shapes;
-	plSkinningFn* skinning;
-	plPoseBodyPointsFn* pose_body_points;
-	plNormalsScatterFn* normals_scatter;
-	plBatchKernels batch;
-} plKernelTwins;
-
-static const plKernelTwins s_plKernelTwins[] = {
-	{ plMatVec_Scalar, plBlendShapes_Scalar, plSkinning_Scalar, plPoseBodyPoints_Scalar, plNormalsScatter_Scalar,
-	  { plMatMat_Scalar, NULL, plBlendShapesBatch_Scalar, plSkinningBatch_Scalar, plBodyContactFastBatch_Scalar, NULL,
-		plNormalsBatch_Scalar, 1, "scalar" } },
+static const plBatchKernels s_plBatchScalar = { plMatMat_Scalar,
+												NULL,
+												plBlendShapesBatch_Scalar,
+												plSkinningBatch_Scalar,
+												plBodyContactFastBatch_Scalar,
+												NULL,
+												plNormalsBatch_Scalar,
+												1,
+												"scalar" };
 #if defined( PLEAT_HAVE_AVX2 )
-	{ plMatVec_Avx2, plBlendShapes_Avx2, plSkinning_Avx2, plPoseBodyPoints_Avx2, plNormalsScatter_Avx2,
-	  { plMatMat_Avx2, NULL, plBlendShapesBatch_Avx2, plSkinningBatch_Avx2, plBodyContactFastBatch_Avx2,
-		plBodyContactBatch_Avx2, plNormalsBatch_Avx2, 8, "avx2+fma+f16c" } },
+static const plBatchKernels s_plBatchAvx2 = { plMatMat_Avx2,
+											  NULL,
+											  plBlendShapesBatch_Avx2,
+											  plSkinningBatch_Avx2,
+											  plBodyContactFastBatch_Avx2,
+											  plBodyContactBatch_Avx2,
+											  plNormalsBatch_Avx2,
+											  8,
+											  "avx2+fma+f16c" };
 #endif
-};
-
-int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatchKernels* out )
-{
-	const plBatchKernels none = { NULL, NULL, NULL, NULL, NULL, NULL, NULL, 1, "scalar" };
-	*out = none;
-	for ( size_t i = 0; i < sizeof( s_plKernelTwins ) / sizeof( s_plKernelTwins[0] ); ++i )
-	{
-		const plKernelTwins* t = &s_plKernelTwins[i];
-		if ( kernels->mat_vec == t->mat_vec && kernels->blend_shapes == t->blend_shapes &&
-			 kernels->skinning == t->skinning && kernels->pose_body_points == t->pose_body_points &&
-			 kernels->normals_scatter == t->normals_scatter )
-		{
-			*out = t->batch;
-			break;
-		}
-	}
 #if defined( PLEAT_HAVE_AVX512 )
-	// The AVX2 set's wider twins for the networks and the blend, where the CPU runs them.
-	if ( out->mat_mat == plMatMat_Avx2 && limit >= PLEAT_BATCH_ISA_AVX512 && plCpuHasAvx512Batch() )
-	{
-		out->mat_mat = plMatMat_Avx512;
-		out->mat_mat_lanes = plMatMatLanes_Avx512;
-		out->blend_shapes_batch = plBlendShapesBatch_Avx512;
-		out->isa = "avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, body contact, normals)";
-	}
+// The AVX2 set's wider twins for the networks and the blend; skinning, body contact and normals stay 8 lanes.
+static const plBatchKernels s_plBatchAvx512 = { plMatMat_Avx512,
+												plMatMatLanes_Avx512,
+												plBlendShapesBatch_Avx512,
+												plSkinningBatch_Avx2,
+												plBodyContactFastBatch_Avx2,
+												plBodyContactBatch_Avx2,
+												plNormalsBatch_Avx2,
+												8,
+												"avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, body contact, "
+												"normals)" };
 #endif
-	(void)limit;
-	return out->mat_mat != NULL && out->blend_shapes_batch != NULL && out->skinning_batch != NULL &&
-		   out->body_contact_fast_batch != NULL && out->normals_batch != NULL;
-}
 
-int plSelectBatchKernels( const plKernels* kernels, plBatchKernels* out )
+const plBatchKernels* plBatchKernelsOf( plKernelSet set )
 {
-	return plSelectBatchKernelsUpTo( kernels, g_plBatchIsaLimit, out );
+	switch ( set )
+	{
+	case PLEAT_KERNEL_SET_SCALAR:
+		return &s_plBatchScalar;
+#if defined( PLEAT_HAVE_AVX2 )
+	case PLEAT_KERNEL_SET_AVX2:
+		return &s_plBatchAvx2;
+#endif
+#if defined( PLEAT_HAVE_AVX512 )
+	case PLEAT_KERNEL_SET_AVX512:
+		return &s_plBatchAvx512;
+#endif
+	default:
+		return NULL;
+	}
 }

@@ -2,6 +2,7 @@
 // The step is instance_step.c, the CPU deformation instance_deform.c (instance.h lists the three).
 #include "instance.h"
 #include "skeleton.h"
+#include "step_phases.h"
 
 #include <math.h>
 #include <string.h>
@@ -269,6 +270,30 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 	return PLEAT_RESULT_OK;
 }
 
+plResult plNormalsSerial( plInstanceData* inst )
+{
+	// The jobs plDeformCpu splits over the workers, each over its whole range: the same bits.
+	const plAssetData* a = inst->asset;
+	plFaceNormalsJob faces = { plMakeConstSpan( inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
+							   inst->face_normals, 0, a->face_count, &inst->ctx->kernels };
+	plResult r = plFaceNormalsJob_Run( &faces );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_FACE_NORMALS );
+	if ( r == PLEAT_RESULT_OK )
+	{
+		plNormalsGatherJob gather = { inst->face_normals,
+									  a->face_count,
+									  a->adjacency_offsets,
+									  a->adjacency_faces,
+									  plMakeSpan( inst->normals, a->vertex_count, 12 ),
+									  0,
+									  a->vertex_count,
+									  &inst->ctx->kernels };
+		r = plNormalsGatherJob_Run( &gather );
+		PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
+	}
+	return r == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
+}
+
 plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstance* out_instance )
 {
 	plContextData* ctx;
@@ -493,7 +518,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	}
 	if ( r == PLEAT_RESULT_OK && inst->gl == NULL )
 	{
-		plReserveBatchScratch( ctx, plBatchScratchFloats( ctx, a ) ); // optional: plStepInstances's lanes forms
+		plReserveBatchScratch( ctx, a->batch_scratch_floats ); // optional: plStepInstances's lanes forms
 	}
 	if ( r == PLEAT_RESULT_OK )
 	{

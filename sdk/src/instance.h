@@ -85,6 +85,11 @@ void plLogStaleInstance( const plContextData* ctx, plInstance handle, const char
 // Logs that a GPU-mode call of the instance (function: its public name) found no GL context current and changed
 // nothing, when r is PLEAT_RESULT_GL_UNAVAILABLE; returns r.
 plResult plLogIfNoGlContext( const plInstanceData* inst, plResult r, const char* function );
+// Normals of inst->positions into inst->normals on the calling thread (face normals, then the gather), for the rest
+// pose at creation and a batch that found no scratch for its lanes. PLEAT_RESULT_INTERNAL_ERROR as plDeformCpu.
+plResult plNormalsSerial( plInstanceData* inst );
+
+// ---- instance_deform.c ----
 
 // CPU path: T_def = shaped template + Σ_j w_j D_j (unless blend is 0: deformed already holds T_def for these weights),
 // then skinning with skin_matrices into positions, then normals, split over runner's workers (the context's for a
@@ -145,10 +150,6 @@ void plCommit( plInstanceData* inst, int networks_ran, int reset, float dt_s, in
 plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpdate* update, float dt_s );
 
 // ---- batch.c ----
-// Floats of plStepInstances's scratch a context needs for instances of asset a (its kernels' lanes forms), for
-// plReserveBatchScratch at instance creation (0: none).
-size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a );
-
 // Skinning, body contact (the lanes whose instance has it on) and normals of `count` lanes (count <= the kernels'
 // geometry_lanes) through the batched geometry kernels: in[k] skinned with insts[k]'s next_skin_matrices into
 // positions[k], body contact as plDeformCpu runs it, normals into normals[k]. Per lane the single kernels' operations
@@ -159,8 +160,5 @@ int plGeometryLanes( plContextData* ctx, const struct plBatchKernels* kernels, c
 					 plInstanceData* const* insts, const float* const* in, float* const* positions,
 					 float* const* normals, uint32_t count );
 
-// Normals of inst->positions into inst->normals on the calling thread (face normals, then the gather), for the rest
-// pose at creation. PLEAT_RESULT_INTERNAL_ERROR as plDeformCpu.
-plResult plNormalsSerial( plInstanceData* inst );
 
 #endif

@@ -253,15 +253,3 @@ plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const fl
 	plRunTask( runner, plNormalsGatherTask, a->vertex_count, 256, &task );
 	return plDeformTask_Result( &task );
 }
-
-plResult plNormalsSerial( plInstanceData* inst )
-{
-	plDeformTask task;
-	plDeformTask_Init( &task, inst, NULL, NULL, 0 );
-	plFaceNormalsTask( 0, inst->asset->face_count, 0, &task );
-	if ( plDeformTask_Result( &task ) == PLEAT_RESULT_OK )
-	{
-		plNormalsGatherTask( 0, inst->asset->vertex_count, 0, &task );
-	}
-	return plDeformTask_Result( &task );
-}

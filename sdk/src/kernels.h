@@ -1,8 +1,11 @@
 // Internal: the CPU kernels and their dispatch table. The scalar kernels (mlp.c, blend_shapes.c, skinning.c, normals.c)
 // are the specification; the AVX2 + FMA + F16C variants (*_avx2.c, compiled with per-file flags) have the same names
-// with an _Avx2 suffix and are chosen once at context creation (plSelectKernels).
+// with an _Avx2 suffix. One table (plKernels) holds a context's single-instance kernels and their batched twins; it is
+// chosen once at context creation (plChooseKernels) and every step, crowd and scene reads it as it is.
 #ifndef PLEAT_KERNELS_H
 #define PLEAT_KERNELS_H
+#include "pleat/pleat.h"
+
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -247,6 +250,10 @@ static inline void plPushOutOfAnchorPlane( float* x, float ax, float ay, float a
 	}
 }
 
+struct plBatchKernels;
+
+// A context's kernel table: the single-instance kernels, the batched twins plStepInstances runs (kernels_batch.h),
+// and which set they are.
 typedef struct plKernels
 {
 	plMatVecFn* mat_vec;
@@ -259,6 +266,10 @@ typedef struct plKernels
 	plBodyPointNormalsFn* body_point_normals;
 	plBodyContactFn* body_contact;
 	plBodyContactFastFn* body_contact_fast;
+	// The batched twins of the kernels above (each the same arithmetic per instance, kernels_batch.h): a static table
+	// per set, never NULL once chosen.
+	const struct plBatchKernels* batch;
+	plKernelSet set; // which variants the table holds (plContext_GetKernelSet reports it)
 } plKernels;
 
 // The variants, declared through the kernel types so that their signatures cannot drift apart.
@@ -285,8 +296,11 @@ plNormalsGatherFn plNormalsGather_Avx2;
 plNormalsScatterFn plNormalsScatter_Avx2;
 #endif
 
-// Scalar kernels always; AVX2 ones if built, not forced off, and the CPU has AVX2, FMA and F16C. Returns 1 for AVX2.
-int plSelectKernels( plKernels* kernels, int force_scalar );
+// Fills the table with the widest kernel set up to max_isa that this build has and this CPU runs, and returns it
+// (kernels->set): the scalar kernels always; AVX2 where the CPU has AVX2, FMA and F16C; AVX-512 (the AVX2 set, with
+// the batched networks and blend shapes 16 wide) where it also has AVX-512 F/VL/BW/DQ and the OS saves its state.
+// The one place the CPU is asked: a context calls it at creation, tests and benchmarks to build a set of their own.
+plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa );
 
 // IEEE half → float (exact, handles subnormals, inf, NaN).
 float plHalfToFloat( uint16_t h );

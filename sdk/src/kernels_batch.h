@@ -20,8 +20,9 @@
 // The _Avx512 kernels (AVX-512 F/VL/BW/DQ, chosen at run time when the CPU has them) are further twins of the _Avx2
 // single-instance kernels — a 16-wide FMA whose low and high halves are plMatVec_Avx2's even and odd chains, sixteen
 // instances per vector in the lanes form, 16-wide blend tiles — never of a single-instance AVX-512 kernel: a context's
-// single-instance kernels stay the AVX2 set, and a batch on an AVX-512 CPU gives exactly what they give. The AVX-512
-// set keeps the 8-lane AVX2 skinning, fast body contact and normals (the full contact runs per instance, plRunBodyContact).
+// single-instance kernels stay the AVX2 set (PLEAT_KERNEL_SET_AVX512 names that pairing), and a batch on an AVX-512 CPU
+// gives exactly what they give. The AVX-512 set keeps the 8-lane AVX2 skinning, fast body contact and normals (the
+// full contact runs per instance, plRunBodyContact).
 // test_batched_kernels_match_single checks each pair bit for bit, and every variant against the scalar specification.
 #ifndef PLEAT_KERNELS_BATCH_H
 #define PLEAT_KERNELS_BATCH_H
@@ -138,24 +139,10 @@ void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const
 							  uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 #endif
 
-// The widest batched kernels plSelectBatchKernels may choose (tests and benchmarks compare the sets).
-typedef enum plBatchIsa
-{
-	PLEAT_BATCH_ISA_SCALAR = 0, // only with the scalar single-instance kernels
-	PLEAT_BATCH_ISA_AVX2 = 1,
-	PLEAT_BATCH_ISA_AVX512 = 2,
-} plBatchIsa;
-
-// The batched twins of the kernels a context chose (plSelectKernels): each entry matches the single-instance kernel in
-// the same slot, so a batch gives what stepping each instance alone gives on that context. Twins of the AVX2 kernels
-// are the AVX-512 ones when the build has them, the CPU runs them and g_plBatchIsaLimit allows them. Returns 0 if a
-// kernel has no twin.
-int plSelectBatchKernels( const plKernels* kernels, plBatchKernels* out );
-// The same with an explicit limit instead of g_plBatchIsaLimit.
-int plSelectBatchKernelsUpTo( const plKernels* kernels, plBatchIsa limit, plBatchKernels* out );
-// The limit plSelectBatchKernels applies (default PLEAT_BATCH_ISA_AVX512: the best the CPU has). Internal, for the
-// crowd benchmark's AVX2-only comparison; set it before stepping, not while another thread steps.
-extern plBatchIsa g_plBatchIsaLimit;
+// The batched twins of one kernel set (plChooseKernels puts them in the context's table): each entry matches the
+// single-instance kernel in the same slot of that set, so a batch gives what stepping each instance alone gives.
+// PLEAT_KERNEL_SET_AVX512's are the AVX2 set's with the AVX-512 networks and blend. NULL for a set this build lacks.
+const plBatchKernels* plBatchKernelsOf( plKernelSet set );
 // Non-zero if this build has the AVX-512 batched kernels and this CPU (and OS) runs them.
 int plCpuHasAvx512Batch( void );
 

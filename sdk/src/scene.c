@@ -913,10 +913,10 @@ static void plStepLbsGroups( uint32_t start, uint32_t end, uint32_t worker, void
 static void plStepLbsLevel( plSceneData* s, const uint32_t* live, uint32_t live_count, const plFrameInput* inputs )
 {
 	const plAssetData* a = s->tiers[0].asset;
-	plBatchKernels kernels;
-	int lanes_form = plSelectBatchKernels( &s->ctx->kernels, &kernels ) && kernels.geometry_lanes > 1 &&
-					 kernels.geometry_lanes <= PLEAT_LBS_LANES_MAX && a->face_count >= a->vertex_count;
-	plLbsLevelTask task = { s, live, inputs, lanes_form ? &kernels : NULL, lanes_form ? kernels.geometry_lanes : 1, 0 };
+	const plBatchKernels* kernels = s->ctx->kernels.batch;
+	int lanes_form = kernels != NULL && kernels->geometry_lanes > 1 && kernels->geometry_lanes <= PLEAT_LBS_LANES_MAX &&
+					 a->face_count >= a->vertex_count;
+	plLbsLevelTask task = { s, live, inputs, lanes_form ? kernels : NULL, lanes_form ? kernels->geometry_lanes : 1, 0 };
 	for ( uint32_t m = 0; m < live_count; ++m )
 	{
 		if ( s->result_index[m] == PLEAT_SCENE_NO_NETWORK )

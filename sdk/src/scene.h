@@ -1,82 +1,14 @@
-// Internal: the scene (pleat.h, SCENE BUDGET) and its two jobs —
-//     scene_budget.c   the budget policy: levels of detail, their efficient frontier, the plan under a budget
-//     tier_transfer.c  a tier's mesh carried onto the display mesh (a barycentric map built at creation)
-//     scene.c          the scene object: characters, switches with cross-fades, stepping through plStepInstances
+// Internal: the scene (pleat.h, SCENE BUDGET), scene.c: characters, switches with cross-fades, stepping through
+// plStepInstances. Its two jobs have headers of their own, below it: scene_budget.h (the budget policy) and
+// tier_transfer.h (a tier's mesh carried onto the display mesh).
 #ifndef PLEAT_SCENE_H
 #define PLEAT_SCENE_H
 #include "instance.h"
+#include "scene_budget.h"
+#include "tier_transfer.h"
 
 #include <stddef.h>
 #include <stdint.h>
-
-// LBS-only + every tier at its full rate and each reduced rate.
-#define PLEAT_SCENE_MAX_LEVELS ( 1 + PLEAT_MAX_TIERS * ( 1 + PLEAT_MAX_NETWORK_RATES ) )
-
-// ---- scene_budget.c ----
-
-typedef struct plBudgetLevel
-{
-	float cost_us;    // per character and frame
-	float error_mm;   // expected mean error
-	int32_t tier;     // −1: LBS-only
-	float rate_hz;    // 0: every step
-} plBudgetLevel;
-
-// The efficient frontier of levels: indices sorted by cost, each strictly more accurate than the one before and on
-// the lower convex hull of (cost, error). Returns the count (>= 1 for level_count >= 1).
-uint32_t plBudgetFrontier( const plBudgetLevel* levels, uint32_t level_count, uint32_t* out_frontier );
-
-typedef struct plSceneBudgetJob
-{
-	const plBudgetLevel* levels;      // [level_count]
-	uint32_t level_count;
-	const uint32_t* frontier;         // [frontier_count] from plBudgetFrontier: the levels a free character walks
-	uint32_t frontier_count;
-	const float* tier_stream_cost_us; // [tier_count] paid once by each tier the plan uses
-	uint32_t tier_count;
-	uint32_t character_count;
-	const float* importance;          // [n] >= 0
-	const uint32_t* current;          // [n] each character's level now (the hysteresis favours it)
-	const int32_t* pinned;            // [n] −1, or a level the character must take (an override, a fade in progress)
-	const int32_t* held;              // [n] −1, or a level the character keeps while the budget allows (a recent switch)
-	const float* extra_cost_us;       // [n] or NULL: costs outside the plan (a fading-out detail)
-	float budget_us;                  // the plan's limit (µs); nothing but pinned levels and the cheapest level exceed it
-	float hysteresis;                 // >= 0
-	void* scratch;                    // n · frontier_count · 12 + n · 4 bytes, 4-byte aligned
-	size_t scratch_bytes;
-	uint32_t* out_level;              // [n] the plan
-	float* out_cost_us;               // optional: the plan's cost
-} plSceneBudgetJob;
-
-int plSceneBudgetJob_Validate( const plSceneBudgetJob* job );
-plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job );
-
-// ---- tier_transfer.c ----
-
-// Each display vertex as a point of one triangle of a tier's mesh in the rest pose: barycentric weights of the closest
-// point, plus the signed distance along that triangle's normal. Applied to the tier's deformed positions it gives the
-// display vertex's position (the weighted point moved out along the deformed triangle's unit normal) and normal (the
-// weighted tier normals, normalised).
-typedef struct plTierTransferJob
-{
-	const float* display_rest;  // [display_count][3] the display mesh's rest positions
-	uint32_t display_count;
-	const float* tier_rest;     // [tier_count][3]
-	uint32_t tier_vertex_count;
-	const uint32_t* tier_faces; // [tier_face_count][3]
-	uint32_t tier_face_count;
-	uint32_t* out_triangles;    // [display_count][3] tier vertex indices
-	float* out_weights;         // [display_count][3] barycentric weights (sum 1)
-	float* out_offsets;         // [display_count] signed distance along the triangle's normal (metres)
-} plTierTransferJob;
-
-plResult plTierTransferJob_Build( const plTierTransferJob* job );
-// positions / normals [display_count][3] from the tier's [tier_vertex_count][3] outputs.
-void plTierTransfer_Apply( const uint32_t* triangles, const float* weights, const float* offsets, uint32_t display_count,
-						   const float* tier_positions, const float* tier_normals, float* out_positions,
-						   float* out_normals );
-
-// ---- scene.c ----
 
 typedef struct plSceneTier
 {

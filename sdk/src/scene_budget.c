@@ -14,7 +14,7 @@
 // characters (an engine override) take their level first; held ones (a recent switch, still within its minimum time)
 // keep theirs if the budget allows, the most important first. A tier's weights are read once per group of characters
 // sharing it (plStepInstances), so the first character on a tier also pays that tier's stream cost.
-#include "scene.h"
+#include "scene_budget.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -3,7 +3,7 @@
 // creation: each display vertex is embedded in the tier's rest mesh as the closest point of its closest triangle
 // (barycentric weights) plus the signed distance along that triangle's normal. Applied per frame: the weighted tier
 // positions moved along the deformed triangle's unit normal, and the weighted tier normals, normalised.
-#include "scene.h"
+#include "tier_transfer.h"
 
 #include <float.h>
 #include <math.h>

@@ -300,7 +300,7 @@ static void test_mlp_small_network_by_hand( void** state )
 						  { .weight = w1, .bias = b1, .in_count = 2, .out_count = 1 } };
 	float x[2] = { 1, 2 }, y[1], scratch[4];
 	plKernels kernels;
-	plSelectKernels( &kernels, 1 );
+	plChooseKernels( &kernels, PLEAT_KERNEL_SET_SCALAR );
 	plMlpJob job = { layers, 2, PLEAT_ACTIVATION_RELU, plMakeConstSpan( x, 2, 4 ), plMakeSpan( y, 1, 4 ),
 					 plMakeSpan( scratch, 4, 4 ), &kernels, NULL };
 	assert_int_equal( plMlpJob_Run( &job ), PLEAT_RESULT_OK );

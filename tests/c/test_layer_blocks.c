@@ -147,20 +147,15 @@ static plSets plGetSets( void )
 {
 	plSets sets;
 	memset( &sets, 0, sizeof( sets ) );
-	for ( int scalar = 1; scalar >= 0; --scalar )
+	for ( int set = PLEAT_KERNEL_SET_SCALAR; set <= PLEAT_KERNEL_SET_AVX512; ++set )
 	{
 		plKernels k;
-		if ( !plSelectKernels( &k, scalar ) && !scalar )
+		if ( plChooseKernels( &k, (plKernelSet)set ) != (plKernelSet)set )
 		{
-			break;
+			break; // a set this build or CPU lacks (plChooseKernels gave a narrower one)
 		}
 		sets.single[sets.count] = k;
-		assert_true( plSelectBatchKernelsUpTo( &k, PLEAT_BATCH_ISA_AVX2, &sets.batch[sets.count++] ) );
-		if ( !scalar && plCpuHasAvx512Batch() )
-		{
-			sets.single[sets.count] = k;
-			assert_true( plSelectBatchKernelsUpTo( &k, PLEAT_BATCH_ISA_AVX512, &sets.batch[sets.count++] ) );
-		}
+		sets.batch[sets.count++] = *k.batch;
 	}
 	return sets;
 }

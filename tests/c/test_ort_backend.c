@@ -540,8 +540,9 @@ static void ort_matches_pleat_mlp_kernels( void** state )
 	for ( int force_scalar = 0; force_scalar < 2; ++force_scalar )
 	{
 		plKernels kernels;
-		int avx2 = plSelectKernels( &kernels, force_scalar );
-		print_message( "Pleat kernels: %s\n", avx2 ? "AVX2" : "scalar" );
+		plKernelSet set =
+			plChooseKernels( &kernels, force_scalar ? PLEAT_KERNEL_SET_SCALAR : PLEAT_KERNEL_SET_AVX512 );
+		print_message( "Pleat kernels: %s\n", set != PLEAT_KERNEL_SET_SCALAR ? "AVX2" : "scalar" );
 		for ( int m = 0; m < 2; ++m )
 		{
 			const OrtCase* c = cases[m];

@@ -31,7 +31,7 @@ static uint32_t plRandIndex( void )
 static int plHaveAvx2( void )
 {
 	plKernels k;
-	return plSelectKernels( &k, 0 );
+	return plChooseKernels( &k, PLEAT_KERNEL_SET_AVX512 ) != PLEAT_KERNEL_SET_SCALAR;
 }
 
 // cmocka setup: *state = the AVX2 kernels (where this build and CPU have them) and the scalar specification.
@@ -44,8 +44,9 @@ typedef struct plKernelPair
 static int plKernelPair_Setup( void** state )
 {
 	static plKernelPair pair;
-	pair.has_simd = plSelectKernels( &pair.simd, 0 );
-	plSelectKernels( &pair.scalar, 1 );
+	// The single-instance SIMD kernels: AVX2's, which the AVX-512 set keeps too.
+	pair.has_simd = plChooseKernels( &pair.simd, PLEAT_KERNEL_SET_AVX512 ) != PLEAT_KERNEL_SET_SCALAR;
+	plChooseKernels( &pair.scalar, PLEAT_KERNEL_SET_SCALAR );
 	*state = &pair;
 	return 0;
 }
@@ -704,8 +705,8 @@ static void test_normals_scatter_is_bit_identical_to_gather( void** state )
 {
 	(void)state;
 	plKernels simd, scalar;
-	plSelectKernels( &simd, 0 );
-	plSelectKernels( &scalar, 1 );
+	plChooseKernels( &simd, PLEAT_KERNEL_SET_AVX512 );
+	plChooseKernels( &scalar, PLEAT_KERNEL_SET_SCALAR );
 	const uint32_t n = 61, f = 113;
 	uint32_t faces[113 * 3];
 	for ( uint32_t t = 0; t < f; ++t )
@@ -784,7 +785,55 @@ static void test_half_conversion_round_trips( void** state )
 	assert_int_equal( plFloatToHalf( 1e6f ), 0x7C00 );                // overflow → inf
 }
 
-// The whole step, AVX2 context vs force_scalar context, fp32 and fp16 assets: positions within 1e-5 m.
+// One SIMD set's whole step vs a scalar context's on one motion: positions within 1e-5 m.
+static void plPipelineMatchesScalar( plKernelSet set, int fp16 )
+{
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	p.grid_x = 20;
+	p.grid_y = 21;
+	p.lp_hidden[0] = 67;
+	p.dec_hidden[0] = 45;
+	p.latent_count = 13;
+	p.blend_count = 11;
+	p.fp16 = fp16;
+	plTestAsset* model = plTestAsset_Create( &p );
+	plContextDef simd_def = plDefaultContextDef();
+	simd_def.max_isa = set;
+	plContextDef scalar_def = plDefaultContextDef();
+	scalar_def.max_isa = PLEAT_KERNEL_SET_SCALAR;
+	plTestRig fast, slow;
+	assert_int_equal( plTestRig_Init( &fast, model, &simd_def ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Init( &slow, model, &scalar_def ), PLEAT_RESULT_OK );
+	plKernelSet kernel_set;
+	assert_int_equal( plContext_GetKernelSet( fast.context, &kernel_set ), PLEAT_RESULT_OK );
+	assert_int_equal( kernel_set, set );
+	assert_int_equal( plContext_GetKernelSet( slow.context, &kernel_set ), PLEAT_RESULT_OK );
+	assert_int_equal( kernel_set, PLEAT_KERNEL_SET_SCALAR );
+	assert_int_equal( fast.info.weights_fp16, fp16 );
+	plInstance a, b;
+	assert_int_equal( plTestRig_Instance( &fast, &a ), PLEAT_RESULT_OK );
+	assert_int_equal( plTestRig_Instance( &slow, &b ), PLEAT_RESULT_OK );
+	float q[64 * 4];
+	for ( uint32_t t = 0; t < 20; ++t )
+	{
+		plFrameInput in = plTestMotion( t, model->J, q );
+		assert_int_equal( plInstance_Step( a, &in, NULL ), PLEAT_RESULT_OK );
+		assert_int_equal( plInstance_Step( b, &in, NULL ), PLEAT_RESULT_OK );
+		const float *pa, *pb;
+		plInstance_GetPositions( a, &pa, NULL );
+		plInstance_GetPositions( b, &pb, NULL );
+		for ( uint32_t i = 0; i < model->N * 3; ++i )
+		{
+			assert_float_equal( pa[i], pb[i], 1e-5 );
+		}
+	}
+	plTestRig_Free( &fast );
+	plTestRig_Free( &slow );
+	plTestAsset_Destroy( model );
+}
+
+// The whole step, each SIMD set this build and CPU run (AVX2, AVX-512) vs a scalar context, fp32 and fp16 assets:
+// positions within 1e-5 m.
 static void test_pipeline_avx2_matches_scalar( void** state )
 {
 	(void)state;
@@ -792,48 +841,15 @@ static void test_pipeline_avx2_matches_scalar( void** state )
 	{
 		skip();
 	}
-	for ( int fp16 = 0; fp16 < 2; ++fp16 )
+	for ( int set = PLEAT_KERNEL_SET_AVX2; set <= PLEAT_KERNEL_SET_AVX512; ++set )
 	{
-		plTestAssetParams p = plTestAsset_DefaultParams();
-		p.grid_x = 20;
-		p.grid_y = 21;
-		p.lp_hidden[0] = 67;
-		p.dec_hidden[0] = 45;
-		p.latent_count = 13;
-		p.blend_count = 11;
-		p.fp16 = fp16;
-		plTestAsset* model = plTestAsset_Create( &p );
-		plContextDef scalar_def = plDefaultContextDef();
-		scalar_def.force_scalar = 1;
-		plTestRig fast, slow;
-		assert_int_equal( plTestRig_Init( &fast, model, NULL ), PLEAT_RESULT_OK );
-		assert_int_equal( plTestRig_Init( &slow, model, &scalar_def ), PLEAT_RESULT_OK );
-		plKernelSet kernel_set;
-		assert_int_equal( plContext_GetKernelSet( fast.context, &kernel_set ), PLEAT_RESULT_OK );
-		assert_int_equal( kernel_set, PLEAT_KERNEL_SET_AVX2 );
-		assert_int_equal( plContext_GetKernelSet( slow.context, &kernel_set ), PLEAT_RESULT_OK );
-		assert_int_equal( kernel_set, PLEAT_KERNEL_SET_SCALAR );
-		assert_int_equal( fast.info.weights_fp16, fp16 );
-		plInstance a, b;
-		assert_int_equal( plTestRig_Instance( &fast, &a ), PLEAT_RESULT_OK );
-		assert_int_equal( plTestRig_Instance( &slow, &b ), PLEAT_RESULT_OK );
-		float q[64 * 4];
-		for ( uint32_t t = 0; t < 20; ++t )
+		plKernels probe;
+		if ( plChooseKernels( &probe, (plKernelSet)set ) != (plKernelSet)set )
 		{
-			plFrameInput in = plTestMotion( t, model->J, q );
-			assert_int_equal( plInstance_Step( a, &in, NULL ), PLEAT_RESULT_OK );
-			assert_int_equal( plInstance_Step( b, &in, NULL ), PLEAT_RESULT_OK );
-			const float *pa, *pb;
-			plInstance_GetPositions( a, &pa, NULL );
-			plInstance_GetPositions( b, &pb, NULL );
-			for ( uint32_t i = 0; i < model->N * 3; ++i )
-			{
-				assert_float_equal( pa[i], pb[i], 1e-5 );
-			}
+			break; // a set this build or CPU lacks
 		}
-		plTestRig_Free( &fast );
-		plTestRig_Free( &slow );
-		plTestAsset_Destroy( model );
+		plPipelineMatchesScalar( (plKernelSet)set, 0 );
+		plPipelineMatchesScalar( (plKernelSet)set, 1 );
 	}
 }
 

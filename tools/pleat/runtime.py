@@ -50,7 +50,7 @@ class _ContextDef(C.Structure):
     _fields_ = [("alloc", C.c_void_p), ("free", C.c_void_p), ("allocator_context", C.c_void_p),
                 ("enqueue_task", C.c_void_p), ("finish_task", C.c_void_p), ("task_context", C.c_void_p),
                 ("worker_count", C.c_uint32), ("log", C.c_void_p), ("log_context", C.c_void_p),
-                ("force_scalar", C.c_int), ("internal_cookie", C.c_int32)]
+                ("force_scalar", C.c_int), ("max_isa", C.c_int), ("internal_cookie", C.c_int32)]
 
 
 class _AssetDef(C.Structure):
@@ -106,7 +106,7 @@ class _Version(C.Structure):
 
 BACKENDS = {"pleat": 0, "onnxruntime": 1}          # plMlpBackend
 GPU_MODES = {"none": 0, "host_context": 1, "headless": 2}   # plGpuMode
-KERNEL_SETS = {0: "scalar", 1: "avx2"}             # plKernelSet
+KERNEL_SETS = ["scalar", "avx2", "avx512"]        # plKernelSet, by value
 RESULT_CLAMPED, RESULT_NUMERIC_RESET = 1, 2
 
 
@@ -212,10 +212,15 @@ def _f32(a, shape):
 
 
 class Context:
-    def __init__(self, force_scalar=False, library=None):
+    def __init__(self, force_scalar=False, library=None, max_isa=None):
+        """max_isa: the widest kernel set the context may take ("scalar", "avx2", "avx512"; default the widest);
+        force_scalar=True is max_isa="scalar"."""
         self.lib = load_library(library)
         d = self.lib.plDefaultContextDef()
-        d.force_scalar = int(bool(force_scalar))
+        if force_scalar:
+            max_isa = "scalar"
+        if max_isa is not None:
+            d.max_isa = KERNEL_SETS.index(max_isa)
         self.handle = _Context()
         _check(self.lib, self.lib.plCreateContext(C.byref(d), C.byref(self.handle)), "plCreateContext")
 
@@ -227,14 +232,15 @@ class Context:
 
     @property
     def kernel_set(self):
-        """The CPU kernels the context runs: "scalar" or "avx2" (plContext_GetKernelSet)."""
+        """The CPU kernels the context runs: "scalar", "avx2" or "avx512" (plContext_GetKernelSet; "avx512": the AVX2
+        kernels, with plStepInstances's batched networks and blend shapes in AVX-512)."""
         n = C.c_int()
         _check(self.lib, self.lib.plContext_GetKernelSet(self.handle, C.byref(n)), "plContext_GetKernelSet")
         return KERNEL_SETS[n.value]
 
     @property
     def uses_avx2(self):
-        return self.kernel_set == "avx2"
+        return self.kernel_set in ("avx2", "avx512")
 
     def load_asset(self, source, skip_checksum=False):
         """source: bytes or a path."""

@@ -120,12 +120,12 @@
 // results identical. The work goes through the task hooks: workers take whole instances for the per-instance stages
 // (validation, forward kinematics, X_c, commit), rows or vertex ranges of the batched stages, and lane groups of 8
 // instances for skinning, body contact and normals (one vector operation does one scalar operation for 8 of them). On
-// CPUs with AVX-512 the batched networks and blend shapes use it (the same bits: they repeat the AVX2 single-instance
-// arithmetic per instance). The batch's scratch belongs to the context, sized when instances are created (one block
-// per worker, up to 8; context bookkeeping, outside plContext_GetLiveBytes); a call that finds it taken by another
-// thread's call uses slower kernels with the same results. Instances in a GPU mode form groups per asset and mode:
-// their networks run batched on the CPU, and the deformation of the whole group is one dispatch per shader (the
-// instance in gl_WorkGroupID.y) in buffers the group's first instance keeps from its first batch (GPU memory for up to
+// CPUs with AVX-512 the batched networks and blend shapes use it (PLEAT_KERNEL_SET_AVX512; the same bits: they repeat
+// the AVX2 single-instance arithmetic per instance). The batch's scratch belongs to the context, sized when instances
+// are created (one block per worker, up to 8; context bookkeeping, outside plContext_GetLiveBytes); a call that finds
+// it taken by another thread's call uses slower kernels with the same results. Instances in a GPU mode form groups
+// per asset and mode: their networks run batched on the CPU, and the deformation of the whole group is one dispatch
+// per shader (the instance in gl_WorkGroupID.y) in buffers the group's first instance keeps from its first batch (GPU memory for up to
 // 64 instances), then copied to each instance's vertex buffers and read back where asked, as plInstance_Step does
 // (the same GLSL per instance: equal to stepping one by one on the GPU within the GL-vs-CPU tolerance, on Mesa
 // llvmpipe bit for bit). Instances on the ONNX Runtime backend are stepped one by one inside the call.
@@ -358,6 +358,7 @@ PLEAT_API plVersion plGetVersion( void );
 	X( CONTEXT_DESTROYED_WITH_LIVE_OBJECTS, 2, "context destroyed while assets or instances were alive" )             \
 	X( KERNELS_SCALAR, 3, "CPU kernels: scalar" )                                                                     \
 	X( KERNELS_AVX2, 4, "CPU kernels: AVX2 + FMA + F16C" )                                                            \
+	X( KERNELS_AVX512, 5, "CPU kernels: AVX2 + FMA + F16C, batched networks and blend shapes AVX-512" )               \
 	X( ASSET_LOADED, 10, "asset loaded" )                                                                             \
 	X( ASSET_COPIED, 11, "asset data copied to an aligned block (not used in place)" )                               \
 	X( ASSET_IO_ERROR, 12, "asset file could not be read" )                                                           \
@@ -451,6 +452,25 @@ typedef struct plInstance
 // Context
 // ------------------------------------------------------------------------------------------------------------------
 
+/// The CPU kernel sets, narrowest first (a context chooses one at creation: plContextDef.max_isa). What is
+/// bit-identical to what (the tests named check each statement):
+/// - Within one kernel set and one weight precision (the asset's fp32 or fp16), results are bit-identical for any
+///   worker count (test_determinism_across_workers), and plStepInstances gives each instance exactly what
+///   plInstance_Step gives it (test_batch_step_matches_single): the batched kernels are twins of the single ones.
+/// - PLEAT_KERNEL_SET_AVX512 gives exactly what PLEAT_KERNEL_SET_AVX2 gives: its AVX-512 kernels repeat the AVX2
+///   arithmetic per instance (test_batched_kernels_match_single).
+/// - Between the scalar set and the SIMD sets results agree to rounding, not bit for bit: the SIMD sums group terms
+///   differently and fuse multiply-adds. Vertex normals from equal positions are bit-identical; the networks, blend
+///   shapes, skinning and body contact agree within test_simd_matches_scalar's bounds (a whole step: positions within
+///   1e-5 m).
+typedef enum plKernelSet
+{
+	PLEAT_KERNEL_SET_SCALAR = 0, ///< the scalar kernels (the specification; every build has them)
+	PLEAT_KERNEL_SET_AVX2 = 1,   ///< AVX2 + FMA + F16C variants
+	PLEAT_KERNEL_SET_AVX512 = 2, ///< the AVX2 set, with plStepInstances's batched networks and blend shapes in AVX-512
+	                             ///< F/VL/BW/DQ (16 instances per vector); the single-instance kernels are AVX2's
+} plKernelSet;
+
 /// Context definition: get one from plDefaultContextDef(), change fields, pass to plCreateContext.
 typedef struct plContextDef
 {
@@ -463,7 +483,12 @@ typedef struct plContextDef
 	uint32_t worker_count;         ///< number of workers the task system may use (1..64; default 1)
 	plLogFn* log;                  ///< optional log callback (NULL = silent)
 	void* log_context;             ///< passed to log
-	int force_scalar;              ///< non-zero: use the scalar CPU kernels even if AVX2 is available (flag)
+	int force_scalar;              ///< deprecated: max_isa = PLEAT_KERNEL_SET_SCALAR. Non-zero acts as that (flag)
+	plKernelSet max_isa;           ///< the widest CPU kernel set the context may choose (default: the widest,
+	                               ///< PLEAT_KERNEL_SET_AVX512); it takes the widest set up to this one that the build
+	                               ///< has and the CPU runs, once, at creation (plContext_GetKernelSet says which);
+	                               ///< a value above PLEAT_KERNEL_SET_AVX512 means the widest, a negative one is
+	                               ///< INVALID_DEF
 	int32_t internal_cookie;       ///< set by plDefaultContextDef; do not touch
 } plContextDef;
 
@@ -481,16 +506,12 @@ PLEAT_API int plContext_IsValid( plContext context );
 /// allocator hooks but is not counted: the value is exactly 0 right after plCreateContext and again whenever no asset
 /// or instance is alive, so a leak test compares it with 0.
 PLEAT_API plResult plContext_GetLiveBytes( plContext context, uint64_t* out_bytes );
-/// The CPU kernels a context chose at creation (log items KERNELS_SCALAR / KERNELS_AVX2 say the same).
-typedef enum plKernelSet
-{
-	PLEAT_KERNEL_SET_SCALAR = 0, ///< the scalar kernels (the specification; PLEAT_FORCE_SCALAR builds, force_scalar)
-	PLEAT_KERNEL_SET_AVX2 = 1,   ///< AVX2 + FMA + F16C variants, bit-identical to scalar
-} plKernelSet;
-
-/// The kernel set the context uses, in *out_kernel_set (PLEAT_KERNEL_SET_SCALAR on failure).
+/// The kernel set the context chose at creation, in *out_kernel_set (PLEAT_KERNEL_SET_SCALAR on failure); the log item
+/// KERNELS_SCALAR, KERNELS_AVX2 or KERNELS_AVX512 at creation says the same. Every step, crowd and scene of the context
+/// runs that set.
 PLEAT_API plResult plContext_GetKernelSet( plContext context, plKernelSet* out_kernel_set );
-/// Deprecated: plContext_GetKernelSet. Non-zero in *out_avx2 if the kernel set is PLEAT_KERNEL_SET_AVX2.
+/// Deprecated: plContext_GetKernelSet. Non-zero in *out_avx2 if the single-instance kernels are AVX2's
+/// (PLEAT_KERNEL_SET_AVX2 or PLEAT_KERNEL_SET_AVX512).
 PLEAT_DEPRECATED( "use plContext_GetKernelSet" )
 PLEAT_API plResult plContext_UsesAvx2( plContext context, int* out_avx2 );
 
