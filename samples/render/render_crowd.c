@@ -8,6 +8,7 @@
 #include "render_crowd.h"
 #include "render_gl.h"
 #include "render_image.h"
+#include "render_mesh.h"
 
 #include <pleat/pleat.h>
 

@@ -34,9 +34,4 @@ int renderCrowd_Main( int argc, char** argv );
 // or 77 (no GL).
 int renderCrowd( const CrowdOptions* o );
 
-// render.c's body skinning with the garment's own matrices, and area-weighted normals.
-void skinBody( const RenderBody* body, const int32_t* body_to_asset, const float* matrices, float* positions );
-void vertexNormals( const float* positions, uint32_t vertex_count, const uint32_t* faces, uint32_t face_count,
-					float* normals );
-
 #endif
