@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from pleat.motion.clip import Clip
-from pleat.motion.loaders import MotionFileError, check_source, read_bvh
+from pleat.motion.readers import MotionFileError, check_source, read_bvh
 from pleat.rotations import matrix_to_quat, quat_to_matrix
 
 EULER_ORDER = "ZXY"

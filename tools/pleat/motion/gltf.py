@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pleat.motion.loaders import (MAX_DURATION_S, MAX_FRAME_TIME_S, MAX_JOINTS, MIN_FRAME_TIME_S, QUAT_MIN_NORM,
+from pleat.motion.readers import (MAX_DURATION_S, MAX_FRAME_TIME_S, MAX_JOINTS, MIN_FRAME_TIME_S, QUAT_MIN_NORM,
                                   MotionFileError, _clip_name)
 from pleat.motion.retarget import SourceMotion
 from pleat.rotations import matrix_to_quat, quat_normalize, quat_slerp, quat_to_matrix

@@ -24,16 +24,16 @@ import json
 import sys
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import torch
 
-from pleat import garment_asset as ga
 from pleat.cli import add_quiet, command
 from pleat.fileio import write_text
 from pleat.train import core, sources
 from pleat.train.model import InferenceBlock
+from pleat.train.runfolder import pack_tier  # noqa: F401  (pleat.train.distill.pack_tier: its callers' name)
+from pleat.train.shim import model_shim as _shim
 
 
 # ---- recording -------------------------------------------------------------------------------------------------
@@ -115,13 +115,6 @@ def principal_shapes(seqs, D, free_mask=None):
     shapes = (sigma[:, None] * Vt[:D]).reshape(D, -1, 3)
     energy = float((S[:D] ** 2).sum() / max((S ** 2).sum(), 1e-30))
     return shapes, sigma, Vt[:D], energy
-
-
-def _shim(setup, L, D, lp_hidden, dec_hidden, activation, teacher_L):
-    """What core.LatentPredictor / core.normalisation / core.network_weights read of a Setup, at the tier's sizes."""
-    model = dict(setup.cfg["model"], latent=L, blend=D, lp_hidden=list(lp_hidden), dec_hidden=list(dec_hidden),
-                 activation=activation, blend_init_m=0.0)
-    return SimpleNamespace(cfg=dict(setup.cfg, model=model), L=L, input_count=setup.input_count - teacher_L + L)
 
 
 def tier_sequences(seqs, Vt, sigma, L, teacher_L):
@@ -267,22 +260,6 @@ def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iter
     if progress:
         print(json.dumps(report), file=sys.stderr)
     return lp, block, norms, shim, garment, report
-
-
-def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=True, teacher=None, model=None,
-              training=None, onnx=False, contact_candidates=None):
-    """Write the tier with the training pack code (network_weights → weights_from_garment → write_asset);
-    contact_candidates: the body contact's candidates from simulated frames (weights_from_garment)."""
-    from pleat.asset import write_asset
-    net = core.network_weights(shim, lp.lp, block, norms, fps)
-    meta = {"model": model or f"pleat tier {report['tier']}: inference block distilled from the stage-1 teacher",
-            "tier": report["tier"], "distillation": {k: v for k, v in report.items()},
-            "teacher": str(teacher) if teacher else None,
-            "training": dict({"preset": setup.cfg.get("preset")}, **(training or {}))}
-    weights = ga.weights_from_garment(garment, setup.body, net, metadata=meta, name=setup.name,
-                                      contact=ga.tier_contact(report["tier"]), contact_candidates=contact_candidates)
-    write_asset(str(path), weights, fp16=fp16, onnx=onnx)
-    return weights
 
 
 def build_parser():

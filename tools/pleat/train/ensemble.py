@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pleat.train import core, distill
+from pleat.train import core, runfolder
 from pleat.train.model import InferenceBlock, linear_layers
+from pleat.train.shim import model_shim
 
 
 def _block_diagonal(mats):
@@ -69,7 +70,7 @@ def combine(members, setup, spec):
              "x_std": np.concatenate([n["x_std"][:len(n["z_mean"])] for _, _, n in members] + [first["x_std"][La:]])}
     for k in ("z_mean", "z_std", "z_min", "z_max"):
         norms[k] = np.concatenate([np.asarray(n[k], np.float64) for _, _, n in members])
-    shim = distill._shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
+    shim = model_shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
     lp = core.LatentPredictor(shim, norms)
     block = InferenceBlock(shim.cfg["model"], setup.N, free_mask=setup.free_mask)
     lp_layers, dec_layers = linear_layers(lp.lp), linear_layers(block.decoder)
@@ -120,8 +121,7 @@ def ensemble_run(member_dirs, out, tier_name="large"):
     `out` (simsup.pt, simsup_summary.json, <garment>.pleat), so `pleat-train simsup-contact --out OUT` and
     `simsup-tiers` work on it as on a single fit. Returns the asset's path."""
     from pleat.eval.tiers import tier
-    from pleat.train import simsup
-    loaded = [simsup.load_model(d) for d in member_dirs]
+    loaded = [runfolder.load_model(d) for d in member_dirs]
     setup = loaded[0][4]
     spec = tier(tier_name)
     lp, block, norms, shim = combine([(m[0], m[1], m[2]) for m in loaded], setup, spec)
@@ -148,4 +148,4 @@ def ensemble_run(member_dirs, out, tier_name="large"):
                    members=[str(d) for d in member_dirs], cpu_hours=cpu_h, fit=fit)
     for k in ("contact", "contact_rounds", "validation_before_contact"):
         summary.pop(k, None)
-    return simsup.write_run(out, setup, cfg, setup.garment_spec, lp, block, norms, shim, fit, summary)
+    return runfolder.write_run(out, setup, cfg, setup.garment_spec, lp, block, norms, shim, fit, summary)

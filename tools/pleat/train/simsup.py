@@ -21,6 +21,9 @@ import numpy as np
 import torch
 
 from pleat.train import core, distill, forkpool, simdata, sources
+from pleat.train.runfolder import (CANDIDATES_FILE, load_model, model_name, run_contact_candidates,  # noqa: F401
+                                   write_run)
+from pleat.train.shim import model_shim
 
 
 def _clips(split, fps, body, required=True):
@@ -278,35 +281,6 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     return path, summary
 
 
-def write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary, contact_tuned=False, **state):
-    """A simsup run folder's files from its model: simsup.pt (what load_model reads, plus `state`),
-    simsup_summary.json and the packed <garment>.pleat (fp16 / ONNX sections as cfg's simsup section says, META with
-    the summary). Returns the asset's path."""
-    c = cfg["simsup"]
-    torch.save(dict({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
-                     "config": cfg, "garment": garment}, **state), out / "simsup.pt")
-    (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
-    path = out / f"{setup.name}.pleat"
-    tier_name = report.get("tier") or c["tier"]        # a second round of students: "<n>x<tier>"
-    distill.pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=tier_name), cfg["fps"],
-                      fp16=c.get("fp16", True), teacher="reference simulator",
-                      model=model_name(report, contact=contact_tuned), training=summary,
-                      onnx=bool(c.get("onnx", False)), contact_candidates=run_contact_candidates(out))
-    return path
-
-
-CANDIDATES_FILE = "contact_candidates.npz"
-
-
-def run_contact_candidates(out):
-    """The run folder's body-contact candidates from simulated frames (write_contact_candidates), or None."""
-    path = Path(out) / CANDIDATES_FILE
-    if not path.is_file():
-        return None
-    with np.load(path, allow_pickle=False) as z:
-        return np.asarray(z["candidate_vertices"], np.int64)
-
-
 def write_contact_candidates(path, setup, seqs, count, stride=3, progress=False):
     """Each garment vertex's body-contact candidates, chosen from the simulated frames of `seqs`
     (pleat.train.contact.candidate_vertices), to `path` (a run folder's CANDIDATES_FILE: every asset the run packs
@@ -321,15 +295,6 @@ def write_contact_candidates(path, setup, seqs, count, stride=3, progress=False)
         print(f"simsup: {count} contact candidates per vertex from {len(seqs)} simulated sequences "
               f"({time.time() - t0:.0f} s) -> {path}", file=sys.stderr)
     return table
-
-
-def model_name(report, contact=False):
-    """The asset META's model line of a simsup fit (report: distill's, or the ensemble's)."""
-    members = report.get("ensemble_of")
-    fitted = "networks distilled from a fit" if report.get("students_of") else "fits"
-    what = (f"the mean of {len(members)} {members[0]} {fitted} to the reference simulator, packed as one network"
-            if members else "inference block fitted to the reference simulator")
-    return f"pleat simulator-supervised: {what}" + (", contact-aware fine-tune" if contact else "")
 
 
 def user_simulations(setup, specs, fps, log=None, progress=True):
@@ -383,23 +348,6 @@ def teacher_only_sequences(setup, train_clips, frames, seed):
         out.append(simdata.sequence(setup, clip, np.array(seg.beta), np.array(seg.material)))
         total += len(out[-1]["static"])
     return out
-
-
-def load_model(run_dir):
-    """(lp, block, norms, shim, setup) of a simsup run (simsup.pt)."""
-    from pleat.eval.tiers import tier
-    state = torch.load(Path(run_dir) / "simsup.pt", weights_only=False)
-    cfg = state["config"]
-    setup = core.Setup(cfg, state["garment"], "cpu")
-    spec = tier(state.get("report", {}).get("tier") or cfg["simsup"]["tier"])   # a second round: "<n>x<tier>"
-    L, D = state["norms"]["z_mean"].shape[0], state["block"]["blend_shapes"].shape[0]
-    shim = distill._shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
-    lp = core.LatentPredictor(shim, state["norms"])
-    lp.load_state_dict(state["lp"])
-    from pleat.train.model import InferenceBlock
-    block = InferenceBlock(shim.cfg["model"], setup.N, free_mask=setup.free_mask)
-    block.load_state_dict(state["block"])
-    return lp.eval(), block.eval(), state["norms"], shim, setup
 
 
 def teacher_data(lp, block, setup, seqs, val, train_clips, teacher_frames, seed):
@@ -630,7 +578,7 @@ def run_from_asset(asset, garment, cfg, run_dir):
     spec = tier(cfg["simsup"]["tier"])
     norms = {k: np.asarray(w[k], np.float64) for k in ("x_mean", "x_std", "z_mean", "z_std", "z_min", "z_max")}
     L, D = len(norms["z_mean"]), int(w["blend_shapes"].shape[0])
-    shim = distill._shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
+    shim = model_shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, setup.L)
     lp = core.LatentPredictor(shim, norms)
     block = InferenceBlock(shim.cfg["model"], setup.N, free_mask=setup.free_mask)
     with torch.no_grad():
