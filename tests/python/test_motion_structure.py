@@ -9,7 +9,7 @@ import pytest
 from motion_schemes import SCHEMES, bvh_text, expected_map
 from pleat.motion import cli as motion_cli
 from pleat.motion.check import BONE_LIMIT_DEG, INSIDE_LIMIT
-from pleat.motion.loaders import load_clip
+from pleat.motion.loaders import MotionFileError, load_clip
 
 WRONG_BIOVISION = {"LeftShoulder": "left_collar", "RightShoulder": "right_collar"}
 
@@ -25,8 +25,8 @@ def test_each_scheme_maps_by_structure_with_the_sources_bone_directions(body, tm
     assert check.problems == []
     if not (scheme == "body" and pose == "A"):      # the body's own skeleton is read exactly, not retargeted
         assert check.worst_bone[1] < 1.0 < BONE_LIMIT_DEG and len(check.bone_deg) >= 12
-    # the motion keeps the forearms out of the torso: no more than the arms-down rest pose itself gives
-    assert check.inside_fraction <= (0.2 if pose == "down" else 0.01)
+    # the motion keeps the forearms and hands out of the body, in every rest pose
+    assert check.inside_fraction <= 0.01
 
 
 @pytest.mark.parametrize("pose", ["A", "T"])
@@ -46,6 +46,30 @@ def test_biovision_names_through_the_mixamo_table_are_reported(body, tmp_path, p
     assert motion_cli.main(["convert", str(path), "--joint-map", str(jmap), "--out", str(out), "--strict"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "retargeting check failed (--strict)" in err[0] and not out.exists()
+
+
+def test_a_wrong_map_that_puts_the_forearms_through_the_chest_is_reported_by_the_self_intersection(body, tmp_path,
+                                                                                                   capsys):
+    # arms hanging in the source's rest: the collar takes the upper arm's rotation and the arm goes into the chest,
+    # while the bone directions stay within the limit, so this measure alone must report it
+    path = tmp_path / "bio.bvh"
+    path.write_text(bvh_text(body, "biovision", "down"))
+    jmap = tmp_path / "wrong.json"
+    jmap.write_text(json.dumps(WRONG_BIOVISION))
+    _, _, check = load_clip(path, body, joint_map_file=jmap, with_check=True, check=False)
+    assert check.inside_fraction > INSIDE_LIMIT and any("inside the body" in p for p in check.problems)
+    load_clip(path, body, joint_map_file=jmap)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "forearms and hands inside the body" in err[0]
+    with pytest.raises(MotionFileError, match="retargeting check failed"):
+        load_clip(path, body, joint_map_file=jmap, strict=True)
+
+
+def test_the_same_source_matched_right_has_no_forearm_inside_the_body(body, tmp_path):
+    path = tmp_path / "bio.bvh"
+    path.write_text(bvh_text(body, "biovision", "down"))
+    _, _, check = load_clip(path, body, with_check=True, check=False)
+    assert check.inside_fraction == 0.0 and check.problems == []
 
 
 def test_structure_not_names_decides_biovisions_shoulder(body, tmp_path):

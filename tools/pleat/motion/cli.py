@@ -14,7 +14,7 @@ JOINT_MAP_HELP = ("JSON file {\"source joint\": \"body joint\" or null} for a BV
 ANIMATION_HELP = "glTF / GLB: the animation to read, by name or index (default: the first)"
 
 STRICT_HELP = ("refuse a clip whose retargeting check goes beyond what the training clips do (bone directions more "
-               "than 10° off the source's, forearms inside the torso), instead of warning; PLEAT_MOTION_STRICT=1 "
+               "than 10° off the source's, forearms and hands inside the body), instead of warning; PLEAT_MOTION_STRICT=1 "
                "does this in every tool")
 
 
