@@ -1,5 +1,5 @@
-"""Would canonical spine inputs help on motion from another source? (docs/accuracy.md, "Motion expressed unlike the
-training data's"; not a test, a probe.) All training motion spreads the chest's rotation evenly over spine1..3; a
+"""Would canonical spine inputs help on motion from another source? (docs/accuracy.md, "Motion from a skeleton unlike
+the training data's"; not a test, a probe.) All training motion spreads the chest's rotation evenly over spine1..3; a
 source with a real spine does not. Per clip: the clip re-expressed with the 0.5 / 0.3 / 0.2 split
 (bench/reexpress_clips.py), the reference simulated on it, and the shipped t-shirt through the Python reference
 twice: as the runtime runs it, and with the networks fed the even split of the same chest rotation while skinning

@@ -1,27 +1,41 @@
 #!/usr/bin/env python3
-"""Write the numbers block of README.md from measured JSON, so that no figure on the front page is typed by hand.
+"""Write the numbers blocks of README.md and docs/accuracy.md from measured JSON, so that no figure on the front
+page or in the accuracy tables is typed by hand.
 
-    scripts/docs-numbers.py                      # rewrite README.md from the committed JSON
-    scripts/docs-numbers.py --check              # exit 1 if README.md's block is not what the JSON gives
-    scripts/docs-numbers.py --print              # print the block
+    scripts/docs-numbers.py                      # rewrite both blocks from the committed JSON
+    scripts/docs-numbers.py --check              # exit 1 if a block is not what the JSON gives
+    scripts/docs-numbers.py --print              # print README.md's block
     scripts/docs-numbers.py --bench out/bench/step.json --print   # the block for your own scripts/bench.sh run
+    scripts/docs-numbers.py --garments-from SUITE.json [SUITE2.json ...] [--machine "CPU, cores"]
+                                                 # bench/results/accuracy-garments.json from pleat-eval-suite
+                                                 # reports, then both blocks
 
 Inputs: bench/results/cpu-reference.json (step times, keys as in out/bench/step.json, plus a "machine" object
-naming the CPU, the kernels chosen and the load) and bench/results/accuracy-reference.json (errors against the
-reference simulator). The block sits between the markers BEGIN and END below; everything outside it is left alone.
-tests/python/test_docs_numbers.py fails when README.md and the committed JSON disagree.
+naming the CPU, the kernels chosen and the load), bench/results/accuracy-reference.json (errors against the
+reference simulator, README.md's accuracy paragraph) and bench/results/accuracy-garments.json (a row per garment and
+tier: a trimmed pleat-eval-suite summary, docs/accuracy.md's tables; format in garments_from_suites). Each block
+sits between its markers (BEGIN / END, GARMENTS_BEGIN / GARMENTS_END below); everything outside them is left alone.
+tests/python/test_docs_numbers.py fails when a page and the committed JSON disagree.
 """
 import argparse
 import json
+import os
+import platform
+import shlex
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH_JSON = ROOT / "bench" / "results" / "cpu-reference.json"
 ACCURACY_JSON = ROOT / "bench" / "results" / "accuracy-reference.json"
+GARMENTS_JSON = ROOT / "bench" / "results" / "accuracy-garments.json"
 README = ROOT / "README.md"
+ACCURACY_PAGE = ROOT / "docs" / "accuracy.md"
 BEGIN = "<!-- numbers:begin (written by scripts/docs-numbers.py from bench/results/*.json; do not edit by hand) -->"
 END = "<!-- numbers:end -->"
+GARMENTS_BEGIN = ("<!-- garments:begin (written by scripts/docs-numbers.py from bench/results/accuracy-garments.json; "
+                  "do not edit by hand) -->")
+GARMENTS_END = "<!-- garments:end -->"
 
 
 def _num(value, digits=1):
@@ -133,51 +147,293 @@ def render(bench, accuracy):
     return "\n".join(lines) + "\n"
 
 
-def splice(readme_text, block):
-    """README text with the block between the markers replaced; ValueError when the markers are missing."""
-    start = readme_text.find(BEGIN)
-    end = readme_text.find(END)
+def splice(readme_text, block, begin=BEGIN, end_marker=END, page="README.md"):
+    """The page's text with the block between the markers replaced; ValueError when the markers are missing."""
+    start = readme_text.find(begin)
+    end = readme_text.find(end_marker)
     if start < 0 or end < 0 or end < start:
-        raise ValueError(f"README.md has no numbers block (the line {BEGIN!r} ... {END!r})")
-    return readme_text[:start] + BEGIN + "\n" + block + readme_text[end:]
+        raise ValueError(f"{page} has no numbers block (the line {begin!r} ... {end_marker!r})")
+    return readme_text[:start] + begin + "\n" + block + readme_text[end:]
 
 
 def load(bench_path=BENCH_JSON, accuracy_path=ACCURACY_JSON):
     return json.loads(Path(bench_path).read_text()), json.loads(Path(accuracy_path).read_text())
 
 
+def load_garments(path=GARMENTS_JSON):
+    return json.loads(Path(path).read_text())
+
+
+# --- docs/accuracy.md: a row per garment and tier -------------------------------------------------------------------
+
+TIER_ORDER = ("large", "medium", "small", "xsmall")
+# the pleat-eval-suite summary keys a row keeps, as the suite names them (pleat.eval.suite.summarise)
+SUMMARY_KEYS = ("runs", "mean_mm", "p95_mm", "lbs_mean_mm", "ratio_to_lbs", "ratio_to_lbs_paired",
+                "worst_ratio_to_lbs", "clips_worse_than_lbs", "spread_mean_mm", "ratio_to_spread",
+                "penetration_pct", "lbs_penetration_pct", "reference_penetration_pct", "step_us")
+REGION_KEYS = ("vertices", "mean_mm", "p95_mm", "lbs_mean_mm", "ratio_to_lbs", "ratio_to_lbs_paired",
+               "edge_strain_error", "lbs_edge_strain_error", "penetration_pct", "lbs_penetration_pct")
+
+
+def _rounded(value, digits=4):
+    return round(float(value), digits) if isinstance(value, float) else value
+
+
+def _meta_of(asset_path):
+    """The META JSON of a packed asset as a dict, or {} when the file cannot be read (the suite's report then names
+    the garment, and the file name the tier)."""
+    for base in (Path.cwd(), ROOT):
+        path = base / asset_path
+        if path.is_file():
+            break
+    else:
+        return {}
+    try:
+        sys.path.insert(0, str(ROOT / "tools"))
+        from pleat.asset import read_asset
+        meta = read_asset(path.read_bytes()).get("metadata_json")
+    except Exception:   # noqa: BLE001 - an unreadable asset falls back to the report's fields
+        return {}
+    finally:
+        sys.path.remove(str(ROOT / "tools"))
+    if isinstance(meta, (bytes, str)):
+        try:
+            meta = json.loads(meta)
+        except ValueError:
+            return {}
+    return meta if isinstance(meta, dict) else {}
+
+
+def _tier_from_name(stem, garment):
+    """The tier a file name says: GARMENT.pleat is the top tier, GARMENT_TIER.pleat the cheaper ones."""
+    if garment and stem.startswith(garment + "_") and stem[len(garment) + 1:] in TIER_ORDER:
+        return stem[len(garment) + 1:]
+    for t in TIER_ORDER:
+        if stem.endswith("_" + t):
+            return t
+    return "large"
+
+
+def _suite_command(report):
+    """The pleat-eval-suite command a report came from, rebuilt from its runs (the report does not store it)."""
+    runs = [r for a in report.values() for r in a.get("runs", [])]
+    parts = ["PLEAT_LIBRARY=build/eval/libpleat.so", "pleat-eval-suite", "--assets", *report.keys()]
+    clips = list(dict.fromkeys(r["clip"] for r in runs))
+    try:
+        sys.path.insert(0, str(ROOT / "tools"))
+        from pleat.eval.suite import _clips
+        validation = _clips(["validation"])
+    except Exception:   # noqa: BLE001 - without the package the clips are named one by one
+        validation = None
+    finally:
+        sys.path.remove(str(ROOT / "tools"))
+    if clips and clips != validation:
+        parts += ["--clips", *clips]
+    betas = []
+    for r in runs:
+        b = [float(v) for v in r.get("beta") or []]
+        while b and b[-1] == 0.0:
+            b.pop()
+        text = ",".join(f"{v:g}" for v in b) or "0"
+        if text not in betas:
+            betas.append(text)
+    if betas != ["0"]:
+        parts += ["--betas", ";".join(betas)]
+    frames = max((int(r.get("frames", 0)) for r in runs), default=60)
+    if frames != 60:
+        parts += ["--max-frames", str(frames)]
+    if runs and all(r.get("reference_spread") for r in runs):
+        parts.append("--reference-spread")
+    parts += ["--out", "SUITE.json"]
+    return " ".join(p if p.startswith("PLEAT_LIBRARY=") else shlex.quote(p) for p in parts)
+
+
+def this_machine():
+    """'CPU model, N logical CPUs' of the machine this runs on (what a suite's step times were measured on when it
+    ran here; --machine says otherwise)."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} logical CPUs"
+
+
+def garment_row(asset, summary, runs, command, machine, meta=None):
+    """One row of accuracy-garments.json from one asset of a pleat-eval-suite report."""
+    meta = _meta_of(asset) if meta is None else meta
+    garment = meta.get("garment") or next((r.get("garment") for r in runs if r.get("garment")), None)
+    stem = Path(asset).stem
+    garment = garment if garment and garment != "None" else stem.split("_")[0]
+    tier = meta.get("tier") or _tier_from_name(stem, garment)
+    training = meta.get("training") if isinstance(meta.get("training"), dict) else {}
+    row = {"garment": garment, "tier": tier, "asset": str(asset),
+           "vertices": meta.get("vertices") or next((r.get("vertices") for r in runs if r.get("vertices")), None),
+           "clips": len({r["clip"] for r in runs}) if runs else None,
+           "betas": len({json.dumps(r.get("beta")) for r in runs}) if runs else None}
+    for k in SUMMARY_KEYS:
+        row[k] = _rounded(summary.get(k))
+    everything = (summary.get("regions") or {}).get("all") or {}
+    row["edge_strain_error"] = _rounded(everything.get("edge_strain_error"), 5)
+    row["lbs_edge_strain_error"] = _rounded(everything.get("lbs_edge_strain_error"), 5)
+    row["step_machine"] = machine
+    row["training_cpu_hours"] = _rounded(training.get("cpu_hours"), 2)
+    row["simulation_cpu_hours"] = _rounded(training.get("simulation_cpu_h"), 2)
+    row["regions"] = {name: {k: _rounded(g.get(k), 5 if "strain" in k else 4) for k in REGION_KEYS}
+                      for name, g in (summary.get("regions") or {}).items() if name != "all"}
+    row["command"] = command
+    return row
+
+
+def _row_order(row):
+    tier = row["tier"]
+    return (row["garment"], TIER_ORDER.index(tier) if tier in TIER_ORDER else len(TIER_ORDER), tier)
+
+
+def garments_from_suites(paths, machine=None, metas=None):
+    """accuracy-garments.json from pleat-eval-suite reports: {"about", "rows"}, a row per asset (a later report's
+    row replaces an earlier one of the same garment and tier), sorted by garment and tier. A row holds the garment,
+    tier, asset, vertices, the numbers of clips and bodies, the suite summary's SUMMARY_KEYS (null where the suite
+    gave none, e.g. the spread without --reference-spread), the "all" region's edge-strain errors, the machine of
+    step_us, the training CPU-hours from the asset's META (training.cpu_hours, simulation included, and
+    training.simulation_cpu_h; null where META does not record them), every other region's REGION_KEYS and the
+    suite command. metas: {asset: META dict} instead of reading the asset files (tests)."""
+    machine = machine or this_machine()
+    rows = {}
+    for path in paths:
+        report = json.loads(Path(path).read_text())
+        command = _suite_command(report)
+        for asset, result in report.items():
+            meta = (metas or {}).get(asset)
+            row = garment_row(asset, result["summary"], result.get("runs", []), command, machine, meta)
+            rows[(row["garment"], row["tier"])] = row
+    return {"about": ("Accuracy of the shipped garments against the reference simulator, a row per garment and "
+                      "tier: pleat-eval-suite's summary, trimmed (scripts/docs-numbers.py --garments-from writes "
+                      "it, and docs/accuracy.md's tables from it). mm = mean posed vertex distance; ratios are "
+                      "Pleat's error over LBS-only's (paired: the mean of per-run ratios); penetration = % of "
+                      "vertex-frames inside the posed body; step_us = median plInstance_Step of the suite (one "
+                      "thread, through ctypes) on step_machine; training_cpu_hours from the asset's META, "
+                      "simulation included."),
+            "rows": sorted(rows.values(), key=_row_order)}
+
+
+def _cell(value, digits=1, suffix=""):
+    if value is None:
+        return "—"
+    if digits == 0:
+        return f"{int(round(float(value))):,}{suffix}"
+    return f"{_num(float(value), digits)}{suffix}"
+
+
+def render_garments(garments):
+    """docs/accuracy.md's block (without the markers): the table of garments and tiers, then their regions."""
+    rows = garments["rows"]
+    machines = list(dict.fromkeys(r.get("step_machine") for r in rows if r.get("step_us") is not None))
+    one_machine = len(machines) == 1
+    lines = ["| garment | tier | vertices | runs | mean / p95 (mm) | × LBS-only (paired; worst run) | "
+             "× reference spread (spread mm) | inside the body %: Pleat / LBS-only / reference | "
+             "edge-strain error: Pleat / LBS-only | step (µs) | training CPU-hours |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        step = _cell(r.get("step_us"))
+        if r.get("step_us") is not None and not one_machine:
+            step += f" ({r.get('step_machine')})"
+        cpu = _cell(r.get("training_cpu_hours"), 2)
+        if r.get("simulation_cpu_hours") is not None:
+            cpu += f" ({_num(float(r['simulation_cpu_hours']), 2)} of them simulating)"
+        worse = r.get("clips_worse_than_lbs")
+        worst = _cell(r.get("worst_ratio_to_lbs"), 2)
+        if worse:
+            worst += f", {len(worse)} worse than LBS-only"
+        lines.append(
+            f"| {r['garment']} | {r['tier']} | {_cell(r.get('vertices'), 0)} | {_cell(r.get('runs'), 0)} | "
+            f"**{_cell(r.get('mean_mm'))}** / {_cell(r.get('p95_mm'))} | {_cell(r.get('ratio_to_lbs'), 2)} "
+            f"({_cell(r.get('ratio_to_lbs_paired'), 2)}; {worst}) | {_cell(r.get('ratio_to_spread'), 2)} "
+            f"({_cell(r.get('spread_mean_mm'))}) | {_cell(r.get('penetration_pct'), 2)} / "
+            f"{_cell(r.get('lbs_penetration_pct'), 2)} / {_cell(r.get('reference_penetration_pct'), 2)} | "
+            f"{_cell(r.get('edge_strain_error'), 3)} / {_cell(r.get('lbs_edge_strain_error'), 3)} | {step} | {cpu} |")
+    lines.append("")
+    if one_machine:
+        lines.append(f"Step times: the suite's median `plInstance_Step`, one thread, measured on {machines[0]}.")
+    elif not machines:
+        lines.append("No step time in these rows yet (docs/benchmarks.md has the shipped assets' step times).")
+    commands = list(dict.fromkeys(r.get("command") for r in rows if r.get("command")))
+    lines.append("Made with " + "; ".join(f"`{c}`" for c in commands) + "." if commands else
+                 "The command that made these rows is not recorded.")
+    regional = [(r, name, g) for r in rows for name, g in (r.get("regions") or {}).items()]
+    lines.append("")
+    if not regional:
+        lines.append("No per-region numbers in bench/results/accuracy-garments.json yet: its rows were not made "
+                     "from a `pleat-eval-suite` report with regions.")
+        return "\n".join(lines) + "\n"
+    lines += ["Per region (the regions of [Regions](#regions)), hardest first within each garment and tier (the "
+              "highest error against LBS-only's):", "",
+              "| garment | tier | region | vertices | mean / p95 (mm) | LBS-only mean (mm) | × LBS-only (paired) | "
+              "edge-strain error: Pleat / LBS-only | inside the body %: Pleat / LBS-only |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        regions = sorted((r.get("regions") or {}).items(), key=lambda kv: -(kv[1].get("ratio_to_lbs_paired") or 0.0))
+        for name, g in regions:
+            lines.append(
+                f"| {r['garment']} | {r['tier']} | {name} | {_cell(g.get('vertices'), 0)} | "
+                f"{_cell(g.get('mean_mm'))} / {_cell(g.get('p95_mm'))} | {_cell(g.get('lbs_mean_mm'))} | "
+                f"{_cell(g.get('ratio_to_lbs'), 2)} ({_cell(g.get('ratio_to_lbs_paired'), 2)}) | "
+                f"{_cell(g.get('edge_strain_error'), 3)} / {_cell(g.get('lbs_edge_strain_error'), 3)} | "
+                f"{_cell(g.get('penetration_pct'), 2)} / {_cell(g.get('lbs_penetration_pct'), 2)} |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--bench", default=str(BENCH_JSON), help="benchmark JSON (default: %(default)s)")
     p.add_argument("--accuracy", default=str(ACCURACY_JSON), help="accuracy JSON (default: %(default)s)")
+    p.add_argument("--garments", default=str(GARMENTS_JSON),
+                   help="garments accuracy JSON (default: %(default)s)")
     p.add_argument("--readme", default=str(README))
+    p.add_argument("--accuracy-page", default=str(ACCURACY_PAGE))
     mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--check", action="store_true", help="exit 1 if the README block is out of date")
-    mode.add_argument("--print", action="store_true", help="print the block instead of writing README.md")
+    mode.add_argument("--check", action="store_true", help="exit 1 if a block is out of date")
+    mode.add_argument("--print", action="store_true", help="print README.md's block instead of writing the pages")
+    mode.add_argument("--garments-from", nargs="+", metavar="SUITE.json",
+                      help="write --garments from these pleat-eval-suite reports, then the pages")
+    p.add_argument("--machine", default=None,
+                   help="with --garments-from: the machine the suites' step times were measured on "
+                        "(default: this one's CPU model and count)")
     a = p.parse_args(argv)
     try:
+        if a.garments_from:
+            garments = garments_from_suites(a.garments_from, a.machine)
+            Path(a.garments).write_text(json.dumps(garments, indent=1, ensure_ascii=False) + "\n")
         bench, accuracy = load(a.bench, a.accuracy)
         block = render(bench, accuracy)
+        garments_block = render_garments(load_garments(a.garments))
     except (OSError, ValueError, KeyError) as e:
         print(f"docs-numbers: error: {e}", file=sys.stderr)
         return 2
     if a.print:
         sys.stdout.write(block)
         return 0
-    readme = Path(a.readme)
-    text = readme.read_text()
-    try:
-        new = splice(text, block)
-    except ValueError as e:
-        print(f"docs-numbers: error: {e}", file=sys.stderr)
-        return 2
+    pages = ((Path(a.readme), block, BEGIN, END), (Path(a.accuracy_page), garments_block, GARMENTS_BEGIN, GARMENTS_END))
+    updates = []
+    for path, text_block, begin, end in pages:
+        text = path.read_text()
+        try:
+            new = splice(text, text_block, begin, end, path.name)
+        except ValueError as e:
+            print(f"docs-numbers: error: {e}", file=sys.stderr)
+            return 2
+        updates.append((path, text, new))
     if a.check:
+        stale = [path for path, text, new in updates if new != text]
+        for path in stale:
+            print(f"docs-numbers: {path} is out of date: run scripts/docs-numbers.py", file=sys.stderr)
+        return 1 if stale else 0
+    for path, text, new in updates:
         if new != text:
-            print(f"docs-numbers: {readme} is out of date: run scripts/docs-numbers.py", file=sys.stderr)
-            return 1
-        return 0
-    if new != text:
-        readme.write_text(new)
+            path.write_text(new)
     return 0
 
 

@@ -1,6 +1,7 @@
-"""README.md's numbers block is what scripts/docs-numbers.py writes from the committed JSON
-(bench/results/cpu-reference.json, accuracy-reference.json): a figure changed by hand, or a JSON updated without
-rerunning the script, fails here."""
+"""README.md's numbers block and docs/accuracy.md's garments table are what scripts/docs-numbers.py writes from the
+committed JSON (bench/results/cpu-reference.json, accuracy-reference.json, accuracy-garments.json): a figure changed
+by hand, or a JSON updated without rerunning the script, fails here. The conversion of pleat-eval-suite reports into
+accuracy-garments.json (--garments-from) is checked on a small synthetic report."""
 import importlib.util
 import json
 import re
@@ -61,3 +62,112 @@ def test_a_readme_without_markers_is_an_error(docs_numbers, tmp_path):
     plain = tmp_path / "README.md"
     plain.write_text("# no block\n")
     assert docs_numbers.main(["--check", "--readme", str(plain)]) == 2
+
+
+# --- docs/accuracy.md: the table of garments and tiers (bench/results/accuracy-garments.json) ----------------------
+
+def test_accuracy_page_block_equals_what_the_script_writes_from_the_committed_json(docs_numbers):
+    page = (ROOT / "docs" / "accuracy.md").read_text()
+    block = docs_numbers.render_garments(docs_numbers.load_garments())
+    assert docs_numbers.splice(page, block, docs_numbers.GARMENTS_BEGIN, docs_numbers.GARMENTS_END) == page, \
+        "docs/accuracy.md's garments table is stale: run scripts/docs-numbers.py"
+
+
+def test_a_hand_edited_accuracy_table_is_caught_and_rewritten(docs_numbers, tmp_path):
+    page = (ROOT / "docs" / "accuracy.md").read_text()
+    edited = tmp_path / "accuracy.md"
+    edited.write_text(page.replace("| tshirt | large |", "| tshirt | large (edited) |", 1))
+    assert edited.read_text() != page
+    assert docs_numbers.main(["--check", "--accuracy-page", str(edited)]) == 1
+    assert docs_numbers.main(["--accuracy-page", str(edited)]) == 0
+    assert edited.read_text() == page
+
+
+def test_every_committed_garment_row_has_the_columns_the_page_shows(docs_numbers):
+    rows = docs_numbers.load_garments()["rows"]
+    assert rows, "bench/results/accuracy-garments.json has no rows"
+    for row in rows:
+        for key in ("garment", "tier", "asset", "vertices", "command", "regions", "step_machine",
+                    "training_cpu_hours", "edge_strain_error", "lbs_edge_strain_error") + docs_numbers.SUMMARY_KEYS:
+            assert key in row, (row.get("garment"), row.get("tier"), key)
+
+
+def _run(clip, beta, pleat_mm, lbs_mm, spread_mm=None):
+    """One run of a pleat-eval-suite report, reduced to the keys the conversion reads."""
+    return {"clip": clip, "beta": beta, "frames": 60, "garment": "dress", "vertices": 400,
+            "pleat": {"mean_mm": pleat_mm}, "lbs": {"mean_mm": lbs_mm},
+            "reference_spread": None if spread_mm is None else {"mean_mm": spread_mm}}
+
+
+def _synthetic_suite(tmp_path):
+    """Two assets of one garment (the top tier and a cheaper one) in the shape pleat-eval-suite writes."""
+    regions = {"all": {"vertices": 400, "mean_mm": 20.0, "p95_mm": 40.0, "edge_strain_error": 0.031,
+                       "lbs_edge_strain_error": 0.052, "penetration_pct": 0.5, "lbs_penetration_pct": 2.0,
+                       "lbs_mean_mm": 30.0, "lbs_p95_mm": 60.0, "ratio_to_lbs": 0.667, "ratio_to_lbs_paired": 0.66},
+               "skirt": {"vertices": 259, "mean_mm": 28.0, "p95_mm": 55.0, "edge_strain_error": 0.04,
+                         "lbs_edge_strain_error": 0.06, "penetration_pct": 0.1, "lbs_penetration_pct": 0.3,
+                         "lbs_mean_mm": 35.0, "lbs_p95_mm": 70.0, "ratio_to_lbs": 0.8, "ratio_to_lbs_paired": 0.82},
+               "bodice": {"vertices": 147, "mean_mm": 9.0, "p95_mm": 20.0, "edge_strain_error": 0.02,
+                          "lbs_edge_strain_error": 0.04, "penetration_pct": 1.2, "lbs_penetration_pct": 4.0,
+                          "lbs_mean_mm": 20.0, "lbs_p95_mm": 40.0, "ratio_to_lbs": 0.45, "ratio_to_lbs_paired": 0.44}}
+    summary = {"runs": 2, "mean_mm": 20.0, "p95_mm": 40.0, "lbs_mean_mm": 30.0, "lbs_p95_mm": 60.0,
+               "ratio_to_lbs": 0.6667, "ratio_to_lbs_paired": 0.66, "worst_ratio_to_lbs": 0.7,
+               "clips_worse_than_lbs": [], "penetration_pct": 0.5, "lbs_penetration_pct": 2.0,
+               "reference_penetration_pct": 0.8, "jitter": 3.0, "lbs_jitter": 2.5, "step_us": 55.25,
+               "spread_mean_mm": 10.0, "ratio_to_spread": 2.0, "regions": regions}
+    runs = [_run("deepmimic_github/humanoid3d_jog", [0.0, 0.0], 18.0, 28.0, 9.0),
+            _run("deepmimic_github/humanoid3d_jog", [1.5, -1.0], 22.0, 32.0, 11.0)]
+    cheap = dict(summary, mean_mm=24.0, ratio_to_lbs_paired=0.8, step_us=20.0, regions={})
+    suite = {"out/dress.pleat": {"summary": summary, "runs": runs},
+             "out/dress_small.pleat": {"summary": cheap, "runs": runs}}
+    path = tmp_path / "suite.json"
+    path.write_text(json.dumps(suite))
+    return path
+
+
+def test_garments_from_a_suite_gives_a_row_per_garment_and_tier(docs_numbers, tmp_path):
+    path = _synthetic_suite(tmp_path)
+    metas = {"out/dress.pleat": {"garment": "dress", "tier": "large", "vertices": 400,
+                                 "training": {"cpu_hours": 3.456, "simulation_cpu_h": 2.5}},
+             "out/dress_small.pleat": {}}       # no META: the report names the garment, the file name the tier
+    garments = docs_numbers.garments_from_suites([path], machine="Test CPU, 2 cores", metas=metas)
+    rows = garments["rows"]
+    assert [(r["garment"], r["tier"]) for r in rows] == [("dress", "large"), ("dress", "small")]
+    large, small = rows
+    assert large["vertices"] == 400 and large["runs"] == 2 and large["clips"] == 1 and large["betas"] == 2
+    assert large["mean_mm"] == 20.0 and large["ratio_to_lbs_paired"] == 0.66 and large["ratio_to_spread"] == 2.0
+    assert large["edge_strain_error"] == 0.031 and large["lbs_edge_strain_error"] == 0.052
+    assert large["step_us"] == 55.25 and large["step_machine"] == "Test CPU, 2 cores"
+    assert large["training_cpu_hours"] == 3.46 and large["simulation_cpu_hours"] == 2.5
+    assert set(large["regions"]) == {"skirt", "bodice"}                 # "all" is the row itself
+    assert large["regions"]["skirt"]["ratio_to_lbs_paired"] == 0.82
+    assert "jitter" not in large
+    assert small["training_cpu_hours"] is None and small["regions"] == {} and small["mean_mm"] == 24.0
+    command = large["command"]
+    assert command.startswith("PLEAT_LIBRARY=build/eval/libpleat.so pleat-eval-suite --assets out/dress.pleat")
+    assert "--betas '0;1.5,-1'" in command and "--reference-spread" in command
+    assert "--clips deepmimic_github/humanoid3d_jog" in command
+
+    block = docs_numbers.render_garments(garments)
+    assert "| dress | large | 400 | 2 | **20.0** / 40.0 | 0.67 (0.66; 0.70) | 2.00 (10.0) |" in block
+    assert "| 0.031 / 0.052 | 55.2 | 3.46 (2.50 of them simulating) |" in block
+    assert "Test CPU, 2 cores" in block
+    skirt = block.index("| dress | large | skirt |")
+    assert skirt < block.index("| dress | large | bodice |"), "the hardest region (against LBS-only) comes first"
+
+
+def test_garments_from_writes_the_json_and_the_page(docs_numbers, tmp_path):
+    path = _synthetic_suite(tmp_path)
+    out = tmp_path / "accuracy-garments.json"
+    page = tmp_path / "accuracy.md"
+    page.write_text(f"# x\n{docs_numbers.GARMENTS_BEGIN}\nold\n{docs_numbers.GARMENTS_END}\nafter\n")
+    readme = tmp_path / "README.md"
+    readme.write_text((ROOT / "README.md").read_text())
+    assert docs_numbers.main(["--garments-from", str(path), "--machine", "Test CPU", "--garments", str(out),
+                              "--accuracy-page", str(page), "--readme", str(readme)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    assert {(r["garment"], r["tier"]) for r in rows} == {("dress", "large"), ("dress", "small")}
+    text = page.read_text()
+    assert "old" not in text and "| dress | small |" in text and text.endswith(f"{docs_numbers.GARMENTS_END}\nafter\n")
+    assert docs_numbers.main(["--check", "--garments", str(out), "--accuracy-page", str(page),
+                              "--readme", str(readme)]) == 0
