@@ -63,7 +63,7 @@ SHIPPED = tuple(t for t in TIERS if t.asset)     # the tier ladder, cheapest fir
 def packed(name, count):
     """The sizes of `count` networks of tier `name` packed as one (pleat.train.ensemble: summed widths, equal blocks
     the runtime skips between), named "<count>x<name>"; e.g. packed("small", 6) for the six small students of
-    docs/training.md (stop 22, 24)."""
+    CHANGELOG.md, "Training" (larger ensembles and more teacher-only motion, tried and not kept)."""
     t = tier(name)
     return Tier(f"{count}x{t.name}", vertices=t.vertices, latent=count * t.latent, blend=count * t.blend,
                 lp_hidden=tuple(count * w for w in t.lp_hidden), dec_hidden=tuple(count * w for w in t.dec_hidden),
