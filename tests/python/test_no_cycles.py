@@ -13,25 +13,13 @@ What counts in Python (tools/pleat): a node is a module (a package's __init__ is
 module it imports anywhere in its text, function-level imports included (`from pkg import name` names the module
 pkg.name where there is one, else pkg).
 
-A component that another change in flight still has to break may be listed in PENDING with the fix it needs; any
-other component, or a listed one that grows, fails the test.
+Any component of two or more files fails the test.
 """
 import ast
 import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-
-# Components through files another change owns (tools/pleat/motion/check.py and structure.py), each with what would
-# break it. Remove an entry when its component is gone.
-PENDING = {
-    frozenset({"pleat.motion.joint_map", "pleat.motion.structure"}):
-        "structure.py imports guess_joint_map, MIXAMO_TO_BODY and strip_namespace from joint_map, which calls "
-        "structure_map: the name tables belong in a module below both",
-    frozenset({"pleat.motion", "pleat.motion.check", "pleat.motion.loaders", "pleat.show", "pleat.sim.scene"}):
-        "check.py imports MotionFileError and strict_from_environment from loaders (readers has the first; the "
-        "second belongs there too) and contact_sheet from pleat.show, which loads clips through loaders",
-}
 
 C_KEYWORDS = {"if", "for", "while", "switch", "return", "sizeof", "else", "do", "case", "defined"}
 
@@ -157,11 +145,10 @@ def python_graph():
     return graph, why
 
 
-def _cycles(graph, why, pending=None):
-    pending = pending or {}
+def _cycles(graph, why):
     problems = []
     for component in strongly_connected(graph):
-        if len(component) < 2 or frozenset(component) in pending:
+        if len(component) < 2:
             continue
         edges = [f"    {a} -> {b} ({why[(a, b)]})" for a in sorted(component) for b in sorted(graph[a] & component)]
         problems.append("a circle of " + ", ".join(sorted(component)) + ":\n" + "\n".join(edges))
@@ -186,12 +173,7 @@ def test_tools_have_no_circles():
     graph, why = python_graph()
     assert "pleat.train.distill" in graph["pleat.train.simsup"]
     assert "pleat.motion.loaders" in graph["pleat.sim.scene"]       # a function-level import
-    problems = _cycles(graph, why, PENDING)
-    for component in strongly_connected(graph):
-        for known in PENDING:
-            if len(component) > 1 and component & known and not component <= known:
-                problems.append(f"a pending circle grew: {sorted(component)}")
-    assert not problems, "\n".join(problems)
+    assert not _cycles(graph, why), "\n".join(_cycles(graph, why))
 
 
 def test_a_new_circle_is_found():

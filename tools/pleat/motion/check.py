@@ -24,8 +24,8 @@ Winding numbers need no normals, so armpits and crotch are no longer misread, an
 a hip or thigh (which skinning sinks in by a centimetre or so). The clip's value is the largest fraction of probes
 inside in any sampled frame.
 
-**Limits: what the training clips do.** Measured on the 31 shipped DeepMimic clips (`python -m pleat.motion.check
---training` prints both numbers per clip): their bone directions agree to 0.0° (every bone their skeleton has is
+**Limits: what the training clips do.** Measured on the 31 shipped DeepMimic clips (`pleat-motion limits` prints
+both numbers per clip): their bone directions agree to 0.0° (every bone their skeleton has is
 aligned). Forearms and hands inside the body: 0 % for 17 of them, walks up to 5.5 %, and TRAINING_INSIDE = 39 % at
 most (spin, an arm across the belly; then sideflip 17 %, backflip 15 %, punch 11 % with a fist on the hip,
 getup_faceup 10 %, roll 9 %: hands on shins and hips that the wider Pleat body swallows). INSIDE_LIMIT = 1.5 × that
@@ -39,6 +39,8 @@ import sys
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from pleat.motion.readers import MotionFileError, strict_from_environment
 
 BONE_LIMIT_DEG = 10.0
 TRAINING_INSIDE = 0.391        # measured: the largest fraction over the 31 shipped clips (see the module doc)
@@ -207,11 +209,9 @@ def report(check, path, strict=False, warn=None):
     if not problems:
         return
     if strict is None:
-        from pleat.motion.loaders import strict_from_environment
         strict = strict_from_environment()
     text = "; ".join(problems) + " — check the joint match with pleat-motion joints"
     if strict:
-        from pleat.motion.loaders import MotionFileError
         raise MotionFileError(path, "retargeting check failed (--strict): " + text)
     (warn or (lambda m: print(m, file=sys.stderr)))(f"warning: {path}: {text}")
 
@@ -219,7 +219,7 @@ def report(check, path, strict=False, warn=None):
 def write_preview(out, clip, body, check, src=None, mapping=None):
     """A PNG for the report: the body in the source's rest pose, and at the frames where the worst bone and the
     deepest forearm are; titles carry the numbers."""
-    from pleat.show import BODY_COLOR, contact_sheet
+    from pleat.draw import BODY_COLOR, contact_sheet
     frames = sorted({0, check.worst_bone_frame, check.inside_frame, clip.num_frames // 2})
     v = clip.skin(body, frames=np.array(frames))
     panels, titles = [], []
@@ -232,26 +232,3 @@ def write_preview(out, clip, body, check, src=None, mapping=None):
             tag.append(f"{100 * check.inside_fraction:.0f}% inside")
         titles.append(f"frame {t}" + (": " + ", ".join(tag) if tag else ""))
     contact_sheet(panels, out, titles)
-
-
-def _training_table():
-    """Both measures on every clip in the motion folder (what sets INSIDE_LIMIT)."""
-    from pleat.body.model import BodyModel
-    from pleat.motion.loaders import list_clips, load_clip
-    body = BodyModel.load()
-    worst_inside, worst_bone = 0.0, 0.0
-    for name in list_clips():
-        _, _, check = load_clip(name, body, with_check=True, check=False)
-        bone, deg = check.worst_bone
-        worst_inside, worst_bone = max(worst_inside, check.inside_fraction), max(worst_bone, deg)
-        print(f"{name:50s} worst bone {bone or '-':24s} {deg:5.1f}°  inside {100 * check.inside_fraction:5.2f} % "
-              f"(frame {check.inside_frame})")
-    print(f"largest: bone {worst_bone:.1f}°, inside {100 * worst_inside:.2f} %")
-
-
-if __name__ == "__main__":
-    if sys.argv[1:] == ["--training"]:
-        _training_table()
-    else:
-        print("usage: python -m pleat.motion.check --training", file=sys.stderr)
-        sys.exit(2)

@@ -1,5 +1,5 @@
 """pleat-motion: list the motion clips, convert one onto the Pleat body, show how a skeleton's joints match the
-body's, print the training/validation split (docs/motion.md)."""
+body's, measure every clip with the retargeting check, print the training/validation split (docs/motion.md)."""
 import argparse
 import json
 import sys
@@ -49,6 +49,11 @@ def build_parser():
                     help="output file: a preview PNG of the body at the frames the check names")
     jt.add_argument("--strict", action="store_true", help=STRICT_HELP)
     add_quiet(jt)
+    lm = sub.add_parser("limits", help="the retargeting check's two measures on every clip in the motion folder "
+                                       "(the shipped clips set its limits: pleat.motion.check)")
+    lm.add_argument("--dir", default=None, help=DIR_HELP)
+    lm.add_argument("--body", default=None, help="body npz (default assets/body.npz)")
+    add_quiet(lm)
     sp = sub.add_parser("split", help="the training / validation split (pleat.motion.split)")
     sp.add_argument("--dir", default=None, help=DIR_HELP)
     add_quiet(sp)
@@ -98,6 +103,16 @@ def main(args):
             write_preview(args.out, clip, body, check)
             if not args.quiet:
                 print(f"pleat-motion: wrote {args.out}", file=sys.stderr)
+    elif args.cmd == "limits":
+        body = BodyModel.load(args.body or default_body_path())
+        worst_inside, worst_bone = 0.0, 0.0
+        for name in list_clips(args.dir):
+            _, _, check = load_clip(name, body, motion_dir=args.dir, with_check=True, check=False)
+            bone, deg = check.worst_bone
+            worst_inside, worst_bone = max(worst_inside, check.inside_fraction), max(worst_bone, deg)
+            print(f"{name:50s} worst bone {bone or '-':24s} {deg:5.1f}°  inside {100 * check.inside_fraction:5.2f} % "
+                  f"(frame {check.inside_frame})")
+        print(f"largest: bone {worst_bone:.1f}°, inside {100 * worst_inside:.2f} %")
     elif args.cmd == "convert":
         body = BodyModel.load(args.body or default_body_path())
         clip, match = load_clip(args.clip, body, motion_dir=args.dir, joint_map_file=args.joint_map,

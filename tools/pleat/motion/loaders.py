@@ -12,7 +12,6 @@ traceback and never a clip of NaNs.
 """
 import json
 import math
-import os
 import zipfile
 from pathlib import Path
 
@@ -26,7 +25,8 @@ from pleat.motion.joint_map import (REQUIRED_JOINTS, JointMatch, guess_joint_map
 from pleat.motion.readers import (  # noqa: F401  (the readers' names: loaders is where importers find them)
     MAX_BVH_DEPTH, MAX_DURATION_S, MAX_FRAME_TIME_S, MAX_JOINTS, MAX_POSITION, MIN_FRAMES, MIN_FRAME_TIME_S,
     MotionFileError, QUAT_MIN_NORM, _BVH_CHANNELS, _SPACE, _SUFFIXES, _Tokens, _bvh_hierarchy, _channel_at,
-    _clip_name, _euler, _first_bad, _is_number, _read_text, check_source, find_motion_dir, read_bvh)
+    _clip_name, _euler, _first_bad, _is_number, _read_text, check_source, find_motion_dir, read_bvh,
+    strict_from_environment)
 from pleat.motion.retarget import SourceMotion, retarget
 from pleat.paths import REPO_ROOT, motion_dirs  # noqa: F401  (REPO_ROOT: kept for importers)
 from pleat.rotations import axis_angle_to_matrix, quat_normalize, quat_to_matrix
@@ -71,11 +71,6 @@ def resolve_clip(name_or_path, motion_dir=None):
 
 
 # ---- loading, checked ----------------------------------------------------------------------------------------------
-def strict_from_environment():
-    """PLEAT_MOTION_STRICT=1: every tool refuses a clip that the retargeting check flags (as --strict does)."""
-    return os.environ.get("PLEAT_MOTION_STRICT", "") not in ("", "0")
-
-
 def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_map_file=None, with_match=False,
               check=True, strict=None, with_check=False, warn=None, **kw):
     """Any supported file or clip name → Clip retargeted onto `body` (default: assets/body.npz).

@@ -1,8 +1,10 @@
 """The motion file readers below `load_clip` (pleat.motion.loaders): the limits every reader checks, MotionFileError,
-the motion folder, the source checks and the BVH reader. The glTF reader and the BVH export read and write through
-these, and loaders dispatches to all of them, so they sit here, below loaders, instead of in it.
+the motion folder, the source checks, PLEAT_MOTION_STRICT and the BVH reader. The glTF reader, the BVH export and the
+retargeting check (pleat.motion.check) read and write through these, and loaders dispatches to all of them and calls
+the check, so they sit here, below loaders, instead of in it.
 """
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +36,11 @@ def find_motion_dir():
             return d
     raise FileNotFoundError("no motion folder: set PLEAT_MOTION_DIR or run scripts/fetch-motion.sh "
                             f"(looked in {', '.join(str(d) for d in motion_dirs())})")
+
+
+def strict_from_environment():
+    """PLEAT_MOTION_STRICT=1: every tool refuses a clip that the retargeting check flags (as --strict does)."""
+    return os.environ.get("PLEAT_MOTION_STRICT", "") not in ("", "0")
 
 
 def _clip_name(path):

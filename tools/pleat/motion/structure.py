@@ -28,6 +28,8 @@ import re
 
 import numpy as np
 
+from pleat.motion.names import MIXAMO_TO_BODY, guess_joint_map, strip_namespace
+
 UP = np.array([0.0, 1.0, 0.0])
 LIMB_TIE = 0.10              # two pairs of segments within 10 % of each other: the names decide
 SPINE_BODY = ("spine1", "spine2", "spine3", "neck")
@@ -37,7 +39,6 @@ SKIP_BODY = 0.15             # cost of leaving a body spine joint without a sour
 def name_side(name):
     """+1 when a joint name says left, −1 right, 0 neither (or both): `LeftArm`, `Bip01 L Thigh`, `thigh_l`,
     `lfemur`, `left_hip`."""
-    from pleat.motion.joint_map import strip_namespace
     n = strip_namespace(name)
     lo = n.lower()
     if lo.startswith("left") or "left" in lo:
@@ -132,7 +133,6 @@ def _limb(sk, chain, names, part_names):
     close = [i for v, i in pairs if v >= (1.0 - LIMB_TIE) * pairs[0][0]]
     if len(close) > 1:
         # a tie: the pair whose first joint's name is the upper limb's in some naming scheme
-        from pleat.motion.joint_map import guess_joint_map
         named = set(guess_joint_map([names[ids[i]] for i in close], root=False).values())
         for i in close:
             if names[ids[i]] in named and any(p in names[ids[i]].lower() for p in part_names):
@@ -154,7 +154,6 @@ def _limb(sk, chain, names, part_names):
         if nexts:
             nexts.sort(reverse=True)
             straight = [c for v, c in nexts if v >= nexts[0][0] - 0.02]
-            from pleat.motion.joint_map import guess_joint_map, MIXAMO_TO_BODY, strip_namespace
             named = set(guess_joint_map([names[c] for c in straight], root=False).values())
             named |= {names[c] for c in straight if MIXAMO_TO_BODY.get(strip_namespace(names[c]), "").endswith(
                 ("_hand", "_foot"))}

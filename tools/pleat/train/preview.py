@@ -42,7 +42,7 @@ def main(argv=None):
     from pleat.body import BodyModel
     from pleat.eval import scene as S
     from pleat.eval.reference import cached_simulate
-    from pleat.show import BODY_COLOR, GARMENT_COLORS, draw_meshes
+    from pleat.draw import BODY_COLOR, GARMENT_COLORS, draw_meshes
 
     data, weights = S.read_weights(args.asset)
     body = BodyModel.load(None)
