@@ -29,8 +29,10 @@ def test_each_scheme_maps_by_structure_with_the_sources_bone_directions(body, tm
     assert check.inside_fraction <= 0.01
 
 
-@pytest.mark.parametrize("pose", ["A", "T"])
+@pytest.mark.parametrize("pose", ["A", "T", "down"])
 def test_biovision_names_through_the_mixamo_table_are_reported(body, tmp_path, pose, capsys):
+    # with the arms hanging in the source's rest too: the collar that the match swings down along the upper arm is
+    # compared with the source's clavicle, where the body's own rest holds it, not where the match posed it
     path = tmp_path / "bio.bvh"
     path.write_text(bvh_text(body, "biovision", pose))
     jmap = tmp_path / "wrong.json"
@@ -38,6 +40,7 @@ def test_biovision_names_through_the_mixamo_table_are_reported(body, tmp_path, p
     _, match, check = load_clip(path, body, joint_map_file=jmap, with_check=True, check=False)
     assert match.mapping["left_collar"] == "LeftShoulder" and "left_shoulder" not in match.mapping
     assert check.worst_bone[1] > BONE_LIMIT_DEG and check.problems
+    assert check.bone_source["left_collar→left_shoulder"] == "LeftCollar→LeftShoulder"
     # every loader warns in one line; --strict refuses in one error line and writes nothing
     load_clip(path, body, joint_map_file=jmap)
     err = capsys.readouterr().err.strip().splitlines()
@@ -50,8 +53,8 @@ def test_biovision_names_through_the_mixamo_table_are_reported(body, tmp_path, p
 
 def test_a_wrong_map_that_puts_the_forearms_through_the_chest_is_reported_by_the_self_intersection(body, tmp_path,
                                                                                                    capsys):
-    # arms hanging in the source's rest: the collar takes the upper arm's rotation and the arm goes into the chest,
-    # while the bone directions stay within the limit, so this measure alone must report it
+    # arms hanging in the source's rest: the collar takes the upper arm's rotation and the arm goes into the chest;
+    # the bone directions report it too, and this measure must on its own
     path = tmp_path / "bio.bvh"
     path.write_text(bvh_text(body, "biovision", "down"))
     jmap = tmp_path / "wrong.json"

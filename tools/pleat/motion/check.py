@@ -3,18 +3,28 @@
 
 **Bone directions.** Each body bone that a joint's rotation aims (BONE_CHILD in pleat.motion.retarget: along the
 spine, neck, arms and legs — not the pelvis's bones to the hips or the chest's to the clavicles, which are fixed
-offsets whose angles only say how the two skeletons' proportions differ) is paired with the source bone that lies where it lies,
-by geometry alone: the body is posed in the source's rest pose (the retarget of an all-identity source frame), the
-source's rest skeleton is turned to face +Z and scaled by the leg-length ratio, and the body bone takes the source
-chain (a joint and a descendant up to three joints down) whose two ends are nearest its two ends — kept only when
-the ends together are within half the bone's length. Then, over the rest frame and up to 60 frames of the clip, the
-angle between the body bone's world direction and its source bone's is measured; a bone's value is its 90th
-percentile, and the clip's is the worst bone's. A right match gives ~0° (the rest offsets make the bones agree,
-and the motion copies world rotations). A wrong one cannot hide: with Biovision's names read through the Mixamo
-table the body's clavicle takes the upper arm's rotation: the clavicle bone, lying on the source's clavicle, swings
-with every arm movement and is tilted in the rest pose by the rest offset that aims the clavicle and upper arm
-together at the source's upper arm. Body bones with no source bone in their place (a skeleton without clavicles, a DeepMimic chest) are
-not measured and are listed as such.
+offsets whose angles only say how the two skeletons' proportions differ) is paired with the source bone that lies
+where it lies, by geometry alone. The source's rest skeleton is turned to face +Z and scaled by the leg-length ratio;
+the body bone takes the source chain (a joint and a descendant up to three joints down) whose two ends are nearest
+its two ends, kept only when the ends together are within half the bone's length. Where the body bone is looked for
+depends on the bone:
+- the trunk, legs and clavicles: where the body's own rest holds them (pelvis on the source's root). Every source
+  holds them about so, and no joint match can move them there;
+- the upper arms, forearms and hands: where the body stands when posed in the source's rest by the match under test
+  (the retarget of an all-identity source frame), since a source may hold its arms out (T), in an A or down.
+Then, over the rest frame and up to 60 frames of the clip, the angle between the body bone's world direction and its
+source bone's is measured; a bone's value is its 90th percentile, and the clip's is the worst bone's. A right match
+gives ~0° (the rest offsets make the bones agree, and the motion copies world rotations). Body bones with no source
+bone in their place (a skeleton without clavicles, a DeepMimic chest) are not measured and are listed as such.
+
+A wrong match cannot hide behind names. With Biovision's names read through the Mixamo table, the body's clavicle
+takes the upper arm's rotation, and its rest offset aims the clavicle and upper arm together (the nearest mapped
+joint down the chain is the elbow) at the source's upper arm. From a T- or A-pose rest the clavicle bone still lies
+on the source's clavicle and is tilted by that offset and swung by every arm movement: 26°. From a rest with the
+arms hanging down the offset swings the whole arm down from the collar joint, so in that pose no arm bone of the body
+lies on a source bone: looked for there, every arm bone would go unmeasured and the clip would read 0.0° (spine
+and legs only). Looked for where the body's own rest holds it, the clavicle is paired with the source's clavicle
+whatever the match does, and the wrong match reads 61°.
 
 **Forearms and hands inside the body.** The clip is skinned on the mean body for up to 40 evenly spaced frames, and
 128 probes spread evenly over both forearms and hands (vertices whose largest skin weight is an elbow, wrist or hand)
@@ -30,10 +40,10 @@ aligned). Forearms and hands inside the body: 0 % for 17 of them, walks up to 5.
 most (spin, an arm across the belly; then sideflip 17 %, backflip 15 %, punch 11 % with a fist on the hip,
 getup_faceup 10 %, roll 9 %: hands on shins and hips that the wider Pleat body swallows). INSIDE_LIMIT = 1.5 × that
 worst clip (59 %). The Biovision-through-Mixamo match above, from a source whose rest pose holds the arms down, puts
-the collar on the upper arm's rotation and the forearms through the chest: 95 % (the same source matched right: 0 %;
-its bone directions are within 1°, so only this measure catches it). From a T- or A-pose source the same wrong match
-keeps the forearms out of the body (0 %), and BONE_LIMIT_DEG = 10° catches it (26°). The six naming schemes of the
-tests matched right score 0 % in all three rest poses.
+the collar on the upper arm's rotation and the forearms through the chest: 95 % (the same source matched right: 0 %),
+and its clavicles are 61° off. From a T- or A-pose source the same wrong match keeps the forearms out of the body
+(0 %), and BONE_LIMIT_DEG = 10° catches it (26°). The six naming schemes of the tests matched right score 0 % and
+under 1° in all three rest poses.
 """
 import sys
 from dataclasses import dataclass, field
@@ -48,6 +58,7 @@ INSIDE_LIMIT = max(1.5 * TRAINING_INSIDE, 0.02)
 INSIDE_DEPTH_M = 0.02
 MAX_BONE_FRAMES = 60
 MAX_SKIN_FRAMES = 40
+ARM_BELOW_SHOULDER = ("_shoulder", "_elbow", "_wrist")   # bones from these joints: placed by the pose
 MATCH_TOLERANCE = 0.5          # the two ends of a body bone within half its length of the source bone's ends
 
 
@@ -131,6 +142,11 @@ def bone_directions(src, mapping, clip, body, spread=None, rest_offsets="limbs")
                           rest_offsets=rest_offsets)
     Jb = posed_rest.joint_positions(body)[0]
     Jb = Jb - Jb[0]
+    # where each bone is looked for: the trunk, legs and clavicles where the body's own rest holds them (every source
+    # holds them about so, and no joint match can move them there), the arm below the shoulder where the match under
+    # test poses it (the source may hold its arms out, in an A or down)
+    Jown = body.joints() - body.joints()[0]
+    place = {k: Jb if names[int(body.parents[k])].endswith(ARM_BELOW_SHOULDER) else Jown for k in range(len(names))}
     C = source_facing(src, mapping)
     scale = source_leg_scale(src, mapping, body)
     rest = np.asarray(src.rest_positions, np.float64)
@@ -147,11 +163,12 @@ def bone_directions(src, mapping, clip, body, spread=None, rest_offsets="limbs")
     pairs, unmeasured = {}, []
     for k in range(1, len(names)):
         p = int(body.parents[k])
-        length = np.linalg.norm(Jb[k] - Jb[p])
+        J = place[k]
+        length = np.linalg.norm(J[k] - J[p])
         label = f"{names[p]}→{names[k]}"
         if length < 0.01 or not len(chains) or BONE_CHILD.get(names[p]) != names[k]:
             continue
-        cost = (np.linalg.norm(Ps[chains[:, 0]] - Jb[p], axis=1) + np.linalg.norm(Ps[chains[:, 1]] - Jb[k], axis=1))
+        cost = (np.linalg.norm(Ps[chains[:, 0]] - J[p], axis=1) + np.linalg.norm(Ps[chains[:, 1]] - J[k], axis=1))
         i = int(np.argmin(cost))
         if cost[i] <= MATCH_TOLERANCE * length:
             pairs[label] = (p, k, int(chains[i, 0]), int(chains[i, 1]))
