@@ -270,9 +270,10 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 	return PLEAT_RESULT_OK;
 }
 
-plResult plNormalsSerial( plInstanceData* inst )
+// Normals of the rest pose (inst->positions) into inst->normals at creation. The jobs plRunNormals splits over the
+// workers, each over its whole range, run here: instance.c sits below instance_deform.c, and the bits are the same.
+static plResult plRestNormals( plInstanceData* inst )
 {
-	// The jobs plDeformCpu splits over the workers, each over its whole range: the same bits.
 	const plAssetData* a = inst->asset;
 	plFaceNormalsJob faces = { plMakeConstSpan( inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
 							   inst->face_normals, 0, a->face_count, &inst->ctx->kernels };
@@ -510,7 +511,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	{
 		memcpy( inst->positions, inst->shaped_template, n3 );
 		memcpy( inst->deformed, inst->shaped_template, n3 );
-		r = plNormalsSerial( inst );
+		r = plRestNormals( inst );
 	}
 	if ( r == PLEAT_RESULT_OK )
 	{

@@ -85,18 +85,29 @@ void plLogStaleInstance( const plContextData* ctx, plInstance handle, const char
 // Logs that a GPU-mode call of the instance (function: its public name) found no GL context current and changed
 // nothing, when r is PLEAT_RESULT_GL_UNAVAILABLE; returns r.
 plResult plLogIfNoGlContext( const plInstanceData* inst, plResult r, const char* function );
-// Normals of inst->positions into inst->normals on the calling thread (face normals, then the gather), for the rest
-// pose at creation and a batch that found no scratch for its lanes. PLEAT_RESULT_INTERNAL_ERROR as plDeformCpu.
-plResult plNormalsSerial( plInstanceData* inst );
-
 // ---- instance_deform.c ----
 
-// CPU path: T_def = shaped template + Σ_j w_j D_j (unless blend is 0: deformed already holds T_def for these weights),
-// then skinning with skin_matrices into positions, then normals, split over runner's workers (the context's for a
-// step; NULL = all on this thread, as plStepInstances's workers run whole instances). The results do not depend on it.
-// PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
-plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend,
-					  const plTaskRunner* runner );
+// What one CPU deformation reads and writes. A step deforms its blend into inst->deformed and skins that into the
+// instance's outputs; the scene's LBS-only level skins the shaped template into the character's buffers.
+typedef struct plDeformSpans
+{
+	const float* blend_weights; // [D] w, read when blend is set
+	const float* skin_matrices; // [J][3][4]
+	int blend;                  // first T_def = shaped template + Σ_j w_j D_j into inst->deformed (rest must be it)
+	const float* rest;          // [N][3] what skinning reads: inst->deformed, or inst->shaped_template (no deformation)
+	float* positions;           // [N][3] skinned, then pushed out of the body
+	float* normals;             // [N][3]
+	int force_fast_contact;     // the fast contact where the asset allows it (plRunsFastContact; the LBS-only level)
+} plDeformSpans;
+
+// CPU path: the blend (if spans->blend), skinning, body contact and normals, split over runner's workers (the
+// context's for a lone instance; NULL = all on this thread, as when workers take whole instances). The results do not
+// depend on the split. PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
+plResult plDeformCpu( plInstanceData* inst, const plDeformSpans* spans, const plTaskRunner* runner );
+// Vertex normals of positions into normals ([N][3] each; inst->face_normals is the scratch), the one rule for which
+// jobs run: on one thread a single scatter pass over the faces where the scratch holds N sums (F ≥ N), else face
+// normals then the gather over the adjacency, split over runner's workers. Every form gives the same bits.
+plResult plRunNormals( plInstanceData* inst, const float* positions, float* normals, const plTaskRunner* runner );
 // Body contact (instances with inst->body_contact only), in its jobs: the body points [begin, end) posed with
 // skin_matrices into inst->posed_points, then (assets with BARG, after all points are posed) the posed body's normals
 // at the points [begin, end), then the push of positions ([N][3], skinned with the same matrices;
@@ -120,9 +131,10 @@ static inline int plRunsFastContact( const plInstanceData* inst, int force_fast 
 // scene's LBS-only characters) or the instance's mode asking for it runs this instead of the three jobs.
 plResult plRunFastBodyContact( plInstanceData* inst, float* positions, const float* skin_matrices, uint32_t begin,
 							   uint32_t end );
-// ---- instance_step.c: the stages of plInstance_Step that plStepInstances (batch.c) runs too ----
-// The batch runs them in the same order for each instance, with f_LP, f_dec and the blend batched in between, so the
-// two paths share every line that decides what a step does (pleat.h: batch = single, bit for bit).
+// ---- instance_step.c: the per-instance stages, the single-stream form of every stage of the step ----
+// step.c runs them in one stage list for a group of 1..N instances (plInstance_Step is a group of one), with the wide
+// forms of the networks, blend and geometry (step_lanes.c) for a crowd, so every path shares each line that decides
+// what a step does (pleat.h: batch = single, bit for bit).
 
 // The pose of frame t+1 as the jobs read it: per asset joint, checked and normalised.
 typedef struct plStepPose
@@ -135,6 +147,8 @@ typedef struct plStepPose
 // Checks the step's arguments in the documented order and gathers the pose (changes nothing in the instance).
 plResult plValidateStep( const plInstanceData* inst, const plFrameInput* input, const plStepOutput* output,
 						 plStepPose* pose );
+// Whether the step's outputs are wanted on the CPU: always on the CPU path; in a GPU mode when output names a buffer.
+int plWantsReadBack( const plInstanceData* inst, const plStepOutput* output );
 // Frame t+1 into next_frame and next_skin_matrices.
 plResult plRunForwardKinematics( plInstanceData* inst, const plStepPose* pose, double dt_s, double previous_yaw );
 // X_c from next_frame, the history (NULL = a first frame) and latent, normalised, into inst->x.
@@ -142,23 +156,21 @@ plResult plAssembleNetworkInput( plInstanceData* inst, const plPoseFrame* frame_
 								 const float* latent );
 // The latent guard: inst->y (f_LP's output, checked finite by the caller) → next_latent.
 plResult plGuardLatent( plInstanceData* inst );
+// After plAssembleNetworkInput: f_LP, the finite check of y, the latent guard, f_dec, the finite check of the weights
+// and skinning matrices, on the instance's backend (the MLP job or ONNX Runtime). *out_finite = 0 if a check failed.
+plResult plRunNetworks( plInstanceData* inst, int* out_finite );
+// Whether the deformation blends this step (then T_def is no longer the committed one): after a network update
+// always; between updates (the held weights, copied into next_weights here) only when T_def is not the committed one.
+int plBeginBlend( plInstanceData* inst, int networks_ran );
+// The deformation of next_weights and next_skin_matrices on the instance's own path: the GPU (read-backs into scratch
+// when read_back) or plDeformCpu over runner. *out_finite = 0 if a position or normal is not finite (CPU path only:
+// the GPU path keeps its outputs on the GPU).
+plResult plDeform( plInstanceData* inst, int blend, int read_back, const plTaskRunner* runner, int* out_finite );
 // The numeric reset: frame t+1 again as a first frame with a zero latent (splits its work over the context's workers).
 plResult plStepFromReset( plInstanceData* inst, const plStepPose* pose, double dt_s, int read_back );
 // The commit: history, latent, weights, skinning matrices, and the copies to the caller's output spans.
 void plCommit( plInstanceData* inst, int networks_ran, int reset, float dt_s, int read_back, const plStepOutput* output );
 // The step's result after its commit (NUMERIC_RESET, CLAMPED or OK), with its log line.
 plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpdate* update, float dt_s );
-
-// ---- batch.c ----
-// Skinning, body contact (the lanes whose instance has it on) and normals of `count` lanes (count <= the kernels'
-// geometry_lanes) through the batched geometry kernels: in[k] skinned with insts[k]'s next_skin_matrices into
-// positions[k], body contact as plDeformCpu runs it, normals into normals[k]. Per lane the single kernels' operations
-// in the same order, so every lane gets the single step's bits. Returns 0 when no scratch block was free for the
-// normals' lanes (the caller computes them one by one), else 1. plStepInstances and the scene's LBS-only level.
-struct plBatchKernels;
-int plGeometryLanes( plContextData* ctx, const struct plBatchKernels* kernels, const plAssetData* a, int fast_contact,
-					 plInstanceData* const* insts, const float* const* in, float* const* positions,
-					 float* const* normals, uint32_t count );
-
 
 #endif

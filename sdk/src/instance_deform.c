@@ -8,9 +8,8 @@
 typedef struct plDeformTask
 {
 	plInstanceData* inst;
-	const float* weights;
-	const float* skin_matrices;
-	int blend;         // 0: deformed already holds T_def for these weights (a step between network updates)
+	const plDeformSpans* spans;
+	int fast_contact;  // plRunsFastContact for this deformation
 	atomic_int result; // a job's error (plResult), written by whichever worker saw one; PLEAT_RESULT_OK otherwise
 } plDeformTask;
 
@@ -28,23 +27,24 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	(void)worker;
 	plDeformTask* t = (plDeformTask*)context;
 	plInstanceData* inst = t->inst;
+	const plDeformSpans* d = t->spans;
 	const plAssetData* a = inst->asset;
 	uint32_t n = a->vertex_count;
-	if ( t->blend )
+	if ( d->blend )
 	{
 		plBlendShapesJob blend = { plMakeConstSpan( inst->shaped_template, n, 12 ), a->blend_shapes,
-								   a->blend_shapes_fp16, plMakeConstSpan( t->weights, a->blend_count, 4 ),
+								   a->blend_shapes_fp16, plMakeConstSpan( d->blend_weights, a->blend_count, 4 ),
 								   plMakeSpan( inst->deformed, n, 12 ), begin, end, &inst->ctx->kernels };
 		plDeformTask_Record( t, plBlendShapesJob_Run( &blend ) );
 		PLEAT_STEP_PHASE( PLEAT_PHASE_BLEND );
 	}
-	plSkinningJob skin = { plMakeConstSpan( inst->deformed, n, 12 ),
+	plSkinningJob skin = { plMakeConstSpan( d->rest, n, 12 ),
 						   a->skin_indices,
 						   a->skin_weights,
 						   a->influence_count,
-						   t->skin_matrices,
+						   d->skin_matrices,
 						   a->joint_count,
-						   plMakeSpan( inst->positions, n, 12 ),
+						   plMakeSpan( d->positions, n, 12 ),
 						   begin,
 						   end,
 						   &inst->ctx->kernels,
@@ -53,9 +53,9 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 	if ( inst->body_contact )
 	{
-		plDeformTask_Record( t, inst->body_contact_fast
-									? plRunFastBodyContact( inst, inst->positions, t->skin_matrices, begin, end )
-									: plPushOutOfBody( inst, inst->positions, begin, end ) );
+		plDeformTask_Record( t, t->fast_contact
+									? plRunFastBodyContact( inst, d->positions, d->skin_matrices, begin, end )
+									: plPushOutOfBody( inst, d->positions, begin, end ) );
 		PLEAT_STEP_PHASE( PLEAT_PHASE_CONTACT );
 	}
 }
@@ -66,7 +66,7 @@ static void plPoseBodyPointsTask( uint32_t begin, uint32_t end, uint32_t worker,
 {
 	(void)worker;
 	plDeformTask* t = (plDeformTask*)context;
-	plDeformTask_Record( t, plPoseBodyPoints( t->inst, t->skin_matrices, begin, end ) );
+	plDeformTask_Record( t, plPoseBodyPoints( t->inst, t->spans->skin_matrices, begin, end ) );
 }
 
 static void plBodyPointNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
@@ -164,41 +164,11 @@ plResult plRunBodyContact( plInstanceData* inst, float* positions, const float* 
 	return r == PLEAT_RESULT_OK ? plPushOutOfBody( inst, positions, 0, inst->asset->vertex_count ) : r;
 }
 
-static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
-{
-	(void)worker;
-	plDeformTask* t = (plDeformTask*)context;
-	const plAssetData* a = t->inst->asset;
-	plFaceNormalsJob job = { plMakeConstSpan( t->inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
-							 t->inst->face_normals, begin, end, &t->inst->ctx->kernels };
-	plDeformTask_Record( t, plFaceNormalsJob_Run( &job ) );
-	PLEAT_STEP_PHASE( PLEAT_PHASE_FACE_NORMALS );
-}
-
-static void plNormalsGatherTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
-{
-	(void)worker;
-	plDeformTask* t = (plDeformTask*)context;
-	const plAssetData* a = t->inst->asset;
-	plNormalsGatherJob job = { t->inst->face_normals,
-							   a->face_count,
-							   a->adjacency_offsets,
-							   a->adjacency_faces,
-							   plMakeSpan( t->inst->normals, a->vertex_count, 12 ),
-							   begin,
-							   end,
-							   &t->inst->ctx->kernels };
-	plDeformTask_Record( t, plNormalsGatherJob_Run( &job ) );
-	PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
-}
-
-static void plDeformTask_Init( plDeformTask* task, plInstanceData* inst, const float* weights,
-							   const float* skin_matrices, int blend )
+static void plDeformTask_Init( plDeformTask* task, plInstanceData* inst, const plDeformSpans* spans )
 {
 	task->inst = inst;
-	task->weights = weights;
-	task->skin_matrices = skin_matrices;
-	task->blend = blend;
+	task->spans = spans;
+	task->fast_contact = plRunsFastContact( inst, spans->force_fast_contact );
 	atomic_init( &task->result, (int)PLEAT_RESULT_OK );
 }
 
@@ -210,13 +180,87 @@ static plResult plDeformTask_Result( plDeformTask* task )
 			   : PLEAT_RESULT_INTERNAL_ERROR;
 }
 
-plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const float* skin_matrices, int blend,
-					  const plTaskRunner* runner )
+// ---- normals: the one rule for which jobs compute them ----
+
+typedef struct plNormalsTask
+{
+	plInstanceData* inst;
+	const float* positions;
+	float* normals;
+	atomic_int result;
+} plNormalsTask;
+
+static void plNormalsTask_Record( plNormalsTask* t, plResult r )
+{
+	if ( r != PLEAT_RESULT_OK )
+	{
+		atomic_store_explicit( &t->result, (int)r, memory_order_relaxed );
+	}
+}
+
+static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plNormalsTask* t = (plNormalsTask*)context;
+	const plAssetData* a = t->inst->asset;
+	plFaceNormalsJob job = { plMakeConstSpan( t->positions, a->vertex_count, 12 ), a->faces, a->face_count,
+							 t->inst->face_normals, begin, end, &t->inst->ctx->kernels };
+	plNormalsTask_Record( t, plFaceNormalsJob_Run( &job ) );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_FACE_NORMALS );
+}
+
+static void plNormalsGatherTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
+{
+	(void)worker;
+	plNormalsTask* t = (plNormalsTask*)context;
+	const plAssetData* a = t->inst->asset;
+	plNormalsGatherJob job = { t->inst->face_normals,
+							   a->face_count,
+							   a->adjacency_offsets,
+							   a->adjacency_faces,
+							   plMakeSpan( t->normals, a->vertex_count, 12 ),
+							   begin,
+							   end,
+							   &t->inst->ctx->kernels };
+	plNormalsTask_Record( t, plNormalsGatherJob_Run( &job ) );
+	PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
+}
+
+plResult plRunNormals( plInstanceData* inst, const float* positions, float* normals, const plTaskRunner* runner )
+{
+	const plAssetData* a = inst->asset;
+	if ( !plTaskRunner_IsParallel( runner ) && a->face_count >= a->vertex_count )
+	{
+		// One thread: one pass over the faces scattering into per-vertex sums (the face-normal scratch, [F][4] with
+		// F ≥ N, holds them), bit-identical to the face-normal + gather split that workers share.
+		plNormalsScatterJob scatter = { plMakeConstSpan( positions, a->vertex_count, 12 ), a->faces, a->face_count,
+										plMakeSpan( normals, a->vertex_count, 12 ), inst->face_normals,
+										a->face_count, &inst->ctx->kernels };
+		plResult r = plNormalsScatterJob_Run( &scatter );
+		PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
+		return r == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
+	}
+	plNormalsTask task;
+	task.inst = inst;
+	task.positions = positions;
+	task.normals = normals;
+	atomic_init( &task.result, (int)PLEAT_RESULT_OK );
+	plRunTask( runner, plFaceNormalsTask, a->face_count, 512, &task );
+	if ( atomic_load_explicit( &task.result, memory_order_relaxed ) == (int)PLEAT_RESULT_OK )
+	{
+		plRunTask( runner, plNormalsGatherTask, a->vertex_count, 256, &task );
+	}
+	return atomic_load_explicit( &task.result, memory_order_relaxed ) == (int)PLEAT_RESULT_OK
+			   ? PLEAT_RESULT_OK
+			   : PLEAT_RESULT_INTERNAL_ERROR;
+}
+
+plResult plDeformCpu( plInstanceData* inst, const plDeformSpans* spans, const plTaskRunner* runner )
 {
 	const plAssetData* a = inst->asset;
 	plDeformTask task;
-	plDeformTask_Init( &task, inst, blend_weights, skin_matrices, blend );
-	if ( inst->body_contact && !inst->body_contact_fast )
+	plDeformTask_Init( &task, inst, spans );
+	if ( inst->body_contact && !task.fast_contact )
 	{
 		plRunTask( runner, plPoseBodyPointsTask, a->body_point_count, 512, &task );
 		if ( a->body_anchor_ring != NULL && plDeformTask_Result( &task ) == PLEAT_RESULT_OK )
@@ -234,22 +278,5 @@ plResult plDeformCpu( plInstanceData* inst, const float* blend_weights, const fl
 	{
 		return plDeformTask_Result( &task );
 	}
-	if ( !plTaskRunner_IsParallel( runner ) && a->face_count >= a->vertex_count )
-	{
-		// One thread: one pass over the faces scattering into per-vertex sums (the face-normal scratch, [F][4] with
-		// F ≥ N, holds them), bit-identical to the face-normal + gather split that workers share.
-		plNormalsScatterJob scatter = { plMakeConstSpan( inst->positions, a->vertex_count, 12 ), a->faces, a->face_count,
-										plMakeSpan( inst->normals, a->vertex_count, 12 ), inst->face_normals,
-										a->face_count, &inst->ctx->kernels };
-		plResult r = plNormalsScatterJob_Run( &scatter );
-		PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
-		return r == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
-	}
-	plRunTask( runner, plFaceNormalsTask, a->face_count, 512, &task );
-	if ( plDeformTask_Result( &task ) != PLEAT_RESULT_OK )
-	{
-		return plDeformTask_Result( &task );
-	}
-	plRunTask( runner, plNormalsGatherTask, a->vertex_count, 256, &task );
-	return plDeformTask_Result( &task );
+	return plRunNormals( inst, spans->positions, spans->normals, runner );
 }

@@ -1,13 +1,15 @@
-// plInstance_Step: one frame of the paper's equations as a row of jobs (docs/architecture.md draws it),
+// The per-instance stages of a step (docs/architecture.md draws them), the single-stream form of each:
 //
 //     validate → network rate decision → forward kinematics → [ input assembly X_c → input normalisation → f_LP →
 //     latent guard → f_dec ] → blend shapes T_def → skinning x' → normals n → commit
 //
-// with the bracket only on steps where the networks run (network_rate.c). Everything is checked before anything
-// changes; the jobs write scratch (next_*), and the commit at the end is the only place the instance's history,
-// latent and weights change. A non-finite value inside the step is a numeric reset: the step is recomputed as a
-// first frame with a zero latent, and if even that is non-finite the body is dressed without the learned deformation.
-// The numpy twin, tools/pleat/reference/instance.py, has the same functions in the same order.
+// with the bracket only on steps where the networks run (network_rate.c). step.c runs them as one stage list for a
+// group of instances — plInstance_Step is a group of one — and swaps in the wide forms of the networks, blend and
+// geometry (step_lanes.c) for a crowd. Everything is checked before anything changes; the jobs write scratch
+// (next_*), and the commit is the only place the instance's history, latent and weights change. A non-finite value
+// inside the step is a numeric reset: the step is recomputed as a first frame with a zero latent, and if even that is
+// non-finite the body is dressed without the learned deformation. The numpy twin, tools/pleat/reference/instance.py,
+// has the same functions in the same order.
 #include "instance.h"
 #include "step_phases.h"
 
@@ -169,6 +171,11 @@ plResult plValidateStep( const plInstanceData* inst, const plFrameInput* input, 
 	return PLEAT_RESULT_OK;
 }
 
+int plWantsReadBack( const plInstanceData* inst, const plStepOutput* output )
+{
+	return inst->gl == NULL || ( output != NULL && ( output->positions != NULL || output->normals != NULL ) );
+}
+
 // ---- forward kinematics: frame t+1 into the scratch frame and the scratch skinning matrices ----
 
 plResult plRunForwardKinematics( plInstanceData* inst, const plStepPose* pose, double dt_s, double previous_yaw )
@@ -251,19 +258,11 @@ plResult plGuardLatent( plInstanceData* inst )
 	return plLatentGuardJob_Run( &guard ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 }
 
-// Z_t+1 into next_latent and w into next_weights from the history (NULL = a first frame: frame t+1 stands in for t
-// and t−1) and Z_t. *out_finite = 0 if f_LP's output, the weights or the skinning matrices are not all finite.
-static plResult plEvaluateNetworks( plInstanceData* inst, const plPoseFrame* frame_t, const plPoseFrame* frame_tm1,
-									const float* latent, int* out_finite )
+plResult plRunNetworks( plInstanceData* inst, int* out_finite )
 {
 	const plAssetData* a = inst->asset;
 	*out_finite = 0;
-	plResult r = plAssembleNetworkInput( inst, frame_t, frame_tm1, latent );
-	if ( r != PLEAT_RESULT_OK )
-	{
-		return r;
-	}
-	r = plRunNetwork( inst, inst->ort_lp, a->lp, a->lp_layer_count, a->lp_activation, inst->x,
+	plResult r = plRunNetwork( inst, inst->ort_lp, a->lp, a->lp_layer_count, a->lp_activation, inst->x,
 							   a->input_count, inst->y, a->latent_count );
 	if ( r != PLEAT_RESULT_OK )
 	{
@@ -295,10 +294,21 @@ static plResult plEvaluateNetworks( plInstanceData* inst, const plPoseFrame* fra
 
 // ---- the deformation: T_def → x' → n for next_weights and next_skin_matrices ----
 
-// read_back (GPU modes): the outputs are wanted on the CPU. reuse_deformed (CPU path, a step between network
-// updates): skin the committed T_def again instead of blending. *out_finite = 0 if a position or normal is not finite
-// (checked on the CPU path only: the GPU path keeps its outputs on the GPU).
-static plResult plDeform( plInstanceData* inst, int read_back, int reuse_deformed, int* out_finite )
+int plBeginBlend( plInstanceData* inst, int networks_ran )
+{
+	if ( !networks_ran )
+	{
+		memcpy( inst->next_weights, inst->blend_weights, inst->asset->blend_count * sizeof( float ) );
+	}
+	int blend = networks_ran || !inst->deformed_is_committed;
+	if ( blend )
+	{
+		inst->deformed_is_committed = 0; // until this step commits
+	}
+	return blend;
+}
+
+plResult plDeform( plInstanceData* inst, int blend, int read_back, const plTaskRunner* runner, int* out_finite )
 {
 	const plAssetData* a = inst->asset;
 	*out_finite = 1;
@@ -309,12 +319,9 @@ static plResult plDeform( plInstanceData* inst, int read_back, int reuse_deforme
 		return plGlDeformer_Run( inst->gl, inst->next_weights, inst->next_skin_matrices,
 								 read_back ? inst->deformed : NULL, read_back ? inst->gl_normals : NULL );
 	}
-	int blend = !( reuse_deformed && inst->deformed_is_committed );
-	if ( blend )
-	{
-		inst->deformed_is_committed = 0; // until this step commits
-	}
-	plResult r = plDeformCpu( inst, inst->next_weights, inst->next_skin_matrices, blend, &inst->ctx->runner );
+	plDeformSpans spans = { inst->next_weights, inst->next_skin_matrices, blend, inst->deformed,
+							inst->positions,    inst->normals,            0 };
+	plResult r = plDeformCpu( inst, &spans, runner );
 	if ( r != PLEAT_RESULT_OK )
 	{
 		return r;
@@ -325,36 +332,27 @@ static plResult plDeform( plInstanceData* inst, int read_back, int reuse_deforme
 	return PLEAT_RESULT_OK;
 }
 
-// ---- the step's two attempts ----
+// ---- the numeric reset ----
 
-// The step as asked: the networks from the history when the rate decision runs them, else the held weights skinned
-// with the new pose (the latent is not committed on such a step, so next_latent is not needed).
-static plResult plStepFromHistory( plInstanceData* inst, const plNetworkUpdate* update, int read_back, int* out_finite )
+// Z_t+1 into next_latent and w into next_weights as a first frame (frame t+1 stands in for t and t−1) from latent.
+// *out_finite = 0 if f_LP's output, the weights or the skinning matrices are not all finite.
+static plResult plEvaluateFirstFrame( plInstanceData* inst, const float* latent, int* out_finite )
 {
-	if ( !update->run )
-	{
-		memcpy( inst->next_weights, inst->blend_weights, inst->asset->blend_count * sizeof( float ) );
-		return plDeform( inst, read_back, 1, out_finite );
-	}
-	int history = inst->history_valid;
-	plResult r = plEvaluateNetworks( inst, history ? &inst->history[0] : NULL, history ? &inst->history[1] : NULL,
-									 inst->latent, out_finite );
-	if ( r != PLEAT_RESULT_OK || !*out_finite )
-	{
-		return r;
-	}
-	return plDeform( inst, read_back, 0, out_finite );
+	*out_finite = 0;
+	plResult r = plAssembleNetworkInput( inst, NULL, NULL, latent );
+	return r == PLEAT_RESULT_OK ? plRunNetworks( inst, out_finite ) : r;
 }
 
-// The numeric reset: frame t+1 recomputed as a first frame (no history, previous yaw 0) with a zero latent. The
-// instance's own latent and history stay untouched until the commit (a GL error after this point must still change
-// nothing); next_latent is the zero input latent (input assembly reads it before the guard overwrites it). If the
-// networks give nothing usable even from there — non-finite, or an ONNX Runtime error, which is not returned because
-// the first attempt may already have left non-finite positions on the CPU path — the body is dressed without the
-// learned deformation: zero latent and weights.
+// Frame t+1 recomputed as a first frame (no history, previous yaw 0) with a zero latent. The instance's own latent and
+// history stay untouched until the commit (a GL error after this point must still change nothing); next_latent is the
+// zero input latent (input assembly reads it before the guard overwrites it). If the networks give nothing usable
+// even from there — non-finite, or an ONNX Runtime error, which is not returned because the first attempt may already
+// have left non-finite positions on the CPU path — the body is dressed without the learned deformation: zero latent
+// and weights.
 plResult plStepFromReset( plInstanceData* inst, const plStepPose* pose, double dt_s, int read_back )
 {
 	const plAssetData* a = inst->asset;
+	const plTaskRunner* runner = &inst->ctx->runner;
 	memset( inst->next_latent, 0, a->latent_count * sizeof( float ) );
 	plResult r = plRunForwardKinematics( inst, pose, dt_s, 0.0 );
 	if ( r != PLEAT_RESULT_OK )
@@ -362,14 +360,14 @@ plResult plStepFromReset( plInstanceData* inst, const plStepPose* pose, double d
 		return r;
 	}
 	int finite = 0;
-	r = plEvaluateNetworks( inst, NULL, NULL, inst->next_latent, &finite );
+	r = plEvaluateFirstFrame( inst, inst->next_latent, &finite );
 	if ( r == PLEAT_RESULT_INTERNAL_ERROR )
 	{
 		return r;
 	}
 	if ( r == PLEAT_RESULT_OK && finite )
 	{
-		r = plDeform( inst, read_back, 0, &finite );
+		r = plDeform( inst, plBeginBlend( inst, 1 ), read_back, runner, &finite );
 		if ( r != PLEAT_RESULT_OK )
 		{
 			return r;
@@ -383,7 +381,8 @@ plResult plStepFromReset( plInstanceData* inst, const plStepPose* pose, double d
 	{
 		memset( inst->next_latent, 0, a->latent_count * sizeof( float ) );
 		memset( inst->next_weights, 0, a->blend_count * sizeof( float ) );
-		return plDeform( inst, read_back, 0, &finite ); // committed even if non-finite: there is nothing further back
+		// committed even if non-finite: there is nothing further back
+		return plDeform( inst, plBeginBlend( inst, 1 ), read_back, runner, &finite );
 	}
 	return PLEAT_RESULT_OK;
 }
@@ -457,50 +456,4 @@ plResult plStepResult( const plInstanceData* inst, int reset, const plNetworkUpd
 		return PLEAT_RESULT_CLAMPED;
 	}
 	return PLEAT_RESULT_OK;
-}
-
-plResult plInstance_Step( plInstance handle, const plFrameInput* input, const plStepOutput* output )
-{
-	PLEAT_STEP_PHASE_START();
-	plInstanceData* inst = plLookupInstance( handle, __func__ );
-	if ( inst == NULL )
-	{
-		return PLEAT_RESULT_INVALID_HANDLE;
-	}
-	plStepPose pose;
-	plResult r = plValidateStep( inst, input, output, &pose );
-	if ( r != PLEAT_RESULT_OK )
-	{
-		return r;
-	}
-	const plAssetData* a = inst->asset;
-	plNetworkUpdate update = plDecideNetworkUpdate( inst->network_interval_s - inst->network_lead_s,
-													inst->network_pending_s, input->dt_s,
-													!inst->history_valid, a->dt_min_s, a->dt_max_s );
-	PLEAT_STEP_PHASE( PLEAT_PHASE_VALIDATE );
-
-	// Nothing has changed so far, and nothing but scratch changes until the commit.
-	r = plRunForwardKinematics( inst, &pose, update.dt_s, inst->history_valid ? inst->history[0].yaw : 0.0 );
-	if ( r != PLEAT_RESULT_OK )
-	{
-		return r;
-	}
-	int read_back = inst->gl == NULL || ( output != NULL && ( output->positions != NULL || output->normals != NULL ) );
-	int finite = 0;
-	r = plStepFromHistory( inst, &update, read_back, &finite );
-	if ( r != PLEAT_RESULT_OK )
-	{
-		return plLogIfNoGlContext( inst, r, "plInstance_Step" );
-	}
-	int reset = !finite;
-	if ( reset )
-	{
-		r = plStepFromReset( inst, &pose, update.dt_s, read_back );
-		if ( r != PLEAT_RESULT_OK )
-		{
-			return r;
-		}
-	}
-	plCommit( inst, update.run || reset, reset, input->dt_s, read_back, output );
-	return plStepResult( inst, reset, &update, input->dt_s );
 }

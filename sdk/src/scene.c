@@ -11,8 +11,8 @@
 // (test_tier_switch_does_not_pop). LBS-only skins tiers[0]'s shaped template with the frame's skinning matrices,
 // without touching the instance's history. Outputs live on the display mesh (tiers[0]'s); other meshes are carried
 // over by tier_transfer.c.
-#include "kernels_batch.h"
 #include "scene.h"
+#include "step.h"
 
 #include <math.h>
 #include <string.h>
@@ -281,28 +281,26 @@ static plResult plGatherTiers( plContextData* ctx, plSceneData* s, const plScene
 static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 {
 	uint32_t cap = s->capacity, n0 = s->display_vertex_count;
-	uint32_t sums = n0 > s->tiers[0].asset->face_count ? n0 : s->tiers[0].asset->face_count;
 	size_t display = (size_t)n0 * 3 * sizeof( float );
 	s->budget_scratch_bytes = (size_t)cap * PLEAT_SCENE_MAX_LEVELS * 12 + (size_t)cap * 4;
 	size_t live_ids = (size_t)cap * sizeof( uint32_t );
-	// Each task worker finishes its characters in its own fade and normals scratch (plFinishCharacters).
+	// Each task worker finishes its characters in its own fade scratch (plFinishCharacters).
 	uint32_t workers = s->worker_count;
-	s->lbs_sums_floats = (size_t)sums * 4;
-	size_t sizes[17] = {
+	size_t sizes[16] = {
 		(size_t)cap * sizeof( plSceneCharacter ), (size_t)cap * 4 * display, (size_t)cap * sizeof( float ),
 		(size_t)cap * sizeof( uint32_t ),         (size_t)cap * sizeof( int32_t ), (size_t)cap * sizeof( int32_t ),
 		(size_t)cap * sizeof( float ),            (size_t)cap * sizeof( uint32_t ), s->budget_scratch_bytes + live_ids,
 		(size_t)cap * 2 * sizeof( plInstance ),   (size_t)cap * 2 * sizeof( plFrameInput ),
-		(size_t)cap * 2 * sizeof( plResult ),     workers * 2 * display, workers * s->lbs_sums_floats * sizeof( float ),
+		(size_t)cap * 2 * sizeof( plResult ),     workers * 2 * display,
 		0,                                        (size_t)cap * 2 * sizeof( plResult ), (size_t)cap * 2 * sizeof( uint32_t ) };
 	size_t transfer = 0;
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
 	{
 		transfer += s->tiers[t].same_mesh ? 0 : 3 * plAlign64( (size_t)n0 * 12 );
 	}
-	sizes[14] = transfer;
+	sizes[13] = transfer;
 	size_t total = 0;
-	for ( int i = 0; i < 17; ++i )
+	for ( int i = 0; i < 16; ++i )
 	{
 		total += plAlign64( sizes[i] );
 	}
@@ -313,8 +311,8 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	}
 	s->block_size = total;
 	uint8_t* p = (uint8_t*)s->block;
-	void* parts[17];
-	for ( int i = 0; i < 17; ++i )
+	void* parts[16];
+	for ( int i = 0; i < 16; ++i )
 	{
 		parts[i] = p;
 		p += plAlign64( sizes[i] );
@@ -339,12 +337,11 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	s->step_inputs = (plFrameInput*)parts[10];
 	s->step_results = (plResult*)parts[11];
 	s->fade_positions = (float*)parts[12];
-	s->lbs_sums = (float*)parts[13];
-	s->verdicts = (plResult*)parts[15];
+	s->verdicts = (plResult*)parts[14];
 	s->lbs_results = s->verdicts + cap;
-	s->result_index = (uint32_t*)parts[16];
+	s->result_index = (uint32_t*)parts[15];
 	s->lbs_members = s->result_index + cap;
-	uint8_t* q = (uint8_t*)parts[14];
+	uint8_t* q = (uint8_t*)parts[13];
 	for ( uint32_t t = 0; t < s->tier_count; ++t )
 	{
 		if ( s->tiers[t].same_mesh )
@@ -755,176 +752,63 @@ static void plSwitch( plSceneData* s, plSceneCharacter* c, uint32_t target )
 #define PLEAT_SCENE_SKIPPED UINT32_MAX
 #define PLEAT_SCENE_NO_NETWORK ( UINT32_MAX - 1u )
 
-// LBS-only on the display mesh, in two parts. The pose: forward kinematics of tiers[0]'s instance (its scratch frame
-// only: the history is not touched) into its next_skin_matrices.
-static plResult plLbsPose( plSceneCharacter* c, const plFrameInput* input )
+// The LBS-only level: tiers[0]'s instance of each character in a step group with the networks off (step.c): the pose
+// checked, forward kinematics into its scratch frame (the history is not touched), its shaped template skinned with
+// those matrices, the fast contact with the instance's clearance (an LBS-only character is a far one: the full contact
+// would cost more than its skinning; a switch cross-fades, so it does not pop), normals — into the character's
+// positions / normals [N0][3]. A group of more than one runs the batched geometry kernels in lane groups.
+static plStepEntry* plAddLbs( plStepGroup* g, plSceneCharacter* c, const plFrameInput* input, float* positions,
+							  float* normals )
 {
-	plInstanceData* inst = plGetInstanceData( c->instances[0] );
-	const plAssetData* a = inst->asset;
-	plStepPose pose;
-	plResult r = plValidateStep( inst, input, NULL, &pose );
-	if ( r != PLEAT_RESULT_OK )
-	{
-		return r;
-	}
-	double dt = input->dt_s < a->dt_min_s ? a->dt_min_s : ( input->dt_s > a->dt_max_s ? a->dt_max_s : input->dt_s );
-	return plRunForwardKinematics( inst, &pose, dt, inst->history_valid ? inst->history[0].yaw : 0.0 );
+	plStepEntry* e = plStepGroup_Add( g, plGetInstanceData( c->instances[0] ), input, NULL );
+	e->positions = positions;
+	e->normals = normals;
+	return e;
 }
 
-// Normals of positions [N0][3] into normals (sums: the calling worker's normals scratch).
-static plResult plLbsNormals( const plSceneData* s, const float* positions, float* normals, float* sums )
-{
-	const plAssetData* a = s->tiers[0].asset;
-	uint32_t n = a->vertex_count;
-	if ( a->face_count >= n )
-	{
-		plNormalsScatterJob scatter = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count,
-										plMakeSpan( normals, n, 12 ), sums, a->face_count, &s->ctx->kernels };
-		return plNormalsScatterJob_Run( &scatter ) == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
-	}
-	plFaceNormalsJob faces = { plMakeConstSpan( positions, n, 12 ), a->faces, a->face_count, sums, 0,
-							   a->face_count, &s->ctx->kernels };
-	plNormalsGatherJob gather = { sums, a->face_count, a->adjacency_offsets, a->adjacency_faces,
-								  plMakeSpan( normals, n, 12 ), 0, n, &s->ctx->kernels };
-	return plFaceNormalsJob_Run( &faces ) == PLEAT_RESULT_OK && plNormalsGatherJob_Run( &gather ) == PLEAT_RESULT_OK
-			   ? PLEAT_RESULT_OK
-			   : PLEAT_RESULT_INTERNAL_ERROR;
-}
-
-// The geometry, after plLbsPose: tiers[0]'s shaped template skinned with next_skin_matrices, body contact, normals,
-// into positions / normals [N0][3].
-static plResult plLbsGeometry( const plSceneData* s, plSceneCharacter* c, float* positions, float* normals,
-							   float* sums )
-{
-	plInstanceData* inst = plGetInstanceData( c->instances[0] );
-	const plAssetData* a = inst->asset;
-	uint32_t n = a->vertex_count;
-	plSkinningJob skin = { plMakeConstSpan( inst->shaped_template, n, 12 ),
-						   a->skin_indices,
-						   a->skin_weights,
-						   a->influence_count,
-						   inst->next_skin_matrices,
-						   a->joint_count,
-						   plMakeSpan( positions, n, 12 ),
-						   0,
-						   n,
-						   &s->ctx->kernels,
-						   a->skin_column_offsets };
-	if ( plSkinningJob_Run( &skin ) != PLEAT_RESULT_OK )
-	{
-		return PLEAT_RESULT_INTERNAL_ERROR;
-	}
-	// the fast contact with the instance's clearance (an LBS-only character is a far one: the full contact would cost
-	// more than its skinning; a switch cross-fades, so it does not pop)
-	if ( inst->body_contact && plRunBodyContact( inst, positions, inst->next_skin_matrices, 1 ) != PLEAT_RESULT_OK )
-	{
-		return PLEAT_RESULT_INTERNAL_ERROR;
-	}
-	return plLbsNormals( s, positions, normals, sums );
-}
-
-// LBS-only for one character (a fade from LBS-only): pose and geometry.
+// LBS-only for one character (a fade from LBS-only), on the calling worker.
 static plResult plStepLbs( const plSceneData* s, plSceneCharacter* c, const plFrameInput* input, float* positions,
-						   float* normals, float* sums )
+						   float* normals )
 {
-	plResult r = plLbsPose( c, input );
-	return r == PLEAT_RESULT_OK ? plLbsGeometry( s, c, positions, normals, sums ) : r;
-}
-
-#define PLEAT_LBS_LANES_MAX 16
-
-// plLbsGeometry of `count` characters at once (count <= the batched kernels' geometry lanes), into their back buffers,
-// through plGeometryLanes (the batched kernels, the same bits as one by one). Normals one by one where no scratch
-// block is free.
-static void plLbsGeometryLanes( const plSceneData* s, const plBatchKernels* kernels, plSceneCharacter* const* group,
-								uint32_t count, plResult* const* results, float* sums )
-{
-	plInstanceData* insts[PLEAT_LBS_LANES_MAX];
-	const float* in[PLEAT_LBS_LANES_MAX];
-	float* positions[PLEAT_LBS_LANES_MAX];
-	float* normals[PLEAT_LBS_LANES_MAX];
-	for ( uint32_t k = 0; k < count; ++k )
-	{
-		insts[k] = plGetInstanceData( group[k]->instances[0] );
-		in[k] = insts[k]->shaped_template;
-		positions[k] = group[k]->back_positions;
-		normals[k] = group[k]->back_normals;
-	}
-	if ( plGeometryLanes( s->ctx, kernels, s->tiers[0].asset, 1, insts, in, positions, normals, count ) )
-	{
-		return;
-	}
-	for ( uint32_t k = 0; k < count; ++k )
-	{
-		*results[k] = plLbsNormals( s, positions[k], normals[k], sums );
-	}
-}
-
-typedef struct plLbsLevelTask
-{
-	plSceneData* scene;
-	const uint32_t* live;
-	const plFrameInput* inputs;
-	const plBatchKernels* kernels; // NULL: one character at a time
-	uint32_t lanes;                // characters per group (1 without kernels)
-	uint32_t count;                // the LBS-only characters this frame: scene->lbs_members[0, count)
-} plLbsLevelTask;
-
-// plTaskFn over the groups of LBS-only characters: the poses one by one, then the group's geometry in lanes.
-static void plStepLbsGroups( uint32_t start, uint32_t end, uint32_t worker, void* context )
-{
-	const plLbsLevelTask* task = (const plLbsLevelTask*)context;
-	plSceneData* s = task->scene;
-	float* sums = s->lbs_sums + (size_t)worker * s->lbs_sums_floats;
-	for ( uint32_t g = start; g < end; ++g )
-	{
-		plSceneCharacter* group[PLEAT_LBS_LANES_MAX];
-		plResult* results[PLEAT_LBS_LANES_MAX];
-		uint32_t count = 0;
-		uint32_t last = ( g + 1 ) * task->lanes < task->count ? ( g + 1 ) * task->lanes : task->count;
-		for ( uint32_t k = g * task->lanes; k < last; ++k )
-		{
-			uint32_t m = s->lbs_members[k];
-			plSceneCharacter* c = &s->characters[task->live[m]];
-			s->lbs_results[m] = plLbsPose( c, &task->inputs[task->live[m]] );
-			if ( s->lbs_results[m] != PLEAT_RESULT_OK )
-			{
-				continue;
-			}
-			if ( task->kernels == NULL )
-			{
-				s->lbs_results[m] = plLbsGeometry( s, c, c->back_positions, c->back_normals, sums );
-				continue;
-			}
-			group[count] = c;
-			results[count++] = &s->lbs_results[m];
-		}
-		if ( count > 0 )
-		{
-			plLbsGeometryLanes( s, task->kernels, group, count, results, sums );
-		}
-	}
+	plStepEntry entry;
+	plStepGroup g;
+	plStepGroup_Init( &g, s->ctx, s->tiers[0].asset, &entry, 0, NULL, "plScene_Step" );
+	plAddLbs( &g, c, input, positions, normals );
+	plRunStepGroup( &g );
+	return entry.result;
 }
 
 // The LBS-only level of this frame, before the characters are finished: every live character shown LBS-only gets
-// its outputs in its back buffers and its result in lbs_results — in lane groups through the batched geometry
-// kernels (plLbsGeometryLanes), or one by one without them (the scalar set) or on a mesh with fewer faces than
-// vertices (whose normals take the face-normal gather, which has no twin). The groups go to the task hooks.
+// its outputs in its back buffers and its result in lbs_results, in groups of up to PLEAT_BATCH_MAX over the task
+// hooks.
 static void plStepLbsLevel( plSceneData* s, const uint32_t* live, uint32_t live_count, const plFrameInput* inputs )
 {
-	const plAssetData* a = s->tiers[0].asset;
-	const plBatchKernels* kernels = s->ctx->kernels.batch;
-	int lanes_form = kernels != NULL && kernels->geometry_lanes > 1 && kernels->geometry_lanes <= PLEAT_LBS_LANES_MAX &&
-					 a->face_count >= a->vertex_count;
-	plLbsLevelTask task = { s, live, inputs, lanes_form ? kernels : NULL, lanes_form ? kernels->geometry_lanes : 1, 0 };
+	uint32_t count = 0;
 	for ( uint32_t m = 0; m < live_count; ++m )
 	{
 		if ( s->result_index[m] == PLEAT_SCENE_NO_NETWORK )
 		{
-			s->lbs_members[task.count++] = m;
+			s->lbs_members[count++] = m;
 		}
 	}
-	plRunTask( &s->ctx->runner, plStepLbsGroups, ( task.count + task.lanes - 1 ) / task.lanes, 1, &task );
+	plStepEntry entries[PLEAT_BATCH_MAX];
+	plStepGroup g;
+	for ( uint32_t k0 = 0; k0 < count; k0 += PLEAT_BATCH_MAX )
+	{
+		uint32_t k1 = count - k0 > PLEAT_BATCH_MAX ? k0 + PLEAT_BATCH_MAX : count;
+		plStepGroup_Init( &g, s->ctx, s->tiers[0].asset, entries, 0, &s->ctx->runner, "plScene_Step" );
+		for ( uint32_t k = k0; k < k1; ++k )
+		{
+			uint32_t id = live[s->lbs_members[k]];
+			plSceneCharacter* c = &s->characters[id];
+			plAddLbs( &g, c, &inputs[id], c->back_positions, c->back_normals );
+		}
+		plRunStepGroup( &g );
+		for ( uint32_t k = k0; k < k1; ++k )
+		{
+			s->lbs_results[s->lbs_members[k]] = entries[k - k0].result;
+		}
+	}
 }
 
 // A network detail's last outputs (its tier's instance, just stepped) on the display mesh.
@@ -1057,10 +941,10 @@ static void plWriteOut( float* dst, uint32_t stride_bytes, const float* src, uin
 }
 
 // After the crowd step: one character's new outputs (its network's, or LBS-only), the cross-fade if one is in flight,
-// its recent motion, the buffer swap and the copy out. fade_* and sums: the calling worker's scratch.
+// its recent motion, the buffer swap and the copy out. fade_*: the calling worker's scratch.
 static plResult plFinishCharacter( const plSceneData* s, plSceneCharacter* c, const plFrameInput* input,
 								   const plStepOutput* out, uint32_t result_index, plResult lbs_result,
-								   float* fade_positions, float* fade_normals, float* sums )
+								   float* fade_positions, float* fade_normals )
 {
 	uint32_t n0 = s->display_vertex_count;
 	int32_t tier = plLevelTier( s, c->level );
@@ -1081,7 +965,7 @@ static plResult plFinishCharacter( const plSceneData* s, plSceneCharacter* c, co
 	}
 	if ( result >= 0 && fade )
 	{
-		plResult rf = from < 0 ? plStepLbs( s, c, input, fade_positions, fade_normals, sums ) : PLEAT_RESULT_OK;
+		plResult rf = from < 0 ? plStepLbs( s, c, input, fade_positions, fade_normals ) : PLEAT_RESULT_OK;
 		if ( from >= 0 )
 		{
 			plShowTier( s, c, from, fade_positions, fade_normals );
@@ -1127,7 +1011,6 @@ static void plFinishCharacters( uint32_t start, uint32_t end, uint32_t worker, v
 	plSceneData* s = task->scene;
 	size_t display = (size_t)s->display_vertex_count * 3;
 	float* fade_positions = s->fade_positions + (size_t)worker * 2 * display;
-	float* sums = s->lbs_sums + (size_t)worker * s->lbs_sums_floats;
 	for ( uint32_t m = start; m < end; ++m )
 	{
 		if ( s->result_index[m] == PLEAT_SCENE_SKIPPED )
@@ -1137,7 +1020,7 @@ static void plFinishCharacters( uint32_t start, uint32_t end, uint32_t worker, v
 		uint32_t id = task->live[m];
 		s->verdicts[m] = plFinishCharacter( s, &s->characters[id], &task->inputs[id],
 											task->outputs != NULL ? &task->outputs[id] : NULL, s->result_index[m],
-											s->lbs_results[m], fade_positions, fade_positions + display, sums );
+											s->lbs_results[m], fade_positions, fade_positions + display );
 	}
 }
 

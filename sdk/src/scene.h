@@ -75,8 +75,6 @@ typedef struct plSceneData
 	plResult* step_results;
 	uint32_t worker_count;        // the context's task workers: one set of the scratch below each
 	float* fade_positions;        // [workers][2][N0][3] the detail being faded out, on the display mesh
-	float* lbs_sums;              // [workers][max(N0, F0)][4] normals scratch of the LBS-only detail
-	size_t lbs_sums_floats;       // one worker's share of lbs_sums
 	plResult* verdicts;           // [capacity] a step's checks of each live character's output spans, then its result
 	uint32_t* result_index;       // [capacity] where each live character's network result sits in step_results
 	plResult* lbs_results;        // [capacity] the LBS-only level's result of each live character shown on it

@@ -23,14 +23,15 @@ typedef enum plStepPhase
 	PLEAT_PHASE_COUNT
 } plStepPhase;
 
-// The stages of one asset's group in plStepInstances (batch.c plRunGroup).
+// The stages of a wide step group in plStepInstances (step.c plRunStepGroup; a group of one is timed as the single
+// step).
 typedef enum plBatchPhase
 {
 	PLEAT_BATCH_PHASE_PREPARE,  // per instance: validation, FK, X_c (plPrepareEntry)
 	PLEAT_BATCH_PHASE_NETWORKS, // f_LP and f_dec for the group, with their guards
 	PLEAT_BATCH_PHASE_BLEND,    // blend shapes for the group
-	PLEAT_BATCH_PHASE_GEOMETRY, // skinning, body contact and normals in lanes (GPU modes: the whole deformation and commit)
-	PLEAT_BATCH_PHASE_FINISH,   // per instance: finite scans and commit (plFinishEntry), numeric resets
+	PLEAT_BATCH_PHASE_GEOMETRY, // skinning, body contact, normals, finite scans and commits (GPU modes: the deformation)
+	PLEAT_BATCH_PHASE_FINISH,   // numeric resets (the finite scans and commits run inside the geometry)
 	PLEAT_BATCH_PHASE_COUNT
 } plBatchPhase;
 
