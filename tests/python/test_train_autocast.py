@@ -8,7 +8,7 @@ import pytest
 
 torch = pytest.importorskip("torch", reason="PyTorch not installed (pip install 'pleat-tools[train]')")
 
-from pleat.train import batching, config, core  # noqa: E402
+from pleat.train import batching, config, core, settings  # noqa: E402
 
 STEPS = 3
 
@@ -16,23 +16,28 @@ STEPS = 3
 @pytest.mark.parametrize("native", [False, True])
 def test_autocast_bf16_setting_is_off_by_default_and_checked_against_the_device(monkeypatch, native):
     monkeypatch.setattr(config, "native_bf16", lambda device: native)
-    assert config.autocast_bf16({}, "cpu") is False
-    assert config.autocast_bf16({"autocast_bf16": False}, "cpu") is False
-    assert config.autocast_bf16({"autocast_bf16": "auto"}, "cpu") is native
+    assert config.autocast_bf16(_stage1(), "cpu") is False
+    assert config.autocast_bf16(_stage1(autocast_bf16=False), "cpu") is False
+    assert config.autocast_bf16(_stage1(autocast_bf16="auto"), "cpu") is native
     if native:
-        assert config.autocast_bf16({"autocast_bf16": True}, "cpu") is True
+        assert config.autocast_bf16(_stage1(autocast_bf16=True), "cpu") is True
     else:
         with pytest.raises(ValueError, match="no native bfloat16"):
-            config.autocast_bf16({"autocast_bf16": True}, "cpu")
-    with pytest.raises(ValueError, match="must be false, true or"):
-        config.autocast_bf16({"autocast_bf16": "yes"}, "cpu")
+            config.autocast_bf16(_stage1(autocast_bf16=True), "cpu")
+    with pytest.raises(settings.SettingError, match='must be false, true or "auto"'):
+        _stage1(autocast_bf16="yes")
+
+
+def _stage1(**values):
+    """The tiny preset's stage1 section with `values` set as --set would set them (checked by the declarations)."""
+    return settings.resolve("tiny", overrides={f"stage1.{k}": v for k, v in values.items()})["stage1"]
 
 
 def test_autocast_bf16_needs_the_batched_path(monkeypatch):
     monkeypatch.setattr(config, "native_bf16", lambda device: True)
     with pytest.raises(ValueError, match="batched path"):
-        config.autocast_bf16({"autocast_bf16": True, "batched": False}, "cpu")
-    assert config.autocast_bf16({"autocast_bf16": "auto", "batched": False}, "cpu") is False
+        config.autocast_bf16(_stage1(autocast_bf16=True, batched=False), "cpu")
+    assert config.autocast_bf16(_stage1(autocast_bf16="auto", batched=False), "cpu") is False
 
 
 def test_the_default_configs_leave_autocast_off():

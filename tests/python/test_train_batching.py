@@ -289,15 +289,18 @@ def test_compiled_terms_are_the_eager_ones_and_follow_the_collision_ramp(tiny_ph
 def test_data_worker_and_nearest_settings():
     """stage1.data_worker: false / true / a count; stage1.nearest: auto (the trees, also on a GPU, where
     they measured faster), kdtree, torch;
-    anything else is refused before training."""
-    from pleat.train import config
-    assert [config.data_workers({"data_worker": v}) for v in (False, True, 0, 3)] == [0, 1, 0, 3]
-    assert config.data_workers({}) == 0
+    anything else is refused before training (by the declarations, pleat.train.settings)."""
+    from pleat.train import config, settings
+
+    def stage1(**values):
+        return settings.resolve("tiny", overrides={f"stage1.{k}": v for k, v in values.items()})["stage1"]
+    assert [config.data_workers(stage1(data_worker=v)) for v in (False, True, 0, 3)] == [0, 1, 0, 3]
+    assert config.data_workers(stage1()) == 0
     for bad in (-1, "2", 1.5):
-        with pytest.raises(ValueError):
-            config.data_workers({"data_worker": bad})
-    assert not config.searches_on_device({}) and not config.searches_on_device({"nearest": "auto"})
-    assert config.searches_on_device({"nearest": "torch"})
-    assert not config.searches_on_device({"nearest": "kdtree"})
-    with pytest.raises(ValueError):
-        config.searches_on_device({"nearest": "gpu"})
+        with pytest.raises(settings.SettingError, match="stage1.data_worker"):
+            stage1(data_worker=bad)
+    assert not config.searches_on_device(stage1()) and not config.searches_on_device(stage1(nearest="auto"))
+    assert config.searches_on_device(stage1(nearest="torch"))
+    assert not config.searches_on_device(stage1(nearest="kdtree"))
+    with pytest.raises(settings.SettingError, match="stage1.nearest"):
+        stage1(nearest="gpu")

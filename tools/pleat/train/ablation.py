@@ -48,8 +48,8 @@ def window_loss(setup, model, win, beta, mat, mat01, c1, steps, w, z_lo, z_hi):
         return disp
 
     scale = 1.0
-    if c1.get("loss_norm") == "lbs":
-        scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1.get("loss_norm_floor", 1.0))
+    if c1["loss_norm"] == "lbs":
+        scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1["loss_norm_floor"])
     l, terms = rollout_loss(setup, None, Window(setup, win, beta, mat, mat01), steps, w, predictor)
     return l / scale, terms
 
@@ -60,7 +60,7 @@ def train_ablation(cfg, garment, out, resume=False, device="auto", progress=True
     norms = pose_statistics(setup, clips, rng)
     model = AblationModel(setup, norms).to(dev)
     ca, c1 = cfg["ablation"], cfg["stage1"]
-    opt = make_optimizer(model, ca["lr"], c1.get("blend_lr_scale", 1.0))
+    opt = make_optimizer(model, ca["lr"], c1["blend_lr_scale"])
     run = Run(out, "ablation", cfg, rank)
     start, elapsed = run.restore(model, opt) if resume else (0, 0.0)
     budget = Budget(max_minutes, elapsed)

@@ -731,8 +731,8 @@ def stage1_iteration(setup, net, source, c1, steps, w, next_steps=None):
     """One stage-1 iteration's objective (to back-propagate) and its log record: with K windows, `loss`,
     `lbs_scale`, `ratio` and the terms are means over the windows (K = 1: exactly the per-window record)."""
     win = source.next(steps, next_steps)
-    objective, loss, scale, acc = stage1_loss(setup, net, win, steps, w, c1.get("loss_norm"),
-                                              c1.get("loss_norm_floor", 1.0), bool(c1.get("compile")))
+    objective, loss, scale, acc = stage1_loss(setup, net, win, steps, w, c1["loss_norm"],
+                                              c1["loss_norm_floor"], c1["compile"])
     losses = loss.detach().cpu().numpy().astype(np.float64)
     rec = {"loss": float(losses.mean()), "lbs_scale": float(scale.mean()), "ratio": float((losses / scale).mean())}
     if len(losses) > 1:
@@ -749,7 +749,7 @@ def validate_stage1(setup, model, clips, rng, w, c1):
     picks = [sample_pick(setup, clips, rng, steps + 3) for _ in range(n)]
     win = prepare(kinematics(setup), picks, steps)
     batch = WindowBatch(setup, win)
-    scale, lbs = lbs_scales(win, w, c1.get("loss_norm_floor", 1.0))
+    scale, lbs = lbs_scales(win, w, c1["loss_norm_floor"])
     net, graph = BatchedStage1(model), block_graph(setup, n)
 
     def predict(f):
@@ -769,8 +769,8 @@ def ablation_iteration(setup, model, source, c1, steps, w, z_lo, z_hi, next_step
     win = source.next(steps, next_steps)
     batch = WindowBatch(setup, win)
     scale = np.ones(batch.K)
-    if c1.get("loss_norm") == "lbs":
-        scale, _ = lbs_scales(win, w, c1.get("loss_norm_floor", 1.0))
+    if c1["loss_norm"] == "lbs":
+        scale, _ = lbs_scales(win, w, c1["loss_norm_floor"])
     static = _f32(win["static"], batch.device)                          # [K, W, I]
     state = {"z": torch.zeros(batch.K, setup.L, device=batch.device)}
 

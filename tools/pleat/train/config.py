@@ -1,28 +1,22 @@
-"""Training configuration and schedules: the preset (configs/*.json with --set overrides), the loss terms and their
-weights over the run, the rollout length, the optimiser, threads and the wall-clock budget."""
-import json
+"""Training configuration and schedules: the config a run resolves to (pleat.train.settings: the declared defaults,
+a preset from configs/*.json, --set overrides), the loss terms and their weights over the run, the rollout length,
+the optimiser, threads and the wall-clock budget."""
 import math
 import time
-from pathlib import Path
 
 import torch
 
-from pleat import REPO_ROOT
+from pleat.train import settings
 
 
 LOSS_TERMS = ("bending", "stretching", "inertia", "gravity", "friction", "collision")
 
 
 def load_config(preset=None, path=None, overrides=None):
-    src = Path(path) if path else REPO_ROOT / "configs" / f"{preset}.json"
-    cfg = json.loads(src.read_text())
-    for key, value in (overrides or {}).items():
-        node = cfg
-        parts = key.split(".")
-        for p in parts[:-1]:
-            node = node[p]
-        node[parts[-1]] = value
-    return cfg
+    """The resolved config (settings.resolve): every declared key, the preset's or file's values over the declared
+    defaults, `overrides` ({"stage1.iterations": 50}) over both; settings.SettingError for an unknown key or a value
+    out of range."""
+    return settings.resolve(preset, path, overrides)
 
 
 def lerp(a, b, s):
@@ -110,9 +104,7 @@ def autocast_bf16(c1, device):
     (matmuls in bf16 with float32 accumulation; the residual streams, the decoder, the blend shapes, the rollout and
     the losses stay float32). false (default): never; "auto": where the device has native bf16 (`native_bf16`);
     true: required, a ValueError where the device lacks it. Only the batched path has it."""
-    value = c1.get("autocast_bf16", False)
-    if value not in (False, True, "auto"):
-        raise ValueError(f"stage1.autocast_bf16 must be false, true or \"auto\", not {value!r}")
+    value = c1["autocast_bf16"]
     if value is False:
         return False
     supported = native_bf16(device)
@@ -127,19 +119,14 @@ def autocast_bf16(c1, device):
 def batched_path(c1):
     """Whether the physics-loss stages run the batched path (batching.py; default) or the per-window one
     (`--set stage1.batched=false`, kept for the A/B comparison in bench/train_throughput.py)."""
-    return bool(c1.get("batched", True))
+    return bool(c1["batched"])
 
 
 def data_workers(c1):
     """`stage1.data_worker`: how many forked processes prepare the physics stages' windows ahead of the trainer
     (batching.WindowSource). false / 0: none; true / 1: one (what two cores can use); n: n, round robin (a GPU
     trainer on a many-core machine)."""
-    value = c1.get("data_worker", False)
-    if isinstance(value, bool):
-        return int(value)
-    if not isinstance(value, int) or value < 0:
-        raise ValueError(f"stage1.data_worker must be false, true or a count >= 0, not {value!r}")
-    return value
+    return int(c1["data_worker"])
 
 
 def searches_on_device(c1):
@@ -149,7 +136,4 @@ def searches_on_device(c1):
     (default): the trees, on a CPU and on a GPU alike. Measured on an H100 with 12 data workers (docs/training.md,
     "The GPU route"): K = 32 windows an iteration, 44.8 windows/s with the trees against 26.8 with the exact search
     on the GPU; on a CPU the exact search costs 30 times the trees' query."""
-    value = c1.get("nearest", "auto")
-    if value not in ("auto", "kdtree", "torch"):
-        raise ValueError(f"stage1.nearest must be \"auto\", \"kdtree\" or \"torch\", not {value!r}")
-    return value == "torch"
+    return c1["nearest"] == "torch"

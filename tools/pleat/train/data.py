@@ -9,7 +9,7 @@ from pleat import garment_asset as ga
 from pleat import reference
 from pleat import rotations as rot
 from pleat.train import graph as graph_mod
-from pleat.train import sources
+from pleat.train import settings, sources
 from pleat.train.model import skin
 
 
@@ -17,7 +17,8 @@ class Setup:
     """Everything that depends only on the garment and the body."""
 
     def __init__(self, cfg, garment_spec, device="cpu"):
-        self.cfg, self.device = cfg, torch.device(device)
+        # a config stored by an older run may lack keys declared since: they read as their declared defaults
+        self.cfg, self.device = settings.complete(cfg), torch.device(device)
         self.garment_spec = garment_spec     # what a run records as its garment (a name or a file)
         m = cfg["model"]
         self.body = sources.body(cfg["body"])
@@ -52,7 +53,7 @@ class Setup:
         bf = np.asarray(getattr(self.body, "faces", np.zeros((0, 3))), np.int64)
         bf = bf if len(bf) and bf.max() < vc else None
         body_v = np.asarray(self.body.v_template[:vc], np.float64)
-        radius = float(m.get("body_subset_m") or 0.0)
+        radius = m["body_subset_m"]
         near = cKDTree(self.template).query(body_v)[0] < radius if radius > 0 else np.ones(vc, bool)
         keep = np.nonzero(near)[0]
         ring_faces = bf[near[bf].any(1)] if bf is not None else None
@@ -248,6 +249,6 @@ def physics_clips(cfg, body):
     dominated the first default run's loss."""
     clips = sources.clips("train", cfg["fps"], cfg["clips"]["train_limit"] or None,
                           cfg["clips"]["frames_limit"] or None, body)
-    drop = list(cfg["stage1"].get("exclude_clips") or [])
+    drop = cfg["stage1"]["exclude_clips"]
     kept = [c for c in clips if not any(d in c.name for d in drop)]
     return kept or clips

@@ -11,7 +11,7 @@ import numpy as np
 import torch
 
 from pleat import garment_asset as ga
-from pleat.train import core
+from pleat.train import core, settings
 from pleat.train.shim import model_shim
 
 
@@ -24,7 +24,7 @@ def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=Tr
     meta = {"model": model or f"pleat tier {report['tier']}: inference block distilled from the stage-1 teacher",
             "tier": report["tier"], "distillation": {k: v for k, v in report.items()},
             "teacher": str(teacher) if teacher else None,
-            "training": dict({"preset": setup.cfg.get("preset")}, **(training or {}))}
+            "training": dict({"preset": setup.cfg["preset"]}, **(training or {}))}
     weights = ga.weights_from_garment(garment, setup.body, net, metadata=meta, name=setup.name,
                                       contact=ga.tier_contact(report["tier"]), contact_candidates=contact_candidates)
     write_asset(str(path), weights, fp16=fp16, onnx=onnx)
@@ -35,15 +35,15 @@ def write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary,
     """A simsup run folder's files from its model: simsup.pt (what load_model reads, plus `state`),
     simsup_summary.json and the packed <garment>.pleat (fp16 / ONNX sections as cfg's simsup section says, META with
     the summary). Returns the asset's path."""
-    c = cfg["simsup"]
+    c = settings.complete(cfg)["simsup"]      # a stored config (simsup-contact) may predate some keys
     torch.save(dict({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
                      "config": cfg, "garment": garment}, **state), out / "simsup.pt")
     (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
     path = out / f"{setup.name}.pleat"
     tier_name = report.get("tier") or c["tier"]        # a second round of students: "<n>x<tier>"
     pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=tier_name), cfg["fps"],
-              fp16=c.get("fp16", True), teacher="reference simulator", model=model_name(report, contact=contact_tuned),
-              training=summary, onnx=bool(c.get("onnx", False)), contact_candidates=run_contact_candidates(out))
+              fp16=c["fp16"], teacher="reference simulator", model=model_name(report, contact=contact_tuned),
+              training=summary, onnx=c["onnx"], contact_candidates=run_contact_candidates(out))
     return path
 
 

@@ -184,7 +184,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     # validation simulation (then on those that are there, if any)
     train_clips = {} if user_only else _clips("train", cfg["fps"], setup.body)
     val_clips = {} if user_only and user_val else _clips("validation", cfg["fps"], setup.body, required=not user_only)
-    if c.get("validation_limit"):
+    if c["validation_limit"]:
         val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
     loaded = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"]) if data else None
     run = core.Run(out, "simsup", cfg, 0)
@@ -200,13 +200,13 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     # 2. data
     segments = simdata.plan_segments(list(train_clips.values()), c, setup.B, cfg["seed"]) if train_clips else []
     # skip_segments: a second machine continues the same plan where the first stopped
-    segments = segments[int(c.get("skip_segments", 0)):]
-    segments = segments[:int(c["max_segments"])] if c.get("max_segments") else segments
+    segments = segments[c["skip_segments"]:]
+    segments = segments[:c["max_segments"]] if c["max_segments"] else segments
     if data:
         done, seqs, val, sim_cpu, val_cpu = loaded
     else:
         val, val_cpu = [], 0.0
-        if not c.get("skip_validation"):    # a second data machine need not simulate the validation clips again
+        if not c["skip_validation"]:    # a second data machine need not simulate the validation clips again
             val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log)
         deadline = None if budget_s is None else t_start + c["simulate_share"] * budget_s
         done, sim_cpu = simdata.simulate_segments(setup, segments, workers, cache_dir, deadline, log)
@@ -217,11 +217,11 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
             {"simulation_cpu_s": sim_cpu, "validation_cpu_s": val_cpu, "residual_rms_mm": resid,
              "segments": len(seqs), "frames": int(sum(len(s["disp"]) for s in seqs)),
              "wall_s": time.time() - t_start, "hardware": core.hardware()}))
-        if c.get("export_only"):
+        if c["export_only"]:
             return None, None
     seqs, val = seqs + user_train, val + user_val
     frames = int(sum(len(s["disp"]) for s in seqs))
-    if int(c.get("contact_candidates", 0)) > 1 and seqs:  # the top tier's body contact, from where the cloth was
+    if c["contact_candidates"] > 1 and seqs:  # the top tier's body contact, from where the cloth was
         write_contact_candidates(out / CANDIDATES_FILE, setup, seqs, c["contact_candidates"], progress=progress)
     run.log({"data": {"segments": len(seqs), "frames": frames, "planned_segments": len(segments),
                       "simulation_cpu_s": sim_cpu, "validation_cpu_s": val_cpu, "wall_s": time.time() - t_start}})
@@ -233,9 +233,9 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     spec = tier(c["tier"])
     dev = core.device_for(device, 0)
     t_fit = time.time()
-    members = int(c.get("ensemble_members", 1))
-    students = int(c.get("students", 0))
-    second = int(c.get("second_students", 0)) if students > 0 else 0
+    members = c["ensemble_members"]
+    students = c["students"]
+    second = c["second_students"] if students > 0 else 0
     fit_deadline = None if budget_s is None else t_start + 0.85 * budget_s
     # the first fit, the students and the second round of students share the fitting budget equally
     rounds = 1 + (students > 0) + (second > 0)
@@ -246,9 +246,9 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
         return lambda: distill.distill(
             seqs, setup, tier(c["member_tier"]) if members > 1 else spec, val, None, cfg["seed"] + k,
             c["iterations"], c["dec_iterations"], c["lr"], c["batch"], c["window"], progress and workers <= 1,
-            device=dev, weight_by_energy=bool(c.get("weight_by_energy", False)),
+            device=dev, weight_by_energy=c["weight_by_energy"],
             deadline=forkpool.deadline(t_fit, first_deadline, k, members, workers),
-            noise=(float(c.get("input_noise", 0.0)), float(c.get("latent_noise", 0.0))))
+            noise=(c["input_noise"], c["latent_noise"]))
     fits = forkpool.run([member_fit(k) for k in range(members)], workers)
     if members > 1:
         from pleat.train import ensemble
@@ -273,7 +273,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                "validation": val_err, "user_simulations": user_info}
     path = write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary)
     run.log({"summary": summary})
-    if int(c.get("contact_iterations", 0)) > 0:      # the last step: the contact-aware fine-tune (rewrites the asset
+    if c["contact_iterations"] > 0:      # the last step: the contact-aware fine-tune (rewrites the asset
         path, _ = contact_tune(out, None, progress=progress, settings=c, sequences=(seqs, val),   # and says the verdict)
                                deadline=None if budget_s is None else t_start + budget_s)
     else:
@@ -369,7 +369,7 @@ def fit_student(teacher, teacher_val, setup, spec, seed, iterations, garment=Non
 def fit_workers(c, device):
     """How many independent fits run side by side (simsup.fit_workers, forked children, pleat.train.forkpool): on the
     CPU only, since a GPU serves one fit at a time better."""
-    return max(1, int(c.get("fit_workers", 1))) if str(device) == "cpu" else 1
+    return c["fit_workers"] if str(device) == "cpu" else 1
 
 
 def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadline=None, progress=False,
@@ -389,7 +389,7 @@ def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadlin
     else:
         spec = tier(c["tier"])
         member = tier(c["member_tier"]) if count > 1 else spec
-    frames = int(c.get("tier_teacher_frames", 0))
+    frames = c["tier_teacher_frames"]
     t0 = time.time()
     workers = fit_workers(c, "cpu")
 
@@ -429,7 +429,7 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
     _, seqs, val, _, _ = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"])
     t0 = time.time()
     seed = cfg["seed"] if seed is None else seed
-    teacher_frames = int(c.get("tier_teacher_frames", 0) if teacher_frames is None else teacher_frames)
+    teacher_frames = int(c["tier_teacher_frames"] if teacher_frames is None else teacher_frames)
     teacher, teacher_val = teacher_data(lp, block, setup, seqs, val, train_clips, teacher_frames, seed)
     if progress:
         print(f"simsup tiers: teacher rollouts on {len(teacher)} sequences ({len(seqs)} simulated) in "
@@ -521,9 +521,15 @@ def own_latents(lp, seqs, setup_latent):
     return out
 
 
+# The fine-tune asked for on a run that had none (its simsup.contact_iterations 0): the shipped recipe's length.
+RETUNE_ITERATIONS = 1500
+
+
 def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, sequences=None, deadline=None):
     """pleat.train.contact on the simsup model in `run_dir`, on the sequences of `data`; rewrites simsup.pt (the
-    fitted model is kept as simsup_fit.pt) and the packed asset, and prints the verdict again."""
+    fitted model is kept as simsup_fit.pt) and the packed asset, and prints the verdict again. `iterations`: default
+    the run's simsup.contact_iterations, RETUNE_ITERATIONS where that is 0; `settings`: contact_* values that win
+    over the run's own (checked ones: settings.parse_set)."""
     from pleat.train import contact
     run_dir = Path(run_dir)
     lp, block, norms, shim, setup = load_model(run_dir)
@@ -547,9 +553,9 @@ def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, s
         run.log(rec)
         if progress:
             print(f"contact: {rec}", file=sys.stderr)
-    rep = contact.finetune(lp, block, train, tensors, iterations or int(c.get("contact_iterations", 1500)),
-                           lr=float(c.get("contact_lr", 1e-4)), w_contact=float(c.get("contact_weight", 30.0)),
-                           eps_m=float(c.get("contact_eps_m", 2e-3)), log=log, deadline=deadline)
+    rep = contact.finetune(lp, block, train, tensors, iterations or c["contact_iterations"] or RETUNE_ITERATIONS,
+                           lr=c["contact_lr"], w_contact=c["contact_weight"], eps_m=c["contact_eps_m"], log=log,
+                           deadline=deadline)
     after = posed_errors(lp, block, val, setup.L)
     state = torch.load(run_dir / "simsup.pt", weights_only=False)
     if not (run_dir / "simsup_fit.pt").exists():

@@ -31,7 +31,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
     model = Stage1Model(setup).to(dev)
     c1 = cfg["stage1"]
     bf16 = autocast_bf16(c1, dev)       # before anything runs: true where the device lacks bf16 is an error
-    opt = make_optimizer(model, c1["lr"], c1.get("blend_lr_scale", 1.0))
+    opt = make_optimizer(model, c1["lr"], c1["blend_lr_scale"])
     run = Run(out, "stage1", cfg, rank)
     start, elapsed = run.restore(model, opt) if resume else (0, 0.0)
     if start == 0:
@@ -42,8 +42,8 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
     if batched:     # K windows per iteration through one graph (batching.py; the same losses, tested)
         from pleat.train import batching
         net = batching.BatchedStage1(model, bf16=bf16)
-        ddp = wrap_ddp(batching.compiled(net) if c1.get("compile") else net, world, dev)
-        source = batching.WindowSource(setup, clips, rng, c1.get("windows_per_iteration", 1),
+        ddp = wrap_ddp(batching.compiled(net) if c1["compile"] else net, world, dev)
+        source = batching.WindowSource(setup, clips, rng, c1["windows_per_iteration"],
                                        workers=data_workers(c1), drop_trees=searches_on_device(c1))
     else:
         ddp = wrap_ddp(model, world, dev)
@@ -62,8 +62,8 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
         else:
             win, beta, mat, mat01 = sample_window(setup, clips, rng, steps + 3)
             scale = 1.0
-            if c1.get("loss_norm") == "lbs":
-                scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1.get("loss_norm_floor", 1.0))
+            if c1["loss_norm"] == "lbs":
+                scale, _ = lbs_scale(setup, win, beta, mat, mat01, steps, w, c1["loss_norm_floor"])
             loss, terms = rollout_loss(setup, ddp, Window(setup, win, beta, mat, mat01), steps, w)
             opt.zero_grad()
             (loss / scale).backward()
@@ -78,7 +78,7 @@ def train_stage1(cfg, garment, out, resume=False, device="auto", progress=True, 
         if (it + 1) % c1["checkpoint_every"] == 0 or it + 1 == c1["iterations"] or stop:
             run.checkpoint({"model": model.state_dict(), "optimizer": opt.state_dict(), "iteration": it + 1,
                             "config": cfg, "garment": garment, "rng": _rng_state(), "elapsed_s": budget.elapsed()})
-        every = c1.get("validation_every") or 0
+        every = c1["validation_every"]
         if every and (it + 1) % every == 0 and not stop and it + 1 != c1["iterations"]:
             run.log({"iteration": it + 1, "validation": validate_stage1(setup, model, cfg)})
         if stop:
@@ -137,7 +137,7 @@ def validate_stage1(setup, model, cfg):
         losses, ratios, terms, lbs_terms = batching.validate_stage1(setup, model, clips, rng, w, c1)
     for _ in range(0 if batched_path(c1) else c1["validation_windows"]):
         win, beta, mat, mat01 = sample_window(setup, clips, rng, c1["rollout_max"] + 3)
-        scale, tl = lbs_scale(setup, win, beta, mat, mat01, c1["rollout_max"], w, c1.get("loss_norm_floor", 1.0))
+        scale, tl = lbs_scale(setup, win, beta, mat, mat01, c1["rollout_max"], w, c1["loss_norm_floor"])
         loss, t = rollout_loss(setup, model, Window(setup, win, beta, mat, mat01), c1["rollout_max"], w)
         losses.append(float(loss))
         ratios.append(float(loss) / scale)

@@ -64,7 +64,7 @@ def record_latents(setup, model, clips, count, frames, rng, deadline=None):
     if batched_path(setup.cfg["stage1"]):      # several sequences rolled together (batching.py)
         from pleat.train import batching
         return batching.record_latents(setup, model, clips, count, frames, rng, deadline,
-                                       int(setup.cfg.get("stage2", {}).get("record_group", 8)))
+                                       setup.cfg["stage2"]["record_group"])
     seqs = []
     for _ in range(count):
         if deadline is not None and len(seqs) >= 2 and time.time() > deadline:
@@ -122,7 +122,7 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True, max_minut
     else:
         # recording rolls Φ (the slow network) frame by frame: with a time budget it gets at most
         # `record_budget_share` of it, so that f_LP still trains
-        share = c2.get("record_budget_share", 0.5)
+        share = c2["record_budget_share"]
         deadline = None if not max_minutes else t_rec + 60.0 * max_minutes * share
         seqs = record_latents(setup, phi, train_clips, c2["sequences"], c2["sequence_frames"], rng,
                               None if deadline is None else deadline - 0.2 * 60.0 * max_minutes * share)
