@@ -83,20 +83,18 @@ def build_parser():
         c.set_defaults(run=run, parser=c, needs_torch=torch)
         return c
 
-    for name, help, run in (("stage1", "stage 1: Φ on the physics losses", _stage1),
-                            ("all", "stage 1, stage 2 and pack", _all),
-                            ("ablation", "the section-4.3 ablation (f_LP → f_dec → D on the physics losses)",
-                             _ablation)):
-        c = command_parser(name, help, run)
+    def training(c, pack=False):
         _config_options(c)
         _garment(c)
         _out(c)
         _resume(c)
         _device(c)
         _budget(c)
-        if name == "all":
+        if pack:
             _pack_options(c)
         _common(c)
+
+    training(command_parser("stage1", "stage 1: Φ on the physics losses", _stage1))
 
     c = command_parser("stage2", "stage 2: f_LP on Φ's latents (Φ and its config from the stage-1 checkpoint in "
                                  "--out; the stage2 settings from --preset and --set)", _stage2)
@@ -113,6 +111,10 @@ def build_parser():
     _pack_options(c)
     _ignored(c, "--preset", "--config", "--garment", "--device")
     _common(c)
+
+    training(command_parser("all", "stage 1, stage 2 and pack", _all), pack=True)
+    training(command_parser("ablation", "the section-4.3 ablation (f_LP → f_dec → D on the physics losses)",
+                            _ablation))
 
     c = command_parser("simsup", "the simulator-supervised recipe: simulate, fit, pack (docs/training.md)", _simsup)
     _config_options(c)
