@@ -1,7 +1,7 @@
 // Crowd timings for docs/scene-budget.md and the "crowd" keys of out/bench/step.json (run by scripts/bench.sh; not a
 // test): per-instance µs of plStepInstances against stepping the same number of instances one by one with
 // plInstance_Step, in the same run. Built as pleat_bench_crowd_phases (against the PLEAT_STEP_PHASES library copy)
-// every entry also gets "batch_phase_us_per_instance": the batch's stages (sdk/src/step_phases.h), per instance.
+// every entry also gets "batch_phase_us_per_instance": the batch's stages (sdk/src/core/step_phases.h), per instance.
 //
 // usage: pleat_bench_crowd --case case.bin --asset LABEL=PATH [--asset LABEL=PATH ...] [--counts 1,8,64,256]
 //                          [--workers 1,2] [--seconds S] [--rounds R] [--clock wall|cpu] [--batch-isa best|avx2]

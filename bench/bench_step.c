@@ -28,7 +28,7 @@
 // --step-only times nothing but plInstance_Step on --asset (fp32 or fp16), optionally with --workers 2; --small-pages
 // (with --step-only or --phases) gives the context the plain allocator hooks.
 // pleat_bench_phases (the same file against the library built with PLEAT_STEP_PHASES, bench/CMakeLists.txt) adds
-// --phases: the per-phase medians of one-thread steps on --asset and --asset-fp16 (sdk/src/step_phases.h), as JSON.
+// --phases: the per-phase medians of one-thread steps on --asset and --asset-fp16 (sdk/src/core/step_phases.h), as JSON.
 #define _POSIX_C_SOURCE 200809L
 #define _DEFAULT_SOURCE // madvise: the memory floor is read from huge pages, as the step's asset block (context.c)
 #include "pleat/pleat.h"

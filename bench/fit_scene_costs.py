@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Fits the scene's built-in cost model (sdk/src/scene.c, PLEAT_COST_US_*) to a `pleat_bench_crowd --scene` run.
+"""Fits the scene's built-in cost model (sdk/src/scene/scene.c, PLEAT_COST_US_*) to a `pleat_bench_crowd --scene` run.
 
 The model, per character and frame (µs): a tier at full rate = PER_MAC · (MLP + blend-shape multiply-adds) +
 PER_VERTEX · N + FIXED + PER_DISPLAY_VERTEX · N_display (only for a tier on another mesh, carried over to the

@@ -1,4 +1,4 @@
-// The GL compute path (sdk/src/gl/, shaders/) against a double-precision reference of the same equations, on Mesa
+// The GL compute path (sdk/src/backends/gl/, shaders/) against a double-precision reference of the same equations, on Mesa
 // llvmpipe: host-context mode (the test plays the engine: its own EGL context and output buffers, and GL state that
 // must come back unchanged), headless mode (the automatic choice, the EGL device platform forced, OSMesa forced), fp16
 // blend shapes, bad descriptions.

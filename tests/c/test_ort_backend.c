@@ -1,4 +1,4 @@
-// The ONNX Runtime backend (sdk/src/ort_backend.c) against the real libonnxruntime from the onnxruntime wheel.
+// The ONNX Runtime backend (sdk/src/backends/onnx/ort_backend.c) against the real libonnxruntime from the onnxruntime wheel.
 //
 // usage: test_ort_backend PYTHON DATA_SCRIPT DATA_DIR
 // Runs `PYTHON DATA_SCRIPT DATA_DIR` (tests/c/test_ort_data.py: small MLPs built with the `onnx` package, numpy
