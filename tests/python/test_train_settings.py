@@ -60,6 +60,9 @@ def test_values_of_the_wrong_type_or_out_of_range_name_the_key_and_its_range():
         with pytest.raises(settings.SettingError, match=re.escape(f"{key} = {json.dumps(value)}: must be") + ".*"
                                                         + re.escape(text)):
             settings.resolve("tiny", overrides={key: value})
+    with pytest.raises(settings.SettingError, match=r"model.mp_schedule = \[0, 1, 2, 1, 0\]: its levels must be "
+                                                    r"below model.mp_levels = 2"):
+        settings.resolve("tiny", overrides={"model.mp_schedule": [0, 1, 2, 1, 0]})
     assert settings.resolve("tiny", overrides={"fps": 25})["fps"] == 25.0, "an integer is a number"
     assert settings.resolve("tiny", overrides={"stage1": {"lr": 0.5}})["stage1"]["lr"] == 0.5, "a whole section"
 

@@ -401,7 +401,17 @@ def resolve(preset=None, path=None, overrides=None):
     ({"stage1.iterations": 50, ...}). A nested dict holding every declared key."""
     cfg = defaults()
     apply(cfg, read_preset(preset, path), preset_path(preset, path))
-    return apply(cfg, overrides or {}, "--set")
+    apply(cfg, overrides or {}, "--set")
+    _check_together(cfg, "--set" if overrides else preset_path(preset, path))
+    return cfg
+
+
+def _check_together(cfg, source):
+    """What one key's range cannot say: the message-passing schedule names levels the hierarchy has."""
+    m = cfg["model"]
+    if max(m["mp_schedule"]) >= m["mp_levels"]:
+        raise SettingError(source, f"model.mp_schedule = {json.dumps(m['mp_schedule'])}: its levels must be below "
+                                   f"model.mp_levels = {m['mp_levels']}")
 
 
 def complete(cfg):
