@@ -329,39 +329,45 @@ static void plSwapLayerDims( uint8_t* b, size_t size, void* arg )
 	memcpy( b + e + 36, &d0, 4 );
 }
 
+// Edits of one value inside a section that leave the file well-formed but its content invalid; the last is valid.
+#define PLEAT_NAN_BITS 0x7FC00000u
+#define PLEAT_HALF_BITS 0x3F000000u      /* 0.5f */
+#define PLEAT_MINUS_ONE_BITS 0xBF800000u /* -1.0f */
+static const plContentEdit s_content_edits[] = {
+	{ "FACE", 8, 100000 },               // vertex index out of range
+	{ "SKNW", 0, PLEAT_HALF_BITS },      // vertex 0's skin weights sum to 0.5 (+ its other weight)
+	{ "SKNW", 4, PLEAT_MINUS_ONE_BITS }, // negative skin weight
+	{ "TMPL", 4, PLEAT_NAN_BITS },       // non-finite template
+	{ "XSTD", 12, 0 },                   // a zero std
+	{ "ZSTD", 0, PLEAT_MINUS_ONE_BITS }, // a negative std
+	{ "JPAR", 8, 3 },                    // joint 2's parent after it
+	{ "JPAR", 0, 0 },                    // root without parent −1
+	{ "JINP", 0, 0 },                    // the pelvis as an input joint
+	{ "SKNI", 0, 0x00FF00FFu },          // joint index out of range
+	{ "NADF", 0, 69 },                   // adjacency face not containing the vertex
+	{ "NADO", 4, 1000 },                 // CSR offsets decreasing / out of range
+	{ "CONF", 48, 99 },                  // input count not the formula
+	{ "CONF", 8, 65 },                   // J over 64
+	{ "CONF", 40, 3 },                   // unknown activation
+	{ "CONF", 52, 0 },                   // dt_min 0
+	{ "LPB0", 0, PLEAT_NAN_BITS },       // non-finite bias
+	{ "BANN", 12, PLEAT_HALF_BITS },     // body anchor normal of vertex 1 not unit length (0.5, 0, 1)
+	{ "BASI", 0, 0x00FF00FFu },          // body anchor joint index out of range
+	{ "BASW", 4, PLEAT_MINUS_ONE_BITS }, // negative body anchor skin weight
+	{ "BANC", 8, PLEAT_NAN_BITS },       // non-finite body anchor
+	{ "BASH", 0, PLEAT_NAN_BITS },       // non-finite body anchor shape direction
+	{ "BACA", 0, 0x70007000u },          // a candidate point index past P that is not the empty slot 0xFFFF
+	{ "BARG", 0, 0x00010002u },          // point 0 (an edge point, no ring) given a ring of two
+	{ "BARG", 16, 0x70000001u },         // a ring point past P (point 1's ring)
+	{ "JNAM", 0, 0x41414141u },          // (valid: name still NUL-terminated) — checked below to load
+};
+#define PLEAT_CONTENT_EDITS ( sizeof( s_content_edits ) / sizeof( s_content_edits[0] ) )
+
 static void test_broken_content_is_invalid_asset_data( void** state )
 {
 	plLoaderFixture* f = (plLoaderFixture*)*state;
-	uint32_t nan_bits = 0x7FC00000u, zero = 0, half = 0x3F000000u /* 0.5f */, minus_one = 0xBF800000u;
-	const plContentEdit edits[] = {
-		{ "FACE", 8, 100000 },       // vertex index out of range
-		{ "SKNW", 0, half },         // vertex 0's skin weights sum to 0.5 (+ its other weight)
-		{ "SKNW", 4, minus_one },    // negative skin weight
-		{ "TMPL", 4, nan_bits },     // non-finite template
-		{ "XSTD", 12, zero },        // a zero std
-		{ "ZSTD", 0, minus_one },    // a negative std
-		{ "JPAR", 8, 3 },            // joint 2's parent after it
-		{ "JPAR", 0, 0 },            // root without parent −1
-		{ "JINP", 0, 0 },            // the pelvis as an input joint
-		{ "SKNI", 0, 0x00FF00FFu },  // joint index out of range
-		{ "NADF", 0, 69 },           // adjacency face not containing the vertex
-		{ "NADO", 4, 1000 },         // CSR offsets decreasing / out of range
-		{ "CONF", 48, 99 },          // input count not the formula
-		{ "CONF", 8, 65 },           // J over 64
-		{ "CONF", 40, 3 },           // unknown activation
-		{ "CONF", 52, zero },        // dt_min 0
-		{ "LPB0", 0, nan_bits },     // non-finite bias
-		{ "BANN", 12, half },        // body anchor normal of vertex 1 not unit length (0.5, 0, 1)
-		{ "BASI", 0, 0x00FF00FFu },  // body anchor joint index out of range
-		{ "BASW", 4, minus_one },    // negative body anchor skin weight
-		{ "BANC", 8, nan_bits },     // non-finite body anchor
-		{ "BASH", 0, nan_bits },     // non-finite body anchor shape direction
-		{ "BACA", 0, 0x70007000u },  // a candidate point index past P that is not the empty slot 0xFFFF
-		{ "BARG", 0, 0x00010002u },  // point 0 (an edge point, no ring) given a ring of two
-		{ "BARG", 16, 0x70000001u }, // a ring point past P (point 1's ring)
-		{ "JNAM", 0, 0x41414141u },  // (valid: name still NUL-terminated) — checked below to load
-	};
-	for ( size_t i = 0; i + 1 < sizeof( edits ) / sizeof( edits[0] ); ++i )
+	const plContentEdit* edits = s_content_edits;
+	for ( size_t i = 0; i + 1 < PLEAT_CONTENT_EDITS; ++i )
 	{
 		plResult r = plLoadEdited( f, f->size, plEditContent, (void*)&edits[i], 1, 0 );
 		if ( r != PLEAT_RESULT_INVALID_ASSET_DATA )
@@ -369,8 +375,7 @@ static void test_broken_content_is_invalid_asset_data( void** state )
 			fail_msg( "edit %zu (%s): %s", i, edits[i].fourcc, plResultString( r ) );
 		}
 	}
-	assert_int_equal( plLoadEdited( f, f->size, plEditContent, (void*)&edits[sizeof( edits ) / sizeof( edits[0] ) - 1],
-									1, 0 ),
+	assert_int_equal( plLoadEdited( f, f->size, plEditContent, (void*)&edits[PLEAT_CONTENT_EDITS - 1], 1, 0 ),
 					  PLEAT_RESULT_OK );
 	// The body-contact block is all or none: one of its five sections missing (renamed away) is invalid.
 	plFieldEdit drop_basw = { "BASW", 0, 0, 4 };
@@ -389,6 +394,48 @@ static void test_broken_content_is_invalid_asset_data( void** state )
 	// Changing only one dim makes the size inconsistent: that is structure, not content.
 	plFieldEdit one_dim = { "LPW1", 36, 5, 4 };
 	assert_int_equal( plLoadEdited( f, f->size, plEditField, &one_dim, 1, 0 ), PLEAT_RESULT_MALFORMED_ASSET );
+}
+
+// A content rejection names its section in the load's error log line, so an integrator learns where a broken asset is
+// broken: every edit of the content table, a missing section, a layer chain that does not connect, and a section-table
+// entry whose size does not match its dims.
+static void test_a_broken_section_is_named_in_the_log( void** state )
+{
+	plLoaderFixture* f = (plLoaderFixture*)*state;
+	plTestLog log;
+	memset( &log, 0, sizeof( log ) );
+	plContextDef def = plDefaultContextDef();
+	def.log = plTestLog_Record;
+	def.log_context = &log;
+	plContext quiet = f->context;
+	assert_int_equal( plCreateContext( &def, &f->context ), PLEAT_RESULT_OK );
+	for ( size_t i = 0; i + 1 < PLEAT_CONTENT_EDITS; ++i )
+	{
+		log.last_error[0] = 0;
+		assert_int_equal( plLoadEdited( f, f->size, plEditContent, (void*)&s_content_edits[i], 1, 0 ),
+						  PLEAT_RESULT_INVALID_ASSET_DATA );
+		if ( strstr( log.last_error, s_content_edits[i].fourcc ) == NULL ||
+			 log.last_error_item != PLEAT_LOG_ASSET_BAD_CONTENT )
+		{
+			fail_msg( "edit %zu (%s) logged item %d: '%s'", i, s_content_edits[i].fourcc, (int)log.last_error_item,
+					  log.last_error );
+		}
+	}
+	plFieldEdit rename = { "TMPL", 0, 0, 4 };
+	memcpy( &rename.value, "TMPX", 4 );
+	assert_int_equal( plLoadEdited( f, f->size, plEditField, &rename, 1, 0 ), PLEAT_RESULT_INVALID_ASSET_DATA );
+	assert_non_null( strstr( log.last_error, "TMPL" ) );
+	assert_int_equal( plLoadEdited( f, f->size, plSwapLayerDims, NULL, 1, 0 ), PLEAT_RESULT_INVALID_ASSET_DATA );
+	assert_non_null( strstr( log.last_error, "LPW1" ) );
+	plFieldEdit size = { "TMPL", 24, 12, 8 };
+	assert_int_equal( plLoadEdited( f, f->size, plEditField, &size, 1, 0 ), PLEAT_RESULT_MALFORMED_ASSET );
+	assert_non_null( strstr( log.last_error, "TMPL" ) );
+	assert_int_equal( log.last_error_item, PLEAT_LOG_ASSET_BAD_SECTION_TABLE );
+	uint64_t live = 1;
+	plContext_GetLiveBytes( f->context, &live );
+	assert_int_equal( live, 0 );
+	plDestroyContext( f->context );
+	f->context = quiet;
 }
 
 // fp16 weights load and are flagged; an fp16 section without the header flag is invalid.
@@ -468,6 +515,7 @@ int main( void )
 		cmocka_unit_test_setup_teardown( test_wrong_magic_and_versions_are_rejected, plLoaderSetup, plLoaderTeardown ),
 		cmocka_unit_test_setup_teardown( test_broken_structure_is_malformed, plLoaderSetup, plLoaderTeardown ),
 		cmocka_unit_test_setup_teardown( test_broken_content_is_invalid_asset_data, plLoaderSetup, plLoaderTeardown ),
+		cmocka_unit_test_setup_teardown( test_a_broken_section_is_named_in_the_log, plLoaderSetup, plLoaderTeardown ),
 		cmocka_unit_test_setup_teardown( test_fp16_weights_need_the_header_flag, plLoaderSetup, plLoaderTeardown ),
 		cmocka_unit_test_setup_teardown( test_random_corruption_never_crashes, plLoaderSetup, plLoaderTeardown ),
 	};

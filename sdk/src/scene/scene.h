@@ -1,6 +1,7 @@
-// Internal: the scene (pleat.h, SCENE BUDGET), scene.c: characters, switches with cross-fades, stepping through
-// plStepInstances. Its two jobs have headers of their own, below it: scene_budget.h (the budget policy) and
-// tier_transfer.h (a tier's mesh carried onto the display mesh).
+// Internal: the scene (pleat.h, SCENE BUDGET): scene.c makes it (characters, levels, the API between steps),
+// scene_step.c steps it (switches with cross-fades, plStepInstances, the LBS-only level). Its two jobs have headers
+// of their own, below it: scene_budget.h (the budget policy) and tier_transfer.h (a tier's mesh carried onto the
+// display mesh).
 #ifndef PLEAT_SCENE_H
 #define PLEAT_SCENE_H
 #include "instance/instance.h"
@@ -82,5 +83,8 @@ typedef struct plSceneData
 	void* block;                  // everything above in one allocation
 	size_t block_size;
 } plSceneData;
+
+// The live scene a handle names, or NULL.
+plSceneData* plGetSceneData( plScene handle );
 
 #endif

@@ -17,7 +17,8 @@ plResult plRunNetworkLanes( plContextData* ctx, const plBatchKernels* kernels, c
 		plInstanceData* inst = insts[m];
 		in_spans[m] = lp ? plMakeConstSpan( inst->x, a->input_count, 4 )
 						 : plMakeConstSpan( inst->next_latent, a->latent_count, 4 );
-		out_spans[m] = lp ? plMakeSpan( inst->y, a->latent_count, 4 ) : plMakeSpan( inst->next_weights, a->blend_count, 4 );
+		out_spans[m] = lp ? plMakeSpan( inst->y, a->latent_count, 4 )
+						  : plMakeSpan( inst->next_weights, a->blend_count, 4 );
 		scratch_spans[m] = plMakeSpan( inst->mlp_scratch, inst->mlp_scratch_count, 4 );
 	}
 	plMlpBatchJob job = { lp ? a->lp : a->dec,
@@ -82,8 +83,8 @@ static void plBlendLanesRange( uint32_t begin, uint32_t end, uint32_t worker, vo
 	}
 }
 
-plResult plBlendLanes( const plBatchKernels* kernels, const plAssetData* a, plInstanceData* const* insts, uint32_t count,
-					   const plTaskRunner* runner )
+plResult plBlendLanes( const plBatchKernels* kernels, const plAssetData* a, plInstanceData* const* insts,
+					   uint32_t count, const plTaskRunner* runner )
 {
 	plBlendLanesTask task;
 	task.kernels = kernels;

@@ -16,8 +16,8 @@ plResult plRunNetworkLanes( plContextData* ctx, const plBatchKernels* kernels, c
 							plInstanceData* const* insts, uint32_t count, int lp );
 // T_def = shaped template + Σ_j w_j D_j (inst->next_weights → inst->deformed) of count instances of a, the vertices
 // split over runner's workers. PLEAT_RESULT_INTERNAL_ERROR as plRunNetworkLanes.
-plResult plBlendLanes( const plBatchKernels* kernels, const plAssetData* a, plInstanceData* const* insts, uint32_t count,
-					   const plTaskRunner* runner );
+plResult plBlendLanes( const plBatchKernels* kernels, const plAssetData* a, plInstanceData* const* insts,
+					   uint32_t count, const plTaskRunner* runner );
 // Skinning, body contact and normals of count lanes (count <= the kernels' geometry_lanes) on this thread: in[k]
 // skinned with insts[k]'s next_skin_matrices into positions[k], the body contact plDeformCpu would run (fast_contact:
 // force the fast one, plRunsFastContact), normals into normals[k]. Per lane the single kernels' operations in the same
