@@ -21,17 +21,20 @@ import numpy as np
 
 MAGIC = b"PLEATAST"
 VERSION_MAJOR = 1
-VERSION_MINOR = 2   # 1.1 adds the optional body-contact sections (BANC …), 1.2 their candidates (BACA)
+VERSION_MINOR = 3   # 1.1 adds the optional body-contact sections (BANC …), 1.2 their candidates (BACA), 1.3 int8 networks
 HEADER_SIZE = 128
 SECTION_ENTRY_SIZE = 48
 CONF_SIZE = 256
 ALIGN = 64
 CHECKSUM_OFFSET = 40
 FLAG_FP16 = 1
+FLAG_INT8 = 2       # 1.3: every LP and decoder layer is int8 (LPWi i8, LPSi, LPAi; docs/asset-format.md)
+MAX_INT8_COLUMNS = 4096   # PLEAT_MAX_INT8_COLUMNS: an int8 layer's inputs (the kernels quantise them on their stack)
 
-DTYPE_F32, DTYPE_F16, DTYPE_U32, DTYPE_U16, DTYPE_I32, DTYPE_U8 = 1, 2, 3, 4, 5, 6
+DTYPE_F32, DTYPE_F16, DTYPE_U32, DTYPE_U16, DTYPE_I32, DTYPE_U8, DTYPE_I8 = 1, 2, 3, 4, 5, 6, 7
 _NUMPY_OF_DTYPE = {DTYPE_F32: np.dtype("<f4"), DTYPE_F16: np.dtype("<f2"), DTYPE_U32: np.dtype("<u4"),
-                   DTYPE_U16: np.dtype("<u2"), DTYPE_I32: np.dtype("<i4"), DTYPE_U8: np.dtype("u1")}
+                   DTYPE_U16: np.dtype("<u2"), DTYPE_I32: np.dtype("<i4"), DTYPE_U8: np.dtype("u1"),
+                   DTYPE_I8: np.dtype("i1")}
 
 ACTIVATIONS = {"relu": 1, "silu": 2}
 ACTIVATION_NAMES = {v: k for k, v in ACTIVATIONS.items()}
@@ -156,9 +159,39 @@ def _range(weights, key, default, lo=-np.inf, hi=np.inf):
     return a
 
 
+def is_int8(weights):
+    """True if the weights dict holds int8 networks (pleat.quantise: int8 'lp.0.weight' with its scales)."""
+    return np.asarray(weights.get("lp.0.weight", np.zeros(0, np.float32))).dtype == np.int8
+
+
+def _int8_layer(weights, w, key, m):
+    """An int8 layer (1.3): KEY.weight int8 [out, in] in -127..127, KEY.weight_scale [out] and KEY.input_scale [1]
+    positive, finite, the input scale's float32 reciprocal finite too (pleat.reference.mlp.mlp_int8)."""
+    if m.dtype != np.int8:
+        raise AssetError(f"{key}.weight: dtype {m.dtype}; an int8 network has int8 weights in every layer")
+    if m.size and int(m.min()) < -127:
+        raise AssetError(f"{key}.weight: -128 (int8 weights are symmetric, -127..127)")
+    if m.shape[1] > MAX_INT8_COLUMNS:
+        raise AssetError(f"{key}.weight: {m.shape[1]} inputs, an int8 layer has at most {MAX_INT8_COLUMNS}")
+    w[f"{key}.weight"] = np.ascontiguousarray(m)
+    for name, shape in (("weight_scale", (m.shape[0],)), ("input_scale", (1,))):
+        k = f"{key}.{name}"
+        if weights.get(k) is None:
+            raise AssetError(f"missing key '{k}' (int8 layer)")
+        v = _floats({k: np.asarray(weights[k]).reshape(shape)}, k, shape)
+        if not np.all(v > 0):
+            raise AssetError(f"{k}: must be positive")
+        w[k] = v
+    with np.errstate(over="ignore", divide="ignore"):
+        if not np.isfinite(np.float32(1.0) / w[f"{key}.input_scale"][0]):
+            raise AssetError(f"{key}.input_scale: its reciprocal is not finite")
+
+
 def validate_weights(weights, fp16=False):
     """Checks a weights dict and returns it canonicalised: float arrays as float32 (weight matrices and blend_shapes
-    as float16 when fp16), integer arrays as int64, strings as str, plus the derived counts under 'counts'."""
+    as float16 when fp16), integer arrays as int64, strings as str, plus the derived counts under 'counts'. An int8
+    network (pleat.quantise) keeps its int8 weights and their scales; fp16 then applies to blend_shapes only."""
+    int8 = is_int8(weights)
     w = {}
     names = weights.get("joint_names")
     if names is None:
@@ -262,9 +295,12 @@ def validate_weights(weights, fp16=False):
             m = np.asarray(weights[wk])
             if m.ndim != 2 or m.shape[1] != fan_in:
                 raise AssetError(f"{wk}: shape {m.shape}, expected [out, {fan_in}] (layer chain)")
-            w[wk] = _floats(weights, wk, m.shape, keep_fp16=True)
-            if fp16:
-                w[wk] = _to_fp16(w[wk], wk)
+            if int8:
+                _int8_layer(weights, w, f"{prefix}.{i}", m)
+            else:
+                w[wk] = _floats(weights, wk, m.shape, keep_fp16=True)
+                if fp16:
+                    w[wk] = _to_fp16(w[wk], wk)
             w[bk] = _floats(weights, bk, (m.shape[0],))
             fan_in = m.shape[0]
         if fan_in != last_out:
@@ -412,6 +448,7 @@ def _sections(w, onnx_models=None):
     text = lambda s: np.frombuffer(s.encode("utf-8"), dtype=np.uint8)
     nado, nadf = normal_adjacency(w["faces"], c["vertex_count"])
     f16_or_f32 = lambda a: (DTYPE_F16, a) if a.dtype == np.float16 else (DTYPE_F32, a)
+    int8 = is_int8(w)
     out = [("CONF", DTYPE_U8, _conf_block(w)), ("NAME", DTYPE_U8, text(w["garment_name"]))]
     if "metadata_json" in w:
         out.append(("META", DTYPE_U8, text(w["metadata_json"])))
@@ -426,7 +463,12 @@ def _sections(w, onnx_models=None):
             ("ZMIN", DTYPE_F32, w["z_min"]), ("ZMAX", DTYPE_F32, w["z_max"])]
     for prefix, tag in (("lp", "LP"), ("dec", "DC")):
         for i in range(w["counts"][f"{prefix}_layer_count"]):
-            out.append((f"{tag}W{i}", *f16_or_f32(w[f"{prefix}.{i}.weight"])))
+            if int8:
+                out += [(f"{tag}W{i}", DTYPE_I8, w[f"{prefix}.{i}.weight"]),
+                        (f"{tag}S{i}", DTYPE_F32, w[f"{prefix}.{i}.weight_scale"]),
+                        (f"{tag}A{i}", DTYPE_F32, w[f"{prefix}.{i}.input_scale"])]
+            else:
+                out.append((f"{tag}W{i}", *f16_or_f32(w[f"{prefix}.{i}.weight"])))
             out.append((f"{tag}B{i}", DTYPE_F32, w[f"{prefix}.{i}.bias"]))
     out.append(("BLND", *f16_or_f32(w["blend_shapes"])))
     if "pinned" in w:
@@ -448,13 +490,21 @@ def _align(n):
     return (n + ALIGN - 1) // ALIGN * ALIGN
 
 
-def write_asset(path_or_file, weights, fp16=False, onnx=False):
+def write_asset(path_or_file, weights, fp16=False, onnx=False, onnx_weights=None):
     """Validates `weights`, writes the asset to a path or binary file object (None = don't write), returns the bytes.
 
-    fp16 stores the LP/decoder weight matrices and BLND as fp16; onnx adds OXLP/OXDC (pleat.onnx_export)."""
+    fp16 stores the LP/decoder weight matrices and BLND as fp16 (with int8 networks, BLND only); onnx adds OXLP/OXDC
+    (pleat.onnx_export), built from onnx_weights where given: an int8 asset carries the float networks it was
+    quantised from, which the ONNX Runtime backend runs as before."""
     w = validate_weights(weights, fp16=fp16)
     models = None
-    if onnx:
+    if onnx and onnx_weights is not None:
+        from pleat import onnx_export
+        fw = validate_weights(onnx_weights)
+        models = {"OXLP": onnx_export.latent_predictor_model(fw), "OXDC": onnx_export.decoder_model(fw)}
+    elif onnx:
+        if is_int8(w):
+            raise AssetError("onnx: an int8 network needs the float weights it came from (onnx_weights)")
         from pleat import onnx_export
         models = {"OXLP": onnx_export.latent_predictor_model(w), "OXDC": onnx_export.decoder_model(w)}
     sections = _sections(w, models)
@@ -476,8 +526,11 @@ def write_asset(path_or_file, weights, fp16=False, onnx=False):
         offset = _align(offset + len(data))
     file_size = payloads[-1][0] + len(payloads[-1][1])
     buf = bytearray(file_size)
-    flags = FLAG_FP16 if any(a.dtype == np.float16 for _, _, a in sections) else 0
-    struct.pack_into("<8sHHIQIIQI", buf, 0, MAGIC, VERSION_MAJOR, VERSION_MINOR, HEADER_SIZE, file_size,
+    flags = (FLAG_FP16 if any(a.dtype == np.float16 for _, _, a in sections) else 0) | (
+        FLAG_INT8 if is_int8(w) else 0)
+    # the lowest version that describes the file: float assets stay 1.2, byte for byte what earlier writers made
+    minor = VERSION_MINOR if flags & FLAG_INT8 else 2
+    struct.pack_into("<8sHHIQIIQI", buf, 0, MAGIC, VERSION_MAJOR, minor, HEADER_SIZE, file_size,
                      len(sections), flags, HEADER_SIZE, 0)
     buf[HEADER_SIZE:table_end] = table
     for off, data in payloads:
@@ -525,7 +578,7 @@ def inspect_asset(data, verify_checksum=True):
         raise AssetError("header_size beyond the file", "TRUNCATED")
     if verify_checksum and checksum(data) != stored_crc:
         raise AssetError(f"CRC-32 {checksum(data):08x} != stored {stored_crc:08x}", "CHECKSUM_MISMATCH")
-    if major == VERSION_MAJOR and minor <= VERSION_MINOR and flags & ~FLAG_FP16:   # 1.1 adds no flags
+    if major == VERSION_MAJOR and minor <= VERSION_MINOR and flags & ~(FLAG_FP16 | FLAG_INT8):
         raise AssetError(f"unknown flags 0x{flags:x}", "MALFORMED_ASSET")
     if not 1 <= section_count <= 256:
         raise AssetError(f"section_count {section_count}", "MALFORMED_ASSET")
@@ -581,7 +634,7 @@ def read_asset(data, verify_checksum=True):
     blend_shapes stored as fp16 come back as float16. The ONNX sections, if present, come back as bytes under
     'onnx_latent_predictor' / 'onnx_decoder'."""
     data = bytes(data)
-    _, sections = inspect_asset(data, verify_checksum)
+    header, sections = inspect_asset(data, verify_checksum)
     by = {s["fourcc"]: s for s in sections}
 
     def get(fourcc, dtypes, dims=None):
@@ -630,7 +683,12 @@ def read_asset(data, verify_checksum=True):
         w[key] = get(tag, (DTYPE_F32,), (n,))
     for prefix, tag in (("lp", "LP"), ("dec", "DC")):
         for i in range(conf[f"{prefix}_layer_count"]):
-            w[f"{prefix}.{i}.weight"] = get(f"{tag}W{i}", (DTYPE_F32, DTYPE_F16))
+            if header["flags"] & FLAG_INT8:
+                w[f"{prefix}.{i}.weight"] = get(f"{tag}W{i}", (DTYPE_I8,))
+                w[f"{prefix}.{i}.weight_scale"] = get(f"{tag}S{i}", (DTYPE_F32,))
+                w[f"{prefix}.{i}.input_scale"] = get(f"{tag}A{i}", (DTYPE_F32,), (1,))
+            else:
+                w[f"{prefix}.{i}.weight"] = get(f"{tag}W{i}", (DTYPE_F32, DTYPE_F16))
             w[f"{prefix}.{i}.bias"] = get(f"{tag}B{i}", (DTYPE_F32,))
         w[f"{prefix}_activation"] = ACTIVATION_NAMES[conf[f"{prefix}_activation"]]
     w["blend_shapes"] = get("BLND", (DTYPE_F32, DTYPE_F16), (D, N, 3))

@@ -1,6 +1,6 @@
 """pleat-pack: weights file (.npz / .safetensors) → Pleat asset (.pleat), and asset inspection. No PyTorch.
 
-    pleat-pack WEIGHTS.npz --out OUT.pleat [--fp16] [--onnx] [--name NAME] [--metadata JSON] [--export-onnx DIR]
+    pleat-pack WEIGHTS.npz --out OUT.pleat [--fp16] [--int8 [--calibration X_C.npz]] [--onnx] [--name NAME] [--metadata JSON] [--export-onnx DIR]
                [--body-contact [BODY.npz]] [--contact-candidates C] [--contact-rest-normals]
     pleat-pack IN.pleat --out OUT.pleat --body-contact      # repack an asset, adding (or redoing) its body contact
     pleat-pack --info FILE.pleat
@@ -17,7 +17,7 @@ from pleat import asset as pa
 from pleat.cli import InputError, add_quiet, command, not_npz
 
 DTYPE_NAMES = {pa.DTYPE_F32: "f32", pa.DTYPE_F16: "f16", pa.DTYPE_U32: "u32", pa.DTYPE_U16: "u16",
-               pa.DTYPE_I32: "i32", pa.DTYPE_U8: "u8"}
+               pa.DTYPE_I32: "i32", pa.DTYPE_U8: "u8", pa.DTYPE_I8: "i8"}
 
 
 def info(path, out=None):
@@ -28,7 +28,8 @@ def info(path, out=None):
     p = lambda *a: print(*a, file=out or sys.stdout)
     p(f"{path}: Pleat asset {header['version'][0]}.{header['version'][1]}, {header['file_size']} bytes, "
       f"{header['section_count']} sections, flags 0x{header['flags']:x}"
-      f"{' (fp16 weights)' if header['flags'] & pa.FLAG_FP16 else ''}, CRC-32 {header['checksum']:08x} "
+      f"{' (fp16 weights)' if header['flags'] & pa.FLAG_FP16 else ''}"
+      f"{' (int8 networks)' if header['flags'] & pa.FLAG_INT8 else ''}, CRC-32 {header['checksum']:08x} "
       f"({'ok' if crc_ok else 'MISMATCH'})")
     p(f"  {'fourcc':6} {'dtype':5} {'offset':>10} {'size':>10}  dims")
     for s in sections:
@@ -66,7 +67,19 @@ def build_parser():
     p.add_argument("-o", "--out", "--output", dest="output",
                    help="output file: the asset (.pleat); --output is the older name")
     p.add_argument("--fp16", action="store_true", help="store LP/decoder weight matrices and BLND as fp16")
-    p.add_argument("--onnx", action="store_true", help="embed the MLPs as ONNX models (OXLP, OXDC)")
+    p.add_argument("--int8", action="store_true",
+                   help="int8 networks (asset 1.3): weights per output channel, each layer's input scale calibrated "
+                        "on --calibration's rows (default: random normalised inputs); with --fp16, BLND is fp16")
+    p.add_argument("--precision", choices=("fp32", "fp16", "int8"),
+                   help="the networks' precision: fp16 = --fp16, int8 = --int8")
+    p.add_argument("--calibration", metavar="NPZ",
+                   help="with --int8: X_c rows [M, I] under 'x_c' (python -m pleat.quantise collect makes them from "
+                        "clips)")
+    p.add_argument("--calibration-percentile", type=float, default=100.0, metavar="P",
+                   help="with --int8: each layer's input range is this percentile of |value| (default 100: the "
+                        "largest)")
+    p.add_argument("--onnx", action="store_true", help="embed the MLPs as ONNX models (OXLP, OXDC; with --int8 the "
+                                                       "float networks it was quantised from)")
     p.add_argument("--name", help="garment name (overrides garment_name)")
     p.add_argument("--metadata", help="META JSON: inline JSON text or a path to a .json file (overrides metadata_json)")
     p.add_argument("--export-onnx", metavar="DIR", help="also write latent_predictor.onnx and decoder.onnx to DIR")
@@ -90,6 +103,32 @@ def build_parser():
     return p
 
 
+def _quantised(a, weights):
+    """The weights with int8 networks (pleat.quantise), calibrated on --calibration's rows or random ones; META (if
+    any) records how under 'int8'."""
+    from pleat import quantise as pq
+    x_c = None
+    if a.calibration:
+        try:
+            with np.load(a.calibration, allow_pickle=False) as z:
+                x_c = np.asarray(z[pq.CALIBRATION_KEY], np.float64)
+        except Exception as e:   # noqa: BLE001 - numpy raises many kinds on a bad file
+            if isinstance(e, OSError) and e.filename is not None:
+                raise
+            raise not_npz(a.calibration, e, f"a calibration file ('{pq.CALIBRATION_KEY}')") from None
+    try:
+        x = pq.normalised_inputs(weights, x_c)
+        quantised, record = pq.quantise(weights, x, a.calibration_percentile)
+    except (ValueError, KeyError) as e:
+        raise InputError(a.calibration or a.weights, f"cannot be quantised ({e})") from None
+    record["calibration"] = Path(a.calibration).name if a.calibration else "random normalised inputs ~ N(0, 1)"
+    if quantised.get("metadata_json") is not None:
+        meta = json.loads(str(quantised["metadata_json"]))
+        meta["int8"] = record
+        quantised["metadata_json"] = json.dumps(meta, sort_keys=True)
+    return quantised
+
+
 @command("pleat-pack")
 def main(argv=None):
     p = build_parser()
@@ -101,6 +140,14 @@ def main(argv=None):
             raise InputError(a.info, f"not a valid Pleat asset ({e})") from None
     if not a.weights or not (a.output or a.export_onnx):
         p.error("need WEIGHTS and -o OUT.pleat (or --export-onnx DIR), or --info FILE")
+    if a.precision == "fp16":
+        a.fp16 = True
+    elif a.precision == "int8":
+        a.int8 = True
+    if (a.calibration or a.calibration_percentile != 100.0) and not a.int8:
+        p.error("--calibration and --calibration-percentile go with --int8")
+    if not 0.0 < a.calibration_percentile <= 100.0:
+        p.error("--calibration-percentile: must be in (0, 100]")
     try:
         if Path(a.weights).suffix == ".pleat":
             weights = pa.read_asset(Path(a.weights).read_bytes())
@@ -160,11 +207,17 @@ def main(argv=None):
             raise InputError(a.metadata if text is not a.metadata else "--metadata", f"not valid JSON ({e})") \
                 from None
         weights["metadata_json"] = text
+    float_weights = weights
+    if a.int8:
+        weights = _quantised(a, weights)
     try:
         # everything is built and validated before the first file is written (each write is atomic)
         w = pa.validate_weights(weights, fp16=a.fp16)
+        if a.int8:
+            w = pa.validate_weights(float_weights)        # --export-onnx: the float networks
         if a.output:
-            data = pa.write_asset(a.output, weights, fp16=a.fp16, onnx=a.onnx)
+            data = pa.write_asset(a.output, weights, fp16=a.fp16, onnx=a.onnx,
+                                  onnx_weights=float_weights if a.int8 else None)
             if not a.quiet:
                 print(f"wrote {a.output}: {len(data)} bytes", file=sys.stderr)
         if a.export_onnx:

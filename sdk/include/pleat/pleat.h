@@ -214,7 +214,11 @@
 // ==================================================================================================================
 // docs/asset-format.md (version 1.0): header with magic "PLEATAST", section table, 64-byte aligned sections, CRC-32.
 // Written by the offline tool pleat-pack. Older major versions → PLEAT_RESULT_LEGACY_VERSION, newer →
-// PLEAT_RESULT_UNSUPPORTED_VERSION.
+// PLEAT_RESULT_UNSUPPORTED_VERSION. The networks' weights are fp32, fp16 (pleat-pack --fp16) or, from 1.3, int8
+// (pleat-pack --int8: int8 weights with a scale per output channel, each layer's input quantised with a calibrated
+// scale, int32 sums, dequantised in float; plAssetInfo.weights_int8). An int8 asset is a quarter of the fp32
+// networks' bytes and runs the same on every CPU kernel set (see plKernelSet); a reader older than 1.3 refuses it
+// (an unknown header flag) instead of misreading it.
 #ifndef PLEAT_H
 #define PLEAT_H
 
@@ -463,6 +467,10 @@ typedef struct plInstance
 ///   differently and fuse multiply-adds. Vertex normals from equal positions are bit-identical; the networks, blend
 ///   shapes, skinning and body contact agree within test_simd_matches_scalar's bounds (a whole step: positions within
 ///   1e-5 m).
+/// - int8 networks (asset 1.3) are bit-identical across every set, the scalar one included, and to the numpy
+///   reference (pleat.reference.mlp.mlp_int8, ReLU networks): their sums are integer, the int8 kernels (scalar, AVX2,
+///   AVX-VNNI and AVX-512 VNNI where the CPU has them) differ only in how they form them
+///   (test_int8_matches_reference). The rest of the step follows the rules above.
 typedef enum plKernelSet
 {
 	PLEAT_KERNEL_SET_SCALAR = 0, ///< the scalar kernels (the specification; every build has them)
@@ -564,6 +572,9 @@ typedef struct plAssetInfo
 	int has_onnx_decoder;       ///< non-zero if the OXDC section (ONNX decoder) exists
 	uint32_t pinned_count;      ///< number of pinned vertices (PINS, information), 0 if absent
 	int has_body_contact;       ///< non-zero if the asset carries body anchors (BANC … sections, BODY CONTACT above)
+	int weights_int8;           ///< non-zero if the networks are int8 (asset 1.3: int8 weights, per-output-channel
+	                            ///< scales, calibrated input scales; the CPU runs them in int32, the ONNX sections
+	                            ///< stay the float networks)
 } plAssetInfo;
 
 /// An asset def with defaults and the validity cookie.

@@ -306,6 +306,7 @@ plResult plAsset_GetInfo( plAsset handle, plAssetInfo* out_info )
 	out_info->lp_layer_count = a->lp_layer_count;
 	out_info->dec_layer_count = a->dec_layer_count;
 	out_info->weights_fp16 = a->weights_fp16;
+	out_info->weights_int8 = a->weights_int8;
 	out_info->dt_min_s = a->dt_min_s;
 	out_info->dt_max_s = a->dt_max_s;
 	out_info->beta_min = a->beta_min;

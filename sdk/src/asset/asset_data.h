@@ -27,6 +27,7 @@ typedef struct plAssetData
 	float dt_min_s, dt_max_s, beta_min, beta_max, train_fps;
 	float material_min[4], material_max[4], material_default[4];
 	int weights_fp16;
+	int weights_int8; // the header's int8 flag: every LP and decoder layer is int8 (plLayer.weight_int8)
 
 	char name[65];
 	const char* meta;          // [meta_size] utf-8 JSON, or NULL

@@ -76,6 +76,7 @@ static uint32_t plDtypeSize( uint32_t dtype )
 		case PLEAT_DTYPE_U16:
 			return 2;
 		case PLEAT_DTYPE_U8:
+		case PLEAT_DTYPE_I8:
 			return 1;
 		default:
 			return 0;
@@ -142,7 +143,7 @@ plResult plReadSectionTable( const uint8_t* data, size_t size, int skip_checksum
 		return PLEAT_RESULT_TRUNCATED;
 	}
 	if ( file_size != (uint64_t)size || header_size < PLEAT_HEADER_SIZE || header_size > size ||
-		 section_count < 1 || section_count > PLEAT_MAX_SECTIONS || ( flags & ~1u ) != 0 || table_offset < header_size ||
+		 section_count < 1 || section_count > PLEAT_MAX_SECTIONS || ( flags & ~( PLEAT_FLAG_FP16 | PLEAT_FLAG_INT8 ) ) != 0 || table_offset < header_size ||
 		 table_offset > size || (uint64_t)section_count * PLEAT_SECTION_ENTRY_SIZE > size - table_offset )
 	{
 		snprintf( a->rejected_detail, sizeof( a->rejected_detail ), "header: sizes or flags out of range" );
@@ -255,7 +256,7 @@ static int plAllFiniteHalf( const uint16_t* v, uint64_t count )
 
 static const char* plDtypeName( uint32_t dtype )
 {
-	static const char* const names[] = { "?", "f32", "f16", "u32", "u16", "i32", "u8" };
+	static const char* const names[] = { "?", "f32", "f16", "u32", "u16", "i32", "u8", "i8" };
 	return dtype < sizeof( names ) / sizeof( names[0] ) ? names[dtype] : "?";
 }
 
@@ -266,6 +267,17 @@ static const char* plCheckValues( const plSectionSpec* spec, const void* p, int 
 		 ( fp16 ? !plAllFiniteHalf( (const uint16_t*)p, count ) : !plAllFiniteFloats( (const float*)p, count ) ) )
 	{
 		return "a value is not finite";
+	}
+	if ( ( spec->checks & PLEAT_SECTION_SYMMETRIC_I8 ) != 0 )
+	{
+		const int8_t* v = (const int8_t*)p;
+		for ( uint64_t i = 0; i < count; ++i )
+		{
+			if ( v[i] == INT8_MIN )
+			{
+				return "a value is -128 (int8 weights are symmetric, -127..127)";
+			}
+		}
 	}
 	if ( ( spec->checks & PLEAT_SECTION_POSITIVE ) != 0 )
 	{
@@ -309,7 +321,7 @@ plResult plReadSections( const uint8_t* data, const plSectionTable* table, uint3
 			return plRejectSection( a, spec->fourcc, "(%s) missing", spec->what );
 		}
 		int fp16 = spec->dtype == PLEAT_DTYPE_WEIGHTS && s->dtype == PLEAT_DTYPE_F16;
-		if ( fp16 && ( flags & 1u ) == 0 )
+		if ( fp16 && ( flags & PLEAT_FLAG_FP16 ) == 0 )
 		{
 			return plRejectSection( a, spec->fourcc, "(%s) fp16 without the header's fp16 flag", spec->what );
 		}

@@ -14,6 +14,9 @@
 #define PLEAT_SECTION_ENTRY_SIZE 48u
 #define PLEAT_MAX_SECTIONS 256u
 #define PLEAT_CONF_SIZE 256u
+// Header flags (offset 28): bit 0 some weights are fp16; bit 1 (1.3) the networks are int8 (docs/asset-format.md).
+#define PLEAT_FLAG_FP16 1u
+#define PLEAT_FLAG_INT8 2u
 
 enum
 {
@@ -23,6 +26,7 @@ enum
 	PLEAT_DTYPE_U16 = 4,
 	PLEAT_DTYPE_I32 = 5,
 	PLEAT_DTYPE_U8 = 6,
+	PLEAT_DTYPE_I8 = 7, // 1.3: the int8 networks' weights
 	PLEAT_DTYPE_WEIGHTS = 100, // a spec's dtype only: F32, or F16 where the header's fp16 flag is set
 };
 
@@ -87,6 +91,7 @@ typedef enum plSectionDim
 	PLEAT_DIM_KA,        // skin influences per body point
 	PLEAT_DIM_C,         // contact candidates per vertex
 	PLEAT_DIM_R,         // ring entries per body point
+	PLEAT_DIM_1,         // 1: a scalar (an int8 layer's input scale); the readers that use it set it
 	PLEAT_DIM_COUNT
 } plSectionDim;
 
@@ -95,7 +100,8 @@ enum
 	PLEAT_SECTION_OPTIONAL = 1u << 0,       // may be absent: the field stays NULL
 	PLEAT_SECTION_FINITE = 1u << 1,         // every value finite
 	PLEAT_SECTION_POSITIVE = 1u << 2,       // every value > 0 (after the finite check)
-	PLEAT_SECTION_EMPTY_WITHOUT_B = 1u << 3 // may be absent when B = 0: the field points at a zero float
+	PLEAT_SECTION_EMPTY_WITHOUT_B = 1u << 3, // may be absent when B = 0: the field points at a zero float
+	PLEAT_SECTION_SYMMETRIC_I8 = 1u << 4     // int8 values in [−127, 127] (no −128: the int8 kernels' sign trick)
 };
 
 // One section as the loader reads it.

@@ -100,7 +100,8 @@ static plResult plReadConf( const uint8_t* data, const plSectionTable* table, ui
 		a->material_default[i] = plReadF32( conf + 100 + 4 * i );
 	}
 	a->train_fps = plReadF32( conf + 116 );
-	a->weights_fp16 = ( flags & 1u ) != 0;
+	a->weights_fp16 = ( flags & PLEAT_FLAG_FP16 ) != 0;
+	a->weights_int8 = ( flags & PLEAT_FLAG_INT8 ) != 0;
 
 	uint32_t N = a->vertex_count, F = a->face_count, J = a->joint_count, Jin = a->input_joint_count;
 	uint32_t K = a->influence_count, B = a->beta_count, L = a->latent_count, D = a->blend_count;
@@ -160,6 +161,54 @@ static uint32_t plFirstBadSkinRow( const uint16_t* indices, const float* weights
 	return N;
 }
 
+// Layer i of an int8 network (1.3, the header's int8 flag): the weights int8 in [−127, 127], each output channel's
+// scale (LPSi / DCSi, [out], > 0) and the scale its input is quantised with (LPAi / DCAi, [1], > 0, its reciprocal
+// finite too), then the bias as in any layer. The kernels quantise the input on their stack: at most
+// PLEAT_MAX_INT8_COLUMNS inputs.
+static plResult plReadInt8Layer( const uint8_t* data, const plSectionTable* table, uint32_t flags, const char* prefix,
+								 uint32_t i, plSectionSpec bias, const uint32_t* sizes, plLayer* layer, plAssetData* a )
+{
+	char wname[5] = { prefix[0], prefix[1], 'W', (char)( '0' + i ), 0 };
+	char sname[5] = { prefix[0], prefix[1], 'S', (char)( '0' + i ), 0 };
+	char aname[5] = { prefix[0], prefix[1], 'A', (char)( '0' + i ), 0 };
+	if ( sizes[PLEAT_DIM_I] > PLEAT_MAX_INT8_COLUMNS )
+	{
+		return plRejectSection( a, wname, "(int8 layer weights) %u inputs, at most %u", sizes[PLEAT_DIM_I],
+								PLEAT_MAX_INT8_COLUMNS );
+	}
+	plSectionSpec specs[4] = {
+		{ { 0 }, PLEAT_DTYPE_I8, 2, { PLEAT_DIM_D, PLEAT_DIM_I, PLEAT_DIM_3 }, PLEAT_SECTION_SYMMETRIC_I8,
+		  (uint16_t)offsetof( plLayer, weight ), 0, "int8 layer weights" },
+		{ { 0 }, PLEAT_DTYPE_F32, 1, { PLEAT_DIM_D, PLEAT_DIM_3, PLEAT_DIM_3 },
+		  PLEAT_SECTION_FINITE | PLEAT_SECTION_POSITIVE, (uint16_t)offsetof( plLayer, weight_scale ), 0,
+		  "int8 layer's output-channel scales" },
+		{ { 0 }, PLEAT_DTYPE_F32, 1, { PLEAT_DIM_1, PLEAT_DIM_3, PLEAT_DIM_3 },
+		  PLEAT_SECTION_FINITE | PLEAT_SECTION_POSITIVE, (uint16_t)offsetof( plLayer, input_scale ), 0,
+		  "int8 layer's input scale" },
+		bias };
+	memcpy( specs[0].fourcc, wname, 5 );
+	memcpy( specs[1].fourcc, sname, 5 );
+	memcpy( specs[2].fourcc, aname, 5 );
+	uint32_t layer_sizes[PLEAT_DIM_COUNT];
+	memcpy( layer_sizes, sizes, sizeof( layer_sizes ) );
+	layer_sizes[PLEAT_DIM_1] = 1;
+	plResult r = plReadSections( data, table, flags, specs, 4, layer_sizes, layer, a );
+	if ( r != PLEAT_RESULT_OK )
+	{
+		return r;
+	}
+	float inverse = 1.0f / layer->input_scale[0];
+	if ( !( inverse < INFINITY ) )
+	{
+		return plRejectSection( a, aname, "(int8 layer's input scale) %g has no finite reciprocal",
+								(double)layer->input_scale[0] );
+	}
+	layer->weight_int8 = 1;
+	layer->weight_fp16 = 0;
+	layer->input_inv_scale = inverse;
+	return PLEAT_RESULT_OK;
+}
+
 // f_LP (LPW0/LPB0 ...) or f_dec (DCW0/DCB0 ...): a chain of layers from first_in to last_out columns.
 static plResult plReadLayers( const uint8_t* data, const plSectionTable* table, uint32_t flags, const char* prefix,
 							  uint32_t count, uint32_t first_in, uint32_t last_out, plLayer* layers, plAssetData* a )
@@ -192,7 +241,9 @@ static plResult plReadLayers( const uint8_t* data, const plSectionTable* table, 
 		uint32_t sizes[PLEAT_DIM_COUNT] = { 0 };
 		sizes[PLEAT_DIM_D] = out_count;
 		sizes[PLEAT_DIM_I] = in_count;
-		plResult r = plReadSections( data, table, flags, specs, 2, sizes, &layers[i], a );
+		plResult r = ( flags & PLEAT_FLAG_INT8 ) != 0
+						 ? plReadInt8Layer( data, table, flags, prefix, i, specs[1], sizes, &layers[i], a )
+						 : plReadSections( data, table, flags, specs, 2, sizes, &layers[i], a );
 		if ( r != PLEAT_RESULT_OK )
 		{
 			return r;

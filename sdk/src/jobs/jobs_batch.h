@@ -27,6 +27,9 @@ typedef struct plMlpBatchJob
 	// (plMlpBatchLanesFloats says how many; with fewer, or no lanes kernel, the job runs mat_mat per layer).
 	float* lanes;
 	size_t lanes_floats;
+	// The single-stream int8 mat-vec (plKernels.mat_vec_int8), which int8 layers run per instance (the same bits as
+	// plInstance_Step); needed only where a layer is int8.
+	plMatVecInt8Fn* mat_vec_int8;
 } plMlpBatchJob;
 
 int plMlpBatchJob_Validate( const plMlpBatchJob* job );

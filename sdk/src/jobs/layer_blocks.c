@@ -36,6 +36,10 @@ uint64_t plLayerMacs( const plLayer* layer )
 
 static int plWeightIsZero( const plLayer* layer, size_t index )
 {
+	if ( layer->weight_int8 )
+	{
+		return ( (const int8_t*)layer->weight )[index] == 0;
+	}
 	if ( layer->weight_fp16 )
 	{
 		return ( ( (const uint16_t*)layer->weight )[index] & 0x7fffu ) == 0; // +0 or −0
@@ -123,12 +127,12 @@ size_t plPackedLayerBytes( const plLayer* layer )
 			return 0; // ragged windows: the kernels' tails would differ between blocks of one stride
 		}
 	}
-	return (size_t)layer->out_count * width * ( layer->weight_fp16 ? 2u : 4u );
+	return (size_t)layer->out_count * width * plWeightBytes( layer );
 }
 
 void plPackLayer( plLayer* layer, void* dst )
 {
-	size_t element = layer->weight_fp16 ? 2u : 4u;
+	size_t element = plWeightBytes( layer );
 	uint32_t width = layer->blocks[0].col_end - layer->blocks[0].col_begin;
 	for ( uint32_t i = 0; i < layer->block_count; ++i )
 	{

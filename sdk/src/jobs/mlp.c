@@ -56,7 +56,18 @@ static void plMatVecTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 		{
 			continue;
 		}
-		if ( l->packed != NULL )
+		if ( l->weight_int8 )
+		{
+			// packed or in place alike: the window of x and each row's weights over it (mlp_int8.c)
+			const int8_t* w = (const int8_t*)( l->packed != NULL ? l->packed : l->weight );
+			uint32_t stride = l->packed != NULL ? l->packed_width : l->in_count;
+			uint32_t cb = l->packed != NULL ? 0 : blocks[i].col_begin;
+			uint32_t ce = l->packed != NULL ? l->packed_width : blocks[i].col_end;
+			const float* x = l->packed != NULL ? t->x + blocks[i].col_begin : t->x;
+			t->kernels->mat_vec_int8( t->out, x, w, l->weight_scale, l->input_scale[0], l->input_inv_scale, l->bias,
+									  stride, cb, ce, rb, re );
+		}
+		else if ( l->packed != NULL )
 		{
 			// the packed copy: the block's input window, each row's weights contiguous (kernels.h plLayer)
 			t->kernels->mat_vec( t->out, t->x + blocks[i].col_begin, l->packed, l->weight_fp16, l->bias,
@@ -73,7 +84,7 @@ static void plMatVecTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 int plMlpJob_Validate( const plMlpJob* job )
 {
 	if ( job == NULL || job->layers == NULL || job->layer_count == 0 || job->layer_count > PLEAT_MAX_LAYERS ||
-		 job->kernels == NULL || job->kernels->mat_vec == NULL ||
+		 job->kernels == NULL || job->kernels->mat_vec == NULL || job->kernels->mat_vec_int8 == NULL ||
 		 ( job->activation != PLEAT_ACTIVATION_RELU && job->activation != PLEAT_ACTIVATION_SILU ) )
 	{
 		return 0;
@@ -83,7 +94,7 @@ int plMlpJob_Validate( const plMlpJob* job )
 	{
 		const plLayer* l = &job->layers[i];
 		if ( l->weight == NULL || l->bias == NULL || l->in_count == 0 || l->out_count == 0 ||
-			 ( i > 0 && l->in_count != job->layers[i - 1].out_count ) )
+			 ( i > 0 && l->in_count != job->layers[i - 1].out_count ) || !plInt8LayerIsValid( l ) )
 		{
 			return 0;
 		}

@@ -33,6 +33,7 @@ typedef struct plMatMatTask
 	const float* xt;
 	uint32_t group_count;
 	uint32_t activation; // lanes form: applied to the task's rows (0: none, the last layer)
+	plMatVecInt8Fn* mat_vec_int8; // an int8 layer: the single job's kernel, per instance
 } plMatMatTask;
 
 // Rows [begin, end) block by block (plLayerBlocks), each over its own column window, as the single job runs them.
@@ -50,7 +51,20 @@ static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 		{
 			continue;
 		}
-		if ( t->yt != NULL )
+		if ( l->weight_int8 )
+		{
+			// each instance through the single-stream int8 kernel, as plMlpJob runs it: the same bits as one step
+			const int8_t* w = (const int8_t*)( l->packed != NULL ? l->packed : l->weight );
+			uint32_t stride = l->packed != NULL ? l->packed_width : l->in_count;
+			uint32_t wb = l->packed != NULL ? 0 : cb, we = l->packed != NULL ? l->packed_width : ce;
+			for ( uint32_t b = 0; b < t->batch_count; ++b )
+			{
+				const float* x = l->packed != NULL ? t->x[b] + cb : t->x[b];
+				t->mat_vec_int8( t->out[b], x, w, l->weight_scale, l->input_scale[0], l->input_inv_scale, l->bias,
+								 stride, wb, we, rb, re );
+			}
+		}
+		else if ( t->yt != NULL )
 		{
 			// the packed copy where the layer has one: each row's window contiguous, one stream for the prefetchers
 			// (read in place, the windows' rows alternate with the zero blocks')
@@ -98,7 +112,8 @@ int plMlpBatchJob_Validate( const plMlpBatchJob* job )
 	{
 		const plLayer* l = &job->layers[i];
 		if ( l->weight == NULL || l->bias == NULL || l->in_count == 0 || l->out_count == 0 ||
-			 ( i > 0 && l->in_count != job->layers[i - 1].out_count ) )
+			 ( i > 0 && l->in_count != job->layers[i - 1].out_count ) || !plInt8LayerIsValid( l ) ||
+			 ( l->weight_int8 && job->mat_vec_int8 == NULL ) )
 		{
 			return 0;
 		}
@@ -148,9 +163,10 @@ static int plUseLanes( const plMlpBatchJob* job )
 	}
 	for ( uint32_t i = 0; i < job->layer_count; ++i )
 	{
-		if ( job->layers[i].weight_fp16 && job->layers[i].in_count > PLEAT_LANES_MAX_FP16_COLUMNS )
+		if ( ( job->layers[i].weight_fp16 && job->layers[i].in_count > PLEAT_LANES_MAX_FP16_COLUMNS ) ||
+			 job->layers[i].weight_int8 )
 		{
-			return 0;
+			return 0; // int8 networks run per instance (plMatMatTaskRun)
 		}
 	}
 	return 1;
@@ -237,7 +253,8 @@ plResult plMlpBatchJob_Run( const plMlpBatchJob* job )
 			float* ping = (float*)job->scratch[b].ptr;
 			y[b] = last ? (float*)job->outputs[b].ptr : ( ( i & 1u ) ? ping + widest : ping );
 		}
-		plMatMatTask task = { .kernels = job->kernels, .layer = layer, .out = y, .x = x, .batch_count = n };
+		plMatMatTask task = {
+			.kernels = job->kernels, .layer = layer, .out = y, .x = x, .batch_count = n, .mat_vec_int8 = job->mat_vec_int8 };
 		plRunTask( job->runner, plMatMatTaskRun, layer->out_count, 64, &task );
 		for ( uint32_t b = 0; b < n; ++b )
 		{

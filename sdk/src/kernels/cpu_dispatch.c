@@ -5,6 +5,7 @@
 plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa )
 {
 	kernels->mat_vec = plMatVec_Scalar;
+	kernels->mat_vec_int8 = plMatVecInt8_Scalar;
 	kernels->blend_shapes = plBlendShapes_Scalar;
 	kernels->skinning = plSkinning_Scalar;
 	kernels->face_normals = plFaceNormals_Scalar;
@@ -33,11 +34,24 @@ plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa )
 			kernels->body_contact_fast = plBodyContactFast_Avx2;
 			kernels->body_point_normals = plBodyPointNormals_Avx2;
 			kernels->set = PLEAT_KERNEL_SET_AVX2;
+			kernels->mat_vec_int8 = plMatVecInt8_Avx2;
+#if defined( PLEAT_HAVE_AVXVNNI )
+			if ( plCpuHasAvxVnni() )
+			{
+				kernels->mat_vec_int8 = plMatVecInt8_AvxVnni;
+			}
+#endif
 			// The single-instance kernels stay AVX2: only the batched networks and blend have AVX-512 twins.
 			if ( max_isa >= PLEAT_KERNEL_SET_AVX512 && plBatchKernelsOf( PLEAT_KERNEL_SET_AVX512 ) != NULL &&
 				 plCpuHasAvx512Batch() )
 			{
 				kernels->set = PLEAT_KERNEL_SET_AVX512;
+#if defined( PLEAT_HAVE_AVX512VNNI )
+				if ( plCpuHasAvx512Vnni() )
+				{
+					kernels->mat_vec_int8 = plMatVecInt8_Avx512Vnni;
+				}
+#endif
 			}
 		}
 	}
@@ -46,4 +60,38 @@ plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa )
 #endif
 	kernels->batch = plBatchKernelsOf( kernels->set );
 	return kernels->set;
+}
+
+uint32_t plInt8MatVecVariants( plMatVecInt8Fn** kernels, const char** names, uint32_t capacity )
+{
+	uint32_t n = 0;
+#define PLEAT_ADD_VARIANT( fn, name )                                                                                \
+	if ( n < capacity )                                                                                              \
+	{                                                                                                                \
+		kernels[n] = fn;                                                                                             \
+		names[n] = name;                                                                                             \
+		++n;                                                                                                         \
+	}
+	PLEAT_ADD_VARIANT( plMatVecInt8_Scalar, "scalar" )
+#if defined( PLEAT_HAVE_AVX2 ) && ( defined( __GNUC__ ) || defined( __clang__ ) )
+	__builtin_cpu_init();
+	if ( __builtin_cpu_supports( "avx2" ) && __builtin_cpu_supports( "fma" ) )
+	{
+		PLEAT_ADD_VARIANT( plMatVecInt8_Avx2, "avx2" )
+#if defined( PLEAT_HAVE_AVXVNNI )
+		if ( plCpuHasAvxVnni() )
+		{
+			PLEAT_ADD_VARIANT( plMatVecInt8_AvxVnni, "avx-vnni" )
+		}
+#endif
+#if defined( PLEAT_HAVE_AVX512VNNI )
+		if ( plCpuHasAvx512Vnni() )
+		{
+			PLEAT_ADD_VARIANT( plMatVecInt8_Avx512Vnni, "avx512-vnni" )
+		}
+#endif
+	}
+#endif
+#undef PLEAT_ADD_VARIANT
+	return n;
 }

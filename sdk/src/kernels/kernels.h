@@ -23,9 +23,16 @@ typedef struct plLayerBlock
 // One Linear layer of an MLP as the asset stores it (read in place); the MLP job runs a chain of them.
 typedef struct plLayer
 {
-	const void* weight; // [out][in] row-major (torch Linear.weight), fp32 or fp16
+	const void* weight; // [out][in] row-major (torch Linear.weight), fp32, fp16 or int8
 	int weight_fp16;
 	const float* bias;  // [out]
+	// int8 layers (asset flag PLEAT_FLAG_INT8, docs/asset-format.md "int8 networks"): weight is int8 in [−127, 127],
+	// weight_scale [out] each output channel's scale, input_scale [1] the scale the layer's input is quantised with
+	// (calibrated offline) and input_inv_scale = 1 / input_scale, worked out once at load (plMatVecInt8Fn).
+	int weight_int8;
+	const float* weight_scale;
+	const float* input_scale;
+	float input_inv_scale;
 	uint32_t in_count;
 	uint32_t out_count;
 	// 0: dense. Else the rows cut into blocks, each multiplied over its own column window only (layer_blocks.c finds
@@ -39,6 +46,12 @@ typedef struct plLayer
 	const void* packed;
 	uint32_t packed_width;
 } plLayer;
+
+// Bytes of one of the layer's weights: 1 (int8), 2 (fp16) or 4 (fp32).
+static inline uint32_t plWeightBytes( const plLayer* layer )
+{
+	return layer->weight_int8 ? 1u : ( layer->weight_fp16 ? 2u : 4u );
+}
 
 // The layer's blocks as the MLP jobs run them: block_count blocks, or one dense block covering the layer.
 uint32_t plLayerBlocks( const plLayer* layer, plLayerBlock* blocks );
@@ -71,6 +84,39 @@ void plApplyActivation( float* y, uint32_t count, uint32_t activation );
 typedef void plMatVecFn( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
 						 uint32_t in_count, uint32_t col_begin, uint32_t col_end, uint32_t row_begin,
 						 uint32_t row_end );
+// The int8 layer (asset flag PLEAT_FLAG_INT8): x quantised as q[c] = clamp(round_even(x[c] · input_inv_scale), −127,
+// 127) (plQuantise), acc[r] = Σ_c W[r][c] · q[c] over the window in int32, out[r] = (float)acc[r] · (weight_scale[r] ·
+// input_scale) + bias[r] (plDequantise). The sum is integer arithmetic, so every variant gives the scalar kernel's bits
+// whatever its order; the float steps are one shared code. W [rows][in_count] int8 in [−127, 127] (the loader checks:
+// −128 would break the sign trick the SIMD kernels use); col_end − col_begin ≤ PLEAT_MAX_INT8_COLUMNS.
+typedef void plMatVecInt8Fn( float* out, const float* x, const int8_t* weight, const float* weight_scale,
+							 float input_scale, float input_inv_scale, const float* bias, uint32_t in_count,
+							 uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end );
+// An int8 layer's input is quantised into a buffer on the kernel's stack, so that the kernel needs no scratch and any
+// split of the rows over workers quantises alike; the loader refuses wider int8 layers.
+#define PLEAT_MAX_INT8_COLUMNS 4096
+// The quantised value of x: x · inv_scale clamped to [−127, 127] (a NaN gives −127: fmaxf, as _mm256_max_ps with the
+// bound second, returns the bound), rounded to nearest even by adding and subtracting 1.5 · 2²³ (exact for |v| < 2²²;
+// the SIMD kernels' cvtps rounds the same way, and numpy's np.rint too).
+static inline int8_t plQuantise( float x, float inv_scale )
+{
+	float v = fminf( fmaxf( x * inv_scale, -127.0f ), 127.0f );
+	return (int8_t)(int32_t)( ( v + 12582912.0f ) - 12582912.0f ); // ISO C: each operation rounded to float
+}
+// Non-zero unless an int8 layer lacks its scales or is wider than PLEAT_MAX_INT8_COLUMNS (the jobs' validation).
+static inline int plInt8LayerIsValid( const plLayer* l )
+{
+	return !l->weight_int8 || ( !l->weight_fp16 && l->weight_scale != NULL && l->input_scale != NULL &&
+								 l->in_count <= PLEAT_MAX_INT8_COLUMNS );
+}
+// The float end of an int8 row: two roundings (a product, then a sum), never fused, as numpy computes it.
+static inline float plDequantise( int32_t acc, float weight_scale, float input_scale, float bias )
+{
+	float scale = weight_scale * input_scale;
+	float product = (float)acc * scale;
+	return product + bias;
+}
+
 // out[v] = base[v] + Σ_j w[j] · shapes[j][v] for vertices [v_begin, v_end); shapes is [D][N][3], fp32 or fp16.
 typedef void plBlendShapesFn( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
 							  uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
@@ -257,6 +303,7 @@ struct plBatchKernels;
 typedef struct plKernels
 {
 	plMatVecFn* mat_vec;
+	plMatVecInt8Fn* mat_vec_int8;
 	plBlendShapesFn* blend_shapes;
 	plSkinningFn* skinning;
 	plFaceNormalsFn* face_normals;
@@ -274,6 +321,7 @@ typedef struct plKernels
 
 // The variants, declared through the kernel types so that their signatures cannot drift apart.
 plMatVecFn plMatVec_Scalar;
+plMatVecInt8Fn plMatVecInt8_Scalar;
 plBlendShapesFn plBlendShapes_Scalar;
 plSkinningFn plSkinning_Scalar;
 plPoseBodyPointsFn plPoseBodyPoints_Scalar;
@@ -285,6 +333,24 @@ plNormalsGatherFn plNormalsGather_Scalar;
 plNormalsScatterFn plNormalsScatter_Scalar;
 #if defined( PLEAT_HAVE_AVX2 )
 plMatVecFn plMatVec_Avx2;
+plMatVecInt8Fn plMatVecInt8_Avx2;
+// The int8 mat-vec with the dot-product instructions: AVX-VNNI (256-bit vpdpbusd, mlp_int8_avx2.c) and AVX-512 VNNI
+// (mlp_int8_avx512.c), each compiled through a target attribute and only called where the CPU has it (plCpuHas*).
+// Their shared frame (mlp_int8_avx2.c): the window quantised on the stack, then the rows four at a time through
+// `quad`, which sums four rows' int8 products with q over `columns` (rows past the end repeat the last one).
+typedef void plInt8DotQuadFn( const int8_t* q, const int8_t* const rows[4], uint32_t columns, int32_t acc[4] );
+void plMatVecInt8Rows_Avx2( float* out, const float* x, const int8_t* weight, const float* weight_scale,
+							float input_scale, float input_inv_scale, const float* bias, uint32_t in_count,
+							uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end,
+							plInt8DotQuadFn* quad );
+#if defined( PLEAT_HAVE_AVXVNNI )
+plMatVecInt8Fn plMatVecInt8_AvxVnni;
+int plCpuHasAvxVnni( void );
+#endif
+#if defined( PLEAT_HAVE_AVX512VNNI )
+plMatVecInt8Fn plMatVecInt8_Avx512Vnni;
+int plCpuHasAvx512Vnni( void );
+#endif
 plBlendShapesFn plBlendShapes_Avx2;
 plSkinningFn plSkinning_Avx2;
 plPoseBodyPointsFn plPoseBodyPoints_Avx2;
@@ -301,6 +367,10 @@ plNormalsScatterFn plNormalsScatter_Avx2;
 // the batched networks and blend shapes 16 wide) where it also has AVX-512 F/VL/BW/DQ and the OS saves its state.
 // The one place the CPU is asked: a context calls it at creation, tests and benchmarks to build a set of their own.
 plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa );
+// Every int8 mat-vec this build has and this CPU runs, the scalar specification first, with a name each (for the
+// tests that hold each one to the scalar kernel's bits, and benchmark reports); returns how many (≤ capacity).
+// plChooseKernels takes the last: AVX-512 VNNI only in the AVX-512 set, as max_isa allows.
+uint32_t plInt8MatVecVariants( plMatVecInt8Fn** kernels, const char** names, uint32_t capacity );
 
 // IEEE half → float (exact, handles subnormals, inf, NaN).
 float plHalfToFloat( uint16_t h );

@@ -85,11 +85,11 @@ static double plStreamedBytes( const plAssetData* a )
 	double bytes = (double)a->blend_count * a->vertex_count * 3.0 * ( a->blend_shapes_fp16 ? 2.0 : 4.0 );
 	for ( uint32_t i = 0; i < a->lp_layer_count; ++i )
 	{
-		bytes += (double)plLayerMacs( &a->lp[i] ) * ( a->lp[i].weight_fp16 ? 2.0 : 4.0 ); // the weights read
+		bytes += (double)plLayerMacs( &a->lp[i] ) * plWeightBytes( &a->lp[i] ); // the weights read
 	}
 	for ( uint32_t i = 0; i < a->dec_layer_count; ++i )
 	{
-		bytes += (double)plLayerMacs( &a->dec[i] ) * ( a->dec[i].weight_fp16 ? 2.0 : 4.0 );
+		bytes += (double)plLayerMacs( &a->dec[i] ) * plWeightBytes( &a->dec[i] );
 	}
 	return bytes;
 }

@@ -31,7 +31,8 @@ plResult plRunNetworkLanes( plContextData* ctx, const plBatchKernels* kernels, c
 						  kernels,
 						  &ctx->runner,
 						  NULL,
-						  0 };
+						  0,
+						  ctx->kernels.mat_vec_int8 };
 	int slot = -1;
 	if ( kernels->mat_mat_lanes != NULL )
 	{

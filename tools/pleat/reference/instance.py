@@ -21,7 +21,7 @@ from pleat.reference.input_assembly import (clamp_beta, clamp_material, input_as
                                             pose_features)
 from pleat.reference.input_normalisation import input_normalisation
 from pleat.reference.latent_guard import latent_guard
-from pleat.reference.mlp import layers, mlp
+from pleat.reference.mlp import int8_layers, layers, mlp, mlp_int8
 from pleat.reference.network_rate import decide_network_update
 from pleat.reference.normals import normals
 from pleat.reference.shape_blend import shape_blend, shaped_joints
@@ -94,8 +94,10 @@ class Instance:
         self.skin_weights = np.asarray(asset["skin_weights"], np.float64)
         self.blend = np.asarray(asset["blend_shapes"], np.float64)
         self.adjacency_offsets, self.adjacency_faces = normal_adjacency(self.faces, self.blend.shape[1])
-        self.lp_weights, self.lp_biases = layers(asset, "lp")
-        self.dec_weights, self.dec_biases = layers(asset, "dec")
+        # int8 networks (asset 1.3) run the runtime's integer arithmetic (mlp_int8); float ones in float64
+        self.lp_int8, self.dec_int8 = int8_layers(asset, "lp"), int8_layers(asset, "dec")
+        self.lp_weights, self.lp_biases = layers(asset, "lp") if self.lp_int8 is None else (None, None)
+        self.dec_weights, self.dec_biases = layers(asset, "dec") if self.dec_int8 is None else (None, None)
         self.lp_activation = str(asset["lp_activation"])
         self.dec_activation = str(asset["dec_activation"])
         f64 = lambda k: np.asarray(asset[k], np.float64)
@@ -197,11 +199,14 @@ class Instance:
                                  np.array([frames[0]["dt_s"], frames[1]["dt_s"]]), self.beta,
                                  self.material_normalised)
             x = input_normalisation(x_c, self.x_mean, self.x_std)
-            y = mlp(x, self.lp_weights, self.lp_biases, self.lp_activation)
+            y = (mlp(x, self.lp_weights, self.lp_biases, self.lp_activation) if self.lp_int8 is None
+                 else mlp_int8(x, self.lp_int8, self.lp_activation).astype(np.float64))
             if not np.all(np.isfinite(y)):
                 return None                  # before the guard: its clamp would turn an overflow into a bound
             next_latent = latent_guard(y, self.z_mean, self.z_std, self.z_min, self.z_max)
-            blend_weights = mlp(next_latent, self.dec_weights, self.dec_biases, self.dec_activation)
+            blend_weights = (mlp(next_latent, self.dec_weights, self.dec_biases, self.dec_activation)
+                             if self.dec_int8 is None
+                             else mlp_int8(next_latent, self.dec_int8, self.dec_activation).astype(np.float64))
         if not (np.all(np.isfinite(blend_weights)) and np.all(np.isfinite(frame["skin_matrices"]))):
             return None
         return Networks(x_c, next_latent, blend_weights)

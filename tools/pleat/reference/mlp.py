@@ -27,3 +27,50 @@ def layers(asset, prefix):
         count += 1
     return ([np.asarray(asset[f"{prefix}.{i}.weight"], np.float64) for i in range(count)],
             [np.asarray(asset[f"{prefix}.{i}.bias"], np.float64) for i in range(count)])
+
+
+# ---- int8 networks (asset 1.3, docs/asset-format.md "int8 networks"; sdk/src/jobs/mlp_int8.c) ----
+# The same arithmetic as the C kernels, operation for operation in float32, so the results are the C bits: the input
+# quantised per layer, int8 × int8 products summed exactly (int64 here, int32 there: no sum comes near 2³¹), the sum
+# dequantised with two float32 roundings, then the bias. With ReLU every value is the C value; with SiLU numpy's exp
+# may differ from the C library's by an ulp, which can move a quantised input by one step.
+
+def quantise(x, inv_scale):
+    """q = round_half_even(clamp(x · inv_scale, -127, 127)) as int8 (a NaN gives -127, as fmaxf / _mm256_max_ps)."""
+    v = np.asarray(x, np.float32) * np.float32(inv_scale)
+    v = np.fmin(np.fmax(v, np.float32(-127.0)), np.float32(127.0))
+    return np.rint(v).astype(np.int8)
+
+
+def int8_layers(asset, prefix):
+    """The int8 layers of 'lp' or 'dec' as dicts (weight int8 [out, in], weight_scale [out], input_scale, bias), or
+    None where the asset's networks are not int8."""
+    if np.asarray(asset.get(f"{prefix}.0.weight")).dtype != np.int8:
+        return None
+    count = 0
+    while f"{prefix}.{count}.weight" in asset:
+        count += 1
+    return [dict(weight=np.asarray(asset[f"{prefix}.{i}.weight"], np.int8),
+                 weight_scale=np.asarray(asset[f"{prefix}.{i}.weight_scale"], np.float32).reshape(-1),
+                 input_scale=np.float32(np.asarray(asset[f"{prefix}.{i}.input_scale"]).reshape(-1)[0]),
+                 bias=np.asarray(asset[f"{prefix}.{i}.bias"], np.float32)) for i in range(count)]
+
+
+def int8_layer(x, layer):
+    """One int8 Linear layer on float32 x [..., in] → float32 [..., out] (plMatVecInt8_Scalar)."""
+    inv = np.float32(1.0) / layer["input_scale"]
+    q = quantise(x, inv).astype(np.int64)
+    acc = q @ layer["weight"].astype(np.int64).T
+    scale = layer["weight_scale"] * layer["input_scale"]                  # float32 · float32, one rounding
+    return (acc.astype(np.float32) * scale).astype(np.float32) + layer["bias"]
+
+
+def mlp_int8(x, layers_int8, activation_name):
+    """x [..., in] (taken as float32, as the runtime holds it) through int8 layers; hidden layers with the
+    activation (float32), the last linear. Returns float32."""
+    h = np.asarray(x, np.float32)
+    for i, layer in enumerate(layers_int8):
+        h = int8_layer(h, layer)
+        if i + 1 < len(layers_int8):
+            h = activation(h, activation_name).astype(np.float32)
+    return h

@@ -1,0 +1,385 @@
+// int8 networks (asset 1.3): every int8 mat-vec this build has and this CPU runs gives the scalar kernel's bits; the
+// MLP job on a packed int8 asset gives the numpy reference's bits (pleat.reference.mlp.mlp_int8) with every kernel
+// set, one instance or a batch; the loader refuses what the int8 kernels cannot run.
+//
+// usage: test_int8_matches_reference [DIR]   (DIR/asset.pleat and DIR/mlp_case.bin from python -m
+// pleat.reference.golden_int8). The kernel test needs no data; without DIR the data tests are skipped.
+//
+// No tolerance anywhere: the products are summed in integers, and the float steps (quantising, dequantising, the
+// bias, ReLU) are the same IEEE operations in C and numpy.
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include "asset.h"
+#include "asset_data.h"
+#include "jobs.h"
+#include "jobs_batch.h"
+#include "test_common.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char* s_dir;
+static uint32_t s_rng = 4242;
+
+static uint32_t plRandU32( void )
+{
+	s_rng = s_rng * 1103515245u + 12345u;
+	return s_rng >> 8;
+}
+
+// Shapes past each step of the kernels (32 and 64 columns, four rows at a time) and windows of block layers.
+static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
+{
+	(void)state;
+	plMatVecInt8Fn* kernels[8];
+	const char* names[8];
+	uint32_t count = plInt8MatVecVariants( kernels, names, 8 );
+	assert_true( count >= 1 );
+	assert_ptr_equal( kernels[0], plMatVecInt8_Scalar );
+	printf( "int8 mat-vec variants on this CPU:" );
+	for ( uint32_t v = 0; v < count; ++v )
+	{
+		printf( " %s", names[v] );
+	}
+	printf( "\n" );
+	static const uint32_t columns[] = { 1, 7, 31, 32, 33, 63, 64, 65, 100, 129, 681, PLEAT_MAX_INT8_COLUMNS };
+	static const uint32_t rows[] = { 1, 3, 4, 5, 9, 64, 130 };
+	for ( size_t ci = 0; ci < sizeof( columns ) / sizeof( columns[0] ); ++ci )
+	{
+		for ( size_t ri = 0; ri < sizeof( rows ) / sizeof( rows[0] ); ++ri )
+		{
+			uint32_t in = columns[ci], out = rows[ri];
+			int8_t* w = (int8_t*)malloc( (size_t)in * out );
+			float* x = (float*)malloc( in * sizeof( float ) );
+			float* scale = (float*)malloc( out * sizeof( float ) );
+			float* bias = (float*)malloc( out * sizeof( float ) );
+			float* expect = (float*)malloc( out * sizeof( float ) );
+			float* got = (float*)malloc( out * sizeof( float ) );
+			for ( size_t i = 0; i < (size_t)in * out; ++i )
+			{
+				// mostly the extremes ±127, where a saturating scheme would fail, and zeros (block layers)
+				uint32_t r = plRandU32() % 8;
+				w[i] = (int8_t)( r == 0 ? 127 : r == 1 ? -127 : r == 2 ? 0 : (int)( plRandU32() % 255 ) - 127 );
+			}
+			// inv_scale 0.5: x = 2k + 1 lands on k + 0.5 exactly (the ties to even); past ±254 the clamp; and the
+			// values that are not numbers (a NaN quantises to −127 in every kernel)
+			for ( uint32_t c = 0; c < in; ++c )
+			{
+				uint32_t r = plRandU32() % 16;
+				x[c] = r == 0	? (float)( 2 * (int)( plRandU32() % 255 ) - 254 + 1 )
+					   : r == 1 ? 1000.0f * ( plRandU32() % 2 ? 1.0f : -1.0f )
+					   : r == 2 ? ( plRandU32() % 2 ? NAN : -INFINITY )
+								: ( (float)( plRandU32() % 100000 ) / 50000.0f - 1.0f ) * 300.0f;
+			}
+			for ( uint32_t r = 0; r < out; ++r )
+			{
+				scale[r] = 1e-3f * (float)( 1 + plRandU32() % 1000 );
+				bias[r] = (float)( plRandU32() % 1000 ) / 500.0f - 1.0f;
+			}
+			// whole rows, then a window [16, in) where it exists (a block layer's), then a row range inside
+			uint32_t windows[3][4] = { { 0, in, 0, out },
+									   { in > 16 ? 16u : 0u, in, 0, out },
+									   { 0, in, out / 3, out - out / 4 } };
+			for ( int wi = 0; wi < 3; ++wi )
+			{
+				uint32_t cb = windows[wi][0], ce = windows[wi][1], rb = windows[wi][2], re = windows[wi][3];
+				if ( rb >= re )
+				{
+					continue;
+				}
+				memset( expect, 0, out * sizeof( float ) );
+				kernels[0]( expect, x, w, scale, 2.0f, 0.5f, bias, in, cb, ce, rb, re );
+				for ( uint32_t v = 1; v < count; ++v )
+				{
+					memset( got, 0, out * sizeof( float ) );
+					kernels[v]( got, x, w, scale, 2.0f, 0.5f, bias, in, cb, ce, rb, re );
+					if ( memcmp( got, expect, out * sizeof( float ) ) != 0 )
+					{
+						fail_msg( "%s differs from scalar: %u columns [%u, %u), rows [%u, %u)", names[v], in, cb, ce, rb,
+								  re );
+					}
+				}
+			}
+			free( w );
+			free( x );
+			free( scale );
+			free( bias );
+			free( expect );
+			free( got );
+		}
+	}
+}
+
+// The rounding rule itself: ties to even, the clamp, NaN to −127.
+static void test_quantise_rounds_ties_to_even_and_clamps( void** state )
+{
+	(void)state;
+	assert_int_equal( plQuantise( 0.5f, 1.0f ), 0 );
+	assert_int_equal( plQuantise( 1.5f, 1.0f ), 2 );
+	assert_int_equal( plQuantise( 2.5f, 1.0f ), 2 );
+	assert_int_equal( plQuantise( -2.5f, 1.0f ), -2 );
+	assert_int_equal( plQuantise( 126.5f, 1.0f ), 126 );
+	assert_int_equal( plQuantise( 300.0f, 1.0f ), 127 );
+	assert_int_equal( plQuantise( -300.0f, 1.0f ), -127 );
+	assert_int_equal( plQuantise( NAN, 1.0f ), -127 );
+	assert_int_equal( plQuantise( INFINITY, 1.0f ), 127 );
+}
+
+typedef struct plInt8Case
+{
+	uint32_t rows, I, L, D;
+	float *x, *y, *z, *w;
+	float* data;
+} plInt8Case;
+
+static int plReadInt8Case( const char* path, plInt8Case* c )
+{
+	FILE* f = fopen( path, "rb" );
+	if ( f == NULL )
+	{
+		return 0;
+	}
+	char magic[8];
+	uint32_t head[5];
+	int ok = fread( magic, 1, 8, f ) == 8 && memcmp( magic, "PLINT8MC", 8 ) == 0 && fread( head, 4, 5, f ) == 5 &&
+			 head[0] == 1;
+	if ( ok )
+	{
+		c->rows = head[1];
+		c->I = head[2];
+		c->L = head[3];
+		c->D = head[4];
+		size_t floats = (size_t)c->rows * ( c->I + 2 * c->L + c->D );
+		c->data = (float*)malloc( floats * sizeof( float ) );
+		ok = fread( c->data, sizeof( float ), floats, f ) == floats;
+		c->x = c->data;
+		c->y = c->x + (size_t)c->rows * c->I;
+		c->z = c->y + (size_t)c->rows * c->L;
+		c->w = c->z + (size_t)c->rows * c->L;
+	}
+	fclose( f );
+	return ok;
+}
+
+static uint8_t* plReadFile( const char* path, size_t* size )
+{
+	FILE* f = fopen( path, "rb" );
+	if ( f == NULL )
+	{
+		return NULL;
+	}
+	fseek( f, 0, SEEK_END );
+	long n = ftell( f );
+	fseek( f, 0, SEEK_SET );
+	uint8_t* bytes = (uint8_t*)aligned_alloc( 64, ( (size_t)n + 63 ) & ~(size_t)63 );
+	if ( fread( bytes, 1, (size_t)n, f ) != (size_t)n )
+	{
+		free( bytes );
+		bytes = NULL;
+	}
+	fclose( f );
+	*size = (size_t)n;
+	return bytes;
+}
+
+// One network over every row with one kernel table: single jobs, then one batched job; each output is the reference's.
+static void plCheckNetwork( const plKernels* k, const plLayer* layers, uint32_t layer_count, uint32_t activation,
+							const float* in, uint32_t in_count, const float* expect, uint32_t out_count, uint32_t rows,
+							const char* what )
+{
+	float scratch[2 * 1024];
+	float* out = (float*)malloc( (size_t)rows * out_count * sizeof( float ) );
+	for ( uint32_t m = 0; m < rows; ++m )
+	{
+		plMlpJob job = { layers,
+						 layer_count,
+						 activation,
+						 plMakeConstSpan( in + (size_t)m * in_count, in_count, 4 ),
+						 plMakeSpan( out + (size_t)m * out_count, out_count, 4 ),
+						 plMakeSpan( scratch, 2 * 1024, 4 ),
+						 k,
+						 NULL };
+		assert_int_equal( plMlpJob_Run( &job ), PLEAT_RESULT_OK );
+	}
+	if ( memcmp( out, expect, (size_t)rows * out_count * sizeof( float ) ) != 0 )
+	{
+		fail_msg( "%s (kernel set %d): the single job differs from numpy", what, (int)k->set );
+	}
+	uint32_t batch = rows < PLEAT_BATCH_MAX ? rows : PLEAT_BATCH_MAX;
+	plConstSpan inputs[PLEAT_BATCH_MAX];
+	plSpan outputs[PLEAT_BATCH_MAX], scratches[PLEAT_BATCH_MAX];
+	float* batch_scratch = (float*)malloc( (size_t)batch * 2 * 1024 * sizeof( float ) );
+	memset( out, 0, (size_t)rows * out_count * sizeof( float ) );
+	for ( uint32_t b = 0; b < batch; ++b )
+	{
+		inputs[b] = plMakeConstSpan( in + (size_t)b * in_count, in_count, 4 );
+		outputs[b] = plMakeSpan( out + (size_t)b * out_count, out_count, 4 );
+		scratches[b] = plMakeSpan( batch_scratch + (size_t)b * 2 * 1024, 2 * 1024, 4 );
+	}
+	plMlpBatchJob job = { layers,	 layer_count, activation, batch, inputs, outputs, scratches, k->batch, NULL, NULL, 0,
+						  k->mat_vec_int8 };
+	assert_int_equal( plMlpBatchJob_Run( &job ), PLEAT_RESULT_OK );
+	if ( memcmp( out, expect, (size_t)batch * out_count * sizeof( float ) ) != 0 )
+	{
+		fail_msg( "%s (kernel set %d): the batched job differs from numpy", what, (int)k->set );
+	}
+	job.mat_vec_int8 = NULL; // an int8 layer without its kernel is an invalid job
+	assert_int_equal( plMlpBatchJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+	free( batch_scratch );
+	free( out );
+}
+
+static void test_int8_networks_give_the_numpy_reference_bits( void** state )
+{
+	(void)state;
+	if ( s_dir == NULL )
+	{
+		skip();
+	}
+	char path[4096];
+	snprintf( path, sizeof( path ), "%s/mlp_case.bin", s_dir );
+	plInt8Case c;
+	assert_true( plReadInt8Case( path, &c ) );
+	plContextDef cdef = plDefaultContextDef();
+	plContext ctx;
+	assert_int_equal( plCreateContext( &cdef, &ctx ), PLEAT_RESULT_OK );
+	plAssetDef adef = plDefaultAssetDef();
+	snprintf( path, sizeof( path ), "%s/asset.pleat", s_dir );
+	adef.path = path;
+	plAsset asset;
+	assert_int_equal( plLoadAsset( ctx, &adef, &asset ), PLEAT_RESULT_OK );
+	plAssetInfo info;
+	assert_int_equal( plAsset_GetInfo( asset, &info ), PLEAT_RESULT_OK );
+	assert_true( info.weights_int8 );
+	const plAssetData* a = plGetAssetData( asset );
+	assert_int_equal( a->input_count, c.I );
+	assert_int_equal( a->latent_count, c.L );
+	assert_int_equal( a->blend_count, c.D );
+	for ( uint32_t i = 0; i < a->lp_layer_count; ++i )
+	{
+		assert_true( a->lp[i].weight_int8 );
+	}
+	plKernelSet sets[3] = { PLEAT_KERNEL_SET_SCALAR, PLEAT_KERNEL_SET_AVX2, PLEAT_KERNEL_SET_AVX512 };
+	for ( int s = 0; s < 3; ++s )
+	{
+		plKernels k;
+		if ( plChooseKernels( &k, sets[s] ) != sets[s] )
+		{
+			continue; // a set this build or CPU does not have
+		}
+		plCheckNetwork( &k, a->lp, a->lp_layer_count, a->lp_activation, c.x, c.I, c.y, c.L, c.rows, "f_LP" );
+		plCheckNetwork( &k, a->dec, a->dec_layer_count, a->dec_activation, c.z, c.L, c.w, c.D, c.rows, "f_dec" );
+	}
+	plDestroyAsset( asset );
+	plDestroyContext( ctx );
+	free( c.data );
+}
+
+// The section's entry in a loaded buffer (the table layout of docs/asset-format.md), or NULL.
+static uint8_t* plSectionEntry( uint8_t* bytes, const char* fourcc )
+{
+	uint32_t count;
+	memcpy( &count, bytes + 24, 4 );
+	for ( uint32_t i = 0; i < count; ++i )
+	{
+		uint8_t* e = bytes + 128 + 48 * i;
+		if ( memcmp( e, fourcc, 4 ) == 0 )
+		{
+			return e;
+		}
+	}
+	return NULL;
+}
+
+static plResult plLoadEdited( plContext ctx, const uint8_t* bytes, size_t size )
+{
+	plAssetDef adef = plDefaultAssetDef();
+	adef.data = bytes;
+	adef.size = size;
+	adef.flags = PLEAT_ASSET_FLAG_SKIP_CHECKSUM;
+	plAsset asset;
+	plResult r = plLoadAsset( ctx, &adef, &asset );
+	if ( r == PLEAT_RESULT_OK )
+	{
+		plDestroyAsset( asset );
+	}
+	return r;
+}
+
+// What the int8 kernels cannot run is refused at load: a −128 weight, a zero scale, a missing scale section, int8
+// weights without the header's flag (an older reader's view: the flag is unknown there, so it refuses the file).
+static void test_loader_refuses_what_the_int8_kernels_cannot_run( void** state )
+{
+	(void)state;
+	if ( s_dir == NULL )
+	{
+		skip();
+	}
+	char path[4096];
+	snprintf( path, sizeof( path ), "%s/asset.pleat", s_dir );
+	size_t size = 0;
+	uint8_t* original = plReadFile( path, &size );
+	assert_non_null( original );
+	uint8_t* bytes = (uint8_t*)aligned_alloc( 64, ( size + 63 ) & ~(size_t)63 );
+	plContextDef cdef = plDefaultContextDef();
+	plContext ctx;
+	assert_int_equal( plCreateContext( &cdef, &ctx ), PLEAT_RESULT_OK );
+	memcpy( bytes, original, size );
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_OK );
+
+	uint64_t offset;
+	memcpy( bytes, original, size );
+	memcpy( &offset, plSectionEntry( bytes, "LPW1" ) + 16, 8 );
+	bytes[offset + 5] = 0x80; // −128
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
+
+	memcpy( bytes, original, size );
+	memcpy( &offset, plSectionEntry( bytes, "DCS0" ) + 16, 8 );
+	memset( bytes + offset + 4, 0, 4 ); // a zero output-channel scale
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
+
+	memcpy( bytes, original, size );
+	memcpy( &offset, plSectionEntry( bytes, "LPA0" ) + 16, 8 );
+	float denormal = 1e-40f; // positive, but 1 / it is not finite
+	memcpy( bytes + offset, &denormal, 4 );
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
+
+	memcpy( bytes, original, size );
+	memcpy( plSectionEntry( bytes, "LPA1" ), "XXXX", 4 ); // the input scale missing
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
+
+	memcpy( bytes, original, size );
+	uint32_t flags = 0;
+	memcpy( bytes + 28, &flags, 4 ); // int8 weights where the header promises float ones
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
+
+	memcpy( bytes, original, size );
+	flags = 4; // a flag no reader knows
+	memcpy( bytes + 28, &flags, 4 );
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_MALFORMED_ASSET );
+
+	plDestroyContext( ctx );
+	free( bytes );
+	free( original );
+}
+
+int main( int argc, char** argv )
+{
+	if ( argc > 1 )
+	{
+		s_dir = argv[1];
+	}
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test( test_every_int8_kernel_gives_the_scalar_bits ),
+		cmocka_unit_test( test_quantise_rounds_ties_to_even_and_clamps ),
+		cmocka_unit_test( test_int8_networks_give_the_numpy_reference_bits ),
+		cmocka_unit_test( test_loader_refuses_what_the_int8_kernels_cannot_run ),
+	};
+	return cmocka_run_group_tests( tests, NULL, NULL );
+}

@@ -1,0 +1,99 @@
+"""int8 networks (asset 1.3): pleat.quantise, the writer and reader, pleat-pack --int8, the numpy reference's integer
+arithmetic. The C kernels against these bits: tests/c/test_int8_matches_reference.c."""
+import json
+
+import numpy as np
+import pytest
+
+from pleat import asset as pa
+from pleat import pack
+from pleat import quantise as pq
+from pleat.reference.golden import random_weights
+from pleat.reference.mlp import int8_layers, layers, mlp, mlp_int8, quantise
+
+
+@pytest.fixture(scope="module")
+def weights():
+    return random_weights(vertices=100, latent=8, blend=6, lp_hidden=(40, 33), dec_hidden=(12,), seed=5)
+
+
+def test_quantise_rounds_half_to_even_clamps_and_sends_nan_to_the_low_bound():
+    q = quantise(np.array([0.5, 1.5, 2.5, -2.5, 126.5, 300, -300, np.nan, np.inf], np.float32), 1.0)
+    assert q.tolist() == [0, 2, 2, -2, 126, 127, -127, -127, 127]
+
+
+def test_int8_asset_round_trips_and_is_version_1_3(weights):
+    q, record = pq.quantise(weights)
+    data = pa.write_asset(None, q)
+    header, sections = pa.inspect_asset(data)
+    assert header["version"] == (1, 3) and header["flags"] & pa.FLAG_INT8
+    by = {s["fourcc"]: s for s in sections}
+    assert by["LPW0"]["dtype"] == pa.DTYPE_I8 and by["LPS0"]["dims"] == (40,) and by["LPA0"]["dims"] == (1,)
+    back = pa.read_asset(data)
+    for key in ("lp.0.weight", "lp.1.weight_scale", "dec.0.input_scale", "dec.1.bias"):
+        assert np.array_equal(back[key], np.asarray(q[key]).astype(back[key].dtype))
+    assert int(np.abs(back["lp.0.weight"]).max()) == 127           # each row's largest weight maps to ±127
+    assert len(record["input_ranges"]["lp"]) == 3 and len(record["input_ranges"]["dec"]) == 2
+    # a float asset stays 1.2, byte for byte what the writer made before int8 existed
+    assert pa.inspect_asset(pa.write_asset(None, weights))[0]["version"] == (1, 2)
+
+
+def test_int8_network_tracks_the_float_one(weights):
+    """Post-training quantisation keeps the outputs near the float network's on calibration-like inputs."""
+    stored = pa.read_asset(pa.write_asset(None, weights))
+    x = pq.normalised_inputs(stored, count=256, seed=3)
+    q, _ = pq.quantise(stored, x)
+    want = mlp(x, *layers(stored, "lp"), stored["lp_activation"])
+    got = mlp_int8(x, int8_layers(q, "lp"), q["lp_activation"])
+    assert np.abs(got - want).max() < 0.05 * np.abs(want).max()
+
+
+def test_int8_layer_is_integer_arithmetic(weights):
+    """One layer by hand: quantise, int sum, two float32 roundings, the bias."""
+    q, _ = pq.quantise(weights)
+    layer = int8_layers(q, "dec")[0]
+    z = np.random.default_rng(0).standard_normal((4, layer["weight"].shape[1])).astype(np.float32)
+    xq = quantise(z, np.float32(1) / layer["input_scale"]).astype(np.int64)
+    acc = xq @ layer["weight"].astype(np.int64).T
+    want = (acc.astype(np.float32) * (layer["weight_scale"] * layer["input_scale"])) + layer["bias"]
+    got = mlp_int8(z, [layer], "relu")
+    assert got.dtype == np.float32 and np.array_equal(got, want.astype(np.float32))
+
+
+def test_writer_refuses_what_the_runtime_refuses(weights):
+    q, _ = pq.quantise(weights)
+    bad = dict(q)
+    bad["lp.1.weight"] = q["lp.1.weight"].copy()
+    bad["lp.1.weight"][0, 0] = -128
+    with pytest.raises(pa.AssetError, match="-128"):
+        pa.write_asset(None, bad)
+    bad = dict(q, **{"dec.0.weight_scale": np.zeros_like(q["dec.0.weight_scale"])})
+    with pytest.raises(pa.AssetError, match="positive"):
+        pa.write_asset(None, bad)
+    bad = dict(q, **{"lp.1.weight": np.asarray(weights["lp.1.weight"], np.float32)})        # one float layer in an int8 network
+    with pytest.raises(pa.AssetError, match="int8"):
+        pa.write_asset(None, bad)
+    with pytest.raises(ValueError, match="int8 already"):
+        pq.quantise(q)
+
+
+def test_pack_int8_with_calibration_rows_and_onnx(tmp_path, weights):
+    src = tmp_path / "w.npz"
+    pa.save_weights(src, weights)
+    rows = tmp_path / "calibration.npz"
+    I = len(weights["x_mean"])
+    np.savez(rows, x_c=np.asarray(weights["x_mean"]) + np.random.default_rng(1).standard_normal((64, I)))
+    out = tmp_path / "a.pleat"
+    assert pack.main([str(src), "-o", str(out), "--int8", "--fp16", "--calibration", str(rows), "--onnx",
+                      "--quiet"]) == 0
+    data = out.read_bytes()
+    header, _ = pa.inspect_asset(data)
+    assert header["flags"] == pa.FLAG_INT8 | pa.FLAG_FP16              # int8 networks, fp16 blend shapes
+    back = pa.read_asset(data)
+    assert back["lp.0.weight"].dtype == np.int8 and back["blend_shapes"].dtype == np.float16
+    assert back["onnx_latent_predictor"] == pa.read_asset(pa.write_asset(None, weights, onnx=True))[
+        "onnx_latent_predictor"]                                          # the float networks it came from
+    meta = json.loads(back["metadata_json"])
+    assert meta["int8"]["rows"] == 64 and meta["int8"]["calibration"] == "calibration.npz"
+    assert pack.main([str(src), "-o", str(tmp_path / "b.pleat"), "--precision", "int8", "--quiet"]) == 0
+    assert pa.read_asset((tmp_path / "b.pleat").read_bytes())["lp.0.weight"].dtype == np.int8
