@@ -245,6 +245,7 @@ static void test_int8_networks_give_the_numpy_reference_bits( void** state )
 	char path[4096];
 	snprintf( path, sizeof( path ), "%s/mlp_case.bin", s_dir );
 	plInt8Case c;
+	memset( &c, 0, sizeof( c ) );
 	assert_true( plReadInt8Case( path, &c ) );
 	plContextDef cdef = plDefaultContextDef();
 	plContext ctx;
