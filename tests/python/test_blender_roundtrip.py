@@ -117,7 +117,6 @@ def test_scene_axes_units_and_frame_rate(bpy, body, kit):
     """The armature's bones rest in Pleat's axes turned Z up; the skinned body in Blender is the Pleat body posed by
     the clip, in metres with Z up, frame by frame; the scene plays at the clip's 30 fps from frame 1."""
     from pleat.garment.scene import kit_clip
-    from pleat.sim.scene import load_body  # noqa: F401
     from pleat.train.pointcache import load_motion
     from pleat.train import simdata
     from pleat_blender import axes
