@@ -97,3 +97,17 @@ def test_pack_int8_with_calibration_rows_and_onnx(tmp_path, weights):
     assert meta["int8"]["rows"] == 64 and meta["int8"]["calibration"] == "calibration.npz"
     assert pack.main([str(src), "-o", str(tmp_path / "b.pleat"), "--precision", "int8", "--quiet"]) == 0
     assert pa.read_asset((tmp_path / "b.pleat").read_bytes())["lp.0.weight"].dtype == np.int8
+
+
+def test_reference_instance_steps_an_int8_asset(weights):
+    """The numpy reference runtime runs the integer networks where the asset's are int8 (and float ones elsewhere)."""
+    from pleat.reference.golden import random_motion
+    from pleat.reference.instance import Instance
+    q, _ = pq.quantise(weights)
+    asset = pa.read_asset(pa.write_asset(None, q))
+    inst = Instance(asset)
+    assert inst.lp_int8 is not None and inst.dec_int8 is not None
+    rotations, root_translation, root_rotation, dt_s = random_motion(4, len(asset["joint_parents"]), 0)
+    for t in range(4):
+        positions, normals = inst.step(rotations[t], root_translation[t], root_rotation[t], dt_s[t])
+        assert np.all(np.isfinite(positions)) and inst.last_result == "ok"
