@@ -2,8 +2,8 @@
 // MLP job on a packed int8 asset gives the numpy reference's bits (pleat.reference.mlp.mlp_int8) with every kernel
 // set, one instance or a batch; the loader refuses what the int8 kernels cannot run.
 //
-// usage: test_int8_matches_reference [DIR]   (DIR/asset.pleat and DIR/mlp_case.bin from python -m
-// pleat.reference.golden_int8). The kernel test needs no data; without DIR the data tests are skipped.
+// usage: test_int8_matches_reference [DIR]   (DIR/asset.pleat and DIR/mlp_case.bin from pleat-golden-int8, i.e.
+// python -m pleat.reference.golden_int8). The kernel test needs no data; without DIR the data tests are skipped.
 //
 // No tolerance anywhere: the products are summed in integers, and the float steps (quantising, dequantising, the
 // bias, ReLU) are the same IEEE operations in C and numpy.

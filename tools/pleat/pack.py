@@ -73,7 +73,7 @@ def build_parser():
     p.add_argument("--precision", choices=("fp32", "fp16", "int8"),
                    help="the networks' precision: fp16 = --fp16, int8 = --int8")
     p.add_argument("--calibration", metavar="NPZ",
-                   help="with --int8: X_c rows [M, I] under 'x_c' (python -m pleat.quantise collect makes them from "
+                   help="with --int8: X_c rows [M, I] under 'x_c' (pleat-quantise collect makes them from "
                         "clips)")
     p.add_argument("--calibration-percentile", type=float, default=100.0, metavar="P",
                    help="with --int8: each layer's input range is this percentile of |value| (default 100: the "

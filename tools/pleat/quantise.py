@@ -8,13 +8,14 @@ decoder's hidden activations. The calibration inputs are X_c rows the caller has
 `collect_inputs` over training clips), or else random rows in the normalised space (each input ~ N(0, 1), the
 distribution the normalisation stats give them in training).
 
-    python -m pleat.quantise collect ASSET.pleat --clips CLIP ... --out calibration.npz   # X_c rows of clips
+    pleat-quantise collect ASSET.pleat --clips CLIP ... --out calibration.npz   # X_c rows of clips, for
+    pleat-pack WEIGHTS --int8 --calibration calibration.npz --out OUT.pleat
 """
-import argparse
 import sys
 
 import numpy as np
 
+from pleat.cli import add_quiet, command, doc_parser
 from pleat.reference.latent_guard import latent_guard
 from pleat.reference.mlp import activation, layers
 
@@ -108,23 +109,30 @@ def collect_inputs(weights, clips, max_frames=None, body=None):
     return np.stack(rows)
 
 
-def main(argv=None):
-    p = argparse.ArgumentParser(prog="python -m pleat.quantise", description=__doc__.split("\n\n")[0])
+def build_parser():
+    p = doc_parser("pleat-quantise", __doc__)
     sub = p.add_subparsers(dest="command", required=True)
     c = sub.add_parser("collect", help="X_c rows of clips run through an asset's float networks (calibration npz)")
     c.add_argument("asset", help="a float (fp32/fp16) .pleat")
     c.add_argument("--clips", nargs="+", required=True, help="clip names or files (pleat.motion)")
-    c.add_argument("--max-frames", type=int, default=None)
-    c.add_argument("--out", required=True, help="npz with x_c [M, I]")
-    a = p.parse_args(argv)
+    c.add_argument("--max-frames", type=int, default=None, help="frames per clip at most (default: all)")
+    c.add_argument("--out", required=True, help="output file (.npz with x_c [M, I], for pleat-pack --calibration)")
+    add_quiet(c)
+    return p
+
+
+@command("pleat-quantise", build_parser)
+def main(a):
     from pathlib import Path
 
     from pleat import asset as pa
     from pleat.fileio import save_npz
     weights = pa.read_asset(Path(a.asset).read_bytes())
+    _float_weights(weights)
     x_c = collect_inputs(weights, a.clips, a.max_frames)
     save_npz(a.out, **{CALIBRATION_KEY: x_c})
-    print(f"wrote {a.out}: {len(x_c)} rows", file=sys.stderr)
+    if not a.quiet:
+        print(f"wrote {a.out}: {len(x_c)} rows", file=sys.stderr)
     return 0
 
 

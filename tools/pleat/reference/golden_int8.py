@@ -1,13 +1,12 @@
 """Golden data for the int8 networks: a random asset quantised by pleat.quantise, and rows through both of its int8
 MLPs as pleat.reference.mlp.mlp_int8 computes them — the C runtime's bits (tests/c/test_int8_matches_reference.c).
 
-    python -m pleat.reference.golden_int8 --out DIR     # DIR/asset.pleat, DIR/mlp_case.bin
+    pleat-golden-int8 --out DIR     # DIR/asset.pleat, DIR/mlp_case.bin
 
 mlp_case.bin: b"PLINT8MC", u32 version 1, rows M, I, L, D, then float32 x [M, I] (f_LP's normalised inputs),
 y [M, L] (f_LP's outputs), z [M, L] (decoder inputs) and w [M, D] (its outputs). Some rows are scaled far past the
 calibrated ranges, so the clamp to ±127 runs too.
 """
-import argparse
 import struct
 import sys
 from pathlib import Path
@@ -15,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from pleat.asset import read_asset, write_asset
+from pleat.cli import add_quiet, command, doc_parser
 from pleat.quantise import normalised_inputs, quantise
 from pleat.reference.golden import random_weights
 from pleat.reference.latent_guard import latent_guard
@@ -45,13 +45,19 @@ def generate(out_dir, rows=24, seed=0, vertices=300):
     return asset, x, y, z, w
 
 
-def main(argv=None):
-    p = argparse.ArgumentParser(prog="python -m pleat.reference.golden_int8", description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", required=True)
-    p.add_argument("--rows", type=int, default=24)
-    p.add_argument("--seed", type=int, default=0)
-    a = p.parse_args(argv)
+def build_parser():
+    p = doc_parser("pleat-golden-int8", __doc__)
+    p.add_argument("--out", required=True, help="output folder (asset.pleat, mlp_case.bin)")
+    p.add_argument("--rows", type=int, default=24, help="input rows through each network")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random weights and rows")
+    return add_quiet(p)
+
+
+@command("pleat-golden-int8", build_parser)
+def main(a):
     generate(a.out, a.rows, a.seed)
+    if not a.quiet:
+        print(f"wrote {a.out}/asset.pleat and mlp_case.bin", file=sys.stderr)
     return 0
 
 
