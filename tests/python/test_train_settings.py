@@ -17,6 +17,8 @@ REPO = Path(__file__).resolve().parents[2]
 # What the training code used before the declarations, per preset and key: the preset's value, else the default
 # written at the read (tools/pleat/train at 2d924f2, e.g. stage1.loss_norm_floor → 1.0 at six reads). The tiny
 # preset's simsup.member_tier and simsup.second_student_tier are absent: it never reads them.
+# Keys declared since then carry the value that does what the code did without them (simsup.contact_strain_weight
+# = 0: no edge-length term).
 BEFORE = json.loads((Path(__file__).parent / "train_config_before_settings.json").read_text())
 
 

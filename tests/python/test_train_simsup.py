@@ -67,6 +67,27 @@ def test_contact_term_penalises_only_vertices_inside_or_within_eps():
     assert float(out[2][0]) == pytest.approx(9.0, rel=1e-4)    # squared error against the simulated frame, mm²
 
 
+def test_strain_term_is_the_edge_length_error_against_the_simulated_frame():
+    """Two garment vertices 10 mm apart in the simulated frame: a prediction that moves one of them 3 mm along the
+    edge has an edge-length error of 3 mm (9 mm²), one that moves both rigidly has none (the position term does not
+    tell them apart); without strain=True the term is not computed."""
+    M = torch.zeros(1, 1, 1, 12)
+    M[..., 0] = M[..., 5] = M[..., 10] = 1.0                   # identity joint
+    data = {"M": M, "disp": torch.zeros(1, 1, 2, 3), "nearest": torch.zeros(1, 1, 2, dtype=torch.long),
+            "shaped_g": torch.tensor([[[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]]]), "shaped_b": torch.zeros(1, 1, 3),
+            "normals_b": torch.tensor([[[0.0, 1.0, 0.0]]]), "skin_idx": torch.zeros(2, 1, dtype=torch.long),
+            "skin_w": torch.ones(2, 1), "body_w": torch.ones(1, 1), "edges": torch.tensor([[0, 1]])}
+    seq, frame = torch.zeros(1, dtype=torch.long), torch.zeros(1, dtype=torch.long)
+    stretched = torch.tensor([[[0.0, 0.05, 0.0], [0.003, 0.05, 0.0]]])
+    moved = torch.tensor([[[0.0, 0.05, 0.0], [0.0, 0.05, 0.0]]])
+    assert len(contact.terms(data, seq, frame, stretched, 2e-3)) == 3
+    err_s, _, _, strain_s = contact.terms(data, seq, frame, stretched, 2e-3, strain=True)
+    err_m, _, _, strain_m = contact.terms(data, seq, frame, moved, 2e-3, strain=True)
+    assert float(strain_s) == pytest.approx(9.0, rel=1e-4)
+    assert float(strain_m) == pytest.approx(0.0, abs=1e-9)
+    assert float(err_m) < float(err_s)
+
+
 @pytest.mark.slow
 def test_simsup_tiny_end_to_end(tmp_path, capsys):
     """Simulate, export, refit from the export, fine-tune, pack: the asset loads, says how it was made, and the run

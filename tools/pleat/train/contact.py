@@ -7,11 +7,18 @@ f_dec and the blend shapes are trained on, through the skinning, on windows of t
 predictions as in stage 2, with two terms in the posed frame:
 
     loss = mean ‖x − x_sim‖² (mm²) + w_contact · mean max(0, ε − (x − b)·n)² (mm²)
+           + w_strain · mean (‖x_i − x_j‖ − ‖x_sim,i − x_sim,j‖)² over the garment's edges (mm²)
 
 x the garment the runtime would produce, x_sim the simulator's, b and n the posed position and normal of the body
 vertex nearest to the simulated vertex in the rest frame (found once per frame; near the body LBS moves garment and
 body alike, so the rest-frame neighbour is the posed one). Body vertices are the training setup's subset near the
 garment (`model.body_subset_m`), posed by the body's own skinning weights.
+
+The strain term (`simsup.contact_strain_weight`, 0 by default) is for loose cloth. A least-squares fit of a skirt
+learns the mean of the folds it can swing into, and a mean of folded states is not a garment of the same edge
+lengths: measured on the dress, the fitted skirt's edges were stretched or shrunk twice as far from the simulated
+ones as plain skinning leaves them. Matching the simulated edge lengths frame by frame keeps the prediction a
+garment the simulator could have made.
 """
 import time
 
@@ -57,7 +64,14 @@ def prepare(setup, seqs):
             "normals_b": torch.as_tensor(np.array(normals_b), dtype=torch.float32),
             "skin_idx": torch.as_tensor(setup.skin_indices), "skin_w": torch.as_tensor(setup.skin_weights,
                                                                                         dtype=torch.float32),
-            "body_w": torch.as_tensor(setup.body_w[:Vc], dtype=torch.float32)}
+            "body_w": torch.as_tensor(setup.body_w[:Vc], dtype=torch.float32),
+            "edges": torch.as_tensor(_unique_edges(setup.faces))}
+
+
+def _unique_edges(faces):
+    f = np.asarray(faces, np.int64)
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    return np.unique(e, axis=0)
 
 
 def _posed(A, v):
@@ -66,9 +80,10 @@ def _posed(A, v):
     return torch.einsum("...ab,...b->...a", A[..., :3], v) + A[..., 3]
 
 
-def terms(data, seq, frame, disp_pred, eps_m):
-    """(mean squared error mm², mean squared penetration below ε mm², share of vertices inside) for a batch of
-    (sequence, frame) with predicted rest-frame displacements [b, N, 3]."""
+def terms(data, seq, frame, disp_pred, eps_m, strain=False):
+    """(mean squared error mm², mean squared penetration below ε mm², share of vertices inside[, mean squared edge
+    length error mm² with strain=True]) for a batch of (sequence, frame) with predicted rest-frame displacements
+    [b, N, 3]."""
     M = data["M"][seq, frame]                                                       # [b, J, 12]
     A = torch.einsum("nk,bnkc->bnc", data["skin_w"], M[:, data["skin_idx"]])        # [b, N, 12]
     g = data["shaped_g"][seq]
@@ -83,7 +98,12 @@ def terms(data, seq, frame, disp_pred, eps_m):
     sd = ((x - b) * n).sum(-1)
     err = ((x - x_sim) ** 2).sum(-1).mean() * 1e6
     pen = (torch.relu(eps_m - sd) ** 2).mean() * 1e6
-    return err, pen, (sd < 0).float().mean()
+    if not strain:
+        return err, pen, (sd < 0).float().mean()
+    e = data["edges"]
+    length = (x[:, e[:, 0]] - x[:, e[:, 1]]).norm(dim=-1)
+    length_sim = (x_sim[:, e[:, 0]] - x_sim[:, e[:, 1]]).norm(dim=-1)
+    return err, pen, (sd < 0).float().mean(), ((length - length_sim) ** 2).mean() * 1e6
 
 
 def keep_zero_blocks(modules):
@@ -103,10 +123,11 @@ def keep_zero_blocks(modules):
 
 
 def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_contact=30.0, eps_m=2e-3,
-             gen=None, log=None, deadline=None):
-    """Trains f_LP, f_dec and the blend shapes (at 0.1× lr) on the posed error plus the contact term, on windows
-    that start at a recorded latent and are fed their own predictions (as stage 2). `train`: the distillation's
-    sequences (X_c rows and latent targets), in the order of `data`."""
+             gen=None, log=None, deadline=None, w_strain=0.0):
+    """Trains f_LP, f_dec and the blend shapes (at 0.1× lr) on the posed error plus the contact term (and, with
+    w_strain > 0, the edge-length term), on windows that start at a recorded latent and are fed their own
+    predictions (as stage 2). `train`: the distillation's sequences (X_c rows and latent targets), in the order of
+    `data`."""
     from pleat.train import core
     gen = gen or torch.Generator().manual_seed(0)
     lengths, static, target = core.padded_sequences(train)
@@ -118,7 +139,7 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
     opt = torch.optim.Adam(params)
     t0 = time.time()
     done = 0
-    err = pen = inside = None            # stay None when no iteration ran (a budget already spent, 0 iterations)
+    err = pen = inside = strain = None   # stay None when no iteration ran (a budget already spent, 0 iterations)
     for it in range(iterations):
         if deadline is not None and time.time() > deadline:      # --max-minutes: stop where the budget ends
             break
@@ -127,29 +148,35 @@ def finetune(lp, block, train, data, iterations, lr=1e-4, batch=16, window=8, w_
         n = lengths[idx]
         starts = (torch.rand(batch, generator=gen) * (n - window).clamp_min(0).add(1)).long()
         z_prev = target[idx, starts]
-        err = pen = inside = 0.0
+        err = pen = inside = strain = 0.0
         for k in range(window):
             j = torch.minimum(starts + k, n - 1)
             _, z_prev = lp(z_prev, static[idx, j])
             disp = block.displacement(z_prev)
-            e, p, i = terms(data, idx, j, disp, eps_m)
+            e, p, i, *s = terms(data, idx, j, disp, eps_m, strain=w_strain > 0)
             err, pen, inside = err + e / window, pen + p / window, inside + i / window
-        loss = err + w_contact * pen
+            if s:
+                strain = strain + s[0] / window
+        loss = err + w_contact * pen + w_strain * strain
         opt.zero_grad()
         loss.backward()
         torch.nn.utils.clip_grad_norm_(lp.parameters(), 1.0)
         opt.step()
         if log is not None and (it % 50 == 0 or it == iterations - 1):
-            log({"contact_iteration": it, "error_mm2": float(err.detach()),
-                 "penetration_mm2": float(pen.detach()), "inside_share": float(inside),
-                 "time_s": round(time.time() - t0, 1)})
+            rec = {"contact_iteration": it, "error_mm2": float(err.detach()),
+                   "penetration_mm2": float(pen.detach()), "inside_share": float(inside),
+                   "time_s": round(time.time() - t0, 1)}
+            if w_strain > 0:
+                rec["edge_length_error_mm2"] = float(strain.detach())
+            log(rec)
     lp.eval()
     block.blend_shapes.requires_grad_(False)
     for h in hooks:
         h.remove()
     last = lambda v: None if v is None else float(v.detach())
     return {"iterations": done, "final_error_mm2": last(err), "final_penetration_mm2": last(pen),
-            "final_inside_share": last(inside), "w_contact": w_contact, "eps_m": eps_m,
+            "final_inside_share": last(inside), "w_contact": w_contact, "eps_m": eps_m, "w_strain": w_strain,
+            "final_edge_length_error_mm2": last(strain) if w_strain > 0 else None,
             "time_s": time.time() - t0}
 
 

@@ -6,6 +6,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from pleat import garment_asset as ga
+from pleat.garment.garment import body_collision_mask
 from pleat import reference
 from pleat import rotations as rot
 from pleat.train import graph as graph_mod
@@ -55,6 +56,9 @@ class Setup:
         body_v = np.asarray(self.body.v_template[:vc], np.float64)
         radius = m["body_subset_m"]
         near = cKDTree(self.template).query(body_v)[0] < radius if radius > 0 else np.ones(vc, bool)
+        collide = body_collision_mask(sources.field(g, "collision_exclude"), self.body)
+        if collide is not None:         # the parts the simulator does not collide this garment with (a skirt's hands)
+            near &= collide[:vc]
         keep = np.nonzero(near)[0]
         ring_faces = bf[near[bf].any(1)] if bf is not None else None
         posed = keep if bf is None else np.concatenate([keep, np.setdiff1d(ring_faces.ravel(), keep)])

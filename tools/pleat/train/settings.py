@@ -282,6 +282,8 @@ SETTINGS = (
     S("simsup.contact_weight", 30.0, Number(0.0), "weight of the fine-tune's contact term"),
     S("simsup.contact_eps_m", 2e-3, Number(0.0), "fine-tune's clearance from the body, m"),
     S("simsup.contact_lr", 1e-4, Number(above=0), "fine-tune's Adam learning rate"),
+    S("simsup.contact_strain_weight", 0.0, Number(0.0), "weight of the fine-tune's edge-length term (loose cloth: "
+      "keeps a skirt's predicted edges at the simulated lengths; 0: off)"),
     S("simsup.contact_candidates", 0, Integer(0, 16), "body-contact candidates per vertex from the simulated frames "
                                                       "(0: none)"),
 

@@ -555,7 +555,7 @@ def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, s
             print(f"contact: {rec}", file=sys.stderr)
     rep = contact.finetune(lp, block, train, tensors, iterations or c["contact_iterations"] or RETUNE_ITERATIONS,
                            lr=c["contact_lr"], w_contact=c["contact_weight"], eps_m=c["contact_eps_m"], log=log,
-                           deadline=deadline)
+                           deadline=deadline, w_strain=c["contact_strain_weight"])
     after = posed_errors(lp, block, val, setup.L)
     state = torch.load(run_dir / "simsup.pt", weights_only=False)
     if not (run_dir / "simsup_fit.pt").exists():
