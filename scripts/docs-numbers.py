@@ -320,6 +320,14 @@ def garments_from_suites(paths, machine=None, metas=None):
             "rows": sorted(rows.values(), key=_row_order)}
 
 
+def merged(old, new):
+    """new's rows, plus old's rows of the (garment, tier) pairs new has none of: a suite of one garment refreshes its
+    rows and leaves the other garments' as they were measured."""
+    have = {(r["garment"], r["tier"]) for r in new["rows"]}
+    rows = new["rows"] + [r for r in old["rows"] if (r["garment"], r["tier"]) not in have]
+    return dict(new, rows=sorted(rows, key=_row_order))
+
+
 def _cell(value, digits=1, suffix=""):
     if value is None:
         return "—"
@@ -398,7 +406,8 @@ def main(argv=None):
     mode.add_argument("--check", action="store_true", help="exit 1 if a block is out of date")
     mode.add_argument("--print", action="store_true", help="print README.md's block instead of writing the pages")
     mode.add_argument("--garments-from", nargs="+", metavar="SUITE.json",
-                      help="write --garments from these pleat-eval-suite reports, then the pages")
+                      help="write --garments from these pleat-eval-suite reports (their garments' and tiers' rows "
+                           "replace the file's; the other rows stay), then the pages")
     p.add_argument("--machine", default=None,
                    help="with --garments-from: the machine the suites' step times were measured on "
                         "(default: this one's CPU model and count)")
@@ -406,6 +415,8 @@ def main(argv=None):
     try:
         if a.garments_from:
             garments = garments_from_suites(a.garments_from, a.machine)
+            if Path(a.garments).is_file():      # the rows of garments and tiers these suites did not score stay
+                garments = merged(load_garments(a.garments), garments)
             Path(a.garments).write_text(json.dumps(garments, indent=1, ensure_ascii=False) + "\n")
         bench, accuracy = load(a.bench, a.accuracy)
         block = render(bench, accuracy)

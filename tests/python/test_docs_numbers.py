@@ -171,3 +171,15 @@ def test_garments_from_writes_the_json_and_the_page(docs_numbers, tmp_path):
     assert "old" not in text and "| dress | small |" in text and text.endswith(f"{docs_numbers.GARMENTS_END}\nafter\n")
     assert docs_numbers.main(["--check", "--garments", str(out), "--accuracy-page", str(page),
                               "--readme", str(readme)]) == 0
+
+
+def test_garments_from_refreshes_its_rows_and_keeps_the_other_garments(docs_numbers, tmp_path):
+    path = _synthetic_suite(tmp_path)
+    out = tmp_path / "accuracy-garments.json"
+    kept = {"garment": "tshirt", "tier": "large", "mean_mm": 13.1}
+    stale = {"garment": "dress", "tier": "large", "mean_mm": 99.0}
+    out.write_text(json.dumps({"about": "x", "rows": [stale, kept]}))
+    new = docs_numbers.garments_from_suites([path], machine="Test CPU")
+    rows = docs_numbers.merged(json.loads(out.read_text()), new)["rows"]
+    assert [(r["garment"], r["tier"]) for r in rows] == [("dress", "large"), ("dress", "small"), ("tshirt", "large")]
+    assert rows[0]["mean_mm"] == 20.0 and rows[2] == kept
