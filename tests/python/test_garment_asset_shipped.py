@@ -1,4 +1,5 @@
-"""The shipped assets/tshirt.pleat: built from the shipped body's skeleton, and honest about being a placeholder."""
+"""The shipped garments (assets/tshirt.pleat, assets/dress.pleat): built from the shipped body's skeleton, honest about
+being a placeholder if one is, and the dress says which body parts it does not collide with."""
 import json
 from pathlib import Path
 
@@ -9,15 +10,18 @@ from pleat.asset import read_asset
 from pleat.garment_asset import EXCLUDED_INPUT_JOINTS, LBS_ONLY_MODEL
 
 ROOT = Path(__file__).resolve().parents[2]
-ASSET = ROOT / "assets" / "tshirt.pleat"
+GARMENTS = ("tshirt", "dress")
 BODY = ROOT / "assets" / "body.npz"
 
-pytestmark = pytest.mark.skipif(not (ASSET.exists() and BODY.exists()), reason="assets/tshirt.pleat or body.npz absent")
+pytestmark = pytest.mark.skipif(not BODY.exists(), reason="assets/body.npz absent")
 
 
-@pytest.fixture(scope="module")
-def asset():
-    return read_asset(ASSET.read_bytes())
+@pytest.fixture(scope="module", params=GARMENTS)
+def asset(request):
+    path = ROOT / "assets" / f"{request.param}.pleat"
+    if not path.exists():
+        pytest.skip(f"{path.name} absent")
+    return read_asset(path.read_bytes())
 
 
 def test_shipped_asset_uses_the_shipped_body_skeleton(asset):
@@ -42,3 +46,12 @@ def test_placeholder_says_it_is_untrained_and_outputs_zero(asset):
     for key in ("lp.0.weight", "lp.0.bias", "dec.0.weight", "dec.0.bias", "blend_shapes", "z_min", "z_max"):
         assert not np.any(asset[key]), key
     assert asset["template"].shape[0] > 1000  # the real t-shirt, not a test mesh
+
+
+def test_the_dress_leaves_out_the_forearms_and_hands(asset):
+    from pleat.garment.generate import SKIRT_EXCLUDED_JOINTS
+    meta = json.loads(asset["metadata_json"])
+    if asset["garment_name"] != "dress":
+        assert "collision_exclude" not in meta
+        return
+    assert sorted(meta["collision_exclude"]) == sorted(SKIRT_EXCLUDED_JOINTS)

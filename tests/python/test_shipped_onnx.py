@@ -1,5 +1,5 @@
-"""The shipped t-shirt carries its networks as ONNX too (OXLP/OXDC), and the ONNX Runtime backend, given those,
-steps it like Pleat's own MLPs."""
+"""The shipped garments carry their networks as ONNX too (OXLP/OXDC), and the ONNX Runtime backend, given those,
+steps them like Pleat's own MLPs."""
 from pathlib import Path
 
 import numpy as np
@@ -8,22 +8,30 @@ import pytest
 from pleat import asset as pa
 
 ROOT = Path(__file__).resolve().parents[2]
-ASSET = ROOT / "assets" / "tshirt.pleat"
+GARMENTS = ("tshirt", "dress")
 
 
-def test_shipped_asset_has_onnx_sections():
-    w = pa.read_asset(ASSET.read_bytes())
+@pytest.fixture(params=GARMENTS)
+def shipped(request):
+    path = ROOT / "assets" / f"{request.param}.pleat"
+    if not path.exists():
+        pytest.skip(f"{path.name} absent")
+    return path
+
+
+def test_shipped_asset_has_onnx_sections(shipped):
+    w = pa.read_asset(shipped.read_bytes())
     assert len(w.get("onnx_latent_predictor") or b"") > 1000
     assert len(w.get("onnx_decoder") or b"") > 1000
 
 
-def test_shipped_asset_through_onnxruntime_matches_the_cpu_backend(c_runtime):
+def test_shipped_asset_through_onnxruntime_matches_the_cpu_backend(c_runtime, shipped):
     runtime = c_runtime
     ort = pytest.importorskip("onnxruntime")
     libs = sorted((Path(ort.__file__).parent / "capi").glob("libonnxruntime.so*"))
     if not libs:
         pytest.skip("no libonnxruntime.so in the onnxruntime wheel")
-    data = ASSET.read_bytes()
+    data = shipped.read_bytes()
     w = pa.read_asset(data)
     J = len(w["joint_names"])
     rng = np.random.default_rng(3)
