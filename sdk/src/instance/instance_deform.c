@@ -13,12 +13,13 @@ typedef struct plDeformTask
 	atomic_int result; // a job's error (plResult), written by whichever worker saw one; PLEAT_RESULT_OK otherwise
 } plDeformTask;
 
-// Workers cannot return a result: a failing job leaves its code here for plDeformCpu to return after the task.
-static void plDeformTask_Record( plDeformTask* t, plResult r )
+// Workers cannot return a result: a failing job leaves its code in the task's slot for the caller to return after
+// the task (plDeformCpu, and the normals tasks below).
+static void plRecordJobResult( atomic_int* slot, plResult r )
 {
 	if ( r != PLEAT_RESULT_OK )
 	{
-		atomic_store_explicit( &t->result, (int)r, memory_order_relaxed );
+		atomic_store_explicit( slot, (int)r, memory_order_relaxed );
 	}
 }
 
@@ -35,7 +36,7 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 		plBlendShapesJob blend = { plMakeConstSpan( inst->shaped_template, n, 12 ), a->blend_shapes,
 								   a->blend_shapes_fp16, plMakeConstSpan( d->blend_weights, a->blend_count, 4 ),
 								   plMakeSpan( inst->deformed, n, 12 ), begin, end, &inst->ctx->kernels };
-		plDeformTask_Record( t, plBlendShapesJob_Run( &blend ) );
+		plRecordJobResult( &t->result, plBlendShapesJob_Run( &blend ) );
 		PLEAT_STEP_PHASE( PLEAT_PHASE_BLEND );
 	}
 	plSkinningJob skin = { plMakeConstSpan( d->rest, n, 12 ),
@@ -49,11 +50,11 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 						   end,
 						   &inst->ctx->kernels,
 						   a->skin_column_offsets };
-	plDeformTask_Record( t, plSkinningJob_Run( &skin ) );
+	plRecordJobResult( &t->result, plSkinningJob_Run( &skin ) );
 	PLEAT_STEP_PHASE( PLEAT_PHASE_SKIN );
 	if ( inst->body_contact )
 	{
-		plDeformTask_Record( t, t->fast_contact
+		plRecordJobResult( &t->result, t->fast_contact
 									? plRunFastBodyContact( inst, d->positions, d->skin_matrices, begin, end )
 									: plPushOutOfBody( inst, d->positions, begin, end ) );
 		PLEAT_STEP_PHASE( PLEAT_PHASE_CONTACT );
@@ -66,14 +67,14 @@ static void plPoseBodyPointsTask( uint32_t begin, uint32_t end, uint32_t worker,
 {
 	(void)worker;
 	plDeformTask* t = (plDeformTask*)context;
-	plDeformTask_Record( t, plPoseBodyPoints( t->inst, t->spans->skin_matrices, begin, end ) );
+	plRecordJobResult( &t->result, plPoseBodyPoints( t->inst, t->spans->skin_matrices, begin, end ) );
 }
 
 static void plBodyPointNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;
 	plDeformTask* t = (plDeformTask*)context;
-	plDeformTask_Record( t, plBodyPointNormals( t->inst, begin, end ) );
+	plRecordJobResult( &t->result, plBodyPointNormals( t->inst, begin, end ) );
 }
 
 plResult plBodyPointNormals( plInstanceData* inst, uint32_t begin, uint32_t end )
@@ -190,14 +191,6 @@ typedef struct plNormalsTask
 	atomic_int result;
 } plNormalsTask;
 
-static void plNormalsTask_Record( plNormalsTask* t, plResult r )
-{
-	if ( r != PLEAT_RESULT_OK )
-	{
-		atomic_store_explicit( &t->result, (int)r, memory_order_relaxed );
-	}
-}
-
 static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, void* context )
 {
 	(void)worker;
@@ -205,7 +198,7 @@ static void plFaceNormalsTask( uint32_t begin, uint32_t end, uint32_t worker, vo
 	const plAssetData* a = t->inst->asset;
 	plFaceNormalsJob job = { plMakeConstSpan( t->positions, a->vertex_count, 12 ), a->faces, a->face_count,
 							 t->inst->face_normals, begin, end, &t->inst->ctx->kernels };
-	plNormalsTask_Record( t, plFaceNormalsJob_Run( &job ) );
+	plRecordJobResult( &t->result, plFaceNormalsJob_Run( &job ) );
 	PLEAT_STEP_PHASE( PLEAT_PHASE_FACE_NORMALS );
 }
 
@@ -222,7 +215,7 @@ static void plNormalsGatherTask( uint32_t begin, uint32_t end, uint32_t worker, 
 							   begin,
 							   end,
 							   &t->inst->ctx->kernels };
-	plNormalsTask_Record( t, plNormalsGatherJob_Run( &job ) );
+	plRecordJobResult( &t->result, plNormalsGatherJob_Run( &job ) );
 	PLEAT_STEP_PHASE( PLEAT_PHASE_GATHER );
 }
 
