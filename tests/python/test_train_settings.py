@@ -1,6 +1,6 @@
 """The training settings are declared once (pleat.train.settings): presets and --set only override the declared
 defaults, unknown keys and values out of range are refused naming the key, `pleat-train config` shows what a run
-resolves to, docs/training.md carries the declarations' table, and pleat-train's commands each take their own
+resolves to, docs/settings.md carries the declarations' table, and pleat-train's commands each take their own
 options (the older command lines still parse). No torch, no training: a few seconds."""
 import json
 import re
@@ -108,10 +108,10 @@ def test_the_training_code_reads_the_config_without_defaults_of_its_own():
 
 
 def test_docs_presets_table_is_the_declarations():
-    text = (REPO / "docs" / "training.md").read_text()
+    text = (REPO / "docs" / "settings.md").read_text()
     block = re.search(r"<!-- settings table: pleat-train config --markdown -->\n(.*?)\n<!-- /settings table -->",
                       text, re.S)
-    assert block, "docs/training.md has the settings table between its markers"
+    assert block, "docs/settings.md has the settings table between its markers"
     assert block.group(1) == settings.markdown(), "regenerate it with pleat-train config --markdown"
 
 

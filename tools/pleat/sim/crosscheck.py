@@ -5,7 +5,7 @@ two top corners (membrane, gravity, pins), and a 0.1 m × 0.04 m cantilever stri
 Compared at equilibrium: sags / the tip's drop and pull-in, and the max / mean distance between corresponding
 vertices. `--static` (cantilever) steps nothing: both codes' per-vertex bending, membrane and gravity forces on the
 same configurations, one VBD substep from pleat's equilibrium per iteration count, and pleat's equilibrium against
-beam theory with its hinge energy's effective plate stiffness (docs/simulator.md, "Cross-check").
+beam theory with its hinge energy's effective plate stiffness (docs/crosscheck.md).
 
 Two processes exchange npz files, so newton never enters the project venv (it pins its own warp-lang):
 
@@ -15,7 +15,7 @@ runs the pleat side here and `python tools/pleat/sim/crosscheck.py --newton-side
 --newton-first-step) with the newton venv's python (this file's top level imports only numpy, so it runs there
 without pleat installed).
 
-Material conversion (docs/simulator.md, "Cross-check"):
+Material conversion (docs/crosscheck.md):
 - areal density m (kg/m²) → newton's `density` of add_cloth_mesh (per area; the same vertex masses m·A/3);
 - μ, λ (2D Lamé, N/m) → tri_ke = μ, tri_ka = λ: newton's membrane is the 2D stable Neo-Hookean
   ψ = μ/2 (I_C − 2) + λ'/2 (J − α)² with λ' = λ + μ, α = 1 + μ/λ', per rest area; it has the same small-strain

@@ -191,7 +191,7 @@ def build_parser():
     show = c.add_mutually_exclusive_group()
     show.add_argument("--json", action="store_true", help="print it as JSON (a file for --config)")
     show.add_argument("--markdown", action="store_true",
-                      help="print the table of every key and the presets' values (docs/training.md, \"Presets\")")
+                      help="print the table of every key and the presets' values (docs/settings.md)")
     add_quiet(c)
     return p
 

@@ -8,7 +8,7 @@ before anything runs, naming the key and what it takes.
 
 A declared default is what a preset that leaves the key out gets; the `default` preset sets many keys to other
 values (the shipped recipe), `tiny` to smaller ones (the tests). `pleat-train config --preset NAME` prints what a
-run resolves to, key by key, with the meanings below; docs/training.md ("Presets") carries the same table
+run resolves to, key by key, with the meanings below; docs/settings.md carries the same table
 (`pleat-train config --markdown`).
 
 Configs stored with older runs (checkpoints, run folders) may lack keys declared since; `complete` fills them with
@@ -478,7 +478,7 @@ def describe(cfg, origin=None):
 
 
 def markdown(presets=("default", "tiny")):
-    """The table of docs/training.md, "Presets": each key, what a preset that leaves it out gets, each preset's
+    """The table of docs/settings.md: each key, what a preset that leaves it out gets, each preset's
     value where it sets another, the values it takes and its meaning."""
     values = {p: read_preset(p) for p in presets}
     head = ["key", "unset"] + list(presets) + ["values", "meaning"]
