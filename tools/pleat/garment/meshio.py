@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from pleat.cli import InputError, read_by_suffix
+from pleat.glb import GLB_BIN, GLB_JSON, GLB_MAGIC, glb_chunks
 
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
 MAX_VERTICES = 2_000_000
@@ -196,9 +197,6 @@ def write_obj(path, vertices, faces, groups=None, header=None):
 
 
 # ---- glTF 2.0 ------------------------------------------------------------------------------------------------------
-GLB_MAGIC = b"glTF"
-GLB_JSON = 0x4E4F534A
-GLB_BIN = 0x004E4942
 _COMPONENT = {5120: ("i1", 1), 5121: ("u1", 1), 5122: ("<i2", 2), 5123: ("<u2", 2), 5125: ("<u4", 4),
               5126: ("<f4", 4)}
 _TYPE_SIZE = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
@@ -207,33 +205,15 @@ _MODES = {0: "points", 1: "lines", 2: "line loop", 3: "line strip", 4: "triangle
 
 
 def _glb_chunks(path, data):
-    """(JSON dict, BIN bytes or None) of a .glb file, after checking the header and the chunk table."""
-    if len(data) < 20:
-        raise MeshFileError(path, f"is {len(data)} bytes: too short for a GLB file (12-byte header + a chunk)")
-    magic, version, length = struct.unpack_from("<4sII", data, 0)
-    if magic != GLB_MAGIC:
-        raise MeshFileError(path, f"does not start with 'glTF' (found {magic!r}): not a GLB file")
-    if version != 2:
-        raise MeshFileError(path, f"is GLB version {version}; only glTF 2.0 is read")
-    if length != len(data):
-        raise MeshFileError(path, f"header says {length} bytes, the file has {len(data)} (truncated?)")
-    chunks, offset = [], 12
-    while offset < len(data):
-        if offset + 8 > len(data):
-            raise MeshFileError(path, f"chunk header at byte {offset} runs past the end")
-        size, kind = struct.unpack_from("<II", data, offset)
-        if offset + 8 + size > len(data):
-            raise MeshFileError(path, f"chunk at byte {offset} says {size} bytes, only {len(data) - offset - 8} "
-                                      "are left")
-        chunks.append((kind, data[offset + 8:offset + 8 + size]))
-        offset += 8 + size
-    if not chunks or chunks[0][0] != GLB_JSON:
-        raise MeshFileError(path, "the first GLB chunk is not JSON")
+    """(JSON dict, BIN bytes or None) of a .glb file (pleat.glb checks the container)."""
     try:
-        doc = json.loads(chunks[0][1].decode("utf-8"))
+        json_chunk, binary = glb_chunks(data)
+    except ValueError as exc:
+        raise MeshFileError(path, str(exc)) from None
+    try:
+        doc = json.loads(json_chunk.decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise MeshFileError(path, f"GLB JSON chunk is not valid JSON ({exc})") from None
-    binary = next((c for k, c in chunks[1:] if k == GLB_BIN), None)
     return doc, binary
 
 

@@ -32,20 +32,16 @@ import base64
 import binascii
 import json
 import math
-import struct
 from pathlib import Path
 
 import numpy as np
 
 from pleat.motion.readers import (MAX_DURATION_S, MAX_FRAME_TIME_S, MAX_JOINTS, MIN_FRAME_TIME_S, QUAT_MIN_NORM,
                                   MotionFileError, _clip_name)
+from pleat.glb import GLB_MAGIC, glb_chunks
 from pleat.motion.retarget import SourceMotion
 from pleat.rotations import matrix_to_quat, quat_normalize, quat_slerp, quat_to_matrix
 
-GLB_MAGIC = b"glTF"
-GLB_VERSION = 2
-GLB_JSON = 0x4E4F534A                 # "JSON"
-GLB_BIN = 0x004E4942                  # "BIN\0"
 MAX_NODES = 100_000
 MAX_ACCESSOR_ELEMENTS = 50_000_000    # floats of one accessor (a 1 h take of 1000 channels at 60 fps is 2e8 / 4)
 MIN_BAKED_FPS = 24.0                  # keys at least this dense are a baked animation: their rate is the clip's
@@ -149,32 +145,16 @@ def _document(path):
 
 
 def _glb_chunks(path, data):
-    """(JSON text, BIN chunk or None) of a GLB: header, declared length and chunk table checked."""
-    if len(data) < 20:
-        raise MotionFileError(path, f"is {len(data)} bytes: too short for a GLB file (12-byte header and a chunk)")
-    magic, version, length = struct.unpack_from("<4sII", data, 0)
-    if magic != GLB_MAGIC:
-        raise MotionFileError(path, f"does not start with 'glTF' (found {magic!r}): not a GLB file")
-    if version != GLB_VERSION:
-        raise MotionFileError(path, f"is GLB version {version}; only glTF 2.0 is read")
-    if length != len(data):
-        raise MotionFileError(path, f"header says {length} bytes, the file has {len(data)} (truncated?)")
-    chunks, at = [], 12
-    while at < len(data):
-        if at + 8 > len(data):
-            raise MotionFileError(path, f"chunk header at byte {at} runs past the end of the file")
-        size, kind = struct.unpack_from("<II", data, at)
-        if at + 8 + size > len(data):
-            raise MotionFileError(path, f"chunk at byte {at} ({size} bytes) runs past the end of the file")
-        chunks.append((kind, data[at + 8:at + 8 + size]))
-        at += 8 + size
-    if not chunks or chunks[0][0] != GLB_JSON:
-        raise MotionFileError(path, "the first GLB chunk is not JSON")
+    """(JSON text, BIN chunk or None) of a GLB (pleat.glb checks the container)."""
     try:
-        text = chunks[0][1].decode("utf-8")
+        json_chunk, blob = glb_chunks(data)
+    except ValueError as exc:
+        raise MotionFileError(path, str(exc)) from None
+    try:
+        text = json_chunk.decode("utf-8")
     except UnicodeDecodeError:
         raise MotionFileError(path, "the GLB JSON chunk is not UTF-8 text") from None
-    return text, next((c for kind, c in chunks[1:] if kind == GLB_BIN), None)
+    return text, blob
 
 
 class _Reader:
