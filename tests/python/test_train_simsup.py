@@ -92,6 +92,18 @@ def test_strain_term_is_the_edge_length_error_against_the_simulated_frame():
 def test_simsup_tiny_end_to_end(tmp_path, capsys):
     """Simulate, export, refit from the export, fine-tune, pack: the asset loads, says how it was made, and the run
     prints a verdict against LBS-only."""
+    # One torch thread, as pleat-train runs by default (--threads): the forked fits run on one thread each, and the
+    # same networks one by one and side by side holds at equal thread counts only (torch splits its reductions by
+    # thread, so a many-core machine's default thread count rounds differently).
+    threads = torch.get_num_threads()
+    core.set_threads(1)
+    try:
+        _simsup_tiny_end_to_end(tmp_path, capsys)
+    finally:
+        torch.set_num_threads(threads)
+
+
+def _simsup_tiny_end_to_end(tmp_path, capsys):
     cfg = core.load_config("tiny", overrides={"simsup.max_segments": 2, "simsup.segment_frames": 8,
                                              "simsup.validation_frames": 6, "simsup.iterations": 20,
                                              "simsup.dec_iterations": 10, "simsup.contact_iterations": 3})

@@ -11,6 +11,7 @@
 // As in plMatVec_Avx2, four rows from four contiguous row blocks share each input load: four sequential streams.
 #include "kernels/kernels.h"
 
+#include <cpuid.h>
 #include <immintrin.h>
 
 // q[c] = plQuantise( x[c], inv_scale ) for c < n, 32 at a time: vcvtps2dq rounds to nearest even under the default
@@ -180,9 +181,20 @@ void plMatVecInt8_AvxVnni( float* out, const float* x, const int8_t* weight, con
 						   col_end, row_begin, row_end, plDotQuad_AvxVnni );
 }
 
+// AVX-VNNI is CPUID leaf 7, sub-leaf 1, EAX bit 4. Read it directly: clang 14 (Debian 12's) has no "avxvnni" name
+// for __builtin_cpu_supports. AVX2 being usable (checked by the builtin) already means the OS saves the YMM state.
 int plCpuHasAvxVnni( void )
 {
 	__builtin_cpu_init();
-	return __builtin_cpu_supports( "avx2" ) && __builtin_cpu_supports( "avxvnni" );
+	if ( !__builtin_cpu_supports( "avx2" ) )
+	{
+		return 0;
+	}
+	unsigned int eax = 0, ebx = 0, ecx = 0, edx = 0;
+	if ( !__get_cpuid_count( 7, 1, &eax, &ebx, &ecx, &edx ) )
+	{
+		return 0;
+	}
+	return ( eax >> 4 ) & 1u;
 }
 #endif
