@@ -144,3 +144,40 @@ def test_pareto_page_lists_an_ensemble_tier_by_its_members(tmp_path):
     page = path.read_text()
     assert "| large (mean of 2 medium fits) | 1004 | 99.00 % | 25228 | — | — | — | 800 |" in page
     assert "| medium | 1004 | 99.00 % | 25228 | 10.70 | 18.60 | 4.00 | 400 |" in page
+
+
+def test_pareto_from_suite_reports_gives_each_garment_its_baselines_and_error_bars(tmp_path, c_runtime):
+    """pleat-pareto --suite: a panel per garment; per mesh one LBS-only twin (errors from the report's own runs) and,
+    where the report has the reference's spread, the simulator at its CPU time per frame; mean ± SD over the runs."""
+    from pleat.asset import write_asset
+    assets = {}
+    for name, garment, n in (("big", "skirt_a", 120), ("cheap", "skirt_a", 60), ("other", "skirt_b", 80)):
+        assets[name] = str(tmp_path / f"{name}.pleat")
+        write_asset(assets[name], random_weights(vertices=n, latent=4, blend=4, lp_hidden=(8,), dec_hidden=(8,),
+                                                 seed=len(name), garment_name=garment))
+
+    def run(pleat, lbs, spread=None, cpu_s=0.2):
+        r = {"pleat": {"mean_mm": pleat}, "lbs": {"mean_mm": lbs},
+             "reference": {"summary": {"cpu_seconds_per_frame": cpu_s}}}
+        if spread is not None:
+            r["reference_spread"] = {"mean_mm": spread}
+        return r
+    report = {assets["big"]: {"runs": [run(10, 20, 5, 0.2), run(14, 30, 7, 0.4)]},
+              assets["cheap"]: {"runs": [run(20, 40), run(22, 44)]},           # no spread: no simulator point
+              assets["other"]: {"runs": [run(3, 9, 2, 0.1)]}}
+    path = tmp_path / "suite.json"
+    path.write_text(json.dumps(report))
+    assert pareto.main(["--suite", str(path), "--repeats", "1", "--out", str(tmp_path), "--json",
+                        str(tmp_path / "rows.json"), "--machine", "a test machine", "--quiet"]) == 0
+    rows = {(r["garment"], r["name"]): r for r in json.loads((tmp_path / "rows.json").read_text())}
+    big = rows["skirt_a", "big"]
+    assert (big["mean_mm"], big["sd_mm"], big["min_mm"], big["max_mm"], big["runs"]) == (12.0, 2.0, 10.0, 14.0, 2)
+    assert rows["skirt_a", "LBS-only, N=120"]["mean_mm"] == 25.0 and rows["skirt_a", "LBS-only, N=60"]["sd_mm"] == 2.0
+    sim = rows["skirt_a", "reference simulator, N=120"]
+    assert sim["mean_mm"] == 6.0 and abs(sim["step_us"] - 3e5) < 1e-6
+    assert ("skirt_a", "reference simulator, N=60") not in rows and ("skirt_b", "reference simulator, N=80") in rows
+    assert all(r["step_us"] > 0 for r in rows.values())                  # the assets and twins were timed
+    assert len(rows) == 8          # 3 assets, 3 LBS-only twins (one per mesh), 2 simulators
+    page = (tmp_path / "pareto.md").read_text()
+    assert "pleat-pareto --suite " + str(path) in page and "a test machine" in page
+    assert "| skirt_b | other | pleat | 80 |" in page and (tmp_path / "pareto.png").stat().st_size > 0

@@ -9,6 +9,9 @@ single thread) and the mean / p95 vertex error against the reference simulator o
 `pleat.eval.tiers`: its shipped asset (`Tier.asset`) when it exists and is trained — scored like any asset — else the
 step time of that configuration with random weights (golden.random_weights), speed only. Writes OUT/pareto.png and
 OUT/pareto.md (table + this command).
+
+With --suite REPORT.json ... the chart is made from pleat-eval-suite reports instead, a panel per garment
+(pleat.eval.pareto_garments): that is how docs/pareto.md is made.
 """
 import argparse
 import json
@@ -286,6 +289,11 @@ def build_parser():
     ap.add_argument("--json", default=None, help="also write the rows to this JSON file")
     ap.add_argument("--repeats", type=int, default=5, help="timing rounds (3 passes per asset each; the lowest median is kept)")
     ap.add_argument("--note", action="append", default=[], help="a line for the page's Notes section (repeatable)")
+    ap.add_argument("--suite", nargs="+", default=None, metavar="REPORT.json",
+                    help="chart every garment from pleat-eval-suite reports instead (a panel per garment, with "
+                         "LBS-only, the reference simulator and error bars over clips and bodies; "
+                         "pleat.eval.pareto_garments); --assets, --motion and the tier options are then unused")
+    ap.add_argument("--machine", default=None, help="with --suite: the machine the times were taken on, for the page")
     return add_quiet(ap)
 
 
@@ -293,6 +301,9 @@ def build_parser():
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)     # the page quotes the command line
     args = build_parser().parse_args(argv)
+    if args.suite:
+        from pleat.eval import pareto_garments
+        return pareto_garments.main(args, argv)
     from pleat import runtime
     from pleat.motion.split import VALIDATION
     for m in args.motion:
