@@ -380,7 +380,8 @@ def _f(v, d=2):
 
 
 def write_markdown(reports, path, command):
-    """docs/stability.md from suite reports (one section per asset): definitions, numbers, plots, the command."""
+    """docs/stability.md from suite reports: definitions, numbers, plots, the command. One asset: its sections here;
+    several: a row each here and each asset's sections on its own page beside it (stability-NAME.md)."""
     r0 = reports[0]
     lines = [
         "# Stability suite", "",
@@ -397,8 +398,23 @@ def write_markdown(reports, path, command):
         "the posed body and the deepest, from the simulator's collider (nearest body vertex + normal; pinned "
         "vertices included). Reference, error and penetration need an asset built on assets/body.npz; an asset "
         "on another skeleton (the random-weight golden tube) gets the runtime-only numbers.", ""]
-    for r in reports:
-        lines += _markdown_section(r)
+    if len(reports) == 1:
+        lines += _markdown_section(reports[0])
+    else:       # one row per asset here, each asset's sections on a page of its own beside this one
+        lines += ["## Every garment", "",
+                  "One row per asset; the numbers are explained on each asset's own page. Errors are against the "
+                  "reference simulator, Pleat's first and LBS-only's second (`n/a`: no reference for that asset).",
+                  ""]
+        lines += _table(["asset", "N", "drift ratio (long run)", "end of long run: error (mm)",
+                         "3× speed: error (mm)", "β0 = ±3, worst: error (mm)", "penetration, long run (%)",
+                         "finite, no resets, latent in range (every run)", "worst bound excess (mm)"],
+                        (_summary_row(r, path) for r in reports))
+        lines += [""]
+        for r in reports:
+            write_text(Path(path).parent / _page_name(r, path), "\n".join(
+                [f"# Stability: `{r['asset']}`", "",
+                 f"Part of [{Path(path).name}]({Path(path).name}) (made by the same command, which says what each "
+                 "quantity is).", ""] + _markdown_section(r)[2:]))
     lines += ["## The same checks as tests", "",
               "`tests/python/test_stability_runtime.py` runs small versions in the default test command (a 300-vertex "
               "random-weight asset with a contractive latent recurrence, random smooth motion): a 5,000-frame chained "
@@ -416,6 +432,35 @@ def write_markdown(reports, path, command):
               "is more than 150 mm from the skinned one in 27 % of its training frames, more than 300 mm in 6 %). "
               "About 11 s.", ""]
     write_text(path, "\n".join(lines))
+
+
+def _page_name(r, path):
+    """The page of one asset's sections beside the summary page: stability.md → stability-dress.md."""
+    return f"{Path(path).stem}-{Path(str(r['asset']).replace('tier:', 'tier_')).stem}.md"
+
+
+def _pair(a, b):
+    return f"{_f(a)} / {_f(b)}"
+
+
+def _summary_row(r, path):
+    """The summary table's cells for one asset's report (write_markdown with several assets)."""
+    lg = r["long"]
+    window = (lg.get("reference_windows") or {}).get("last")
+    fast = next((v for v in (r.get("fast_reference") or {}).values() if v["speed"] == 3.0), None)
+    bodies = list((r.get("bodies_reference") or {}).values())
+    worst = max(bodies, key=lambda v: v["pleat_error_mm"] / max(v["lbs_error_mm"], 1e-9)) if bodies else None
+    pen = lg.get("penetration") or {}
+    runs = [lg] + [v for part in ("fast", "bodies", "dt_jitter") for v in r[part].values()]
+    healthy = all(v["finite"] and v["numeric_resets"] == 0 for v in runs) and lg["latent_in_range"]
+    excess = max(v["bound_excess_mm"] for v in runs)
+    na = "n/a"
+    return [f"[`{r['asset']}`]({_page_name(r, path)})", r["vertices"], _f(lg["drift"]["ratio"], 4),
+            _pair(window["pleat_error_mm"], window["lbs_error_mm"]) if window else na,
+            _pair(fast["pleat_error_mm"], fast["lbs_error_mm"]) if fast else na,
+            _pair(worst["pleat_error_mm"], worst["lbs_error_mm"]) if worst else na,
+            _pair((pen.get("pleat") or {}).get("penetration_pct"), (pen.get("lbs") or {}).get("penetration_pct"))
+            if pen else na, "yes" if healthy else "**no**", _f(excess, 1)]
 
 
 def _markdown_section(r):
