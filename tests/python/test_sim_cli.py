@@ -45,6 +45,9 @@ def test_pleat_sim_cli_writes_positions_and_a_truthful_summary(tmp_path):
     assert np.isfinite(summary["final_gradient_norm"]) and summary["final_gradient_norm"] >= 0.0
     assert len(summary["per_frame"]["penetration_after_projection_mm"]) == 1
     assert summary["per_frame"]["substeps"][0] >= 1
+    # the faces' share inside the body (pleat.sim.surface), on both frames
+    surface = summary["surface_inside"]
+    assert surface["frames"] == 2 and 0.0 <= surface["inside_pct"] <= surface["worst_frame_inside_pct"] <= 100.0
     with np.load(out / "sim.npz") as z:
         x = z["positions"].astype(np.float64)
         body_v = z["body_vertices"].astype(np.float64)
