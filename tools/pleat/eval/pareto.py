@@ -26,46 +26,7 @@ from pleat.cli import add_quiet, command
 from pleat.eval import scene as S
 from pleat.fileio import finish_figure, write_text
 from pleat.eval import tiers as tiers_mod
-
-
-def pareto_front(points):
-    """Indices of the points (time, error) that no other point beats on both (ties count as beaten)."""
-    order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
-    front, best = [], float("inf")
-    for i in order:
-        if points[i][1] < best:
-            front.append(i)
-            best = points[i][1]
-    return front
-
-
-def _motion_arrays(clip, joint_names):
-    return (S.clip_rotations_for(clip, joint_names), clip.root_translation, clip.root_rotation, 1.0 / clip.fps)
-
-
-def _timing_clip(clip, frames=300):
-    """The clip looped (forwards then backwards) to at least `frames` poses, for timing only."""
-    from dataclasses import replace
-    idx = np.arange(frames) % (2 * clip.num_frames - 2 if clip.num_frames > 1 else 1)
-    idx = np.where(idx >= clip.num_frames, 2 * clip.num_frames - 2 - idx, idx)
-    return replace(clip, local_rotations=clip.local_rotations[idx], root_translation=clip.root_translation[idx],
-                   root_rotation=clip.root_rotation[idx])
-
-
-def describe_asset(weights):
-    meta = {}
-    try:
-        meta = json.loads(weights.get("metadata_json") or "{}")
-    except ValueError:
-        pass
-    lp = sorted(k for k in weights if k.startswith("lp.") and k.endswith(".weight"))
-    dec = sorted(k for k in weights if k.startswith("dec.") and k.endswith(".weight"))
-    return dict(vertices=int(len(weights["template"])), latent=int(len(weights["z_min"])),
-                blend=int(len(weights["blend_shapes"])),
-                lp_hidden=[int(weights[k].shape[0]) for k in lp[:-1]],
-                dec_hidden=[int(weights[k].shape[0]) for k in dec[:-1]],
-                model=meta.get("model") or ("lbs-only" if S.is_lbs_only(weights) else "network"),
-                preset=meta.get("preset"), distillation=meta.get("distillation"))
+from pleat.eval.front import motion_arrays, timing_clip, describe_asset, pareto_front  # noqa: F401 (importers)
 
 
 def trained_tier_assets(overrides=None):
@@ -89,7 +50,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
     from pleat.eval.cli import evaluate
     body = BodyModel.load()
     clips = [S.load_motion(m, body, S.EVAL_FPS, None) for m in motions]
-    timing = _timing_clip(clips[0], timing_frames)
+    timing = timing_clip(clips[0], timing_frames)
     rows = []
     tier_of = {}
     if with_tiers:
@@ -117,7 +78,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                         continue
                     row.update(name=f"LBS-only ({row['garment']}, N={desc['vertices']})", latent=1, blend=1,
                                lp_hidden=[], dec_hidden=[], model="lbs-only", tier=None)
-                timed.append((row, blob, _motion_arrays(timing, w["joint_names"])))
+                timed.append((row, blob, motion_arrays(timing, w["joint_names"])))
                 if with_error and path not in speed_assets:
                     reps = [evaluate(blob, m, max_frames=max_frames, progress=progress, context=ctx)
                             for m in motions]
@@ -134,7 +95,7 @@ def measure(assets, motions, max_frames=30, with_tiers=True, with_error=True, ti
                 blob = write_asset(None, w)
                 rows.append(dict(tiers_mod.as_dict(t), name=f"tier {t.name}", kind="tier-random",
                                  macs=t.macs(), model="random weights (untrained): speed only"))
-                timed.append((rows[-1], blob, _motion_arrays(timing, w["joint_names"])))
+                timed.append((rows[-1], blob, motion_arrays(timing, w["joint_names"])))
         # Step times: `repeats` rounds, each timing every asset for 3 passes, the lowest median kept. Interleaving
         # spreads each asset's passes over the whole measurement, so a burst of another job on the shared machine
         # cannot spoil all of one asset's passes.

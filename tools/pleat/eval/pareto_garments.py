@@ -45,7 +45,7 @@ def _asset_kind(model):
 def points_from_reports(reports):
     """{garment: [point]} from pleat-eval-suite reports ({asset: {"summary", "runs"}} each). A point: name, kind,
     vertices, the per-run error spread (_spread), and for assets and LBS twins the bytes to time."""
-    from pleat.eval.pareto import describe_asset
+    from pleat.eval.front import describe_asset
     garments, seen = {}, set()
     for report in reports:
         for asset, entry in report.items():
@@ -79,15 +79,15 @@ def time_points(garments, repeats=5, timing_frames=300):
     """step_us for every point with bytes: `repeats` interleaved rounds of 3 passes, the lowest median kept."""
     from pleat import runtime
     from pleat.body import BodyModel
-    from pleat.eval.pareto import _motion_arrays, _timing_clip
+    from pleat.eval.front import motion_arrays, timing_clip
     from pleat.motion.split import VALIDATION
     body = BodyModel.load()
-    clip = _timing_clip(S.load_motion(VALIDATION[0], body, S.EVAL_FPS, None), timing_frames)
+    clip = timing_clip(S.load_motion(VALIDATION[0], body, S.EVAL_FPS, None), timing_frames)
     timed = [p for points in garments.values() for p in points if p.get("blob") is not None]
     with runtime.Context() as ctx:
         for _ in range(repeats):
             for p in timed:
-                us = S.median_step_us(ctx, p["blob"], *_motion_arrays(clip, p["joint_names"]), repeats=3)
+                us = S.median_step_us(ctx, p["blob"], *motion_arrays(clip, p["joint_names"]), repeats=3)
                 p["step_us"] = min(p.get("step_us", float("inf")), us)
     return VALIDATION[0]
 
@@ -96,7 +96,7 @@ def plot(garments, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from pleat.eval.pareto import pareto_front
+    from pleat.eval.front import pareto_front
     names = sorted(garments, key=lambda g: (g != "tshirt", g))
     cols = min(3, len(names))
     rows = -(-len(names) // cols)
@@ -146,7 +146,7 @@ def rows_for_json(garments):
 
 
 def write_markdown(garments, reports, command, library, timing_clip, path, machine=None):
-    from pleat.eval.pareto import pareto_front
+    from pleat.eval.front import pareto_front
     lines = [
         "# Pareto chart: error against time per frame",
         "",
