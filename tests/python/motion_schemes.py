@@ -201,3 +201,45 @@ def expected_map(body, scheme):
     """Body joint → source joint that a right match gives."""
     joints, _ = skeleton(body, scheme, "A")
     return {role: name for name, role, *_ in joints if role}
+
+
+def with_floor_root(text, pelvis_positions=False, ik_bones=True):
+    """`text` (a bvh_text file) under an engine's root bone on the floor, as Unreal's skeletons are: `root` at the
+    origin carries the ground motion, and the former root (the pelvis) hangs from it at its rest height. With
+    pelvis_positions the pelvis keeps its own position channels and the root stands still (the other common export);
+    else the root carries the horizontal path and the pelvis rotates only. ik_bones adds Unreal's IK target bones under
+    the root (ik_foot_root with ik_foot_l / ik_foot_r at the ankles, ik_hand_root with ik_hand_gun), which are not
+    part of the body. The motion is the same as `text`'s."""
+    head, motion = text.split("MOTION\n")
+    lines = head.strip().split("\n")
+    pelvis_offset = [float(v) for v in lines[3].split()[1:4]]          # the former ROOT's OFFSET: its rest position
+    out = ["HIERARCHY", "ROOT root", "{", "  OFFSET 0 0 0",
+           "  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"]
+    ik_columns = 0
+    if ik_bones:
+        out += ["  JOINT ik_foot_root", "  {", "    OFFSET 0 0 0", "    CHANNELS 3 Zrotation Xrotation Yrotation"]
+        for name, x in (("ik_foot_l", 9.0), ("ik_foot_r", -9.0)):
+            out += [f"    JOINT {name}", "    {", f"      OFFSET {x} 8 0", "      CHANNELS 3 Zrotation Xrotation "
+                    "Yrotation", "      End Site", "      {", "        OFFSET 0 0 4", "      }", "    }"]
+        out += ["  }", "  JOINT ik_hand_root", "  {", "    OFFSET 0 0 0", "    CHANNELS 3 Zrotation Xrotation Yrotation",
+                "    JOINT ik_hand_gun", "    {", "      OFFSET 30 100 10", "      CHANNELS 3 Zrotation Xrotation "
+                "Yrotation", "      End Site", "      {", "        OFFSET 0 0 4", "      }", "    }", "  }"]
+        ik_columns = 5 * 3
+    for i, line in enumerate(lines[1:]):
+        if i == 0:
+            line = line.replace("ROOT", "JOINT")
+        elif i == 3 and not pelvis_positions:
+            line = line.replace("CHANNELS 6 Xposition Yposition Zposition", "CHANNELS 3")
+        out.append("  " + line)
+    out.append("}")
+    header, rows = motion.strip().split("\n")[:2], motion.strip().split("\n")[2:]
+    new_rows = []
+    for row in rows:
+        v = [float(x) for x in row.split()]
+        pos, rest = v[:3], v[3:]
+        if pelvis_positions:
+            new = [0.0] * 6 + [0.0] * ik_columns + pos + rest
+        else:   # the root carries the path (the pelvis's height stays in its offset), the pelvis its rotation
+            new = [pos[0], pos[1] - pelvis_offset[1], pos[2], 0.0, 0.0, 0.0] + [0.0] * ik_columns + rest
+        new_rows.append(" ".join(f"{x:.6f}" for x in new))
+    return "\n".join(out) + "\nMOTION\n" + "\n".join(header) + "\n" + "\n".join(new_rows) + "\n"

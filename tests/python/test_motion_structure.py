@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from motion_schemes import SCHEMES, bvh_text, expected_map
+from motion_schemes import SCHEMES, bvh_text, expected_map, with_floor_root
 from pleat.motion import cli as motion_cli
 from pleat.motion.check import BONE_LIMIT_DEG, INSIDE_LIMIT
 from pleat.motion.loaders import MotionFileError, load_clip
@@ -105,3 +105,35 @@ def test_a_shipped_training_clip_passes_the_check(body):
         pytest.skip("no motion folder")
     _, _, check = load_clip("deepmimic_pybullet/humanoid3d_walk", body, with_check=True, check=False)
     assert check.problems == [] and check.worst_bone[1] < 1.0
+
+
+@pytest.mark.parametrize("pelvis_positions", [False, True])
+@pytest.mark.parametrize("scheme", ["unreal", "mixamo"])
+def test_a_root_bone_on_the_floor_is_folded_into_the_hips(body, tmp_path, scheme, pelvis_positions):
+    """An engine's root bone above the hips (Unreal's `root`, with its IK target bones) is not the pelvis: the
+    skeleton is re-rooted at the hips, the match is the plain skeleton's, and the clip is the same motion — whether
+    the root carries the path or the pelvis has position channels of its own."""
+    plain = tmp_path / "plain.bvh"
+    plain.write_text(bvh_text(body, scheme, "T"))
+    rooted = tmp_path / "rooted.bvh"
+    rooted.write_text(with_floor_root(plain.read_text(), pelvis_positions=pelvis_positions))
+    want, _ = load_clip(plain, body, with_match=True, check=False)
+    got, match, check = load_clip(rooted, body, with_check=True, check=False)
+    assert {k: match.mapping.get(k) for k in expected_map(body, scheme)} == expected_map(body, scheme)
+    assert check.problems == [] and check.worst_bone[1] < 1.0
+    assert np.allclose(got.root_translation, want.root_translation, atol=1e-6)
+    assert np.allclose(np.abs(np.sum(got.local_rotations * want.local_rotations, -1)), 1.0, atol=1e-9)
+    assert np.allclose(np.abs(np.sum(got.root_rotation * want.root_rotation, -1)), 1.0, atol=1e-9)
+
+
+def test_a_root_that_sits_with_the_hips_stays_the_pelvis(body):
+    """3ds Max Biped hangs its thighs from `Bip01 Spine`, a few centimetres above `Bip01` (the root): the legs fork
+    there, but the root sits with the hips and is the pelvis, as before."""
+    from motion_schemes import skeleton
+    from pleat.motion.structure import hips_joint
+    joints, _ = skeleton(body, "biped", "T")
+    parents = [-1 if p is None else p for _, _, p, _ in joints]
+    assert hips_joint(parents, np.array([pos for *_, pos in joints])) == 0
+    joints, _ = skeleton(body, "unreal", "T")
+    parents = [-1 if p is None else p for _, _, p, _ in joints]
+    assert hips_joint(parents, np.array([pos for *_, pos in joints])) == 0

@@ -135,6 +135,7 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
     spread = None
     rest_offsets = "limbs"        # the fixed skeletons: the training clips were made this way
     if fmt in ("bvh", "amc", "gltf"):
+        src = _at_hips(src, joint_map, user_map, joint_map_file or path)
         animated = [n for n, has in zip(src.names, getattr(src, "animated", [True] * len(src.names))) if has]
         if joint_map is not None:
             match = JointMatch(dict(joint_map), {k: "joint_map argument" for k in joint_map}, list(src.names),
@@ -165,6 +166,29 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
         raise MotionFileError(path, f"cannot be retargeted onto the body: {exc}") from None
     check_clip(clip, path)
     return done(clip, match, src, match.mapping, spread, rest_offsets)
+
+
+def _at_hips(src, joint_map, user_map, map_path):
+    """src re-rooted at its hips when a root above them is not part of the body (pleat.motion.reroot): the joint a
+    joint map names for the pelvis, else the hips the legs show (pleat.motion.structure.hips_joint). A named pelvis
+    must be the root or a joint both legs hang from."""
+    from pleat.motion.reroot import rerooted
+    from pleat.motion.structure import hips_joint, leg_fork
+    named = (joint_map or {}).get("pelvis") or next((s for s, d in (user_map or {}).items() if d == "pelvis"), None)
+    if named is None:
+        return rerooted(src, hips_joint(src.parents, src.rest_positions, getattr(src, "tips", None)) or 0)
+    hips = src.names.index(named) if named in src.names else next(
+        (i for i, n in enumerate(src.names) if strip_namespace(n) == strip_namespace(named)), None)
+    if hips is None or hips == 0:
+        return src          # an unknown name is reported with the rest of the map (match_joints)
+    fork = leg_fork(src.parents, src.rest_positions, getattr(src, "tips", None))
+    above = fork
+    while above is not None and above >= 0 and above != hips:
+        above = int(src.parents[above])
+    if fork is None or above != hips:
+        raise InputError(map_path, f"the body's pelvis must be the skeleton's root {src.names[0]!r} or a joint both "
+                                   f"legs hang from (the joint map pairs {named!r} with 'pelvis')")
+    return rerooted(src, hips)
 
 
 def load_clip_at(name_or_path, body=None, fps=30.0, max_frames=None, **kw):

@@ -250,6 +250,7 @@ def read_bvh(path):
         rest[i] = offsets[i] + (rest[p] if p >= 0 else 0.0)
     local = np.broadcast_to(np.eye(3), (n_frames, len(names), 3, 3)).copy()
     root = np.broadcast_to(offsets[0], (n_frames, 3)).copy()
+    translations = {}
     col = 0
     for i, ch in enumerate(channels):
         block = values[:, col:col + len(ch)]
@@ -262,8 +263,17 @@ def read_bvh(path):
             for j, c in enumerate(ch):
                 if c.endswith("position"):
                     root[:, "XYZ".index(c[0])] = block[:, j]
+        elif any(c.endswith("position") for c in ch):
+            # a joint below the root that moves (an engine's pelvis under its root bone): its position channels
+            # replace its OFFSET, as they do the root's
+            moved = np.broadcast_to(offsets[i], (n_frames, 3)).copy()
+            for j, c in enumerate(ch):
+                if c.endswith("position"):
+                    moved[:, "XYZ".index(c[0])] = block[:, j]
+            translations[i] = moved
     src = SourceMotion(name=_clip_name(path), source=f"BVH {path.name}", fps=1.0 / frame_time, names=names,
-                       parents=np.array(parents), rest_positions=rest, local_rotations=local, root_positions=root)
+                       parents=np.array(parents), rest_positions=rest, local_rotations=local, root_positions=root,
+                       joint_translations=translations)
     src.animated = [any(c.endswith("rotation") for c in ch) for ch in channels]
     return src
 

@@ -18,7 +18,7 @@ chest joint over spine1..3). The root path is scaled by the ratio of leg lengths
 the body's lowest point on the ground y = 0 (the 5th percentile over the clip of the per-frame lowest vertex of the
 mean body).
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -47,6 +47,9 @@ class SourceMotion:
     rest_positions: np.ndarray   # [S, 3] world rest positions (source units, +Y up)
     local_rotations: np.ndarray  # [T, S, 3, 3] relative to the parent, rest = identity
     root_positions: np.ndarray   # [T, 3] world position of joint 0 (source units)
+    # {joint: [T, 3]} offsets from the parent, in the parent's frame, for joints below the root that have position
+    # channels of their own (they replace the rest offset); empty for most skeletons
+    joint_translations: dict = field(default_factory=dict)
 
     def world_rotations(self):
         W = np.empty_like(self.local_rotations)
@@ -63,7 +66,8 @@ class SourceMotion:
             if p < 0:
                 P[:, s] = self.root_positions
             else:
-                P[:, s] = P[:, p] + np.einsum("tij,j->ti", W[:, p], rest[s] - rest[p])
+                offset = np.broadcast_to(self.joint_translations.get(s, rest[s] - rest[p]), (len(W), 3))
+                P[:, s] = P[:, p] + np.einsum("tij,tj->ti", W[:, p], offset)
         return P
 
 

@@ -191,6 +191,54 @@ def _spine_assignment(frac_src, frac_body):
     return out
 
 
+def _height(sk):
+    ys = [sk.point(s)[1] for s in range(len(sk.parents))]
+    return float(max(ys) - min(ys))
+
+
+def _leg_tips(sk, height):
+    """The two leaves that end the legs: low leaves whose common ancestor is well above both (two toes of one foot
+    meet at the foot; an engine's IK target bones, such as Unreal's ik_foot_l under ik_foot_root, meet at a root on
+    the floor). The lowest such pair, or None."""
+    if height <= 0:
+        return None
+    by_low = sorted(sk.leaves(), key=lambda s: sk.point(s)[1])
+    for i, a in enumerate(by_low[:8]):
+        for b in by_low[i + 1:]:
+            meet = sk.rest[sk.lca(a, b)][1]
+            if meet > max(sk.point(a)[1], sk.point(b)[1]) + 0.3 * height:
+                return a, b
+    return None
+
+
+def leg_fork(parents, rest, tips=None):
+    """The joint both legs hang from (the common ancestor of their tips), or None when no legs are found."""
+    sk = _Skeleton(parents, rest, [True] * len(parents), tips)
+    pair = _leg_tips(sk, _height(sk))
+    return None if pair is None else int(sk.lca(*pair))
+
+
+# A joint above the hips farther from them than this share of the skeleton's height is not part of the body: an
+# engine's root bone on the floor (Unreal's `root`, a DCC's armature or reference node).
+ROOT_OFF_BODY = 0.15
+
+
+def hips_joint(parents, rest, tips=None):
+    """The source joint that stands for the body's pelvis: the joint where the legs fork, or the highest of its
+    ancestors that sit with it (3ds Max Biped's thighs hang from `Bip01 Spine`, a few centimetres above `Bip01`, the
+    root, which is the pelvis). A root above that, farther from the hips than ROOT_OFF_BODY of the skeleton's
+    height (Unreal's `root` on the floor), is not: the returned joint is then not the root, and the skeleton is
+    re-rooted there before retargeting (pleat.motion.reroot). None when no legs are found."""
+    sk = _Skeleton(parents, rest, [True] * len(parents), tips)
+    height = _height(sk)
+    fork = hips = leg_fork(parents, rest, tips)
+    if fork is None:
+        return None
+    while sk.parents[hips] >= 0 and np.linalg.norm(sk.rest[sk.parents[hips]] - sk.rest[fork]) <= ROOT_OFF_BODY * height:
+        hips = int(sk.parents[hips])
+    return int(hips)
+
+
 def structure_map(names, parents, rest, body, candidate=None, tips=None):
     """Body joint name → source joint name from the rest skeleton (see the module doc), plus notes: a dict with
     "sides" (how left was told from right: "toes", "names" or "assumed facing"), "forward" (the source's rest
@@ -211,19 +259,12 @@ def structure_map(names, parents, rest, body, candidate=None, tips=None):
     leaves = sk.leaves()
     if len(leaves) < 3:
         return out, notes
-    # ---- legs: the lowest leaf, and the lowest leaf that meets it high up (not a toe of the same foot) --------
-    height = float(max(sk.point(s)[1] for s in range(S)) - min(sk.point(s)[1] for s in range(S)))
-    if height <= 0:
+    # ---- legs: two low leaves that meet high up (not two toes of one foot) ------------------------------------
+    height = _height(sk)
+    pair = _leg_tips(sk, height)
+    if pair is None:
         return out, notes
-    by_low = sorted(leaves, key=lambda s: sk.point(s)[1])
-    a = by_low[0]
-    b = None
-    for s in by_low[1:]:
-        if pos[sk.lca(a, s)][1] > sk.point(a)[1] + 0.3 * height:
-            b = s
-            break
-    if b is None:
-        return out, notes
+    a, b = pair
     fork = sk.lca(a, b)
     legs = []
     for tip in (a, b):
