@@ -243,3 +243,33 @@ def with_floor_root(text, pelvis_positions=False, ik_bones=True):
             new = [pos[0], pos[1] - pelvis_offset[1], pos[2], 0.0, 0.0, 0.0] + [0.0] * ik_columns + rest
         new_rows.append(" ".join(f"{x:.6f}" for x in new))
     return "\n".join(out) + "\nMOTION\n" + "\n".join(header) + "\n" + "\n".join(new_rows) + "\n"
+
+
+# A bvh_text file (+Y up, channels Z X Y) standing along another axis: its positions (x, y, z) → `position`, and each
+# rotation channel about an axis becomes one about the turned axis (signed), in the same order.
+TURNS = {
+    "+Z": dict(position=lambda x, y, z: (x, -z, y), channels=(("Y", -1.0), ("X", 1.0), ("Z", 1.0))),
+    "-X": dict(position=lambda x, y, z: (-y, x, z), channels=(("Z", 1.0), ("Y", 1.0), ("X", -1.0))),
+}
+
+
+def turned(text, axis):
+    """`text` re-expressed with `axis` (a TURNS key) as its up axis: the same skeleton and motion, turned."""
+    turn = TURNS[axis]
+    head, motion = text.split("MOTION\n")
+
+    def offset(m):
+        return "OFFSET " + " ".join(f"{v:.6f}" for v in turn["position"](*(float(g) for g in m.groups())))
+    import re
+    head = re.sub(r"OFFSET (\S+) (\S+) (\S+)", offset, head)
+    rot = " ".join(f"{a}rotation" for a, _ in turn["channels"])
+    head = head.replace("Zrotation Xrotation Yrotation", rot)
+    lines = motion.strip().split("\n")
+    rows = []
+    for line in lines[2:]:
+        v = [float(x) for x in line.split()]
+        v[:3] = turn["position"](*v[:3])
+        for k in range(3, len(v), 3):
+            v[k:k + 3] = [sign * value for (_, sign), value in zip(turn["channels"], v[k:k + 3])]
+        rows.append(" ".join(f"{x:.6f}" for x in v))
+    return head + "MOTION\n" + "\n".join(lines[:2]) + "\n" + "\n".join(rows) + "\n"

@@ -137,3 +137,27 @@ def test_a_root_that_sits_with_the_hips_stays_the_pelvis(body):
     joints, _ = skeleton(body, "unreal", "T")
     parents = [-1 if p is None else p for _, _, p, _ in joints]
     assert hips_joint(parents, np.array([pos for *_, pos in joints])) == 0
+
+
+@pytest.mark.parametrize("axis", ["+Z", "-X"])
+@pytest.mark.parametrize("scheme", ["mixamo", "cmu", "biped", "unreal"])
+def test_a_skeleton_standing_along_another_axis_is_turned_upright(body, tmp_path, scheme, axis):
+    """A Z-up (or X-up) file read as +Y up has its legs found sideways and left and right swapped, silently: the up
+    axis is read from the rest skeleton, and the clip is the +Y-up file's."""
+    from motion_schemes import turned
+    plain = tmp_path / "plain.bvh"
+    plain.write_text(bvh_text(body, scheme, "A"))
+    other = tmp_path / "turned.bvh"
+    other.write_text(turned(plain.read_text(), axis))
+    want = load_clip(plain, body, check=False)
+    got, match, check = load_clip(other, body, with_check=True, check=False)
+    assert {k: match.mapping.get(k) for k in expected_map(body, scheme)} == expected_map(body, scheme)
+    assert check.problems == [] and f"turned from {axis} up" in match_source(other, body)
+    assert np.allclose(got.root_translation, want.root_translation, atol=1e-6)
+    assert np.allclose(np.abs(np.sum(got.local_rotations * want.local_rotations, -1)), 1.0, atol=1e-9)
+    assert np.allclose(np.abs(np.sum(got.root_rotation * want.root_rotation, -1)), 1.0, atol=1e-9)
+
+
+def match_source(path, body):
+    """The source description the loader gives the clip (it says when the skeleton was turned or re-rooted)."""
+    return load_clip(path, body, check=False).source

@@ -135,6 +135,8 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
     spread = None
     rest_offsets = "limbs"        # the fixed skeletons: the training clips were made this way
     if fmt in ("bvh", "amc", "gltf"):
+        from pleat.motion.upright import up_rotation, uprighted
+        src = uprighted(src, *up_rotation(src.parents, src.rest_positions, getattr(src, "tips", None)))
         src = _at_hips(src, joint_map, user_map, joint_map_file or path)
         animated = [n for n, has in zip(src.names, getattr(src, "animated", [True] * len(src.names))) if has]
         if joint_map is not None:
