@@ -96,3 +96,14 @@ def test_pleat_eval_reports_regions(monkeypatch, tmp_path, c_runtime):
         for g in r[m]["regions"].values():
             assert all(np.isfinite(g[k]) for k in ("mean_mm", "p95_mm", "edge_strain_error", "penetration_pct"))
     assert r["lbs"]["regions"]["sleeves"]["mean_mm"] < 1e-3
+
+
+def test_suite_summary_gives_the_faces_share_inside_the_body_when_every_run_has_it():
+    rows = [_row("a", 2.0, 4.0), _row("b", 6.0, 8.0)]
+    assert "surface_inside_pct" not in summarise(rows)                # older reports: nothing made up
+    for r, (p, lbs, ref) in zip(rows, ((1.0, 3.0, 0.5), (2.0, 5.0, 1.5))):
+        r["pleat"]["surface_inside"] = {"inside_pct": p}
+        r["lbs"]["surface_inside"] = {"inside_pct": lbs}
+        r["reference"]["surface_inside"] = {"inside_pct": ref}
+    s = summarise(rows)
+    assert (s["surface_inside_pct"], s["lbs_surface_inside_pct"], s["reference_surface_inside_pct"]) == (1.5, 4.0, 1.0)

@@ -105,6 +105,17 @@ def test_evaluate_scores_lbs_zero_when_the_reference_is_lbs(monkeypatch, tmp_pat
     assert r["teacher"] is None and r["teacher_reason"]
     assert r["reference_spread"]["mean_mm"] == pytest.approx(2.0, rel=1e-3)
     assert r["reference_spread"]["start_perturbation_m"] == 1e-6
+    # the faces' share inside the body (pleat.sim.surface): the LBS twin is the reference here, so the same numbers
+    lbs_in, ref_in = r["lbs"]["surface_inside"], r["reference"]["surface_inside"]
+    assert lbs_in["frames"] == ref_in["frames"] == 4 and lbs_in["inside_pct"] == pytest.approx(ref_in["inside_pct"])
+    assert lbs_in["max_depth_mm"] == pytest.approx(ref_in["max_depth_mm"], abs=1e-3)     # float32 skinning apart
+    default_inside = r["pleat"]["surface_inside"]["inside_pct"]
+    # a 2 cm body-contact clearance pushes Pleat's garment off the body: no more of its surface inside than before
+    cli.main(["--asset", str(asset), "--motion", "deepmimic_pybullet/humanoid3d_punch", "--max-frames", "4",
+              "--json", str(out), "--no-progress", "--body-contact-offset", "0.02"])
+    r = json.loads(out.read_text())
+    assert r["body_contact_offset_m"] == 0.02 and r["pleat"]["surface_inside"]["inside_pct"] <= default_inside
+    assert r["pleat"]["mean_mm"] > r["lbs"]["mean_mm"]                  # it moved: the garment is not the reference
     # at 60 fps with the networks at 30 Hz: 8 frames of 1/60 s, the LBS baseline still exact
     cli.main(["--asset", str(asset), "--motion", "deepmimic_pybullet/humanoid3d_punch", "--max-frames", "8",
               "--fps", "60", "--network-rate", "30", "--json", str(out), "--no-progress"])

@@ -83,12 +83,15 @@ def teacher_rollout(checkpoint, clip, beta, material, weights):
 
 
 def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teacher=None, body_path=None,
-             cache_dir=None, progress=True, context=None, reference_spread=False, fps=None, network_rate_hz=0.0):
+             cache_dir=None, progress=True, context=None, reference_spread=False, fps=None, network_rate_hz=0.0,
+             body_contact_offset_m=None):
     """The report dict of one asset on one clip (what --json writes), plus per-frame arrays under 'per_frame'.
     reference_spread: also simulate the reference from a start moved by SPREAD_PERTURBATION_M and score it against
     the first like a method (`reference_spread`): the floor under which no method's error means anything.
     fps: the frame rate of the clip, the reference and the runtime's steps (default 30); network_rate_hz: the
-    runtime's plInstanceDef.network_rate_hz for `pleat` (0: the networks run every step)."""
+    runtime's plInstanceDef.network_rate_hz for `pleat` (0: the networks run every step); body_contact_offset_m:
+    its plInstanceDef.body_contact_offset_m (None: the SDK's default clearance). Every method also gets
+    `surface_inside` (pleat.sim.surface: points sampled over its faces inside the body, on 10 frames)."""
     from pleat import runtime
     from pleat.body import BodyModel
     from pleat.eval.reference import cached_simulate
@@ -117,7 +120,8 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     own_context = context is None
     ctx = context or runtime.Context()
     try:
-        runs = {"pleat": S.clip_rollout(ctx, data, weights, clip, beta, material, network_rate_hz=network_rate_hz),
+        runs = {"pleat": S.clip_rollout(ctx, data, weights, clip, beta, material, network_rate_hz=network_rate_hz,
+                                        body_contact_offset_m=body_contact_offset_m),
                 "lbs": S.clip_rollout(ctx, S.lbs_only_bytes(weights), weights, clip, beta, material)}
     finally:
         if own_context:
@@ -141,17 +145,25 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
                   model="lbs-only" if S.is_lbs_only(weights) else "network",
                   clip=clip.name, frames=int(T), fps=float(clip.fps), beta=beta.tolist(), material=material.tolist(),
                   vertices=int(len(weights["template"])), skeleton_mismatch_mm=mismatch,
-                  network_rate_hz=float(network_rate_hz),
+                  network_rate_hz=float(network_rate_hz), body_contact_offset_m=body_contact_offset_m,
                   region_vertices={k: int(m.sum()) for k, m in regions.items()},
                   reference=dict(ref_info,
                                  penetration=_penetration_summary(body_v, body.faces, ref, collide)))
     per_frame = {}
+    surface_frames = np.unique(np.linspace(0, T - 1, min(10, T)).round().astype(int))
+
+    def surface(positions):
+        from pleat.sim.surface import surface_inside
+        return surface_inside(body_v[surface_frames], body.faces, np.asarray(positions)[surface_frames],
+                              weights["faces"], collide)
+    report["reference"]["surface_inside"] = surface(ref)
 
     def score(name, positions):
         sd = S.signed_distances(body_v, body.faces, positions, collide)
         rest = garment.shaped(beta)
         s = metrics.score(positions, ref, weights["faces"], rest, dt, sd)
         s["regions"] = metrics.score_regions(positions, ref, weights["faces"], rest, regions, sd)
+        s["surface_inside"] = surface(positions)
         per_frame[name] = dict(error_mm=s.pop("per_frame_mean_mm"), penetration_pct=s.pop("per_frame_pct"))
         return s
 
@@ -223,6 +235,9 @@ def build_parser():
                          "reference's cost once; cached)")
     ap.add_argument("--fps", type=positive_float, default=None,
                     help="frame rate of the clip, reference and steps (default 30)")
+    ap.add_argument("--body-contact-offset", type=float, default=None, metavar="M",
+                    help="pleat's body-contact clearance in metres (plInstanceDef.body_contact_offset_m; default the "
+                         "SDK's, 0.001)")
     ap.add_argument("--network-rate", type=float, default=0.0,
                     help="pleat's network update rate in Hz (plInstanceDef.network_rate_hz; default 0: every step)")
     return add_quiet(ap)
@@ -241,7 +256,7 @@ def main(args):
         raise UsageError("--network-rate must be 0 (every step) or a positive rate in Hz")
     report = evaluate(args.asset, args.motion, beta, material, args.max_frames, args.teacher, args.body,
                       args.cache_dir, not args.quiet, reference_spread=args.reference_spread, fps=args.fps,
-                      network_rate_hz=args.network_rate)
+                      network_rate_hz=args.network_rate, body_contact_offset_m=args.body_contact_offset)
     if args.plots:
         report["plot"] = str(write_plots(report, args.plots))
     if not args.per_frame:

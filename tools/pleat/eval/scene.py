@@ -115,13 +115,15 @@ class Rollout:
 
 
 def rollout(context, asset_bytes, rotations, root_translation, root_rotation, dt_s, beta=None, material=None,
-            keep_positions=True, network_rate_hz=0.0):
+            keep_positions=True, network_rate_hz=0.0, body_contact_offset_m=None):
     """Steps one C instance through a motion. rotations [T, J, 4] (asset joint order), root_translation [T, 3],
     root_rotation [T, 4], dt_s scalar or [T]. The time of each step is that of the plInstance_Step call alone
-    (ctypes structures are prepared outside the timed region)."""
+    (ctypes structures are prepared outside the timed region). body_contact_offset_m: plInstanceDef's clearance
+    (None: the SDK's default)."""
     from pleat import runtime as rt
     asset = context.load_asset(asset_bytes)
-    inst = context.create_instance(asset, beta=beta, material=material, network_rate_hz=network_rate_hz)
+    inst = context.create_instance(asset, beta=beta, material=material, network_rate_hz=network_rate_hz,
+                                   body_contact_offset_m=body_contact_offset_m)
     try:
         T = len(rotations)
         N = inst.vertex_count
@@ -166,11 +168,11 @@ def rollout(context, asset_bytes, rotations, root_translation, root_rotation, dt
 
 
 def clip_rollout(context, asset_bytes, weights, clip, beta=None, material=None, dt_s=None, keep_positions=True,
-                 network_rate_hz=0.0):
+                 network_rate_hz=0.0, body_contact_offset_m=None):
     rot = clip_rotations_for(clip, weights["joint_names"])
     dt = 1.0 / clip.fps if dt_s is None else dt_s
     return rollout(context, asset_bytes, rot, clip.root_translation, clip.root_rotation, dt, beta, material,
-                   keep_positions, network_rate_hz)
+                   keep_positions, network_rate_hz, body_contact_offset_m)
 
 
 def median_step_us(context, asset_bytes, rotations, root_translation, root_rotation, dt_s, warmup=30, repeats=5):

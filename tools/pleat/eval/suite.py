@@ -7,7 +7,8 @@
 Every (asset, clip, β) is pleat-eval's `evaluate` (the C runtime against the cached reference simulation, and the
 LBS-only twin of the same garment in the same run). Per asset it reports the mean over all runs of: mean and p95
 vertex error (mm), the ratio to LBS-only (mean of the paired per-run ratios, and ratio of the means), the ratio to
-the reference's own spread (with --reference-spread), penetration (% of vertex-frames inside the body) and jitter;
+the reference's own spread (with --reference-spread), penetration (% of vertex-frames inside the body; and of points
+sampled over the faces, surface_inside_pct, for pleat, LBS-only and the reference) and jitter;
 plus the worst run's ratio to LBS-only and every run's row. `regions` holds the same per garment region
 (pleat.eval.regions: the dress's skirt, the pants' crotch, ...): the means over runs of pleat's and LBS-only's mean
 and p95 error, edge-strain error and penetration, and the ratio of pleat's error to LBS-only's.
@@ -62,6 +63,13 @@ def summarise(rows):
         lm = np.array([r["against_reference_mean"]["lbs"] for r in rows])
         out.update(mean_vs_reference_mean_mm=float(pm.mean()), lbs_vs_reference_mean_mm=float(lm.mean()),
                    ratio_to_lbs_vs_reference_mean=float(pm.mean() / lm.mean()))
+    if all((r["pleat"].get("surface_inside") and r["lbs"].get("surface_inside")
+            and r["reference"].get("surface_inside")) for r in rows):
+        # the faces' share inside the body (pleat.sim.surface), beside the vertices' share above
+        for key, who in (("surface_inside_pct", "pleat"), ("lbs_surface_inside_pct", "lbs")):
+            out[key] = float(np.mean([r[who]["surface_inside"]["inside_pct"] for r in rows]))
+        out["reference_surface_inside_pct"] = float(np.mean([r["reference"]["surface_inside"]["inside_pct"]
+                                                             for r in rows]))
     regions = summarise_regions(rows)
     if regions is not None:
         out["regions"] = regions
