@@ -1,13 +1,11 @@
 // The GL compute path: blend_shapes.comp → skinning.comp (→ body_contact.comp: posing the body points, their normals
 // from the posed rings where the asset has them, then the push)
-// → face_normals.comp → normals_gather.comp over GPU-resident asset data, for one instance (plGlDeformer_Run) or for a
-// batch of instances of one mesh with one dispatch per pass (plGlDeformer_RunBatch). See
+// → face_normals.comp → normals_gather.comp over GPU-resident asset data, for one instance (plGlDeformer_Run; a
+// batch of instances of one mesh, one dispatch per pass, is gl_batch.c's plGlDeformer_RunBatch). See
 // sdk/src/backends/gl_deformer.h for the contract and docs/gpu.md for the buffers, the saved state and the
 // measurements.
-#include "kernels/kernels.h"
-#include "gl_internal.h"
+#include "gl_deformer_data.h"
 #include "gl_shaders.h"
-#include <stdatomic.h>
 #include <stddef.h>
 #include <string.h>
 
@@ -17,130 +15,10 @@ _Atomic uint64_t g_plGlDispatches;
 static _Atomic uint64_t s_plGlDeformerSerial;
 
 // One dispatch, counted (tests check that a batch runs one per shader).
-static void plDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y )
+void plGlDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y )
 {
 	api->DispatchCompute( groups_x, groups_y, 1 );
 	atomic_fetch_add_explicit( &g_plGlDispatches, 1, memory_order_relaxed );
-}
-
-// body_contact.comp's constants, from kernels.h so that the CPU kernels and the shader cannot drift apart; then the
-// pass (posing the body points, their normals from the posed rings, or the push) and, for a batch's programs,
-// PLEAT_BATCH.
-#define PLEAT_GL_STRING_( x ) #x
-#define PLEAT_GL_STRING( x ) PLEAT_GL_STRING_( x )
-#define PLEAT_GL_CONTACT_DEFINES                                                                                       \
-	"#define PLEAT_MAX_CONTACT_CANDIDATES " PLEAT_GL_STRING( PLEAT_MAX_CONTACT_CANDIDATES ) "\n"                       \
-	"#define PLEAT_CONTACT_BLEND_SHARE " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_SHARE ) "\n"                             \
-	"#define PLEAT_CONTACT_BLEND_M " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_M ) "\n"                                     \
-	"#define PLEAT_CONTACT_REACH_NEAR_M " PLEAT_GL_STRING( PLEAT_CONTACT_REACH_NEAR_M ) "\n"                           \
-	"#define PLEAT_CONTACT_REACH_FAR_M " PLEAT_GL_STRING( PLEAT_CONTACT_REACH_FAR_M ) "\n"
-#define PLEAT_GL_POSE_POINTS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 1\n"
-#define PLEAT_GL_POINT_NORMALS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 2\n"
-#define PLEAT_GL_BATCH_DEFINES "#define PLEAT_BATCH 1\n"
-
-enum
-{
-	PLEAT_GL_PROGRAM_BLEND_SHAPES,
-	PLEAT_GL_PROGRAM_SKINNING,
-	PLEAT_GL_PROGRAM_FACE_NORMALS,
-	PLEAT_GL_PROGRAM_NORMALS_GATHER,
-	PLEAT_GL_PROGRAM_BODY_POINTS,        // body_contact.comp, PLEAT_POSE_POINTS 1: assets with body points (else 0)
-	PLEAT_GL_PROGRAM_BODY_POINT_NORMALS, // body_contact.comp, PLEAT_POSE_POINTS 2: body points with rings (else 0)
-	PLEAT_GL_PROGRAM_BODY_CONTACT,       // body_contact.comp, the push: assets with body points (else 0)
-	PLEAT_GL_PROGRAM_COUNT
-};
-
-// The buffers a deformer keeps once it has led a batch (plGlDeformer_RunBatch): one block per member at each
-// per-instance binding; the mesh's own buffers are the deformer's.
-typedef struct plGlBatchBuffers
-{
-	uint32_t capacity;                       // members the buffers hold (0: no batch yet)
-	GLuint buffers[PLEAT_GL_BINDING_COUNT];  // per-instance bindings only (0 elsewhere)
-	GLuint points_program;                   // body_contact.comp with PLEAT_BATCH 1, posing (body points only)
-	GLuint normals_program;                  // body_contact.comp with PLEAT_BATCH 1, ring normals (points with rings)
-	GLuint contact_program;                  // body_contact.comp with PLEAT_BATCH 1, the push (body points only)
-	uint64_t* template_keys;                 // [capacity][2]: the (serial, template generation) each slot holds
-	size_t template_keys_bytes;              // as allocated: a reservation that failed in GL keeps capacity 0
-	void* staging;                           // [capacity] weights, matrices or contact rows on their way up
-	size_t staging_bytes;
-} plGlBatchBuffers;
-
-struct plGlDeformer
-{
-	plAllocator allocator;
-	plGlDeformerMode mode;
-	plGlContext* context; // headless mode only
-	plGlApi api;
-
-	uint32_t vertex_count;    // N
-	uint32_t face_count;      // F
-	uint32_t blend_count;     // D
-	uint32_t influence_count; // K
-	uint32_t joint_count;     // J
-	uint32_t anchor_influence_count; // Ka, 0 without body points
-	uint32_t point_count;            // P, 0 without body points
-	uint32_t candidate_count;        // C (1 for the identity table of a 1.1 asset), 0 without body points
-	uint32_t point_ring_count;       // R ring entries per point (asset 1.2, BARG), 0 without rings or body points
-	int body_contact;                // the contact passes run (body points present and enabled)
-	float body_contact_offset_m;     // the clearance the params buffer holds
-
-	GLuint programs[PLEAT_GL_PROGRAM_COUNT];
-	GLuint params_buffer;                    // plGlDeformParams
-	GLuint owned[PLEAT_GL_BINDING_COUNT];    // buffers the deformer created (0 where the host supplied one)
-	GLuint bindings[PLEAT_GL_BINDING_COUNT]; // what Run binds at each binding point
-
-	// Conversions on upload and read-backs; staging_bytes = max(16 (N + P), 4 N K, 4 P Ka, 4 N C, 4 P R).
-	void* staging;
-	size_t staging_bytes;
-
-	uint64_t serial;              // unique per deformer
-	uint64_t template_generation; // grows with every shaped-template upload
-	plGlBatchBuffers batch;
-
-	plGlSavedState saved; // host-context mode: the engine's state during one of our calls
-};
-
-void plGlSaveState( const plGlApi* api, plGlSavedState* state )
-{
-	api->GetIntegerv( GL_CURRENT_PROGRAM, &state->program );
-	api->GetIntegerv( GL_SHADER_STORAGE_BUFFER_BINDING, &state->storage_buffer );
-	for ( GLuint i = 0; i < PLEAT_GL_BINDING_COUNT; ++i )
-	{
-		api->GetIntegeri_v( GL_SHADER_STORAGE_BUFFER_BINDING, i, &state->storage_buffers[i] );
-		api->GetInteger64i_v( GL_SHADER_STORAGE_BUFFER_START, i, &state->storage_starts[i] );
-		api->GetInteger64i_v( GL_SHADER_STORAGE_BUFFER_SIZE, i, &state->storage_sizes[i] );
-	}
-	api->GetIntegerv( GL_UNIFORM_BUFFER_BINDING, &state->uniform_buffer );
-	api->GetIntegeri_v( GL_UNIFORM_BUFFER_BINDING, PLEAT_GL_PARAMS_BINDING, &state->uniform_binding );
-	api->GetInteger64i_v( GL_UNIFORM_BUFFER_START, PLEAT_GL_PARAMS_BINDING, &state->uniform_start );
-	api->GetInteger64i_v( GL_UNIFORM_BUFFER_SIZE, PLEAT_GL_PARAMS_BINDING, &state->uniform_size );
-	api->GetIntegerv( GL_COPY_READ_BUFFER_BINDING, &state->copy_read_buffer );
-	api->GetIntegerv( GL_COPY_WRITE_BUFFER_BINDING, &state->copy_write_buffer );
-}
-
-static void plRestoreIndexed( const plGlApi* api, GLenum target, GLuint index, GLint buffer, GLint64 start,
-							  GLint64 size )
-{
-	// A whole-buffer binding (glBindBufferBase) reads back as start 0, size 0.
-	if ( buffer != 0 && size > 0 )
-		api->BindBufferRange( target, index, (GLuint)buffer, (GLintptr)start, (GLsizeiptr)size );
-	else
-		api->BindBufferBase( target, index, (GLuint)buffer );
-}
-
-void plGlRestoreState( const plGlApi* api, const plGlSavedState* state )
-{
-	for ( GLuint i = 0; i < PLEAT_GL_BINDING_COUNT; ++i )
-		plRestoreIndexed( api, GL_SHADER_STORAGE_BUFFER, i, state->storage_buffers[i], state->storage_starts[i],
-						  state->storage_sizes[i] );
-	plRestoreIndexed( api, GL_UNIFORM_BUFFER, PLEAT_GL_PARAMS_BINDING, state->uniform_binding, state->uniform_start,
-					  state->uniform_size );
-	// Indexed binds also set the generic binding, so the generic ones go last.
-	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, (GLuint)state->storage_buffer );
-	api->BindBuffer( GL_UNIFORM_BUFFER, (GLuint)state->uniform_buffer );
-	api->BindBuffer( GL_COPY_READ_BUFFER, (GLuint)state->copy_read_buffer );
-	api->BindBuffer( GL_COPY_WRITE_BUFFER, (GLuint)state->copy_write_buffer );
-	api->UseProgram( (GLuint)state->program );
 }
 
 // Non-zero if some GL context is current on the calling thread. GL calls made without one do nothing and raise no
@@ -154,7 +32,7 @@ static int plHostContextIsCurrent( const plGlApi* api )
 
 // Makes the deformer's GL usable for one call: headless → make our context current; host → check that the engine has
 // a context current (GL_UNAVAILABLE if not, before anything is touched), then save its state.
-static plResult plBegin( plGlDeformer* deformer )
+plResult plGlBegin( plGlDeformer* deformer )
 {
 	if ( deformer->mode == PLEAT_GL_DEFORMER_HEADLESS )
 		return plGlContext_Enter( deformer->context );
@@ -164,7 +42,7 @@ static plResult plBegin( plGlDeformer* deformer )
 	return PLEAT_RESULT_OK;
 }
 
-static void plEnd( plGlDeformer* deformer )
+void plGlEnd( plGlDeformer* deformer )
 {
 	if ( deformer->mode == PLEAT_GL_DEFORMER_HEADLESS )
 		plGlContext_Leave( deformer->context );
@@ -174,7 +52,7 @@ static void plEnd( plGlDeformer* deformer )
 
 // Drains the GL error flags; GL_ERROR if any was set. (In host-context mode this also consumes an error the engine
 // left pending before the call; docs/gpu.md says so.)
-static plResult plCheckErrors( const plGlApi* api )
+plResult plGlCheckErrors( const plGlApi* api )
 {
 	plResult result = PLEAT_RESULT_OK;
 	for ( int i = 0; i < 16 && api->GetError() != GL_NO_ERROR; ++i )
@@ -182,7 +60,7 @@ static plResult plCheckErrors( const plGlApi* api )
 	return result;
 }
 
-static GLuint plCompileProgram( const plGlApi* api, const char* source, const char* defines )
+GLuint plGlCompileProgram( const plGlApi* api, const char* source, const char* defines )
 {
 	// The #version line must come first, so the defines go between it and the rest of the file.
 	const char* body = strchr( source, '\n' );
@@ -295,14 +173,14 @@ static GLuint plCreateBuffer( plGlDeformer* deformer, plGlBinding binding, size_
 }
 
 // [count][3] → vec4 rows (w = w_value).
-static void plToVec4( plGlVec4* rows, const float* xyz, uint32_t count, float w_value )
+void plGlToVec4( plGlVec4* rows, const float* xyz, uint32_t count, float w_value )
 {
 	for ( uint32_t i = 0; i < count; ++i )
 		rows[i] = ( plGlVec4 ){ xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], w_value };
 }
 
 // Rows of the shaped-template buffer per instance: the template, then (with body points) the P points of the same β.
-static size_t plShapedRows( const plGlDeformer* deformer )
+size_t plGlShapedRows( const plGlDeformer* deformer )
 {
 	return (size_t)deformer->vertex_count + deformer->point_count;
 }
@@ -315,11 +193,11 @@ static void plUploadShapedTemplate( plGlDeformer* deformer, const float* shaped_
 	const plGlApi* api = &deformer->api;
 	plGlVec4* rows = deformer->staging;
 	uint32_t n = deformer->vertex_count;
-	plToVec4( rows, shaped_template, n, 1.0f );
+	plGlToVec4( rows, shaped_template, n, 1.0f );
 	if ( deformer->point_count > 0 )
-		plToVec4( rows + n, body_points, deformer->point_count, 1.0f );
+		plGlToVec4( rows + n, body_points, deformer->point_count, 1.0f );
 	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, deformer->bindings[PLEAT_GL_BINDING_SHAPED_TEMPLATE] );
-	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)( plShapedRows( deformer ) * 16 ), rows );
+	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)( plGlShapedRows( deformer ) * 16 ), rows );
 }
 
 // Rewrites the two body-contact fields of the params buffer (the rest never changes).
@@ -377,7 +255,7 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	if ( plGlApi_CurrentVersion( api ) < 43 )
 		return PLEAT_RESULT_GL_UNAVAILABLE;
 	// A host context may have errors pending from the engine; they are not ours to report.
-	plCheckErrors( api );
+	plGlCheckErrors( api );
 
 	plResult result = PLEAT_RESULT_OK;
 	if ( desc->host_position_buffer != 0 )
@@ -387,24 +265,24 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	if ( result != PLEAT_RESULT_OK )
 		return result;
 
-	deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] = plCompileProgram(
+	deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] = plGlCompileProgram(
 		api, plGlShaderSource_blend_shapes,
 		desc->blend_shapes_fp16 ? "#define PLEAT_BLEND_FP16 1\n" : "#define PLEAT_BLEND_FP16 0\n" );
-	deformer->programs[PLEAT_GL_PROGRAM_SKINNING] = plCompileProgram( api, plGlShaderSource_skinning, "" );
-	deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] = plCompileProgram( api, plGlShaderSource_face_normals, "" );
-	deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] = plCompileProgram( api, plGlShaderSource_normals_gather, "" );
+	deformer->programs[PLEAT_GL_PROGRAM_SKINNING] = plGlCompileProgram( api, plGlShaderSource_skinning, "" );
+	deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] = plGlCompileProgram( api, plGlShaderSource_face_normals, "" );
+	deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] = plGlCompileProgram( api, plGlShaderSource_normals_gather, "" );
 	uint32_t Ka = deformer->anchor_influence_count;
 	if ( Ka > 0 )
 	{
 		deformer->programs[PLEAT_GL_PROGRAM_BODY_POINTS] =
-			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POSE_POINTS_DEFINES );
+			plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POSE_POINTS_DEFINES );
 		deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] =
-			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_CONTACT_DEFINES );
+			plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_CONTACT_DEFINES );
 	}
 	uint32_t R = deformer->point_ring_count;
 	if ( R > 0 )
 		deformer->programs[PLEAT_GL_PROGRAM_BODY_POINT_NORMALS] =
-			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POINT_NORMALS_DEFINES );
+			plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POINT_NORMALS_DEFINES );
 	for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
 	{
 		int needed = 1;
@@ -424,7 +302,7 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 								desc->face_count,
 								Ka,
 								deformer->body_contact_offset_m,
-								(uint32_t)plShapedRows( deformer ),
+								(uint32_t)plGlShapedRows( deformer ),
 								deformer->point_count,
 								deformer->candidate_count,
 								R,
@@ -433,7 +311,7 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
 	api->BufferData( GL_UNIFORM_BUFFER, sizeof( params ), &params, GL_STATIC_DRAW );
 
-	plCreateBuffer( deformer, PLEAT_GL_BINDING_SHAPED_TEMPLATE, plShapedRows( deformer ) * 16, NULL, GL_DYNAMIC_DRAW );
+	plCreateBuffer( deformer, PLEAT_GL_BINDING_SHAPED_TEMPLATE, plGlShapedRows( deformer ) * 16, NULL, GL_DYNAMIC_DRAW );
 	plUploadShapedTemplate( deformer, desc->shaped_template, desc->body_anchors );
 	plUploadBlendShapes( deformer, desc->blend_shapes, desc->blend_shapes_fp16 );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BLEND_WEIGHTS, (size_t)desc->blend_count * 4, NULL, GL_STREAM_DRAW );
@@ -468,7 +346,7 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	if ( Ka > 0 )
 	{
 		plGlVec4* rows = deformer->staging;
-		plToVec4( rows, desc->body_anchor_normals, deformer->point_count, 0.0f );
+		plGlToVec4( rows, desc->body_anchor_normals, deformer->point_count, 0.0f );
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_ANCHOR_NORMALS, P * 16, rows, GL_STATIC_DRAW );
 		uint32_t* indices = deformer->staging; // u16 → the shader's uint
 		for ( size_t e = 0; e < P * Ka; ++e )
@@ -503,7 +381,7 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_POINT_RINGS, 16, NULL, GL_STATIC_DRAW ); // read by nothing
 	// Read by batches only (plGlDeformer_RunBatch binds its own); a single Run binds this placeholder.
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BATCH_CONTACT, 16, NULL, GL_STATIC_DRAW );
-	return plCheckErrors( api );
+	return plGlCheckErrors( api );
 }
 
 static void plDeleteGlObjects( plGlDeformer* deformer )
@@ -580,7 +458,7 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	deformer->body_contact_offset_m = PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M;
 	// Staging holds the largest upload: N + P vec4 rows (template + body points; also the N rows of a blend shape or a
 	// read-back and the P of the point normals), or the uints of [N][K], [P][Ka], [N][C] or [P][R].
-	size_t rows = plShapedRows( deformer ) * 16;
+	size_t rows = plGlShapedRows( deformer ) * 16;
 	size_t skin = (size_t)desc->vertex_count * 4 * desc->influence_count;
 	size_t point_skin = (size_t)deformer->point_count * 4 * deformer->anchor_influence_count;
 	size_t candidates = (size_t)desc->vertex_count * 4 * deformer->candidate_count;
@@ -617,16 +495,16 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 		}
 	}
 
-	result = plBegin( deformer );
+	result = plGlBegin( deformer );
 	if ( result == PLEAT_RESULT_OK )
 	{
 		result = plCreateGlObjects( deformer, desc );
 		if ( result != PLEAT_RESULT_OK )
 		{
 			plDeleteGlObjects( deformer );
-			plCheckErrors( &deformer->api );
+			plGlCheckErrors( &deformer->api );
 		}
-		plEnd( deformer );
+		plGlEnd( deformer );
 	}
 	if ( result != PLEAT_RESULT_OK )
 	{
@@ -664,13 +542,13 @@ plResult plGlDeformer_SetShapedTemplate( plGlDeformer* deformer, const float* sh
 {
 	if ( deformer == NULL || shaped_template == NULL || ( deformer->anchor_influence_count > 0 && body_anchors == NULL ) )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
-	plResult result = plBegin( deformer );
+	plResult result = plGlBegin( deformer );
 	if ( result != PLEAT_RESULT_OK )
 		return result;
-	plCheckErrors( &deformer->api ); // an error the engine left pending is not ours to report
+	plGlCheckErrors( &deformer->api ); // an error the engine left pending is not ours to report
 	plUploadShapedTemplate( deformer, shaped_template, body_anchors );
-	result = plCheckErrors( &deformer->api );
-	plEnd( deformer );
+	result = plGlCheckErrors( &deformer->api );
+	plGlEnd( deformer );
 	return result;
 }
 
@@ -699,19 +577,19 @@ plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float
 		deformer->body_contact = active;
 		return PLEAT_RESULT_OK;
 	}
-	plResult result = plBegin( deformer );
+	plResult result = plGlBegin( deformer );
 	if ( result != PLEAT_RESULT_OK )
 		return result;
-	plCheckErrors( &deformer->api ); // an error the engine left pending is not ours to report
+	plGlCheckErrors( &deformer->api ); // an error the engine left pending is not ours to report
 	float previous = deformer->body_contact_offset_m;
 	deformer->body_contact_offset_m = offset_m;
 	plUploadContactParams( deformer );
-	result = plCheckErrors( &deformer->api );
+	result = plGlCheckErrors( &deformer->api );
 	if ( result == PLEAT_RESULT_OK )
 		deformer->body_contact = active;
 	else
 		deformer->body_contact_offset_m = previous; // GL ignored the upload: nothing changed
-	plEnd( deformer );
+	plGlEnd( deformer );
 	return result;
 }
 
@@ -719,7 +597,7 @@ plResult plGlDeformer_SetBodyContact( plGlDeformer* deformer, int enabled, float
 // barrier between stages: blend_shapes → skinning → (points_program over the P body points, normals_program over them
 // where the asset has rings (0 = none), then contact_program over the vertices; 0 = no contact) → face_normals →
 // normals_gather. The buffers and params are bound by the caller.
-static void plRunShaders( const plGlDeformer* deformer, GLuint points_program, GLuint normals_program,
+void plGlRunShaders( const plGlDeformer* deformer, GLuint points_program, GLuint normals_program,
 						  GLuint contact_program, uint32_t instances )
 {
 	const plGlApi* api = &deformer->api;
@@ -727,34 +605,34 @@ static void plRunShaders( const plGlDeformer* deformer, GLuint points_program, G
 	GLuint face_groups = ( deformer->face_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
 	GLuint point_groups = ( deformer->point_count + PLEAT_GL_WORKGROUP_SIZE - 1 ) / PLEAT_GL_WORKGROUP_SIZE;
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] );
-	plDispatch( api, groups, instances );
+	plGlDispatch( api, groups, instances );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	// Posing the body points reads nothing skinning writes, so no barrier between the two; the one after posing also
 	// covers the skinned positions, which the push reads.
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_SKINNING] );
-	plDispatch( api, groups, instances );
+	plGlDispatch( api, groups, instances );
 	if ( contact_program != 0 )
 	{
 		api->UseProgram( points_program );
-		plDispatch( api, point_groups, instances );
+		plGlDispatch( api, point_groups, instances );
 		api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 		if ( normals_program != 0 )
 		{
 			// A point's normal reads the posed positions of the points in its ring.
 			api->UseProgram( normals_program );
-			plDispatch( api, point_groups, instances );
+			plGlDispatch( api, point_groups, instances );
 			api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 		}
 		// Every vertex reads the posed points of its candidates, which other invocations wrote.
 		api->UseProgram( contact_program );
-		plDispatch( api, groups, instances );
+		plGlDispatch( api, groups, instances );
 	}
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] );
-	plDispatch( api, face_groups, instances );
+	plGlDispatch( api, face_groups, instances );
 	api->MemoryBarrier( GL_SHADER_STORAGE_BARRIER_BIT );
 	api->UseProgram( deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] );
-	plDispatch( api, groups, instances );
+	plGlDispatch( api, groups, instances );
 	// Whatever reads the outputs next: our read-back, or the engine's vertex fetch / shaders from its buffers.
 	api->MemoryBarrier( GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
 						GL_SHADER_STORAGE_BARRIER_BIT );
@@ -765,11 +643,11 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 {
 	if ( deformer == NULL || blend_weights == NULL || skin_matrices == NULL )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
-	plResult result = plBegin( deformer );
+	plResult result = plGlBegin( deformer );
 	if ( result != PLEAT_RESULT_OK )
 		return result;
 	const plGlApi* api = &deformer->api;
-	plCheckErrors( api ); // an error the engine left pending is not ours to report
+	plGlCheckErrors( api ); // an error the engine left pending is not ours to report
 
 	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, deformer->bindings[PLEAT_GL_BINDING_BLEND_WEIGHTS] );
 	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)deformer->blend_count * 4, blend_weights );
@@ -781,263 +659,18 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, deformer->bindings[b] );
 
 	if ( deformer->body_contact )
-		plRunShaders( deformer, deformer->programs[PLEAT_GL_PROGRAM_BODY_POINTS],
+		plGlRunShaders( deformer, deformer->programs[PLEAT_GL_PROGRAM_BODY_POINTS],
 					  deformer->programs[PLEAT_GL_PROGRAM_BODY_POINT_NORMALS],
 					  deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT], 1 );
 	else
-		plRunShaders( deformer, 0, 0, 0, 1 );
+		plGlRunShaders( deformer, 0, 0, 0, 1 );
 
 	if ( positions != NULL )
 		plReadBack( deformer, deformer->bindings[PLEAT_GL_BINDING_POSITIONS], positions );
 	if ( normals != NULL )
 		plReadBack( deformer, deformer->bindings[PLEAT_GL_BINDING_NORMALS], normals );
-	result = plCheckErrors( api );
-	plEnd( deformer );
-	return result;
-}
-
-// ---- batches: one dispatch per shader for many instances of one mesh ----
-
-int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member )
-{
-	return lead != NULL && member != NULL && lead->mode == member->mode && lead->vertex_count == member->vertex_count &&
-		   lead->face_count == member->face_count && lead->blend_count == member->blend_count &&
-		   lead->influence_count == member->influence_count && lead->joint_count == member->joint_count &&
-		   lead->anchor_influence_count == member->anchor_influence_count &&
-		   lead->point_count == member->point_count && lead->candidate_count == member->candidate_count &&
-		   lead->point_ring_count == member->point_ring_count;
-}
-
-static GLuint plCreateBatchBuffer( const plGlApi* api, size_t bytes )
-{
-	GLuint buffer = 0;
-	api->GenBuffers( 1, &buffer );
-	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
-	api->BufferData( GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)bytes, NULL, GL_DYNAMIC_COPY );
-	return buffer;
-}
-
-// The per-instance buffers for `capacity` members (the first batch, or a larger one than before: the old ones go).
-// Between plBegin and plEnd.
-static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
-{
-	plGlBatchBuffers* batch = &lead->batch;
-	if ( capacity <= batch->capacity )
-		return PLEAT_RESULT_OK;
-	const plGlApi* api = &lead->api;
-	for ( int b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
-	{
-		if ( batch->buffers[b] != 0 )
-			api->DeleteBuffers( 1, &batch->buffers[b] );
-		batch->buffers[b] = 0;
-	}
-	plFree( &lead->allocator, batch->template_keys, batch->template_keys_bytes );
-	plFree( &lead->allocator, batch->staging, batch->staging_bytes );
-	batch->template_keys = NULL;
-	batch->template_keys_bytes = 0;
-	batch->staging = NULL;
-	batch->staging_bytes = 0;
-	batch->capacity = 0;
-
-	size_t c = capacity, n = lead->vertex_count, f = lead->face_count, p = lead->point_count;
-	size_t rows = plShapedRows( lead );
-	size_t weights = c * lead->blend_count * 4, matrices = c * lead->joint_count * 48, contact = c * 16;
-	batch->staging_bytes = weights > matrices ? weights : matrices;
-	batch->staging_bytes = batch->staging_bytes > contact ? batch->staging_bytes : contact;
-	batch->staging = plAlloc( &lead->allocator, batch->staging_bytes, 64 );
-	batch->template_keys_bytes = c * 2 * sizeof( uint64_t );
-	batch->template_keys = plAllocZeroed( &lead->allocator, batch->template_keys_bytes, 16 );
-	if ( batch->staging == NULL || batch->template_keys == NULL )
-	{
-		plFree( &lead->allocator, batch->template_keys, batch->template_keys_bytes );
-		plFree( &lead->allocator, batch->staging, batch->staging_bytes );
-		batch->template_keys = NULL;
-		batch->template_keys_bytes = 0;
-		batch->staging = NULL;
-		batch->staging_bytes = 0;
-		return PLEAT_RESULT_OUT_OF_MEMORY;
-	}
-	batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] = plCreateBatchBuffer( api, c * rows * 16 );
-	batch->buffers[PLEAT_GL_BINDING_BLEND_WEIGHTS] = plCreateBatchBuffer( api, weights );
-	batch->buffers[PLEAT_GL_BINDING_DEFORMED] = plCreateBatchBuffer( api, c * n * 16 );
-	batch->buffers[PLEAT_GL_BINDING_SKIN_MATRICES] = plCreateBatchBuffer( api, matrices );
-	batch->buffers[PLEAT_GL_BINDING_POSITIONS] = plCreateBatchBuffer( api, c * n * 16 );
-	batch->buffers[PLEAT_GL_BINDING_NORMALS] = plCreateBatchBuffer( api, c * n * 16 );
-	batch->buffers[PLEAT_GL_BINDING_FACE_NORMALS] = plCreateBatchBuffer( api, c * f * 16 );
-	batch->buffers[PLEAT_GL_BINDING_BATCH_CONTACT] = plCreateBatchBuffer( api, contact );
-	if ( p > 0 )
-		batch->buffers[PLEAT_GL_BINDING_POSED_POINTS] = plCreateBatchBuffer( api, c * p * 32 );
-	if ( p > 0 && batch->points_program == 0 )
-	{
-		batch->points_program = plCompileProgram( api, plGlShaderSource_body_contact,
-												  PLEAT_GL_POSE_POINTS_DEFINES PLEAT_GL_BATCH_DEFINES );
-		if ( batch->points_program == 0 )
-			return PLEAT_RESULT_GL_ERROR;
-	}
-	if ( lead->point_ring_count > 0 && batch->normals_program == 0 )
-	{
-		batch->normals_program = plCompileProgram( api, plGlShaderSource_body_contact,
-												   PLEAT_GL_POINT_NORMALS_DEFINES PLEAT_GL_BATCH_DEFINES );
-		if ( batch->normals_program == 0 )
-			return PLEAT_RESULT_GL_ERROR;
-	}
-	if ( p > 0 && batch->contact_program == 0 )
-	{
-		batch->contact_program =
-			plCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_CONTACT_DEFINES PLEAT_GL_BATCH_DEFINES );
-		if ( batch->contact_program == 0 )
-			return PLEAT_RESULT_GL_ERROR;
-	}
-	plResult result = plCheckErrors( api );
-	if ( result == PLEAT_RESULT_OK )
-		batch->capacity = capacity; // else the keys stay unset and the next batch tries again
-	return result;
-}
-
-// Reads rows [first, first + N) of a vec4 buffer back into out [N][3].
-static void plReadBackRows( plGlDeformer* deformer, GLuint buffer, size_t first, float* out )
-{
-	const plGlApi* api = &deformer->api;
-	plGlVec4* rows = deformer->staging;
-	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
-	api->GetBufferSubData( GL_SHADER_STORAGE_BUFFER, (GLintptr)( first * 16 ), (GLsizeiptr)deformer->vertex_count * 16,
-						   rows );
-	for ( uint32_t i = 0; i < deformer->vertex_count; ++i )
-	{
-		out[3 * i] = rows[i].x;
-		out[3 * i + 1] = rows[i].y;
-		out[3 * i + 2] = rows[i].z;
-	}
-}
-
-// The batch's per-instance inputs: each member's shaped template (only where the slot holds another one), all blend
-// weights and skinning matrices (one upload each), the body-contact settings.
-static void plUploadBatchInputs( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count )
-{
-	const plGlApi* api = &lead->api;
-	plGlBatchBuffers* batch = &lead->batch;
-	uint32_t n = lead->vertex_count;
-	int points = lead->point_count > 0;
-	size_t rows = plShapedRows( lead );
-	for ( uint32_t k = 0; k < count; ++k )
-	{
-		const plGlDeformer* own = members[k].deformer;
-		uint64_t* key = batch->template_keys + 2 * (size_t)k;
-		if ( key[0] == own->serial && key[1] == own->template_generation )
-			continue;
-		plGlVec4* staging = lead->staging; // holds N + P rows (plCreate sized it)
-		plToVec4( staging, members[k].shaped_template, n, 1.0f );
-		if ( points )
-			plToVec4( staging + n, members[k].body_anchors, lead->point_count, 1.0f );
-		api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] );
-		api->BufferSubData( GL_SHADER_STORAGE_BUFFER, (GLintptr)( k * rows * 16 ), (GLsizeiptr)( rows * 16 ), staging );
-		key[0] = own->serial;
-		key[1] = own->template_generation;
-	}
-	float* weights = batch->staging;
-	for ( uint32_t k = 0; k < count; ++k )
-		memcpy( weights + (size_t)k * lead->blend_count, members[k].blend_weights, lead->blend_count * sizeof( float ) );
-	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_BLEND_WEIGHTS] );
-	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)count * lead->blend_count * 4, weights );
-	float* matrices = batch->staging;
-	for ( uint32_t k = 0; k < count; ++k )
-		memcpy( matrices + (size_t)k * lead->joint_count * 12, members[k].skin_matrices,
-				(size_t)lead->joint_count * 48 );
-	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_SKIN_MATRICES] );
-	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)count * lead->joint_count * 48, matrices );
-	if ( points )
-	{
-		plGlVec4* contact = batch->staging;
-		for ( uint32_t k = 0; k < count; ++k )
-		{
-			const plGlDeformer* own = members[k].deformer;
-			contact[k] = ( plGlVec4 ){ own->body_contact ? 1.0f : 0.0f, own->body_contact_offset_m, 0.0f, 0.0f };
-		}
-		api->BindBuffer( GL_SHADER_STORAGE_BUFFER, batch->buffers[PLEAT_GL_BINDING_BATCH_CONTACT] );
-		api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)count * 16, contact );
-	}
-}
-
-// Every member's outputs where its own Run leaves them: host buffers (copied on the GPU) and the read-backs.
-static void plDeliverBatchOutputs( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count )
-{
-	const plGlApi* api = &lead->api;
-	const plGlBatchBuffers* batch = &lead->batch;
-	size_t bytes = (size_t)lead->vertex_count * 16;
-	for ( uint32_t k = 0; k < count; ++k )
-	{
-		const plGlDeformer* own = members[k].deformer;
-		const plGlBinding outputs[2] = { PLEAT_GL_BINDING_POSITIONS, PLEAT_GL_BINDING_NORMALS };
-		for ( int o = 0; o < 2; ++o )
-		{
-			if ( own->mode == PLEAT_GL_DEFORMER_HOST_CONTEXT && own->owned[outputs[o]] == 0 )
-			{
-				// The engine's vertex buffer (its contents are the engine's, so one whole-range copy per output).
-				api->BindBuffer( GL_COPY_READ_BUFFER, batch->buffers[outputs[o]] );
-				api->BindBuffer( GL_COPY_WRITE_BUFFER, own->bindings[outputs[o]] );
-				api->CopyBufferSubData( GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, (GLintptr)( k * bytes ), 0,
-										(GLsizeiptr)bytes );
-			}
-		}
-		if ( members[k].positions != NULL )
-			plReadBackRows( lead, batch->buffers[PLEAT_GL_BINDING_POSITIONS], (size_t)k * lead->vertex_count,
-							members[k].positions );
-		if ( members[k].normals != NULL )
-			plReadBackRows( lead, batch->buffers[PLEAT_GL_BINDING_NORMALS], (size_t)k * lead->vertex_count,
-							members[k].normals );
-	}
-}
-
-plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count )
-{
-	if ( lead == NULL || members == NULL || count == 0 || count > PLEAT_GL_BATCH_MAX )
-		return PLEAT_RESULT_INVALID_ARGUMENT;
-	for ( uint32_t k = 0; k < count; ++k )
-	{
-		const plGlBatchMember* m = &members[k];
-		if ( !plGlDeformer_CanBatch( lead, m->deformer ) || m->shaped_template == NULL || m->blend_weights == NULL ||
-			 m->skin_matrices == NULL || ( lead->anchor_influence_count > 0 && m->body_anchors == NULL ) )
-			return PLEAT_RESULT_INVALID_ARGUMENT;
-	}
-	plResult result = plBegin( lead );
-	if ( result != PLEAT_RESULT_OK )
-		return result;
-	const plGlApi* api = &lead->api;
-	plCheckErrors( api ); // an error the engine left pending is not ours to report
-	result = plReserveBatch( lead, count );
-	if ( result != PLEAT_RESULT_OK )
-	{
-		plCheckErrors( api );
-		plEnd( lead );
-		return result;
-	}
-	plUploadBatchInputs( lead, members, count );
-
-	api->BindBufferBase( GL_UNIFORM_BUFFER, PLEAT_GL_PARAMS_BINDING, lead->params_buffer );
-	for ( GLuint b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
-	{
-		GLuint buffer = lead->batch.buffers[b] != 0 ? lead->batch.buffers[b] : lead->bindings[b];
-		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, buffer );
-	}
-	int contact = 0;
-	for ( uint32_t k = 0; k < count; ++k )
-		contact |= members[k].deformer->body_contact;
-
-	// The single Run's dispatches with the members in y: one per pass for the whole batch.
-	if ( contact )
-		plRunShaders( lead, lead->batch.points_program, lead->batch.normals_program, lead->batch.contact_program,
-					  count );
-	else
-		plRunShaders( lead, 0, 0, 0, count );
-
-	plDeliverBatchOutputs( lead, members, count );
-	result = plCheckErrors( api );
-	if ( result != PLEAT_RESULT_OK )
-	{
-		// The templates may not have arrived: upload them all again next time.
-		memset( lead->batch.template_keys, 0, (size_t)lead->batch.capacity * 2 * sizeof( uint64_t ) );
-	}
-	plEnd( lead );
+	result = plGlCheckErrors( api );
+	plGlEnd( deformer );
 	return result;
 }
 
@@ -1045,10 +678,10 @@ void plGlDeformer_Destroy( plGlDeformer* deformer )
 {
 	if ( deformer == NULL )
 		return;
-	if ( plBegin( deformer ) == PLEAT_RESULT_OK )
+	if ( plGlBegin( deformer ) == PLEAT_RESULT_OK )
 	{
 		plDeleteGlObjects( deformer );
-		plEnd( deformer );
+		plGlEnd( deformer );
 	}
 	plFreeDeformer( deformer );
 }

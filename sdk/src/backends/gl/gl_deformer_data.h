@@ -1,0 +1,104 @@
+// A GL deformer's data and the helpers its files share (gl_deformer.c: one instance; gl_batch.c: many instances of
+// one mesh). Internal to sdk/src/backends/gl/.
+#ifndef PLEAT_GL_DEFORMER_DATA_H
+#define PLEAT_GL_DEFORMER_DATA_H
+#include "kernels/kernels.h"
+#include "gl_internal.h"
+#include <stdatomic.h>
+
+// body_contact.comp's constants, from kernels.h so that the CPU kernels and the shader cannot drift apart; then the
+// pass (posing the body points, their normals from the posed rings, or the push) and, for a batch's programs,
+// PLEAT_BATCH.
+#define PLEAT_GL_STRING_( x ) #x
+#define PLEAT_GL_STRING( x ) PLEAT_GL_STRING_( x )
+#define PLEAT_GL_CONTACT_DEFINES                                                                                       \
+	"#define PLEAT_MAX_CONTACT_CANDIDATES " PLEAT_GL_STRING( PLEAT_MAX_CONTACT_CANDIDATES ) "\n"                       \
+	"#define PLEAT_CONTACT_BLEND_SHARE " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_SHARE ) "\n"                             \
+	"#define PLEAT_CONTACT_BLEND_M " PLEAT_GL_STRING( PLEAT_CONTACT_BLEND_M ) "\n"                                     \
+	"#define PLEAT_CONTACT_REACH_NEAR_M " PLEAT_GL_STRING( PLEAT_CONTACT_REACH_NEAR_M ) "\n"                           \
+	"#define PLEAT_CONTACT_REACH_FAR_M " PLEAT_GL_STRING( PLEAT_CONTACT_REACH_FAR_M ) "\n"
+#define PLEAT_GL_POSE_POINTS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 1\n"
+#define PLEAT_GL_POINT_NORMALS_DEFINES PLEAT_GL_CONTACT_DEFINES "#define PLEAT_POSE_POINTS 2\n"
+#define PLEAT_GL_BATCH_DEFINES "#define PLEAT_BATCH 1\n"
+
+enum
+{
+	PLEAT_GL_PROGRAM_BLEND_SHAPES,
+	PLEAT_GL_PROGRAM_SKINNING,
+	PLEAT_GL_PROGRAM_FACE_NORMALS,
+	PLEAT_GL_PROGRAM_NORMALS_GATHER,
+	PLEAT_GL_PROGRAM_BODY_POINTS,        // body_contact.comp, PLEAT_POSE_POINTS 1: assets with body points (else 0)
+	PLEAT_GL_PROGRAM_BODY_POINT_NORMALS, // body_contact.comp, PLEAT_POSE_POINTS 2: body points with rings (else 0)
+	PLEAT_GL_PROGRAM_BODY_CONTACT,       // body_contact.comp, the push: assets with body points (else 0)
+	PLEAT_GL_PROGRAM_COUNT
+};
+
+// The buffers a deformer keeps once it has led a batch (plGlDeformer_RunBatch): one block per member at each
+// per-instance binding; the mesh's own buffers are the deformer's.
+typedef struct plGlBatchBuffers
+{
+	uint32_t capacity;                       // members the buffers hold (0: no batch yet)
+	GLuint buffers[PLEAT_GL_BINDING_COUNT];  // per-instance bindings only (0 elsewhere)
+	GLuint points_program;                   // body_contact.comp with PLEAT_BATCH 1, posing (body points only)
+	GLuint normals_program;                  // body_contact.comp with PLEAT_BATCH 1, ring normals (points with rings)
+	GLuint contact_program;                  // body_contact.comp with PLEAT_BATCH 1, the push (body points only)
+	uint64_t* template_keys;                 // [capacity][2]: the (serial, template generation) each slot holds
+	size_t template_keys_bytes;              // as allocated: a reservation that failed in GL keeps capacity 0
+	void* staging;                           // [capacity] weights, matrices or contact rows on their way up
+	size_t staging_bytes;
+} plGlBatchBuffers;
+
+struct plGlDeformer
+{
+	plAllocator allocator;
+	plGlDeformerMode mode;
+	plGlContext* context; // headless mode only
+	plGlApi api;
+
+	uint32_t vertex_count;    // N
+	uint32_t face_count;      // F
+	uint32_t blend_count;     // D
+	uint32_t influence_count; // K
+	uint32_t joint_count;     // J
+	uint32_t anchor_influence_count; // Ka, 0 without body points
+	uint32_t point_count;            // P, 0 without body points
+	uint32_t candidate_count;        // C (1 for the identity table of a 1.1 asset), 0 without body points
+	uint32_t point_ring_count;       // R ring entries per point (asset 1.2, BARG), 0 without rings or body points
+	int body_contact;                // the contact passes run (body points present and enabled)
+	float body_contact_offset_m;     // the clearance the params buffer holds
+
+	GLuint programs[PLEAT_GL_PROGRAM_COUNT];
+	GLuint params_buffer;                    // plGlDeformParams
+	GLuint owned[PLEAT_GL_BINDING_COUNT];    // buffers the deformer created (0 where the host supplied one)
+	GLuint bindings[PLEAT_GL_BINDING_COUNT]; // what Run binds at each binding point
+
+	// Conversions on upload and read-backs; staging_bytes = max(16 (N + P), 4 N K, 4 P Ka, 4 N C, 4 P R).
+	void* staging;
+	size_t staging_bytes;
+
+	uint64_t serial;              // unique per deformer
+	uint64_t template_generation; // grows with every shaped-template upload
+	plGlBatchBuffers batch;
+
+	plGlSavedState saved; // host-context mode: the engine's state during one of our calls
+};
+
+// One dispatch, counted in g_plGlDispatches (tests check that a batch runs one per shader).
+void plGlDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y );
+// Makes the deformer's GL usable for one call (headless: our context current; host: checks a context is current and
+// saves the engine's state), and undoes it.
+plResult plGlBegin( plGlDeformer* deformer );
+void plGlEnd( plGlDeformer* deformer );
+// Drains the GL error flags; GL_ERROR if any was set.
+plResult plGlCheckErrors( const plGlApi* api );
+// A compute program from a shader source with `defines` after its #version line; 0 on failure.
+GLuint plGlCompileProgram( const plGlApi* api, const char* source, const char* defines );
+// xyz rows → vec4 rows with w = w_value (the std430 layout of a vec3 array).
+void plGlToVec4( plGlVec4* rows, const float* xyz, uint32_t count, float w_value );
+// Rows of the shaped-template buffer per instance: the template, then the P body points.
+size_t plGlShapedRows( const plGlDeformer* deformer );
+// The passes in order for `instances` rows of workgroups (gl_deformer.c says which).
+void plGlRunShaders( const plGlDeformer* deformer, GLuint points_program, GLuint normals_program,
+                     GLuint contact_program, uint32_t instances );
+
+#endif
