@@ -1,5 +1,6 @@
-// Internal: the instance, one dressed character, shared by its three files —
-//     instance.c         create / destroy, shape and material, getters
+// Internal: the instance, one dressed character, shared by its four files —
+//     instance.c         create / destroy, shape, material and the other settings
+//     instance_query.c   the getters (plInstance_Get*)
 //     instance_step.c    plInstance_Step: the paper's equations as a row of jobs, then the commit
 //     instance_deform.c  blend shapes → skinning → normals split over the host's workers (CPU path)
 // The instance owns the pose history, the latent, the shaped template cache and every buffer a step needs, allocated
