@@ -215,3 +215,30 @@ def test_broken_files_are_one_line(tmp_path, walk, body, capsys):
         assert words in err[0], (name, err[0])
         assert not out.exists()
     assert main(["convert", str(good), "--out", str(tmp_path / "ok.npz"), "--quiet"]) == 0
+
+
+def test_a_floor_root_joint_with_the_root_motion_gives_the_same_walk(tmp_path, walk, body):
+    """Unreal's export: a `root` joint on the floor carries the horizontal path, the hips hang from it and carry the
+    rest of their motion in a translation channel of their own. Re-rooted at the hips, it is the plain walk."""
+    plain_doc, q, root = _walk_document(walk, body)
+    T = walk.num_frames
+    times = np.arange(T) / walk.fps
+    plain_doc.animation("walk", [(k + 1, "rotation", times, q[:, k], "LINEAR") for k in range(q.shape[1])]
+                        + [(1, "translation", times, root, "LINEAR")])
+    plain = load_clip(plain_doc.save(tmp_path / "plain.gltf"), body)
+
+    doc, q, root = _walk_document(walk, body)
+    K = len(body.joint_names)
+    floor = len(doc.g.nodes)                             # the new root joint, on the floor 0.9 m below the hips
+    r = np.array([0.0, -0.9 / ARMATURE_SCALE, 0.0])
+    doc.g.nodes.append(pygltflib.Node(name="root", translation=r.tolist(), children=[1]))
+    doc.g.nodes[0].children = [floor]
+    doc.g.nodes[1].translation = (np.asarray(doc.g.nodes[1].translation) - r).tolist()
+    doc.g.skins[0].joints = [floor] + list(range(1, K + 1))
+    path_xz = root * np.array([1.0, 0.0, 1.0])          # the ground path on the root, the height and sway on the hips
+    doc.animation("walk", [(k + 1, "rotation", times, q[:, k], "LINEAR") for k in range(q.shape[1])]
+                  + [(floor, "translation", times, r + path_xz, "LINEAR"),
+                     (1, "translation", times, root - path_xz - r, "LINEAR")])
+    clip, match = load_clip(doc.save(tmp_path / "rooted.gltf"), body, with_match=True)
+    assert match.mapping["pelvis"] == "mixamorig:Hips" and "root" not in match.mapping.values()
+    _assert_same_clip(clip, plain)

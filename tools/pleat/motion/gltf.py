@@ -8,8 +8,9 @@ What is read:
   between two joints. A skin whose joints form several trees keeps the largest; with several skins, the one the
   animation drives most.
 - one **animation**: `animation` = its name or index (default: the first). Its `rotation` channels drive the joints,
-  its `translation` channel on the root joint the root path; translations of other joints (bone lengths are the
-  rest's), scale and morph-weight channels, and channels on nodes outside the skeleton are not read.
+  its `translation` channel on the root joint the root path, and on another joint that joint's offset from its
+  parent (an engine's pelvis moving under its root bone); scale and morph-weight channels, and channels on nodes
+  outside the skeleton, are not read.
 - **interpolation**: LINEAR (slerp for rotations, lerp for translations) and STEP; CUBICSPLINE keys are read as their
   values (the middle of each in-tangent, value, out-tangent triple) and interpolated linearly, so the tangents'
   overshoot between keys is not reproduced.
@@ -75,6 +76,7 @@ def read_gltf(path, fps=None, animation=None):
     q = np.broadcast_to(rest_world["local_quat"], (T, S, 4)).copy()
     root_local = np.broadcast_to(rest_world["root_translation"], (T, 3)).copy()
     animated = [False] * S
+    moved = {}                          # joint → its animated local translation [T, 3] (joints below the root)
     for (node, what), ch in channels.items():
         j = joint_of.get(node)
         if j is None:
@@ -84,6 +86,8 @@ def read_gltf(path, fps=None, animation=None):
             animated[j] = True
         elif node == root_node:
             root_local = ch.sample(t)
+        else:
+            moved[j] = ch.sample(t)
     # world rotations in the file (rotation parts only: joint scales are taken as uniform), then relative to rest
     R = quat_to_matrix(q)
     W = np.empty_like(R)
@@ -95,9 +99,19 @@ def read_gltf(path, fps=None, animation=None):
         local[:, j] = G[:, j] if p < 0 else np.swapaxes(G[:, p], -1, -2) @ G[:, j]
     M = rest_world["above_matrix"]
     root = root_local @ M[:3, :3].T + M[:3, 3]
+    # A joint below the root that moves (an engine's pelvis under its root bone): its offset from its parent, in the
+    # frame the SourceMotion's parent rotation G(parent) turns (G·W⁰ is the file's world rotation), scaled like the
+    # rest: W⁰(parent) · s(parent) · (link · t + link translation).
+    translations = {}
+    for j, tj in moved.items():
+        p = parents[j]
+        world_p, link = rest_world["world"][p], rest_world["link_matrices"][j]
+        scale = float(np.linalg.norm(world_p[:3, 0]))
+        v = tj @ link[:3, :3].T + link[:3, 3]
+        translations[j] = scale * v @ rest_rot[p].T
     src = SourceMotion(name=_clip_name(path), source=f"glTF {path.name} animation {anim.name or anim_index!r}",
                        fps=float(rate), names=names, parents=np.array(parents), rest_positions=rest_world["positions"],
-                       local_rotations=local, root_positions=root)
+                       local_rotations=local, root_positions=root, joint_translations=translations)
     src.animated = animated
     return src
 
@@ -455,6 +469,7 @@ def _skeleton(reader, driven):
     S = len(order)
     world = np.empty((S, 4, 4))
     links = np.empty((S, 3, 3))
+    link_matrices = np.empty((S, 4, 4))
     for j, n in enumerate(order):
         if parents[j] < 0:
             link = np.eye(4)
@@ -468,10 +483,12 @@ def _skeleton(reader, driven):
             link = product(list(reversed(between)))
             world[j] = world[parents[j]] @ link @ local[n][0]
         links[j] = _rotation_part(path, link[:3, :3], n)
+        link_matrices[j] = link
     rest_rot = np.stack([_rotation_part(path, world[j][:3, :3], n) for j, n in enumerate(order)])
     above = _rotation_part(path, above_m[:3, :3], root)
     rest = {"nodes": order, "positions": world[:, :3, 3].copy(), "local_quat": np.stack([local[n][1] for n in order]),
-            "root_translation": local[root][0][:3, 3].copy(), "above_matrix": above_m}
+            "root_translation": local[root][0][:3, 3].copy(), "above_matrix": above_m, "world": world,
+            "link_matrices": link_matrices}
     return names, parents, rest, rest_rot, links, above, root
 
 
