@@ -8,7 +8,10 @@ page or in the accuracy tables is typed by hand.
     scripts/docs-numbers.py --bench out/bench/step.json --print   # the block for your own scripts/bench.sh run
     scripts/docs-numbers.py --garments-from SUITE.json [SUITE2.json ...] [--machine "CPU, cores"]
                                                  # bench/results/accuracy-garments.json from pleat-eval-suite
-                                                 # reports, then both blocks
+                                                 # reports, then the blocks
+    scripts/docs-numbers.py --surface-from out/ref/*/summary.json
+                                                 # bench/results/reference-surface.json from pleat-sim summaries
+                                                 # (docs/garments.md's table), then the blocks
 
 Inputs: bench/results/cpu-reference.json (step times, keys as in out/bench/step.json, plus a "machine" object
 naming the CPU, the kernels chosen and the load), bench/results/accuracy-reference.json (errors against the
@@ -36,6 +39,11 @@ END = "<!-- numbers:end -->"
 GARMENTS_BEGIN = ("<!-- garments:begin (written by scripts/docs-numbers.py from bench/results/accuracy-garments.json; "
                   "do not edit by hand) -->")
 GARMENTS_END = "<!-- garments:end -->"
+SURFACE_JSON = ROOT / "bench" / "results" / "reference-surface.json"
+GARMENTS_PAGE = ROOT / "docs" / "garments.md"
+SURFACE_BEGIN = ("<!-- surface:begin (written by scripts/docs-numbers.py from bench/results/reference-surface.json; "
+                 "do not edit by hand) -->")
+SURFACE_END = "<!-- surface:end -->"
 
 
 def _num(value, digits=1):
@@ -394,6 +402,37 @@ def render_garments(garments):
     return "\n".join(lines) + "\n"
 
 
+def surface_from_summaries(paths):
+    """bench/results/reference-surface.json from pleat-sim summaries (DIR/summary.json): a row per garment with the
+    share of its surface inside the body (pleat.sim.surface)."""
+    rows = []
+    for path in paths:
+        summary = json.loads(Path(path).read_text())
+        if "surface_inside" not in summary:
+            raise ValueError(f"{path}: no surface_inside (a pleat-sim summary from before it was measured)")
+        s = summary["surface_inside"]
+        rows.append(dict(garment=summary["garment"], vertices=summary["vertices"], motion=summary.get("motion"),
+                         frames=summary["frames"], **{k: _rounded(s[k], 3) for k in (
+                             "inside_pct", "worst_frame_inside_pct", "median_depth_mm", "max_depth_mm")},
+                         samples_per_face=s["samples_per_face"], depth_mm=s["depth_mm"]))
+    return {"about": "The share of each garment's reference simulation's surface inside the body (pleat-sim's "
+                     "surface_inside, pleat.sim.surface); scripts/docs-numbers.py --surface-from writes this file "
+                     "from pleat-sim summaries and docs/garments.md's table from it",
+            "command": "pleat-garment NAME --vertices 1000 --out data/garments/NAME_1k.npz; pleat-sim --garment "
+                       "data/garments/NAME_1k.npz --motion humanoid3d_walk --frames 30 --out out/ref/NAME",
+            "rows": rows}
+
+
+def render_surface(surface):
+    lines = ["| garment | vertices | points > 1 mm inside (%) | worst frame (%) | median depth (mm) | deepest (mm) |",
+             "|---|---|---|---|---|---|"]
+    for r in surface["rows"]:
+        lines.append(f"| {r['garment']} | {r['vertices']:,} | {_cell(r['inside_pct'], 2)} | "
+                     f"{_cell(r['worst_frame_inside_pct'], 2)} | {_cell(r['median_depth_mm'])} | "
+                     f"{_cell(r['max_depth_mm'])} |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--bench", default=str(BENCH_JSON), help="benchmark JSON (default: %(default)s)")
@@ -408,6 +447,10 @@ def main(argv=None):
     mode.add_argument("--garments-from", nargs="+", metavar="SUITE.json",
                       help="write --garments from these pleat-eval-suite reports (their garments' and tiers' rows "
                            "replace the file's; the other rows stay), then the pages")
+    mode.add_argument("--surface-from", nargs="+", metavar="SUMMARY.json",
+                      help="write --surface from these pleat-sim summaries (one per garment), then the pages")
+    p.add_argument("--surface", default=str(SURFACE_JSON), help="reference surface JSON (default: %(default)s)")
+    p.add_argument("--garments-page", default=str(GARMENTS_PAGE))
     p.add_argument("--machine", default=None,
                    help="with --garments-from: the machine the suites' step times were measured on "
                         "(default: this one's CPU model and count)")
@@ -418,16 +461,22 @@ def main(argv=None):
             if Path(a.garments).is_file():      # the rows of garments and tiers these suites did not score stay
                 garments = merged(load_garments(a.garments), garments)
             Path(a.garments).write_text(json.dumps(garments, indent=1, ensure_ascii=False) + "\n")
+        if a.surface_from:
+            Path(a.surface).write_text(json.dumps(surface_from_summaries(a.surface_from), indent=1) + "\n")
         bench, accuracy = load(a.bench, a.accuracy)
         block = render(bench, accuracy)
         garments_block = render_garments(load_garments(a.garments))
+        surface_block = render_surface(json.loads(Path(a.surface).read_text())) if Path(a.surface).is_file() \
+            else None
     except (OSError, ValueError, KeyError) as e:
         print(f"docs-numbers: error: {e}", file=sys.stderr)
         return 2
     if a.print:
         sys.stdout.write(block)
         return 0
-    pages = ((Path(a.readme), block, BEGIN, END), (Path(a.accuracy_page), garments_block, GARMENTS_BEGIN, GARMENTS_END))
+    pages = [(Path(a.readme), block, BEGIN, END), (Path(a.accuracy_page), garments_block, GARMENTS_BEGIN, GARMENTS_END)]
+    if surface_block is not None:
+        pages.append((Path(a.garments_page), surface_block, SURFACE_BEGIN, SURFACE_END))
     updates = []
     for path, text_block, begin, end in pages:
         text = path.read_text()

@@ -183,3 +183,37 @@ def test_garments_from_refreshes_its_rows_and_keeps_the_other_garments(docs_numb
     rows = docs_numbers.merged(json.loads(out.read_text()), new)["rows"]
     assert [(r["garment"], r["tier"]) for r in rows] == [("dress", "large"), ("dress", "small"), ("tshirt", "large")]
     assert rows[0]["mean_mm"] == 20.0 and rows[2] == kept
+
+
+def test_garments_page_surface_table_equals_the_committed_json(docs_numbers):
+    surface = json.loads(docs_numbers.SURFACE_JSON.read_text())
+    page = docs_numbers.GARMENTS_PAGE.read_text()
+    assert docs_numbers.splice(page, docs_numbers.render_surface(surface), docs_numbers.SURFACE_BEGIN,
+                               docs_numbers.SURFACE_END) == page, "docs/garments.md's table is stale"
+    assert {r["garment"] for r in surface["rows"]} == {"tshirt", "tank_top", "long_sleeve", "pants", "dress"}
+
+
+def test_surface_from_pleat_sim_summaries_writes_the_json_and_the_table(docs_numbers, tmp_path):
+    summary = {"garment": "skirt", "vertices": 864, "motion": "walk", "frames": 30,
+               "surface_inside": {"frames": 10, "samples_per_face": 15, "depth_mm": 1.0, "inside_pct": 1.23456,
+                                  "worst_frame_inside_pct": 2.5, "median_depth_mm": 3.21, "max_depth_mm": 9.87}}
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    page = tmp_path / "garments.md"
+    page.write_text(f"before\n{docs_numbers.SURFACE_BEGIN}\nold\n{docs_numbers.SURFACE_END}\nafter\n")
+    out = tmp_path / "surface.json"
+    pages = []
+    for name in ("README.md", "docs/accuracy.md"):
+        pages.append(tmp_path / Path(name).name)
+        pages[-1].write_text((ROOT / name).read_text())
+    assert docs_numbers.main(["--surface-from", str(tmp_path / "summary.json"), "--surface", str(out),
+                              "--garments-page", str(page), "--readme", str(pages[0]),
+                              "--accuracy-page", str(pages[1])]) == 0
+    assert json.loads(out.read_text())["rows"][0]["inside_pct"] == 1.235
+    text = page.read_text()
+    assert "| skirt | 864 | 1.24 | 2.50 | 3.2 | 9.9 |" in text and "old" not in text and text.endswith("after\n")
+    # a summary from before the measure existed is refused, naming the file
+    del summary["surface_inside"]
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    assert docs_numbers.main(["--surface-from", str(tmp_path / "summary.json"), "--surface", str(out),
+                              "--garments-page", str(page), "--readme", str(pages[0]),
+                              "--accuracy-page", str(pages[1])]) == 2
