@@ -161,3 +161,17 @@ def test_a_skeleton_standing_along_another_axis_is_turned_upright(body, tmp_path
 def match_source(path, body):
     """The source description the loader gives the clip (it says when the skeleton was turned or re-rooted)."""
     return load_clip(path, body, check=False).source
+
+
+def test_a_joint_map_may_leave_out_the_root_bone_it_no_longer_sees(body, tmp_path):
+    """After re-rooting, a joint map written for the whole file ({"root": null, "pelvis" on the hips}) still
+    applies; one that makes a thigh the pelvis is refused, naming the map."""
+    path = tmp_path / "rooted.bvh"
+    path.write_text(with_floor_root(bvh_text(body, "unreal", "T")))
+    jmap = tmp_path / "map.json"
+    jmap.write_text(json.dumps({"root": None, "pelvis": "pelvis", "ik_foot_root": None}))
+    _, match = load_clip(path, body, joint_map_file=jmap, with_match=True, check=False)
+    assert match.mapping["pelvis"] == "pelvis" and match.mapping["left_hip"] == "thigh_l"
+    jmap.write_text(json.dumps({"thigh_l": "pelvis"}))
+    with pytest.raises(Exception, match="pelvis must be the skeleton's root"):
+        load_clip(path, body, joint_map_file=jmap, check=False)

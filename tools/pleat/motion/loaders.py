@@ -138,6 +138,9 @@ def load_clip(name_or_path, body=None, motion_dir=None, joint_map=None, joint_ma
         from pleat.motion.upright import up_rotation, uprighted
         src = uprighted(src, *up_rotation(src.parents, src.rest_positions, getattr(src, "tips", None)))
         src = _at_hips(src, joint_map, user_map, joint_map_file or path)
+        dropped = {strip_namespace(n) for n in getattr(src, "dropped_above_hips", ())}
+        if user_map and dropped:    # a map that leaves out the root bone ({"root": null}) still applies
+            user_map = {k: v for k, v in user_map.items() if not (v is None and strip_namespace(k) in dropped)}
         animated = [n for n, has in zip(src.names, getattr(src, "animated", [True] * len(src.names))) if has]
         if joint_map is not None:
             match = JointMatch(dict(joint_map), {k: "joint_map argument" for k in joint_map}, list(src.names),
