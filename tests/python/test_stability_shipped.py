@@ -1,4 +1,4 @@
-"""Stability thresholds on the shipped, trained assets (assets/tshirt*.pleat) through the C runtime, on real motion
+"""Stability thresholds on the shipped, trained assets (every assets/*.pleat) through the C runtime, on real motion
 capture. test_stability_runtime.py checks the same properties on a random-weight asset; this file checks the
 networks that ship. No reference simulator (it costs seconds per frame): the tracked quantity is the deviation from
 the LBS-only twin, the network's own displacement (docs/stability.md).
@@ -11,7 +11,11 @@ Thresholds (stated here and in docs/stability.md):
   87–168 mm at worst; the jump in the chain is the largest).
 The 0.3 m bound is the simulator's own range, not a guess: in its 14,896 training frames of data.npz the simulated
 garment's farthest vertex is more than 150 mm from the skinned one in 27 % of frames and more than 300 mm in 6 %;
-a network that runs away goes to metres (its decoder's bound is hundreds of metres, docs/stability.md)."""
+a network that runs away goes to metres (its decoder's bound is hundreds of metres, docs/stability.md).
+The dress's skirt swings far from where skinning puts it: in the 12,796 simulated frames its model was fitted on
+(out/simdata/dress_200.npz) the farthest vertex is more than 300 mm from the skinned one in 47 % of frames, more than
+700 mm in 6.5 %, 925 mm at the 99th percentile; its bound is 1.0 m (its model measured 630 mm at worst in the
+chain, 498 mm at 3× speed)."""
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +33,11 @@ CLIPS = ("deepmimic_pybullet/humanoid3d_walk", "deepmimic_pybullet/humanoid3d_ru
          "deepmimic_pybullet/humanoid3d_jump", "deepmimic_pybullet/humanoid3d_punch")
 FPS = S.EVAL_FPS
 MAX_DEVIATION_MM = 300.0
+MAX_DEVIATION_MM_BY_GARMENT = {"dress": 1000.0}     # a skirt: see above
+
+
+def _bound(weights):
+    return MAX_DEVIATION_MM_BY_GARMENT.get(str(weights.get("garment_name")), MAX_DEVIATION_MM)
 
 
 def _trained(path):
@@ -38,7 +47,7 @@ def _trained(path):
     return None if S.is_lbs_only(weights) else (data, weights, S.lbs_only_bytes(weights))
 
 
-ASSETS = {p.stem: p for p in sorted((ROOT / "assets").glob("tshirt*.pleat"))}
+ASSETS = {p.stem: p for p in sorted((ROOT / "assets").glob("*.pleat"))}
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +89,7 @@ def test_shipped_asset_does_not_drift_over_5000_chained_frames(ctx, clips, name)
     assert run["finite"] and run["resets"] == 0 and run["latent_in_range"]
     assert d["first_window_mm"] > 0.5                       # the network does move the garment
     assert d["ratio"] <= 1.2, d
-    assert run["deviation_max_mm"] < MAX_DEVIATION_MM
+    assert run["deviation_max_mm"] < _bound(asset[1])
 
 
 @pytest.mark.parametrize("name", sorted(ASSETS))
@@ -93,4 +102,4 @@ def test_shipped_asset_stays_bounded_on_fast_motion_and_unusual_bodies(ctx, clip
     for case in cases:
         run = _run(ctx, asset, clip, **case)
         assert run["finite"] and run["resets"] == 0, case
-        assert run["deviation_max_mm"] < MAX_DEVIATION_MM, (case, run["deviation_max_mm"])
+        assert run["deviation_max_mm"] < _bound(asset[1]), (case, run["deviation_max_mm"])
