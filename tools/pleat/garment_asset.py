@@ -144,7 +144,8 @@ def _vertex_rings(faces, vertex_count, vertices):
 
 
 def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance_m=BODY_ANCHOR_MAX_DISTANCE_M,
-                 candidates=BODY_CONTACT_CANDIDATES, posed_normals=True, candidate_vertices=None, collide=None):
+                 candidates=BODY_CONTACT_CANDIDATES, posed_normals=True, candidate_vertices=None, collide=None,
+                 pinned=None):
     """The body-contact keys of the weights file for a garment template [N, 3] on the mean body: the body points
     (rest body vertices: position, shape directions [B, P, 3], unit normal, and their top `influences` skin joints and
     weights, renormalised; in the order the garment reaches them), per garment vertex its `candidates` nearest points,
@@ -153,7 +154,9 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     body_contact), the simulator's vertex-plane measure. candidates = 1 without posed_normals writes an asset 1.1
     block (one point per vertex, the blended rest normals: the cheapest contact, for the cheapest tiers). collide
     (bool [V], optional): the body vertices the garment collides with (Garment.body_collision_mask); the rest are
-    never a candidate."""
+    never a candidate. pinned (garment vertex ids, optional): vertices that follow the body by skinning (the pants'
+    waistband); the simulator never moves them, so they get no candidates and the runtime's contact leaves them where
+    skinning puts them (with candidates, the contact pushed the shipped pants' waistband up to 20 mm off the body)."""
     from scipy.spatial import cKDTree
 
     from pleat.asset import NO_CANDIDATE
@@ -168,6 +171,8 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     distance, nearest = cKDTree(v_template[ids]).query(np.asarray(template, np.float64), k=C)
     distance, nearest = distance.reshape(len(template), C), ids[nearest.reshape(len(template), C)]
     far = distance[:, 0] > max_distance_m                                   # no candidates at all
+    if pinned is not None and len(pinned) > 0:
+        far[np.asarray(pinned, np.int64)] = True                            # pinned: skinned, never pushed
     if candidate_vertices is not None:      # chosen from simulated frames (pleat.train.contact.candidate_vertices)
         given = np.asarray(candidate_vertices, np.int64)
         if given.shape != (len(template), C) or given.min() < -1 or given.max() >= len(v_template):
@@ -311,7 +316,8 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None, 
         from pleat.garment.garment import body_collision_mask
         weights.update(body_anchors(template, body, candidates=candidates, posed_normals=posed_normals,
                                     candidate_vertices=given,
-                                    collide=body_collision_mask(_field(garment, "collision_exclude", None), body)))
+                                    collide=body_collision_mask(_field(garment, "collision_exclude", None), body),
+                                    pinned=weights.get("pinned")))
 
     meta = {"garment": garment_name, "vertices": int(template.shape[0]), "faces": int(weights["faces"].shape[0])}
     body_source = _field(body, "source", None)

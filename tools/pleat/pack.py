@@ -103,6 +103,16 @@ def build_parser():
     return p
 
 
+def _collide(weights, body):
+    """The body vertices the garment collides with, from META's collision_exclude (joint names; the dress leaves
+    out the forearms and hands), or None for the whole body: the redone contact keeps the choice the asset was made
+    with."""
+    from pleat.garment.garment import body_collision_mask
+    meta = json.loads(str(weights["metadata_json"])) if weights.get("metadata_json") is not None else {}
+    names = [str(n) for n in weights["joint_names"]]
+    return body_collision_mask([names.index(n) for n in meta.get("collision_exclude", [])], body)
+
+
 def _quantised(a, weights):
     """The weights with int8 networks (pleat.quantise), calibrated on --calibration's rows or random ones; META (if
     any) records how under 'int8'."""
@@ -187,9 +197,11 @@ def main(argv=None):
         for key in ("body_anchor_candidates", "body_anchor_ring"):   # the new block replaces any earlier one whole
             weights.pop(key, None)
         try:
-            weights.update(body_anchors(weights["template"], BodyModel.load(a.body_contact or None),
+            body = BodyModel.load(a.body_contact or None)
+            weights.update(body_anchors(weights["template"], body,
                                         candidates=a.contact_candidates or BODY_CONTACT_CANDIDATES,
-                                        posed_normals=not a.contact_rest_normals, candidate_vertices=given))
+                                        posed_normals=not a.contact_rest_normals, candidate_vertices=given,
+                                        collide=_collide(weights, body), pinned=weights.get("pinned")))
         except ValueError as e:
             raise InputError(a.contact_candidates_from or "--body-contact", str(e)) from None
         if weights.get("metadata_json") is not None:
