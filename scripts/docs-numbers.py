@@ -151,7 +151,7 @@ def render(bench, accuracy):
                 f"small {_num(tiers_mm['small'], 2)} mm")
         if xs:
             text += f"; xsmall {_num(xs['pleat_mm'])} mm against {_num(xs['lbs_mm'])} for LBS-only ({xs['note']})"
-        lines.append(text + " (docs/accuracy.md, docs/pareto.md).")
+        lines.append(text + " (docs/accuracy.md, docs/tiers.md).")
     return "\n".join(lines) + "\n"
 
 

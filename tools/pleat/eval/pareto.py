@@ -144,13 +144,13 @@ def _fmt(v, digits=1):
     return "—" if v is None else f"{v:.{digits}f}"
 
 
-def write_markdown(rows, clips, command, library, path, max_frames, notes=(), repeats=5):
+def write_markdown(rows, clips, command, library, path, max_frames, notes=(), repeats=5, image="pareto.png"):
     scored = [r for r in rows if r.get("mean_mm") is not None]
     front = {id(scored[i]) for i in pareto_front([(r["step_us"], r["mean_mm"]) for r in scored])}
     lines = [
         "# Pareto chart: error against time per frame",
         "",
-        "![error vs step time](pareto.png)",
+        f"![error vs step time]({image})",
         "",
         "Made by `python -m pleat.eval.pareto` (tools/pleat/eval/pareto.py). Step time: median of "
         "`plInstance_Step` alone (timed around the C call through `pleat.runtime`, one thread, the first 30 steps "
@@ -255,6 +255,8 @@ def build_parser():
                          "LBS-only, the reference simulator and error bars over clips and bodies; "
                          "pleat.eval.pareto_garments); --assets, --motion and the tier options are then unused")
     ap.add_argument("--machine", default=None, help="with --suite: the machine the times were taken on, for the page")
+    ap.add_argument("--page", default="pareto", help="file name (no extension) of the page and chart in --out "
+                                                     "(default pareto: pareto.md, pareto.png)")
     return add_quiet(ap)
 
 
@@ -275,11 +277,12 @@ def main(argv=None):
                           tier_assets=dict(a.split("=", 1) for a in args.tier_asset), repeats=args.repeats)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    plot(rows, out / "pareto.png")
+    plot(rows, out / f"{args.page}.png")
     lib = str(runtime.find_library())
     env = f"PLEAT_LIBRARY={os.environ['PLEAT_LIBRARY']} " if os.environ.get("PLEAT_LIBRARY") else ""
     cmdline = env + "pleat-pareto " + " ".join(shlex.quote(a) for a in argv)
-    write_markdown(rows, clips, cmdline, lib, out / "pareto.md", args.max_frames, args.note, args.repeats)
+    write_markdown(rows, clips, cmdline, lib, out / f"{args.page}.md", args.max_frames, args.note, args.repeats,
+                   image=f"{args.page}.png")
     if args.json:
         write_text(args.json, json.dumps(rows, indent=1))
     for r in rows:

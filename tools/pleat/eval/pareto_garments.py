@@ -145,12 +145,12 @@ def rows_for_json(garments):
             for g, points in garments.items() for p in points]
 
 
-def write_markdown(garments, reports, command, library, timing_clip, path, machine=None):
+def write_markdown(garments, reports, command, library, timing_clip, path, machine=None, image="pareto.png"):
     from pleat.eval.front import pareto_front
     lines = [
         "# Pareto chart: error against time per frame",
         "",
-        "![error vs time per frame, a panel per garment](pareto.png)",
+        f"![error vs time per frame, a panel per garment]({image})",
         "",
         "Made by `pleat-pareto --suite` (tools/pleat/eval/pareto_garments.py) from the pleat-eval-suite reports "
         f"{', '.join(f'`{r}`' for r in reports)}. Error: the mean per-vertex distance to the reference simulation "
@@ -195,11 +195,11 @@ def main(args, argv):
     clip = time_points(garments, repeats=args.repeats)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    plot(garments, out / "pareto.png")
+    plot(garments, out / f"{args.page}.png")
     env = f"PLEAT_LIBRARY={os.environ['PLEAT_LIBRARY']} " if os.environ.get("PLEAT_LIBRARY") else ""
     command = env + "pleat-pareto " + " ".join(shlex.quote(a) for a in argv)
-    write_markdown(garments, args.suite, command, str(runtime.find_library()), clip, out / "pareto.md",
-                   args.machine)
+    write_markdown(garments, args.suite, command, str(runtime.find_library()), clip, out / f"{args.page}.md",
+                   args.machine, image=f"{args.page}.png")
     if args.json:
         write_text(args.json, json.dumps(rows_for_json(garments), indent=1))
     for g, points in garments.items():
