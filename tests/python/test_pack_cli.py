@@ -59,7 +59,7 @@ def _unchanged_but_contact(back, before):
 def test_repacking_an_asset_adds_body_contact_and_keeps_everything_else(tmp_path):
     """pleat-pack IN.pleat --body-contact (asset 1.2): the points are body vertices; each near garment vertex's
     candidates are its 4 nearest, nearest first, with their normals and their own top-4 skin weights; the far ones
-    have none; each candidate has its ring of body neighbours, counter-clockwise from outside (its rest fan's normal
+    and the pinned ones have none; each candidate has its ring of body neighbours, counter-clockwise from outside (its rest fan's normal
     is its rest normal); ring corners that are no candidate never anchor; every other section is unchanged."""
     from scipy.spatial import cKDTree
     body, w, pick, src = _garment_on_the_body(tmp_path)
@@ -72,6 +72,7 @@ def test_repacking_an_asset_adds_body_contact_and_keeps_everything_else(tmp_path
     np.testing.assert_allclose(gap, 0.0, atol=1e-6)                    # every point is a body vertex
     table, P = back["body_anchor_candidates"].astype(int), len(vertex)
     far = cKDTree(body.v_template).query(w["template"])[0] > 0.05      # no body vertex within 5 cm
+    far[np.asarray(w["pinned"])] = True                                 # pinned: skinned, never pushed
     assert np.all(table[far] == pa.NO_CANDIDATE) and np.all(table[~far] < P) and np.any(far)
     to_slot = np.linalg.norm(w["template"][~far, None] - body.v_template[vertex[table[~far]]], axis=2)
     assert np.all(np.diff(to_slot, axis=1) >= -1e-9)                   # nearest first …
@@ -112,6 +113,8 @@ def test_pack_one_candidate_with_rest_normals_writes_the_asset_1_1_block(tmp_pat
     assert np.all(to_anchor <= to_pick + 1e-9)
     length = np.linalg.norm(back["body_anchor_normal"], axis=1)
     near = to_anchor < 0.05
+    near[np.asarray(w["pinned"])] = False                               # pinned vertices never anchor
+    assert len(w["pinned"]) > 0
     np.testing.assert_allclose(length[near], 1.0, atol=1e-6)
     np.testing.assert_array_equal(length[~near], 0.0)
     assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates", "17"]) != 0
@@ -142,6 +145,7 @@ def test_pack_takes_candidates_chosen_elsewhere(tmp_path):
     P = len(vertex)
     own = cKDTree(body.v_template).query(w["template"])[1]
     far = cKDTree(body.v_template).query(w["template"])[0] > 0.05
+    far[np.asarray(w["pinned"])] = True                                 # pinned: no candidates either
     for i in np.flatnonzero(~far):
         ids = [int(vertex[t]) for t in table[i] if t < P]
         expect = list(dict.fromkeys([int(own[i])] + [int(g) for g in given[i, 1:] if g >= 0]))
