@@ -26,6 +26,17 @@ static GLuint plCreateBatchBuffer( const plGlApi* api, size_t bytes )
 	return buffer;
 }
 
+// The batch's host memory (the template keys and the staging block), freed and forgotten.
+static void plFreeBatchHostMemory( plGlDeformer* lead, plGlBatchBuffers* batch )
+{
+	plFree( &lead->allocator, batch->template_keys, batch->template_keys_bytes );
+	plFree( &lead->allocator, batch->staging, batch->staging_bytes );
+	batch->template_keys = NULL;
+	batch->template_keys_bytes = 0;
+	batch->staging = NULL;
+	batch->staging_bytes = 0;
+}
+
 // The per-instance buffers for `capacity` members (the first batch, or a larger one than before: the old ones go).
 // Between plBegin and plEnd.
 static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
@@ -40,12 +51,7 @@ static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
 			api->DeleteBuffers( 1, &batch->buffers[b] );
 		batch->buffers[b] = 0;
 	}
-	plFree( &lead->allocator, batch->template_keys, batch->template_keys_bytes );
-	plFree( &lead->allocator, batch->staging, batch->staging_bytes );
-	batch->template_keys = NULL;
-	batch->template_keys_bytes = 0;
-	batch->staging = NULL;
-	batch->staging_bytes = 0;
+	plFreeBatchHostMemory( lead, batch );
 	batch->capacity = 0;
 
 	size_t c = capacity, n = lead->vertex_count, f = lead->face_count, p = lead->point_count;
@@ -58,12 +64,7 @@ static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
 	batch->template_keys = plAllocZeroed( &lead->allocator, batch->template_keys_bytes, 16 );
 	if ( batch->staging == NULL || batch->template_keys == NULL )
 	{
-		plFree( &lead->allocator, batch->template_keys, batch->template_keys_bytes );
-		plFree( &lead->allocator, batch->staging, batch->staging_bytes );
-		batch->template_keys = NULL;
-		batch->template_keys_bytes = 0;
-		batch->staging = NULL;
-		batch->staging_bytes = 0;
+		plFreeBatchHostMemory( lead, batch );
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
 	batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] = plCreateBatchBuffer( api, c * rows * 16 );
