@@ -231,9 +231,10 @@ def hips_joint(parents, rest, tips=None):
     re-rooted there before retargeting (pleat.motion.reroot). None when no legs are found."""
     sk = _Skeleton(parents, rest, [True] * len(parents), tips)
     height = _height(sk)
-    fork = hips = leg_fork(parents, rest, tips)
-    if fork is None:
+    pair = _leg_tips(sk, height)
+    if pair is None:
         return None
+    fork = hips = int(sk.lca(*pair))
     while sk.parents[hips] >= 0 and np.linalg.norm(sk.rest[sk.parents[hips]] - sk.rest[fork]) <= ROOT_OFF_BODY * height:
         hips = int(sk.parents[hips])
     return int(hips)
