@@ -171,6 +171,7 @@ def test_each_command_takes_its_own_options_and_older_command_lines_still_parse(
 
 
 def test_commands_on_an_existing_run_refuse_settings_they_would_ignore(tmp_path):
+    pytest.importorskip("torch")          # pleat-train says it needs PyTorch before it reads the settings
     run = _pleat_train("simsup-tiers", "--out", str(tmp_path), "--data", "d.npz", "--set", "stage1.lr=0.1")
     assert run.returncode == 2 and "simsup-tiers takes only seed, simsup.iterations" in run.stderr
     run = _pleat_train("simsup-contact", "--out", str(tmp_path), "--data", "d.npz", "--set", "simsup.lr=0.1")
