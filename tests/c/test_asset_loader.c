@@ -359,6 +359,7 @@ static const plContentEdit s_content_edits[] = {
 	{ "BACA", 0, 0x70007000u },          // a candidate point index past P that is not the empty slot 0xFFFF
 	{ "BARG", 0, 0x00010002u },          // point 0 (an edge point, no ring) given a ring of two
 	{ "BARG", 16, 0x70000001u },         // a ring point past P (point 1's ring)
+	{ "JNAM", 36, 0x30305F74u },         // joint 1 renamed "joint_00" ("t_00"), joint 0's name
 	{ "JNAM", 0, 0x41414141u },          // (valid: name still NUL-terminated) — checked below to load
 };
 #define PLEAT_CONTENT_EDITS ( sizeof( s_content_edits ) / sizeof( s_content_edits[0] ) )

@@ -475,7 +475,7 @@ static plResult plReadPinsAndModels( const uint8_t* data, const plSectionTable* 
 	return PLEAT_RESULT_OK;
 }
 
-// The joints (names NUL-terminated, parents before children, root only at 0, input joints ascending past the root),
+// The joints (names NUL-terminated and unique, parents before children, root only at 0, input joints ascending past the root),
 // the latent bounds, the mesh (face indices, the CSR adjacency) and the skin rows.
 static plResult plCheckAcrossSections( plAssetData* a )
 {
@@ -485,6 +485,17 @@ static plResult plCheckAcrossSections( plAssetData* a )
 		if ( memchr( a->joint_names + (size_t)j * PLEAT_JOINT_NAME_SIZE, 0, PLEAT_JOINT_NAME_SIZE ) == NULL )
 		{
 			return plRejectSection( a, "JNAM", "(joint names) joint %u's name has no NUL", j );
+		}
+		// Engines map their joints to the asset's by name (plAsset_FindJoint), and an instance refuses a map that
+		// drives two asset joints from one engine joint: a repeated name would make that map impossible to build.
+		for ( uint32_t k = 0; k < j; ++k )
+		{
+			if ( strcmp( a->joint_names + (size_t)k * PLEAT_JOINT_NAME_SIZE,
+						 a->joint_names + (size_t)j * PLEAT_JOINT_NAME_SIZE ) == 0 )
+			{
+				return plRejectSection( a, "JNAM", "(joint names) joints %u and %u are both called '%s'", k, j,
+										a->joint_names + (size_t)j * PLEAT_JOINT_NAME_SIZE );
+			}
 		}
 		int32_t p = a->parents[j];
 		if ( j == 0 ? p != -1 : ( p < 0 || p >= (int32_t)j ) )
