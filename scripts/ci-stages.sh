@@ -17,6 +17,7 @@
 #            bad-input tests among them
 #   blender  the Blender add-on's headless round trip (tests/python/test_blender_roundtrip.py) in Blender as a Python
 #            module: installs the blender extra (bpy 4.4.0, a ~370 MB wheel for Python 3.11) and train
+#   ray      pleat-wardrobe on a local two-node Ray cluster (tests/python/test_wardrobe.py): installs the ray extra
 #
 # PLEAT_CI_STAGES (default: all of the above, in that order) picks stages; every chosen stage runs even after one
 # fails, and the script fails if any did. A table of stage times ends the log.
@@ -26,7 +27,7 @@
 set -euo pipefail
 SELF="$(cd "$(dirname "$0")" && pwd)/$(basename "$0")"
 cd "$(dirname "$0")/.."
-STAGES=${PLEAT_CI_STAGES:-default release asan tsan scalar fuzz soak slow blender}
+STAGES=${PLEAT_CI_STAGES:-default release asan tsan scalar fuzz soak slow blender ray}
 PY="$PWD/.venv/bin/python"
 SUPPRESSIONS="$PWD/tests/sanitizers/lsan-mesa.supp"
 
@@ -111,6 +112,12 @@ stage_blender() {
     tests/python/test_blender_roundtrip.py
 }
 
+stage_ray() {
+  PLEAT_EXTRAS="train,ray" scripts/setup.sh
+  "$PY" -c 'import ray; print("stage ray: Ray", ray.__version__)'
+  "$PY" -m pytest -q -rs tests/python/test_wardrobe.py
+}
+
 # One stage in a process of its own, so that `set -e` holds inside it (the loop below tests its exit status).
 if [ -n "${PLEAT_CI_RUN_STAGE:-}" ]; then
   "stage_$PLEAT_CI_RUN_STAGE"
@@ -133,7 +140,7 @@ summary=""
 failed=""
 for stage in $STAGES; do
   if ! declare -F "stage_$stage" >/dev/null; then
-    echo "ci-stages: unknown stage '$stage' (default release asan tsan scalar fuzz soak slow blender)" >&2
+    echo "ci-stages: unknown stage '$stage' (default release asan tsan scalar fuzz soak slow blender ray)" >&2
     exit 2
   fi
   echo "=== stage $stage"

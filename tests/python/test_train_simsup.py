@@ -264,7 +264,7 @@ def test_an_ensemble_packed_as_one_network_is_the_mean_of_its_members(tiny_setup
                                               dec_hidden=(12,)))
 
 
-@pytest.mark.parametrize("argv", [["simsup-contact"], ["simsup-tiers"], ["simsup-ensemble", "--members", "one"],
+@pytest.mark.parametrize("argv", [["simsup-contact"], ["simsup-ensemble", "--members", "one"],
                                   ["contact-candidates"]])
 def test_simsup_commands_missing_inputs_are_usage_errors(argv, tmp_path, capsys):
     """pleat-train's simsup commands without what they need end as a usage error (status 2) that names it."""
@@ -273,6 +273,17 @@ def test_simsup_commands_missing_inputs_are_usage_errors(argv, tmp_path, capsys)
         cli.main(argv + ["--out", str(tmp_path)])
     assert e.value.code == 2
     assert ("--data" if argv[0] != "simsup-ensemble" else "--members") in capsys.readouterr().err
+
+
+def test_simsup_tiers_names_what_it_lacks(tmp_path, capsys):
+    """simsup-tiers needs no --data (the tiers can learn the model on unsimulated motion alone), but a run to distil
+    from: none in --out is an input error naming the checkpoint; --from-asset without its --garment a usage error."""
+    from pleat.train import cli
+    assert cli.main(["simsup-tiers", "--out", str(tmp_path)]) == 1
+    assert "simsup.pt" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        cli.main(["simsup-tiers", "--out", str(tmp_path), "--from-asset", "assets/tshirt.pleat"])
+    assert e.value.code == 2 and "--garment" in capsys.readouterr().err
 
 
 def test_contact_candidates_are_the_body_vertices_nearest_in_the_frames(tiny_setup, tmp_path):

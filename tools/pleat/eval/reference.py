@@ -49,27 +49,59 @@ def cache_key(garment, body, beta, material, clip, frames, settings, start_pertu
     return h.hexdigest()[:32]
 
 
-def cached_simulate(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,
-                    progress=True, start_perturbation_m=0.0):
-    """pleat.sim.scene.simulate through the on-disk cache. Returns (positions [T, N, 3] f32, info) where info has
-    the key, whether it was a cache hit and the simulator's summary (seconds per frame, convergence)."""
+def cache_entry(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,
+                start_perturbation_m=0.0):
+    """(the cache file of this simulation, its key): where cached_simulate reads and writes it."""
+    from pleat.sim import SolverSettings
+    T = clip.num_frames if frames is None else min(frames, clip.num_frames)
+    settings = settings or SolverSettings(dt_s=1.0 / clip.fps)
+    beta = np.zeros(garment.shape_blend.shape[0]) if beta is None else np.asarray(beta, np.float64)
+    key = cache_key(garment, body, beta, material, clip, T, settings, start_perturbation_m)
+    return Path(cache_dir or DEFAULT_CACHE) / f"{key}.npz", key
+
+
+def simulate_uncached(garment, body, clip, beta, material, frames=None, settings=None, progress=False,
+                      start_perturbation_m=0.0):
+    """The simulation cached_simulate caches, without the cache: (positions [T, N, 3] f32, summary). A training
+    task on another machine runs this and sends the positions back to the caller's cache (pleat.train.simdata)."""
     from pleat.physics.materials import Material
     from pleat.sim import SolverSettings
     from pleat.sim.scene import simulate
     T = clip.num_frames if frames is None else min(frames, clip.num_frames)
     settings = settings or SolverSettings(dt_s=1.0 / clip.fps)
     beta = np.zeros(garment.shape_blend.shape[0]) if beta is None else np.asarray(beta, np.float64)
-    key = cache_key(garment, body, beta, material, clip, T, settings, start_perturbation_m)
-    cache_dir = Path(cache_dir or DEFAULT_CACHE)
-    path = cache_dir / f"{key}.npz"
-    if path.is_file():
-        with np.load(path, allow_pickle=False) as z:
-            return z["positions"], dict(key=key, cache_hit=True, path=str(path),
-                                        summary=json.loads(str(z["summary"])))
     positions, _, summary = simulate(garment, body, clip, beta, Material(*map(float, material)), T, settings,
                                      progress, keep_body=False, start_perturbation_m=start_perturbation_m)
-    cache_dir.mkdir(parents=True, exist_ok=True)
+    return positions, summary
+
+
+def read_cached(path):
+    """(positions, summary) of a cache file, or None when there is none."""
+    path = Path(path)
+    if not path.is_file():
+        return None
+    with np.load(path, allow_pickle=False) as z:
+        return z["positions"], json.loads(str(z["summary"]))
+
+
+def write_cached(path, positions, summary):
+    """Stores a simulation in the cache (a temporary file renamed into place: readers never see half a file)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.stem + ".tmp.npz")
     np.savez_compressed(tmp, positions=positions, summary=json.dumps(summary))
     tmp.replace(path)
+
+
+def cached_simulate(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,
+                    progress=True, start_perturbation_m=0.0):
+    """pleat.sim.scene.simulate through the on-disk cache. Returns (positions [T, N, 3] f32, info) where info has
+    the key, whether it was a cache hit and the simulator's summary (seconds per frame, convergence)."""
+    path, key = cache_entry(garment, body, clip, beta, material, frames, settings, cache_dir, start_perturbation_m)
+    hit = read_cached(path)
+    if hit is not None:
+        return hit[0], dict(key=key, cache_hit=True, path=str(path), summary=hit[1])
+    positions, summary = simulate_uncached(garment, body, clip, beta, material, frames, settings, progress,
+                                           start_perturbation_m)
+    write_cached(path, positions, summary)
     return positions, dict(key=key, cache_hit=False, path=str(path), summary=summary)

@@ -137,7 +137,14 @@ def build_parser():
 
     c = command_parser("simsup-tiers", "cheaper tiers distilled from the simsup model in --out", _simsup_tiers)
     _out(c, "output folder: the simsup run to distil from (the tiers go to --tier-dir, default here)")
-    _data(c, "the datasets the model was fitted on (simsup --export)")
+    c.add_argument("--data", default=None,
+                   help="the datasets the model was fitted on (simsup --export); without it the tiers learn the "
+                        "model on simsup.tier_teacher_frames frames of unsimulated training motion only, and only "
+                        "the validation clips are simulated")
+    c.add_argument("--from-asset", default=None,
+                   help="distil from this packed simsup asset (rebuilds --out/simsup.pt from it with --garment; "
+                        "e.g. assets/dress.pleat when its run folder is gone)")
+    c.add_argument("--garment", default=None, help="with --from-asset: the asset's garment (name or npz)")
     c.add_argument("--tiers", nargs="+", default=["small", "medium", "xsmall"],
                    help="tier names (pleat.eval.tiers; default small medium xsmall: medium, the mean of two small "
                         "students, reuses the small tier as its first)")
@@ -149,7 +156,7 @@ def build_parser():
                    help=f"override the run's {', '.join(TIERS_SET)} (e.g. --set simsup.iterations=2000: the "
                         "distillation's f_LP iterations)")
     c.add_argument("--seed", type=int, default=None, help="overrides the run's seed")
-    _ignored(c, "--preset", "--config", "--garment", "--device")
+    _ignored(c, "--preset", "--config", "--device")
     _common(c)
 
     c = command_parser("simsup-contact", "the contact-aware fine-tune of the simsup model in --out", _simsup_contact)
@@ -315,6 +322,11 @@ def _simsup_tiers(args):
     from pleat.train import simsup
     _only(args, TIERS_SET, "the run's own config gives the rest")
     o = args.overrides
+    if args.from_asset:
+        if not args.garment:
+            args.parser.error("--from-asset needs --garment (the asset's garment)")
+        from pleat.train import core
+        simsup.run_from_asset(args.from_asset, args.garment, core.load_config("default", None, {}), args.out)
     simsup.distill_tiers(args.out, args.data, args.tiers, args.tier_dir or args.out,
                          iterations=o.get("simsup.iterations"), progress=not args.quiet,
                          teacher_frames=o.get("simsup.tier_teacher_frames"), seed=o.get("seed"),

@@ -10,7 +10,8 @@ import traceback
 from multiprocessing.connection import wait
 
 
-def _one_thread():
+def one_thread():
+    """torch on one thread in this process (a child's or a task's CPU is its only one)."""
     try:
         import torch
     except ImportError:
@@ -22,7 +23,7 @@ def _child(job, conn):
     # Plain pickle into bytes, not Connection.send: torch registers reducers on multiprocessing's pickler that pass
     # tensors as file descriptors shared by a server thread of the sender, which is gone once the child exits.
     try:
-        _one_thread()
+        one_thread()
         message = pickle.dumps(("ok", job()), protocol=pickle.HIGHEST_PROTOCOL)
     except BaseException:       # the parent re-raises it with the child's traceback
         message = pickle.dumps(("error", traceback.format_exc()))

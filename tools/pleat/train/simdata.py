@@ -2,8 +2,10 @@
 
 The reference simulator (`pleat.sim`) is the teacher: training clips, and their mirrored and time-scaled variants,
 are cut into segments; each segment is simulated at its own sampled β and material on `workers` processes. Every
-segment goes through pleat-eval's on-disk cache (`pleat.eval.reference.cached_simulate`: same key, same folder), so a
-rerun or a resumed run never simulates a segment twice, and a time budget only decides how many segments there are.
+segment goes through pleat-eval's on-disk cache (`pleat.eval.reference`: same key, same folder), so a rerun or a
+resumed run never simulates a segment twice, and a time budget only decides how many segments there are. The cache
+stays with the caller; the misses are simulated as tasks (pleat.train.tasks: this machine's processes or Ray), which
+send their frames back.
 
 A simulated frame becomes a training target by un-skinning it: LBS is an invertible affine map per vertex
 (x = A·v + a with A = Σ_k w_k R_k), so d = A⁻¹(x − a) − (T + G_S(β)) is exactly the rest-frame displacement the
@@ -12,7 +14,6 @@ simulation (`pleat.train.pointcache`) becomes segments of the same kind.
 """
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -102,33 +103,41 @@ def plan_segments(clips, cfg, beta_count, seed):
     return segments
 
 
-# ---- simulation on worker processes ---------------------------------------------------------------------------
-_WORKER = {}
+# ---- simulation as tasks (pleat.train.tasks) --------------------------------------------------------------------
+_STATE = {}
 
 
-def _worker_init(garment_arrays, body_path, clip_names, fps, cache_dir):
-    # one thread per process: the workers are the parallelism
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-    from pleat.body import BodyModel
-    from pleat.garment import Garment
-    from pleat.motion import load_clip
-    body = BodyModel.load(body_path)
-    _WORKER.update(body=body, garment=Garment.build(**garment_arrays), cache_dir=cache_dir,
-                   clips={n: load_clip(n, body=body).resample(fps) for n in clip_names})
+def _state(context):
+    """The garment, body and clips of a simulation context, built once per process (a pool worker, a Ray task's
+    worker, or the caller for the cache keys)."""
+    token = context["token"]
+    state = _STATE.get(token)
+    if state is None:
+        from pleat.body import BodyModel
+        from pleat.garment import Garment
+        from pleat.motion import load_clip
+        body = BodyModel.load(context["body_path"])
+        state = dict(body=body, garment=Garment.build(**context["garment"]),
+                     clips={n: load_clip(n, body=body).resample(context["fps"]) for n in context["clips"]})
+        while len(_STATE) >= 8:       # a worker of a wardrobe build sees a context per garment: keep the latest
+            _STATE.pop(next(iter(_STATE)))
+        _STATE[token] = state
+    return state
 
 
-def _simulate_segment(segment, deadline):
-    """Simulates one segment through the cache; returns (segment, cache path, seconds, hit) or None past the
-    deadline."""
-    if deadline is not None and time.time() > deadline:
-        return None
-    from pleat.eval.reference import cached_simulate
-    w = _WORKER
-    clip = cut(variant_clip(w["clips"][segment.clip], segment.variant), segment.start, segment.frames)
+def _segment_clip(state, segment):
+    return cut(variant_clip(state["clips"][segment.clip], segment.variant), segment.start, segment.frames)
+
+
+def _simulate_segment(context, segment):
+    """One segment simulated where the task runs: (positions [T, N, 3] f32, the simulator's summary, CPU s). Touches
+    no file, so it runs on any node of a cluster."""
+    from pleat.eval.reference import simulate_uncached
+    state = _state(context)
     t0 = time.process_time()
-    _, info = cached_simulate(w["garment"], w["body"], clip, np.array(segment.beta), np.array(segment.material),
-                              segment.frames, cache_dir=w["cache_dir"], progress=False)
-    return segment, info["path"], time.process_time() - t0, info["cache_hit"]
+    positions, summary = simulate_uncached(state["garment"], state["body"], _segment_clip(state, segment),
+                                           np.array(segment.beta), np.array(segment.material), segment.frames)
+    return positions, summary, time.process_time() - t0
 
 
 def garment_arrays(setup):
@@ -138,26 +147,38 @@ def garment_arrays(setup):
                 collision_exclude=np.asarray(sources.field(setup.garment, "collision_exclude", ()), np.int32))
 
 
-def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=None):
-    """Simulates the segments on `workers` processes until done or past `deadline` (time.time()); returns
-    [(segment, cache path)] of those finished, and the CPU seconds spent (cache hits cost ~0)."""
+def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=None, runner=None):
+    """Simulates the segments through the simulation cache until done or past `deadline` (time.time()): the cache
+    is read and written here, the misses are simulated as tasks of `runner` (pleat.train.tasks; default
+    `workers` processes of this machine). Returns [(segment, cache path)] of those finished and the CPU seconds
+    spent (cache hits cost 0)."""
+    import uuid
+
     from pleat import REPO_ROOT
+    from pleat.eval.reference import cache_entry, write_cached
+    from pleat.train import tasks
+    runner = runner or tasks.Local(workers)
     body_path = str(REPO_ROOT / setup.cfg["body"]) if not os.path.isabs(setup.cfg["body"]) else setup.cfg["body"]
-    names = sorted({s.clip for s in segments})
+    context = dict(token=uuid.uuid4().hex, garment=garment_arrays(setup), body_path=body_path,
+                   clips=sorted({s.clip for s in segments}), fps=float(setup.cfg["fps"]))
+    state = _state(context)
+    paths = [cache_entry(state["garment"], state["body"], _segment_clip(state, s), np.array(s.beta),
+                         np.array(s.material), s.frames, cache_dir=cache_dir)[0] for s in segments]
+    missing = [k for k, p in enumerate(paths) if not p.is_file()]
+    results = dict(zip(missing, runner.map(_simulate_segment, context, [segments[k] for k in missing], deadline)))
     done, cpu_s = [], 0.0
-    args = (garment_arrays(setup), body_path, names, float(setup.cfg["fps"]), str(cache_dir))
-    with ProcessPoolExecutor(max_workers=max(1, int(workers)), initializer=_worker_init, initargs=args) as pool:
-        futures = [pool.submit(_simulate_segment, s, deadline) for s in segments]
-        for k, f in enumerate(futures):
-            r = f.result()
-            if r is None:
+    for k, (seg, path) in enumerate(zip(segments, paths)):
+        sec = 0.0
+        if k in results:
+            if results[k] is None:      # not started before the deadline
                 continue
-            seg, path, sec, hit = r
-            done.append((seg, path))
-            cpu_s += sec
-            if log is not None:
-                log({"segment": k, "clip": seg.clip, "variant": seg.variant, "start": seg.start,
-                     "frames": seg.frames, "cpu_s": round(sec, 2), "cache_hit": bool(hit)})
+            positions, summary, sec = results[k]
+            write_cached(path, positions, summary)
+        done.append((seg, str(path)))
+        cpu_s += sec
+        if log is not None:
+            log({"segment": k, "clip": seg.clip, "variant": seg.variant, "start": seg.start,
+                 "frames": seg.frames, "cpu_s": round(sec, 2), "cache_hit": k not in results})
     return done, cpu_s
 
 

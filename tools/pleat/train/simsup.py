@@ -12,6 +12,7 @@
    validation clips (posed mean vertex error against the simulator, in mm).
 Every step resumes: the simulations are cached, the fitted model is checkpointed (simsup.pt).
 """
+import functools
 import json
 import sys
 import time
@@ -20,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pleat.train import core, distill, forkpool, simdata, sources
+from pleat.train import core, distill, forkpool, simdata, sources, tasks
 from pleat.train.runfolder import (CANDIDATES_FILE, load_model, model_name, run_contact_candidates,  # noqa: F401
                                    write_run)
 from pleat.train.shim import model_shim
@@ -90,13 +91,14 @@ def posed_errors(lp, block, seqs, setup_latent):
     return out
 
 
-def validation_sequences(setup, clips, frames, workers, cache_dir, log):
+def validation_sequences(setup, clips, frames, workers, cache_dir, log, runner=None):
     """pleat-eval's validation setting (β = 0, default material, the first `frames` frames) on every validation
-    clip, simulated through the same cache, as sequences with what posed_errors needs."""
+    clip, simulated through the same cache (misses as tasks of `runner`, default `workers` local processes), as
+    sequences with what posed_errors needs."""
     beta = np.zeros(setup.B)
     mat = tuple(float(v) for v in simdata.ga.MATERIAL_DEFAULT)
     segs = [simdata.Segment(n, "original", 0, min(frames, c.num_frames), tuple(beta), mat) for n, c in clips.items()]
-    done, cpu_s = simdata.simulate_segments(setup, segs, workers, cache_dir, log=log)
+    done, cpu_s = simdata.simulate_segments(setup, segs, workers, cache_dir, log=log, runner=runner)
     seqs = []
     for seg, path in done:
         with np.load(path, allow_pickle=False) as z:
@@ -161,7 +163,9 @@ def _validation_sequence(setup, clip, pos):
 
 
 def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progress=True, cache_dir=None,
-          data=None, export=None, user_sims=None, user_only=False):
+          data=None, export=None, user_sims=None, user_only=False, runner=None):
+    """The recipe above; returns (asset path, summary). `runner` (pleat.train.tasks) runs the simulations and the
+    fits; default this machine: `workers` processes for the simulations, simsup.fit_workers forked fits."""
     from pleat.eval.reference import DEFAULT_CACHE
     from pleat.eval.tiers import tier
     from pleat.cli import InputError
@@ -207,9 +211,10 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     else:
         val, val_cpu = [], 0.0
         if not c["skip_validation"]:    # a second data machine need not simulate the validation clips again
-            val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log)
+            val, val_cpu = validation_sequences(setup, val_clips, c["validation_frames"], workers, cache_dir, log,
+                                                runner)
         deadline = None if budget_s is None else t_start + c["simulate_share"] * budget_s
-        done, sim_cpu = simdata.simulate_segments(setup, segments, workers, cache_dir, deadline, log)
+        done, sim_cpu = simdata.simulate_segments(setup, segments, workers, cache_dir, deadline, log, runner)
         seqs = simdata.load_sequences(setup, done, train_clips)
     if export:
         resid = export_dataset(export, done, seqs, val)
@@ -240,16 +245,13 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     # the first fit, the students and the second round of students share the fitting budget equally
     rounds = 1 + (students > 0) + (second > 0)
     first_deadline = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) / rounds
-    workers = fit_workers(c, dev)
-
-    def member_fit(k):
-        return lambda: distill.distill(
-            seqs, setup, tier(c["member_tier"]) if members > 1 else spec, val, None, cfg["seed"] + k,
-            c["iterations"], c["dec_iterations"], c["lr"], c["batch"], c["window"], progress and workers <= 1,
-            device=dev, weight_by_energy=c["weight_by_energy"],
-            deadline=forkpool.deadline(t_fit, first_deadline, k, members, workers),
-            noise=(c["input_noise"], c["latent_noise"]))
-    fits = forkpool.run([member_fit(k) for k in range(members)], workers)
+    fitter = fit_runner(c, dev, runner)
+    workers = fitter.workers
+    member = tier(c["member_tier"]) if members > 1 else spec
+    fits = fitter.run([functools.partial(
+        fit_model, seqs, setup, member, val, cfg["seed"] + k, forkpool.deadline(t_fit, first_deadline, k, members,
+                                                                                workers),
+        progress and workers <= 1 and fitter.name == "local", dev) for k in range(members)])
     if members > 1:
         from pleat.train import ensemble
         lp, block, norms, shim, report = ensemble.mean_of_fits(fits, setup, spec, c["member_tier"])
@@ -258,10 +260,11 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     if students > 0:      # 2b. the fit teaches students on more motion than was simulated; their mean replaces it
         end = None if fit_deadline is None else t_fit + (fit_deadline - t_fit) * 2 / rounds
         lp, block, norms, shim, report = self_distil(lp, block, setup, seqs, val, train_clips, students, report,
-                                                     end, progress)
+                                                     end, progress, runner=runner)
     if second > 0:        # 2c. (opt-in) their mean teaches a second round of smaller students (docs/training.md)
         lp, block, norms, shim, report = self_distil(lp, block, setup, seqs, val, train_clips, second, report,
-                                                     fit_deadline, progress, student_tier=c["second_student_tier"])
+                                                     fit_deadline, progress, student_tier=c["second_student_tier"],
+                                                     runner=runner)
     fit_s = time.time() - t_fit
     val_err = posed_errors(lp, block, val, setup.L)
     # 4. pack
@@ -366,14 +369,39 @@ def fit_student(teacher, teacher_val, setup, spec, seed, iterations, garment=Non
                            c["lr"], c["batch"], c["window"], False, weight_by_energy=True, deadline=deadline)
 
 
+def fit_model(seqs, setup, spec, val, seed, deadline, progress, device):
+    """One fit of the model at `spec`'s sizes to simulated sequences, with the run's settings (a task: see
+    pleat.train.tasks)."""
+    c = setup.cfg["simsup"]
+    return distill.distill(seqs, setup, spec, val, None, seed, c["iterations"], c["dec_iterations"], c["lr"],
+                           c["batch"], c["window"], progress, device=device, weight_by_energy=c["weight_by_energy"],
+                           deadline=deadline, noise=(c["input_noise"], c["latent_noise"]))
+
+
 def fit_workers(c, device):
     """How many independent fits run side by side (simsup.fit_workers, forked children, pleat.train.forkpool): on the
     CPU only, since a GPU serves one fit at a time better."""
     return c["fit_workers"] if str(device) == "cpu" else 1
 
 
+def fit_runner(c, device, runner=None):
+    """Where the independent fits run: `runner` when given (pleat.train.tasks), else fit_workers forked children."""
+    return runner if runner is not None and str(device) == "cpu" else tasks.Local(fit_workers(c, device))
+
+
+def student_fit(lp, block, setup, seqs, val, train_clips, member, frames, seed, deadline, label=None):
+    """One student (a task): the model's garment on the simulated sequences and `frames` frames of unsimulated
+    motion at `seed` (teacher_data), fitted at `member`'s sizes."""
+    teacher, teacher_val = teacher_data(lp, block, setup, seqs, val, train_clips, frames, seed)
+    fit = fit_student(teacher, teacher_val, setup, member, seed, setup.cfg["simsup"]["iterations"],
+                      deadline=deadline)
+    if label:
+        print(label, file=sys.stderr)
+    return fit
+
+
 def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadline=None, progress=False,
-                student_tier=None):
+                student_tier=None, runner=None):
     """The fitted model teaches `count` fits at simsup.member_tier (simsup.tier when one), each on the simulated
     sequences plus simsup.tier_teacher_frames frames of unsimulated training motion at its own seed; their mean
     (pleat.train.ensemble) replaces the model. Why: the teacher labels any motion for the price of a rollout, and
@@ -391,27 +419,31 @@ def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadlin
         member = tier(c["member_tier"]) if count > 1 else spec
     frames = c["tier_teacher_frames"]
     t0 = time.time()
-    workers = fit_workers(c, "cpu")
-
-    def student(k):
-        def job():
-            teacher, teacher_val = teacher_data(lp, block, setup, seqs, val, train_clips, frames, seed + k)
-            fit = fit_student(teacher, teacher_val, setup, member, seed + k, c["iterations"],
-                              deadline=forkpool.deadline(t0, deadline, k, count, workers))
-            if progress:
-                print(f"simsup: student {k + 1} of {count} ({member.name}) in {time.time() - t0:.0f} s",
-                      file=sys.stderr)
-            return fit
-        return job
-    fits = forkpool.run([student(k) for k in range(count)], workers)
+    fitter = fit_runner(c, "cpu", runner)
+    fits = fitter.run([functools.partial(
+        student_fit, lp, block, setup, seqs, val, train_clips, member, frames, seed + k,
+        forkpool.deadline(t0, deadline, k, count, fitter.workers),
+        f"simsup: student {k + 1} of {count} ({member.name})" if progress else None) for k in range(count)])
     extra = {"students_of": report, "teacher_only_frames": frames}
     if count == 1:
         return fits[0][0], fits[0][1], fits[0][2], fits[0][3], dict(fits[0][5], **extra)
     return ensemble.mean_of_fits(fits, setup, spec, member.name, **extra)
 
 
+def tier_fit(lp, block, setup, seqs, val, train_clips, teacher_frames, name, seed, iterations, garment,
+             teacher=None):
+    """One student of the tier ladder (a task): the model's garment (`teacher`, or teacher_data at `seed`) fitted
+    at tier `name`'s sizes on `garment` (None: the model's mesh)."""
+    from pleat.eval.tiers import tier
+    teacher = teacher or teacher_data(lp, block, setup, seqs, val, train_clips, teacher_frames, seed)
+    t1 = time.time()
+    fit = fit_student(*teacher, setup, tier(name), seed, iterations, garment)
+    fit[5]["fit_wall_s"] = time.time() - t1
+    return fit
+
+
 def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True, teacher_frames=None, seed=None,
-                  keep_runs=False, workers=None):
+                  keep_runs=False, workers=None, runner=None):
     """Each tier of `tiers` (pleat.eval.tiers names) distilled from the simsup model in `run_dir` on the training
     sequences of `data` (exported datasets) and `teacher_frames` more frames of unsimulated training motion
     (teacher_only_sequences; default simsup.tier_teacher_frames, else none): the tier learns the model's own
@@ -420,20 +452,36 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
     OUT_DIR/<tier>_run (float32 weights), which `simsup-ensemble` and `simsup-contact` take. The fit's f_LP noise
     (simsup.input_noise) is not used here: a tier learns the teacher's own smooth garment, and with the noise the
     distilled small tier came out 0.9 mm worse (docs/training.md). `workers`: fits side by side (default: the run's
-    simsup.fit_workers)."""
+    simsup.fit_workers); `runner` (pleat.train.tasks) instead runs the fits and the validation simulations."""
     from pleat.eval.tiers import tier
     lp, block, _, _, setup = load_model(run_dir)
     cfg, c = setup.cfg, setup.cfg["simsup"]
     train_clips = _clips("train", cfg["fps"], setup.body)
     val_clips = _clips("validation", cfg["fps"], setup.body)
-    _, seqs, val, _, _ = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"])
+    teacher_frames = int(c["tier_teacher_frames"] if teacher_frames is None else teacher_frames)
+    if data:
+        _, seqs, val, _, _ = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"])
+    else:       # no simulated training data: the tiers learn the model on unsimulated motion only
+        from pleat.cli import InputError
+        from pleat.eval.reference import DEFAULT_CACHE
+        if teacher_frames <= 0:
+            raise InputError(run_dir, "without --data the tiers need simsup.tier_teacher_frames > 0 (the motion "
+                                      "the model labels for them)")
+        seqs = []
+        val, _ = validation_sequences(setup, val_clips, c["validation_frames"], workers or c["fit_workers"],
+                                      DEFAULT_CACHE, log=None, runner=runner)
     t0 = time.time()
     seed = cfg["seed"] if seed is None else seed
-    teacher_frames = int(c["tier_teacher_frames"] if teacher_frames is None else teacher_frames)
-    teacher, teacher_val = teacher_data(lp, block, setup, seqs, val, train_clips, teacher_frames, seed)
-    if progress:
-        print(f"simsup tiers: teacher rollouts on {len(teacher)} sequences ({len(seqs)} simulated) in "
-              f"{time.time() - t0:.0f} s", file=sys.stderr)
+    fitter = tasks.Local(fit_workers(c, "cpu") if workers is None else max(1, int(workers))) if runner is None \
+        else runner
+    # forked fits share the teacher's garment at the run's seed, computed once here; a task computes its own
+    # (gigabytes are cheaper to recompute than to send)
+    shared = None
+    if fitter.name == "local":
+        shared = teacher_data(lp, block, setup, seqs, val, train_clips, teacher_frames, seed)
+        if progress:
+            print(f"simsup tiers: teacher rollouts on {len(shared[0])} sequences ({len(seqs)} simulated) in "
+                  f"{time.time() - t0:.0f} s", file=sys.stderr)
     reports = []
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -455,18 +503,9 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
     # each tier's mesh once (a coarser one is a remesh), before the forks
     garments = {name: garment_of(tier(name)) for name in dict.fromkeys([*tiers, *(n for n, _ in wanted)])}
 
-    def fit_job(name, s):
-        def job():
-            spec = tier(name)
-            data = (teacher, teacher_val) if s == seed else teacher_data(lp, block, setup, seqs, val, train_clips,
-                                                                        teacher_frames, s)
-            t1 = time.time()
-            fit = fit_student(*data, setup, spec, s, iterations or c["iterations"], garments[name])
-            fit[5]["fit_wall_s"] = time.time() - t1
-            return fit
-        return job
-    workers = fit_workers(c, "cpu") if workers is None else max(1, int(workers))
-    fitted = dict(zip(wanted, forkpool.run([fit_job(*key) for key in wanted], workers)))
+    fitted = dict(zip(wanted, fitter.run([functools.partial(
+        tier_fit, lp, block, setup, seqs, val, train_clips, teacher_frames, name, s, iterations or c["iterations"],
+        garments[name], shared if s == seed else None) for name, s in wanted])))
 
     def student(spec, s):
         return fitted[spec.name, s]

@@ -98,6 +98,16 @@ class Energies:
         self.faces = torch.as_tensor(self.rest.faces, device=device)      # indexes the states on that device
         self.friction_mu, self.friction_eps, self.eps = friction_mu, friction_eps_m, collision_eps_m
 
+    def __getstate__(self):
+        # the modules are imported again where this is unpickled (a Ray task's process, pleat.train.tasks)
+        return {k: v for k, v in self.__dict__.items() if k not in ("ph", "torch")}
+
+    def __setstate__(self, state):
+        import torch
+
+        import pleat.physics as ph
+        self.__dict__.update(state, ph=ph, torch=torch)
+
     def rest_for(self, shaped, like):
         """Rest geometry of the garment shaped for β (T + G_S(β)), as HOOD takes the garment's rest state: the
         β = 0 template would count the shape blend itself as stretching."""
