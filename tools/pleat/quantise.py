@@ -10,6 +10,8 @@ distribution the normalisation stats give them in training).
 
     pleat-quantise collect ASSET.pleat --clips CLIP ... --out calibration.npz   # X_c rows of clips, for
     pleat-pack WEIGHTS --int8 --calibration calibration.npz --out OUT.pleat
+    pleat-quantise finetune ASSET.pleat --out OUT.pleat       # quantisation-aware fine-tune, then int8
+                                                              # (pleat.train.qat; needs PyTorch)
 """
 import sys
 
@@ -118,6 +120,19 @@ def build_parser():
     c.add_argument("--max-frames", type=int, default=None, help="frames per clip at most (default: all)")
     c.add_argument("--out", required=True, help="output file (.npz with x_c [M, I], for pleat-pack --calibration)")
     add_quiet(c)
+    f = sub.add_parser("finetune", help="quantisation-aware fine-tune of a float asset's networks, written as int8 "
+                                        "(pleat.train.qat; needs PyTorch)")
+    f.add_argument("asset", help="a float (fp32/fp16) .pleat: the teacher and the starting point")
+    f.add_argument("--out", required=True, help="output int8 .pleat (its calibration rows beside it)")
+    f.add_argument("--frames", type=int, default=30000, help="frames of training motion (default %(default)s)")
+    f.add_argument("--iterations", type=int, default=3000, help="Adam iterations (default %(default)s)")
+    f.add_argument("--window", type=int, default=8, help="frames each window runs free (default %(default)s)")
+    f.add_argument("--batch", type=int, default=32, help="windows per iteration (default %(default)s)")
+    f.add_argument("--lr", type=float, default=2e-5, help="Adam learning rate (default %(default)s)")
+    f.add_argument("--percentile", type=float, default=100.0,
+                   help="each layer's input range: this percentile of |value| (default 100: the largest)")
+    f.add_argument("--seed", type=int, default=0)
+    add_quiet(f)
     return p
 
 
@@ -129,6 +144,19 @@ def main(a):
     from pleat.fileio import save_npz
     weights = pa.read_asset(Path(a.asset).read_bytes())
     _float_weights(weights)
+    if a.command == "finetune":
+        try:
+            from pleat.train import qat
+        except ImportError:
+            print("pleat-quantise finetune needs PyTorch: pip install 'pleat-tools[train]'", file=sys.stderr)
+            return 2
+        log = None if a.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+        tuned, x_norm, report = qat.finetune(weights, a.frames, a.iterations, a.window, a.batch, a.lr, a.percentile,
+                                             seed=a.seed, log=log)
+        qat.write(weights, tuned, x_norm, report, a.out, a.percentile)
+        if not a.quiet:
+            print(f"wrote {a.out} ({report['time_s']:.0f} s)", file=sys.stderr)
+        return 0
     x_c = collect_inputs(weights, a.clips, a.max_frames)
     save_npz(a.out, **{CALIBRATION_KEY: x_c})
     if not a.quiet:
