@@ -12,6 +12,9 @@ page or in the accuracy tables is typed by hand.
     scripts/docs-numbers.py --surface-from out/ref/*/summary.json
                                                  # bench/results/reference-surface.json from pleat-sim summaries
                                                  # (docs/garments.md's table), then the blocks
+    scripts/docs-numbers.py --wardrobe-from SERIAL/wardrobe.json RAY/wardrobe.json
+                                                 # bench/results/wardrobe.json from pleat-wardrobe reports
+                                                 # (docs/training.md's table), then the blocks
 
 Inputs: bench/results/cpu-reference.json (step times, keys as in out/bench/step.json, plus a "machine" object
 naming the CPU, the kernels chosen and the load), bench/results/accuracy-reference.json (errors against the
@@ -44,6 +47,11 @@ GARMENTS_PAGE = ROOT / "docs" / "garments.md"
 SURFACE_BEGIN = ("<!-- surface:begin (written by scripts/docs-numbers.py from bench/results/reference-surface.json; "
                  "do not edit by hand) -->")
 SURFACE_END = "<!-- surface:end -->"
+WARDROBE_JSON = ROOT / "bench" / "results" / "wardrobe.json"
+TRAINING_PAGE = ROOT / "docs" / "training.md"
+WARDROBE_BEGIN = ("<!-- wardrobe:begin (written by scripts/docs-numbers.py from bench/results/wardrobe.json; "
+                  "do not edit by hand) -->")
+WARDROBE_END = "<!-- wardrobe:end -->"
 
 
 def _num(value, digits=1):
@@ -433,6 +441,45 @@ def render_surface(surface):
     return "\n".join(lines) + "\n"
 
 
+def wardrobe_from_reports(paths, command=None, machine=None):
+    """bench/results/wardrobe.json from pleat-wardrobe reports (OUT/wardrobe.json) of the same garments: a row per
+    run (runner, CPUs, wall time, per garment wall time and verdict)."""
+    runs = []
+    for path in paths:
+        r = json.loads(Path(path).read_text())
+        runs.append(dict(runner=r["runner"], cpus=r["cpus"], preset=r["preset"], overrides=r.get("overrides", {}),
+                         tiers=r["tiers"], wall_s=_rounded(r["wall_s"], 1), hardware=r.get("hardware"),
+                         garments=[dict(garment=g["garment"], wall_s=_rounded(g["wall_s"], 1),
+                                        segments=g["segments"], frames=g["frames"],
+                                        simulation_cpu_h=_rounded(g["simulation_cpu_h"], 4),
+                                        verdict=g["verdict"]) for g in r["garments"]]))
+    names = {tuple(g["garment"] for g in run["garments"]) for run in runs}
+    if len(names) != 1:
+        raise ValueError("the wardrobe reports built different garments: " + "; ".join(map(",".join, names)))
+    return {"about": "pleat-wardrobe's wall time, serial against Ray, on one machine (docs/training.md, \"Many "
+                     "garments, many machines\"); scripts/docs-numbers.py --wardrobe-from writes this file from the "
+                     "commands' wardrobe.json",
+            "command": command, "machine": machine, "runs": runs}
+
+
+def render_wardrobe(wardrobe):
+    runs = wardrobe["runs"]
+    garments = [g["garment"] for g in runs[0]["garments"]]
+    serial = next((r for r in runs if r["runner"] == "serial"), None)
+    lines = ["| runner | CPUs | " + " | ".join(garments) + " | all garments (s) | × serial |",
+             "|---|---|" + "---|" * len(garments) + "---|---|"]
+    for r in runs:
+        ratio = f"{serial['wall_s'] / r['wall_s']:.2f}× faster" if serial and r is not serial else "1"
+        lines.append(f"| {r['runner']} | {r['cpus']} | " + " | ".join(_cell(g["wall_s"], 0) for g in r["garments"])
+                     + f" | **{_cell(r['wall_s'], 0)}** | {ratio} |")
+    sets = " ".join(f"--set {k}={json.dumps(v)}" for k, v in runs[0]["overrides"].items())
+    lines.append("")
+    lines.append(f"Per garment: its own wall time (side by side on Ray, so they overlap); {len(garments)} garments, "
+                 f"preset `{runs[0]['preset']}` {sets}, tiers {' '.join(runs[0]['tiers']) or 'none'}; "
+                 f"{wardrobe.get('machine')}. Commands: `{wardrobe.get('command')}`.")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--bench", default=str(BENCH_JSON), help="benchmark JSON (default: %(default)s)")
@@ -449,10 +496,16 @@ def main(argv=None):
                            "replace the file's; the other rows stay), then the pages")
     mode.add_argument("--surface-from", nargs="+", metavar="SUMMARY.json",
                       help="write --surface from these pleat-sim summaries (one per garment), then the pages")
+    mode.add_argument("--wardrobe-from", nargs="+", metavar="WARDROBE.json",
+                      help="write --wardrobe from these pleat-wardrobe reports (serial and Ray), then the pages")
+    p.add_argument("--wardrobe-command", default=None, help="with --wardrobe-from: the commands that made them")
     p.add_argument("--surface", default=str(SURFACE_JSON), help="reference surface JSON (default: %(default)s)")
+    p.add_argument("--wardrobe", default=str(WARDROBE_JSON), help="wardrobe timing JSON (default: %(default)s)")
+    p.add_argument("--training-page", default=str(TRAINING_PAGE))
     p.add_argument("--garments-page", default=str(GARMENTS_PAGE))
     p.add_argument("--machine", default=None,
-                   help="with --garments-from: the machine the suites' step times were measured on "
+                   help="with --garments-from (--wardrobe-from): the machine the suites' step times (the builds) were "
+                        "measured on "
                         "(default: this one's CPU model and count)")
     a = p.parse_args(argv)
     try:
@@ -463,10 +516,15 @@ def main(argv=None):
             Path(a.garments).write_text(json.dumps(garments, indent=1, ensure_ascii=False) + "\n")
         if a.surface_from:
             Path(a.surface).write_text(json.dumps(surface_from_summaries(a.surface_from), indent=1) + "\n")
+        if a.wardrobe_from:
+            Path(a.wardrobe).write_text(json.dumps(wardrobe_from_reports(
+                a.wardrobe_from, a.wardrobe_command, a.machine or this_machine()), indent=1) + "\n")
         bench, accuracy = load(a.bench, a.accuracy)
         block = render(bench, accuracy)
         garments_block = render_garments(load_garments(a.garments))
         surface_block = render_surface(json.loads(Path(a.surface).read_text())) if Path(a.surface).is_file() \
+            else None
+        wardrobe_block = render_wardrobe(json.loads(Path(a.wardrobe).read_text())) if Path(a.wardrobe).is_file() \
             else None
     except (OSError, ValueError, KeyError) as e:
         print(f"docs-numbers: error: {e}", file=sys.stderr)
@@ -477,6 +535,8 @@ def main(argv=None):
     pages = [(Path(a.readme), block, BEGIN, END), (Path(a.accuracy_page), garments_block, GARMENTS_BEGIN, GARMENTS_END)]
     if surface_block is not None:
         pages.append((Path(a.garments_page), surface_block, SURFACE_BEGIN, SURFACE_END))
+    if wardrobe_block is not None:
+        pages.append((Path(a.training_page), wardrobe_block, WARDROBE_BEGIN, WARDROBE_END))
     updates = []
     for path, text_block, begin, end in pages:
         text = path.read_text()

@@ -255,6 +255,9 @@ def build_parser():
                          "LBS-only, the reference simulator and error bars over clips and bodies; "
                          "pleat.eval.pareto_garments); --assets, --motion and the tier options are then unused")
     ap.add_argument("--machine", default=None, help="with --suite: the machine the times were taken on, for the page")
+    ap.add_argument("--keep", default=None, metavar="ROWS.json",
+                    help="with --suite: the garments none of the reports scored come from this earlier --json "
+                         "(their errors as recorded; their step times measured again where the asset is present)")
     ap.add_argument("--page", default="pareto", help="file name (no extension) of the page and chart in --out "
                                                      "(default pareto: pareto.md, pareto.png)")
     return add_quiet(ap)
