@@ -298,6 +298,11 @@ def garment_row(asset, summary, runs, command, machine, meta=None):
     row["step_machine"] = machine
     row["training_cpu_hours"] = _rounded(training.get("cpu_hours"), 2)
     row["simulation_cpu_hours"] = _rounded(training.get("simulation_cpu_h"), 2)
+    distillation = meta.get("distillation") if isinstance(meta.get("distillation"), dict) else {}
+    if row["training_cpu_hours"] is None and distillation.get("fit_wall_s"):
+        # a distilled tier: its fit ran on one thread; the model it learnt from cost the large row's hours
+        row["training_cpu_hours"] = _rounded(float(distillation["fit_wall_s"]) / 3600.0, 2)
+        row["distilled"] = True
     row["regions"] = {name: {k: _rounded(g.get(k), 5 if "strain" in k else 4) for k in REGION_KEYS}
                       for name, g in (summary.get("regions") or {}).items() if name != "all"}
     row["command"] = command
@@ -368,6 +373,8 @@ def render_garments(garments):
         cpu = _cell(r.get("training_cpu_hours"), 2)
         if r.get("simulation_cpu_hours") is not None:
             cpu += f" ({_num(float(r['simulation_cpu_hours']), 2)} of them simulating)"
+        elif r.get("distilled"):
+            cpu += " (its distillation, from the large asset)"
         worse = r.get("clips_worse_than_lbs")
         worst = _cell(r.get("worst_ratio_to_lbs"), 2)
         if worse:

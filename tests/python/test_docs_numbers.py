@@ -217,3 +217,37 @@ def test_surface_from_pleat_sim_summaries_writes_the_json_and_the_table(docs_num
     assert docs_numbers.main(["--surface-from", str(tmp_path / "summary.json"), "--surface", str(out),
                               "--garments-page", str(page), "--readme", str(pages[0]),
                               "--accuracy-page", str(pages[1])]) == 2
+
+
+def _wardrobe_report(runner, cpus, wall, walls):
+    return {"runner": runner, "cpus": cpus, "address": None, "preset": "tiny", "overrides": {}, "tiers": ["xsmall"],
+            "wall_s": wall, "hardware": {}, "garments": [
+                {"garment": g, "wall_s": w, "segments": 3, "frames": 36, "simulation_cpu_h": 0.001,
+                 "verdict": "verdict: BETTER"} for g, w in walls.items()]}
+
+
+def test_wardrobe_from_reports_writes_the_json_and_the_table(docs_numbers, tmp_path):
+    """--wardrobe-from: serial and Ray pleat-wardrobe reports become bench/results/wardrobe.json and training.md's
+    table, Ray's wall time as a ratio to serial's; reports of different garments are refused."""
+    paths = []
+    for name, report in (("serial", _wardrobe_report("serial", 1, 200.0, {"tshirt": 90.0, "dress": 110.0})),
+                         ("ray", _wardrobe_report("ray", 2, 125.0, {"tshirt": 100.0, "dress": 120.0}))):
+        paths.append(tmp_path / f"{name}.json")
+        paths[-1].write_text(json.dumps(report))
+    page = tmp_path / "training.md"
+    page.write_text(f"before\n{docs_numbers.WARDROBE_BEGIN}\nold\n{docs_numbers.WARDROBE_END}\nafter\n")
+    pages = []
+    for name in ("README.md", "docs/accuracy.md"):
+        pages.append(tmp_path / Path(name).name)
+        pages[-1].write_text((ROOT / name).read_text())
+    out = tmp_path / "wardrobe.json"
+    common = ["--wardrobe", str(out), "--training-page", str(page), "--readme", str(pages[0]),
+              "--accuracy-page", str(pages[1]), "--machine", "a test CPU"]
+    assert docs_numbers.main(["--wardrobe-from", *map(str, paths), *common]) == 0
+    assert [r["runner"] for r in json.loads(out.read_text())["runs"]] == ["serial", "ray"]
+    text = page.read_text()
+    assert "| serial | 1 | 90 | 110 | **200** | 1 |" in text and "| ray | 2 | 100 | 120 | **125** | 1.60× faster |" \
+        in text and "a test CPU" in text and "old" not in text
+    other = _wardrobe_report("ray", 2, 125.0, {"pants": 100.0})
+    paths[1].write_text(json.dumps(other))
+    assert docs_numbers.main(["--wardrobe-from", *map(str, paths), *common]) == 2

@@ -131,6 +131,9 @@ def build_parser():
     f.add_argument("--lr", type=float, default=2e-5, help="Adam learning rate (default %(default)s)")
     f.add_argument("--percentile", type=float, default=100.0,
                    help="each layer's input range: this percentile of |value| (default 100: the largest)")
+    f.add_argument("--calibration", choices=("motion", "random"), default="motion",
+                   help="each layer's input range from the float model's own X_c rows on the motion, or from random "
+                        "normalised rows as pleat-pack's default (default %(default)s)")
     f.add_argument("--seed", type=int, default=0)
     add_quiet(f)
     return p
@@ -152,7 +155,7 @@ def main(a):
             return 2
         log = None if a.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
         tuned, x_norm, report = qat.finetune(weights, a.frames, a.iterations, a.window, a.batch, a.lr, a.percentile,
-                                             seed=a.seed, log=log)
+                                             seed=a.seed, log=log, calibration=a.calibration)
         qat.write(weights, tuned, x_norm, report, a.out, a.percentile)
         if not a.quiet:
             print(f"wrote {a.out} ({report['time_s']:.0f} s)", file=sys.stderr)

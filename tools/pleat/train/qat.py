@@ -168,9 +168,10 @@ def _window_loss(model, seqs, teacher, chosen, window, gram):
 
 
 def finetune(weights, frames=30000, iterations=3000, window=8, batch=32, lr=2e-5, percentile=100.0,
-             recalibrate=500, seed=0, log=None):
+             recalibrate=500, seed=0, log=None, calibration="motion"):
     """The fine-tuned float networks (a copy of `weights` with new lp.* / dec.*), the normalised calibration rows
-    [M, I] their int8 scales come from, and a report."""
+    [M, I] their int8 scales come from, and a report. calibration: "motion", the float model's own X_c rows on the
+    motion; "random", pleat-pack's default (pleat.quantise.normalised_inputs: rows ~ N(0, 1))."""
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed)
     t0 = time.time()
@@ -181,13 +182,15 @@ def finetune(weights, frames=30000, iterations=3000, window=8, batch=32, lr=2e-5
     rows = torch.cat([torch.cat([torch.cat([torch.zeros(1, model.L), z[:-1]]), s[:, model.L:]], 1)
                       for s, (z, _) in zip(seqs, teacher)])
     x_norm = ((rows - model.x_mean) / model.x_std).double().numpy()
+    if calibration == "random":
+        x_norm = pq.normalised_inputs(weights)
     model.calibrate(x_norm, percentile)
     blend = torch.as_tensor(np.asarray(weights["blend_shapes"], np.float32)).reshape(len(model.dec.b[-1]), -1)
     gram = blend @ blend.T / blend.shape[1]                    # Σ_d Δc_d B_d, squared, per coordinate: Δc G Δcᵀ
     starts = [(k, t) for k, s in enumerate(seqs) for t in range(0, len(s) - window + 1)]
     opt = torch.optim.Adam(list(model.lp.parameters()) + list(model.dec.parameters()), lr=lr)
     report = {"frames": int(len(rows)), "sequences": len(seqs), "iterations": iterations, "window": window,
-              "batch": batch, "lr": lr, "percentile": percentile, "losses": []}
+              "batch": batch, "lr": lr, "percentile": percentile, "calibration": calibration, "losses": []}
     # a fixed set of windows to say where the fine-tune started and ended
     held = [starts[int(i)] for i in torch.randint(len(starts), (256,), generator=torch.Generator().manual_seed(99))]
     with torch.no_grad():
@@ -223,7 +226,8 @@ def write(weights, tuned, x_norm, report, path, percentile=100.0):
     asset stores them, META recording the fine-tune; the raw calibration rows to PATH.calibration.npz."""
     from pleat.fileio import save_npz
     quantised, record = pq.quantise(tuned, x_norm, percentile)
-    record["calibration"] = "X_c of the float model's own rollouts on unsimulated training motion (pleat.train.qat)"
+    record["calibration"] = ("X_c of the float model's own rollouts on unsimulated training motion (pleat.train.qat)"
+                             if report.get("calibration") == "motion" else "random normalised inputs ~ N(0, 1)")
     meta = json.loads(str(tuned.get("metadata_json") or "{}"))
     meta["int8"] = record
     meta["int8_finetune"] = {k: v for k, v in report.items() if k != "losses"}
