@@ -12,12 +12,11 @@ distribution the normalisation stats give them in training).
     pleat-pack WEIGHTS --int8 --calibration calibration.npz --out OUT.pleat
     pleat-quantise finetune ASSET.pleat --out OUT.pleat       # quantisation-aware fine-tune, then int8
                                                               # (pleat.train.qat; needs PyTorch)
-"""
-import sys
 
+The command line is pleat.quantise_cli.
+"""
 import numpy as np
 
-from pleat.cli import add_quiet, command, doc_parser
 from pleat.reference.latent_guard import latent_guard
 from pleat.reference.mlp import activation, layers
 
@@ -25,7 +24,8 @@ CALIBRATION_KEY = "x_c"       # the npz key of the calibration rows: raw X_c [M,
 RANDOM_ROWS = 4096
 
 
-def _float_weights(weights):
+def require_float(weights):
+    """Refuses weights whose networks are int8 already (ValueError)."""
     if np.asarray(weights["lp.0.weight"]).dtype == np.int8:
         raise ValueError("the networks are int8 already: quantise the float asset they came from")
 
@@ -43,7 +43,7 @@ def normalised_inputs(weights, x_c=None, count=RANDOM_ROWS, seed=0):
     return np.random.default_rng(seed).standard_normal((count, len(mean)))
 
 
-def _input_ranges(x, ws, bs, act, percentile):
+def input_ranges(x, ws, bs, act, percentile):
     """The range of each layer's input (largest |value|, or its percentile) as the float network runs x."""
     ranges = []
     h = x
@@ -62,26 +62,31 @@ def _quantise_layer(w, input_range):
     peak = np.max(np.abs(w), axis=1)
     scale = np.where(peak > 0, peak / np.float32(127.0), np.float32(1.0)).astype(np.float32)   # a zero row: any
     q = np.clip(np.rint(w / scale[:, None]), -127, 127).astype(np.int8)
-    tiny = np.float32(np.finfo(np.float32).tiny) * 128          # a constant-zero input: any scale whose 1/s is finite
-    input_scale = np.float32(max(np.float32(input_range) / np.float32(127.0), tiny))
-    return q, scale, np.array([input_scale], np.float32)
+    return q, scale, np.array([input_scale(input_range)], np.float32)
+
+
+def input_scale(input_range):
+    """A layer's input scale for an input range: range / 127 (a constant-zero input: any scale whose 1/s is
+    finite)."""
+    tiny = np.float32(np.finfo(np.float32).tiny) * 128
+    return np.float32(max(np.float32(input_range) / np.float32(127.0), tiny))
 
 
 def quantise(weights, x=None, percentile=100.0):
     """The weights dict with int8 networks: every lp.i / dec.i weight int8 with its weight_scale and input_scale
     (pleat.asset writes them as LPWi i8, LPSi, LPAi). x: normalised calibration inputs [M, I] (normalised_inputs;
     None = random). Everything else is copied unchanged. Also returns the calibration record for META."""
-    _float_weights(weights)
+    require_float(weights)
     if x is None:
         x = normalised_inputs(weights)
     out = dict(weights)
     record = {"rows": int(len(x)), "percentile": float(percentile), "input_ranges": {}}
     lp_w, lp_b = layers(weights, "lp")
     dec_w, dec_b = layers(weights, "dec")
-    lp_ranges, y = _input_ranges(np.asarray(x, np.float64), lp_w, lp_b, str(weights.get("lp_activation", "relu")),
+    lp_ranges, y = input_ranges(np.asarray(x, np.float64), lp_w, lp_b, str(weights.get("lp_activation", "relu")),
                                  percentile)
     z = latent_guard(y, weights["z_mean"], weights["z_std"], weights["z_min"], weights["z_max"])
-    dec_ranges, _ = _input_ranges(z, dec_w, dec_b, str(weights.get("dec_activation", "relu")), percentile)
+    dec_ranges, _ = input_ranges(z, dec_w, dec_b, str(weights.get("dec_activation", "relu")), percentile)
     for prefix, ws, ranges in (("lp", lp_w, lp_ranges), ("dec", dec_w, dec_ranges)):
         for i, (w, r) in enumerate(zip(ws, ranges)):
             q, s, a = _quantise_layer(w, r)
@@ -109,63 +114,3 @@ def collect_inputs(weights, clips, max_frames=None, body=None):
             if inst.x_c is not None:
                 rows.append(np.asarray(inst.x_c, np.float32))
     return np.stack(rows)
-
-
-def build_parser():
-    p = doc_parser("pleat-quantise", __doc__)
-    sub = p.add_subparsers(dest="command", required=True)
-    c = sub.add_parser("collect", help="X_c rows of clips run through an asset's float networks (calibration npz)")
-    c.add_argument("asset", help="a float (fp32/fp16) .pleat")
-    c.add_argument("--clips", nargs="+", required=True, help="clip names or files (pleat.motion)")
-    c.add_argument("--max-frames", type=int, default=None, help="frames per clip at most (default: all)")
-    c.add_argument("--out", required=True, help="output file (.npz with x_c [M, I], for pleat-pack --calibration)")
-    add_quiet(c)
-    f = sub.add_parser("finetune", help="quantisation-aware fine-tune of a float asset's networks, written as int8 "
-                                        "(pleat.train.qat; needs PyTorch)")
-    f.add_argument("asset", help="a float (fp32/fp16) .pleat: the teacher and the starting point")
-    f.add_argument("--out", required=True, help="output int8 .pleat (its calibration rows beside it)")
-    f.add_argument("--frames", type=int, default=30000, help="frames of training motion (default %(default)s)")
-    f.add_argument("--iterations", type=int, default=3000, help="Adam iterations (default %(default)s)")
-    f.add_argument("--window", type=int, default=8, help="frames each window runs free (default %(default)s)")
-    f.add_argument("--batch", type=int, default=32, help="windows per iteration (default %(default)s)")
-    f.add_argument("--lr", type=float, default=2e-5, help="Adam learning rate (default %(default)s)")
-    f.add_argument("--percentile", type=float, default=100.0,
-                   help="each layer's input range: this percentile of |value| (default 100: the largest)")
-    f.add_argument("--calibration", choices=("motion", "random"), default="motion",
-                   help="each layer's input range from the float model's own X_c rows on the motion, or from random "
-                        "normalised rows as pleat-pack's default (default %(default)s)")
-    f.add_argument("--seed", type=int, default=0)
-    add_quiet(f)
-    return p
-
-
-@command("pleat-quantise", build_parser)
-def main(a):
-    from pathlib import Path
-
-    from pleat import asset as pa
-    from pleat.fileio import save_npz
-    weights = pa.read_asset(Path(a.asset).read_bytes())
-    _float_weights(weights)
-    if a.command == "finetune":
-        try:
-            from pleat.train import qat
-        except ImportError:
-            print("pleat-quantise finetune needs PyTorch: pip install 'pleat-tools[train]'", file=sys.stderr)
-            return 2
-        log = None if a.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
-        tuned, x_norm, report = qat.finetune(weights, a.frames, a.iterations, a.window, a.batch, a.lr, a.percentile,
-                                             seed=a.seed, log=log, calibration=a.calibration)
-        qat.write(weights, tuned, x_norm, report, a.out, a.percentile)
-        if not a.quiet:
-            print(f"wrote {a.out} ({report['time_s']:.0f} s)", file=sys.stderr)
-        return 0
-    x_c = collect_inputs(weights, a.clips, a.max_frames)
-    save_npz(a.out, **{CALIBRATION_KEY: x_c})
-    if not a.quiet:
-        print(f"wrote {a.out}: {len(x_c)} rows", file=sys.stderr)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -118,12 +118,12 @@ class Model(torch.nn.Module):
         """Every layer's input scale from normalised f_LP inputs [M, I] (pleat.quantise's ranges, same rule)."""
         ws = {p: [w.numpy().astype(np.float64) for w in net.w] for p, net in (("lp", self.lp), ("dec", self.dec))}
         bs = {p: [b.numpy().astype(np.float64) for b in net.b] for p, net in (("lp", self.lp), ("dec", self.dec))}
-        lp_ranges, y = pq._input_ranges(x_norm, ws["lp"], bs["lp"], self.lp.act, percentile)
+        lp_ranges, y = pq.input_ranges(x_norm, ws["lp"], bs["lp"], self.lp.act, percentile)
         z = np.minimum(np.maximum(y * self.z_std.numpy() + self.z_mean.numpy(), self.z_min.numpy()),
                        self.z_max.numpy())
-        dec_ranges, _ = pq._input_ranges(z, ws["dec"], bs["dec"], self.dec.act, percentile)
+        dec_ranges, _ = pq.input_ranges(z, ws["dec"], bs["dec"], self.dec.act, percentile)
         for net, ranges in ((self.lp, lp_ranges), (self.dec, dec_ranges)):
-            net.input_scales.copy_(torch.as_tensor([pq._quantise_layer(np.zeros((1, 1)), r)[2][0] for r in ranges]))
+            net.input_scales.copy_(torch.as_tensor([float(pq.input_scale(r)) for r in ranges]))
 
 
 # ---- data ----------------------------------------------------------------------------------------------------------
