@@ -23,7 +23,7 @@
 # fails, and the script fails if any did. A table of stage times ends the log.
 # Measured on the 2-core development machine under load (docs/ci.md has the table): CPU minutes release 0:30,
 # asan 1:00, tsan 0:24, scalar 0:38, fuzz 0:33 (+ 2:00 of fixed fuzzing), soak < 0:01, slow 0:06, blender 0:22
-# (+ the wheel's download), default 4:02 — about 10 minutes of work beyond the installs, well inside CI's 90 minutes.
+# (+ the wheel's download), ray 1:44, default 4:02 — about 10 minutes of work beyond the installs, well inside CI's 90 minutes.
 set -euo pipefail
 SELF="$(cd "$(dirname "$0")" && pwd)/$(basename "$0")"
 cd "$(dirname "$0")/.."
