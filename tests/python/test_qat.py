@@ -78,3 +78,25 @@ def test_finetune_writes_an_int8_asset_with_its_calibration(tmp_path):
     for i in range(3):
         assert np.isclose(float(np.asarray(loaded[f"lp.{i}.input_scale"]).ravel()[0]),
                           float(np.asarray(again[f"lp.{i}.input_scale"]).ravel()[0]), rtol=1e-5)
+
+
+@pytest.mark.slow
+def test_learnt_input_scales_are_the_ones_written(tmp_path):
+    """--learn-scales: each layer's input scale is a parameter of the fine-tune (LSQ); the asset stores the learnt
+    scales, not the calibration's."""
+    from pleat import REPO_ROOT
+    weights = pa.read_asset((REPO_ROOT / "assets" / "tshirt.pleat").read_bytes())
+    tuned, x_norm, report = qat.finetune(weights, frames=400, iterations=15, batch=16, lr=1e-5,
+                                         calibration="random", learn_scales=True)
+    out = tmp_path / "t_lsq.pleat"
+    qat.write(weights, tuned, x_norm, report, out)
+    loaded = pa.read_asset(out.read_bytes())
+    calibrated, _ = pq.quantise(tuned, x_norm, 100.0)
+    moved = 0
+    for prefix, scales in report["input_scales"].items():
+        for i, v in enumerate(scales):
+            stored = float(np.asarray(loaded[f"{prefix}.{i}.input_scale"]).ravel()[0])
+            assert stored == pytest.approx(v, rel=1e-6)
+            moved += stored != pytest.approx(float(np.asarray(calibrated[f"{prefix}.{i}.input_scale"]).ravel()[0]),
+                                             rel=1e-4)
+    assert moved > 0

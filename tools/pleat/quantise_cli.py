@@ -34,6 +34,11 @@ def build_parser():
     f.add_argument("--calibration", choices=("motion", "random"), default="motion",
                    help="each layer's input range from the float model's own X_c rows on the motion, or from random "
                         "normalised rows as pleat-pack's default (default %(default)s)")
+    f.add_argument("--learn-scales", action="store_true",
+                   help="learn each layer's input scale with the weights (LSQ), starting from the calibration's")
+    f.add_argument("--objective", choices=("mse", "distance"), default="mse",
+                   help="the windows' loss: squared displacement error (mse) or mean per-vertex distance (distance, "
+                        "what bench/int8_accuracy.py reports)")
     f.add_argument("--seed", type=int, default=0, help="seed of the motion plan and the batches (default 0)")
     add_quiet(f)
     return p
@@ -55,7 +60,8 @@ def main(a):
             return 2
         log = None if a.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
         tuned, x_norm, report = qat.finetune(weights, a.frames, a.iterations, a.window, a.batch, a.lr, a.percentile,
-                                             seed=a.seed, log=log, calibration=a.calibration)
+                                             seed=a.seed, log=log, calibration=a.calibration,
+                                             learn_scales=a.learn_scales, objective=a.objective)
         qat.write(weights, tuned, x_norm, report, a.out, a.percentile)
         if not a.quiet:
             print(f"wrote {a.out} ({report['time_s']:.0f} s)", file=sys.stderr)

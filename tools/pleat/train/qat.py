@@ -61,6 +61,7 @@ class Network(torch.nn.Module):
         self.b = torch.nn.ParameterList([torch.nn.Parameter(torch.as_tensor(np.asarray(b, np.float32))) for b in bs])
         self.act = act
         self.register_buffer("input_scales", torch.ones(len(ws)))
+        self.log_scales = None          # learnt input scales (finetune's learn_scales): log s per layer
 
     def activation(self, h):
         return torch.relu(h) if self.act == "relu" else torch.nn.functional.silu(h)
@@ -72,7 +73,8 @@ class Network(torch.nn.Module):
     def forward(self, h, int8=None):
         """Float, or with the int8 arithmetic given `int8` = quantised()."""
         for i, (w, b) in enumerate(zip(self.w, self.b)):
-            h = fake_quant_layer(h, int8[i], b, self.input_scales[i]) if int8 is not None else h @ w.T + b
+            s = self.input_scales[i] if self.log_scales is None else self.log_scales[i].exp()
+            h = fake_quant_layer(h, int8[i], b, s) if int8 is not None else h @ w.T + b
             if i + 1 < len(self.w):
                 h = self.activation(h)
         return h
@@ -152,9 +154,10 @@ def motion_rows(weights, frames, seed=0):
     return out
 
 
-def _window_loss(model, seqs, teacher, chosen, window, gram):
+def _window_loss(model, seqs, teacher, chosen, window, gram, blend=None):
     """Mean over windows of the squared displacement error per coordinate (m²) of the int8 model run free for
-    `window` frames from the float model's latent, against the float model."""
+    `window` frames from the float model's latent, against the float model; given `blend` [D, 3N], the mean
+    per-vertex distance (m) instead, the measure bench/int8_accuracy.py reports."""
     z = torch.stack([teacher[k][0][t - 1] if t > 0 else torch.zeros(model.L) for k, t in chosen])
     int8 = (model.lp.quantised(), model.dec.quantised())
     loss = 0.0
@@ -163,12 +166,16 @@ def _window_loss(model, seqs, teacher, chosen, window, gram):
         target = torch.stack([teacher[k][1][t + j] for k, t in chosen])
         z, c = model.step(z, static, int8)
         d = c - target
-        loss = loss + ((d @ gram) * d).sum(1).mean()
+        if blend is None:
+            loss = loss + ((d @ gram) * d).sum(1).mean()
+        else:
+            loss = loss + ((d @ blend).reshape(len(d), -1, 3).pow(2).sum(-1) + 1e-12).sqrt().mean()
     return loss / window
 
 
 def finetune(weights, frames=30000, iterations=3000, window=8, batch=32, lr=2e-5, percentile=100.0,
-             recalibrate=500, seed=0, log=None, calibration="motion"):
+             recalibrate=500, seed=0, log=None, calibration="motion", learn_scales=False, scale_lr=1e-3,
+             objective="mse"):
     """The fine-tuned float networks (a copy of `weights` with new lp.* / dec.*), the normalised calibration rows
     [M, I] their int8 scales come from, and a report. calibration: "motion", the float model's own X_c rows on the
     motion; "random", pleat-pack's default (pleat.quantise.normalised_inputs: rows ~ N(0, 1))."""
@@ -188,9 +195,17 @@ def finetune(weights, frames=30000, iterations=3000, window=8, batch=32, lr=2e-5
     blend = torch.as_tensor(np.asarray(weights["blend_shapes"], np.float32)).reshape(len(model.dec.b[-1]), -1)
     gram = blend @ blend.T / blend.shape[1]                    # Σ_d Δc_d B_d, squared, per coordinate: Δc G Δcᵀ
     starts = [(k, t) for k, s in enumerate(seqs) for t in range(0, len(s) - window + 1)]
-    opt = torch.optim.Adam(list(model.lp.parameters()) + list(model.dec.parameters()), lr=lr)
+    weights_params = [p for net in (model.lp, model.dec) for p in list(net.w) + list(net.b)]
+    groups = [{"params": weights_params, "lr": lr}]
+    if learn_scales:     # LSQ (Esser et al. 2020): each layer's input scale learnt with the weights, from calibration's
+        for net in (model.lp, model.dec):
+            net.log_scales = torch.nn.Parameter(net.input_scales.log().clone())
+        groups.append({"params": [model.lp.log_scales, model.dec.log_scales], "lr": scale_lr})
+        recalibrate = 0
+    opt = torch.optim.Adam(groups)
     report = {"frames": int(len(rows)), "sequences": len(seqs), "iterations": iterations, "window": window,
-              "batch": batch, "lr": lr, "percentile": percentile, "calibration": calibration, "losses": []}
+              "batch": batch, "lr": lr, "percentile": percentile, "calibration": calibration,
+              "learn_scales": bool(learn_scales), "objective": objective, "losses": []}
     # a fixed set of windows to say where the fine-tune started and ended
     held = [starts[int(i)] for i in torch.randint(len(starts), (256,), generator=torch.Generator().manual_seed(99))]
     with torch.no_grad():
@@ -199,17 +214,25 @@ def finetune(weights, frames=30000, iterations=3000, window=8, batch=32, lr=2e-5
         if it and recalibrate and it % recalibrate == 0:
             model.calibrate(x_norm, percentile)
         pick = torch.randint(len(starts), (batch,), generator=gen)
-        loss = _window_loss(model, seqs, teacher, [starts[int(i)] for i in pick], window, gram)
+        loss = _window_loss(model, seqs, teacher, [starts[int(i)] for i in pick], window, gram,
+                            blend if objective == "distance" else None)
         opt.zero_grad()
         loss.backward()
         opt.step()
         if it % 100 == 0 or it + 1 == iterations:
-            rms_mm = 1e3 * float(loss.detach()) ** 0.5
+            rms_mm = 1e3 * (float(loss.detach()) if objective == "distance" else float(loss.detach()) ** 0.5)
             report["losses"].append([it, rms_mm])
             if log:
-                log(f"qat: iteration {it}: displacement RMS against the float model {rms_mm:.3f} mm "
+                log(f"qat: iteration {it}: {'mean distance' if objective == 'distance' else 'displacement RMS'} "
+                    f"against the float model {rms_mm:.3f} mm "
                     f"({time.time() - t0:.0f} s)")
-    model.calibrate(x_norm, percentile)          # the scales the packer will give these weights
+    if learn_scales:
+        for net in (model.lp, model.dec):
+            net.input_scales.copy_(net.log_scales.detach().exp())
+            net.log_scales = None
+        report["input_scales"] = {"lp": model.lp.input_scales.tolist(), "dec": model.dec.input_scales.tolist()}
+    else:
+        model.calibrate(x_norm, percentile)      # the scales the packer will give these weights
     with torch.no_grad():
         report["rms_after_mm"] = 1e3 * float(_window_loss(model, seqs, teacher, held, window, gram)) ** 0.5
     if log:
@@ -226,6 +249,9 @@ def write(weights, tuned, x_norm, report, path, percentile=100.0):
     asset stores them, META recording the fine-tune; the raw calibration rows to PATH.calibration.npz."""
     from pleat.fileio import save_npz
     quantised, record = pq.quantise(tuned, x_norm, percentile)
+    for prefix, scales in (report.get("input_scales") or {}).items():    # learnt scales replace calibrated ones
+        for i, v in enumerate(scales):
+            quantised[f"{prefix}.{i}.input_scale"] = np.array([v], np.float32)
     record["calibration"] = ("X_c of the float model's own rollouts on unsimulated training motion (pleat.train.qat)"
                              if report.get("calibration") == "motion" else "random normalised inputs ~ N(0, 1)")
     meta = json.loads(str(tuned.get("metadata_json") or "{}"))
