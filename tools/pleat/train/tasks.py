@@ -79,9 +79,6 @@ class Local:
         """[job() for job in jobs], `workers` at a time in forked children."""
         return forkpool.run(jobs, self.workers)
 
-    def with_workers(self, workers):
-        return Local(workers)
-
 
 class Serial:
     """One job after another in this process, torch on one thread: what a parallel run reproduces bit for bit."""
@@ -95,9 +92,6 @@ class Serial:
     def run(self, jobs):
         with one_cpu():
             return [job() for job in jobs]
-
-    def with_workers(self, workers):
-        return self
 
 
 # ---- Ray -------------------------------------------------------------------------------------------------------------
@@ -176,14 +170,3 @@ class RayTasks:
                 futures.append(self._run.remote(job))
         return self.ray.get(futures)
 
-    def with_workers(self, workers):
-        return self
-
-
-def runner(kind="local", workers=1, address=None, cpus=None):
-    """The runner a command asked for: "local" (Local(workers)), "serial" or "ray" (RayTasks(address, cpus))."""
-    if kind == "serial":
-        return Serial()
-    if kind == "ray":
-        return RayTasks(address, cpus)
-    return Local(workers)
