@@ -66,7 +66,8 @@ def test_finetune_writes_an_int8_asset_with_its_calibration(tmp_path):
     int8 with the input scales pleat.quantise gives on the calibration rows written beside it."""
     from pleat import REPO_ROOT
     weights = pa.read_asset((REPO_ROOT / "assets" / "tshirt.pleat").read_bytes())
-    tuned, x_norm, report = qat.finetune(weights, frames=1000, iterations=60, batch=32, lr=1e-5, recalibrate=0)
+    tuned, x_norm, report = qat.finetune(weights, frames=1000, iterations=60, batch=32, lr=1e-5, recalibrate=0,
+                                         window=8, calibration="motion", learn_scales=False, objective="mse")
     assert report["rms_after_mm"] < report["rms_before_mm"]
     out = tmp_path / "t_int8.pleat"
     qat.write(weights, tuned, x_norm, report, out)

@@ -4,7 +4,11 @@
     pleat-pack WEIGHTS --int8 --calibration calibration.npz --out OUT.pleat
     pleat-quantise finetune ASSET.pleat --out OUT.pleat       # quantisation-aware fine-tune, then int8
                                                               # (needs PyTorch; docs/performance.md "int8 networks")
+
+finetune's defaults are the best measured (docs/performance.md): random-row calibration, then the input scales
+learnt with the weights, the mean vertex distance over windows of 16 frames, 1,000 iterations at 5·10⁻⁶.
 """
+import argparse
 import sys
 
 from pleat import quantise as pq
@@ -24,19 +28,20 @@ def build_parser():
                                         "(pleat.train.qat; needs PyTorch)")
     f.add_argument("asset", help="a float (fp32/fp16) .pleat: the teacher and the starting point")
     f.add_argument("--out", required=True, help="output file: the int8 .pleat (its calibration rows beside it)")
-    f.add_argument("--frames", type=int, default=30000, help="frames of training motion (default %(default)s)")
-    f.add_argument("--iterations", type=int, default=3000, help="Adam iterations (default %(default)s)")
-    f.add_argument("--window", type=int, default=8, help="frames each window runs free (default %(default)s)")
+    f.add_argument("--frames", type=int, default=20000, help="frames of training motion (default %(default)s)")
+    f.add_argument("--iterations", type=int, default=1000, help="Adam iterations (default %(default)s)")
+    f.add_argument("--window", type=int, default=16, help="frames each window runs free (default %(default)s)")
     f.add_argument("--batch", type=int, default=32, help="windows per iteration (default %(default)s)")
-    f.add_argument("--lr", type=float, default=2e-5, help="Adam learning rate (default %(default)s)")
+    f.add_argument("--lr", type=float, default=5e-6, help="Adam learning rate (default %(default)s)")
     f.add_argument("--percentile", type=float, default=100.0,
                    help="each layer's input range: this percentile of |value| (default 100: the largest)")
-    f.add_argument("--calibration", choices=("motion", "random"), default="motion",
+    f.add_argument("--calibration", choices=("motion", "random"), default="random",
                    help="each layer's input range from the float model's own X_c rows on the motion, or from random "
                         "normalised rows as pleat-pack's default (default %(default)s)")
-    f.add_argument("--learn-scales", action="store_true",
-                   help="learn each layer's input scale with the weights (LSQ), starting from the calibration's")
-    f.add_argument("--objective", choices=("mse", "distance"), default="mse",
+    f.add_argument("--learn-scales", action=argparse.BooleanOptionalAction, default=True,
+                   help="learn each layer's input scale with the weights (LSQ), starting from the calibration's "
+                        "(default: yes)")
+    f.add_argument("--objective", choices=("mse", "distance"), default="distance",
                    help="the windows' loss: squared displacement error (mse) or mean per-vertex distance (distance, "
                         "what bench/int8_accuracy.py reports)")
     f.add_argument("--seed", type=int, default=0, help="seed of the motion plan and the batches (default 0)")

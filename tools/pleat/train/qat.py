@@ -1,6 +1,6 @@
 """Quantisation-aware fine-tuning of an asset's networks for int8 (docs/performance.md, "int8 networks").
 
-    pleat-quantise finetune assets/tshirt.pleat --out OUT_int8.pleat [--frames 30000] [--iterations 3000]
+    pleat-quantise finetune assets/tshirt.pleat --out OUT_int8.pleat [--frames 20000] [--iterations 1000]
 
 Post-training quantisation (pleat.quantise) rounds each weight and each layer's input to 127 steps of its range and
 leaves the network to cope. Here the network learns to: its f_LP and f_dec run with the int8 arithmetic in the
@@ -13,10 +13,13 @@ rounding passes the gradient unchanged, a clamp stops it), while the teacher is 
   block: the float model's free run from a reset, which the runtime does;
 - loss: windows of `window` frames that start from the float model's latent, run the int8 model free for the window
   (its own latents fed back, as the runtime does) and compare the garment displacement it decodes with the float
-  model's, in metres over every vertex (Σ_d Δc_d B_d through the blend shapes' Gram matrix, no vertex loop);
-- calibration: each layer's input scale is the `percentile` of |value| its input takes on the float model's X_c rows,
-  measured again every `recalibrate` iterations on the weights being tuned; the same rows go to the packer
-  (pleat.quantise.quantise), so the written asset has the scales the network was tuned with.
+  model's over every vertex: the mean vertex distance (objective "distance", the default: what
+  bench/int8_accuracy.py reports) or the squared error per coordinate ("mse", Σ_d Δc_d B_d through the blend shapes'
+  Gram matrix);
+- scales: each layer's input scale starts as the `percentile` of |value| its input takes on the calibration rows
+  (random normalised rows, pleat-pack's default, or the float model's own X_c rows on the motion) and is then learnt
+  with the weights (learn_scales, LSQ: Esser et al. 2020), or else measured again every `recalibrate` iterations on
+  the weights being tuned; the written asset stores the scales the network was tuned with.
 
 Writes the int8 asset (networks int8, blend shapes as the input asset had them) with META recording the fine-tune,
 and OUT's calibration rows beside it (OUT.calibration.npz). Needs PyTorch.
@@ -173,9 +176,9 @@ def _window_loss(model, seqs, teacher, chosen, window, gram, blend=None):
     return loss / window
 
 
-def finetune(weights, frames=30000, iterations=3000, window=8, batch=32, lr=2e-5, percentile=100.0,
-             recalibrate=500, seed=0, log=None, calibration="motion", learn_scales=False, scale_lr=1e-3,
-             objective="mse"):
+def finetune(weights, frames=20000, iterations=1000, window=16, batch=32, lr=5e-6, percentile=100.0,
+             recalibrate=500, seed=0, log=None, calibration="random", learn_scales=True, scale_lr=1e-3,
+             objective="distance"):
     """The fine-tuned float networks (a copy of `weights` with new lp.* / dec.*), the normalised calibration rows
     [M, I] their int8 scales come from, and a report. calibration: "motion", the float model's own X_c rows on the
     motion; "random", pleat-pack's default (pleat.quantise.normalised_inputs: rows ~ N(0, 1))."""
