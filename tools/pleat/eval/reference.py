@@ -49,13 +49,19 @@ def cache_key(garment, body, beta, material, clip, frames, settings, start_pertu
     return h.hexdigest()[:32]
 
 
-def cache_entry(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,
-                start_perturbation_m=0.0):
-    """(the cache file of this simulation, its key): where cached_simulate reads and writes it."""
+def _resolved(garment, clip, beta, frames, settings):
+    """(frames T, solver settings, β) with the defaults: the whole clip, one step per clip frame, the mean body."""
     from pleat.sim import SolverSettings
     T = clip.num_frames if frames is None else min(frames, clip.num_frames)
     settings = settings or SolverSettings(dt_s=1.0 / clip.fps)
     beta = np.zeros(garment.shape_blend.shape[0]) if beta is None else np.asarray(beta, np.float64)
+    return T, settings, beta
+
+
+def cache_entry(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,
+                start_perturbation_m=0.0):
+    """(the cache file of this simulation, its key): where cached_simulate reads and writes it."""
+    T, settings, beta = _resolved(garment, clip, beta, frames, settings)
     key = cache_key(garment, body, beta, material, clip, T, settings, start_perturbation_m)
     return Path(cache_dir or DEFAULT_CACHE) / f"{key}.npz", key
 
@@ -65,11 +71,8 @@ def simulate_uncached(garment, body, clip, beta, material, frames=None, settings
     """The simulation cached_simulate caches, without the cache: (positions [T, N, 3] f32, summary). A training
     task on another machine runs this and sends the positions back to the caller's cache (pleat.train.simdata)."""
     from pleat.physics.materials import Material
-    from pleat.sim import SolverSettings
     from pleat.sim.scene import simulate
-    T = clip.num_frames if frames is None else min(frames, clip.num_frames)
-    settings = settings or SolverSettings(dt_s=1.0 / clip.fps)
-    beta = np.zeros(garment.shape_blend.shape[0]) if beta is None else np.asarray(beta, np.float64)
+    T, settings, beta = _resolved(garment, clip, beta, frames, settings)
     positions, _, summary = simulate(garment, body, clip, beta, Material(*map(float, material)), T, settings,
                                      progress, keep_body=False, start_perturbation_m=start_perturbation_m)
     return positions, summary

@@ -33,6 +33,7 @@ import torch
 
 from pleat import asset as pa
 from pleat import quantise as pq
+from pleat.reference.latent_guard import latent_guard
 from pleat.reference.mlp import layers
 
 
@@ -124,8 +125,7 @@ class Model(torch.nn.Module):
         ws = {p: [w.numpy().astype(np.float64) for w in net.w] for p, net in (("lp", self.lp), ("dec", self.dec))}
         bs = {p: [b.numpy().astype(np.float64) for b in net.b] for p, net in (("lp", self.lp), ("dec", self.dec))}
         lp_ranges, y = pq.input_ranges(x_norm, ws["lp"], bs["lp"], self.lp.act, percentile)
-        z = np.minimum(np.maximum(y * self.z_std.numpy() + self.z_mean.numpy(), self.z_min.numpy()),
-                       self.z_max.numpy())
+        z = latent_guard(y, *(getattr(self, k).numpy() for k in ("z_mean", "z_std", "z_min", "z_max")))
         dec_ranges, _ = pq.input_ranges(z, ws["dec"], bs["dec"], self.dec.act, percentile)
         for net, ranges in ((self.lp, lp_ranges), (self.dec, dec_ranges)):
             net.input_scales.copy_(torch.as_tensor([float(pq.input_scale(r)) for r in ranges]))

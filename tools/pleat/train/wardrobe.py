@@ -15,7 +15,7 @@ and packing; so the run folders, the cache and the assets are all on this machin
 Writes OUT/<garment>.pleat, OUT/<garment>_<tier>.pleat, the run folders OUT/runs/<garment>/ and OUT/wardrobe.json
 (per garment: wall time, validation verdict, tiers; the runner, the CPUs, the machine). With the same settings and
 no time budget (--max-minutes), --serial and Ray give the same networks: every job sets its own seed and runs torch
-on one thread wherever it runs (tests/python/test_wardrobe.py checks it on a local two-node cluster). With a budget
+and numpy's BLAS on one thread wherever it runs (pleat.train.tasks.one_cpu) (tests/python/test_wardrobe.py checks it on a local two-node cluster). With a budget
 they differ, since a budget decides how many segments are simulated and how long each fit runs.
 """
 import argparse
