@@ -130,6 +130,29 @@ def test_collar_share_moves_the_clavicle_and_keeps_the_arm(body, walk):
 
 
 @needs_clips
+@pytest.mark.parametrize("move,hold", [(12, 8), (100, 5)])
+def test_holds_play_every_frame_in_order_and_stop_dead_after_each_piece(walk, move, hold):
+    """Clip.with_holds (the "stop" training variant): the clip's own frames in order, each piece of `move` frames (at
+    most half the clip) followed by `hold` copies of its last frame, root included, so the body stops dead."""
+    from pleat.train import simdata
+    out = walk.with_holds(move, hold)
+    T, piece = walk.num_frames, min(move, walk.num_frames // 2)
+    pieces = -(-T // piece)
+    assert pieces >= 2 and out.num_frames == T + pieces * hold
+    moving = np.ones(out.num_frames, bool)
+    for k in range(pieces):
+        end = min((k + 1) * piece, T)               # frames [k·piece, end) of the clip, then the hold
+        at = end + k * hold
+        np.testing.assert_array_equal(out.local_rotations[at - (end - k * piece):at], walk.local_rotations[k * piece:end])
+        for arr, src in ((out.local_rotations, walk.local_rotations), (out.root_translation, walk.root_translation),
+                         (out.root_rotation, walk.root_rotation)):
+            np.testing.assert_array_equal(arr[at:at + hold], np.repeat(src[end - 1][None], hold, 0))
+        moving[at:at + hold] = False
+    np.testing.assert_array_equal(out.local_rotations[moving], walk.local_rotations)
+    assert simdata.variant_clip(walk, "stop").num_frames > walk.num_frames
+
+
+@needs_clips
 @pytest.mark.parametrize("fps", [30, 60])
 def test_resampling_preserves_duration_and_pose(walk, fps):
     r = walk.resample(fps)

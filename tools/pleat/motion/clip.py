@@ -175,6 +175,23 @@ class Clip:
             q[:, sh] = quat_multiply(part * np.array([-1.0, -1.0, -1.0, 1.0]), q[:, sh])
         return replace(self, name=f"{self.name}@collar{share:g}", local_rotations=q)
 
+    def with_holds(self, move, hold):
+        """Sudden stops and starts: the clip cut into pieces of `move` frames (at most half the clip, so that there
+        are at least two), each followed by its last pose, root included, held for `hold` frames; then the next piece
+        starts from rest. The path and every pose are the clip's own: only the timing changes. A clip that loops,
+        as most training clips do, never stops dead, and a model that never saw the body stop has not learnt how
+        cloth swings on after it (docs/accuracy.md, "Sudden stops"); the simulator-supervised recipe's "stop"
+        variant (pleat.train.simdata) trains on this."""
+        T = self.num_frames
+        move = max(1, min(int(move), T // 2 or 1))
+        idx = []
+        for start in range(0, T, move):
+            piece = list(range(start, min(start + move, T)))
+            idx += piece + [piece[-1]] * int(hold)
+        idx = np.asarray(idx, np.int64)
+        return replace(self, name=f"{self.name}@hold{move}+{int(hold)}", local_rotations=self.local_rotations[idx],
+                       root_translation=self.root_translation[idx], root_rotation=self.root_rotation[idx])
+
     def heading(self):
         """Yaw (rad) of the pelvis's global rotation Q_root · R_0 per frame (docs/inputs.md)."""
         P = self.root_matrices() @ quat_to_matrix(self.local_rotations[:, 0])

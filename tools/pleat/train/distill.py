@@ -117,13 +117,35 @@ def principal_shapes(seqs, D, free_mask=None):
     return shapes, sigma, Vt[:D], energy
 
 
-def tier_sequences(seqs, Vt, sigma, L, teacher_L):
-    """Per sequence: X_c rows with the tier's latent block (zero), targets z' (first L coefficients), c (all D)."""
+def coefficients(s, Vt, sigma):
+    """A sequence's displacements as blend-shape coefficients [T, D], unit RMS over the data."""
+    return s["disp"].reshape(len(s["disp"]), -1) @ Vt.T / sigma
+
+
+def velocity_scale(seqs, Vt, sigma, K):
+    """RMS frame-to-frame change of the first K coefficients over the sequences [K] (what the latent's velocity
+    components are divided by, so that they have unit RMS like the others)."""
+    d = np.concatenate([np.diff(coefficients(s, Vt, sigma)[:, :K], axis=0) for s in seqs if len(s["disp"]) > 1])
+    return np.maximum(np.sqrt((d ** 2).mean(0)), 1e-9)
+
+
+def tier_sequences(seqs, Vt, sigma, L, teacher_L, velocity=None):
+    """Per sequence: X_c rows with the tier's latent block (zero), targets z' (first L coefficients), c (all D).
+    velocity (K, scale [K]): K more latent components after the L, the change of the first K coefficients since the
+    previous frame divided by `scale` (zero at a sequence's first frame, which follows a reset). The coefficients
+    alone say where the cloth is, not where it is going: f_LP, which sees only its own previous latent and the
+    pose, cannot tell a skirt swinging out from one swinging back once the body holds still; with the change in its
+    state it can (docs/training.md, "Latent velocity")."""
     out = []
     for s in seqs:
-        coeff = s["disp"].reshape(len(s["disp"]), -1) @ Vt.T / sigma          # [T, D], unit RMS
-        static = np.concatenate([np.zeros((len(coeff), L)), s["static"][:, teacher_L:]], 1)
-        out.append({"static": static, "z": coeff[:, :L], "c": coeff})
+        coeff = coefficients(s, Vt, sigma)          # [T, D]
+        z = coeff[:, :L]
+        if velocity is not None:
+            K, scale = velocity
+            dz = np.diff(coeff[:, :K], axis=0, prepend=coeff[:1, :K]) / scale
+            z = np.concatenate([z, dz], 1)
+        static = np.concatenate([np.zeros((len(coeff), z.shape[1])), s["static"][:, teacher_L:]], 1)
+        out.append({"static": static, "z": z, "c": coeff})
     return out
 
 
@@ -208,9 +230,11 @@ def own_stage2_error(run_dir, seqs):
 
 def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iterations=3000, dec_iterations=2000,
             lr=1e-3, batch=64, window=8, progress=False, device="cpu", weight_by_energy=False, deadline=None,
-            noise=None):
+            noise=None, latent_velocity=0):
     """Train one tier. spec: pleat.eval.tiers.Tier (latent, blend, lp_hidden, dec_hidden, activation). garment:
     None for the teacher's mesh, else a coarser garment of the same shape (its displacements are transferred).
+    latent_velocity K > 0: the latent has K more components, the change of the K largest coefficients since the
+    previous frame (tier_sequences), so the network's latent is spec.latent + K wide.
     Returns (lp, block, norms, shim, garment, report)."""
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed)
@@ -232,8 +256,10 @@ def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iter
     shapes, sigma, Vt, energy = principal_shapes(teacher_seqs, D, free_mask)
     D = len(sigma)
     L = min(L, D)
-    shim = _shim(setup, L, D, spec.lp_hidden, spec.dec_hidden, spec.activation, teacher_L)
-    train = tier_sequences(teacher_seqs, Vt, sigma, L, teacher_L)
+    K = min(int(latent_velocity), L)
+    velocity = (K, velocity_scale(teacher_seqs, Vt, sigma, K)) if K > 0 else None
+    shim = _shim(setup, L + K, D, spec.lp_hidden, spec.dec_hidden, spec.activation, teacher_L)
+    train = tier_sequences(teacher_seqs, Vt, sigma, L, teacher_L, velocity)
     norms = core.normalisation(shim, train)
     lp = core.LatentPredictor(shim, norms)
     block = InferenceBlock(shim.cfg["model"], len(free_mask), free_mask=free_mask)
@@ -244,18 +270,19 @@ def distill(teacher_seqs, setup, spec, val_seqs=None, garment=None, seed=0, iter
     # weight_by_energy: each latent component's error counts by the displacement it carries (σ², mean 1), so f_LP
     # spends its capacity on the large shapes rather than equally on the small, noisy ones
     w = None
-    if weight_by_energy:
-        w = torch.as_tensor(sigma[:L] ** 2 / np.mean(sigma[:L] ** 2), dtype=torch.float32, device=device)
+    if weight_by_energy:      # a velocity component counts as its coefficient does
+        energy_w = sigma[:L] ** 2 / np.mean(sigma[:L] ** 2)
+        w = torch.as_tensor(np.concatenate([energy_w, energy_w[:K]]), dtype=torch.float32, device=device)
     lp_loss = train_predictor(lp.to(device), train, iterations, lr, batch, window, gen, dev=device, weights=w,
                               deadline=deadline, noise=noise)
     lp, block = lp.cpu(), block.cpu()
-    report = {"tier": spec.name, "vertices": len(free_mask), "latent": L, "blend": D,
+    report = {"tier": spec.name, "vertices": len(free_mask), "latent": L + K, "latent_velocity": K, "blend": D,
               "lp_hidden": list(spec.lp_hidden), "dec_hidden": list(spec.dec_hidden),
               "pca_energy": energy, "decoder_loss": dec_loss, "predictor_loss": lp_loss,
               "train_frames": int(sum(len(s["z"]) for s in train)), "train_time_s": time.time() - t0}
     report["train"] = free_running_error(lp, block, train[:4], teacher_seqs[:4])
     if val_seqs:
-        val = tier_sequences(val_seqs, Vt, sigma, L, teacher_L)
+        val = tier_sequences(val_seqs, Vt, sigma, L, teacher_L, velocity)
         report["validation"] = free_running_error(lp, block, val, val_seqs)
     if progress:
         print(json.dumps(report), file=sys.stderr)

@@ -172,7 +172,7 @@ class Setting:
 # The simulator's training-clip variants (pleat.train.simdata.VARIANTS) and the MLP activations
 # (pleat.train.model.ACTIVATIONS), named here so that resolving a config needs neither torch nor the simulator;
 # tests/python/test_train_settings.py checks that the lists agree.
-VARIANTS = ("original", "mirrored", "fast", "slow", "collar")
+VARIANTS = ("original", "mirrored", "fast", "slow", "collar", "stop")
 ACTIVATIONS = ("relu", "silu")
 
 COUNT, POSITIVE = Integer(0), Integer(1)
@@ -275,6 +275,8 @@ SETTINGS = (
     S("simsup.lr", 1e-3, Number(above=0), "Adam learning rate of the fits"),
     S("simsup.batch", 64, POSITIVE, "windows per iteration"),
     S("simsup.window", 8, POSITIVE, "frames per window"),
+    S("simsup.latent_velocity", 0, COUNT, "latent components that carry the change of the largest ones since the "
+      "last frame (0: none)"),
     S("simsup.fp16", True, Flag(), "pack weights as fp16"),
     S("simsup.weight_by_energy", False, Flag(), "weight each latent component's error by its variance"),
     S("simsup.onnx", False, Flag(), "embed the MLPs as ONNX in the asset"),

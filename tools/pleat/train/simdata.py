@@ -24,9 +24,13 @@ from pleat.train import sources
 # The variants of a training clip the data is drawn from: (name, time scale). Mirroring swaps left and right; a
 # time scale above 1 plays the clip faster (fast motion is where learned cloth breaks first, docs/stability.md);
 # "collar" moves COLLAR_SHARE of each shoulder's rotation into its collar (Clip.with_collar_share): the training
-# clips have no clavicle motion, a user's mocap usually has (docs/accuracy.md).
-VARIANTS = (("original", 1.0), ("mirrored", 1.0), ("fast", 1.5), ("slow", 0.7), ("collar", 1.0))
+# clips have no clavicle motion, a user's mocap usually has (docs/accuracy.md); "stop" plays the clip in pieces of
+# STOP_MOVE_S, each followed by a hold of STOP_HOLD_S (Clip.with_holds): the training clips loop and never stop dead,
+# so without it the model never sees the cloth swing on after the body stops.
+VARIANTS = (("original", 1.0), ("mirrored", 1.0), ("fast", 1.5), ("slow", 0.7), ("collar", 1.0), ("stop", 1.0))
 COLLAR_SHARE = 0.25
+STOP_MOVE_S = 1.2
+STOP_HOLD_S = 0.8
 
 
 @dataclass(frozen=True)
@@ -47,6 +51,8 @@ def variant_clip(clip, variant):
         clip = clip.mirrored()
     if variant == "collar":
         clip = clip.with_collar_share(COLLAR_SHARE)
+    if variant == "stop":
+        clip = clip.with_holds(round(STOP_MOVE_S * clip.fps), round(STOP_HOLD_S * clip.fps))
     if scale != 1.0:
         clip = clip.time_scaled(scale)
     return clip

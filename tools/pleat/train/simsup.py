@@ -366,7 +366,8 @@ def fit_student(teacher, teacher_val, setup, spec, seed, iterations, garment=Non
     settings: distill.distill weighting the latent by energy, without the fit's f_LP noise."""
     c = setup.cfg["simsup"]
     return distill.distill(teacher, setup, spec, teacher_val, garment, seed, iterations, c["dec_iterations"],
-                           c["lr"], c["batch"], c["window"], False, weight_by_energy=True, deadline=deadline)
+                           c["lr"], c["batch"], c["window"], False, weight_by_energy=True, deadline=deadline,
+                           latent_velocity=c["latent_velocity"])
 
 
 def fit_model(seqs, setup, spec, val, seed, deadline, progress, device):
@@ -375,7 +376,8 @@ def fit_model(seqs, setup, spec, val, seed, deadline, progress, device):
     c = setup.cfg["simsup"]
     return distill.distill(seqs, setup, spec, val, None, seed, c["iterations"], c["dec_iterations"], c["lr"],
                            c["batch"], c["window"], progress, device=device, weight_by_energy=c["weight_by_energy"],
-                           deadline=deadline, noise=(c["input_noise"], c["latent_noise"]))
+                           deadline=deadline, noise=(c["input_noise"], c["latent_noise"]),
+                           latent_velocity=c["latent_velocity"])
 
 
 def fit_workers(c, device):

@@ -2,9 +2,9 @@
 // CPUID says so. A batch-1 mat-vec reads every weight once, so it is bound by how fast the weights stream in. The row
 // range is cut into four contiguous blocks and one row of each block is computed at a time: four sequential streams,
 // each walking its block strictly in address order (the pattern of the fastest pure read measured on the benchmark
-// machine, several concurrent sequential streams), with the x loads shared by the four rows. Round 2 measured this
+// machine, several concurrent sequential streams), with the x loads shared by the four rows. This measured
 // ×0.68–0.77 per fp32 step against one row at a time (one stream) and ×0.91 per fp16 step (docs/benchmarks.md);
-// interleaving *adjacent* rows (streams that skip over each other's rows) had measured slower in round 1. Each row's
+// interleaving *adjacent* rows (streams that skip over each other's rows) had measured slower. Each row's
 // arithmetic (plDotRow2) does not depend on the block split, so a row's result is the same for any worker split.
 #include "kernels/kernels.h"
 #include "simd_avx2.h"
