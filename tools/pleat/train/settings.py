@@ -249,7 +249,7 @@ SETTINGS = (
 
     S("simsup.segment_frames", 90, Integer(2), "frames per simulated segment"),
     S("simsup.repeats", 4, POSITIVE, "rounds over the (clip, variant) pairs"),
-    S("simsup.variants", list(VARIANTS), ListOf(OneOf(*VARIANTS), min_length=1), "clip variants simulated"),
+    S("simsup.variants", list(VARIANTS[:5]), ListOf(OneOf(*VARIANTS), min_length=1), "clip variants simulated"),
     S("simsup.beta_scale", 1.0, Number(0.0), "β ~ N(0, beta_scale²) per component"),
     S("simsup.beta_max", 3.0, Number(0.0), "β clipped to ±beta_max"),
     S("simsup.default_material_share", 0.5, Number(0.0, 1.0), "share of segments at the default material"),
