@@ -1,4 +1,4 @@
-"""Would canonical spine inputs help on motion from another source? (docs/accuracy.md, "Motion from a skeleton unlike
+"""Would canonical spine inputs help on motion from another source? (docs/probes.md, "Motion from a skeleton unlike
 the training data's"; not a test, a probe.) All training motion spreads the chest's rotation evenly over spine1..3; a
 source with a real spine does not. Per clip: the clip re-expressed with the 0.5 / 0.3 / 0.2 split
 (bench/reexpress_clips.py), the reference simulated on it, and the shipped t-shirt through the Python reference

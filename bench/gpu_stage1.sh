@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Stage 1 on a lent GPU, in one call (docs/training.md, "The GPU route"): the throughput bench (the old per-window
+# Stage 1 on a lent GPU, in one call (docs/training-speed.md, "The GPU route"): the throughput bench (the old per-window
 # path on that machine's CPU against the batched path on the GPU, alternately, with the nearest-body search in the
 # KD-trees or on the device, and larger batches), then a short real run of the trainer at the GPU recipe. On an H100
 # with 16 host cores 12 workers and the trees gave 21x at K = 64 (a first call with 8 workers, "torch,kdtree" and
-# --bf16 gave less; docs/training.md, "The GPU route").
+# --bf16 gave less; docs/training-speed.md, "The GPU route").
 #
 # The machine has no network and no .venv: it runs its own python3 (torch, numpy, scipy) with PYTHONPATH=tools, the
 # garment as an npz (generating one needs gpytoolbox) and the motion from data/motion. Prepare here, then carry data:

@@ -14,7 +14,7 @@ page or in the accuracy tables is typed by hand.
                                                  # (docs/garments.md's table), then the blocks
     scripts/docs-numbers.py --wardrobe-from SERIAL/wardrobe.json RAY/wardrobe.json
                                                  # bench/results/wardrobe.json from pleat-wardrobe reports
-                                                 # (docs/training.md's table), then the blocks
+                                                 # (docs/training-speed.md's table), then the blocks
 
 Inputs: bench/results/cpu-reference.json (step times, keys as in out/bench/step.json, plus a "machine" object
 naming the CPU, the kernels chosen and the load), bench/results/accuracy-reference.json (errors against the
@@ -48,7 +48,7 @@ SURFACE_BEGIN = ("<!-- surface:begin (written by scripts/docs-numbers.py from be
                  "do not edit by hand) -->")
 SURFACE_END = "<!-- surface:end -->"
 WARDROBE_JSON = ROOT / "bench" / "results" / "wardrobe.json"
-TRAINING_PAGE = ROOT / "docs" / "training.md"
+TRAINING_PAGE = ROOT / "docs" / "training-speed.md"
 WARDROBE_BEGIN = ("<!-- wardrobe:begin (written by scripts/docs-numbers.py from bench/results/wardrobe.json; "
                   "do not edit by hand) -->")
 WARDROBE_END = "<!-- wardrobe:end -->"
@@ -463,7 +463,7 @@ def wardrobe_from_reports(paths, command=None, machine=None):
     names = {tuple(g["garment"] for g in run["garments"]) for run in runs}
     if len(names) != 1:
         raise ValueError("the wardrobe reports built different garments: " + "; ".join(map(",".join, names)))
-    return {"about": "pleat-wardrobe's wall time, serial against Ray, on one machine (docs/training.md, \"Many "
+    return {"about": "pleat-wardrobe's wall time, serial against Ray, on one machine (docs/training-speed.md, \"Many "
                      "garments, many machines\"); scripts/docs-numbers.py --wardrobe-from writes this file from the "
                      "commands' wardrobe.json",
             "command": command, "machine": machine, "runs": runs}

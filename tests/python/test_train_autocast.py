@@ -1,4 +1,4 @@
-"""stage1.autocast_bf16 (docs/training.md, "Speed"): Φ's matmuls under bfloat16 autocast on the batched path. The
+"""stage1.autocast_bf16 (docs/training-speed.md, "Speed"): Φ's matmuls under bfloat16 autocast on the batched path. The
 config is off by default, rejected where the device has no native bf16 and when set to anything else; off, the
 batched network is float32 throughout; on, one iteration's objective, per-window losses and gradients stay within a
 tolerance of float32's on fixed windows. Tiny preset; skips without PyTorch (and the numeric test without native

@@ -1,6 +1,6 @@
 """The batched physics-loss path (pleat.train.batching: K windows per iteration through one graph) computes what
 the per-window path of pleat.train.core computes: the same window draws, the same loss, terms, LBS normaliser and
-gradients for stage 1 and the ablation, the same validation and recorded latents (docs/training.md, "Speed").
+gradients for stage 1 and the ablation, the same validation and recorded latents (docs/training-speed.md, "Speed").
 Tiny preset; skips without PyTorch."""
 import numpy as np
 import pytest

@@ -9,7 +9,7 @@ same garment (the 1k mesh's skinning + normals alone cost more than a tenth of l
 more than 10× in step time. A tier with `mean_of` is the mean of two students at that tier's sizes (seeds s, s + 1)
 packed as one network of the summed widths, whose zero blocks the runtime skips: two small students averaged are
 0.6 mm closer to the reference than one network at the `member` sizes (3×256 / 2×256), at less cost
-(docs/training.md, 2026-11-26 (3)). `asset` is where each ships; `member` ships nowhere. `training_overrides(name)`
+(CHANGELOG.md, "Training"). `asset` is where each ships; `member` ships nowhere. `training_overrides(name)`
 gives the `--set` overrides for pleat-train's config if a tier is trained from scratch instead.
 """
 from dataclasses import asdict, dataclass

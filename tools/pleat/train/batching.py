@@ -1,4 +1,4 @@
-"""Batched physics-loss iterations: K windows per iteration through one graph (docs/training.md, "Speed").
+"""Batched physics-loss iterations: K windows per iteration through one graph (docs/training-speed.md, "Speed").
 
 The per-window path in `core` (Window, rollout_loss, lbs_scale) builds one window's kinematics, rest geometry,
 KD-trees, features and losses at a time. This module computes the same quantities for K windows at once:
@@ -229,7 +229,7 @@ class WindowSource:
     rest geometry, KD-trees, LBS-only terms, optionally X_c rows) here or, with `workers` ≥ 1, in that many forked
     processes that many calls ahead: while torch trains on iteration i, the workers prepare iterations i + 1 … i +
     workers, round robin (numpy/scipy only; they never touch torch). One worker is what two cores can use; more pay
-    where the trainer has a GPU and the machine more cores (docs/training.md, "On a GPU"). `steps` is guessed ahead
+    where the trainer has a GPU and the machine more cores (docs/training-speed.md, "On a GPU"). `steps` is guessed ahead
     by `next_steps`; when a guess misses (the rollout schedule moved on, 4 times a run), those windows are dropped and
     new ones drawn and prepared here. With `drop_trees` the KD-trees stay in the worker (the trainer finds nearest
     body vertices on its device: `nearest="torch"`), which spares pickling them across the pipe."""
@@ -403,7 +403,7 @@ def nearest_on_device(x, body, max_elements=1 << 24):
     """The body vertex nearest each garment vertex, by exact distances on x's device (`stage1.nearest` = "torch"):
     x [K, N, 3], body [K, V, 3] → (distance, index) [K, N]. What the KD-trees give, in float32 (a near-tie between
     two body vertices may resolve the other way); it spares the trainer the CPU round trip of every rollout step,
-    which on a GPU is most of an iteration (docs/training.md, "On a GPU"). Windows go in groups of at most
+    which on a GPU is most of an iteration (docs/training-speed.md, "On a GPU"). Windows go in groups of at most
     `max_elements` distances (K = 32 on the 1k shirt would be 415 MB at once)."""
     K, N, V = x.shape[0], x.shape[1], body.shape[1]
     step = max(1, int(max_elements) // max(1, N * V))
@@ -566,7 +566,7 @@ class BatchedStage1(torch.nn.Module):
     With `bf16` (`stage1.autocast_bf16`, config.autocast_bf16) the encoders, the message passing and the compressor
     run under bfloat16 autocast: their matmuls take bf16 operands (float32 accumulation), LayerNorm and ReLU act on
     the bf16 results, while the residual node and edge streams, the sums over edges, Z, the decoder and the blend
-    shapes stay float32. An opt-in approximation (docs/training.md, "Speed"), not the same arithmetic."""
+    shapes stay float32. An opt-in approximation (docs/training-speed.md, "Speed"), not the same arithmetic."""
 
     def __init__(self, model, bf16=False):
         super().__init__()
@@ -618,7 +618,7 @@ class _DynamicBody(torch.nn.Module):
 
 def compiled(net):
     """BatchedStage1 through torch.compile (`stage1.compile`): about 1.3x less CPU per window in the network at
-    K = 8 on the shared 2-core machine, after a compilation of about 3 minutes there (docs/training.md, "Speed")."""
+    K = 8 on the shared 2-core machine, after a compilation of about 3 minutes there (docs/training-speed.md, "Speed")."""
     return _DynamicBody(net)
 
 

@@ -133,7 +133,7 @@ def searches_on_device(c1):
     """`stage1.nearest`: where the batched path finds each garment vertex's nearest body vertex in every rollout
     step. "kdtree": the KD-trees prepared with the windows, queried on the CPU; "torch": exact distances on the
     trainer's device (batching.nearest_on_device; float32, so a near-tie may resolve the other way); "auto"
-    (default): the trees, on a CPU and on a GPU alike. Measured on an H100 with 12 data workers (docs/training.md,
+    (default): the trees, on a CPU and on a GPU alike. Measured on an H100 with 12 data workers (docs/training-speed.md,
     "The GPU route"): K = 32 windows an iteration, 44.8 windows/s with the trees against 26.8 with the exact search
     on the GPU; on a CPU the exact search costs 30 times the trees' query."""
     return c1["nearest"] == "torch"

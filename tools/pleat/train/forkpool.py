@@ -2,7 +2,7 @@
 sequences, gigabytes) is shared copy-on-write instead of pickled; only the job's result comes back, through a pipe.
 The simulator-supervised recipe's fits (the first fit's members, each round of students) are independent and seeded,
 so on two cores two of them at a time give the same networks as one after another in half the wall time
-(docs/training.md, "Fits side by side"). Each child runs torch on one thread.
+(docs/training-speed.md, "Fits side by side"). Each child runs torch on one thread.
 """
 import multiprocessing as mp
 import pickle

@@ -408,7 +408,7 @@ def self_distil(lp, block, setup, seqs, val, train_clips, count, report, deadlin
     sequences plus simsup.tier_teacher_frames frames of unsimulated training motion at its own seed; their mean
     (pleat.train.ensemble) replaces the model. Why: the teacher labels any motion for the price of a rollout, and
     students fitted to its smooth garment on 2.5× the motion are more accurate against the simulator than the
-    teacher (docs/training.md, 2026-11-26 (3)). With `student_tier` the students have that tier's sizes and their
+    teacher (CHANGELOG.md, "Training"). With `student_tier` the students have that tier's sizes and their
     mean is packed at `count` times them (tiers.packed), as the second round of students does. Returns
     (lp, block, norms, shim, report); `report` is the teacher's fit report, kept in the new one."""
     from pleat.eval.tiers import packed, tier

@@ -1,5 +1,5 @@
 """`pleat-wardrobe`: every garment of a list built by the simulator-supervised recipe, with its cheaper tiers, on Ray
-(docs/training.md, "Many garments, many machines").
+(docs/training-speed.md, "Many garments, many machines").
 
     pleat-wardrobe --garments tshirt dress pants tank_top long_sleeve --preset default --out out/wardrobe
     pleat-wardrobe ... --address auto          # join the running Ray cluster instead of starting one here
