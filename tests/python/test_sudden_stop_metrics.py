@@ -125,12 +125,19 @@ def test_the_probe_set_is_four_stops_from_the_repos_clips():
     assert all(m in TRAINING + VALIDATION for _, m in SS.PROBES)
 
 
+def test_probe_clips_are_named_by_their_motion():
+    assert SS.probe_set(["deepmimic_github/humanoid3d_jog", "mocap/take_07.bvh", "walker/turn_right1"]) == (
+        ("jog", "deepmimic_github/humanoid3d_jog"), ("take_07", "mocap/take_07.bvh"),
+        ("turn_right1", "walker/turn_right1"))
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--probes", "--motion", "deepmimic_pybullet/humanoid3d_run"], "--probes chooses"),
     (["--probes", "--move", "12"], "--probes chooses"),
     (["--probes", "--hold", "30"], "--hold of at least 1.3 s"),
     (["--settle-threshold", "0"], "--settle-threshold"),
     (["--hold", "1"], "--hold must be"),
+    (["--probe-clips", "deepmimic_github/humanoid3d_jog"], "--probe-clips goes with --probes"),
 ])
 def test_cli_refuses_options_that_do_not_go_together(argv, message, capsys, tmp_path):
     with pytest.raises(SystemExit) as exc:

@@ -3,8 +3,8 @@
     PLEAT_LIBRARY=build/eval/libpleat.so pleat-sudden-stop --asset A.pleat \
         [--motion deepmimic_github/humanoid3d_jog] [--move 20] [--hold 40] [--region skirt] \
         [--settle-threshold 0.01] --out out/stop.json [--plot stop.png]
-    PLEAT_LIBRARY=build/eval/libpleat.so pleat-sudden-stop --asset A.pleat --probes [--region skirt] \
-        --out out/stop_probes.json [--plot probes.png]
+    PLEAT_LIBRARY=build/eval/libpleat.so pleat-sudden-stop --asset A.pleat --probes [--probe-clips CLIP ...] \
+        [--region skirt] --out out/stop_probes.json [--plot probes.png]
 
 The body plays the first `--move` frames of a clip, then holds its last pose (root included) for `--hold` frames.
 Pleat (the C runtime), LBS-only and the reference simulator are run on it; per frame the garment's mean vertex speed
@@ -28,6 +28,7 @@ of the reference's.
 import json
 import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -242,6 +243,12 @@ def run(asset, motion, move, hold, progress=False, region=None, threshold_m_s=SE
     return _with_ratios({**scene.header(threshold_m_s), "motion": motion, **rep}, tolerance)
 
 
+def probe_set(clips):
+    """(name, clip) probes for clip names or files: a file by its stem, a clip by its last path part without the
+    DeepMimic prefix (deepmimic_github/humanoid3d_jog → jog)."""
+    return tuple((Path(c).stem if Path(c).suffix else c.split("/")[-1].removeprefix("humanoid3d_"), c) for c in clips)
+
+
 def run_probes(asset, hold, progress=False, region=None, threshold_m_s=SETTLE_THRESHOLD_M_S,
                tolerance=PROBE_TOLERANCE, probes=PROBES):
     """The probe set's report: one row per probe (its clip, cut and stop report) and how many are within."""
@@ -298,6 +305,9 @@ def build_parser():
     ap.add_argument("--probes", action="store_true",
                     help="run the probe set (run, walk, jump, punch, each cut where the body moves fastest) instead "
                          "of one --motion")
+    ap.add_argument("--probe-clips", nargs="+", default=None, metavar="CLIP",
+                    help="with --probes: these clips (names or files), each cut where the body moves fastest, instead "
+                         "of the four (e.g. the validation clips, motion a model never trained on)")
     ap.add_argument("--region", default=None,
                     help="measure the speed over one garment region only (pleat.eval.regions; e.g. skirt)")
     ap.add_argument("--settle-threshold", type=float, default=SETTLE_THRESHOLD_M_S,
@@ -334,6 +344,8 @@ def main(args):
         raise UsageError("--tolerance must be 0 or more")
     if args.hold < 2:
         raise UsageError("--hold must be at least 2 frames")
+    if args.probe_clips and not args.probes:
+        raise UsageError("--probe-clips goes with --probes")
     if args.probes:
         if args.motion is not None or args.move is not None:
             raise UsageError("--probes chooses its own clips and cuts; leave out --motion and --move")
@@ -341,8 +353,9 @@ def main(args):
         if args.hold < PROBE_MIN_HOLD_S * EVAL_FPS - 1e-9:
             raise UsageError(f"--probes needs --hold of at least {PROBE_MIN_HOLD_S} s "
                              f"({int(np.ceil(PROBE_MIN_HOLD_S * EVAL_FPS))} frames)")
+        probes = probe_set(args.probe_clips) if args.probe_clips else PROBES
         rep = run_probes(args.asset, args.hold, progress=not args.quiet, region=args.region,
-                         threshold_m_s=args.settle_threshold, tolerance=args.tolerance)
+                         threshold_m_s=args.settle_threshold, tolerance=args.tolerance, probes=probes)
     else:
         move = DEFAULT_MOVE if args.move is None else args.move
         if move < 1:
