@@ -14,7 +14,7 @@ writer that is still running is never touched, nor one of another target.
 
     with atomic_write("out/report.json", "w") as fh:     # text or binary file object
         json.dump(report, fh)
-    write_bytes(path, data); write_text(path, text); save_npz(path, compressed=True, **arrays)
+    write_bytes(path, data); write_text(path, text); save_npz(path, compressed=True, **arrays); save_torch(path, obj)
     save_figure(fig, "plot.png", dpi=80)
 """
 import os
@@ -137,6 +137,14 @@ def save_npz(path, compressed=False, **arrays):
     with atomic_write(path, "wb") as fh:
         (np.savez_compressed if compressed else np.savez)(fh, **arrays)
     return path
+
+
+def save_torch(path, obj):
+    """torch.save, atomically (a checkpoint half written when the run is killed would fail its resume)."""
+    import torch
+    with atomic_write(path, "wb") as fh:
+        torch.save(obj, fh)
+    return Path(path)
 
 
 def save_figure(fig, path, **kw):

@@ -56,6 +56,7 @@ def kit_clip(scene):
 def export_kit(scene, positions=None, validate=True):
     """Simulates (unless `positions` are given) and writes the kit into the scene's kit folder. Returns
     {"kit_dir", "manifest", "positions" (Blender units), "check": pleat.train.pointcache's info or why not run}."""
+    from pleat import fileio
     from pleat.garment import Garment
     from pleat.garment.meshio import write_obj
     from pleat.motion.bvh_export import write_bvh
@@ -83,7 +84,7 @@ def export_kit(scene, positions=None, validate=True):
         "name": f"{g.name}_blender", "cache": "garment_sim.pc2", "motion": "motion.bvh", "garment_obj": "garment.obj",
         "units": axes.units_label(unit), "up": "z", "beta": rec["beta"], "motion_start_frame": scene.frame_start,
         "skip_frames": rec["lead_in"]}]}
-    (kit / "user_sim.json").write_text(json.dumps(manifest, indent=1) + "\n")
+    fileio.write_text(kit / "user_sim.json", json.dumps(manifest, indent=1) + "\n")
     check = validate_kit(kit) if validate else "not checked"
     return {"kit_dir": str(kit), "manifest": kit / "user_sim.json", "positions": positions, "check": check}
 

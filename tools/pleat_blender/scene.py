@@ -216,6 +216,7 @@ def load_garment(body, garment, vertices=None, mesh_object=None, pin_group=None,
     """The garment as a pleat.garment.Garment, from: a procedural name (`vertices` about that many), a garment npz,
     a mesh file (OBJ / glTF, through pleat.garment.importer), or a Blender mesh object (`mesh_object`, with the
     vertices of vertex group `pin_group` pinned; written as OBJ and imported the same way)."""
+    from pleat import fileio
     from pleat.garment import make_garment
     from pleat.garment.generate import GARMENT_NAMES
     from pleat.garment.importer import import_garment
@@ -238,7 +239,7 @@ def load_garment(body, garment, vertices=None, mesh_object=None, pin_group=None,
                 raise ValueError(f"{mesh_object.name} has no vertex group {pin_group!r}")
             chosen = [v.index for v in mesh.vertices for e in v.groups if e.group == g.index and e.weight >= 0.5]
             pin_arg = str(work_dir / f"{mesh_object.name}_pins.json")
-            Path(pin_arg).write_text(json.dumps({"pins": chosen}))
+            fileio.write_text(pin_arg, json.dumps({"pins": chosen}))
         g, report, vmap, _ = import_garment(path, body, units=axes.units_label(unit), up="z", fit_mm=fit_mm,
                                             pins=pin_arg, name=mesh_object.name)
         return g, report

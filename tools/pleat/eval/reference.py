@@ -88,12 +88,12 @@ def read_cached(path):
 
 
 def write_cached(path, positions, summary):
-    """Stores a simulation in the cache (a temporary file renamed into place: readers never see half a file)."""
+    """Stores a simulation in the cache (pleat.fileio: readers never see half a file, and a killed writer's
+    temporary is removed by the next write)."""
+    from pleat.fileio import save_npz
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.stem + ".tmp.npz")
-    np.savez_compressed(tmp, positions=positions, summary=json.dumps(summary))
-    tmp.replace(path)
+    save_npz(path, compressed=True, positions=positions, summary=json.dumps(summary))
 
 
 def cached_simulate(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,

@@ -29,6 +29,7 @@ import numpy as np
 import torch
 
 from pleat.cli import add_quiet, command
+from pleat import fileio
 from pleat.fileio import write_text
 from pleat.train import core, sources
 from pleat.train.model import InferenceBlock
@@ -328,7 +329,7 @@ def main(argv=None):
                            progress=progress)
         if rec is not None:
             rec.parent.mkdir(parents=True, exist_ok=True)
-            np.savez(rec, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
+            fileio.save_npz(rec, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
     reports = []
     if (Path(args.teacher) / "stage2.pt").is_file():
         rep = {"tier": "large (the teacher run's own stage 2)", "validation": own_stage2_error(args.teacher, val)}

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import torch
 
+from pleat import fileio
 from pleat.train import sources
 
 
@@ -17,7 +18,7 @@ class Run:
         self.t0 = time.time()
         if rank == 0:
             self.out.mkdir(parents=True, exist_ok=True)
-            (self.out / f"config_{stage}.json").write_text(json.dumps(
+            fileio.write_text(self.out / f"config_{stage}.json", json.dumps(
                 {"config": cfg, "sources": sources.used, "hardware": hardware()}, indent=2, default=str))
             self.metrics = open(self.out / f"metrics_{stage}.jsonl", "a")
 
@@ -29,9 +30,7 @@ class Run:
 
     def checkpoint(self, state):
         if self.rank == 0:
-            tmp = self.out / f"{self.stage}.pt.tmp"
-            torch.save(state, tmp)
-            os.replace(tmp, self.out / f"{self.stage}.pt")
+            fileio.save_torch(self.out / f"{self.stage}.pt", state)
 
     def resume(self):
         p = self.out / f"{self.stage}.pt"

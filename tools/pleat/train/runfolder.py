@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from pleat import fileio
 from pleat import garment_asset as ga
 from pleat.train import core, settings
 from pleat.train.shim import model_shim
@@ -36,9 +37,9 @@ def write_run(out, setup, cfg, garment, lp, block, norms, shim, report, summary,
     simsup_summary.json and the packed <garment>.pleat (fp16 / ONNX sections as cfg's simsup section says, META with
     the summary). Returns the asset's path."""
     c = settings.complete(cfg)["simsup"]      # a stored config (simsup-contact) may predate some keys
-    torch.save(dict({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
-                     "config": cfg, "garment": garment}, **state), out / "simsup.pt")
-    (out / "simsup_summary.json").write_text(json.dumps(summary, indent=1, default=str))
+    fileio.save_torch(out / "simsup.pt", dict({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms,
+                                               "report": report, "config": cfg, "garment": garment}, **state))
+    fileio.write_text(out / "simsup_summary.json", json.dumps(summary, indent=1, default=str))
     path = out / f"{setup.name}.pleat"
     tier_name = report.get("tier") or c["tier"]        # a second round of students: "<n>x<tier>"
     pack_tier(path, lp, block, norms, shim, setup.garment, setup, dict(report, tier=tier_name), cfg["fps"],

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from pleat import fileio
 from pleat.train import core, distill, forkpool, simdata, sources, tasks
 from pleat.train.runfolder import (CANDIDATES_FILE, load_model, model_name, run_contact_candidates,  # noqa: F401
                                    write_run)
@@ -119,9 +120,9 @@ def export_dataset(path, done, seqs, val, components=256):
     lengths = [len(s["disp"]) for s in seqs]
     segs = [dict(seg.__dict__) for seg, _ in done]
     vals = {f"val_positions_{i}": np.asarray(v["positions"], np.float32) for i, v in enumerate(val)}
-    np.savez_compressed(path, segments=json.dumps(segs), lengths=np.array(lengths), basis=Vt[:K].astype(np.float32),
-                        coefficients=coeff.astype(np.float16), residual_rms_mm=resid)
-    np.savez_compressed(_val_path(path), val_segments=json.dumps([v["name"] for v in val]), **vals)
+    fileio.save_npz(path, compressed=True, segments=json.dumps(segs), lengths=np.array(lengths),
+                    basis=Vt[:K].astype(np.float32), coefficients=coeff.astype(np.float16), residual_rms_mm=resid)
+    fileio.save_npz(_val_path(path), compressed=True, val_segments=json.dumps([v["name"] for v in val]), **vals)
     return resid
 
 
@@ -218,7 +219,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
         seqs = simdata.load_sequences(setup, done, train_clips)
     if export:
         resid = export_dataset(export, done, seqs, val)
-        Path(export).with_suffix(".json").write_text(json.dumps(
+        fileio.write_text(Path(export).with_suffix(".json"), json.dumps(
             {"simulation_cpu_s": sim_cpu, "validation_cpu_s": val_cpu, "residual_rms_mm": resid,
              "segments": len(seqs), "frames": int(sum(len(s["disp"]) for s in seqs)),
              "wall_s": time.time() - t_start, "hardware": core.hardware()}))
@@ -293,7 +294,7 @@ def write_contact_candidates(path, setup, seqs, count, stride=3, progress=False)
     table = contact.candidate_vertices(setup, seqs, int(count), stride=int(stride))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(path, candidate_vertices=table)
+    fileio.save_npz(path, candidate_vertices=table)
     if progress:
         print(f"simsup: {count} contact candidates per vertex from {len(seqs)} simulated sequences "
               f"({time.time() - t0:.0f} s) -> {path}", file=sys.stderr)
@@ -600,7 +601,7 @@ def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, s
     after = posed_errors(lp, block, val, setup.L)
     state = torch.load(run_dir / "simsup.pt", weights_only=False)
     if not (run_dir / "simsup_fit.pt").exists():
-        torch.save(state, run_dir / "simsup_fit.pt")
+        fileio.save_torch(run_dir / "simsup_fit.pt", state)
     summary = json.loads((run_dir / "simsup_summary.json").read_text())
     summary.setdefault("contact_rounds", []).append(rep)
     summary.update(contact=rep, validation_before_contact=summary.get("validation_before_contact", before),
@@ -638,8 +639,8 @@ def run_from_asset(asset, garment, cfg, run_dir):
     run_dir.mkdir(parents=True, exist_ok=True)
     training = meta.get("training", {})
     report = dict(meta.get("distillation", {}), source_asset=str(asset))
-    torch.save({"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms, "report": report,
-                "config": cfg, "garment": garment}, run_dir / "simsup.pt")
-    (run_dir / "simsup_summary.json").write_text(json.dumps(dict(training, source_asset=str(asset)), indent=1,
-                                                            default=str))
+    fileio.save_torch(run_dir / "simsup.pt", {"lp": lp.state_dict(), "block": block.state_dict(), "norms": norms,
+                                              "report": report, "config": cfg, "garment": garment})
+    fileio.write_text(run_dir / "simsup_summary.json", json.dumps(dict(training, source_asset=str(asset)), indent=1,
+                                                                  default=str))
     return run_dir

@@ -7,6 +7,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from pleat import fileio
 from pleat.train import sources
 from pleat.train.config import Budget, batched_path
 from pleat.train.data import Window, sample_window, to_t
@@ -128,7 +129,7 @@ def train_stage2(cfg, out, resume=False, device="auto", progress=True, max_minut
                               None if deadline is None else deadline - 0.2 * 60.0 * max_minutes * share)
         val = record_latents(setup, phi, val_clips, max(1, len(seqs) // 4), c2["sequence_frames"], rng, deadline)
         if rank == 0:
-            np.savez(data_path, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
+            fileio.save_npz(data_path, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
     run.log({"iteration": 0, "recorded_sequences": len(seqs), "recorded_frames": sum(len(q["z"]) for q in seqs),
              "record_time_s": time.time() - t_rec})
     norms = normalisation(setup, seqs)
