@@ -49,6 +49,15 @@ def test_a_simulated_segment_is_reproduced_by_skinning_its_targets(tiny_setup, t
     assert s["static"].shape == (6, setup.input_count) and s["M"].shape[:2] == (6, len(setup.parents))
 
 
+def test_thinned_data_keeps_evenly_spaced_segments_and_the_validation():
+    """simsup.data_segments: N of an export's segments, evenly spaced (every clip keeps its share), first and last
+    included; 0 or more than there are keeps them all."""
+    loaded = (list("abcdefghij"), list(range(10)), ["val"], 1.0, 2.0)
+    done, seqs, val, sim, vcpu = simsup.thinned_data(loaded, 4)
+    assert seqs == [0, 3, 6, 9] and done == ["a", "d", "g", "j"] and val == ["val"] and (sim, vcpu) == (1.0, 2.0)
+    assert simsup.thinned_data(loaded, 0) is loaded and simsup.thinned_data(loaded, 11) is loaded
+
+
 def test_contact_term_penalises_only_vertices_inside_or_within_eps():
     """One garment vertex above a body vertex with normal +y: no penalty 5 mm out, a penalty 1 mm out (ε = 2 mm) and
     a larger one inside; the share inside counts only the last."""
@@ -111,6 +120,17 @@ def _simsup_tiny_end_to_end(tmp_path, capsys):
     path, summary = simsup.train(cfg, "tshirt", tmp_path / "a", workers=1, progress=False,
                                  cache_dir=tmp_path / "cache", export=str(data))
     assert summary["segments"] == 2 and summary["frames"] == 16
+    # simsup.exclude_sources: a refit without one motion folder drops that folder's segments from the data
+    setup = core.Setup(cfg, "tshirt")
+    train_clips, val_clips = simsup._clips("train", 30.0, setup.body), simsup._clips("validation", 30.0, setup.body)
+    done, seqs, val, _, _ = simsup.load_datasets(setup, str(data), train_clips, val_clips, 6)
+    sources = [simsup.source_of(seg.clip) for seg, _ in done]
+    kept = simsup.load_datasets(setup, str(data), train_clips, val_clips, 6, leave_out={sources[0]})
+    others = [k for k, src in enumerate(sources) if src != sources[0]]
+    assert len(seqs) == 2 and len(kept[1]) == len(others) and len(kept[2]) == len(val)
+    assert all(simsup.source_of(seg.clip) != sources[0] for seg, _ in kept[0])
+    for q, k in zip(kept[1], others):                  # each kept segment keeps its own frames
+        np.testing.assert_array_equal(q["disp"], seqs[k]["disp"])
     # the refit as the shipped recipe makes it: two member fits averaged into one network of the large sizes
     cfg2 = core.load_config("tiny", overrides={"simsup.max_segments": 2, "simsup.segment_frames": 8,
                                               "simsup.validation_frames": 6, "simsup.iterations": 20,

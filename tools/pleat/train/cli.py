@@ -360,9 +360,7 @@ def _contact_candidates(args):
     if not 2 <= count <= 16:
         args.parser.error(f"simsup.contact_candidates={count}: must be 2..16")
     setup = core.Setup(cfg, args.garment, "cpu")
-    _, seqs, _, _, _ = simsup.load_datasets(setup, args.data, simsup._clips("train", cfg["fps"], setup.body),
-                                            simsup._clips("validation", cfg["fps"], setup.body),
-                                            cfg["simsup"]["validation_frames"])
+    _, seqs, _, _, _ = simsup.run_data(setup, args.data)
     out = args.out if str(args.out).endswith(".npz") else f"{args.out}/{simsup.CANDIDATES_FILE}"
     simsup.write_contact_candidates(out, setup, seqs, count, progress=True)
     print(f"wrote {out}")

@@ -73,7 +73,7 @@ def load_model(run_dir):
     """(lp, block, norms, shim, setup) of a simsup run (simsup.pt)."""
     from pleat.eval.tiers import tier
     state = torch.load(Path(run_dir) / "simsup.pt", weights_only=False)
-    cfg = state["config"]
+    cfg = settings.complete(state["config"])      # a run folder written before a key existed reads its default
     setup = core.Setup(cfg, state["garment"], "cpu")
     spec = tier(state.get("report", {}).get("tier") or cfg["simsup"]["tier"])   # a second round: "<n>x<tier>"
     L, D = state["norms"]["z_mean"].shape[0], state["block"]["blend_shapes"].shape[0]

@@ -40,12 +40,46 @@ def _clips(split, fps, body, required=True):
             for n in available(split, required=required)}
 
 
-def load_datasets(setup, data, train_clips, val_clips, validation_frames):
+def source_of(clip_name):
+    """The motion folder a clip of the split comes from (deepmimic_github/humanoid3d_jog → deepmimic_github)."""
+    return clip_name.split("/")[0]
+
+
+def split_clips(cfg, body):
+    """(training clips, validation clips) of the split that are there, at cfg's fps, without the training clips of
+    the motion folders in simsup.exclude_sources."""
+    leave_out = set(cfg["simsup"]["exclude_sources"])
+    train = {n: c for n, c in _clips("train", cfg["fps"], body).items() if source_of(n) not in leave_out}
+    return train, _clips("validation", cfg["fps"], body)
+
+
+def run_data(setup, data):
+    """A run's exported data (load_datasets) as the run's settings take it: its clips, without the left-out motion
+    folders' segments, simsup.data_segments of them (thinned_data)."""
+    train_clips, val_clips = split_clips(setup.cfg, setup.body)
+    return thinned_data(load_datasets(setup, data, train_clips, val_clips, setup.cfg["simsup"]["validation_frames"],
+                                      set(setup.cfg["simsup"]["exclude_sources"])),
+                        setup.cfg["simsup"]["data_segments"])
+
+
+def thinned_data(loaded, count):
+    """load_datasets' result with `count` of its training segments, evenly spaced through it (0: all): an export is
+    in plan order, clip after clip, so evenly spaced segments keep every clip's share — the same data, less of it
+    (e.g. a control of the same size as a run that left a source out)."""
+    done, seqs, val, sim_cpu, val_cpu = loaded
+    if not count or count >= len(seqs):
+        return loaded
+    keep = np.unique(np.round(np.linspace(0, len(seqs) - 1, int(count))).astype(np.int64))
+    return [done[k] for k in keep], [seqs[k] for k in keep], val, sim_cpu, val_cpu
+
+
+def load_datasets(setup, data, train_clips, val_clips, validation_frames, leave_out=()):
     """Several exported datasets ("a.npz,b.npz") as one: (done, training sequences, the first file's validation
-    sequences, simulation CPU s summed, validation CPU s) — the CPU times from each file's .json when present."""
+    sequences, simulation CPU s summed, validation CPU s) — the CPU times from each file's .json when present.
+    leave_out: motion folders whose training segments are dropped (simsup.exclude_sources)."""
     done, seqs, val, sim_cpu, val_cpu = [], [], None, 0.0, 0.0
     for part in str(data).split(","):
-        d, q, v = import_dataset(part, setup, train_clips, val_clips, validation_frames)
+        d, q, v = import_dataset(part, setup, train_clips, val_clips, validation_frames, leave_out)
         done, seqs, val = done + d, seqs + q, val or v
         info = Path(part).with_suffix(".json")
         prev = json.loads(info.read_text()) if info.exists() else {}
@@ -126,8 +160,9 @@ def export_dataset(path, done, seqs, val, components=256):
     return resid
 
 
-def import_dataset(path, setup, train_clips, val_clips, validation_frames):
-    """Inverse of export_dataset: (done [(segment, None)], training sequences, validation sequences)."""
+def import_dataset(path, setup, train_clips, val_clips, validation_frames, leave_out=()):
+    """Inverse of export_dataset: (done [(segment, None)], training sequences, validation sequences), without the
+    training segments of the motion folders in `leave_out`."""
     with np.load(path, allow_pickle=False) as z:
         segs = [simdata.Segment(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items()})
                 for d in json.loads(str(z["segments"]))]
@@ -136,19 +171,23 @@ def import_dataset(path, setup, train_clips, val_clips, validation_frames):
     with np.load(_val_path(path), allow_pickle=False) as z:
         names = json.loads(str(z["val_segments"]))
         val_pos = [z[f"val_positions_{i}"] for i in range(len(names))]
-    gone = sorted({seg.clip for seg in segs if seg.clip not in train_clips} | set(names) - set(val_clips))
+    keep = [source_of(seg.clip) not in leave_out for seg in segs]
+    gone = sorted({seg.clip for seg, k in zip(segs, keep) if k and seg.clip not in train_clips} |
+                  set(names) - set(val_clips))
     if gone:       # simulated on clips this motion folder lacks: their X_c rows cannot be rebuilt
         from pleat.cli import InputError
         raise InputError(path, f"was simulated on clips that are not in the motion folder: {', '.join(gone)}")
     seqs, o = [], 0
-    for seg, T in zip(segs, lengths):
+    for seg, T, k in zip(segs, lengths, keep):
+        o += T
+        if not k:
+            continue
         clip = simdata.cut(simdata.variant_clip(train_clips[seg.clip], seg.variant), seg.start, seg.frames)
         s = simdata.sequence(setup, clip, np.array(seg.beta), np.array(seg.material))
-        s["disp"] = disp[o:o + T].reshape(T, setup.N, 3)
-        o += T
+        s["disp"] = disp[o - T:o].reshape(T, setup.N, 3)
         seqs.append(s)
     val = [_validation_sequence(setup, val_clips[n], pos) for n, pos in zip(names, val_pos)]
-    return [(s, None) for s in segs], seqs, val
+    return [(s, None) for s, k in zip(segs, keep) if k], seqs, val
 
 
 def _val_path(path):
@@ -187,11 +226,15 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                                "role=validation)")
     # --user-sim-only trains on no clip of the split, and validates on the split's clips only without a user
     # validation simulation (then on those that are there, if any)
-    train_clips = {} if user_only else _clips("train", cfg["fps"], setup.body)
+    leave_out = set(c["exclude_sources"])
+    train_clips = {} if user_only else split_clips(cfg, setup.body)[0]
+    if leave_out and not train_clips and not user_train:
+        raise InputError(None, f"simsup.exclude_sources leaves no training clip ({', '.join(sorted(leave_out))})")
     val_clips = {} if user_only and user_val else _clips("validation", cfg["fps"], setup.body, required=not user_only)
     if c["validation_limit"]:
         val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
-    loaded = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"]) if data else None
+    loaded = (thinned_data(load_datasets(setup, data, train_clips, val_clips, c["validation_frames"], leave_out),
+                           c["data_segments"]) if data else None)
     run = core.Run(out, "simsup", cfg, 0)
     for info in user_info:
         run.log({"user_simulation": info})
@@ -459,11 +502,10 @@ def distill_tiers(run_dir, data, tiers, out_dir, iterations=None, progress=True,
     from pleat.eval.tiers import tier
     lp, block, _, _, setup = load_model(run_dir)
     cfg, c = setup.cfg, setup.cfg["simsup"]
-    train_clips = _clips("train", cfg["fps"], setup.body)
-    val_clips = _clips("validation", cfg["fps"], setup.body)
+    train_clips, val_clips = split_clips(cfg, setup.body)
     teacher_frames = int(c["tier_teacher_frames"] if teacher_frames is None else teacher_frames)
     if data:
-        _, seqs, val, _, _ = load_datasets(setup, data, train_clips, val_clips, c["validation_frames"])
+        _, seqs, val, _, _ = run_data(setup, data)
     else:       # no simulated training data: the tiers learn the model on unsimulated motion only
         from pleat.cli import InputError
         from pleat.eval.reference import DEFAULT_CACHE
@@ -579,8 +621,7 @@ def contact_tune(run_dir, data, iterations=None, progress=True, settings=None, s
     # the contact_* settings of this call (--set simsup.contact_weight=…) win over the run's own
     c = dict(cfg["simsup"], **{k: v for k, v in (settings or {}).items() if k.startswith("contact_")})
     if sequences is None:
-        _, seqs, val, _, _ = load_datasets(setup, data, _clips("train", cfg["fps"], setup.body),
-                                           _clips("validation", cfg["fps"], setup.body), c["validation_frames"])
+        _, seqs, val, _, _ = run_data(setup, data)
     else:
         seqs, val = sequences
     before = posed_errors(lp, block, val, setup.L)
