@@ -3,7 +3,8 @@
 
     PYTHONPATH=tools .venv/bin/python bench/leave_one_source_out.py --data EXPORT.npz --out DIR [--minutes 12] \
         [--sources deepmimic_github deepmimic_pybullet] [--garment tshirt] [--set KEY=VALUE ...] \
-        [--reuse all=RUN_DIR] [--json bench/results/leave-one-source-out.json]
+        [--size-controls] [--reuse NAME=RUN_DIR] [--json bench/results/leave-one-source-out.json] \
+        [--page docs/probes.md]
 
 From one exported simulated dataset (`pleat-train simsup ... --export EXPORT.npz`), the recipe's fit is run once on
 every source ("all") and once without each source's training clips (`simsup.exclude_sources`), each with the same
@@ -90,6 +91,8 @@ def main(argv=None):
                          "segments of the export, evenly spaced), so that leaving a source out is not confused with "
                          "less data")
     ap.add_argument("--json", default=None, help="write the result here too")
+    ap.add_argument("--page", default=None,
+                    help="write the table into this page, between its loso:begin and loso:end markers")
     args = ap.parse_args(argv)
     reuse = dict(r.split("=", 1) for r in args.reuse)
     models = [("all", ())] + [(f"without:{s}", (s,)) for s in args.sources]
@@ -112,11 +115,26 @@ def main(argv=None):
                 train(control, run_dir, args, (), count)
             result["rows"] += rows(control, run_dir)
     print(table(result))
+    sys.path.insert(0, str(ROOT / "tools"))
+    from pleat.fileio import write_text
     if args.json:
-        sys.path.insert(0, str(ROOT / "tools"))
-        from pleat.fileio import write_text
         write_text(args.json, json.dumps(result, indent=1) + "\n")
+    if args.page:
+        write_text(args.page, with_table(Path(args.page).read_text(), result))
     return 0
+
+
+BEGIN = "<!-- loso:begin (written by bench/leave_one_source_out.py --page; do not edit by hand) -->"
+END = "<!-- loso:end -->"
+
+
+def with_table(page, result):
+    """`page` with the table between BEGIN and END (both must be there)."""
+    head, sep, rest = page.partition(BEGIN)
+    _, sep2, tail = rest.partition(END)
+    if not sep or not sep2:
+        raise SystemExit(f"the page has no {BEGIN} ... {END} block")
+    return f"{head}{BEGIN}\n{table(result)}\n{END}{tail}"
 
 
 if __name__ == "__main__":
