@@ -1,6 +1,6 @@
 """Shared pytest configuration: tests marked `slow` run only with PLEAT_SLOW_TESTS=1 (the default run stays short);
 the shipped body as a session fixture (`body`); the tiny training preset with its setup and physics clips
-(`tiny_physics`); the C runtime's Python binding (`c_runtime`)."""
+(`tiny_physics`); the C runtime's Python binding (`c_runtime`); a script imported by its path (`load_script`)."""
 import os
 
 import pytest
@@ -32,6 +32,23 @@ def c_runtime():
     if runtime.find_library() is None:
         pytest.skip("libpleat.so not built (set PLEAT_BUILD_DIR or PLEAT_LIBRARY)")
     return runtime
+
+
+@pytest.fixture(scope="session")
+def load_script():
+    """A function that imports one of the repository's scripts (not a package module) by its path from the
+    repository root, e.g. load_script("scripts/docs-numbers.py")."""
+    import importlib.util
+
+    from pleat import REPO_ROOT
+
+    def load(relpath):
+        path = REPO_ROOT / relpath
+        spec = importlib.util.spec_from_file_location(path.stem.replace("-", "_"), path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+    return load
 
 
 def pytest_configure(config):

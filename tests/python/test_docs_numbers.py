@@ -2,7 +2,6 @@
 committed JSON (bench/results/cpu-reference.json, accuracy-reference.json, accuracy-garments.json): a figure changed
 by hand, or a JSON updated without rerunning the script, fails here. The conversion of pleat-eval-suite reports into
 accuracy-garments.json (--garments-from) is checked on a small synthetic report."""
-import importlib.util
 import json
 import re
 from pathlib import Path
@@ -13,11 +12,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
-def docs_numbers():
-    spec = importlib.util.spec_from_file_location("docs_numbers", ROOT / "scripts" / "docs-numbers.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def docs_numbers(load_script):
+    return load_script("scripts/docs-numbers.py")
 
 
 def test_readme_block_equals_what_the_script_writes_from_the_committed_json(docs_numbers):

@@ -1,18 +1,12 @@
 """bench/leave_one_source_out.py: its rows per source from run folders' summaries, its table and the page block."""
-import importlib.util
 import json
 
 import pytest
 
-from pleat import REPO_ROOT
-
 
 @pytest.fixture(scope="module")
-def loso():
-    spec = importlib.util.spec_from_file_location("loso", REPO_ROOT / "bench" / "leave_one_source_out.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def loso(load_script):
+    return load_script("bench/leave_one_source_out.py")
 
 
 def _run(tmp_path, name, errors, frames):
