@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Training throughput, per-window path against the batched path, measured alternately (docs/training-speed.md, "Speed").
+"""Training throughput, per-window path against the batched path, measured alternately (docs/training-speed.md).
 
 The machine is shared, so absolute times drift with other jobs' load: every round measures each variant once (the
 order reverses every round) on one setup in one process, so each pair of measurements sees about the same load;

@@ -201,4 +201,5 @@ def test_every_tool_writes_its_files_through_fileio():
         for k, line in enumerate(path.read_text().splitlines(), 1):
             if DIRECT_WRITE.search(line.split("#")[0]):
                 found.append(f"{rel}:{k}: {line.strip()}")
-    assert not found, "write through pleat.fileio (atomic_write, write_text, save_npz, save_torch):\n" + "\n".join(found)
+    assert not found, ("write through pleat.fileio (atomic_write, write_text, save_npz, save_torch):\n" +
+                       "\n".join(found))

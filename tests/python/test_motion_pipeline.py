@@ -143,7 +143,8 @@ def test_holds_play_every_frame_in_order_and_stop_dead_after_each_piece(walk, mo
     for k in range(pieces):
         end = min((k + 1) * piece, T)               # frames [k·piece, end) of the clip, then the hold
         at = end + k * hold
-        np.testing.assert_array_equal(out.local_rotations[at - (end - k * piece):at], walk.local_rotations[k * piece:end])
+        np.testing.assert_array_equal(out.local_rotations[at - (end - k * piece):at],
+                                      walk.local_rotations[k * piece:end])
         for arr, src in ((out.local_rotations, walk.local_rotations), (out.root_translation, walk.root_translation),
                          (out.root_rotation, walk.root_rotation)):
             np.testing.assert_array_equal(arr[at:at + hold], np.repeat(src[end - 1][None], hold, 0))

@@ -29,8 +29,7 @@ import numpy as np
 import torch
 
 from pleat.cli import add_quiet, command
-from pleat import fileio
-from pleat.fileio import write_text
+from pleat.fileio import save_npz, write_text
 from pleat.train import core, sources
 from pleat.train.model import InferenceBlock
 from pleat.train.runfolder import pack_tier  # noqa: F401  (pleat.train.distill.pack_tier: its callers' name)
@@ -136,7 +135,7 @@ def tier_sequences(seqs, Vt, sigma, L, teacher_L, velocity=None):
     previous frame divided by `scale` (zero at a sequence's first frame, which follows a reset). The coefficients
     alone say where the cloth is, not where it is going: f_LP, which sees only its own previous latent and the
     pose, cannot tell a skirt swinging out from one swinging back once the body holds still; with the change in its
-    state it can (docs/training.md, "Latent velocity")."""
+    state it can (docs/training.md, "Sudden stops")."""
     out = []
     for s in seqs:
         coeff = coefficients(s, Vt, sigma)          # [T, D]
@@ -329,7 +328,7 @@ def main(argv=None):
                            progress=progress)
         if rec is not None:
             rec.parent.mkdir(parents=True, exist_ok=True)
-            fileio.save_npz(rec, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
+            save_npz(rec, train=np.array(seqs, dtype=object), validation=np.array(val, dtype=object))
     reports = []
     if (Path(args.teacher) / "stage2.pt").is_file():
         rep = {"tier": "large (the teacher run's own stage 2)", "validation": own_stage2_error(args.teacher, val)}
