@@ -53,13 +53,14 @@ def split_clips(cfg, body):
     return train, _clips("validation", cfg["fps"], body)
 
 
-def run_data(setup, data):
-    """A run's exported data (load_datasets) as the run's settings take it: its clips, without the left-out motion
-    folders' segments, simsup.data_segments of them (thinned_data)."""
-    train_clips, val_clips = split_clips(setup.cfg, setup.body)
-    return thinned_data(load_datasets(setup, data, train_clips, val_clips, setup.cfg["simsup"]["validation_frames"],
-                                      set(setup.cfg["simsup"]["exclude_sources"])),
-                        setup.cfg["simsup"]["data_segments"])
+def run_data(setup, data, clips=None):
+    """A run's exported data (load_datasets) as the run's settings take it: without the left-out motion folders'
+    segments, simsup.data_segments of them (thinned_data). clips: (training, validation) clips, default
+    split_clips."""
+    train_clips, val_clips = clips or split_clips(setup.cfg, setup.body)
+    c = setup.cfg["simsup"]
+    return thinned_data(load_datasets(setup, data, train_clips, val_clips, c["validation_frames"],
+                                      set(c["exclude_sources"])), c["data_segments"])
 
 
 def thinned_data(loaded, count):
@@ -226,15 +227,14 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
                                "role=validation)")
     # --user-sim-only trains on no clip of the split, and validates on the split's clips only without a user
     # validation simulation (then on those that are there, if any)
-    leave_out = set(c["exclude_sources"])
     train_clips = {} if user_only else split_clips(cfg, setup.body)[0]
-    if leave_out and not train_clips and not user_train:
-        raise InputError(None, f"simsup.exclude_sources leaves no training clip ({', '.join(sorted(leave_out))})")
+    if c["exclude_sources"] and not train_clips and not user_train:
+        raise InputError(None, "simsup.exclude_sources leaves no training clip "
+                               f"({', '.join(sorted(c['exclude_sources']))})")
     val_clips = {} if user_only and user_val else _clips("validation", cfg["fps"], setup.body, required=not user_only)
     if c["validation_limit"]:
         val_clips = dict(list(val_clips.items())[:int(c["validation_limit"])])
-    loaded = (thinned_data(load_datasets(setup, data, train_clips, val_clips, c["validation_frames"], leave_out),
-                           c["data_segments"]) if data else None)
+    loaded = run_data(setup, data, (train_clips, val_clips)) if data else None
     run = core.Run(out, "simsup", cfg, 0)
     for info in user_info:
         run.log({"user_simulation": info})
