@@ -15,8 +15,9 @@
 #   soak     test_soak_live_bytes_flat for PLEAT_CI_SOAK_STEPS steps (100,000) on the release build: live bytes flat
 #   slow     the pytest tests marked slow (PLEAT_SLOW_TESTS=1 -m slow); the others ran in `default`, the CLI
 #            bad-input tests among them
-#   blender  the Blender add-on's headless round trip (tests/python/test_blender_roundtrip.py) in Blender as a Python
-#            module: installs the blender extra (bpy 4.4.0, a ~370 MB wheel for Python 3.11) and train
+#   blender  the Blender add-on's headless round trip (tests/python/test_blender_roundtrip.py) and Blender's cloth as
+#            a teacher (test_blender_teacher.py), in Blender as a Python module: installs the blender extra (bpy
+#            4.4.0, a ~370 MB wheel for Python 3.11) and train
 #   ray      pleat-wardrobe on a local two-node Ray cluster (tests/python/test_wardrobe.py): installs the ray extra
 #
 # PLEAT_CI_STAGES (default: all of the above, in that order) picks stages; every chosen stage runs even after one
@@ -109,7 +110,7 @@ stage_blender() {
   configure build/ci-release -DCMAKE_BUILD_TYPE=Release
   nice cmake --build build/ci-release --target pleat
   PLEAT_BLENDER_TESTS=1 PLEAT_BUILD_DIR="$PWD/build/ci-release" "$PY" -m pytest -q -rs \
-    tests/python/test_blender_roundtrip.py
+    tests/python/test_blender_roundtrip.py tests/python/test_blender_teacher.py
 }
 
 stage_ray() {

@@ -15,6 +15,10 @@ page or in the accuracy tables is typed by hand.
     scripts/docs-numbers.py --wardrobe-from SERIAL/wardrobe.json RAY/wardrobe.json
                                                  # bench/results/wardrobe.json from pleat-wardrobe reports
                                                  # (docs/training-speed.md's table), then the blocks
+    scripts/docs-numbers.py --teachers-from SUITE_PLEAT.json SUITE_BLENDER.json
+                                                 # bench/results/accuracy-teachers.json from pleat-eval-suite
+                                                 # reports against each teacher (docs/accuracy.md, "A second
+                                                 # teacher"), then the blocks
 
 Inputs: bench/results/cpu-reference.json (step times, keys as in out/bench/step.json, plus a "machine" object
 naming the CPU, the kernels chosen and the load), bench/results/accuracy-reference.json (errors against the
@@ -52,6 +56,10 @@ TRAINING_PAGE = ROOT / "docs" / "training-speed.md"
 WARDROBE_BEGIN = ("<!-- wardrobe:begin (written by scripts/docs-numbers.py from bench/results/wardrobe.json; "
                   "do not edit by hand) -->")
 WARDROBE_END = "<!-- wardrobe:end -->"
+TEACHERS_JSON = ROOT / "bench" / "results" / "accuracy-teachers.json"
+TEACHERS_BEGIN = ("<!-- teachers:begin (written by scripts/docs-numbers.py from bench/results/accuracy-teachers.json; "
+                  "do not edit by hand) -->")
+TEACHERS_END = "<!-- teachers:end -->"
 
 
 def _num(value, digits=1):
@@ -260,8 +268,19 @@ def _suite_command(report):
         parts += ["--max-frames", str(frames)]
     if runs and all(r.get("reference_spread") for r in runs):
         parts.append("--reference-spread")
+    teacher = _reference_teacher(runs)
+    if teacher != "pleat":
+        parts += ["--reference", teacher]
     parts += ["--out", "SUITE.json"]
     return " ".join(p if p.startswith("PLEAT_LIBRARY=") else shlex.quote(p) for p in parts)
+
+
+def _reference_teacher(runs):
+    """The simulator a suite's runs were scored against (pleat-eval --reference; "pleat" in reports without it)."""
+    teachers = {(r.get("reference") or {}).get("teacher") or "pleat" for r in runs} or {"pleat"}
+    if len(teachers) != 1:
+        raise ValueError(f"one suite scored against several references: {sorted(teachers)}")
+    return teachers.pop()
 
 
 def this_machine():
@@ -469,6 +488,66 @@ def wardrobe_from_reports(paths, command=None, machine=None):
             "command": command, "machine": machine, "runs": runs}
 
 
+def teachers_from_suites(paths, machine=None, metas=None):
+    """bench/results/accuracy-teachers.json from pleat-eval-suite reports scored against different teachers
+    (pleat-eval-suite --reference): a garments row (garment_row) per (asset, reference), plus `trained_on` (the
+    simulator of its training data, META training.simulator; "pleat" when META does not say), `reference` and
+    `training_frames`."""
+    machine = machine or this_machine()
+    rows = []
+    for path in paths:
+        report = json.loads(Path(path).read_text())
+        command = _suite_command(report)
+        for asset, result in report.items():
+            meta = (metas or {}).get(asset)
+            meta = _meta_of(asset) if meta is None else meta
+            runs = result.get("runs", [])
+            row = garment_row(asset, result["summary"], runs, command, machine, meta)
+            training = meta.get("training") if isinstance(meta.get("training"), dict) else {}
+            row.pop("regions")
+            row.update(trained_on=training.get("simulator") or "pleat", reference=_reference_teacher(runs),
+                       training_frames=training.get("frames"))
+            rows.append(row)
+    return {"about": ("Assets trained on different teachers (Pleat's simulator, Blender's cloth), each scored "
+                      "against each teacher on the same held-out clips and bodies: pleat-eval-suite summaries, "
+                      "trimmed (scripts/docs-numbers.py --teachers-from writes it, and docs/accuracy.md's table "
+                      "\"A second teacher\" from it); the columns are accuracy-garments.json's."),
+            "rows": sorted(rows, key=lambda r: (r["reference"] != "blender", r["trained_on"] != r["reference"],
+                                                r["asset"]))}
+
+
+TEACHER_NAMES = {"pleat": "Pleat's simulator", "blender": "Blender's cloth"}
+
+
+def render_teachers(teachers):
+    """docs/accuracy.md's table of assets and teachers (without the markers)."""
+    lines = ["| scored against | asset | trained on (simulated frames) | runs | mean / p95 (mm) | "
+             "× LBS-only (paired; worst run) | × reference spread (spread mm) | "
+             "inside the body %: Pleat / LBS-only / reference | edge-strain error: Pleat / LBS-only | "
+             "training CPU-hours |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in teachers["rows"]:
+        worse = r.get("clips_worse_than_lbs")
+        worst = _cell(r.get("worst_ratio_to_lbs"), 2)
+        if worse:
+            worst += f", {len(worse)} worse than LBS-only"
+        name = lambda t: TEACHER_NAMES.get(t, t)      # noqa: E731
+        lines.append(
+            f"| {name(r['reference'])} | `{r['asset']}` | {name(r['trained_on'])} "
+            f"({_cell(r.get('training_frames'), 0)}) | {_cell(r.get('runs'), 0)} | "
+            f"**{_cell(r.get('mean_mm'))}** / {_cell(r.get('p95_mm'))} | {_cell(r.get('ratio_to_lbs'), 2)} "
+            f"({_cell(r.get('ratio_to_lbs_paired'), 2)}; {worst}) | {_cell(r.get('ratio_to_spread'), 2)} "
+            f"({_cell(r.get('spread_mean_mm'))}) | {_cell(r.get('penetration_pct'), 2)} / "
+            f"{_cell(r.get('lbs_penetration_pct'), 2)} / {_cell(r.get('reference_penetration_pct'), 2)} | "
+            f"{_cell(r.get('edge_strain_error'), 3)} / {_cell(r.get('lbs_edge_strain_error'), 3)} | "
+            f"{_cell(r.get('training_cpu_hours'), 2)} |")
+    commands = list(dict.fromkeys(r.get("command") for r in teachers["rows"] if r.get("command")))
+    lines.append("")
+    lines.append("Made with " + "; ".join(f"`{c}`" for c in commands) + "." if commands else
+                 "The commands that made these rows are not recorded.")
+    return "\n".join(lines) + "\n"
+
+
 def render_wardrobe(wardrobe):
     runs = wardrobe["runs"]
     garments = [g["garment"] for g in runs[0]["garments"]]
@@ -505,6 +584,10 @@ def main(argv=None):
                       help="write --surface from these pleat-sim summaries (one per garment), then the pages")
     mode.add_argument("--wardrobe-from", nargs="+", metavar="WARDROBE.json",
                       help="write --wardrobe from these pleat-wardrobe reports (serial and Ray), then the pages")
+    mode.add_argument("--teachers-from", nargs="+", metavar="SUITE.json",
+                      help="write --teachers from these pleat-eval-suite reports (against each teacher), then the "
+                           "pages")
+    p.add_argument("--teachers", default=str(TEACHERS_JSON), help="teachers accuracy JSON (default: %(default)s)")
     p.add_argument("--wardrobe-command", default=None, help="with --wardrobe-from: the commands that made them")
     p.add_argument("--surface", default=str(SURFACE_JSON), help="reference surface JSON (default: %(default)s)")
     p.add_argument("--wardrobe", default=str(WARDROBE_JSON), help="wardrobe timing JSON (default: %(default)s)")
@@ -523,6 +606,9 @@ def main(argv=None):
             Path(a.garments).write_text(json.dumps(garments, indent=1, ensure_ascii=False) + "\n")
         if a.surface_from:
             Path(a.surface).write_text(json.dumps(surface_from_summaries(a.surface_from), indent=1) + "\n")
+        if a.teachers_from:
+            Path(a.teachers).write_text(json.dumps(teachers_from_suites(a.teachers_from, a.machine), indent=1,
+                                                   ensure_ascii=False) + "\n")
         if a.wardrobe_from:
             Path(a.wardrobe).write_text(json.dumps(wardrobe_from_reports(
                 a.wardrobe_from, a.wardrobe_command, a.machine or this_machine()), indent=1) + "\n")
@@ -532,6 +618,8 @@ def main(argv=None):
         surface_block = render_surface(json.loads(Path(a.surface).read_text())) if Path(a.surface).is_file() \
             else None
         wardrobe_block = render_wardrobe(json.loads(Path(a.wardrobe).read_text())) if Path(a.wardrobe).is_file() \
+            else None
+        teachers_block = render_teachers(json.loads(Path(a.teachers).read_text())) if Path(a.teachers).is_file() \
             else None
     except (OSError, ValueError, KeyError) as e:
         print(f"docs-numbers: error: {e}", file=sys.stderr)
@@ -544,21 +632,22 @@ def main(argv=None):
         pages.append((Path(a.garments_page), surface_block, SURFACE_BEGIN, SURFACE_END))
     if wardrobe_block is not None:
         pages.append((Path(a.training_page), wardrobe_block, WARDROBE_BEGIN, WARDROBE_END))
-    updates = []
+    if teachers_block is not None:
+        pages.append((Path(a.accuracy_page), teachers_block, TEACHERS_BEGIN, TEACHERS_END))
+    updates = {}        # path → (text on disk, text with its blocks spliced; a page may hold several blocks)
     for path, text_block, begin, end in pages:
-        text = path.read_text()
+        text, new = updates.get(path) or (path.read_text(),) * 2
         try:
-            new = splice(text, text_block, begin, end, path.name)
+            updates[path] = (text, splice(new, text_block, begin, end, path.name))
         except ValueError as e:
             print(f"docs-numbers: error: {e}", file=sys.stderr)
             return 2
-        updates.append((path, text, new))
     if a.check:
-        stale = [path for path, text, new in updates if new != text]
+        stale = [path for path, (text, new) in updates.items() if new != text]
         for path in stale:
             print(f"docs-numbers: {path} is out of date: run scripts/docs-numbers.py", file=sys.stderr)
         return 1 if stale else 0
-    for path, text, new in updates:
+    for path, (text, new) in updates.items():
         if new != text:
             path.write_text(new)
     return 0

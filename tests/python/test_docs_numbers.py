@@ -159,14 +159,59 @@ def test_garments_from_writes_the_json_and_the_page(docs_numbers, tmp_path):
     page.write_text(f"# x\n{docs_numbers.GARMENTS_BEGIN}\nold\n{docs_numbers.GARMENTS_END}\nafter\n")
     readme = tmp_path / "README.md"
     readme.write_text((ROOT / "README.md").read_text())
+    no_teachers = ["--teachers", str(tmp_path / "no-teachers.json")]     # this page has no teachers block
     assert docs_numbers.main(["--garments-from", str(path), "--machine", "Test CPU", "--garments", str(out),
-                              "--accuracy-page", str(page), "--readme", str(readme)]) == 0
+                              "--accuracy-page", str(page), "--readme", str(readme), *no_teachers]) == 0
     rows = json.loads(out.read_text())["rows"]
     assert {(r["garment"], r["tier"]) for r in rows} == {("dress", "large"), ("dress", "small")}
     text = page.read_text()
     assert "old" not in text and "| dress | small |" in text and text.endswith(f"{docs_numbers.GARMENTS_END}\nafter\n")
     assert docs_numbers.main(["--check", "--garments", str(out), "--accuracy-page", str(page),
-                              "--readme", str(readme)]) == 0
+                              "--readme", str(readme), *no_teachers]) == 0
+
+
+def test_teachers_from_suites_gives_a_row_per_asset_and_reference_and_both_blocks_share_the_page(docs_numbers,
+                                                                                                  tmp_path):
+    """--teachers-from: suites of assets trained on either simulator, each scored against either, become
+    accuracy-teachers.json and docs/accuracy.md's table, next to the garments block on the same page."""
+    paths = []
+    for reference in ("pleat", "blender"):
+        runs = [dict(_run("deepmimic_github/humanoid3d_jog", [0.0], 18.0, 28.0, 9.0), reference={"teacher": reference})
+                for _ in range(2)]
+        summary = {"runs": 2, "mean_mm": 18.0 if reference == "blender" else 14.0, "ratio_to_lbs_paired": 0.5}
+        suite = {"out/b.pleat": {"summary": summary, "runs": runs}, "assets/tshirt.pleat": {"summary": summary,
+                                                                                          "runs": runs}}
+        paths.append(tmp_path / f"suite_{reference}.json")
+        paths[-1].write_text(json.dumps(suite))
+    metas = {"out/b.pleat": {"garment": "tshirt", "training": {"simulator": "blender", "frames": 9000}},
+             "assets/tshirt.pleat": {"garment": "tshirt", "training": {"frames": 39559}}}
+    teachers = docs_numbers.teachers_from_suites(paths, machine="Test CPU", metas=metas)
+    rows = [(r["reference"], r["asset"], r["trained_on"], r["training_frames"]) for r in teachers["rows"]]
+    assert rows == [("blender", "out/b.pleat", "blender", 9000), ("blender", "assets/tshirt.pleat", "pleat", 39559),
+                    ("pleat", "assets/tshirt.pleat", "pleat", 39559), ("pleat", "out/b.pleat", "blender", 9000)]
+    assert "--reference blender" in teachers["rows"][0]["command"]
+    assert "--reference " not in teachers["rows"][2]["command"]
+    block = docs_numbers.render_teachers(teachers)
+    assert "| Blender's cloth | `out/b.pleat` | Blender's cloth (9,000) | 2 | **18.0** /" in block
+    mixed = [dict(r, reference={"teacher": t}) for r, t in zip(runs, ("pleat", "blender"))]
+    paths[0].write_text(json.dumps({"out/b.pleat": {"summary": summary, "runs": mixed}}))
+    with pytest.raises(ValueError, match="several references"):
+        docs_numbers.teachers_from_suites(paths[:1], machine="Test CPU", metas=metas)
+
+    page = tmp_path / "accuracy.md"
+    page.write_text(f"{docs_numbers.GARMENTS_BEGIN}\nold\n{docs_numbers.GARMENTS_END}\nmiddle\n"
+                    f"{docs_numbers.TEACHERS_BEGIN}\nold\n{docs_numbers.TEACHERS_END}\n")
+    out = tmp_path / "teachers.json"
+    out.write_text(json.dumps(teachers))
+    readme = tmp_path / "README.md"
+    readme.write_text((ROOT / "README.md").read_text())
+    common = ["--teachers", str(out), "--accuracy-page", str(page), "--readme", str(readme)]
+    assert docs_numbers.main(common) == 0
+    text = page.read_text()
+    assert "old" not in text
+    assert "\nmiddle\n" in text and "| Blender's cloth | `out/b.pleat` |" in text
+    assert "| garment | tier |" in text                  # both blocks written, neither over the other
+    assert docs_numbers.main(["--check", *common]) == 0
 
 
 def test_garments_from_refreshes_its_rows_and_keeps_the_other_garments(docs_numbers, tmp_path):

@@ -75,6 +75,17 @@ def test_reference_cache_key_changes_with_every_input(weights):
     # the spread's twin reference has its own key; an unperturbed one keeps the old key (existing caches stay valid)
     assert cache_key(g, body, beta, mat, clip, 10, st, start_perturbation_m=0.0) == base
     assert cache_key(g, body, beta, mat, clip, 10, st, start_perturbation_m=1e-6) not in {base, *changed}
+    # another teacher's simulation has its own key; Pleat's simulator keeps the old one
+    assert cache_key(g, body, beta, mat, clip, 10, st, teacher="pleat") == base
+    assert cache_key(g, body, beta, mat, clip, 10, st, teacher="blender") not in {base, *changed}
+
+
+def test_an_unknown_teacher_is_refused_by_name():
+    from pleat.eval.reference import TEACHERS, check_teacher
+    assert check_teacher("pleat") == "pleat"
+    with pytest.raises(ValueError, match="use one of pleat, blender"):
+        check_teacher("houdini")
+    assert TEACHERS == ("pleat", "blender")
 
 
 @needs_lib

@@ -346,6 +346,24 @@ def test_contact_candidates_are_the_body_vertices_nearest_in_the_frames(tiny_set
     assert np.array_equal(simsup.run_contact_candidates(tmp_path), written)
 
 
+def test_a_blender_plan_keeps_the_bodies_and_windows_at_the_one_material_blender_has():
+    """Blender's cloth has one material: its plan is Pleat's plan (same clips, variants, windows and β draws) with
+    every segment at the default material; Pleat's own plan varies the material."""
+    from types import SimpleNamespace
+
+    from pleat import garment_asset as ga
+    from pleat.train import settings
+    cfg = dict(settings.defaults()["simsup"])
+    clips = [SimpleNamespace(name=f"c{k}", num_frames=T) for k, T in enumerate((200, 240))]    # the plan reads these
+    cfg["variants"] = ["original"]
+    own = simdata.plan_segments(clips, dict(cfg, teacher="pleat"), 10, 3)
+    blender = simdata.plan_segments(clips, dict(cfg, teacher="blender"), 10, 3)
+    assert [(s.clip, s.variant, s.start, s.frames, s.beta) for s in own] == \
+        [(s.clip, s.variant, s.start, s.frames, s.beta) for s in blender]
+    assert all(s.material == tuple(ga.MATERIAL_DEFAULT) for s in blender)
+    assert any(s.material != tuple(ga.MATERIAL_DEFAULT) for s in own)
+
+
 def test_teacher_only_sequences_are_new_unsimulated_frames_of_the_training_motion(tiny_setup):
     """A tier's extra data: X_c rows of training-clip segments at new β and materials (another plan seed), at
     least the frames asked for, with the latent block zero as a simulated sequence's rows have it."""

@@ -1,13 +1,14 @@
 """pleat-eval: accuracy of a Pleat asset against the reference simulator on one clip (docs/accuracy.md).
 
     pleat-eval --asset A.pleat --motion CLIP --json OUT.json [--plots DIR] [--beta b0,b1,..] [--material m,mu,lam,k]
-               [--max-frames 300] [--teacher RUN_DIR_OR_stage1.pt] [--reference-spread]
+               [--max-frames 300] [--teacher RUN_DIR_OR_stage1.pt] [--reference-spread] [--reference blender]
 
 Runs, on the same body, β, material and motion (resampled to 30 fps, cut at --max-frames):
   pleat    the asset through the C runtime (pleat.runtime → libpleat.so); `step_us` is the median plInstance_Step time
   lbs      the same garment with the zero network (LBS of the β-shaped template), through the C runtime the same way
   teacher  the stage-1 network Φ rolled out in torch, if --teacher is given and torch imports (else null + reason)
-  reference  pleat.sim's implicit-Euler solve, cached in out/cache/sim/ (the slow part)
+  reference  pleat.sim's implicit-Euler solve, cached in out/cache/sim/ (the slow part); with --reference blender,
+           Blender's cloth on the same scene instead (pleat_blender.teacher, needs bpy)
   reference_spread  with --reference-spread: a second reference from a start state moved by 1 µm, scored against the
            first. Cloth buckles, so two equally valid references drift apart; no method's error below this means
            anything (docs/accuracy.md, "How exact the reference is")
@@ -84,17 +85,18 @@ def teacher_rollout(checkpoint, clip, beta, material, weights):
 
 def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teacher=None, body_path=None,
              cache_dir=None, progress=True, context=None, reference_spread=False, fps=None, network_rate_hz=0.0,
-             body_contact_offset_m=None):
+             body_contact_offset_m=None, reference="pleat"):
     """The report dict of one asset on one clip (what --json writes), plus per-frame arrays under 'per_frame'.
     reference_spread: also simulate the reference from a start moved by SPREAD_PERTURBATION_M and score it against
     the first like a method (`reference_spread`): the floor under which no method's error means anything.
     fps: the frame rate of the clip, the reference and the runtime's steps (default 30); network_rate_hz: the
     runtime's plInstanceDef.network_rate_hz for `pleat` (0: the networks run every step); body_contact_offset_m:
-    its plInstanceDef.body_contact_offset_m (None: the SDK's default clearance). Every method also gets
+    its plInstanceDef.body_contact_offset_m (None: the SDK's default clearance); reference: the teacher simulator
+    ("pleat" or "blender", pleat.eval.reference.TEACHERS) of the reference and its spread. Every method also gets
     `surface_inside` (pleat.sim.surface: points sampled over its faces inside the body, on 10 frames)."""
     from pleat import runtime
     from pleat.body import BodyModel
-    from pleat.eval.reference import cached_simulate
+    from pleat.eval.reference import cached_simulate, check_teacher
     from pleat.eval.regions import garment_regions
 
     from pleat.asset import AssetError
@@ -103,6 +105,10 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
         data, weights = S.read_weights(asset_path)
     except AssetError as exc:
         raise InputError(asset_path, f"not a valid Pleat asset ({exc.code}: {exc})") from None
+    try:
+        check_teacher(reference)
+    except ValueError as exc:
+        raise InputError(None, f"--reference: {exc}") from None
     body = BodyModel.load(body_path)
     clip = S.load_motion(motion, body, fps or S.EVAL_FPS, max_frames)     # bad clips fail here, before any work
     mismatch = S.skeleton_mismatch_mm(weights, body)
@@ -127,7 +133,8 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
         if own_context:
             ctx.close()
     t0 = time.perf_counter()
-    ref, ref_info = cached_simulate(garment, body, clip, beta, material, T, cache_dir=cache_dir, progress=progress)
+    ref, ref_info = cached_simulate(garment, body, clip, beta, material, T, cache_dir=cache_dir, progress=progress,
+                                    teacher=reference)
     ref_info["wall_s"] = time.perf_counter() - t0
 
     preds = {k: r.positions for k, r in runs.items()}
@@ -173,7 +180,8 @@ def evaluate(asset_path, motion, beta=None, material=None, max_frames=300, teach
     report["reference_spread"] = None
     if reference_spread:
         twin, twin_info = cached_simulate(garment, body, clip, beta, material, T, cache_dir=cache_dir,
-                                          progress=progress, start_perturbation_m=SPREAD_PERTURBATION_M)
+                                          progress=progress, start_perturbation_m=SPREAD_PERTURBATION_M,
+                                          teacher=reference)
         report["reference_spread"] = dict(score("reference_spread", twin), start_perturbation_m=SPREAD_PERTURBATION_M,
                                           key=twin_info["key"], cache_hit=twin_info["cache_hit"])
         # Where the spread is as large as the errors, one reference is a noisy target: score every method against
@@ -233,6 +241,9 @@ def build_parser():
     ap.add_argument("--reference-spread", action="store_true",
                     help="also score a second reference started 1 µm apart against the first (doubles the "
                          "reference's cost once; cached)")
+    ap.add_argument("--reference", default="pleat", choices=["pleat", "blender"],
+                    help="the reference simulator: Pleat's (default) or Blender's cloth (needs bpy; docs/accuracy.md, "
+                         "\"A second teacher\")")
     ap.add_argument("--fps", type=positive_float, default=None,
                     help="frame rate of the clip, reference and steps (default 30)")
     ap.add_argument("--body-contact-offset", type=float, default=None, metavar="M",
@@ -256,7 +267,8 @@ def main(args):
         raise UsageError("--network-rate must be 0 (every step) or a positive rate in Hz")
     report = evaluate(args.asset, args.motion, beta, material, args.max_frames, args.teacher, args.body,
                       args.cache_dir, not args.quiet, reference_spread=args.reference_spread, fps=args.fps,
-                      network_rate_hz=args.network_rate, body_contact_offset_m=args.body_contact_offset)
+                      network_rate_hz=args.network_rate, body_contact_offset_m=args.body_contact_offset,
+                      reference=args.reference)
     if args.plots:
         report["plot"] = str(write_plots(report, args.plots))
     if not args.per_frame:

@@ -2,12 +2,13 @@
 
 The simulation itself is `pleat.sim.scene.simulate` (the garment starts as the LBS-skinned, β-shaped template at the
 clip's first pose, pushed out of the body, with zero velocity; one implicit-Euler step per clip frame at dt = 1/fps;
-pinned vertices follow the body by LBS). This module only adds the cache.
+pinned vertices follow the body by LBS). This module only adds the cache, and the choice of teacher: `teacher` =
+"blender" makes the same simulation with Blender's cloth instead (pleat_blender.teacher; needs bpy).
 
 Cache key: SHA-256 of the garment arrays (template, faces, skin, shape blend shapes, pins), the body (template,
 shape directions, skin weights, faces, joint regressor), β, material, the clip's arrays and fps, the frame count,
-the solver settings and REFERENCE_VERSION. Files: out/cache/sim/<key>.npz with positions [T, N, 3] f32 and the
-simulator's summary.
+the solver settings, REFERENCE_VERSION and, for a teacher other than Pleat's simulator, its name. Files:
+out/cache/sim/<key>.npz with positions [T, N, 3] f32 and the simulator's summary.
 """
 import hashlib
 import json
@@ -19,6 +20,7 @@ import numpy as np
 from pleat import REPO_ROOT
 
 REFERENCE_VERSION = 2
+TEACHERS = ("pleat", "blender")      # Pleat's simulator (pleat.sim), Blender's cloth (pleat_blender.teacher)
 DEFAULT_CACHE = REPO_ROOT / "out" / "cache" / "sim"
 
 
@@ -29,7 +31,19 @@ def _hash_arrays(h, *arrays):
         h.update(a.tobytes())
 
 
-def cache_key(garment, body, beta, material, clip, frames, settings, start_perturbation_m=0.0):
+def check_teacher(teacher):
+    """The teacher's name, or ValueError naming the choices; for "blender", also when bpy does not import here."""
+    if teacher not in TEACHERS:
+        raise ValueError(f"teacher {teacher!r}: use one of {', '.join(TEACHERS)}")
+    if teacher == "blender":
+        from pleat_blender.teacher import available
+        why = available()
+        if why:
+            raise ValueError(why)
+    return teacher
+
+
+def cache_key(garment, body, beta, material, clip, frames, settings, start_perturbation_m=0.0, teacher="pleat"):
     h = hashlib.sha256()
     h.update(f"pleat-eval-reference-v{REFERENCE_VERSION}".encode())
     _hash_arrays(h, garment.template, garment.faces, garment.skin_indices, garment.skin_weights,
@@ -45,6 +59,8 @@ def cache_key(garment, body, beta, material, clip, frames, settings, start_pertu
         scene["start_perturbation_m"] = float(start_perturbation_m)
     if len(garment.collision_exclude):     # only when set, so the keys of garments colliding with everything stay
         scene["collision_exclude"] = [int(j) for j in garment.collision_exclude]
+    if teacher != "pleat":                 # only when set, so the keys of Pleat's own simulations stay
+        scene["teacher"] = teacher
     h.update(json.dumps(scene, sort_keys=True).encode())
     return h.hexdigest()[:32]
 
@@ -59,20 +75,24 @@ def _resolved(garment, clip, beta, frames, settings):
 
 
 def cache_entry(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,
-                start_perturbation_m=0.0):
+                start_perturbation_m=0.0, teacher="pleat"):
     """(the cache file of this simulation, its key): where cached_simulate reads and writes it."""
     T, settings, beta = _resolved(garment, clip, beta, frames, settings)
-    key = cache_key(garment, body, beta, material, clip, T, settings, start_perturbation_m)
+    key = cache_key(garment, body, beta, material, clip, T, settings, start_perturbation_m, teacher)
     return Path(cache_dir or DEFAULT_CACHE) / f"{key}.npz", key
 
 
 def simulate_uncached(garment, body, clip, beta, material, frames=None, settings=None, progress=False,
-                      start_perturbation_m=0.0):
+                      start_perturbation_m=0.0, teacher="pleat"):
     """The simulation cached_simulate caches, without the cache: (positions [T, N, 3] f32, summary). A training
-    task on another machine runs this and sends the positions back to the caller's cache (pleat.train.simdata)."""
+    task on another machine runs this and sends the positions back to the caller's cache (pleat.train.simdata).
+    Blender's cloth has one material (the add-on's light shirt): `material` and `settings` do not reach it."""
     from pleat.physics.materials import Material
     from pleat.sim.scene import simulate
     T, settings, beta = _resolved(garment, clip, beta, frames, settings)
+    if check_teacher(teacher) == "blender":
+        from pleat_blender.teacher import simulate as blender_simulate
+        return blender_simulate(garment, body, clip, beta, T, start_perturbation_m, progress)
     positions, _, summary = simulate(garment, body, clip, beta, Material(*map(float, material)), T, settings,
                                      progress, keep_body=False, start_perturbation_m=start_perturbation_m)
     return positions, summary
@@ -97,14 +117,16 @@ def write_cached(path, positions, summary):
 
 
 def cached_simulate(garment, body, clip, beta, material, frames=None, settings=None, cache_dir=None,
-                    progress=True, start_perturbation_m=0.0):
-    """pleat.sim.scene.simulate through the on-disk cache. Returns (positions [T, N, 3] f32, info) where info has
-    the key, whether it was a cache hit and the simulator's summary (seconds per frame, convergence)."""
-    path, key = cache_entry(garment, body, clip, beta, material, frames, settings, cache_dir, start_perturbation_m)
+                    progress=True, start_perturbation_m=0.0, teacher="pleat"):
+    """pleat.sim.scene.simulate (or the `teacher`'s simulation) through the on-disk cache. Returns (positions
+    [T, N, 3] f32, info) where info has the key, whether it was a cache hit and the simulator's summary (seconds
+    per frame, convergence)."""
+    path, key = cache_entry(garment, body, clip, beta, material, frames, settings, cache_dir, start_perturbation_m,
+                            teacher)
     hit = read_cached(path)
     if hit is not None:
-        return hit[0], dict(key=key, cache_hit=True, path=str(path), summary=hit[1])
+        return hit[0], dict(key=key, cache_hit=True, path=str(path), summary=hit[1], teacher=teacher)
     positions, summary = simulate_uncached(garment, body, clip, beta, material, frames, settings, progress,
-                                           start_perturbation_m)
+                                           start_perturbation_m, teacher)
     write_cached(path, positions, summary)
-    return positions, dict(key=key, cache_hit=False, path=str(path), summary=summary)
+    return positions, dict(key=key, cache_hit=False, path=str(path), summary=summary, teacher=teacher)

@@ -2,10 +2,11 @@
 
     PLEAT_LIBRARY=build/eval/libpleat.so pleat-eval-suite --assets A.pleat [B.pleat ...] \
         [--clips validation | CLIP ...] [--betas 0 | "0;1.5,-1;..."] [--max-frames 60] [--reference-spread] \
-        --out out/suite.json
+        [--reference blender] --out out/suite.json
 
 Every (asset, clip, β) is pleat-eval's `evaluate` (the C runtime against the cached reference simulation, and the
-LBS-only twin of the same garment in the same run). Per asset it reports the mean over all runs of: mean and p95
+LBS-only twin of the same garment in the same run; `--reference blender`: against Blender's cloth instead of
+Pleat's simulator). Per asset it reports the mean over all runs of: mean and p95
 vertex error (mm), the ratio to LBS-only (mean of the paired per-run ratios, and ratio of the means), the ratio to
 the reference's own spread (with --reference-spread), penetration (% of vertex-frames inside the body; and of points
 sampled over the faces, surface_inside_pct, for pleat, LBS-only and the reference) and jitter;
@@ -107,7 +108,7 @@ def summarise_regions(rows):
     return out
 
 
-def run(assets, clips, betas, max_frames, reference_spread, progress=False):
+def run(assets, clips, betas, max_frames, reference_spread, progress=False, reference="pleat"):
     from pleat import runtime
     from pleat.eval.cli import evaluate
     result = {}
@@ -118,7 +119,7 @@ def run(assets, clips, betas, max_frames, reference_spread, progress=False):
             for clip in clips:
                 for beta in betas:
                     rep = evaluate(asset, clip, beta, None, max_frames, context=ctx, progress=progress,
-                                   reference_spread=reference_spread)
+                                   reference_spread=reference_spread, reference=reference)
                     rep.pop("per_frame", None)
                     rows.append(rep)
                     if progress:
@@ -139,6 +140,8 @@ def build_parser():
     ap.add_argument("--betas", default=None, help="';'-separated β vectors (comma-separated; '0' = the mean body)")
     ap.add_argument("--max-frames", type=int, default=60, help="frames scored per clip (default 60)")
     ap.add_argument("--reference-spread", action="store_true", help="also score a second reference 1 µm apart")
+    ap.add_argument("--reference", default="pleat", choices=["pleat", "blender"],
+                    help="the reference simulator: Pleat's (default) or Blender's cloth (needs bpy)")
     ap.add_argument("--out", required=True, help="output file: the JSON report")
     return add_quiet(ap)
 
@@ -146,7 +149,7 @@ def build_parser():
 @command("pleat-eval-suite", build_parser)
 def main(args):
     res = run(args.assets, _clips(args.clips), _betas(args.betas), args.max_frames, args.reference_spread,
-              progress=not args.quiet)
+              progress=not args.quiet, reference=args.reference)
     write_text(args.out, json.dumps(res, indent=1, default=float))
     for asset, r in res.items():
         s = r["summary"]

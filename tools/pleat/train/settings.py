@@ -247,6 +247,8 @@ SETTINGS = (
     S("stage2.window", 8, POSITIVE, "frames per window (f_LP fed its own predictions)"),
     S("stage2.checkpoint_every", 500, POSITIVE, "iterations between checkpoints"),
 
+    S("simsup.teacher", "pleat", OneOf("pleat", "blender"),
+      "the simulator that makes the data: Pleat's (pleat.sim) or Blender's cloth (bpy; its one material)"),
     S("simsup.segment_frames", 90, Integer(2), "frames per simulated segment"),
     S("simsup.repeats", 4, POSITIVE, "rounds over the (clip, variant) pairs"),
     S("simsup.variants", list(VARIANTS[:5]), ListOf(OneOf(*VARIANTS), min_length=1), "clip variants simulated"),

@@ -105,6 +105,8 @@ def plan_segments(clips, cfg, beta_count, seed):
         first = k < len(per_source) and variant == "original"
         beta = np.zeros(beta_count) if first else sample_beta(rng, beta_count, cfg["beta_scale"], cfg["beta_max"])
         mat = np.array(ga.MATERIAL_DEFAULT) if first else sample_material(rng, cfg["default_material_share"])
+        if cfg["teacher"] != "pleat":      # Blender's cloth has one material (pleat.eval.reference); same β draws
+            mat = np.array(ga.MATERIAL_DEFAULT)
         segments.append(Segment(name, variant, start, frames, tuple(map(float, beta)), tuple(map(float, mat))))
     return segments
 
@@ -142,7 +144,8 @@ def _simulate_segment(context, segment):
     state = _state(context)
     t0 = time.process_time()
     positions, summary = simulate_uncached(state["garment"], state["body"], _segment_clip(state, segment),
-                                           np.array(segment.beta), np.array(segment.material), segment.frames)
+                                           np.array(segment.beta), np.array(segment.material), segment.frames,
+                                           teacher=context.get("teacher", "pleat"))
     return positions, summary, time.process_time() - t0
 
 
@@ -165,11 +168,12 @@ def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=No
     from pleat.train import tasks
     runner = runner or tasks.Local(workers)
     body_path = str(REPO_ROOT / setup.cfg["body"]) if not os.path.isabs(setup.cfg["body"]) else setup.cfg["body"]
+    teacher = setup.cfg["simsup"]["teacher"]
     context = dict(token=uuid.uuid4().hex, garment=garment_arrays(setup), body_path=body_path,
-                   clips=sorted({s.clip for s in segments}), fps=float(setup.cfg["fps"]))
+                   clips=sorted({s.clip for s in segments}), fps=float(setup.cfg["fps"]), teacher=teacher)
     state = _state(context)
     paths = [cache_entry(state["garment"], state["body"], _segment_clip(state, s), np.array(s.beta),
-                         np.array(s.material), s.frames, cache_dir=cache_dir)[0] for s in segments]
+                         np.array(s.material), s.frames, cache_dir=cache_dir, teacher=teacher)[0] for s in segments]
     missing = [k for k, p in enumerate(paths) if not p.is_file()]
     results = dict(zip(missing, runner.map(_simulate_segment, context, [segments[k] for k in missing], deadline)))
     done, cpu_s = [], 0.0

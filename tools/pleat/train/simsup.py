@@ -207,7 +207,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
           data=None, export=None, user_sims=None, user_only=False, runner=None):
     """The recipe above; returns (asset path, summary). `runner` (pleat.train.tasks) runs the simulations and the
     fits; default this machine: `workers` processes for the simulations, simsup.fit_workers forked fits."""
-    from pleat.eval.reference import DEFAULT_CACHE
+    from pleat.eval.reference import DEFAULT_CACHE, check_teacher
     from pleat.eval.tiers import tier
     from pleat.cli import InputError
     t_start = time.time()
@@ -216,6 +216,10 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     cache_dir = Path(cache_dir or DEFAULT_CACHE)
     if user_only and not user_sims:
         raise InputError(None, "--user-sim-only needs at least one --user-sim training simulation")
+    try:
+        check_teacher(c["teacher"])
+    except ValueError as exc:
+        raise InputError(None, f"simsup.teacher: {exc}") from None
     setup = core.Setup(cfg, garment, "cpu")
     budget_s = 60.0 * max_minutes if max_minutes else None
 
@@ -313,7 +317,7 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
     val_err = posed_errors(lp, block, val, setup.L)
     # 4. pack
     cpu_h = (sim_cpu + val_cpu) / 3600.0 + fit_s * max(1, torch.get_num_threads()) / 3600.0
-    summary = {"recipe": "simulator-supervised", "segments": len(seqs), "frames": frames,
+    summary = {"recipe": "simulator-supervised", "simulator": c["teacher"], "segments": len(seqs), "frames": frames,
                "clips": sorted(train_clips), "variants": list(c["variants"]),
                "simulation_cpu_h": sim_cpu / 3600.0, "fit_wall_s": fit_s, "cpu_hours": cpu_h,
                "wall_s": time.time() - t_start, "hardware": core.hardware(), "fit": report,
