@@ -153,6 +153,88 @@ def test_holds_play_every_frame_in_order_and_stop_dead_after_each_piece(walk, mo
     assert simdata.variant_clip(walk, "stop").num_frames > walk.num_frames
 
 
+def _turn(a, b):
+    """Angle (rad) of the rotation between unit quaternions a and b, per element."""
+    return 2 * np.arccos(np.clip(np.abs(np.sum(a * b, axis=-1)), 0.0, 1.0))
+
+
+def _root_unchanged(a, b):
+    np.testing.assert_array_equal(a.root_translation, b.root_translation)
+    np.testing.assert_array_equal(a.root_rotation, b.root_rotation)
+    np.testing.assert_array_equal(a.local_rotations[:, 0], b.local_rotations[:, 0])     # the pelvis's R_0
+
+
+@needs_clips
+@pytest.mark.parametrize("other", ["humanoid3d_jump", "humanoid3d_cartwheel"])
+@pytest.mark.parametrize("first_is_walk", [True, False])
+def test_blend_plays_one_clip_into_another_without_a_jump_at_the_seam(body, walk, other, first_is_walk):
+    """The "blend" training variant: clip a as it is up to the cross-fade, then b's own poses (its root path turned
+    and moved to carry on from a's), and no joint turns further between two frames of the seam than the two clips
+    ever turn between two of their own frames."""
+    from pleat.train import simdata
+    b = load_clip(f"deepmimic_pybullet/{other}", body).resample(walk.fps)
+    a, b = (walk, b) if first_is_walk else (b, walk)
+    out = simdata.variant_clip(a, "blend", b)
+    first, end = simdata.blend_seam(a, b)
+    n = end - first
+    assert end == a.num_frames and out.num_frames == a.num_frames + b.num_frames - n and n > 1
+    for arr, src in ((out.local_rotations, a.local_rotations), (out.root_translation, a.root_translation),
+                     (out.root_rotation, a.root_rotation)):
+        np.testing.assert_array_equal(arr[:first], src[:first])
+    np.testing.assert_array_equal(out.local_rotations[end:], b.local_rotations[n:])
+    np.testing.assert_allclose(np.linalg.norm(np.diff(out.root_translation[end:], axis=0), axis=1),
+                               np.linalg.norm(np.diff(b.root_translation[n:], axis=0), axis=1), atol=1e-9)
+    own = max(_turn(c.local_rotations[1:], c.local_rotations[:-1]).max() for c in (a, b))
+    seam = out.local_rotations[first - 1:end + 1]
+    assert _turn(seam[1:], seam[:-1]).max() <= own + 1e-9
+    with pytest.raises(ValueError, match="blends into"):
+        simdata.variant_clip(a, "blend")
+
+
+def test_pose_noise_is_smooth_bounded_seeded_and_leaves_the_root_alone():
+    """Clip.with_pose_noise with limits that never bind: every joint but the pelvis turned by a slowly wandering
+    offset of at most the amplitude (and of about it somewhere), whose second differences are a small part of it;
+    the same seed gives the same clip, another seed another."""
+    from pleat.motion.clip import identity_clip
+    rest = identity_clip(150, fps=30.0)
+    amp = 0.1
+    wide = (np.full((24, 3), -np.pi), np.full((24, 3), np.pi))
+    out = rest.with_pose_noise(amp, seed=4, limits=wide)
+    _root_unchanged(out, rest)
+    turn = _turn(out.local_rotations, rest.local_rotations)
+    assert turn.max() <= amp + 1e-9 and (turn[:, 1:].max(axis=0) > 0.5 * amp).all()
+    r = out.joint_rotation_vectors()
+    assert np.abs(np.diff(r, 2, axis=0)).max() < 0.1 * amp
+    np.testing.assert_array_equal(rest.with_pose_noise(amp, seed=4, limits=wide).local_rotations, out.local_rotations)
+    assert np.abs(rest.with_pose_noise(amp, seed=5, limits=wide).local_rotations - out.local_rotations).max() > 0.01
+
+
+@needs_clips
+def test_pose_noise_stays_within_the_clips_own_joint_ranges(walk):
+    """Clip.with_pose_noise's default limits (the clip's range per joint and axis, widened by half the amplitude) and
+    the "noise" training variant: within the limits, at most the amplitude from the clip's pose, the root as it was,
+    no more jerk than the clip's own plus a small part of the amplitude, and the same clip on every call (the seed is
+    the clip's name)."""
+    from dataclasses import replace
+
+    from pleat.train import simdata
+    amp = simdata.NOISE_AMPLITUDE_RAD
+    out = simdata.variant_clip(walk, "noise")
+    np.testing.assert_array_equal(
+        out.local_rotations, walk.with_pose_noise(amp, simdata.noise_seed(walk.name)).local_rotations)
+    _root_unchanged(out, walk)
+    lo, hi = walk.joint_rotation_range(amp / 2)
+    r, r0 = out.joint_rotation_vectors(), walk.joint_rotation_vectors()
+    assert (r >= lo - 1e-9).all() and (r <= hi + 1e-9).all()
+    turn = _turn(out.local_rotations, walk.local_rotations)
+    assert turn.max() <= amp + 1e-9 and turn.max() > 0.5 * amp
+    jerk = np.abs(np.diff(r, 2, axis=0)).max(axis=(0, 2))
+    assert (jerk <= np.abs(np.diff(r0, 2, axis=0)).max(axis=(0, 2)) + 0.2 * amp).all()
+    np.testing.assert_array_equal(simdata.variant_clip(walk, "noise").local_rotations, out.local_rotations)
+    renamed = simdata.variant_clip(replace(walk, name="another"), "noise")
+    assert np.abs(renamed.local_rotations - out.local_rotations).max() > 0.01
+
+
 @needs_clips
 @pytest.mark.parametrize("fps", [30, 60])
 def test_resampling_preserves_duration_and_pose(walk, fps):

@@ -6,7 +6,8 @@ from pleat import asset as pa
 from pleat.reference import (Instance, StepError, assemble_inputs, forward_kinematics, mlp, normals, skinning)
 from pleat.reference.golden import random_motion, random_weights
 from pleat.reference.normals import face_normals, normals_gather, normals_scatter
-from pleat.rotations import axis_angle_to_matrix, matrix_to_6d, matrix_to_quat, rotation_between, sixd_to_matrix
+from pleat.rotations import axis_angle_to_matrix, axis_angle_to_quat, matrix_to_6d, matrix_to_quat, \
+    quat_to_axis_angle, rotation_between, sixd_to_matrix
 
 
 def quat(axis, angle):
@@ -107,6 +108,22 @@ def test_sixd_round_trip_and_layout():
     np.testing.assert_array_equal(d6[:, :3], R[:, :, 0])
     np.testing.assert_array_equal(d6[:, 3:], R[:, :, 1])
     np.testing.assert_allclose(sixd_to_matrix(d6), R, atol=1e-12)
+
+
+def test_axis_angle_round_trip_on_both_hemispheres():
+    """quat_to_axis_angle inverts axis_angle_to_quat (tiny angles included); −q, the same rotation, gives the vector
+    of the other way round: angle 2π − θ about the opposite axis."""
+    rng = np.random.default_rng(2)
+    aa = rng.standard_normal((50, 3))
+    aa *= (rng.uniform(0.0, np.pi, 50) / np.linalg.norm(aa, axis=1))[:, None]
+    aa[0] = [1e-14, 0.0, 0.0]
+    aa[1] = 0.0
+    q = axis_angle_to_quat(aa)
+    np.testing.assert_allclose(quat_to_axis_angle(q), aa, atol=1e-12)
+    other = quat_to_axis_angle(-q[2:])
+    angle = np.linalg.norm(aa[2:], axis=1)
+    np.testing.assert_allclose(np.linalg.norm(other, axis=1), 2 * np.pi - angle, atol=1e-12)
+    np.testing.assert_allclose(axis_angle_to_matrix(other), axis_angle_to_matrix(aa[2:]), atol=1e-12)
 
 
 def test_rotation_between_takes_a_onto_b_by_the_smallest_rotation():

@@ -364,6 +364,101 @@ def test_a_blender_plan_keeps_the_bodies_and_windows_at_the_one_material_blender
     assert any(s.material != tuple(ga.MATERIAL_DEFAULT) for s in own)
 
 
+def _rest_clips(frames):
+    """Clips at rest of the given lengths, named a, b, c, ...: the plan reads names and lengths, variants need Clips."""
+    from pleat.motion.clip import identity_clip
+    return [identity_clip(T, name=chr(ord("a") + k)) for k, T in enumerate(frames)]
+
+
+def test_the_default_variants_plan_the_segments_they_planned_before_blend_and_noise():
+    """Adding variants changed no plan without them: the default five on two clips give the plan the planner gave
+    before "blend" and "noise" existed (its first windows, its last β and a material, recorded from it), with no
+    partner."""
+    from pleat.train import settings
+    cfg = dict(settings.defaults()["simsup"], segment_frames=12, repeats=1)
+    assert cfg["variants"] == ["original", "mirrored", "fast", "slow", "collar"]
+    plan = simdata.plan_segments(_rest_clips((40, 57)), cfg, 3, 5)
+    assert len(plan) == 120 and all(s.partner == "" and s.clip_names == (s.clip,) for s in plan)
+    assert [(s.clip, s.variant, s.start, s.frames) for s in plan[:12]] == [
+        ("a", "original", 12, 12), ("a", "mirrored", 24, 12), ("a", "fast", 12, 12), ("a", "slow", 30, 12),
+        ("a", "collar", 6, 12), ("b", "original", 24, 12), ("b", "mirrored", 6, 12), ("b", "fast", 0, 12),
+        ("b", "slow", 54, 12), ("b", "collar", 36, 12), ("a", "original", 0, 12), ("a", "mirrored", 18, 12)]
+    np.testing.assert_allclose(plan[8].material, [0.6941375977, 23799.8880658, 27903.75961796, 0.0010559221057],
+                               rtol=1e-9)
+    assert (plan[-1].clip, plan[-1].variant, plan[-1].start) == ("b", "collar", 30)    # the end of the draws
+    np.testing.assert_allclose(plan[-1].beta, [0.18332781835, -0.47866838397, -1.27231900511], rtol=1e-9)
+
+
+def test_blend_segments_hold_the_seam_into_the_next_clip_and_rebuild_from_their_names():
+    """"blend": each clip cross-fades into the next clip by name (the last into the first), every window holds the
+    whole cross-fade, windows of a long clip vary, and the segment names its partner, so segment_clip and an
+    exported dataset's segment list rebuild it."""
+    from dataclasses import asdict
+
+    from pleat.train import settings
+    clips = _rest_clips((40, 157, 60))
+    by_name = {c.name: c for c in clips}
+    cfg = dict(settings.defaults()["simsup"], segment_frames=30, repeats=2, variants=["blend"])
+    plan = simdata.plan_segments(clips, cfg, 3, 1)
+    assert {(s.clip, s.partner) for s in plan} == {("a", "b"), ("b", "c"), ("c", "a")}
+    for s in plan:
+        first, end = simdata.blend_seam(by_name[s.clip], by_name[s.partner])
+        assert s.start <= first and end <= s.start + s.frames and s.frames == 30
+        assert simdata.segment_clip(by_name, s).num_frames == 30
+        assert simdata.Segment(**asdict(s)) == s and s.clip_names == (s.clip, s.partner)
+    assert len({s.start for s in plan if s.clip == "b"}) > 1
+    old = {k: v for k, v in asdict(plan[0]).items() if k != "partner"}     # an export from before "blend"
+    assert simdata.Segment(**old).partner == ""
+    assert simdata.blend_partner(["only"], "only") == "only"
+
+
+@pytest.mark.parametrize("frames,cover,expected", [
+    (100, None, [0, 15, 30, 45, 60]),            # the windows every variant but "blend" has (70 is not a step)
+    (100, (60, 68), [41, 56]),                   # may start at 38..60: two steps, centred
+    (100, (0, 8), [0]),
+    (100, (92, 100), [70]),
+    (20, (10, 18), [0]),                         # a clip shorter than the window: all of it
+])
+def test_window_starts_cover_what_they_must(frames, cover, expected):
+    """Half-overlapping 30-frame windows; given a span to cover, only windows holding it whole, centred in where
+    they can start."""
+    starts = simdata.window_starts(frames, min(30, frames), cover)
+    assert starts == expected
+    for s in starts:
+        assert 0 <= s <= max(frames - 30, 0)
+        if cover is not None:
+            assert s <= cover[0] and cover[1] <= s + min(30, frames)
+
+
+def test_an_exported_blend_segment_comes_back_with_its_partner_and_leaves_with_either_source(tiny_setup, tmp_path):
+    """A "blend" segment in an export (export_dataset / import_dataset) rebuilds its X_c rows from its clip and its
+    partner; leaving out either clip's motion folder drops it, and a motion folder without the partner is refused
+    naming it."""
+    from pleat.cli import InputError
+    setup = tiny_setup
+    clips = simsup._clips("train", setup.cfg["fps"], setup.body)
+    pairs = [(n, simdata.blend_partner(clips, n)) for n in sorted(clips)]
+    pairs = [(n, p) for n, p in pairs if simsup.source_of(n) != simsup.source_of(p)]
+    if not pairs:
+        pytest.skip("the training clips here come from one motion folder")
+    name, partner = pairs[0]
+    frames = 20
+    played = simdata.variant_clip(clips[name], "blend", clips[partner])
+    start = simdata.window_starts(played.num_frames, frames, simdata.blend_seam(clips[name], clips[partner]))[0]
+    seg = simdata.Segment(name, "blend", start, frames, tuple(np.zeros(setup.B)),
+                          tuple(simdata.ga.MATERIAL_DEFAULT), partner)
+    path = tmp_path / "data.npz"
+    simsup.export_dataset(path, [(seg, None)], [{"disp": np.zeros((frames, setup.N, 3))}], [])
+    done, seqs, _ = simsup.import_dataset(path, setup, clips, {}, 6)
+    assert [d[0] for d in done] == [seg] and seqs[0]["static"].shape == (frames, setup.input_count)
+    expected = simdata.sequence(setup, simdata.segment_clip(clips, seg), np.array(seg.beta), np.array(seg.material))
+    np.testing.assert_array_equal(seqs[0]["static"], expected["static"])
+    for source in (simsup.source_of(name), simsup.source_of(partner)):
+        assert simsup.import_dataset(path, setup, clips, {}, 6, leave_out={source})[0] == []
+    with pytest.raises(InputError, match=partner):
+        simsup.import_dataset(path, setup, {n: c for n, c in clips.items() if n != partner}, {}, 6)
+
+
 def test_teacher_only_sequences_are_new_unsimulated_frames_of_the_training_motion(tiny_setup):
     """A tier's extra data: X_c rows of training-clip segments at new β and materials (another plan seed), at
     least the frames asked for, with the latent block zero as a simulated sequence's rows have it."""

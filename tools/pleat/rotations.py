@@ -65,16 +65,33 @@ def matrix_to_quat(m):
     return quat_normalize(q)
 
 
-def axis_angle_to_matrix(aa):
-    """Rodrigues: axis-angle vectors (..., 3) → (..., 3, 3)."""
+def axis_angle_to_quat(aa):
+    """Axis-angle vectors (..., 3) → unit quaternions (x, y, z, w); the angle is the vector's length."""
     aa = np.asarray(aa, dtype=np.float64)
     angle = np.linalg.norm(aa, axis=-1, keepdims=True)
     half = angle / 2
     small = angle < 1e-12
     # sin(half)/angle → 1/2 as angle → 0
     scale = np.where(small, 0.5, np.sin(half) / np.where(small, 1.0, angle))
-    q = np.concatenate([aa * scale, np.cos(half)], axis=-1)
-    return quat_to_matrix(q)
+    return np.concatenate([aa * scale, np.cos(half)], axis=-1)
+
+
+def quat_to_axis_angle(q):
+    """Unit quaternions (x, y, z, w) → axis-angle vectors (..., 3), the inverse of axis_angle_to_quat. The angle is
+    2·atan2(|xyz|, w) in [0, 2π]: q and −q give the two vectors of one rotation (angles θ and 2π − θ), so a sequence
+    kept on one hemisphere has vectors that change continuously, through half turns too."""
+    q = quat_normalize(q)
+    sin_half = np.linalg.norm(q[..., :3], axis=-1, keepdims=True)
+    angle = 2 * np.arctan2(sin_half, q[..., 3:4])
+    small = sin_half < 1e-12
+    # angle/sin(half) → 2/w as sin(half) → 0
+    scale = np.where(small, 2.0 / np.where(small, q[..., 3:4], 1.0), angle / np.where(small, 1.0, sin_half))
+    return q[..., :3] * scale
+
+
+def axis_angle_to_matrix(aa):
+    """Rodrigues: axis-angle vectors (..., 3) → (..., 3, 3)."""
+    return quat_to_matrix(axis_angle_to_quat(aa))
 
 
 def rotation_between(a, b):

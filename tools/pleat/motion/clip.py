@@ -1,5 +1,6 @@
 """`Clip`: a motion on the Pleat body's 24 joints, and the operations on it (resampling, mirroring, time scaling,
-concatenation with blended transitions, root-path variation). Quaternions are (x, y, z, w); +Y up (docs/inputs.md).
+concatenation with blended transitions, root-path variation, pose noise). Quaternions are (x, y, z, w); +Y up
+(docs/inputs.md).
 
 A clip holds, per frame t: local joint rotations R_k (quaternions, [T, 24, 4], body joint order, the pelvis's own
 R_0 included), the root translation t_root [T, 3] and root rotation Q_root [T, 4] of docs/inputs.md's forward
@@ -11,8 +12,10 @@ import numpy as np
 
 from pleat.body.model import SMPL_JOINT_NAMES
 from pleat.fileio import save_npz
-from pleat.rotations import quat_multiply, quat_normalize, quat_slerp, quat_to_matrix, yaw_of, yaw_matrix, \
-    matrix_to_quat
+from pleat.rotations import axis_angle_to_quat, quat_multiply, quat_normalize, quat_slerp, quat_to_axis_angle, \
+    quat_to_matrix, yaw_of, yaw_matrix, matrix_to_quat
+
+POSE_NOISE_KNOTS_PER_S = 2.0     # Clip.with_pose_noise: a new random offset every half second
 
 
 def _mirror_index(names):
@@ -46,6 +49,31 @@ def _quat_power(q, t):
 def _canonical(q):
     """Quaternions with w >= 0 (q and −q are the same rotation)."""
     return np.where(q[..., 3:4] < 0, -q, q)
+
+
+def _hemisphere_continuous(q):
+    """Quaternions [T, ...] signed frame by frame to lie nearest the previous frame's (q and −q are one rotation),
+    the first frame with w >= 0: their axis-angle vectors (quat_to_axis_angle) then change continuously."""
+    flips = np.where(np.sum(q[1:] * q[:-1], axis=-1) < 0, -1.0, 1.0)
+    sign = np.cumprod(np.concatenate([np.where(q[:1, ..., 3] < 0, -1.0, 1.0), flips]), axis=0)
+    return q * sign[..., None]
+
+
+def _smooth_offsets(rng, times, joints, amplitude_rad, knots_per_s):
+    """Random rotation vectors [T, joints, 3] (rad) that wander slowly: drawn uniformly in the ball of radius
+    `amplitude_rad` at knots 1/knots_per_s s apart, smoothstep-interpolated between them. Each frame's offset is a
+    convex combination of two knots, so it stays in the ball; the curve's slope is zero at every knot, so it has no
+    kink there (a kink is a jolt the simulated cloth would answer)."""
+    knot_count = int(np.floor(times[-1] * knots_per_s)) + 2
+    direction = rng.normal(size=(knot_count, joints, 3))
+    direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    radius = amplitude_rad * np.cbrt(rng.uniform(size=(knot_count, joints, 1)))
+    knots = direction * radius
+    x = times * knots_per_s
+    i = np.minimum(np.floor(x).astype(np.int64), knot_count - 2)
+    u = x - i
+    w = (u * u * (3 - 2 * u))[:, None, None]
+    return knots[i] * (1 - w) + knots[i + 1] * w
 
 
 @dataclass
@@ -192,6 +220,35 @@ class Clip:
         return replace(self, name=f"{self.name}@hold{move}+{int(hold)}", local_rotations=self.local_rotations[idx],
                        root_translation=self.root_translation[idx], root_rotation=self.root_rotation[idx])
 
+    def joint_rotation_vectors(self):
+        """Each joint's local rotation as an axis-angle vector [T, J, 3] (rad), continuous over the clip (the
+        quaternions are kept on one hemisphere, so a joint turning through a half turn does not jump)."""
+        return quat_to_axis_angle(_hemisphere_continuous(self.local_rotations))
+
+    def joint_rotation_range(self, margin_rad=0.0):
+        """(lo, hi) [J, 3]: per joint and axis, the range of joint_rotation_vectors over the clip, widened by
+        `margin_rad` each way — the joint limits the clip itself shows."""
+        r = self.joint_rotation_vectors()
+        return r.min(axis=0) - margin_rad, r.max(axis=0) + margin_rad
+
+    def with_pose_noise(self, amplitude_rad, seed, limits=None, knots_per_s=POSE_NOISE_KNOTS_PER_S):
+        """Pose noise within joint limits: every joint's local rotation vector but the pelvis's (R_0 turns the whole
+        body, so it belongs to the root, which is left as it is) plus a smooth random offset of at most
+        `amplitude_rad` (_smooth_offsets: a new one every 1/knots_per_s s), clamped per axis to `limits` (lo, hi)
+        [J, 3] on joint_rotation_vectors. The default limits are the clip's own range widened by half the amplitude:
+        the repository has no joint-limit tables, and limits from the clip alone make the noisy clip a function of
+        the clip and the seed only (no other clip can change it). With limits that hold the clip's own poses (the
+        default's do), the clamp only pulls toward them, so each joint turns at most `amplitude_rad` away from its
+        pose. The same seed gives the same clip. The simulator-supervised recipe's "noise" variant
+        (pleat.train.simdata) trains on this: poses near, not on, the training motion's."""
+        r = self.joint_rotation_vectors()
+        lo, hi = self.joint_rotation_range(amplitude_rad / 2) if limits is None else limits
+        offsets = _smooth_offsets(np.random.default_rng(seed), self.times, len(self.joint_names), amplitude_rad,
+                                  knots_per_s)
+        q = axis_angle_to_quat(np.clip(r + offsets, lo, hi))
+        q[:, 0] = self.local_rotations[:, 0]
+        return replace(self, name=f"{self.name}@noise{amplitude_rad:g}/{seed}", local_rotations=q)
+
     def heading(self):
         """Yaw (rad) of the pelvis's global rotation Q_root · R_0 per frame (docs/inputs.md)."""
         P = self.root_matrices() @ quat_to_matrix(self.local_rotations[:, 0])
@@ -217,13 +274,20 @@ class Clip:
                        root_rotation=root_rot)
 
 
+def crossfade_frames(a, b, blend_s=0.25):
+    """How many frames concatenate(a, b, blend_s) cross-fades: the last ones of a, laid over b's first. The
+    concatenation has a.num_frames + b.num_frames − n frames (b at a's fps), the cross-fade at [a.num_frames − n,
+    a.num_frames)."""
+    b_frames = b.num_frames if abs(a.fps - b.fps) <= 1e-9 else int(round(b.duration * a.fps)) + 1
+    return max(1, min(int(round(blend_s * a.fps)), a.num_frames - 1, b_frames - 1))
+
+
 def concatenate(a, b, blend_s=0.25):
     """a then b, b turned and moved so that it starts where and facing where a ends, with a `blend_s` cross-fade
     (smoothstep slerp over the overlapping frames). b is resampled to a's fps if needed."""
     if abs(a.fps - b.fps) > 1e-9:
         b = b.resample(a.fps)
-    n = int(round(blend_s * a.fps))
-    n = max(1, min(n, a.num_frames - 1, b.num_frames - 1))
+    n = crossfade_frames(a, b, blend_s)
     # b's first frame is laid over a's frame −n: align heading and horizontal position there
     ya, yb = a.heading()[-n], b.heading()[0]
     b = b.with_root_path(yaw_offset=ya - yb)
@@ -252,4 +316,4 @@ def identity_clip(num_frames, fps=30.0, name="rest", joint_names=SMPL_JOINT_NAME
                 joint_names=joint_names)
 
 
-__all__ = ["Clip", "concatenate", "identity_clip", "matrix_to_quat"]
+__all__ = ["Clip", "concatenate", "crossfade_frames", "identity_clip", "matrix_to_quat"]

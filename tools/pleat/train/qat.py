@@ -148,7 +148,7 @@ def motion_rows(weights, frames, seed=0):
     for seg in simdata.plan_segments(list(clips.values()), cfg["simsup"], B, seed + 2000):
         if total >= frames:
             break
-        clip = simdata.cut(simdata.variant_clip(clips[seg.clip], seg.variant), seg.start, seg.frames)
+        clip = simdata.segment_clip(clips, seg)
         T = clip.num_frames
         x = assemble_inputs(weights, clip.local_rotations, clip.root_translation, clip.root_rotation,
                             np.full(T, 1.0 / clip.fps), np.array(seg.beta), np.array(seg.material))

@@ -172,7 +172,7 @@ class Setting:
 # The simulator's training-clip variants (pleat.train.simdata.VARIANTS) and the MLP activations
 # (pleat.train.model.ACTIVATIONS), named here so that resolving a config needs neither torch nor the simulator;
 # tests/python/test_train_settings.py checks that the lists agree.
-VARIANTS = ("original", "mirrored", "fast", "slow", "collar", "stop")
+VARIANTS = ("original", "mirrored", "fast", "slow", "collar", "stop", "blend", "noise")
 ACTIVATIONS = ("relu", "silu")
 
 COUNT, POSITIVE = Integer(0), Integer(1)

@@ -172,8 +172,8 @@ def import_dataset(path, setup, train_clips, val_clips, validation_frames, leave
     with np.load(_val_path(path), allow_pickle=False) as z:
         names = json.loads(str(z["val_segments"]))
         val_pos = [z[f"val_positions_{i}"] for i in range(len(names))]
-    keep = [source_of(seg.clip) not in leave_out for seg in segs]
-    gone = sorted({seg.clip for seg, k in zip(segs, keep) if k and seg.clip not in train_clips} |
+    keep = [all(source_of(n) not in leave_out for n in seg.clip_names) for seg in segs]
+    gone = sorted({n for seg, k in zip(segs, keep) if k for n in seg.clip_names if n not in train_clips} |
                   set(names) - set(val_clips))
     if gone:       # simulated on clips this motion folder lacks: their X_c rows cannot be rebuilt
         from pleat.cli import InputError
@@ -183,7 +183,7 @@ def import_dataset(path, setup, train_clips, val_clips, validation_frames, leave
         o += T
         if not k:
             continue
-        clip = simdata.cut(simdata.variant_clip(train_clips[seg.clip], seg.variant), seg.start, seg.frames)
+        clip = simdata.segment_clip(train_clips, seg)
         s = simdata.sequence(setup, clip, np.array(seg.beta), np.array(seg.material))
         s["disp"] = disp[o - T:o].reshape(T, setup.N, 3)
         seqs.append(s)
@@ -395,7 +395,7 @@ def teacher_only_sequences(setup, train_clips, frames, seed):
     for seg in simdata.plan_segments(list(train_clips.values()), c, setup.B, int(seed) + 1000):
         if total >= frames:
             break
-        clip = simdata.cut(simdata.variant_clip(train_clips[seg.clip], seg.variant), seg.start, seg.frames)
+        clip = simdata.segment_clip(train_clips, seg)
         out.append(simdata.sequence(setup, clip, np.array(seg.beta), np.array(seg.material)))
         total += len(out[-1]["static"])
     return out
