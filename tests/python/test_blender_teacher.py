@@ -121,3 +121,26 @@ def test_the_recipe_trains_on_blender_cloth(teacher, tmp_path, capsys):
     meta = json.loads(read_asset(path.read_bytes())["metadata_json"])
     assert meta["training"]["simulator"] == "blender"
     assert "verdict:" in capsys.readouterr().out
+
+
+def test_the_dress_collision_body_leaves_out_the_forearms_and_hands(teacher):
+    """A garment with collision_exclude (the dress) collides in Blender with the body parts it collides with in
+    Pleat's simulator: the collision body has exactly the kept vertices."""
+    import bpy
+    from pleat.garment import make_garment
+    from pleat.sim.scene import load_body
+    from pleat_blender import scene as S
+    body = load_body()
+    dress = make_garment("dress", vertices=300, body=body)
+    mask = dress.body_collision_mask(body)
+    assert mask is not None and 0 < (~mask).sum() < len(mask)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    coll = S._collection(scene)
+    beta = np.zeros(body.num_betas)
+    obj = S.make_body(coll, S.make_armature(scene, coll, body, beta, 1.0), body, beta, 1.0)
+    teacher._keep_colliding(obj, mask)
+    kept = np.array([v.co for v in obj.data.vertices])
+    from pleat_blender import axes
+    np.testing.assert_allclose(kept, axes.to_blender(body.shaped_vertices(beta))[mask], atol=1e-6)
+    assert obj.modifiers.get("Collision") is not None

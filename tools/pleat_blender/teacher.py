@@ -1,13 +1,14 @@
 """Blender's cloth as the teacher: the simulation pleat.eval.reference caches, made by Blender's Cloth modifier
 instead of Pleat's own simulator, so that a model can be trained on it (`pleat-train simsup --set
-simsup.teacher=blender`) and scored against it (`pleat-eval --reference blender`, `pleat-eval-suite --reference
+'simsup.teacher="blender"'`) and scored against it (`pleat-eval --reference blender`, `pleat-eval-suite --reference
 blender`).
 
 The scene is the artist's (pleat_blender.scene, in metres): the body skinned to an armature playing the clip after
-the reference simulator's lead-in from the rest pose, a Collision modifier on it, and the garment as a Cloth object
-with the add-on's light-shirt settings, its pins following the body by skinning. Each call starts from an empty
-scene, so calls are independent (a worker process can run many). The material argument is not used: Blender's
-cloth is the add-on's one light shirt (docs/accuracy.md, "A second teacher").
+the reference simulator's lead-in from the rest pose, a Collision modifier on it (without the body parts the garment
+does not collide with, Garment.collision_exclude), and the garment as a Cloth object with the add-on's light-shirt
+settings, its pins following the body by skinning. Each call starts from an empty scene, so calls are independent (a
+worker process can run many). There is no material argument: Blender's cloth is the add-on's one light shirt
+(docs/accuracy.md, "A second teacher").
 
 Needs `bpy` (the `blender` extra: Blender 4.4 as a Python module, Python 3.11).
 """
@@ -41,6 +42,21 @@ def _perturb(mesh, garment, perturbation_m, unit):
     mesh.update()
 
 
+def _keep_colliding(body_obj, mask):
+    """Deletes the body vertices the garment does not collide with (Garment.collision_exclude: the dress passes
+    through the forearms and hands, as in Pleat's simulator) from the collision body; mask None keeps them all."""
+    if mask is None:
+        return
+    import bmesh
+    bm = bmesh.new()
+    bm.from_mesh(body_obj.data)
+    bm.verts.ensure_lookup_table()
+    bmesh.ops.delete(bm, geom=[bm.verts[int(i)] for i in np.flatnonzero(~np.asarray(mask))], context='VERTS')
+    bm.to_mesh(body_obj.data)
+    bm.free()
+    body_obj.data.update()
+
+
 def simulate(garment, body, clip, beta=None, frames=None, start_perturbation_m=0.0, progress=False):
     """Blender's cloth on `clip` (its first `frames` frames, after the lead-in) → (positions [T, N, 3] f32 in Pleat
     axes and metres, summary dict). Frame t is the cloth at the clip's frame t, as pleat.sim.scene.simulate's."""
@@ -69,7 +85,7 @@ def simulate(garment, body, clip, beta=None, frames=None, start_perturbation_m=0
     coll = S._collection(scene)
     arm = S.make_armature(scene, coll, body, b, unit)
     S.set_action(arm, full, body, b, unit, 1)
-    S.make_body(coll, arm, body, b, unit)
+    _keep_colliding(S.make_body(coll, arm, body, b, unit), garment.body_collision_mask(body))
     obj = S.make_garment_object(coll, arm, garment, body, b, unit)
     if start_perturbation_m:
         _perturb(obj.data, garment, start_perturbation_m, unit)
