@@ -491,8 +491,8 @@ def wardrobe_from_reports(paths, command=None, machine=None):
 def teachers_from_suites(paths, machine=None, metas=None):
     """bench/results/accuracy-teachers.json from pleat-eval-suite reports scored against different teachers
     (pleat-eval-suite --reference): a garments row (garment_row) per (asset, reference), plus `trained_on` (the
-    simulator of its training data, META training.simulator; "pleat" when META does not say), `reference` and
-    `training_frames`."""
+    simulator of its training data: META training.simulator, else simsup.teacher in the config_simsup.json of the
+    run folder the asset sits in, else "pleat"), `reference` and `training_frames`."""
     machine = machine or this_machine()
     rows = []
     for path in paths:
@@ -505,7 +505,8 @@ def teachers_from_suites(paths, machine=None, metas=None):
             row = garment_row(asset, result["summary"], runs, command, machine, meta)
             training = meta.get("training") if isinstance(meta.get("training"), dict) else {}
             row.pop("regions")
-            row.update(trained_on=training.get("simulator") or "pleat", reference=_reference_teacher(runs),
+            row.update(trained_on=training.get("simulator") or _run_teacher(asset) or "pleat",
+                       reference=_reference_teacher(runs),
                        training_frames=training.get("frames"))
             rows.append(row)
     return {"about": ("Assets trained on different teachers (Pleat's simulator, Blender's cloth), each scored "
@@ -514,6 +515,19 @@ def teachers_from_suites(paths, machine=None, metas=None):
                       "\"A second teacher\" from it); the columns are accuracy-garments.json's."),
             "rows": sorted(rows, key=lambda r: (r["reference"] != "blender", r["trained_on"] != r["reference"],
                                                 r["asset"]))}
+
+
+def _run_teacher(asset_path):
+    """simsup.teacher of the pleat-train run folder an asset sits in (its config_simsup.json), or None: assets
+    packed before META recorded the simulator."""
+    for base in (Path.cwd(), ROOT):
+        config = (base / asset_path).parent / "config_simsup.json"
+        if config.is_file():
+            try:
+                return json.loads(config.read_text())["config"]["simsup"].get("teacher")
+            except (KeyError, TypeError, ValueError):
+                return None
+    return None
 
 
 TEACHER_NAMES = {"pleat": "Pleat's simulator", "blender": "Blender's cloth"}
@@ -532,8 +546,9 @@ def render_teachers(teachers):
         if worse:
             worst += f", {len(worse)} worse than LBS-only"
         name = lambda t: TEACHER_NAMES.get(t, t)      # noqa: E731
+        asset = f"`{r['asset']}`" if r["asset"].startswith("assets/") else f"not shipped (`{Path(r['asset']).name}`)"
         lines.append(
-            f"| {name(r['reference'])} | `{r['asset']}` | {name(r['trained_on'])} "
+            f"| {name(r['reference'])} | {asset} | {name(r['trained_on'])} "
             f"({_cell(r.get('training_frames'), 0)}) | {_cell(r.get('runs'), 0)} | "
             f"**{_cell(r.get('mean_mm'))}** / {_cell(r.get('p95_mm'))} | {_cell(r.get('ratio_to_lbs'), 2)} "
             f"({_cell(r.get('ratio_to_lbs_paired'), 2)}; {worst}) | {_cell(r.get('ratio_to_spread'), 2)} "

@@ -192,7 +192,14 @@ def test_teachers_from_suites_gives_a_row_per_asset_and_reference_and_both_block
     assert "--reference blender" in teachers["rows"][0]["command"]
     assert "--reference " not in teachers["rows"][2]["command"]
     block = docs_numbers.render_teachers(teachers)
-    assert "| Blender's cloth | `out/b.pleat` | Blender's cloth (9,000) | 2 | **18.0** /" in block
+    assert "| Blender's cloth | not shipped (`b.pleat`) | Blender's cloth (9,000) | 2 | **18.0** /" in block
+    assert "| Pleat's simulator | `assets/tshirt.pleat` | Pleat's simulator (39,559) |" in block
+    # an asset whose META predates training.simulator: its run folder's config says which simulator taught it
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config_simsup.json").write_text(json.dumps({"config": {"simsup": {"teacher": "blender"}}}))
+    assert docs_numbers._run_teacher(str(run / "b.pleat")) == "blender"
+    assert docs_numbers._run_teacher(str(tmp_path / "b.pleat")) is None
     mixed = [dict(r, reference={"teacher": t}) for r, t in zip(runs, ("pleat", "blender"))]
     paths[0].write_text(json.dumps({"out/b.pleat": {"summary": summary, "runs": mixed}}))
     with pytest.raises(ValueError, match="several references"):
@@ -209,7 +216,7 @@ def test_teachers_from_suites_gives_a_row_per_asset_and_reference_and_both_block
     assert docs_numbers.main(common) == 0
     text = page.read_text()
     assert "old" not in text
-    assert "\nmiddle\n" in text and "| Blender's cloth | `out/b.pleat` |" in text
+    assert "\nmiddle\n" in text and "| Blender's cloth | not shipped (`b.pleat`) |" in text
     assert "| garment | tier |" in text                  # both blocks written, neither over the other
     assert docs_numbers.main(["--check", *common]) == 0
 
