@@ -88,6 +88,16 @@ def test_an_unknown_teacher_is_refused_by_name():
     assert TEACHERS == ("pleat", "blender")
 
 
+def test_blender_as_teacher_without_bpy_says_how_to_install_it(monkeypatch):
+    import importlib.util
+
+    from pleat.eval.reference import check_teacher
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
+    with pytest.raises(ValueError, match=r"pip install -e 'tools\[blender\]'"):
+        check_teacher("blender")
+
+
 @needs_lib
 def test_evaluate_scores_lbs_zero_when_the_reference_is_lbs(monkeypatch, tmp_path):
     """With the reference replaced by the LBS garment itself, the LBS-only baseline must score exactly 0 mm, and
