@@ -24,10 +24,9 @@ import numpy as np
 def rest_frame_rise(positions, garment, body, clip, beta):
     """Per frame, the mean over vertices of the rest-frame vertical displacement (m) of simulated `positions`."""
     from pleat.sim.scene import skinning_matrices
-    T = len(positions)
-    M = skinning_matrices(body, clip, beta, slice(0, T))
-    A = np.einsum("nk,tnkab->tnab", garment.skin_weights, M[:, garment.skin_indices])
-    d = np.einsum("tnab,tnb->tna", np.linalg.inv(A[..., :3, :3]), positions - A[..., :3, 3]) - garment.shaped(beta)
+    from pleat.train.simdata import blend_matrices, unskin
+    M = skinning_matrices(body, clip, beta, slice(0, len(positions)))
+    d = unskin(blend_matrices(garment, M[:, :, :3]), positions) - garment.shaped(beta)
     return d[..., 1].mean(axis=1)
 
 

@@ -47,10 +47,7 @@ def scene():
 
 def _skinned(g, body, clip, beta, T):
     from pleat.sim.scene import skinning_matrices
-    M = skinning_matrices(body, clip, beta, slice(0, T))
-    A = np.einsum("nk,tnkab->tnab", g.skin_weights, M[:, g.skin_indices])
-    rest = g.shaped(beta)
-    return np.einsum("tnab,nb->tna", A[..., :3, :3], rest) + A[..., :3, 3]
+    return g.skin(skinning_matrices(body, clip, beta, slice(0, T)), beta)
 
 
 def test_blender_cloth_lands_on_the_clip_frames_in_pleat_axes(teacher, scene):
@@ -78,8 +75,10 @@ def test_the_spread_twin_starts_one_micrometre_apart_and_keeps_the_pins(teacher,
     assert summary["start_perturbation_m"] == 1e-6
     pinned = np.asarray(g.pinned)
     np.testing.assert_allclose(b[:, pinned], a[:, pinned], atol=1e-6)
+    # Blender's cloth turns the 1 µm into about a centimetre within the lead-in (its spread, docs/accuracy.md):
+    # apart, but still the same garment on the same body
     d = np.linalg.norm(b - a, axis=-1)
-    assert 0.0 < d.max() < 0.05
+    assert 0.0 < d.mean() < 0.03
     again, _ = teacher.simulate(g, body, clip, beta, FRAMES)
     np.testing.assert_array_equal(again, a)             # each call starts from an empty scene: reproducible
 

@@ -17,7 +17,7 @@ def test_a_garment_raised_in_its_rest_frame_reads_back_its_rise(load_script):
     rise = np.linspace(0.0, 0.05, T)                     # 0 → 5 cm up the body, in the rest frame
     rest = g.shaped(beta)[None] + rise[:, None, None] * np.array([0.0, 1.0, 0.0])
     M = skinning_matrices(body, clip, beta, slice(0, T))
-    A = np.einsum("nk,tnkab->tnab", g.skin_weights, M[:, g.skin_indices])
+    A = np.einsum("nk,tnkab->tnab", g.skin_weights, M[:, g.skin_indices])     # skinned here, un-skinned there
     posed = np.einsum("tnab,tnb->tna", A[..., :3, :3], rest) + A[..., :3, 3]
     got = drift.rest_frame_rise(posed, g, body, clip, beta)
     np.testing.assert_allclose(got, rise, atol=1e-9)

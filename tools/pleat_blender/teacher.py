@@ -29,13 +29,14 @@ def available():
 
 
 def _perturb(mesh, garment, perturbation_m, unit):
-    """Moves every free vertex of the cloth's start by `perturbation_m` in a random direction (seed 0, as the
-    reference simulator's start_perturbation_m): a second, equally valid simulation, for the spread."""
-    rng = np.random.default_rng(0)
+    """Moves every free vertex of the cloth's start as the reference simulator moves its start for the spread
+    (pleat.sim.scene.start_perturbation): a second, equally valid simulation."""
+    from pleat.sim.scene import start_perturbation
+    from . import axes
     n = len(mesh.vertices)
-    d = rng.normal(size=(n, 3))
-    d *= perturbation_m / unit / np.linalg.norm(d, axis=1, keepdims=True)
-    d[np.asarray(garment.pinned, np.int64)] = 0.0
+    pinned = np.zeros(n, bool)
+    pinned[np.asarray(garment.pinned, np.int64)] = True
+    d = axes.to_blender(start_perturbation(n, pinned, perturbation_m), unit)
     co = np.empty(n * 3, np.float64)
     mesh.vertices.foreach_get("co", co)
     mesh.vertices.foreach_set("co", (co.reshape(-1, 3) + d).ravel())

@@ -202,13 +202,19 @@ def _pushed_out(x, collider, solver, settings):
     return x
 
 
+def start_perturbation(vertex_count, pinned, distance_m):
+    """[N, 3]: every free vertex's move by distance_m along a random direction (seed 0), zero on the pinned ones
+    (bool [N]): how the spread's twin reference starts, in this simulator and in Blender's (pleat_blender.teacher)."""
+    d = np.random.default_rng(0).standard_normal((vertex_count, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return distance_m * d * ~np.asarray(pinned, bool)[:, None]
+
+
 def _perturbed(x, solver, distance_m):
     """x with every free vertex moved by distance_m along a random direction (seed 0)."""
     if not distance_m:
         return x
-    d = np.random.default_rng(0).standard_normal(x.shape)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    return x + distance_m * d * ~solver.pinned[:, None]
+    return x + start_perturbation(len(x), solver.pinned, distance_m)
 
 
 def _simulate_lead_in(garment, body, clip, beta, solver, settings, frames, hold, progress, start_perturbation_m=0.0):
