@@ -76,6 +76,16 @@ def axis_angle_to_quat(aa):
     return np.concatenate([aa * scale, np.cos(half)], axis=-1)
 
 
+def quat_continuous(q):
+    """Quaternions (x, y, z, w) [T, ...] signed frame by frame to lie nearest the previous frame's (q and −q are one
+    rotation), the first frame with w >= 0: axis-angle vectors (quat_to_axis_angle) and keyframe curves between
+    frames then change continuously, the short way."""
+    q = np.asarray(q, np.float64)
+    flips = np.where(np.sum(q[1:] * q[:-1], axis=-1) < 0, -1.0, 1.0)
+    sign = np.cumprod(np.concatenate([np.where(q[:1, ..., 3] < 0, -1.0, 1.0), flips]), axis=0)
+    return q * sign[..., None]
+
+
 def quat_to_axis_angle(q):
     """Unit quaternions (x, y, z, w) → axis-angle vectors (..., 3), the inverse of axis_angle_to_quat. The angle is
     2·atan2(|xyz|, w) in [0, 2π]: q and −q give the two vectors of one rotation (angles θ and 2π − θ), so a sequence

@@ -41,20 +41,10 @@ def units_label(unit_m):
     return float(unit_m)
 
 
-def _continuous(q):
-    """Quaternions [T, ..., 4] with each one in the hemisphere of the one before, so that a keyframe curve between
-    two frames turns the short way."""
-    q = np.array(q, np.float64)
-    for t in range(1, len(q)):
-        flip = np.sum(q[t] * q[t - 1], axis=-1) < 0
-        q[t][flip] *= -1.0
-    return q
-
-
 def clip_pose(clip, body, beta=None, unit_m=1.0):
     """A Clip on the body's skeleton → (bone quaternions [T, J, 4] as Blender stores them (w, x, y, z), in the body's
     joint order; root bone location [T, 3] in Blender units)."""
-    from pleat.rotations import matrix_to_quat, quat_to_matrix
+    from pleat.rotations import matrix_to_quat, quat_continuous, quat_to_matrix
     if list(clip.joint_names) != list(body.joint_names):
         raise ValueError("the clip's joints are not the body's")
     R = quat_to_matrix(clip.local_rotations)                     # [T, J, 3, 3]
@@ -64,7 +54,7 @@ def clip_pose(clip, body, beta=None, unit_m=1.0):
     J0 = body.joints(beta)[0]
     loc = clip.root_translation + np.einsum("tij,j->ti", Q, J0) - J0
     q = matrix_to_quat(R)                                        # (x, y, z, w)
-    return _continuous(q[..., [3, 0, 1, 2]]), loc / unit_m
+    return quat_continuous(q)[..., [3, 0, 1, 2]], loc / unit_m
 
 
 def pose_clip(quats_wxyz, root_location, body, fps, beta=None, unit_m=1.0, name="blender"):

@@ -64,13 +64,11 @@ def simulate(garment, body, clip, beta=None, frames=None, start_perturbation_m=0
     import bpy
 
     from pleat.garment.scene import kit_clip
+    from pleat.train.simdata import cut
     from . import axes, kit
     from . import scene as S
     T = clip.num_frames if frames is None else min(int(frames), clip.num_frames)
-    from dataclasses import replace
-    clip = replace(clip, local_rotations=clip.local_rotations[:T], root_translation=clip.root_translation[:T],
-                   root_rotation=clip.root_rotation[:T])
-    full, lead = kit_clip(clip)
+    full, lead = kit_clip(cut(clip, 0, T))
     beta = np.zeros(body.num_betas) if beta is None else np.asarray(beta, np.float64)
     b = np.zeros(body.num_betas)
     b[:len(beta)] = beta[:body.num_betas]

@@ -12,8 +12,8 @@ import numpy as np
 
 from pleat.body.model import SMPL_JOINT_NAMES
 from pleat.fileio import save_npz
-from pleat.rotations import axis_angle_to_quat, quat_multiply, quat_normalize, quat_slerp, quat_to_axis_angle, \
-    quat_to_matrix, yaw_of, yaw_matrix, matrix_to_quat
+from pleat.rotations import axis_angle_to_quat, quat_continuous, quat_multiply, quat_normalize, quat_slerp, \
+    quat_to_axis_angle, quat_to_matrix, yaw_of, yaw_matrix, matrix_to_quat
 
 POSE_NOISE_KNOTS_PER_S = 2.0     # Clip.with_pose_noise: a new random offset every half second
 
@@ -49,14 +49,6 @@ def _quat_power(q, t):
 def _canonical(q):
     """Quaternions with w >= 0 (q and −q are the same rotation)."""
     return np.where(q[..., 3:4] < 0, -q, q)
-
-
-def _hemisphere_continuous(q):
-    """Quaternions [T, ...] signed frame by frame to lie nearest the previous frame's (q and −q are one rotation),
-    the first frame with w >= 0: their axis-angle vectors (quat_to_axis_angle) then change continuously."""
-    flips = np.where(np.sum(q[1:] * q[:-1], axis=-1) < 0, -1.0, 1.0)
-    sign = np.cumprod(np.concatenate([np.where(q[:1, ..., 3] < 0, -1.0, 1.0), flips]), axis=0)
-    return q * sign[..., None]
 
 
 def _smooth_offsets(rng, times, joints, amplitude_rad, knots_per_s):
@@ -223,7 +215,7 @@ class Clip:
     def joint_rotation_vectors(self):
         """Each joint's local rotation as an axis-angle vector [T, J, 3] (rad), continuous over the clip (the
         quaternions are kept on one hemisphere, so a joint turning through a half turn does not jump)."""
-        return quat_to_axis_angle(_hemisphere_continuous(self.local_rotations))
+        return quat_to_axis_angle(quat_continuous(self.local_rotations))
 
     def joint_rotation_range(self, margin_rad=0.0):
         """(lo, hi) [J, 3]: per joint and axis, the range of joint_rotation_vectors over the clip, widened by
