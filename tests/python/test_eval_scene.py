@@ -77,7 +77,33 @@ def test_reference_cache_key_changes_with_every_input(weights):
     assert cache_key(g, body, beta, mat, clip, 10, st, start_perturbation_m=1e-6) not in {base, *changed}
     # another teacher's simulation has its own key; Pleat's simulator keeps the old one
     assert cache_key(g, body, beta, mat, clip, 10, st, teacher="pleat") == base
-    assert cache_key(g, body, beta, mat, clip, 10, st, teacher="blender") not in {base, *changed}
+    blender = cache_key(g, body, beta, mat, clip, 10, st, teacher="blender")
+    assert blender not in {base, *changed}
+
+
+def test_blenders_key_holds_its_scenes_cloth_defaults(monkeypatch):
+    """A changed default of the add-on's cloth (pleat_blender.cloth) simulates anew: Blender's cached simulations
+    are keyed by it, Pleat's simulator's are not."""
+    from types import SimpleNamespace
+
+    from pleat.eval.reference import cache_key
+    from pleat.sim import SolverSettings
+    from pleat_blender import cloth
+    g = SimpleNamespace(template=np.zeros((3, 3)), faces=np.zeros((1, 3), int), skin_indices=np.zeros((3, 1), int),
+                        skin_weights=np.ones((3, 1)), shape_blend=np.zeros((2, 3, 3)), pinned=np.zeros(0, int),
+                        collision_exclude=np.zeros(0, int))
+    body = SimpleNamespace(v_template=np.zeros((4, 3)), shapedirs=np.zeros((4, 3, 2)), weights=np.ones((4, 1)),
+                           faces=np.zeros((1, 3), int), J_regressor=np.ones((1, 4)))
+    rot, tr, rr, _ = random_motion(10, seed=1)
+    clip = SimpleNamespace(local_rotations=rot, root_translation=tr, root_rotation=rr, fps=30.0)
+    args = (g, body, np.zeros(2), np.array([0.2, 2e4, 4e4, 1e-5]), clip, 10, SolverSettings())
+    before = cache_key(*args, teacher="blender"), cache_key(*args)
+    monkeypatch.setitem(cloth.CLOTH, "collision_distance_m", 0.004)
+    assert cache_key(*args, teacher="blender") != before[0]
+    assert cache_key(*args) == before[1]
+    monkeypatch.setitem(cloth.BODY_COLLISION, "thickness_outer_m", 0.004)
+    monkeypatch.setitem(cloth.CLOTH, "collision_distance_m", 0.001)
+    assert cache_key(*args, teacher="blender") != before[0]
 
 
 def test_an_unknown_teacher_is_refused_by_name():

@@ -130,6 +130,21 @@ def test_collar_share_moves_the_clavicle_and_keeps_the_arm(body, walk):
 
 
 @needs_clips
+def test_frames_at_takes_every_pose_array_in_the_given_order(walk):
+    """Clip.frames_at, which every cut, loop and hold goes through: the rotations, the root's path and its turn at the
+    same frames, in the order given (repeats allowed), same fps and joints; the name only when one is given."""
+    idx = np.array([3, 1, 1, walk.num_frames - 1, 0])
+    out = walk.frames_at(idx)
+    for arr, src in ((out.local_rotations, walk.local_rotations), (out.root_translation, walk.root_translation),
+                     (out.root_rotation, walk.root_rotation)):
+        np.testing.assert_array_equal(arr, src[idx])
+    assert (out.name, out.fps, out.joint_names) == (walk.name, walk.fps, walk.joint_names)
+    cut = walk.frames_at(slice(2, 7), name="cut")
+    assert cut.name == "cut" and cut.num_frames == 5
+    np.testing.assert_array_equal(cut.root_translation, walk.root_translation[2:7])
+
+
+@needs_clips
 @pytest.mark.parametrize("move,hold", [(12, 8), (100, 5)])
 def test_holds_play_every_frame_in_order_and_stop_dead_after_each_piece(walk, move, hold):
     """Clip.with_holds (the "stop" training variant): the clip's own frames in order, each piece of `move` frames (at

@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 
 from . import axes
+from .cloth import BODY_COLLISION, CLOTH
 
 KIT_PROPERTY = "pleat_kit"
 COLLECTION = "Pleat"
@@ -178,9 +179,9 @@ def make_body(coll, arm, body, beta, unit):
     _skin_groups(obj, body.joint_names, idx, np.take_along_axis(w, idx, 1))
     _armature_modifier(obj, arm)
     col = obj.modifiers.new("Collision", 'COLLISION')      # noqa: F841 (the modifier makes obj.collision)
-    obj.collision.thickness_outer = 0.004 / unit            # the reference simulator's collision thickness
-    obj.collision.thickness_inner = 0.01 / unit
-    obj.collision.cloth_friction = 5.0
+    obj.collision.thickness_outer = BODY_COLLISION["thickness_outer_m"] / unit
+    obj.collision.thickness_inner = BODY_COLLISION["thickness_inner_m"] / unit
+    obj.collision.cloth_friction = BODY_COLLISION["cloth_friction"]
     return obj
 
 
@@ -199,15 +200,13 @@ def make_garment_object(coll, arm, garment, body, beta, unit):
     s = cloth.settings
     area = float(np.sum(garment.vertex_area))
     s.mass = 0.20022 * area / garment.num_vertices / 1.0     # kg per vertex at Pleat's default areal density
-    s.quality = 10
-    s.air_damping = 1.0
-    s.tension_stiffness = s.compression_stiffness = 15.0
-    s.shear_stiffness = 5.0
-    s.bending_stiffness = 0.05
+    for key in ("quality", "air_damping", "tension_stiffness", "compression_stiffness", "shear_stiffness",
+                "bending_stiffness"):
+        setattr(s, key, CLOTH[key])
     s.vertex_group_mass = PIN_GROUP                          # the cloth's pin group
     c = cloth.collision_settings
-    c.distance_min = 0.004 / unit
-    c.use_self_collision = False
+    c.distance_min = CLOTH["collision_distance_m"] / unit
+    c.use_self_collision = CLOTH["self_collision"]
     return obj
 
 
@@ -257,16 +256,13 @@ def kit_motion(body, motion, frames=None, fps=30.0, lead_in=True):
     """The clip to simulate: any clip name or motion file the loaders take (pleat.train.pointcache.load_motion, as
     `pleat-garment scene` reads it), at `fps`, its first `frames` frames, after the reference simulator's lead-in
     from the rest pose (so the cloth starts unstrained). Returns (clip, lead-in frames)."""
-    from dataclasses import replace
     from pleat.garment.scene import kit_clip
     from pleat.train.pointcache import load_motion
     clip = load_motion(motion, body)
     if abs(clip.fps - fps) > 1e-6:
         clip = clip.resample(fps)
     if frames:
-        k = slice(0, int(frames))
-        clip = replace(clip, local_rotations=clip.local_rotations[k], root_translation=clip.root_translation[k],
-                       root_rotation=clip.root_rotation[k])
+        clip = clip.frames_at(slice(0, int(frames)))
     return kit_clip(clip) if lead_in else (clip, 0)
 
 

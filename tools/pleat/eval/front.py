@@ -24,11 +24,9 @@ def motion_arrays(clip, joint_names):
 
 def timing_clip(clip, frames=300):
     """The clip looped (forwards then backwards) to at least `frames` poses, for timing only."""
-    from dataclasses import replace
     idx = np.arange(frames) % (2 * clip.num_frames - 2 if clip.num_frames > 1 else 1)
     idx = np.where(idx >= clip.num_frames, 2 * clip.num_frames - 2 - idx, idx)
-    return replace(clip, local_rotations=clip.local_rotations[idx], root_translation=clip.root_translation[idx],
-                   root_rotation=clip.root_rotation[idx])
+    return clip.frames_at(idx)
 
 
 def describe_asset(weights):

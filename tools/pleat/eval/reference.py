@@ -61,6 +61,9 @@ def cache_key(garment, body, beta, material, clip, frames, settings, start_pertu
         scene["collision_exclude"] = [int(j) for j in garment.collision_exclude]
     if teacher != "pleat":                 # only when set, so the keys of Pleat's own simulations stay
         scene["teacher"] = teacher
+    if teacher == "blender":               # its scene's cloth and collision defaults
+        from pleat_blender.cloth import fingerprint
+        scene["teacher_settings"] = fingerprint()
     h.update(json.dumps(scene, sort_keys=True).encode())
     return h.hexdigest()[:32]
 

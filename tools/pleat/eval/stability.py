@@ -80,9 +80,7 @@ def looped(clip, frames, blend_s=BLEND_S):
 
 
 def _cut(clip, n, start=0):
-    return replace(clip, local_rotations=clip.local_rotations[start:start + n],
-                   root_translation=clip.root_translation[start:start + n],
-                   root_rotation=clip.root_rotation[start:start + n])
+    return clip.frames_at(slice(start, start + n))
 
 
 def jittered_motion(clip, seed=0, dt_range=(1 / 120, 1 / 15)):
@@ -141,8 +139,7 @@ def _penetration(body, weights, clip, beta, positions, frames):
 
 
 def _select(clip, frames):
-    return replace(clip, local_rotations=clip.local_rotations[frames], root_translation=clip.root_translation[frames],
-                   root_rotation=clip.root_rotation[frames])
+    return clip.frames_at(frames)
 
 
 def _motion(clip, weights):

@@ -27,7 +27,6 @@ of the reference's.
 """
 import json
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -52,8 +51,7 @@ POSE_JUMP_CLEAR_S = 0.2        # no probe stop this soon after one
 
 def stop_clip(clip, move, hold):
     idx = np.concatenate([np.arange(move), np.full(hold, move - 1)])
-    return replace(clip, name=f"{clip.name}_stop", local_rotations=clip.local_rotations[idx],
-                   root_translation=clip.root_translation[idx], root_rotation=clip.root_rotation[idx])
+    return clip.frames_at(idx, name=f"{clip.name}_stop")
 
 
 def speeds(positions, fps):

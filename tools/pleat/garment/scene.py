@@ -61,7 +61,6 @@ def kit_clip(clip):
 
 
 def scene_main(argv):
-    from dataclasses import replace
     from pleat.fileio import write_text
     from pleat.motion.bvh_export import write_bvh
     from pleat.sim.scene import load_body, load_garment_spec, skinning_matrices
@@ -87,9 +86,7 @@ def scene_main(argv):
         if args.frames:
             if args.frames < 2:
                 raise InputError(None, "--frames must be at least 2")
-            k = slice(0, args.frames)
-            clip = replace(clip, local_rotations=clip.local_rotations[k], root_translation=clip.root_translation[k],
-                           root_rotation=clip.root_rotation[k])
+            clip = clip.frames_at(slice(0, args.frames))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 

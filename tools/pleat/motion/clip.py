@@ -104,6 +104,12 @@ class Clip:
     def times(self):
         return np.arange(self.num_frames) / self.fps
 
+    def frames_at(self, index, name=None):
+        """The clip's frames at `index` (a slice or integer frame numbers, repeats allowed), in that order, at the
+        same fps: a cut, a loop or a hold without touching the pose arrays by hand."""
+        return replace(self, name=self.name if name is None else name, local_rotations=self.local_rotations[index],
+                       root_translation=self.root_translation[index], root_rotation=self.root_rotation[index])
+
     def local_matrices(self):
         return quat_to_matrix(self.local_rotations)
 
@@ -209,8 +215,7 @@ class Clip:
             piece = list(range(start, min(start + move, T)))
             idx += piece + [piece[-1]] * int(hold)
         idx = np.asarray(idx, np.int64)
-        return replace(self, name=f"{self.name}@hold{move}+{int(hold)}", local_rotations=self.local_rotations[idx],
-                       root_translation=self.root_translation[idx], root_rotation=self.root_rotation[idx])
+        return self.frames_at(idx, name=f"{self.name}@hold{move}+{int(hold)}")
 
     def joint_rotation_vectors(self):
         """Each joint's local rotation as an axis-angle vector [T, J, 3] (rad), continuous over the clip (the

@@ -199,15 +199,12 @@ def _at_hips(src, joint_map, user_map, map_path):
 def load_clip_at(name_or_path, body=None, fps=30.0, max_frames=None, **kw):
     """load_clip, resampled to `fps` and cut to `max_frames`; still at least MIN_FRAMES frames (a clip shorter than a
     frame at `fps` is reported, not passed on as one frame)."""
-    from dataclasses import replace
     clip = load_clip(name_or_path, body, **kw)
     duration = clip.duration
     if abs(clip.fps - fps) > 1e-9:
         clip = clip.resample(fps)
     if max_frames and clip.num_frames > max_frames:
-        clip = replace(clip, local_rotations=clip.local_rotations[:max_frames],
-                       root_translation=clip.root_translation[:max_frames],
-                       root_rotation=clip.root_rotation[:max_frames])
+        clip = clip.frames_at(slice(0, max_frames))
     if clip.num_frames < MIN_FRAMES:
         raise MotionFileError(name_or_path, f"lasts {duration:.4g} s: {clip.num_frames} frame at {fps:g} fps; "
                                             f"a clip needs at least {MIN_FRAMES}")

@@ -324,11 +324,8 @@ def _frame_map(sim, cache, clip):
 
 def _at_frames(clip, idx):
     """The clip at (fractional) frames idx: exact frames when they are integers, else Clip.sample."""
-    from dataclasses import replace
     if np.allclose(idx, np.round(idx), atol=1e-6):
-        k = np.round(idx).astype(np.int64)
-        return replace(clip, local_rotations=clip.local_rotations[k], root_translation=clip.root_translation[k],
-                       root_rotation=clip.root_rotation[k])
+        return clip.frames_at(np.round(idx).astype(np.int64))
     from pleat.motion.clip import Clip
     q, t, r = clip.sample(idx / clip.fps)
     return Clip(name=clip.name, fps=clip.fps, local_rotations=q, root_translation=t, root_rotation=r,

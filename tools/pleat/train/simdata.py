@@ -108,9 +108,7 @@ def segment_clip(clips, segment):
 
 def cut(clip, start, frames):
     """Frames [start, start + frames) of a Clip."""
-    sel = slice(start, start + frames)
-    return replace(clip, local_rotations=clip.local_rotations[sel], root_translation=clip.root_translation[sel],
-                   root_rotation=clip.root_rotation[sel])
+    return clip.frames_at(slice(start, start + frames))
 
 
 def sample_beta(rng, count, scale, limit):
@@ -223,7 +221,8 @@ def garment_arrays(setup):
 def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=None, runner=None):
     """Simulates the segments through the simulation cache until done or past `deadline` (time.time()): the cache
     is read and written here, the misses are simulated as tasks of `runner` (pleat.train.tasks; default
-    `workers` processes of this machine). Returns [(segment, cache path)] of those finished and the CPU seconds
+    `workers` processes of this machine), each written to the cache and logged as soon as it comes back (a run
+    stopped half-way keeps what it simulated). Returns [(segment, cache path)] of those finished and the CPU seconds
     spent (cache hits cost 0)."""
     import uuid
 
@@ -240,21 +239,30 @@ def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=No
     paths = [cache_entry(state["garment"], state["body"], segment_clip(state["clips"], s), np.array(s.beta),
                          np.array(s.material), s.frames, cache_dir=cache_dir, teacher=teacher)[0] for s in segments]
     missing = [k for k, p in enumerate(paths) if not p.is_file()]
-    results = dict(zip(missing, runner.map(_simulate_segment, context, [segments[k] for k in missing], deadline)))
-    done, cpu_s = [], 0.0
-    for k, (seg, path) in enumerate(zip(segments, paths)):
-        sec = 0.0
-        if k in results:
-            if results[k] is None:      # not started before the deadline
-                continue
-            positions, summary, sec = results[k]
-            write_cached(path, positions, summary)
-        done.append((seg, str(path)))
-        cpu_s += sec
+    simulated = {}                      # segment → CPU s, for those that came back (not past the deadline)
+
+    def record(k, cpu):
+        seg = segments[k]
         if log is not None:
             log({"segment": k, "clip": seg.clip, "variant": seg.variant, "start": seg.start,
-                 "frames": seg.frames, "cpu_s": round(sec, 2), "cache_hit": k not in results})
-    return done, cpu_s
+                 "frames": seg.frames, "cpu_s": round(cpu, 2), "cache_hit": k not in simulated})
+
+    def arrived(i, result):
+        if result is None:              # not started before the deadline
+            return
+        positions, summary, cpu = result
+        write_cached(paths[missing[i]], positions, summary)
+        simulated[missing[i]] = cpu
+        record(missing[i], cpu)
+
+    to_simulate = set(missing)
+    for k in range(len(segments)):
+        if k not in to_simulate:
+            record(k, 0.0)
+    runner.map(_simulate_segment, context, [segments[k] for k in missing], deadline, on_result=arrived)
+    done = [(seg, str(path)) for k, (seg, path) in enumerate(zip(segments, paths))
+            if k not in to_simulate or k in simulated]
+    return done, float(sum(simulated.values()))
 
 
 # ---- targets ----------------------------------------------------------------------------------------------------

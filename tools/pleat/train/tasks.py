@@ -11,7 +11,9 @@ garments, many machines").
 
 Both calls take module-level functions and their arguments (functools.partial for `run`), not closures: Ray puts
 each distinct argument object into its object store once, however many tasks share it, where a closure would be
-pickled whole for every task. Results come back in the order of the jobs. The simulation cache stays with the caller
+pickled whole for every task. Results come back in the order of the jobs; `map` also hands each result to
+`on_result` in the caller as soon as it arrives, so the caller can keep it (the simulation cache) before the slowest
+job ends, and a run stopped half-way keeps what was done. The simulation cache stays with the caller
 (pleat.train.simdata): a task returns what it simulated and never writes files, so a node of a cluster needs no
 shared disk. Every job sets its own seed; Serial and Ray run each on one thread (torch and BLAS, one_cpu), so they
 give the same networks bit for bit; Local's forked fits run torch on one thread too, but the simulations and the
@@ -21,7 +23,7 @@ import contextlib
 import functools
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from pleat.train import forkpool
 
@@ -43,6 +45,11 @@ def one_cpu():
 
 # ---- this machine ---------------------------------------------------------------------------------------------------
 _CONTEXT = {}
+
+
+def _arrived(on_result, k, result):
+    if on_result is not None:
+        on_result(k, result)
 
 
 def _pool_init(context):
@@ -68,12 +75,18 @@ class Local:
     def __init__(self, workers=1):
         self.workers = max(1, int(workers))
 
-    def map(self, fn, context, items, deadline=None):
+    def map(self, fn, context, items, deadline=None, on_result=None):
         """[fn(context, item) for item in items], None for an item not started before `deadline` (time.time());
-        `context` (read-only, large) goes to each worker process once."""
+        `context` (read-only, large) goes to each worker process once. on_result(k, result) runs here as item k
+        finishes, in the order they finish."""
+        results = [None] * len(items)
         with ProcessPoolExecutor(max_workers=self.workers, initializer=_pool_init, initargs=(context,)) as pool:
-            futures = [pool.submit(_pool_call, fn, item, deadline) for item in items]
-            return [f.result() for f in futures]
+            futures = {pool.submit(_pool_call, fn, item, deadline): k for k, item in enumerate(items)}
+            for future in as_completed(futures):
+                k = futures[future]
+                results[k] = future.result()
+                _arrived(on_result, k, results[k])
+        return results
 
     def run(self, jobs):
         """[job() for job in jobs], `workers` at a time in forked children."""
@@ -85,9 +98,13 @@ class Serial:
     name = "serial"
     workers = 1
 
-    def map(self, fn, context, items, deadline=None):
+    def map(self, fn, context, items, deadline=None, on_result=None):
+        results = []
         with one_cpu():
-            return [_call(fn, context, item, deadline) for item in items]
+            for k, item in enumerate(items):
+                results.append(_call(fn, context, item, deadline))
+                _arrived(on_result, k, results[k])
+        return results
 
     def run(self, jobs):
         with one_cpu():
@@ -145,9 +162,17 @@ class RayTasks:
     def __exit__(self, *exc):
         self.close()
 
-    def map(self, fn, context, items, deadline=None):
+    def map(self, fn, context, items, deadline=None, on_result=None):
         ref = self.ray.put(context)
-        return self.ray.get([self._map.remote(fn, ref, item, deadline) for item in items])
+        futures = [self._map.remote(fn, ref, item, deadline) for item in items]
+        index = {future: k for k, future in enumerate(futures)}
+        results, pending = [None] * len(items), list(futures)
+        while pending:
+            ready, pending = self.ray.wait(pending, num_returns=1)
+            k = index[ready[0]]
+            results[k] = self.ray.get(ready[0])
+            _arrived(on_result, k, results[k])
+        return results
 
     def run(self, jobs):
         """Each job a task; a functools.partial's arguments go into the object store once per distinct object."""
