@@ -15,6 +15,7 @@ garment's skin.
 """
 import argparse
 import json
+import shlex
 import sys
 from pathlib import Path
 
@@ -30,9 +31,9 @@ def rest_frame_rise(positions, garment, body, clip, beta):
     return d[..., 1].mean(axis=1)
 
 
-def suite_drift(path):
-    """{"teacher", "runs": [{clip, beta, first_mm, last_mm, rise_mm}], "mean_rise_mm", "max_rise_mm"} of one
-    suite report."""
+def suite_drift(path, label=None):
+    """{"teacher", "label", "runs": [{clip, beta, first_mm, last_mm, rise_mm}], "mean_rise_mm", "max_rise_mm"} of
+    one suite report; `label` names the teacher's setup (default: the teacher)."""
     from pleat.body import BodyModel
     from pleat.eval import scene as S
     from pleat.eval.reference import read_cached
@@ -57,24 +58,30 @@ def suite_drift(path):
     if len(teachers) != 1:
         raise ValueError(f"{path}: runs against several teachers {sorted(teachers)}")
     rises = [r["rise_mm"] for r in rows]
-    return dict(suite=str(path), teacher=teachers.pop(), asset=asset, runs=rows,
+    teacher = teachers.pop()
+    return dict(suite=str(path), teacher=teacher, label=label or teacher, asset=asset, runs=rows,
                 mean_rise_mm=round(float(np.mean(rises)), 2), max_rise_mm=round(float(np.max(rises)), 2))
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--suites", nargs="+", required=True, help="pleat-eval-suite reports (one per teacher)")
+    p.add_argument("--labels", nargs="+", help="a name per suite for its teacher's setup (default: the teacher)")
     p.add_argument("--out", required=True, help="the JSON written")
     a = p.parse_args(argv)
+    labels = a.labels or [None] * len(a.suites)
+    if len(labels) != len(a.suites):
+        p.error(f"{len(a.suites)} suites but {len(labels)} labels")
     from pleat.fileio import write_text
     result = {"about": "The mean rest-frame vertical displacement of each teacher's simulated garment on the first and "
                        "last frame of each suite run (bench/teacher_drift.py)",
-              "command": "PYTHONPATH=tools .venv/bin/python bench/teacher_drift.py --suites " + " ".join(a.suites)
-                         + f" --out {a.out}",
-              "teachers": [suite_drift(path) for path in a.suites]}
+              "command": "PYTHONPATH=tools .venv/bin/python bench/teacher_drift.py "
+                         + shlex.join(["--suites", *a.suites] + (["--labels", *a.labels] if a.labels else [])
+                                      + ["--out", a.out]),
+              "teachers": [suite_drift(path, label) for path, label in zip(a.suites, labels)]}
     write_text(a.out, json.dumps(result, indent=1) + "\n")
     for t in result["teachers"]:
-        print(f"{t['teacher']}: the garment rises {t['mean_rise_mm']:.1f} mm on average over a run "
+        print(f"{t['label']}: the garment rises {t['mean_rise_mm']:.1f} mm on average over a run "
               f"(at most {t['max_rise_mm']:.1f})")
     return 0
 
