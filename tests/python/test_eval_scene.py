@@ -53,17 +53,23 @@ def test_garment_for_the_simulator_is_the_assets_mesh(weights):
     assert g.edges.shape[1] == 2 and (g.vertex_area > 0).all()
 
 
+def _key_inputs(weights):
+    """A garment from the asset, a stand-in body and a 10-frame clip: what a reference cache key is made of."""
+    from types import SimpleNamespace
+    _, stored = S.read_weights(write_asset(None, weights))
+    body = SimpleNamespace(v_template=np.zeros((4, 3)), shapedirs=np.zeros((4, 3, 2)), weights=np.ones((4, 1)),
+                           faces=np.zeros((1, 3), int), J_regressor=np.ones((1, 4)))
+    rot, tr, rr, _ = random_motion(10, seed=1)
+    clip = SimpleNamespace(local_rotations=rot, root_translation=tr, root_rotation=rr, fps=30.0)
+    return S.garment_from_asset(stored), body, clip
+
+
 def test_reference_cache_key_changes_with_every_input(weights):
     from types import SimpleNamespace
 
     from pleat.eval.reference import cache_key
     from pleat.sim import SolverSettings
-    _, stored = S.read_weights(write_asset(None, weights))
-    g = S.garment_from_asset(stored)
-    body = SimpleNamespace(v_template=np.zeros((4, 3)), shapedirs=np.zeros((4, 3, 2)), weights=np.ones((4, 1)),
-                           faces=np.zeros((1, 3), int), J_regressor=np.ones((1, 4)))
-    rot, tr, rr, _ = random_motion(10, seed=1)
-    clip = SimpleNamespace(local_rotations=rot, root_translation=tr, root_rotation=rr, fps=30.0)
+    g, body, clip = _key_inputs(weights)
     beta, mat, st = np.zeros(10), np.array([0.2, 2e4, 4e4, 1e-5]), SolverSettings()
     base = cache_key(g, body, beta, mat, clip, 10, st)
     assert base == cache_key(g, body, beta.copy(), mat.copy(), clip, 10, SolverSettings())
@@ -81,22 +87,14 @@ def test_reference_cache_key_changes_with_every_input(weights):
     assert blender not in {base, *changed}
 
 
-def test_blenders_key_holds_its_scenes_cloth_defaults(monkeypatch):
+def test_blenders_key_holds_its_scenes_cloth_defaults(weights, monkeypatch):
     """A changed default of the add-on's cloth (pleat_blender.cloth) simulates anew: Blender's cached simulations
     are keyed by it, Pleat's simulator's are not."""
-    from types import SimpleNamespace
-
     from pleat.eval.reference import cache_key
     from pleat.sim import SolverSettings
     from pleat_blender import cloth
-    g = SimpleNamespace(template=np.zeros((3, 3)), faces=np.zeros((1, 3), int), skin_indices=np.zeros((3, 1), int),
-                        skin_weights=np.ones((3, 1)), shape_blend=np.zeros((2, 3, 3)), pinned=np.zeros(0, int),
-                        collision_exclude=np.zeros(0, int))
-    body = SimpleNamespace(v_template=np.zeros((4, 3)), shapedirs=np.zeros((4, 3, 2)), weights=np.ones((4, 1)),
-                           faces=np.zeros((1, 3), int), J_regressor=np.ones((1, 4)))
-    rot, tr, rr, _ = random_motion(10, seed=1)
-    clip = SimpleNamespace(local_rotations=rot, root_translation=tr, root_rotation=rr, fps=30.0)
-    args = (g, body, np.zeros(2), np.array([0.2, 2e4, 4e4, 1e-5]), clip, 10, SolverSettings())
+    g, body, clip = _key_inputs(weights)
+    args = (g, body, np.zeros(10), np.array([0.2, 2e4, 4e4, 1e-5]), clip, 10, SolverSettings())
     before = cache_key(*args, teacher="blender"), cache_key(*args)
     monkeypatch.setitem(cloth.CLOTH, "collision_distance_m", 0.004)
     assert cache_key(*args, teacher="blender") != before[0]
