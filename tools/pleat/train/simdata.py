@@ -241,11 +241,11 @@ def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=No
     missing = [k for k, p in enumerate(paths) if not p.is_file()]
     simulated = {}                      # segment → CPU s, for those that came back (not past the deadline)
 
-    def record(k, cpu):
+    def record(k, cpu, cache_hit):
         seg = segments[k]
         if log is not None:
             log({"segment": k, "clip": seg.clip, "variant": seg.variant, "start": seg.start,
-                 "frames": seg.frames, "cpu_s": round(cpu, 2), "cache_hit": k not in simulated})
+                 "frames": seg.frames, "cpu_s": round(cpu, 2), "cache_hit": cache_hit})
 
     def arrived(i, result):
         if result is None:              # not started before the deadline
@@ -253,12 +253,12 @@ def simulate_segments(setup, segments, workers, cache_dir, deadline=None, log=No
         positions, summary, cpu = result
         write_cached(paths[missing[i]], positions, summary)
         simulated[missing[i]] = cpu
-        record(missing[i], cpu)
+        record(missing[i], cpu, False)
 
     to_simulate = set(missing)
     for k in range(len(segments)):
         if k not in to_simulate:
-            record(k, 0.0)
+            record(k, 0.0, True)
     runner.map(_simulate_segment, context, [segments[k] for k in missing], deadline, on_result=arrived)
     done = [(seg, str(path)) for k, (seg, path) in enumerate(zip(segments, paths))
             if k not in to_simulate or k in simulated]
