@@ -272,7 +272,7 @@ static void test_broken_structure_is_malformed( void** state )
 		{ NULL, 12, 64, 4 },                 // header_size < 128
 		{ NULL, 24, 0, 4 },                  // no sections
 		{ NULL, 24, 300, 4 },                // too many sections
-		{ NULL, 28, 4, 4 },                  // unknown flag bit (bit 1 is the int8 networks' since 1.3)
+		{ NULL, 28, 8, 4 },                  // unknown flag bit (bits 1 and 2 are the int8 networks' since 1.3)
 		{ NULL, 32, 1ull << 40, 8 },         // table offset past the end
 		{ "TMPL", 16, tmpl + 4, 8 },         // offset not 64-byte aligned
 		{ "TMPL", 16, 1ull << 62, 8 },       // offset far outside the file

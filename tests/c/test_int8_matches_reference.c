@@ -1,6 +1,7 @@
-// int8 networks (asset 1.3): every int8 mat-vec this build has and this CPU runs gives the scalar kernel's bits; the
-// MLP job on a packed int8 asset gives the numpy reference's bits (pleat.reference.mlp.mlp_int8) with every kernel
-// set, one instance or a batch; the loader refuses what the int8 kernels cannot run.
+// int8 networks (asset 1.3): every int8 mat-vec this build has and this CPU runs gives the scalar kernel's bits, and
+// the scalar kernel the specification's, for each place an input is quantised to; the MLP job on a packed int8 asset
+// (ranged inputs, and the symmetric ones) gives the numpy reference's bits (pleat.reference.mlp.mlp_int8) with every
+// kernel set, one instance or a batch; the loader refuses what the int8 kernels cannot run.
 //
 // usage: test_int8_matches_reference [DIR]   (DIR/asset.pleat and DIR/mlp_case.bin from pleat-golden-int8, i.e.
 // python -m pleat.reference.golden_int8). The kernel test needs no data; without DIR the data tests are skipped.
@@ -33,7 +34,22 @@ static uint32_t plRandU32( void )
 	return s_rng >> 8;
 }
 
-// Shapes past each step of the kernels (32 and 64 columns, four rows at a time) and windows of block layers.
+// The specification written out once more, with the input's true quantised value (q, not the held q − 128) and a
+// 64-bit sum: what every kernel must give, offsets and all.
+static float plExpectedRow( const float* x, const plLayer* l, const int8_t* w, uint32_t cb, uint32_t ce, uint32_t r )
+{
+	int64_t acc = 0;
+	for ( uint32_t c = cb; c < ce; ++c )
+	{
+		int32_t q = plQuantiseWithin( x[c], l->input_inv_scale, plInt8InputLow( l->int8_input ),
+									  plInt8InputHigh( l->int8_input ) );
+		acc += (int64_t)w[(size_t)r * l->in_count + c] * q;
+	}
+	return plDequantise( (int32_t)acc, l->weight_scale[r], l->input_scale[0], l->bias[r] );
+}
+
+// Shapes past each step of the kernels (16, 32 and 64 columns, four rows at a time) and windows of block layers, for
+// each place an input is quantised to (symmetric, a ranged network's first layer, its hidden layers).
 static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 {
 	(void)state;
@@ -48,75 +64,113 @@ static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 		printf( " %s", names[v] );
 	}
 	printf( "\n" );
-	static const uint32_t columns[] = { 1, 7, 31, 32, 33, 63, 64, 65, 100, 129, 681, PLEAT_MAX_INT8_COLUMNS };
+	static const uint32_t columns[] = { 1, 7, 15, 16, 17, 31, 32, 33, 63, 64, 65, 100, 129, 681, PLEAT_MAX_INT8_COLUMNS };
 	static const uint32_t rows[] = { 1, 3, 4, 5, 9, 64, 130 };
-	for ( size_t ci = 0; ci < sizeof( columns ) / sizeof( columns[0] ); ++ci )
+	static const uint32_t inputs[] = { PLEAT_INT8_INPUT_SYMMETRIC, PLEAT_INT8_INPUT_FIRST, PLEAT_INT8_INPUT_HIDDEN };
+	for ( size_t ki = 0; ki < 3; ++ki )
 	{
-		for ( size_t ri = 0; ri < sizeof( rows ) / sizeof( rows[0] ); ++ri )
+		for ( size_t ci = 0; ci < sizeof( columns ) / sizeof( columns[0] ); ++ci )
 		{
-			uint32_t in = columns[ci], out = rows[ri];
-			int8_t* w = (int8_t*)malloc( (size_t)in * out );
-			float* x = (float*)malloc( in * sizeof( float ) );
-			float* scale = (float*)malloc( out * sizeof( float ) );
-			float* bias = (float*)malloc( out * sizeof( float ) );
-			float* expect = (float*)malloc( out * sizeof( float ) );
-			float* got = (float*)malloc( out * sizeof( float ) );
-			for ( size_t i = 0; i < (size_t)in * out; ++i )
+			for ( size_t ri = 0; ri < sizeof( rows ) / sizeof( rows[0] ); ++ri )
 			{
-				// mostly the extremes ±127, where a saturating scheme would fail, and zeros (block layers)
-				uint32_t r = plRandU32() % 8;
-				w[i] = (int8_t)( r == 0 ? 127 : r == 1 ? -127 : r == 2 ? 0 : (int)( plRandU32() % 255 ) - 127 );
-			}
-			// inv_scale 0.5: x = 2k + 1 lands on k + 0.5 exactly (the ties to even); past ±254 the clamp; and the
-			// values that are not numbers (a NaN quantises to −127 in every kernel)
-			for ( uint32_t c = 0; c < in; ++c )
-			{
-				uint32_t r = plRandU32() % 16;
-				x[c] = r == 0	? (float)( 2 * (int)( plRandU32() % 255 ) - 254 + 1 )
-					   : r == 1 ? 1000.0f * ( plRandU32() % 2 ? 1.0f : -1.0f )
-					   : r == 2 ? ( plRandU32() % 2 ? NAN : -INFINITY )
-								: ( (float)( plRandU32() % 100000 ) / 50000.0f - 1.0f ) * 300.0f;
-			}
-			for ( uint32_t r = 0; r < out; ++r )
-			{
-				scale[r] = 1e-3f * (float)( 1 + plRandU32() % 1000 );
-				bias[r] = (float)( plRandU32() % 1000 ) / 500.0f - 1.0f;
-			}
-			// whole rows, then a window [16, in) where it exists (a block layer's), then a row range inside
-			uint32_t windows[3][4] = { { 0, in, 0, out },
-									   { in > 16 ? 16u : 0u, in, 0, out },
-									   { 0, in, out / 3, out - out / 4 } };
-			for ( int wi = 0; wi < 3; ++wi )
-			{
-				uint32_t cb = windows[wi][0], ce = windows[wi][1], rb = windows[wi][2], re = windows[wi][3];
-				if ( rb >= re )
+				uint32_t in = columns[ci], out = rows[ri];
+				int8_t* w = (int8_t*)malloc( (size_t)in * out );
+				float* x = (float*)malloc( in * sizeof( float ) );
+				float* scale = (float*)malloc( out * sizeof( float ) );
+				float* bias = (float*)malloc( out * sizeof( float ) );
+				int32_t* offsets = (int32_t*)malloc( out * sizeof( int32_t ) );
+				float* expect = (float*)malloc( out * sizeof( float ) );
+				float* got = (float*)malloc( out * sizeof( float ) );
+				for ( size_t i = 0; i < (size_t)in * out; ++i )
 				{
-					continue;
+					// mostly the extremes ±127, where a saturating scheme would fail, and zeros (block layers)
+					uint32_t r = plRandU32() % 8;
+					w[i] = (int8_t)( r == 0 ? 127 : r == 1 ? -127 : r == 2 ? 0 : (int)( plRandU32() % 255 ) - 127 );
 				}
-				memset( expect, 0, out * sizeof( float ) );
-				kernels[0]( expect, x, w, scale, 2.0f, 0.5f, bias, in, cb, ce, rb, re );
-				for ( uint32_t v = 1; v < count; ++v )
+				// inv_scale 0.5: x = 2k + 1 lands on k + 0.5 exactly (the ties to even); past every bound the
+				// clamp (±254, 0..510, ±4094); and the values that are not numbers (a NaN quantises to the low bound)
+				for ( uint32_t c = 0; c < in; ++c )
 				{
-					memset( got, 0, out * sizeof( float ) );
-					kernels[v]( got, x, w, scale, 2.0f, 0.5f, bias, in, cb, ce, rb, re );
-					if ( memcmp( got, expect, out * sizeof( float ) ) != 0 )
+					uint32_t r = plRandU32() % 16;
+					x[c] = r == 0	? (float)( 2 * (int)( plRandU32() % 4095 ) - 4094 + 1 )
+						   : r == 1 ? 10000.0f * ( plRandU32() % 2 ? 1.0f : -1.0f )
+						   : r == 2 ? ( plRandU32() % 2 ? NAN : -INFINITY )
+						   : r == 3 ? (float)( 2 * (int)( plRandU32() % 255 ) + 1 )
+									: ( (float)( plRandU32() % 100000 ) / 50000.0f - 1.0f ) * 300.0f;
+				}
+				for ( uint32_t r = 0; r < out; ++r )
+				{
+					scale[r] = 1e-3f * (float)( 1 + plRandU32() % 1000 );
+					bias[r] = (float)( plRandU32() % 1000 ) / 500.0f - 1.0f;
+				}
+				float input_scale = 2.0f;
+				plLayer layer;
+				memset( &layer, 0, sizeof( layer ) );
+				layer.weight = w;
+				layer.weight_int8 = 1;
+				layer.weight_scale = scale;
+				layer.input_scale = &input_scale;
+				layer.input_inv_scale = 0.5f;
+				layer.bias = bias;
+				layer.in_count = in;
+				layer.out_count = out;
+				layer.int8_input = inputs[ki];
+				// whole rows, then a window [16, in) where it exists (a block layer's), then a row range inside
+				uint32_t windows[3][4] = { { 0, in, 0, out },
+										   { in > 16 ? 16u : 0u, in, 0, out },
+										   { 0, in, out / 3, out - out / 4 } };
+				for ( int wi = 0; wi < 3; ++wi )
+				{
+					uint32_t cb = windows[wi][0], ce = windows[wi][1], rb = windows[wi][2], re = windows[wi][3];
+					if ( rb >= re )
 					{
-						fail_msg( "%s differs from scalar: %u columns [%u, %u), rows [%u, %u)", names[v], in, cb, ce, rb,
-								  re );
+						continue;
+					}
+					for ( uint32_t r = 0; r < out; ++r ) // the window's 128 · Σ w, as the load derives for a block
+					{
+						int32_t sum = 0;
+						for ( uint32_t c = cb; c < ce; ++c )
+						{
+							sum += w[(size_t)r * in + c];
+						}
+						offsets[r] = 128 * sum;
+					}
+					layer.input_offsets = inputs[ki] == PLEAT_INT8_INPUT_HIDDEN ? offsets : NULL;
+					memset( expect, 0, out * sizeof( float ) );
+					kernels[0]( expect, x, &layer, w, in, cb, ce, rb, re );
+					for ( uint32_t r = rb; r < re; ++r )
+					{
+						float spec = plExpectedRow( x, &layer, w, cb, ce, r );
+						if ( memcmp( &spec, &expect[r], sizeof( float ) ) != 0 )
+						{
+							fail_msg( "scalar differs from the specification: input %u, %u columns, row %u",
+									  inputs[ki], in, r );
+						}
+					}
+					for ( uint32_t v = 1; v < count; ++v )
+					{
+						memset( got, 0, out * sizeof( float ) );
+						kernels[v]( got, x, &layer, w, in, cb, ce, rb, re );
+						if ( memcmp( got, expect, out * sizeof( float ) ) != 0 )
+						{
+							fail_msg( "%s differs from scalar: input %u, %u columns [%u, %u), rows [%u, %u)", names[v],
+									  inputs[ki], in, cb, ce, rb, re );
+						}
 					}
 				}
+				free( w );
+				free( x );
+				free( scale );
+				free( bias );
+				free( offsets );
+				free( expect );
+				free( got );
 			}
-			free( w );
-			free( x );
-			free( scale );
-			free( bias );
-			free( expect );
-			free( got );
 		}
 	}
 }
 
-// The rounding rule itself: ties to even, the clamp, NaN to −127.
+// The rounding rule itself: ties to even, the clamps, NaN to the low bound; a hidden input is held as q − 128.
 static void test_quantise_rounds_ties_to_even_and_clamps( void** state )
 {
 	(void)state;
@@ -129,6 +183,15 @@ static void test_quantise_rounds_ties_to_even_and_clamps( void** state )
 	assert_int_equal( plQuantise( -300.0f, 1.0f ), -127 );
 	assert_int_equal( plQuantise( NAN, 1.0f ), -127 );
 	assert_int_equal( plQuantise( INFINITY, 1.0f ), 127 );
+	assert_int_equal( plQuantiseInput( 2046.5f, 1.0f, PLEAT_INT8_INPUT_FIRST ), 2046 );
+	assert_int_equal( plQuantiseInput( 5000.0f, 1.0f, PLEAT_INT8_INPUT_FIRST ), 2047 );
+	assert_int_equal( plQuantiseInput( -5000.0f, 1.0f, PLEAT_INT8_INPUT_FIRST ), -2047 );
+	assert_int_equal( plQuantiseInput( NAN, 1.0f, PLEAT_INT8_INPUT_FIRST ), -2047 );
+	assert_int_equal( plQuantiseInput( 0.0f, 1.0f, PLEAT_INT8_INPUT_HIDDEN ), -128 );
+	assert_int_equal( plQuantiseInput( -3.0f, 1.0f, PLEAT_INT8_INPUT_HIDDEN ), -128 );
+	assert_int_equal( plQuantiseInput( 128.5f, 1.0f, PLEAT_INT8_INPUT_HIDDEN ), 0 );
+	assert_int_equal( plQuantiseInput( 300.0f, 1.0f, PLEAT_INT8_INPUT_HIDDEN ), 127 );
+	assert_int_equal( plQuantiseInput( NAN, 1.0f, PLEAT_INT8_INPUT_HIDDEN ), -128 );
 }
 
 typedef struct plInt8Case
@@ -235,15 +298,11 @@ static void plCheckNetwork( const plKernels* k, const plLayer* layers, uint32_t 
 	free( out );
 }
 
-static void test_int8_networks_give_the_numpy_reference_bits( void** state )
+// One case of pleat-golden-int8 (suffix "" ranged inputs, "_symmetric" the first int8 assets' scheme).
+static void plCheckInt8Case( const char* suffix, uint32_t first_input, uint32_t hidden_input )
 {
-	(void)state;
-	if ( s_dir == NULL )
-	{
-		skip();
-	}
 	char path[4096];
-	snprintf( path, sizeof( path ), "%s/mlp_case.bin", s_dir );
+	snprintf( path, sizeof( path ), "%s/mlp_case%s.bin", s_dir, suffix );
 	plInt8Case c;
 	memset( &c, 0, sizeof( c ) );
 	assert_true( plReadInt8Case( path, &c ) );
@@ -251,7 +310,7 @@ static void test_int8_networks_give_the_numpy_reference_bits( void** state )
 	plContext ctx;
 	assert_int_equal( plCreateContext( &cdef, &ctx ), PLEAT_RESULT_OK );
 	plAssetDef adef = plDefaultAssetDef();
-	snprintf( path, sizeof( path ), "%s/asset.pleat", s_dir );
+	snprintf( path, sizeof( path ), "%s/asset%s.pleat", s_dir, suffix );
 	adef.path = path;
 	plAsset asset;
 	assert_int_equal( plLoadAsset( ctx, &adef, &asset ), PLEAT_RESULT_OK );
@@ -265,7 +324,10 @@ static void test_int8_networks_give_the_numpy_reference_bits( void** state )
 	for ( uint32_t i = 0; i < a->lp_layer_count; ++i )
 	{
 		assert_true( a->lp[i].weight_int8 );
+		assert_int_equal( a->lp[i].int8_input, i == 0 ? first_input : hidden_input );
+		assert_true( ( a->lp[i].input_offsets != NULL ) == ( a->lp[i].int8_input == PLEAT_INT8_INPUT_HIDDEN ) );
 	}
+	assert_int_equal( a->dec[0].int8_input, first_input );
 	plKernelSet sets[3] = { PLEAT_KERNEL_SET_SCALAR, PLEAT_KERNEL_SET_AVX2, PLEAT_KERNEL_SET_AVX512 };
 	for ( int s = 0; s < 3; ++s )
 	{
@@ -280,6 +342,17 @@ static void test_int8_networks_give_the_numpy_reference_bits( void** state )
 	plDestroyAsset( asset );
 	plDestroyContext( ctx );
 	free( c.data );
+}
+
+static void test_int8_networks_give_the_numpy_reference_bits( void** state )
+{
+	(void)state;
+	if ( s_dir == NULL )
+	{
+		skip();
+	}
+	plCheckInt8Case( "", PLEAT_INT8_INPUT_FIRST, PLEAT_INT8_INPUT_HIDDEN );
+	plCheckInt8Case( "_symmetric", PLEAT_INT8_INPUT_SYMMETRIC, PLEAT_INT8_INPUT_SYMMETRIC );
 }
 
 // The section's entry in a loaded buffer (the table layout of docs/asset-format.md), or NULL.
@@ -314,7 +387,8 @@ static plResult plLoadEdited( plContext ctx, const uint8_t* bytes, size_t size )
 }
 
 // What the int8 kernels cannot run is refused at load: a −128 weight, a zero scale, a missing scale section, int8
-// weights without the header's flag (an older reader's view: the flag is unknown there, so it refuses the file).
+// weights without the header's flag (an older reader's view: the flag is unknown there, so it refuses the file), an
+// unknown flag, ranged inputs without int8 networks or on a SiLU network.
 static void test_loader_refuses_what_the_int8_kernels_cannot_run( void** state )
 {
 	(void)state;
@@ -361,9 +435,20 @@ static void test_loader_refuses_what_the_int8_kernels_cannot_run( void** state )
 	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
 
 	memcpy( bytes, original, size );
-	flags = 4; // a flag no reader knows
+	flags = 8; // a flag no reader knows
 	memcpy( bytes + 28, &flags, 4 );
 	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_MALFORMED_ASSET );
+
+	memcpy( bytes, original, size );
+	flags = 4; // ranged inputs without int8 networks
+	memcpy( bytes + 28, &flags, 4 );
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
+
+	memcpy( bytes, original, size );
+	memcpy( &offset, plSectionEntry( bytes, "CONF" ) + 16, 8 );
+	uint32_t silu = 2; // ranged inputs on a SiLU network, whose hidden inputs can be negative
+	memcpy( bytes + offset + 44, &silu, 4 );
+	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
 
 	plDestroyContext( ctx );
 	free( bytes );

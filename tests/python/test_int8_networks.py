@@ -9,7 +9,7 @@ from pleat import asset as pa
 from pleat import pack
 from pleat import quantise as pq
 from pleat.reference.golden import random_weights
-from pleat.reference.mlp import int8_layers, layers, mlp, mlp_int8, quantise
+from pleat.reference.mlp import FIRST_INPUT, HIDDEN_INPUT, int8_layers, layers, mlp, mlp_int8, quantise
 
 
 @pytest.fixture(scope="module")
@@ -20,6 +20,10 @@ def weights():
 def test_quantise_rounds_half_to_even_clamps_and_sends_nan_to_the_low_bound():
     q = quantise(np.array([0.5, 1.5, 2.5, -2.5, 126.5, 300, -300, np.nan, np.inf], np.float32), 1.0)
     assert q.tolist() == [0, 2, 2, -2, 126, 127, -127, -127, 127]
+    q = quantise(np.array([2046.5, 5000, -5000, np.nan], np.float32), 1.0, FIRST_INPUT)
+    assert q.tolist() == [2046, 2047, -2047, -2047]
+    q = quantise(np.array([-3, 0.5, 128.5, 300, np.nan], np.float32), 1.0, HIDDEN_INPUT)
+    assert q.tolist() == [0, 0, 128, 255, 0]
 
 
 def test_int8_asset_round_trips_and_is_version_1_3(weights):
@@ -29,11 +33,20 @@ def test_int8_asset_round_trips_and_is_version_1_3(weights):
     assert header["version"] == (1, 3) and header["flags"] & pa.FLAG_INT8
     by = {s["fourcc"]: s for s in sections}
     assert by["LPW0"]["dtype"] == pa.DTYPE_I8 and by["LPS0"]["dims"] == (40,) and by["LPA0"]["dims"] == (1,)
+    assert header["flags"] & pa.FLAG_INT8_RANGED_INPUTS and record["inputs"] == "ranged"   # ReLU networks
     back = pa.read_asset(data)
     for key in ("lp.0.weight", "lp.1.weight_scale", "dec.0.input_scale", "dec.1.bias"):
         assert np.array_equal(back[key], np.asarray(q[key]).astype(back[key].dtype))
+    assert back["int8_ranged_inputs"]
     assert int(np.abs(back["lp.0.weight"]).max()) == 127           # each row's largest weight maps to ±127
     assert len(record["input_ranges"]["lp"]) == 3 and len(record["input_ranges"]["dec"]) == 2
+    # a first layer's input over ±2047 steps, a hidden layer's (never negative) over 0..255
+    assert back["lp.0.input_scale"][0] == pytest.approx(record["input_ranges"]["lp"][0] / 2047, rel=1e-5)
+    assert back["lp.1.input_scale"][0] == pytest.approx(record["input_ranges"]["lp"][1] / 255, rel=1e-5)
+    symmetric, _ = pq.quantise(weights, ranged=False)
+    header, _ = pa.inspect_asset(pa.write_asset(None, symmetric))
+    assert header["flags"] & pa.FLAG_INT8 and not header["flags"] & pa.FLAG_INT8_RANGED_INPUTS
+    assert "int8_ranged_inputs" not in pa.read_asset(pa.write_asset(None, symmetric))
     # a float asset stays 1.2, byte for byte what the writer made before int8 existed
     assert pa.inspect_asset(pa.write_asset(None, weights))[0]["version"] == (1, 2)
 
@@ -46,18 +59,44 @@ def test_int8_network_tracks_the_float_one(weights):
     want = mlp(x, *layers(stored, "lp"), stored["lp_activation"])
     got = mlp_int8(x, int8_layers(q, "lp"), q["lp_activation"])
     assert np.abs(got - want).max() < 0.05 * np.abs(want).max()
+    # the ranged inputs are the point: more steps where the values are, less error than the symmetric scheme
+    s, _ = pq.quantise(stored, x, ranged=False)
+    symmetric = mlp_int8(x, int8_layers(s, "lp"), s["lp_activation"])
+    assert np.abs(got - want).mean() < 0.75 * np.abs(symmetric - want).mean()
 
 
-def test_int8_layer_is_integer_arithmetic(weights):
-    """One layer by hand: quantise, int sum, two float32 roundings, the bias."""
-    q, _ = pq.quantise(weights)
-    layer = int8_layers(q, "dec")[0]
-    z = np.random.default_rng(0).standard_normal((4, layer["weight"].shape[1])).astype(np.float32)
-    xq = quantise(z, np.float32(1) / layer["input_scale"]).astype(np.int64)
-    acc = xq @ layer["weight"].astype(np.int64).T
+@pytest.mark.parametrize("ranged, index, bounds", [(False, 0, (-127, 127)), (True, 0, (-2047, 2047)),
+                                                   (True, 1, (0, 255))])
+def test_int8_layer_is_integer_arithmetic(weights, ranged, index, bounds):
+    """One layer by hand: quantise within the layer's bounds, int sum, two float32 roundings, the bias."""
+    q, _ = pq.quantise(weights, ranged=ranged)
+    layer = int8_layers(q, "dec")[index]
+    assert layer["input_bounds"] == bounds
+    z = 3 * np.random.default_rng(0).standard_normal((4, layer["weight"].shape[1])).astype(np.float32)
+    v = np.clip(z.astype(np.float32) * (np.float32(1) / layer["input_scale"]), *bounds)
+    acc = np.rint(v).astype(np.int64) @ layer["weight"].astype(np.int64).T
     want = (acc.astype(np.float32) * (layer["weight_scale"] * layer["input_scale"])) + layer["bias"]
     got = mlp_int8(z, [layer], "relu")
     assert got.dtype == np.float32 and np.array_equal(got, want.astype(np.float32))
+
+
+def test_ranged_inputs_need_relu_networks(weights):
+    """A SiLU network's hidden inputs can be negative: quantised as never negative they would be wrong, so the
+    quantiser falls back to symmetric inputs, and neither it, the writer nor the reader take ranged ones."""
+    silu = dict(weights, lp_activation="silu")
+    q, record = pq.quantise(silu)
+    assert record["inputs"] == "symmetric" and not q["int8_ranged_inputs"]
+    with pytest.raises(ValueError, match="ReLU"):
+        pq.quantise(silu, ranged=True)
+    with pytest.raises(pa.AssetError, match="ReLU"):
+        pa.write_asset(None, dict(q, int8_ranged_inputs=True))
+    # a float dict derived from a ranged int8 one (e.g. networks replaced) is written as the float asset it is
+    header, _ = pa.inspect_asset(pa.write_asset(None, dict(weights, int8_ranged_inputs=True)))
+    assert header["flags"] & (pa.FLAG_INT8 | pa.FLAG_INT8_RANGED_INPUTS) == 0
+    data = bytearray(pa.write_asset(None, q))                       # the flag set on the SiLU file by hand
+    data[28] |= pa.FLAG_INT8_RANGED_INPUTS
+    with pytest.raises(pa.AssetError, match="ReLU"):
+        pa.read_asset(bytes(data), verify_checksum=False)
 
 
 def test_writer_refuses_what_the_runtime_refuses(weights):
@@ -88,7 +127,7 @@ def test_pack_int8_with_calibration_rows_and_onnx(tmp_path, weights):
                       "--quiet"]) == 0
     data = out.read_bytes()
     header, _ = pa.inspect_asset(data)
-    assert header["flags"] == pa.FLAG_INT8 | pa.FLAG_FP16              # int8 networks, fp16 blend shapes
+    assert header["flags"] == pa.FLAG_INT8 | pa.FLAG_INT8_RANGED_INPUTS | pa.FLAG_FP16   # fp16 blend shapes
     back = pa.read_asset(data)
     assert back["lp.0.weight"].dtype == np.int8 and back["blend_shapes"].dtype == np.float16
     assert back["onnx_latent_predictor"] == pa.read_asset(pa.write_asset(None, weights, onnx=True))[

@@ -24,15 +24,18 @@ def _random_weights(rng, sizes, I):
     return w
 
 
-def test_the_trained_forward_is_the_runtime_int8_arithmetic():
+@pytest.mark.parametrize("ranged", [True, False])
+def test_the_trained_forward_is_the_runtime_int8_arithmetic(ranged):
     """Network.forward with its quantised weights gives, on calibration inputs, what pleat.reference.mlp.mlp_int8
-    (the C kernels' bits) gives for the layers pleat.quantise writes from the same weights and rows."""
+    (the C kernels' bits) gives for the layers pleat.quantise writes from the same weights and rows, with ranged
+    inputs and with symmetric ones."""
     rng = np.random.default_rng(3)
     weights = _random_weights(rng, ([40, 64, 64, 8], [8, 32, 12]), 40)
     x = rng.normal(size=(200, 40))
-    model = qat.Model(weights)
+    model = qat.Model(weights, ranged)
     model.calibrate(x, 100.0)
-    quantised, _ = pq.quantise(weights, x, 100.0)
+    quantised, _ = pq.quantise(weights, x, 100.0, ranged=ranged)
+    assert bool(quantised["int8_ranged_inputs"]) == ranged
     for prefix, net in (("lp", model.lp), ("dec", model.dec)):
         ref_layers = int8_layers(quantised, prefix)
         assert np.allclose([layer["input_scale"] for layer in ref_layers], net.input_scales.numpy(), rtol=0, atol=0)

@@ -29,6 +29,8 @@ ALIGN = 64
 CHECKSUM_OFFSET = 40
 FLAG_FP16 = 1
 FLAG_INT8 = 2       # 1.3: every LP and decoder layer is int8 (LPWi i8, LPSi, LPAi; docs/asset-format.md)
+FLAG_INT8_RANGED_INPUTS = 4   # 1.3, with FLAG_INT8 and ReLU networks: each layer's input quantised to the range its
+                              # values have (pleat.reference.mlp.int8_input_bounds): 'int8_ranged_inputs' in a dict
 MAX_INT8_COLUMNS = 4096   # PLEAT_MAX_INT8_COLUMNS: an int8 layer's inputs (the kernels quantise them on their stack)
 
 DTYPE_F32, DTYPE_F16, DTYPE_U32, DTYPE_U16, DTYPE_I32, DTYPE_U8, DTYPE_I8 = 1, 2, 3, 4, 5, 6, 7
@@ -309,6 +311,11 @@ def validate_weights(weights, fp16=False):
         if act not in ACTIVATIONS:
             raise AssetError(f"{prefix}_activation: {act!r}, expected one of {sorted(ACTIVATIONS)}")
         w[f"{prefix}_activation"] = act
+    if int8 and weights.get("int8_ranged_inputs", False):     # (float networks have no int8 inputs to describe)
+        if (w["lp_activation"], w["dec_activation"]) != ("relu", "relu"):
+            raise AssetError("int8_ranged_inputs: hidden inputs are quantised as never negative, which needs ReLU "
+                             f"networks, not {w['lp_activation']}/{w['dec_activation']}")
+        w["int8_ranged_inputs"] = True
     extra = [k for k in weights if (k.startswith("lp.") or k.startswith("dec.")) and k not in w]
     if extra:
         raise AssetError(f"layer keys outside the chain: {sorted(extra)}")
@@ -527,7 +534,7 @@ def write_asset(path_or_file, weights, fp16=False, onnx=False, onnx_weights=None
     file_size = payloads[-1][0] + len(payloads[-1][1])
     buf = bytearray(file_size)
     flags = (FLAG_FP16 if any(a.dtype == np.float16 for _, _, a in sections) else 0) | (
-        FLAG_INT8 if is_int8(w) else 0)
+        FLAG_INT8 if is_int8(w) else 0) | (FLAG_INT8_RANGED_INPUTS if w.get("int8_ranged_inputs") else 0)
     # the lowest version that describes the file: float assets stay 1.2, byte for byte what earlier writers made
     minor = VERSION_MINOR if flags & FLAG_INT8 else 2
     struct.pack_into("<8sHHIQIIQI", buf, 0, MAGIC, VERSION_MAJOR, minor, HEADER_SIZE, file_size,
@@ -578,8 +585,10 @@ def inspect_asset(data, verify_checksum=True):
         raise AssetError("header_size beyond the file", "TRUNCATED")
     if verify_checksum and checksum(data) != stored_crc:
         raise AssetError(f"CRC-32 {checksum(data):08x} != stored {stored_crc:08x}", "CHECKSUM_MISMATCH")
-    if major == VERSION_MAJOR and minor <= VERSION_MINOR and flags & ~(FLAG_FP16 | FLAG_INT8):
+    if major == VERSION_MAJOR and minor <= VERSION_MINOR and flags & ~(FLAG_FP16 | FLAG_INT8 | FLAG_INT8_RANGED_INPUTS):
         raise AssetError(f"unknown flags 0x{flags:x}", "MALFORMED_ASSET")
+    if flags & FLAG_INT8_RANGED_INPUTS and not flags & FLAG_INT8:
+        raise AssetError("flag 0x4 (int8 ranged inputs) without 0x2 (int8 networks)", "MALFORMED_ASSET")
     if not 1 <= section_count <= 256:
         raise AssetError(f"section_count {section_count}", "MALFORMED_ASSET")
     if table_offset < header_size or table_offset + section_count * SECTION_ENTRY_SIZE > file_size:
@@ -691,6 +700,10 @@ def read_asset(data, verify_checksum=True):
                 w[f"{prefix}.{i}.weight"] = get(f"{tag}W{i}", (DTYPE_F32, DTYPE_F16))
             w[f"{prefix}.{i}.bias"] = get(f"{tag}B{i}", (DTYPE_F32,))
         w[f"{prefix}_activation"] = ACTIVATION_NAMES[conf[f"{prefix}_activation"]]
+    if header["flags"] & FLAG_INT8_RANGED_INPUTS:
+        if (w["lp_activation"], w["dec_activation"]) != ("relu", "relu"):
+            raise AssetError("flag 0x4 (int8 ranged inputs) needs ReLU networks", "INVALID_ASSET_DATA")
+        w["int8_ranged_inputs"] = True
     w["blend_shapes"] = get("BLND", (DTYPE_F32, DTYPE_F16), (D, N, 3))
     if "PINS" in by:
         w["pinned"] = get("PINS", (DTYPE_U32,))

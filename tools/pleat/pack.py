@@ -29,7 +29,9 @@ def info(path, out=None):
     p(f"{path}: Pleat asset {header['version'][0]}.{header['version'][1]}, {header['file_size']} bytes, "
       f"{header['section_count']} sections, flags 0x{header['flags']:x}"
       f"{' (fp16 weights)' if header['flags'] & pa.FLAG_FP16 else ''}"
-      f"{' (int8 networks)' if header['flags'] & pa.FLAG_INT8 else ''}, CRC-32 {header['checksum']:08x} "
+      f"{' (int8 networks)' if header['flags'] & pa.FLAG_INT8 else ''}"
+      f"{' (ranged int8 inputs)' if header['flags'] & pa.FLAG_INT8_RANGED_INPUTS else ''}, "
+      f"CRC-32 {header['checksum']:08x} "
       f"({'ok' if crc_ok else 'MISMATCH'})")
     p(f"  {'fourcc':6} {'dtype':5} {'offset':>10} {'size':>10}  dims")
     for s in sections:
@@ -69,7 +71,8 @@ def build_parser():
     p.add_argument("--fp16", action="store_true", help="store LP/decoder weight matrices and BLND as fp16")
     p.add_argument("--int8", action="store_true",
                    help="int8 networks (asset 1.3): weights per output channel, each layer's input scale calibrated "
-                        "on --calibration's rows (default: random normalised inputs); with --fp16, BLND is fp16")
+                        "on --calibration's rows (default: random normalised inputs), inputs ranged where the "
+                        "networks are ReLU (docs/asset-format.md); with --fp16, BLND is fp16")
     p.add_argument("--precision", choices=("fp32", "fp16", "int8"),
                    help="the networks' precision: fp16 = --fp16, int8 = --int8")
     p.add_argument("--calibration", metavar="NPZ",

@@ -1,10 +1,11 @@
 """Post-training int8 quantisation of an asset's networks (asset 1.3, docs/asset-format.md "int8 networks").
 
 Weights: symmetric, per output channel: scale_r = max_c |W[r, c]| / 127, W_q = round(W / scale_r) in -127..127.
-Activations: per layer, one symmetric scale for the layer's input, s = range / 127, where range is the largest |value|
-(or a percentile of them) that layer's input takes over a calibration set run through the float network: f_LP's
+Activations: per layer, one scale for the layer's input, s = range / levels, where range is the largest |value| (or
+a percentile of them) that layer's input takes over a calibration set run through the float network: f_LP's
 normalised inputs, its hidden activations, then the latent as the guard clamps it (the decoder's input) and the
-decoder's hidden activations. The calibration inputs are X_c rows the caller has (an npz of rows, e.g. from
+decoder's hidden activations. levels: ReLU networks get ranged inputs (pleat.reference.mlp.int8_input_bounds: 2047
+for a network's first layer, 255 for its hidden layers, whose inputs are never negative); other networks 127. The calibration inputs are X_c rows the caller has (an npz of rows, e.g. from
 `collect_inputs` over training clips), or else random rows in the normalised space (each input ~ N(0, 1), the
 distribution the normalisation stats give them in training).
 
@@ -18,7 +19,7 @@ The command line is pleat.quantise_cli.
 import numpy as np
 
 from pleat.reference.latent_guard import latent_guard
-from pleat.reference.mlp import activation, layers
+from pleat.reference.mlp import activation, int8_input_bounds, layers
 
 CALIBRATION_KEY = "x_c"       # the npz key of the calibration rows: raw X_c [M, I] (before the normalisation)
 RANDOM_ROWS = 4096
@@ -56,31 +57,50 @@ def input_ranges(x, ws, bs, act, percentile):
     return ranges, h
 
 
-def _quantise_layer(w, input_range):
-    """(W_q int8, weight_scale [out] f32, input_scale [1] f32) of a float layer and its input's range."""
+def _quantise_layer(w, input_range, levels):
+    """(W_q int8, weight_scale [out] f32, input_scale [1] f32) of a float layer, its input's range and the quantised
+    input's largest value."""
     w = np.asarray(w, np.float32)
     peak = np.max(np.abs(w), axis=1)
     scale = np.where(peak > 0, peak / np.float32(127.0), np.float32(1.0)).astype(np.float32)   # a zero row: any
     q = np.clip(np.rint(w / scale[:, None]), -127, 127).astype(np.int8)
-    return q, scale, np.array([input_scale(input_range)], np.float32)
+    return q, scale, np.array([input_scale(input_range, levels)], np.float32)
 
 
-def input_scale(input_range):
-    """A layer's input scale for an input range: range / 127 (a constant-zero input: any scale whose 1/s is
-    finite)."""
-    tiny = np.float32(np.finfo(np.float32).tiny) * 128
-    return np.float32(max(np.float32(input_range) / np.float32(127.0), tiny))
+def input_scale(input_range, levels=127):
+    """A layer's input scale for an input range: range / levels, levels the quantised input's largest value (a
+    constant-zero input: any scale whose 1/s is finite)."""
+    tiny = np.float32(np.finfo(np.float32).tiny) * 4096
+    return np.float32(max(np.float32(input_range) / np.float32(levels), tiny))
 
 
-def quantise(weights, x=None, percentile=100.0):
+def ranged_inputs_possible(weights):
+    """True where both networks are ReLU, whose hidden inputs are never negative (the ranged-inputs scheme)."""
+    return all(str(weights.get(f"{p}_activation", "relu")) == "relu" for p in ("lp", "dec"))
+
+
+def input_levels(layer_index, ranged):
+    """The quantised input's largest value of int8 layer `layer_index` (127, or with ranged inputs 2047 / 255)."""
+    return int8_input_bounds(layer_index, ranged)[1]
+
+
+def quantise(weights, x=None, percentile=100.0, ranged=None):
     """The weights dict with int8 networks: every lp.i / dec.i weight int8 with its weight_scale and input_scale
     (pleat.asset writes them as LPWi i8, LPSi, LPAi). x: normalised calibration inputs [M, I] (normalised_inputs;
-    None = random). Everything else is copied unchanged. Also returns the calibration record for META."""
+    None = random). ranged: each input quantised to the range its values have (docs/asset-format.md "int8
+    networks"); None = wherever the networks allow it (ReLU). Everything else is copied unchanged. Also returns the
+    calibration record for META."""
     require_float(weights)
+    if ranged is None:
+        ranged = ranged_inputs_possible(weights)
+    elif ranged and not ranged_inputs_possible(weights):
+        raise ValueError("ranged int8 inputs need ReLU networks (hidden inputs never negative)")
     if x is None:
         x = normalised_inputs(weights)
     out = dict(weights)
-    record = {"rows": int(len(x)), "percentile": float(percentile), "input_ranges": {}}
+    out["int8_ranged_inputs"] = bool(ranged)
+    record = {"rows": int(len(x)), "percentile": float(percentile), "inputs": "ranged" if ranged else "symmetric",
+              "input_ranges": {}}
     lp_w, lp_b = layers(weights, "lp")
     dec_w, dec_b = layers(weights, "dec")
     lp_ranges, y = input_ranges(np.asarray(x, np.float64), lp_w, lp_b, str(weights.get("lp_activation", "relu")),
@@ -89,7 +109,7 @@ def quantise(weights, x=None, percentile=100.0):
     dec_ranges, _ = input_ranges(z, dec_w, dec_b, str(weights.get("dec_activation", "relu")), percentile)
     for prefix, ws, ranges in (("lp", lp_w, lp_ranges), ("dec", dec_w, dec_ranges)):
         for i, (w, r) in enumerate(zip(ws, ranges)):
-            q, s, a = _quantise_layer(w, r)
+            q, s, a = _quantise_layer(w, r, input_levels(i, ranged))
             out[f"{prefix}.{i}.weight"] = q
             out[f"{prefix}.{i}.weight_scale"] = s
             out[f"{prefix}.{i}.input_scale"] = a

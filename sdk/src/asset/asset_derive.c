@@ -18,8 +18,34 @@ static void* plTakeDerived( uint8_t** cursor, size_t bytes )
 	return part;
 }
 
+// A HIDDEN int8 layer's offsets (kernels.h plInt8Input): row r's 128 · Σ w over its block's column window, the sum
+// its input's held q − 128 leaves out. Exact in int32 (at most 128 · 4096 · 127 < 2²⁷).
+static void plInt8InputOffsets( const plLayer* l, int32_t* offsets )
+{
+	plLayerBlock blocks[PLEAT_MAX_LAYER_BLOCKS];
+	uint32_t block_count = plLayerBlocks( l, blocks );
+	const int8_t* weight = (const int8_t*)l->weight;
+	for ( uint32_t b = 0; b < block_count; ++b )
+	{
+		for ( uint32_t r = blocks[b].row_begin; r < blocks[b].row_end; ++r )
+		{
+			int32_t sum = 0;
+			for ( uint32_t c = blocks[b].col_begin; c < blocks[b].col_end; ++c )
+			{
+				sum += weight[(size_t)r * l->in_count + c];
+			}
+			offsets[r] = 128 * sum;
+		}
+	}
+}
+
+static size_t plInt8InputOffsetBytes( const plLayer* l )
+{
+	return l->weight_int8 && l->int8_input == PLEAT_INT8_INPUT_HIDDEN ? l->out_count * sizeof( int32_t ) : 0;
+}
+
 // What the load derives for the kernels, in one block: the single step's packed copies of the networks' block layers
-// (kernels.h plLayer.packed), the body's rings in lanes for the AVX2 ring normals (plRingLanes), the contact
+// (kernels.h plLayer.packed) and the HIDDEN int8 layers' input offsets, the body's rings in lanes for the AVX2 ring normals (plRingLanes), the contact
 // candidates as posed rows' offsets for the AVX2 push (plContactRowOffsets) and the garment's and body points' skin
 // indices as column-block offsets for the AVX2 skinning and posing (plSkinColumnOffsets).
 plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
@@ -37,7 +63,7 @@ plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 	for ( uint32_t i = 0; i < layer_count; ++i )
 	{
 		const plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
-		total += plAlign64( plPackedLayerBytes( l ) );
+		total += plAlign64( plPackedLayerBytes( l ) ) + plAlign64( plInt8InputOffsetBytes( l ) );
 	}
 	if ( total == 0 )
 	{
@@ -57,6 +83,12 @@ plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 		if ( copy != NULL )
 		{
 			plPackLayer( l, copy );
+		}
+		int32_t* offsets = (int32_t*)plTakeDerived( &cursor, plInt8InputOffsetBytes( l ) );
+		if ( offsets != NULL )
+		{
+			plInt8InputOffsets( l, offsets );
+			l->input_offsets = offsets;
 		}
 	}
 	int32_t* ring_lanes = (int32_t*)plTakeDerived( &cursor, ring_bytes );

@@ -14,9 +14,11 @@
 #define PLEAT_SECTION_ENTRY_SIZE 48u
 #define PLEAT_MAX_SECTIONS 256u
 #define PLEAT_CONF_SIZE 256u
-// Header flags (offset 28): bit 0 some weights are fp16; bit 1 (1.3) the networks are int8 (docs/asset-format.md).
+// Header flags (offset 28): bit 0 some weights are fp16; bit 1 (1.3) the networks are int8; bit 2 (1.3, with bit 1
+// and ReLU networks) the int8 layers' inputs are ranged (plInt8Input; docs/asset-format.md "int8 networks").
 #define PLEAT_FLAG_FP16 1u
 #define PLEAT_FLAG_INT8 2u
+#define PLEAT_FLAG_INT8_RANGED_INPUTS 4u
 
 enum
 {

@@ -117,6 +117,14 @@ static plResult plReadConf( const uint8_t* data, const plSectionTable* table, ui
 								N, F, J, Jin, K, B, L, D, a->lp_layer_count, a->dec_layer_count, a->lp_activation,
 								a->dec_activation, a->input_count );
 	}
+	// Ranged int8 inputs hold hidden layers' inputs as never negative: int8 ReLU networks only.
+	if ( ( flags & PLEAT_FLAG_INT8_RANGED_INPUTS ) != 0 &&
+		 ( !a->weights_int8 || a->lp_activation != PLEAT_ACTIVATION_RELU || a->dec_activation != PLEAT_ACTIVATION_RELU ) )
+	{
+		return plRejectSection( a, "CONF", "the header's ranged int8 inputs flag needs int8 ReLU networks "
+										   "(int8 %d, activations %u/%u)",
+								a->weights_int8, a->lp_activation, a->dec_activation );
+	}
 	// Written this way so NaN fails every comparison.
 	if ( !( a->dt_min_s > 0.0f && a->dt_min_s <= a->dt_max_s && a->dt_max_s <= 1.0f ) ||
 		 !( a->beta_min <= a->beta_max ) || !isfinite( a->beta_min ) || !isfinite( a->beta_max ) ||
@@ -163,8 +171,9 @@ static uint32_t plFirstBadSkinRow( const uint16_t* indices, const float* weights
 
 // Layer i of an int8 network (1.3, the header's int8 flag): the weights int8 in [−127, 127], each output channel's
 // scale (LPSi / DCSi, [out], > 0) and the scale its input is quantised with (LPAi / DCAi, [1], > 0, its reciprocal
-// finite too), then the bias as in any layer. The kernels quantise the input on their stack: at most
-// PLEAT_MAX_INT8_COLUMNS inputs.
+// finite too), then the bias as in any layer; where its input is quantised to follows from the ranged-inputs flag and
+// i (plInt8Input; a HIDDEN layer's offsets are derived at load). The kernels quantise the input on their stack: at
+// most PLEAT_MAX_INT8_COLUMNS inputs.
 static plResult plReadInt8Layer( const uint8_t* data, const plSectionTable* table, uint32_t flags, const char* prefix,
 								 uint32_t i, plSectionSpec bias, const uint32_t* sizes, plLayer* layer, plAssetData* a )
 {
@@ -206,6 +215,9 @@ static plResult plReadInt8Layer( const uint8_t* data, const plSectionTable* tabl
 	layer->weight_int8 = 1;
 	layer->weight_fp16 = 0;
 	layer->input_inv_scale = inverse;
+	layer->int8_input = ( flags & PLEAT_FLAG_INT8_RANGED_INPUTS ) == 0 ? PLEAT_INT8_INPUT_SYMMETRIC
+						: i == 0										? PLEAT_INT8_INPUT_FIRST
+																		: PLEAT_INT8_INPUT_HIDDEN;
 	return PLEAT_RESULT_OK;
 }
 

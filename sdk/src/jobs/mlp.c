@@ -64,8 +64,7 @@ static void plMatVecTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 			uint32_t cb = l->packed != NULL ? 0 : blocks[i].col_begin;
 			uint32_t ce = l->packed != NULL ? l->packed_width : blocks[i].col_end;
 			const float* x = l->packed != NULL ? t->x + blocks[i].col_begin : t->x;
-			t->kernels->mat_vec_int8( t->out, x, w, l->weight_scale, l->input_scale[0], l->input_inv_scale, l->bias,
-									  stride, cb, ce, rb, re );
+			t->kernels->mat_vec_int8( t->out, x, l, w, stride, cb, ce, rb, re );
 		}
 		else if ( l->packed != NULL )
 		{

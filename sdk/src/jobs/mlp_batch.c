@@ -60,8 +60,7 @@ static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 			for ( uint32_t b = 0; b < t->batch_count; ++b )
 			{
 				const float* x = l->packed != NULL ? t->x[b] + cb : t->x[b];
-				t->mat_vec_int8( t->out[b], x, w, l->weight_scale, l->input_scale[0], l->input_inv_scale, l->bias,
-								 stride, wb, we, rb, re );
+				t->mat_vec_int8( t->out[b], x, l, w, stride, wb, we, rb, re );
 			}
 		}
 		else if ( t->yt != NULL )

@@ -28,11 +28,15 @@ typedef struct plLayer
 	const float* bias;  // [out]
 	// int8 layers (asset flag PLEAT_FLAG_INT8, docs/asset-format.md "int8 networks"): weight is int8 in [−127, 127],
 	// weight_scale [out] each output channel's scale, input_scale [1] the scale the layer's input is quantised with
-	// (calibrated offline) and input_inv_scale = 1 / input_scale, worked out once at load (plMatVecInt8Fn).
+	// (calibrated offline) and input_inv_scale = 1 / input_scale, worked out once at load (plMatVecInt8Fn);
+	// int8_input where that input is quantised to (plInt8Input) and, for PLEAT_INT8_INPUT_HIDDEN, input_offsets [out]
+	// each row's 128 · Σ w over its window (asset_derive.c).
 	int weight_int8;
 	const float* weight_scale;
 	const float* input_scale;
 	float input_inv_scale;
+	uint32_t int8_input;
+	const int32_t* input_offsets;
 	uint32_t in_count;
 	uint32_t out_count;
 	// 0: dense. Else the rows cut into blocks, each multiplied over its own column window only (layer_blocks.c finds
@@ -84,30 +88,69 @@ void plApplyActivation( float* y, uint32_t count, uint32_t activation );
 typedef void plMatVecFn( float* out, const float* x, const void* weight, int weight_fp16, const float* bias,
 						 uint32_t in_count, uint32_t col_begin, uint32_t col_end, uint32_t row_begin,
 						 uint32_t row_end );
-// The int8 layer (asset flag PLEAT_FLAG_INT8): x quantised as q[c] = clamp(round_even(x[c] · input_inv_scale), −127,
-// 127) (plQuantise), acc[r] = Σ_c W[r][c] · q[c] over the window in int32, out[r] = (float)acc[r] · (weight_scale[r] ·
-// input_scale) + bias[r] (plDequantise). The sum is integer arithmetic, so every variant gives the scalar kernel's bits
-// whatever its order; the float steps are one shared code. W [rows][in_count] int8 in [−127, 127] (the loader checks:
-// −128 would break the sign trick the SIMD kernels use); col_end − col_begin ≤ PLEAT_MAX_INT8_COLUMNS.
-typedef void plMatVecInt8Fn( float* out, const float* x, const int8_t* weight, const float* weight_scale,
-							 float input_scale, float input_inv_scale, const float* bias, uint32_t in_count,
+// Where an int8 layer's input is quantised to (docs/asset-format.md "int8 networks"; pleat.reference.mlp
+// int8_input_bounds). Without the asset's ranged-inputs flag every layer is SYMMETRIC. With it a network's first layer
+// (the normalised inputs, the latent: either sign) takes 12 bits, FIRST, held as int16; and each hidden layer (a ReLU
+// output, never negative) takes 0..255, HIDDEN, held as q − 128 so that the SIMD kernels' sign trick keeps working
+// (|q − 128| ≤ 128, two products ≤ 2 · 128 · 127 < 2¹⁵), the row's 128 · Σ w (input_offsets) added to the sum.
+typedef enum plInt8Input
+{
+	PLEAT_INT8_INPUT_SYMMETRIC = 0, // −127..127
+	PLEAT_INT8_INPUT_FIRST = 1,     // −2047..2047
+	PLEAT_INT8_INPUT_HIDDEN = 2,    // 0..255
+} plInt8Input;
+
+// The int8 layer (asset flag PLEAT_FLAG_INT8): x quantised as q[c] = clamp(round_even(x[c] · input_inv_scale), lo,
+// hi) with the layer's bounds (plQuantiseInput), acc[r] = Σ_c W[r][c] · q[c] over the window in int32,
+// out[r] = (float)acc[r] · (weight_scale[r] · input_scale) + bias[r] (plDequantise). The sum is integer arithmetic,
+// so every variant gives the scalar kernel's bits whatever its order; the float steps are one shared code. The scales,
+// bias, bounds and offsets come from `layer`; the weights from `weight` [rows][stride] (the layer's own, or its packed
+// copy), int8 in [−127, 127] (the loader checks: −128 would break the sign trick the SIMD kernels use);
+// col_end − col_begin ≤ PLEAT_MAX_INT8_COLUMNS. No sum comes near 2³¹: 4096 · 127 · 2047 < 2³⁰.
+typedef void plMatVecInt8Fn( float* out, const float* x, const plLayer* layer, const int8_t* weight, uint32_t stride,
 							 uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end );
 // An int8 layer's input is quantised into a buffer on the kernel's stack, so that the kernel needs no scratch and any
 // split of the rows over workers quantises alike; the loader refuses wider int8 layers.
 #define PLEAT_MAX_INT8_COLUMNS 4096
-// The quantised value of x: x · inv_scale clamped to [−127, 127] (a NaN gives −127: fmaxf, as _mm256_max_ps with the
-// bound second, returns the bound), rounded to nearest even by adding and subtracting 1.5 · 2²³ (exact for |v| < 2²²;
-// the SIMD kernels' cvtps rounds the same way, and numpy's np.rint too).
+// x · inv_scale clamped to [lo, hi] (a NaN gives lo: fmaxf, as _mm256_max_ps with the bound second, returns the
+// bound), rounded to nearest even by adding and subtracting 1.5 · 2²³ (exact for |v| < 2²²; the SIMD kernels' cvtps
+// rounds the same way, and numpy's np.rint too).
+static inline int32_t plQuantiseWithin( float x, float inv_scale, float lo, float hi )
+{
+	float v = fminf( fmaxf( x * inv_scale, lo ), hi );
+	return (int32_t)( ( v + 12582912.0f ) - 12582912.0f ); // ISO C: each operation rounded to float
+}
+// The quantised value of a SYMMETRIC input, in [−127, 127].
 static inline int8_t plQuantise( float x, float inv_scale )
 {
-	float v = fminf( fmaxf( x * inv_scale, -127.0f ), 127.0f );
-	return (int8_t)(int32_t)( ( v + 12582912.0f ) - 12582912.0f ); // ISO C: each operation rounded to float
+	return (int8_t)plQuantiseWithin( x, inv_scale, -127.0f, 127.0f );
+}
+// The bounds of a plInt8Input, and what the kernels hold of q: q − held_offset.
+static inline float plInt8InputLow( uint32_t input )
+{
+	return input == PLEAT_INT8_INPUT_FIRST ? -2047.0f : input == PLEAT_INT8_INPUT_HIDDEN ? 0.0f : -127.0f;
+}
+static inline float plInt8InputHigh( uint32_t input )
+{
+	return input == PLEAT_INT8_INPUT_FIRST ? 2047.0f : input == PLEAT_INT8_INPUT_HIDDEN ? 255.0f : 127.0f;
+}
+static inline int32_t plInt8InputHeldOffset( uint32_t input )
+{
+	return input == PLEAT_INT8_INPUT_HIDDEN ? 128 : 0;
+}
+// The value the kernels hold for x in a layer with input kind `input`: q − held offset (−2047..2047 or −128..127).
+static inline int32_t plQuantiseInput( float x, float inv_scale, uint32_t input )
+{
+	return plQuantiseWithin( x, inv_scale, plInt8InputLow( input ), plInt8InputHigh( input ) ) -
+		   plInt8InputHeldOffset( input );
 }
 // Non-zero unless an int8 layer lacks its scales or is wider than PLEAT_MAX_INT8_COLUMNS (the jobs' validation).
 static inline int plInt8LayerIsValid( const plLayer* l )
 {
-	return !l->weight_int8 || ( !l->weight_fp16 && l->weight_scale != NULL && l->input_scale != NULL &&
-								 l->in_count <= PLEAT_MAX_INT8_COLUMNS );
+	return !l->weight_int8 ||
+		   ( !l->weight_fp16 && l->weight_scale != NULL && l->input_scale != NULL &&
+			 l->in_count <= PLEAT_MAX_INT8_COLUMNS && l->int8_input <= PLEAT_INT8_INPUT_HIDDEN &&
+			 ( l->int8_input != PLEAT_INT8_INPUT_HIDDEN || l->input_offsets != NULL ) );
 }
 // The float end of an int8 row: two roundings (a product, then a sum), never fused, as numpy computes it.
 static inline float plDequantise( int32_t acc, float weight_scale, float input_scale, float bias )
@@ -337,10 +380,10 @@ plMatVecInt8Fn plMatVecInt8_Avx2;
 // The int8 mat-vec with the dot-product instructions: AVX-VNNI (256-bit vpdpbusd, mlp_int8_avx2.c) and AVX-512 VNNI
 // (mlp_int8_avx512.c), each compiled through a target attribute and only called where the CPU has it (plCpuHas*).
 // Their shared frame (mlp_int8_avx2.c): the window quantised on the stack, then the rows four at a time through
-// `quad`, which sums four rows' int8 products with q over `columns` (rows past the end repeat the last one).
+// `quad`, which sums four rows' int8 products with q over `columns` (rows past the end repeat the last one). A FIRST
+// input (12 bits, int16) takes the frame's own AVX2 products whatever `quad` is.
 typedef void plInt8DotQuadFn( const int8_t* q, const int8_t* const rows[4], uint32_t columns, int32_t acc[4] );
-void plMatVecInt8Rows_Avx2( float* out, const float* x, const int8_t* weight, const float* weight_scale,
-							float input_scale, float input_inv_scale, const float* bias, uint32_t in_count,
+void plMatVecInt8Rows_Avx2( float* out, const float* x, const plLayer* layer, const int8_t* weight, uint32_t stride,
 							uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end,
 							plInt8DotQuadFn* quad );
 #if defined( PLEAT_HAVE_AVXVNNI )

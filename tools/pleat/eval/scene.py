@@ -16,7 +16,7 @@ from pleat.garment_asset import input_count_without_latent, lbs_only_network
 
 EVAL_FPS = 30.0
 NETWORK_KEYS = ("x_mean", "x_std", "z_mean", "z_std", "z_min", "z_max", "blend_shapes", "lp_activation",
-                "dec_activation")
+                "dec_activation", "int8_ranged_inputs")
 
 
 def read_weights(source):

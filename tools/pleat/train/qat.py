@@ -34,7 +34,7 @@ import torch
 from pleat import asset as pa
 from pleat import quantise as pq
 from pleat.reference.latent_guard import latent_guard
-from pleat.reference.mlp import layers
+from pleat.reference.mlp import SYMMETRIC_INPUT, int8_input_bounds, layers
 
 
 # ---- the int8 arithmetic with straight-through gradients ----------------------------------------------------------
@@ -48,18 +48,20 @@ def fake_quant_weight(weight):
     return _ste_round(torch.clamp(weight / w_scale, -127.0, 127.0)) * w_scale
 
 
-def fake_quant_layer(h, weight_q, bias, input_scale):
+def fake_quant_layer(h, weight_q, bias, input_scale, bounds=SYMMETRIC_INPUT):
     """One int8 layer as pleat.reference.mlp.int8_layer computes it, differentiable: the input quantised with
-    `input_scale`, times the dequantised int8 weight (fake_quant_weight), plus the bias."""
-    q = _ste_round(torch.clamp(h / input_scale, -127.0, 127.0))
+    `input_scale` within `bounds` (pleat.reference.mlp.int8_input_bounds), times the dequantised int8 weight
+    (fake_quant_weight), plus the bias."""
+    q = _ste_round(torch.clamp(h / input_scale, float(bounds[0]), float(bounds[1])))
     return (q * input_scale) @ weight_q.T + bias
 
 
 class Network(torch.nn.Module):
     """An asset's f_LP or f_dec as float parameters, run float or with the int8 arithmetic."""
 
-    def __init__(self, weights, prefix, act):
+    def __init__(self, weights, prefix, act, ranged=False):
         super().__init__()
+        self.ranged = bool(ranged)
         ws, bs = layers(weights, prefix)
         self.w = torch.nn.ParameterList([torch.nn.Parameter(torch.as_tensor(np.asarray(w, np.float32))) for w in ws])
         self.b = torch.nn.ParameterList([torch.nn.Parameter(torch.as_tensor(np.asarray(b, np.float32))) for b in bs])
@@ -78,7 +80,8 @@ class Network(torch.nn.Module):
         """Float, or with the int8 arithmetic given `int8` = quantised()."""
         for i, (w, b) in enumerate(zip(self.w, self.b)):
             s = self.input_scales[i] if self.log_scales is None else self.log_scales[i].exp()
-            h = fake_quant_layer(h, int8[i], b, s) if int8 is not None else h @ w.T + b
+            h = (fake_quant_layer(h, int8[i], b, s, int8_input_bounds(i, self.ranged)) if int8 is not None
+                 else h @ w.T + b)
             if i + 1 < len(self.w):
                 h = self.activation(h)
         return h
@@ -90,12 +93,14 @@ class Network(torch.nn.Module):
 
 
 class Model(torch.nn.Module):
-    """f_LP → latent guard → f_dec of an asset, the runtime's order (pleat.reference.instance)."""
+    """f_LP → latent guard → f_dec of an asset, the runtime's order (pleat.reference.instance). ranged: the int8
+    layers' inputs quantised as pleat.quantise does with ranged inputs (None: wherever the networks allow it)."""
 
-    def __init__(self, weights):
+    def __init__(self, weights, ranged=None):
         super().__init__()
-        self.lp = Network(weights, "lp", str(weights.get("lp_activation", "relu")))
-        self.dec = Network(weights, "dec", str(weights.get("dec_activation", "relu")))
+        self.ranged = pq.ranged_inputs_possible(weights) if ranged is None else bool(ranged)
+        self.lp = Network(weights, "lp", str(weights.get("lp_activation", "relu")), self.ranged)
+        self.dec = Network(weights, "dec", str(weights.get("dec_activation", "relu")), self.ranged)
         for k in ("x_mean", "x_std", "z_mean", "z_std", "z_min", "z_max"):
             self.register_buffer(k, torch.as_tensor(np.asarray(weights[k], np.float32)))
         self.L = int(self.z_mean.shape[0])
@@ -128,7 +133,8 @@ class Model(torch.nn.Module):
         z = latent_guard(y, *(getattr(self, k).numpy() for k in ("z_mean", "z_std", "z_min", "z_max")))
         dec_ranges, _ = pq.input_ranges(z, ws["dec"], bs["dec"], self.dec.act, percentile)
         for net, ranges in ((self.lp, lp_ranges), (self.dec, dec_ranges)):
-            net.input_scales.copy_(torch.as_tensor([float(pq.input_scale(r)) for r in ranges]))
+            net.input_scales.copy_(torch.as_tensor([float(pq.input_scale(r, pq.input_levels(i, net.ranged)))
+                                                    for i, r in enumerate(ranges)]))
 
 
 # ---- data ----------------------------------------------------------------------------------------------------------
@@ -178,14 +184,14 @@ def _window_loss(model, seqs, teacher, chosen, window, gram, blend=None):
 
 def finetune(weights, frames=20000, iterations=1000, window=16, batch=32, lr=5e-6, percentile=100.0,
              recalibrate=500, seed=0, log=None, calibration="random", learn_scales=True, scale_lr=1e-3,
-             objective="distance"):
+             objective="distance", ranged=None):
     """The fine-tuned float networks (a copy of `weights` with new lp.* / dec.*), the normalised calibration rows
     [M, I] their int8 scales come from, and a report. calibration: "motion", the float model's own X_c rows on the
     motion; "random", pleat-pack's default (pleat.quantise.normalised_inputs: rows ~ N(0, 1))."""
     torch.manual_seed(seed)
     gen = torch.Generator().manual_seed(seed)
     t0 = time.time()
-    model = Model(weights)
+    model = Model(weights, ranged)
     seqs = motion_rows(weights, frames, seed)
     teacher = [model.free_run(s) for s in seqs]               # (latents, coefficients) of the float model
     # X_c with the float model's latent before each frame, as the runtime holds it: the calibration rows
@@ -208,7 +214,7 @@ def finetune(weights, frames=20000, iterations=1000, window=16, batch=32, lr=5e-
     opt = torch.optim.Adam(groups)
     report = {"frames": int(len(rows)), "sequences": len(seqs), "iterations": iterations, "window": window,
               "batch": batch, "lr": lr, "percentile": percentile, "calibration": calibration,
-              "learn_scales": bool(learn_scales), "objective": objective, "losses": []}
+              "learn_scales": bool(learn_scales), "objective": objective, "ranged": model.ranged, "losses": []}
     # a fixed set of windows to say where the fine-tune started and ended
     held = [starts[int(i)] for i in torch.randint(len(starts), (256,), generator=torch.Generator().manual_seed(99))]
     with torch.no_grad():
@@ -251,7 +257,7 @@ def write(weights, tuned, x_norm, report, path, percentile=100.0):
     """The int8 asset of the tuned networks (pleat.quantise on the same calibration rows), blend shapes as the float
     asset stores them, META recording the fine-tune; the raw calibration rows to PATH.calibration.npz."""
     from pleat.fileio import save_npz
-    quantised, record = pq.quantise(tuned, x_norm, percentile)
+    quantised, record = pq.quantise(tuned, x_norm, percentile, ranged=report.get("ranged"))
     for prefix, scales in (report.get("input_scales") or {}).items():    # learnt scales replace calibrated ones
         for i, v in enumerate(scales):
             quantised[f"{prefix}.{i}.input_scale"] = np.array([v], np.float32)

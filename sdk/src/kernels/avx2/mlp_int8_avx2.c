@@ -3,10 +3,12 @@
 // (plQuantise's rounding, plDequantise) are the same operations.
 //
 // The products are int8 × int8, but the instructions multiply unsigned by signed bytes (vpmaddubsw, vpdpbusd). The
-// sign moves from the input to the weight: |q| · (w · sign q) = q · w. With q and w in [−127, 127] (the loader refuses
-// a −128 weight; plQuantise clamps) |q| fits the unsigned operand and w · sign q the signed one, and vpmaddubsw's two
-// products per 16-bit lane sum to at most 2 · 127² = 32258 < 32767: the saturating add never saturates.
-// (The other usual scheme, q + 128 as the unsigned operand and 128 · Σw taken off afterwards, overflows vpmaddubsw.)
+// sign moves from the input to the weight: |q| · (w · sign q) = q · w. With w in [−127, 127] (the loader refuses a
+// −128 weight) and the held input in [−128, 127] (a SYMMETRIC input within ±127, a HIDDEN one as q − 128), |q| ≤ 128
+// fits the unsigned operand and w · sign q the signed one, and vpmaddubsw's two products per 16-bit lane sum to at
+// most 2 · 128 · 127 = 32512 < 32767: the saturating add never saturates. (The other usual scheme, q + 128 as the
+// unsigned operand and 128 · Σw taken off afterwards, overflows vpmaddubsw.) A FIRST input (12 bits) is held as int16
+// and multiplied by the weights widened to int16 (vpmaddwd), 16 columns a step.
 //
 // As in plMatVec_Avx2, four rows from four contiguous row blocks share each input load: four sequential streams.
 #include "kernels/kernels.h"
@@ -14,13 +16,16 @@
 #include <cpuid.h>
 #include <immintrin.h>
 
-// q[c] = plQuantise( x[c], inv_scale ) for c < n, 32 at a time: vcvtps2dq rounds to nearest even under the default
-// MXCSR as plQuantise's 1.5 · 2²³ trick does, and _mm256_max_ps returns its second operand (the bound) for a NaN as
-// fmaxf does; then the four vectors of int32 are packed to bytes (values within ±127, so no saturation) and the
-// 128-bit lanes that the packs interleave are put back in order.
-static void plQuantiseWindow( int8_t* q, const float* x, uint32_t n, float inv_scale )
+// q[c] = plQuantiseInput( x[c], inv_scale, input ) for c < n, 32 at a time (SYMMETRIC or HIDDEN inputs, held in
+// bytes): vcvtps2dq rounds to nearest even under the default MXCSR as the 1.5 · 2²³ trick does, and _mm256_max_ps
+// returns its second operand (the bound) for a NaN as fmaxf does; the held offset comes off in int32, then the four
+// vectors are packed to bytes (values within [−128, 127], so no saturation) and the 128-bit lanes that the packs
+// interleave are put back in order.
+static void plQuantiseWindow( int8_t* q, const float* x, uint32_t n, float inv_scale, uint32_t input )
 {
-	const __m256 scale = _mm256_set1_ps( inv_scale ), lo = _mm256_set1_ps( -127.0f ), hi = _mm256_set1_ps( 127.0f );
+	const __m256 scale = _mm256_set1_ps( inv_scale ), lo = _mm256_set1_ps( plInt8InputLow( input ) ),
+				 hi = _mm256_set1_ps( plInt8InputHigh( input ) );
+	const __m256i held = _mm256_set1_epi32( plInt8InputHeldOffset( input ) );
 	const __m256i order = _mm256_setr_epi32( 0, 4, 1, 5, 2, 6, 3, 7 );
 	uint32_t c = 0;
 	for ( ; c + 32 <= n; c += 32 )
@@ -29,14 +34,37 @@ static void plQuantiseWindow( int8_t* q, const float* x, uint32_t n, float inv_s
 		for ( int k = 0; k < 4; ++k )
 		{
 			__m256 t = _mm256_mul_ps( _mm256_loadu_ps( x + c + 8 * k ), scale );
-			v[k] = _mm256_cvtps_epi32( _mm256_min_ps( _mm256_max_ps( t, lo ), hi ) );
+			v[k] = _mm256_sub_epi32( _mm256_cvtps_epi32( _mm256_min_ps( _mm256_max_ps( t, lo ), hi ) ), held );
 		}
 		__m256i bytes = _mm256_packs_epi16( _mm256_packs_epi32( v[0], v[1] ), _mm256_packs_epi32( v[2], v[3] ) );
 		_mm256_storeu_si256( (__m256i*)( q + c ), _mm256_permutevar8x32_epi32( bytes, order ) );
 	}
 	for ( ; c < n; ++c )
 	{
-		q[c] = plQuantise( x[c], inv_scale );
+		q[c] = (int8_t)plQuantiseInput( x[c], inv_scale, input );
+	}
+}
+
+// The same for a FIRST input, held in int16, 16 at a time (the pack interleaves 64-bit quarters: put back in order).
+static void plQuantiseWindowWide( int16_t* q, const float* x, uint32_t n, float inv_scale )
+{
+	const __m256 scale = _mm256_set1_ps( inv_scale ), lo = _mm256_set1_ps( plInt8InputLow( PLEAT_INT8_INPUT_FIRST ) ),
+				 hi = _mm256_set1_ps( plInt8InputHigh( PLEAT_INT8_INPUT_FIRST ) );
+	uint32_t c = 0;
+	for ( ; c + 16 <= n; c += 16 )
+	{
+		__m256i v[2];
+		for ( int k = 0; k < 2; ++k )
+		{
+			__m256 t = _mm256_mul_ps( _mm256_loadu_ps( x + c + 8 * k ), scale );
+			v[k] = _mm256_cvtps_epi32( _mm256_min_ps( _mm256_max_ps( t, lo ), hi ) );
+		}
+		__m256i words = _mm256_permute4x64_epi64( _mm256_packs_epi32( v[0], v[1] ), 0xD8 );
+		_mm256_storeu_si256( (__m256i*)( q + c ), words );
+	}
+	for ( ; c < n; ++c )
+	{
+		q[c] = (int16_t)plQuantiseInput( x[c], inv_scale, PLEAT_INT8_INPUT_FIRST );
 	}
 }
 
@@ -104,14 +132,47 @@ static void plDotQuad_Avx2( const int8_t* q, const int8_t* const rows[4], uint32
 	plDotTail( q, rows, c, columns, acc );
 }
 
-void plMatVecInt8Rows_Avx2( float* out, const float* x, const int8_t* weight, const float* weight_scale,
-							float input_scale, float input_inv_scale, const float* bias, uint32_t in_count,
+// A FIRST input's four rows: the weights widened to int16 (vpmovsxbw) times the int16 inputs, pairs summed into int32
+// (vpmaddwd: two products of at most 127 · 2047, no overflow), 16 columns a step; the rest scalar.
+static void plDotQuadWide_Avx2( const int16_t* q, const int8_t* const rows[4], uint32_t columns, int32_t acc[4] )
+{
+	__m256i a[4] = { _mm256_setzero_si256(), _mm256_setzero_si256(), _mm256_setzero_si256(), _mm256_setzero_si256() };
+	uint32_t c = 0;
+	for ( ; c + 16 <= columns; c += 16 )
+	{
+		__m256i qc = _mm256_loadu_si256( (const __m256i*)( q + c ) );
+		for ( int k = 0; k < 4; ++k )
+		{
+			__m256i w = _mm256_cvtepi8_epi16( _mm_loadu_si128( (const __m128i*)( rows[k] + c ) ) );
+			a[k] = _mm256_add_epi32( a[k], _mm256_madd_epi16( w, qc ) );
+		}
+	}
+	plHorizontalSums4( a, acc );
+	for ( ; c < columns; ++c )
+	{
+		for ( int k = 0; k < 4; ++k )
+		{
+			acc[k] += (int32_t)rows[k][c] * (int32_t)q[c];
+		}
+	}
+}
+
+void plMatVecInt8Rows_Avx2( float* out, const float* x, const plLayer* layer, const int8_t* weight, uint32_t stride,
 							uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end,
 							plInt8DotQuadFn* quad )
 {
-	_Alignas( 64 ) int8_t q[PLEAT_MAX_INT8_COLUMNS];
+	_Alignas( 64 ) int16_t held[PLEAT_MAX_INT8_COLUMNS]; // int16 for a FIRST input, else its first bytes as int8
+	int8_t* q = (int8_t*)held;                          // (a char type: may alias the int16 buffer)
 	uint32_t columns = col_end - col_begin, n = row_end - row_begin, blocks = ( n + 3 ) / 4;
-	plQuantiseWindow( q, x + col_begin, columns, input_inv_scale );
+	int wide = layer->int8_input == PLEAT_INT8_INPUT_FIRST;
+	if ( wide )
+	{
+		plQuantiseWindowWide( held, x + col_begin, columns, layer->input_inv_scale );
+	}
+	else
+	{
+		plQuantiseWindow( q, x + col_begin, columns, layer->input_inv_scale, layer->int8_input );
+	}
 	// Four contiguous row blocks of `blocks` rows; the fourth may be short, and its missing rows repeat its last.
 	for ( uint32_t i = 0; i < blocks; ++i )
 	{
@@ -121,23 +182,30 @@ void plMatVecInt8Rows_Avx2( float* out, const float* x, const int8_t* weight, co
 		{
 			uint32_t r = row_begin + k * blocks + i;
 			rows[k] = r < row_end ? r : row_end - 1;
-			w[k] = weight + (size_t)rows[k] * in_count + col_begin;
+			w[k] = weight + (size_t)rows[k] * stride + col_begin;
 		}
 		int32_t acc[4];
-		quad( q, w, columns, acc );
+		if ( wide )
+		{
+			plDotQuadWide_Avx2( held, w, columns, acc );
+		}
+		else
+		{
+			quad( q, w, columns, acc );
+		}
 		for ( uint32_t k = 0; k < 4; ++k )
 		{
-			out[rows[k]] = plDequantise( acc[k], weight_scale[rows[k]], input_scale, bias[rows[k]] );
+			int32_t offset = layer->input_offsets != NULL ? layer->input_offsets[rows[k]] : 0;
+			out[rows[k]] = plDequantise( acc[k] + offset, layer->weight_scale[rows[k]], layer->input_scale[0],
+										 layer->bias[rows[k]] );
 		}
 	}
 }
 
-void plMatVecInt8_Avx2( float* out, const float* x, const int8_t* weight, const float* weight_scale,
-						float input_scale, float input_inv_scale, const float* bias, uint32_t in_count,
+void plMatVecInt8_Avx2( float* out, const float* x, const plLayer* layer, const int8_t* weight, uint32_t stride,
 						uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end )
 {
-	plMatVecInt8Rows_Avx2( out, x, weight, weight_scale, input_scale, input_inv_scale, bias, in_count, col_begin,
-						   col_end, row_begin, row_end, plDotQuad_Avx2 );
+	plMatVecInt8Rows_Avx2( out, x, layer, weight, stride, col_begin, col_end, row_begin, row_end, plDotQuad_Avx2 );
 }
 
 #if defined( PLEAT_HAVE_AVXVNNI )
@@ -173,12 +241,10 @@ __attribute__( ( target( "avx2,avxvnni" ) ) ) static void plDotQuad_AvxVnni( con
 	plDotTail( q, rows, c, columns, acc );
 }
 
-void plMatVecInt8_AvxVnni( float* out, const float* x, const int8_t* weight, const float* weight_scale,
-						   float input_scale, float input_inv_scale, const float* bias, uint32_t in_count,
+void plMatVecInt8_AvxVnni( float* out, const float* x, const plLayer* layer, const int8_t* weight, uint32_t stride,
 						   uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end )
 {
-	plMatVecInt8Rows_Avx2( out, x, weight, weight_scale, input_scale, input_inv_scale, bias, in_count, col_begin,
-						   col_end, row_begin, row_end, plDotQuad_AvxVnni );
+	plMatVecInt8Rows_Avx2( out, x, layer, weight, stride, col_begin, col_end, row_begin, row_end, plDotQuad_AvxVnni );
 }
 
 // AVX-VNNI is CPUID leaf 7, sub-leaf 1, EAX bit 4. Read it directly: clang 14 (Debian 12's) has no "avxvnni" name

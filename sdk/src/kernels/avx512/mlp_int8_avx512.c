@@ -1,9 +1,10 @@
 // AVX-512 VNNI twin of plMatVecInt8_Scalar (mlp_int8.c): 64 columns per vpdpbusd, the same int32 row sums as the
 // scalar kernel (integer addition, any order), so its bits. The sign trick of mlp_int8_avx2.c in 512-bit form, where
 // there is no vpsignb: the weights are negated under the mask of the negative inputs (|q| · (w · sign q) = q · w;
-// with both in [−127, 127] the negation cannot overflow). The last partial step loads under a byte mask (masked-off
-// bytes are neither read nor faulted on) and adds zeros for the columns past the end, so there is no scalar tail.
-// The window is quantised and the rows are walked by the AVX2 frame (plMatVecInt8Rows_Avx2).
+// with the weight in [−127, 127] the negation cannot overflow, and a held input of −128 is 128 as the unsigned
+// operand). The last partial step loads under a byte mask (masked-off bytes are neither read nor faulted on) and adds
+// zeros for the columns past the end, so there is no scalar tail. The window is quantised and the rows are walked by
+// the AVX2 frame (plMatVecInt8Rows_Avx2), which also takes FIRST inputs (int16) itself.
 #include "kernels/kernels.h"
 
 #include <immintrin.h>
@@ -33,12 +34,12 @@ plDotQuad_Avx512Vnni( const int8_t* q, const int8_t* const rows[4], uint32_t col
 	}
 }
 
-void plMatVecInt8_Avx512Vnni( float* out, const float* x, const int8_t* weight, const float* weight_scale,
-							  float input_scale, float input_inv_scale, const float* bias, uint32_t in_count,
-							  uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end )
+void plMatVecInt8_Avx512Vnni( float* out, const float* x, const plLayer* layer, const int8_t* weight,
+							  uint32_t stride, uint32_t col_begin, uint32_t col_end, uint32_t row_begin,
+							  uint32_t row_end )
 {
-	plMatVecInt8Rows_Avx2( out, x, weight, weight_scale, input_scale, input_inv_scale, bias, in_count, col_begin,
-						   col_end, row_begin, row_end, plDotQuad_Avx512Vnni );
+	plMatVecInt8Rows_Avx2( out, x, layer, weight, stride, col_begin, col_end, row_begin, row_end,
+						   plDotQuad_Avx512Vnni );
 }
 
 int plCpuHasAvx512Vnni( void )
