@@ -434,7 +434,8 @@ static void test_mlp_batch_job_equals_mlp_job_per_instance( void** state )
 				for ( int use_lanes = 0; use_lanes < 2; ++use_lanes )
 				{
 					plMlpBatchJob job = { net.layers, 3, activation, N, inputs, outputs, scratches, &k->batch[s], NULL,
-										  use_lanes ? lanes : NULL, use_lanes ? lanes_floats : 0, k->single[s].mat_vec_int8 };
+										  use_lanes ? lanes : NULL, use_lanes ? lanes_floats : 0, k->single[s].mat_vec_int8,
+										  k->single[s].mat_mat_int8, k->single[s].quantise_int8 };
 					memset( ys, 0, sizeof( ys ) );
 					assert_int_equal( plMlpBatchJob_Run( &job ), PLEAT_RESULT_OK );
 					for ( uint32_t b = 0; b < N; ++b )
@@ -453,7 +454,7 @@ static void test_mlp_batch_job_equals_mlp_job_per_instance( void** state )
 				}
 				free( lanes );
 				plMlpBatchJob job = {
-					net.layers, 3, activation, N, inputs, outputs, scratches, &k->batch[s], NULL, NULL, 0, NULL };
+					net.layers, 3, activation, N, inputs, outputs, scratches, &k->batch[s], NULL, NULL, 0, NULL, NULL, NULL };
 
 				// Invalid jobs are rejected before anything is written.
 				plMlpBatchJob bad = job;

@@ -170,6 +170,110 @@ static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 	}
 }
 
+// The batched int8 kernels (the crowd's: weights shared between instances) give each instance the single scalar
+// kernel's bits, for every input kind, on shapes past each vector step (16, 32, 64 columns; 4 rows; 4 instances).
+static void test_batched_int8_kernels_give_the_single_bits( void** state )
+{
+	(void)state;
+	plKernels sets[3];
+	plKernelSet wanted[3] = { PLEAT_KERNEL_SET_SCALAR, PLEAT_KERNEL_SET_AVX2, PLEAT_KERNEL_SET_AVX512 };
+	static const uint32_t columns[] = { 1, 15, 17, 33, 63, 64, 65, 129, 681 };
+	static const uint32_t rows[] = { 1, 3, 5, 9, 64 };
+	static const uint32_t inputs[] = { PLEAT_INT8_INPUT_SYMMETRIC, PLEAT_INT8_INPUT_FIRST, PLEAT_INT8_INPUT_HIDDEN };
+	enum { B = 6 };
+	for ( size_t ki = 0; ki < 3; ++ki )
+	{
+		for ( size_t ci = 0; ci < sizeof( columns ) / sizeof( columns[0] ); ++ci )
+		{
+			for ( size_t ri = 0; ri < sizeof( rows ) / sizeof( rows[0] ); ++ri )
+			{
+				uint32_t in = columns[ci], out = rows[ri];
+				int8_t* w = (int8_t*)malloc( (size_t)in * out );
+				float* x = (float*)malloc( (size_t)B * in * sizeof( float ) );
+				float *scale = (float*)malloc( out * sizeof( float ) ), *bias = (float*)malloc( out * sizeof( float ) );
+				int32_t* offsets = (int32_t*)malloc( out * sizeof( int32_t ) );
+				float* expect = (float*)malloc( (size_t)B * out * sizeof( float ) );
+				float* got = (float*)malloc( (size_t)B * out * sizeof( float ) );
+				int16_t* held = (int16_t*)malloc( (size_t)B * in * sizeof( int16_t ) );
+				for ( size_t i = 0; i < (size_t)in * out; ++i )
+				{
+					uint32_t r = plRandU32() % 8;
+					w[i] = (int8_t)( r == 0 ? 127 : r == 1 ? -127 : r == 2 ? 0 : (int)( plRandU32() % 255 ) - 127 );
+				}
+				for ( size_t c = 0; c < (size_t)B * in; ++c )
+				{
+					uint32_t r = plRandU32() % 16;
+					x[c] = r == 0 ? 10000.0f * ( plRandU32() % 2 ? 1.0f : -1.0f )
+						   : r == 1 ? NAN
+									: ( (float)( plRandU32() % 100000 ) / 50000.0f - 1.0f ) * 600.0f;
+				}
+				for ( uint32_t r = 0; r < out; ++r )
+				{
+					scale[r] = 1e-3f * (float)( 1 + plRandU32() % 1000 );
+					bias[r] = (float)( plRandU32() % 1000 ) / 500.0f - 1.0f;
+					int32_t sum = 0;
+					for ( uint32_t c = 0; c < in; ++c )
+					{
+						sum += w[(size_t)r * in + c];
+					}
+					offsets[r] = 128 * sum;
+				}
+				float input_scale = 2.0f;
+				plLayer layer;
+				memset( &layer, 0, sizeof( layer ) );
+				layer.weight = w;
+				layer.weight_int8 = 1;
+				layer.weight_scale = scale;
+				layer.input_scale = &input_scale;
+				layer.input_inv_scale = 0.5f;
+				layer.bias = bias;
+				layer.in_count = in;
+				layer.out_count = out;
+				layer.int8_input = inputs[ki];
+				layer.input_offsets = inputs[ki] == PLEAT_INT8_INPUT_HIDDEN ? offsets : NULL;
+				float* outs[B];
+				const void* helds[B];
+				for ( uint32_t b = 0; b < B; ++b )
+				{
+					plMatVecInt8_Scalar( expect + (size_t)b * out, x + (size_t)b * in, &layer, w, in, 0, in, 0, out );
+				}
+				for ( int s = 0; s < 3; ++s )
+				{
+					if ( plChooseKernels( &sets[s], wanted[s] ) != wanted[s] || sets[s].mat_mat_int8 == NULL )
+					{
+						continue;
+					}
+					for ( uint32_t b = 0; b < B; ++b )
+					{
+						void* h = (uint8_t*)held + (size_t)b * in * plInt8HeldBytes( &layer );
+						sets[s].quantise_int8( h, x + (size_t)b * in, in, &layer );
+						helds[b] = h;
+						outs[b] = got + (size_t)b * out;
+					}
+					for ( uint32_t n = 1; n <= B; n += B - 1 ) // one instance, then all (a short group of 4)
+					{
+						memset( got, 0, (size_t)B * out * sizeof( float ) );
+						sets[s].mat_mat_int8( outs, helds, n, &layer, w, in, in, 0, out );
+						if ( memcmp( got, expect, (size_t)n * out * sizeof( float ) ) != 0 )
+						{
+							fail_msg( "set %d's batched int8 kernel differs: input %u, %u columns, %u rows, %u instances",
+									  (int)wanted[s], inputs[ki], in, out, n );
+						}
+					}
+				}
+				free( w );
+				free( x );
+				free( scale );
+				free( bias );
+				free( offsets );
+				free( expect );
+				free( got );
+				free( held );
+			}
+		}
+	}
+}
+
 // The rounding rule itself: ties to even, the clamps, NaN to the low bound; a hidden input is held as q − 128.
 static void test_quantise_rounds_ties_to_even_and_clamps( void** state )
 {
@@ -286,14 +390,33 @@ static void plCheckNetwork( const plKernels* k, const plLayer* layers, uint32_t 
 		scratches[b] = plMakeSpan( batch_scratch + (size_t)b * 2 * 1024, 2 * 1024, 4 );
 	}
 	plMlpBatchJob job = { layers,	 layer_count, activation, batch, inputs, outputs, scratches, k->batch, NULL, NULL, 0,
-						  k->mat_vec_int8 };
+						  k->mat_vec_int8, NULL, NULL };
 	assert_int_equal( plMlpBatchJob_Run( &job ), PLEAT_RESULT_OK );
 	if ( memcmp( out, expect, (size_t)batch * out_count * sizeof( float ) ) != 0 )
 	{
 		fail_msg( "%s (kernel set %d): the batched job differs from numpy", what, (int)k->set );
 	}
+	// the set's batched int8 kernel where it has one, on the held inputs in the lanes scratch
+	size_t held_floats = plMlpBatchHeldFloats( layers, layer_count, batch );
+	float* held = (float*)aligned_alloc( 64, ( held_floats * sizeof( float ) + 63 ) & ~(size_t)63 );
+	job.mat_mat_int8 = k->mat_mat_int8;
+	job.quantise_int8 = k->quantise_int8;
+	job.lanes = held;
+	job.lanes_floats = held_floats;
+	memset( out, 0, (size_t)rows * out_count * sizeof( float ) );
+	assert_int_equal( plMlpBatchJob_Run( &job ), PLEAT_RESULT_OK );
+	if ( memcmp( out, expect, (size_t)batch * out_count * sizeof( float ) ) != 0 )
+	{
+		fail_msg( "%s (kernel set %d): the batched job with the batched int8 kernel differs from numpy", what,
+				  (int)k->set );
+	}
+	job.quantise_int8 = NULL; // one of the pair without the other is an invalid job
+	assert_int_equal( plMlpBatchJob_Run( &job ), k->mat_mat_int8 != NULL ? PLEAT_RESULT_INVALID_ARGUMENT
+																		  : PLEAT_RESULT_OK );
+	job.mat_mat_int8 = NULL;
 	job.mat_vec_int8 = NULL; // an int8 layer without its kernel is an invalid job
 	assert_int_equal( plMlpBatchJob_Run( &job ), PLEAT_RESULT_INVALID_ARGUMENT );
+	free( held );
 	free( batch_scratch );
 	free( out );
 }
@@ -463,6 +586,7 @@ int main( int argc, char** argv )
 	}
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test( test_every_int8_kernel_gives_the_scalar_bits ),
+		cmocka_unit_test( test_batched_int8_kernels_give_the_single_bits ),
 		cmocka_unit_test( test_quantise_rounds_ties_to_even_and_clamps ),
 		cmocka_unit_test( test_int8_networks_give_the_numpy_reference_bits ),
 		cmocka_unit_test( test_loader_refuses_what_the_int8_kernels_cannot_run ),

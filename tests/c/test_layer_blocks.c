@@ -231,7 +231,7 @@ static void test_blocked_chain_gives_the_dense_bits( void** state )
 				}
 				memset( y_blocked, 0, sizeof( y_blocked ) );
 				plMlpBatchJob job = { blocked, 3, PLEAT_ACTIVATION_SILU, N,    inputs, outputs, scratches, &sets.batch[s],
-									  NULL,    use_lanes ? lanes : NULL, use_lanes ? lanes_floats : 0, NULL };
+									  NULL,    use_lanes ? lanes : NULL, use_lanes ? lanes_floats : 0, NULL, NULL, NULL };
 				assert_int_equal( plMlpBatchJob_Run( &job ), PLEAT_RESULT_OK );
 				assert_memory_equal( y_dense, y_blocked, sizeof( y_dense ) );
 			}

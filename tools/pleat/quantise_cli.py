@@ -44,6 +44,9 @@ def build_parser():
     f.add_argument("--objective", choices=("mse", "distance"), default="distance",
                    help="the windows' loss: squared displacement error (mse) or mean per-vertex distance (distance, "
                         "what bench/int8_accuracy.py reports)")
+    f.add_argument("--smoothness", type=float, default=0.0,
+                   help="with --objective distance: this weight on the error's second difference over frames, the "
+                        "noise that adds jitter (default %(default)s)")
     f.add_argument("--seed", type=int, default=0, help="seed of the motion plan and the batches (default 0)")
     add_quiet(f)
     return p
@@ -66,7 +69,8 @@ def main(a):
         log = None if a.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
         tuned, x_norm, report = qat.finetune(weights, a.frames, a.iterations, a.window, a.batch, a.lr, a.percentile,
                                              seed=a.seed, log=log, calibration=a.calibration,
-                                             learn_scales=a.learn_scales, objective=a.objective)
+                                             learn_scales=a.learn_scales, objective=a.objective,
+                                             smoothness=a.smoothness)
         qat.write(weights, tuned, x_norm, report, a.out, a.percentile)
         if not a.quiet:
             print(f"wrote {a.out} ({report['time_s']:.0f} s)", file=sys.stderr)

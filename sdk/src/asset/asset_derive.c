@@ -120,8 +120,8 @@ plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 }
 
 // Floats of a context scratch block plStepInstances needs for the asset with the context's batched kernels: the
-// transposed networks (the lanes MLP), the lane groups' normals and their full body contact (0 for the scalar set,
-// which has no lanes form). Worked out at load, so that instance creation sizes the context's pool from it.
+// transposed networks (the lanes MLP) or the int8 layers' held inputs, the lane groups' normals and their full body
+// contact. Worked out at load, so that instance creation sizes the context's pool from it.
 size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a )
 {
 	const plBatchKernels* kernels = ctx->kernels.batch;
@@ -141,6 +141,13 @@ size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a )
 	{
 		size_t lp = plMlpBatchLanesFloats( a->lp, a->lp_layer_count, PLEAT_BATCH_MAX );
 		size_t dec = plMlpBatchLanesFloats( a->dec, a->dec_layer_count, PLEAT_BATCH_MAX );
+		floats = lp > floats ? lp : floats;
+		floats = dec > floats ? dec : floats;
+	}
+	if ( ctx->kernels.mat_mat_int8 != NULL )
+	{
+		size_t lp = plMlpBatchHeldFloats( a->lp, a->lp_layer_count, PLEAT_BATCH_MAX );
+		size_t dec = plMlpBatchHeldFloats( a->dec, a->dec_layer_count, PLEAT_BATCH_MAX );
 		floats = lp > floats ? lp : floats;
 		floats = dec > floats ? dec : floats;
 	}

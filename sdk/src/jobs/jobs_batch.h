@@ -30,12 +30,18 @@ typedef struct plMlpBatchJob
 	// The single-stream int8 mat-vec (plKernels.mat_vec_int8), which int8 layers run per instance (the same bits as
 	// plInstance_Step); needed only where a layer is int8.
 	plMatVecInt8Fn* mat_vec_int8;
+	// Optional (NULL, NULL: each instance through mat_vec_int8): plKernels.mat_mat_int8 and quantise_int8, which run an
+	// int8 layer for the batch at once, each instance's input quantised once into the lanes scratch (so only with it).
+	plMatMatInt8Fn* mat_mat_int8;
+	plQuantiseInt8Fn* quantise_int8;
 } plMlpBatchJob;
 
 int plMlpBatchJob_Validate( const plMlpBatchJob* job );
 plResult plMlpBatchJob_Run( const plMlpBatchJob* job );
 // Floats of lanes scratch a job with these layers needs for batch_count instances (PLEAT_BATCH_MAX for any batch).
 size_t plMlpBatchLanesFloats( const plLayer* layers, uint32_t layer_count, uint32_t batch_count );
+// Floats of lanes scratch the held inputs of these layers' int8 ones take for batch_count instances (0: none int8).
+size_t plMlpBatchHeldFloats( const plLayer* layers, uint32_t layer_count, uint32_t batch_count );
 
 // ---- blend_shapes_batch.c: T_def = shaped template + Σ_j w_j D_j over a vertex range, for batch_count instances ----
 

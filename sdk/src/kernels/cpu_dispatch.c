@@ -6,6 +6,8 @@ plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa )
 {
 	kernels->mat_vec = plMatVec_Scalar;
 	kernels->mat_vec_int8 = plMatVecInt8_Scalar;
+	kernels->mat_mat_int8 = plMatMatInt8_Scalar;
+	kernels->quantise_int8 = plQuantiseInt8_Scalar;
 	kernels->blend_shapes = plBlendShapes_Scalar;
 	kernels->skinning = plSkinning_Scalar;
 	kernels->face_normals = plFaceNormals_Scalar;
@@ -35,6 +37,10 @@ plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa )
 			kernels->body_point_normals = plBodyPointNormals_Avx2;
 			kernels->set = PLEAT_KERNEL_SET_AVX2;
 			kernels->mat_vec_int8 = plMatVecInt8_Avx2;
+			// the AVX2 crowd runs each instance through the single kernel: vpmaddubsw needs the sign trick per row
+			// and instance, so sharing a weight load between instances saves little
+			kernels->mat_mat_int8 = NULL;
+			kernels->quantise_int8 = NULL;
 #if defined( PLEAT_HAVE_AVXVNNI )
 			if ( plCpuHasAvxVnni() )
 			{
@@ -50,6 +56,8 @@ plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa )
 				if ( plCpuHasAvx512Vnni() )
 				{
 					kernels->mat_vec_int8 = plMatVecInt8_Avx512Vnni;
+					kernels->mat_mat_int8 = plMatMatInt8_Avx512Vnni;
+					kernels->quantise_int8 = plQuantiseInt8_Avx2;
 				}
 #endif
 			}

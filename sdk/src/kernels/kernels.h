@@ -109,6 +109,20 @@ typedef enum plInt8Input
 // col_end − col_begin ≤ PLEAT_MAX_INT8_COLUMNS. No sum comes near 2³¹: 4096 · 127 · 2047 < 2³⁰.
 typedef void plMatVecInt8Fn( float* out, const float* x, const plLayer* layer, const int8_t* weight, uint32_t stride,
 							 uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end );
+// The int8 layer for many instances of one asset (the crowd's MLP job, mlp_batch.c): each instance's input quantised
+// once per layer into its held form (plQuantiseInt8Fn: int16 for a FIRST input, else int8; held[b] points at the
+// window's first column), then rows [row_begin, row_end) over `columns` with each weight row read once for several
+// instances; weight points at the window's first column of row 0, rows `stride` apart. Per instance exactly
+// plMatVecInt8Fn's bits (integer sums; the same float ends).
+typedef void plMatMatInt8Fn( float* const* out, const void* const* held, uint32_t batch_count, const plLayer* layer,
+							 const int8_t* weight, uint32_t stride, uint32_t columns, uint32_t row_begin,
+							 uint32_t row_end );
+typedef void plQuantiseInt8Fn( void* held, const float* x, uint32_t count, const plLayer* layer );
+// Bytes of one held input value of an int8 layer.
+static inline uint32_t plInt8HeldBytes( const plLayer* layer )
+{
+	return layer->int8_input == PLEAT_INT8_INPUT_FIRST ? 2u : 1u;
+}
 // An int8 layer's input is quantised into a buffer on the kernel's stack, so that the kernel needs no scratch and any
 // split of the rows over workers quantises alike; the loader refuses wider int8 layers.
 #define PLEAT_MAX_INT8_COLUMNS 4096
@@ -347,6 +361,10 @@ typedef struct plKernels
 {
 	plMatVecFn* mat_vec;
 	plMatVecInt8Fn* mat_vec_int8;
+	// The crowd's int8 layers where a set has a kernel that shares the weights between instances (both or neither;
+	// NULL: each instance runs mat_vec_int8, the same bits).
+	plMatMatInt8Fn* mat_mat_int8;
+	plQuantiseInt8Fn* quantise_int8;
 	plBlendShapesFn* blend_shapes;
 	plSkinningFn* skinning;
 	plFaceNormalsFn* face_normals;
@@ -365,6 +383,8 @@ typedef struct plKernels
 // The variants, declared through the kernel types so that their signatures cannot drift apart.
 plMatVecFn plMatVec_Scalar;
 plMatVecInt8Fn plMatVecInt8_Scalar;
+plMatMatInt8Fn plMatMatInt8_Scalar;
+plQuantiseInt8Fn plQuantiseInt8_Scalar;
 plBlendShapesFn plBlendShapes_Scalar;
 plSkinningFn plSkinning_Scalar;
 plPoseBodyPointsFn plPoseBodyPoints_Scalar;
@@ -377,6 +397,7 @@ plNormalsScatterFn plNormalsScatter_Scalar;
 #if defined( PLEAT_HAVE_AVX2 )
 plMatVecFn plMatVec_Avx2;
 plMatVecInt8Fn plMatVecInt8_Avx2;
+plQuantiseInt8Fn plQuantiseInt8_Avx2;
 // The int8 mat-vec with the dot-product instructions: AVX-VNNI (256-bit vpdpbusd, mlp_int8_avx2.c) and AVX-512 VNNI
 // (mlp_int8_avx512.c), each compiled through a target attribute and only called where the CPU has it (plCpuHas*).
 // Their shared frame (mlp_int8_avx2.c): the window quantised on the stack, then the rows four at a time through
@@ -392,6 +413,7 @@ int plCpuHasAvxVnni( void );
 #endif
 #if defined( PLEAT_HAVE_AVX512VNNI )
 plMatVecInt8Fn plMatVecInt8_Avx512Vnni;
+plMatMatInt8Fn plMatMatInt8_Avx512Vnni;
 int plCpuHasAvx512Vnni( void );
 #endif
 plBlendShapesFn plBlendShapes_Avx2;

@@ -32,12 +32,17 @@ plResult plRunNetworkLanes( plContextData* ctx, const plBatchKernels* kernels, c
 						  &ctx->runner,
 						  NULL,
 						  0,
-						  ctx->kernels.mat_vec_int8 };
+						  ctx->kernels.mat_vec_int8,
+						  ctx->kernels.mat_mat_int8,
+						  ctx->kernels.quantise_int8 };
 	int slot = -1;
-	if ( kernels->mat_mat_lanes != NULL )
+	// the transposed chain's scratch, or the int8 layers' held inputs (without it the job runs the row-tile kernels,
+	// or each instance through the single int8 kernel: the same results)
+	size_t floats = kernels->mat_mat_lanes != NULL ? plMlpBatchLanesFloats( job.layers, job.layer_count, count ) : 0;
+	size_t held = job.mat_mat_int8 != NULL ? plMlpBatchHeldFloats( job.layers, job.layer_count, count ) : 0;
+	floats = held > floats ? held : floats;
+	if ( floats > 0 )
 	{
-		// the transposed chain's scratch (without it the job runs the row-tile kernels: the same results)
-		size_t floats = plMlpBatchLanesFloats( job.layers, job.layer_count, job.batch_count );
 		slot = plClaimBatchScratch( ctx, floats );
 		if ( slot >= 0 )
 		{

@@ -163,13 +163,15 @@ def motion_rows(weights, frames, seed=0):
     return out
 
 
-def _window_loss(model, seqs, teacher, chosen, window, gram, blend=None):
+def _window_loss(model, seqs, teacher, chosen, window, gram, blend=None, smoothness=0.0):
     """Mean over windows of the squared displacement error per coordinate (m²) of the int8 model run free for
     `window` frames from the float model's latent, against the float model; given `blend` [D, 3N], the mean
-    per-vertex distance (m) instead, the measure bench/int8_accuracy.py reports."""
+    per-vertex distance (m) instead, the measure bench/int8_accuracy.py reports, plus `smoothness` times the mean
+    per-vertex length of the error's second difference over frames (m): quantisation noise that changes from frame
+    to frame is what adds jitter (pleat.eval.metrics: the vertices' accelerations against the reference's)."""
     z = torch.stack([teacher[k][0][t - 1] if t > 0 else torch.zeros(model.L) for k, t in chosen])
     int8 = (model.lp.quantised(), model.dec.quantised())
-    loss = 0.0
+    loss, rough, errors = 0.0, 0.0, []
     for j in range(window):
         static = torch.stack([seqs[k][t + j] for k, t in chosen])
         target = torch.stack([teacher[k][1][t + j] for k, t in chosen])
@@ -177,14 +179,22 @@ def _window_loss(model, seqs, teacher, chosen, window, gram, blend=None):
         d = c - target
         if blend is None:
             loss = loss + ((d @ gram) * d).sum(1).mean()
-        else:
-            loss = loss + ((d @ blend).reshape(len(d), -1, 3).pow(2).sum(-1) + 1e-12).sqrt().mean()
+            continue
+        e = (d @ blend).reshape(len(d), -1, 3)
+        loss = loss + (e.pow(2).sum(-1) + 1e-12).sqrt().mean()
+        if smoothness > 0:
+            errors = (errors + [e])[-3:]
+            if len(errors) == 3:
+                second = errors[2] - 2 * errors[1] + errors[0]
+                rough = rough + (second.pow(2).sum(-1) + 1e-12).sqrt().mean()
+    if smoothness > 0 and window > 2:
+        return loss / window + smoothness * rough / (window - 2)
     return loss / window
 
 
 def finetune(weights, frames=20000, iterations=1000, window=16, batch=32, lr=5e-6, percentile=100.0,
              recalibrate=500, seed=0, log=None, calibration="random", learn_scales=True, scale_lr=1e-3,
-             objective="distance", ranged=None):
+             objective="distance", ranged=None, smoothness=0.0):
     """The fine-tuned float networks (a copy of `weights` with new lp.* / dec.*), the normalised calibration rows
     [M, I] their int8 scales come from, and a report. calibration: "motion", the float model's own X_c rows on the
     motion; "random", pleat-pack's default (pleat.quantise.normalised_inputs: rows ~ N(0, 1))."""
@@ -214,7 +224,8 @@ def finetune(weights, frames=20000, iterations=1000, window=16, batch=32, lr=5e-
     opt = torch.optim.Adam(groups)
     report = {"frames": int(len(rows)), "sequences": len(seqs), "iterations": iterations, "window": window,
               "batch": batch, "lr": lr, "percentile": percentile, "calibration": calibration,
-              "learn_scales": bool(learn_scales), "objective": objective, "ranged": model.ranged, "losses": []}
+              "learn_scales": bool(learn_scales), "objective": objective, "ranged": model.ranged, "smoothness": float(smoothness),
+              "losses": []}
     # a fixed set of windows to say where the fine-tune started and ended
     held = [starts[int(i)] for i in torch.randint(len(starts), (256,), generator=torch.Generator().manual_seed(99))]
     with torch.no_grad():
@@ -224,7 +235,7 @@ def finetune(weights, frames=20000, iterations=1000, window=16, batch=32, lr=5e-
             model.calibrate(x_norm, percentile)
         pick = torch.randint(len(starts), (batch,), generator=gen)
         loss = _window_loss(model, seqs, teacher, [starts[int(i)] for i in pick], window, gram,
-                            blend if objective == "distance" else None)
+                            blend if objective == "distance" else None, smoothness)
         opt.zero_grad()
         loss.backward()
         opt.step()

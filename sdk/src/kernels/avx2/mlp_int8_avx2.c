@@ -264,3 +264,16 @@ int plCpuHasAvxVnni( void )
 	return ( eax >> 4 ) & 1u;
 }
 #endif
+
+// The crowd's held inputs (plQuantiseInt8Fn): the single kernel's quantisers, so the same values.
+void plQuantiseInt8_Avx2( void* held, const float* x, uint32_t count, const plLayer* layer )
+{
+	if ( layer->int8_input == PLEAT_INT8_INPUT_FIRST )
+	{
+		plQuantiseWindowWide( (int16_t*)held, x, count, layer->input_inv_scale );
+	}
+	else
+	{
+		plQuantiseWindow( (int8_t*)held, x, count, layer->input_inv_scale, layer->int8_input );
+	}
+}
