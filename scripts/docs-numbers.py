@@ -60,6 +60,11 @@ TEACHERS_JSON = ROOT / "bench" / "results" / "accuracy-teachers.json"
 TEACHERS_BEGIN = ("<!-- teachers:begin (written by scripts/docs-numbers.py from bench/results/accuracy-teachers.json; "
                   "do not edit by hand) -->")
 TEACHERS_END = "<!-- teachers:end -->"
+INT8_JSON = ROOT / "bench" / "results" / "int8-accuracy.json"
+PERFORMANCE_PAGE = ROOT / "docs" / "performance.md"
+INT8_BEGIN = ("<!-- int8:begin (written by scripts/docs-numbers.py from bench/results/int8-accuracy.json; "
+              "do not edit by hand) -->")
+INT8_END = "<!-- int8:end -->"
 
 
 def _num(value, digits=1):
@@ -563,6 +568,61 @@ def render_teachers(teachers):
     return "\n".join(lines) + "\n"
 
 
+def int8_from_reports(paths, suite_paths, machine=None, metas=None):
+    """bench/results/int8-accuracy.json from bench/int8_accuracy.py reports (--json: an int8 asset's distance to the
+    float one it came from, over whole rollouts) and pleat-eval-suite reports that scored the float asset and the int8
+    ones against the simulation (mean error, jitter). How each int8 asset was made comes from its META."""
+    suites = {}
+    for path in suite_paths:
+        report = json.loads(Path(path).read_text())
+        for asset, result in report.items():
+            suites[asset] = dict(result["summary"], command=_suite_command(report))
+    rows, floats = [], set()
+    for path in paths:
+        r = json.loads(Path(path).read_text())
+        floats.add(r["float_asset"])
+        meta = (metas or {}).get(r["int8_asset"])
+        meta = _meta_of(r["int8_asset"]) if meta is None else meta
+        record, tune = meta.get("int8") or {}, meta.get("int8_finetune")
+        made = ("pleat-quantise finetune" + (f" --smoothness {tune['smoothness']:g}" if tune.get("smoothness") else "")
+                + ("" if tune.get("ranged", True) else " --symmetric-inputs")) if tune else (
+            "pleat-pack --int8" + ("" if record.get("inputs") == "ranged" else " --symmetric-inputs"))
+        s = suites.get(r["int8_asset"], {})
+        rows.append(dict(asset=r["int8_asset"], made=made, inputs=record.get("inputs", "symmetric"),
+                         mean_mm=r["mean_mm"], p99_mm=r["p99_mm"], max_mm=r["max_mm"],
+                         error_mm=s.get("mean_mm"), jitter=s.get("jitter")))
+    if len(floats) != 1:
+        raise ValueError(f"the int8 reports compare with different float assets: {sorted(floats)}")
+    float_asset = floats.pop()
+    f = suites.get(float_asset)
+    if f is None:
+        raise ValueError(f"no suite report scored the float asset {float_asset}")
+    return {"about": ("int8 assets against the float asset they were quantised from (bench/int8_accuracy.py: the "
+                      "C runtime's whole rollouts on the validation clips, distance to the float network's "
+                      "vertices) and against the simulation (pleat-eval-suite); scripts/docs-numbers.py --int8-from "
+                      "writes it, and docs/performance.md's table from it"),
+            "float_asset": float_asset, "float_error_mm": f["mean_mm"], "float_jitter": f["jitter"],
+            "suite_commands": sorted({s["command"] for s in suites.values()}), "machine": machine or this_machine(),
+            "rows": rows}
+
+
+def render_int8(int8):
+    """docs/performance.md's table of int8 assets (without the markers)."""
+    lines = ["| int8 asset | inputs | distance to the float network: mean / p99 / worst (mm) | error against the "
+             "simulation (mm) | jitter (m/s²) |",
+             "|---|---|---|---|---|",
+             f"| the float asset (`{int8['float_asset']}`) | — | — | {_cell(int8['float_error_mm'], 2)} | "
+             f"{_cell(int8['float_jitter'], 3)} |"]
+    for r in int8["rows"]:
+        lines.append(f"| `{r['made']}` | {r['inputs']} | **{_cell(r['mean_mm'], 3)}** / {_cell(r['p99_mm'], 2)} / "
+                     f"{_cell(r['max_mm'], 1)} | {_cell(r['error_mm'], 2)} | {_cell(r['jitter'], 3)} |")
+    lines.append("")
+    lines.append("Distances: `bench/int8_accuracy.py FLOAT.pleat INT8.pleat --json OUT.json` (the seven validation "
+                 "clips, up to 300 frames each, β = 0, mean over clips). Error and jitter: "
+                 + "; ".join(f"`{c}`" for c in int8["suite_commands"]) + f". {int8['machine']}.")
+    return "\n".join(lines) + "\n"
+
+
 def render_wardrobe(wardrobe):
     runs = wardrobe["runs"]
     garments = [g["garment"] for g in runs[0]["garments"]]
@@ -602,6 +662,12 @@ def main(argv=None):
     mode.add_argument("--teachers-from", nargs="+", metavar="SUITE.json",
                       help="write --teachers from these pleat-eval-suite reports (against each teacher), then the "
                            "pages")
+    mode.add_argument("--int8-from", nargs="+", metavar="INT8_ACCURACY.json",
+                      help="write --int8 from these bench/int8_accuracy.py reports and --int8-suites, then the pages")
+    p.add_argument("--int8-suites", nargs="+", metavar="SUITE.json", default=[],
+                   help="with --int8-from: pleat-eval-suite reports scoring the float asset and the int8 ones")
+    p.add_argument("--int8", default=str(INT8_JSON), help="int8 accuracy JSON (default: %(default)s)")
+    p.add_argument("--performance-page", default=str(PERFORMANCE_PAGE))
     p.add_argument("--teachers", default=str(TEACHERS_JSON), help="teachers accuracy JSON (default: %(default)s)")
     p.add_argument("--wardrobe-command", default=None, help="with --wardrobe-from: the commands that made them")
     p.add_argument("--surface", default=str(SURFACE_JSON), help="reference surface JSON (default: %(default)s)")
@@ -624,6 +690,9 @@ def main(argv=None):
         if a.teachers_from:
             Path(a.teachers).write_text(json.dumps(teachers_from_suites(a.teachers_from, a.machine), indent=1,
                                                    ensure_ascii=False) + "\n")
+        if a.int8_from:
+            Path(a.int8).write_text(json.dumps(int8_from_reports(a.int8_from, a.int8_suites, a.machine), indent=1,
+                                               ensure_ascii=False) + "\n")
         if a.wardrobe_from:
             Path(a.wardrobe).write_text(json.dumps(wardrobe_from_reports(
                 a.wardrobe_from, a.wardrobe_command, a.machine or this_machine()), indent=1) + "\n")
@@ -636,6 +705,7 @@ def main(argv=None):
             else None
         teachers_block = render_teachers(json.loads(Path(a.teachers).read_text())) if Path(a.teachers).is_file() \
             else None
+        int8_block = render_int8(json.loads(Path(a.int8).read_text())) if Path(a.int8).is_file() else None
     except (OSError, ValueError, KeyError) as e:
         print(f"docs-numbers: error: {e}", file=sys.stderr)
         return 2
@@ -649,6 +719,8 @@ def main(argv=None):
         pages.append((Path(a.training_page), wardrobe_block, WARDROBE_BEGIN, WARDROBE_END))
     if teachers_block is not None:
         pages.append((Path(a.accuracy_page), teachers_block, TEACHERS_BEGIN, TEACHERS_END))
+    if int8_block is not None:
+        pages.append((Path(a.performance_page), int8_block, INT8_BEGIN, INT8_END))
     updates = {}        # path → (text on disk, text with its blocks spliced; a page may hold several blocks)
     for path, text_block, begin, end in pages:
         text, new = updates.get(path) or (path.read_text(),) * 2

@@ -299,3 +299,32 @@ def test_wardrobe_from_reports_writes_the_json_and_the_table(docs_numbers, tmp_p
     other = _wardrobe_report("ray", 2, 125.0, {"pants": 100.0})
     paths[1].write_text(json.dumps(other))
     assert docs_numbers.main(["--wardrobe-from", *map(str, paths), *common]) == 2
+
+
+def test_int8_from_reports_writes_a_row_per_int8_asset_and_the_float_baseline(docs_numbers, tmp_path):
+    """--int8-from: bench/int8_accuracy.py reports and a suite become int8-accuracy.json and docs/performance.md's
+    table; how each asset was made comes from its META; reports against different float assets are refused."""
+    paths = []
+    for name, mean in (("ptq", 0.33), ("qat", 0.22)):
+        paths.append(tmp_path / f"acc_{name}.json")
+        paths[-1].write_text(json.dumps(dict(float_asset="assets/tshirt.pleat", int8_asset=f"out/{name}.pleat",
+                                             mean_mm=mean, p99_mm=1.0, max_mm=9.0)))
+    suite = {a: {"summary": {"mean_mm": m, "jitter": j}, "runs": [_run("deepmimic_github/humanoid3d_jog", [0.0], m,
+                                                                       20.0, 9.0)]}
+             for a, m, j in (("assets/tshirt.pleat", 13.65, 2.81), ("out/ptq.pleat", 13.66, 2.85),
+                             ("out/qat.pleat", 13.65, 2.84))}
+    (tmp_path / "suite.json").write_text(json.dumps(suite))
+    metas = {"out/ptq.pleat": {"int8": {"inputs": "ranged"}},
+             "out/qat.pleat": {"int8": {"inputs": "ranged"}, "int8_finetune": {"smoothness": 3.0, "ranged": True}}}
+    int8 = docs_numbers.int8_from_reports(paths, [tmp_path / "suite.json"], machine="Test CPU", metas=metas)
+    assert [(r["made"], r["error_mm"], r["jitter"]) for r in int8["rows"]] == [
+        ("pleat-pack --int8", 13.66, 2.85), ("pleat-quantise finetune --smoothness 3", 13.65, 2.84)]
+    assert int8["float_jitter"] == 2.81
+    block = docs_numbers.render_int8(int8)
+    assert "| `pleat-quantise finetune --smoothness 3` | ranged | **0.220** / 1.00 / 9.0 | 13.65 | 2.840 |" in block
+    assert "| the float asset (`assets/tshirt.pleat`) | — | — | 13.65 | 2.810 |" in block
+    other = tmp_path / "acc_other.json"
+    other.write_text(json.dumps(dict(float_asset="assets/dress.pleat", int8_asset="out/d.pleat", mean_mm=0.3,
+                                     p99_mm=1.0, max_mm=2.0)))
+    with pytest.raises(ValueError, match="different float assets"):
+        docs_numbers.int8_from_reports(paths + [other], [tmp_path / "suite.json"], metas=metas)

@@ -136,6 +136,11 @@ def test_pack_int8_with_calibration_rows_and_onnx(tmp_path, weights):
     assert meta["int8"]["rows"] == 64 and meta["int8"]["calibration"] == "calibration.npz"
     assert pack.main([str(src), "-o", str(tmp_path / "b.pleat"), "--precision", "int8", "--quiet"]) == 0
     assert pa.read_asset((tmp_path / "b.pleat").read_bytes())["lp.0.weight"].dtype == np.int8
+    assert pack.main([str(src), "-o", str(tmp_path / "c.pleat"), "--int8", "--symmetric-inputs", "--quiet"]) == 0
+    flags = pa.inspect_asset((tmp_path / "c.pleat").read_bytes())[0]["flags"]
+    assert flags & pa.FLAG_INT8 and not flags & pa.FLAG_INT8_RANGED_INPUTS
+    with pytest.raises(SystemExit):
+        pack.main([str(src), "-o", str(tmp_path / "d.pleat"), "--symmetric-inputs", "--quiet"])
 
 
 def test_reference_instance_steps_an_int8_asset(weights):

@@ -78,6 +78,9 @@ def build_parser():
     p.add_argument("--calibration", metavar="NPZ",
                    help="with --int8: X_c rows [M, I] under 'x_c' (pleat-quantise collect makes them from "
                         "clips)")
+    p.add_argument("--symmetric-inputs", action="store_true",
+                   help="with --int8: every layer's input quantised to -127..127, as the first int8 assets (default: "
+                        "ranged inputs where the networks are ReLU)")
     p.add_argument("--calibration-percentile", type=float, default=100.0, metavar="P",
                    help="with --int8: each layer's input range is this percentile of |value| (default 100: the "
                         "largest)")
@@ -131,7 +134,8 @@ def _quantised(a, weights):
             raise not_npz(a.calibration, e, f"a calibration file ('{pq.CALIBRATION_KEY}')") from None
     try:
         x = pq.normalised_inputs(weights, x_c)
-        quantised, record = pq.quantise(weights, x, a.calibration_percentile)
+        quantised, record = pq.quantise(weights, x, a.calibration_percentile,
+                                        ranged=False if a.symmetric_inputs else None)
     except (ValueError, KeyError) as e:
         raise InputError(a.calibration or a.weights, f"cannot be quantised ({e})") from None
     record["calibration"] = Path(a.calibration).name if a.calibration else "random normalised inputs ~ N(0, 1)"
@@ -157,8 +161,8 @@ def main(argv=None):
         a.fp16 = True
     elif a.precision == "int8":
         a.int8 = True
-    if (a.calibration or a.calibration_percentile != 100.0) and not a.int8:
-        p.error("--calibration and --calibration-percentile go with --int8")
+    if (a.calibration or a.calibration_percentile != 100.0 or a.symmetric_inputs) and not a.int8:
+        p.error("--calibration, --calibration-percentile and --symmetric-inputs go with --int8")
     if not 0.0 < a.calibration_percentile <= 100.0:
         p.error("--calibration-percentile: must be in (0, 100]")
     try:

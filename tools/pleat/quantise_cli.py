@@ -44,6 +44,9 @@ def build_parser():
     f.add_argument("--objective", choices=("mse", "distance"), default="distance",
                    help="the windows' loss: squared displacement error (mse) or mean per-vertex distance (distance, "
                         "what bench/int8_accuracy.py reports)")
+    f.add_argument("--symmetric-inputs", action="store_true",
+                   help="every layer's input quantised to -127..127, as the first int8 assets (default: ranged "
+                        "inputs where the networks are ReLU)")
     f.add_argument("--smoothness", type=float, default=0.0,
                    help="with --objective distance: this weight on the error's second difference over frames, the "
                         "noise that adds jitter (default %(default)s)")
@@ -70,7 +73,8 @@ def main(a):
         tuned, x_norm, report = qat.finetune(weights, a.frames, a.iterations, a.window, a.batch, a.lr, a.percentile,
                                              seed=a.seed, log=log, calibration=a.calibration,
                                              learn_scales=a.learn_scales, objective=a.objective,
-                                             smoothness=a.smoothness)
+                                             smoothness=a.smoothness,
+                                             ranged=False if a.symmetric_inputs else None)
         qat.write(weights, tuned, x_norm, report, a.out, a.percentile)
         if not a.quiet:
             print(f"wrote {a.out} ({report['time_s']:.0f} s)", file=sys.stderr)
