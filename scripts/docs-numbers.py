@@ -65,6 +65,10 @@ PERFORMANCE_PAGE = ROOT / "docs" / "performance.md"
 INT8_BEGIN = ("<!-- int8:begin (written by scripts/docs-numbers.py from bench/results/int8-accuracy.json; "
               "do not edit by hand) -->")
 INT8_END = "<!-- int8:end -->"
+INT8_BENCH_JSON = ROOT / "bench" / "results" / "cpu-int8.json"
+INT8_SPEED_BEGIN = ("<!-- int8-speed:begin (written by scripts/docs-numbers.py from bench/results/cpu-int8.json; "
+                    "do not edit by hand) -->")
+INT8_SPEED_END = "<!-- int8-speed:end -->"
 
 
 def _num(value, digits=1):
@@ -584,7 +588,7 @@ def int8_from_reports(paths, suite_paths, machine=None, metas=None):
         meta = (metas or {}).get(r["int8_asset"])
         meta = _meta_of(r["int8_asset"]) if meta is None else meta
         record, tune = meta.get("int8") or {}, meta.get("int8_finetune")
-        made = ("pleat-quantise finetune" + (f" --smoothness {tune['smoothness']:g}" if tune.get("smoothness") else "")
+        made = ("pleat-quantise finetune" + f" --smoothness {tune.get('smoothness', 0.0):g}"
                 + ("" if tune.get("ranged", True) else " --symmetric-inputs")) if tune else (
             "pleat-pack --int8" + ("" if record.get("inputs") == "ranged" else " --symmetric-inputs"))
         s = suites.get(r["int8_asset"], {})
@@ -620,6 +624,30 @@ def render_int8(int8):
     lines.append("Distances: `bench/int8_accuracy.py FLOAT.pleat INT8.pleat --json OUT.json` (the seven validation "
                  "clips, up to 300 frames each, β = 0, mean over clips). Error and jitter: "
                  + "; ".join(f"`{c}`" for c in int8["suite_commands"]) + f". {int8['machine']}.")
+    return "\n".join(lines) + "\n"
+
+
+def render_int8_speed(bench, machine):
+    """docs/performance.md's table of single steps and 64-instance crowds per precision, from a scripts/bench.sh
+    step.json whose crowd sweep has the int8 keys (one worker; per instance; ratios to the fp32 single step)."""
+    crowd = bench["crowd"]
+    rows = {(r["asset"], r["instances"]): r for r in crowd["results"] if r["workers"] == 1}
+    lines = ["| asset | precision | single step (µs) | × fp16 single | 64 instances, per instance (µs) | "
+             "× fp32 single |", "|---|---|---|---|---|---|"]
+    for asset, label in (("tshirt", "shipped t-shirt (1,004 vertices)"), ("reference", "reference sizes (4,424)")):
+        fp32 = rows[(f"{asset}_fp32", 1)]["one_by_one_us_per_instance"]
+        fp16 = rows[(f"{asset}_fp16", 1)]["one_by_one_us_per_instance"]
+        for precision in ("fp32", "fp16", "int8"):
+            step = rows[(f"{asset}_{precision}", 1)]["one_by_one_us_per_instance"]
+            many = rows.get((f"{asset}_{precision}", 64))
+            crowd_cells = (f"{_cell(many['batch_us_per_instance'])} | {many['batch_us_per_instance'] / fp32:.2f}"
+                           if many else "— | —")
+            lines.append(f"| {label} | {precision} | {_cell(step)} | {step / fp16:.2f} | {crowd_cells} |")
+    lines.append("")
+    lines.append(f"`scripts/bench.sh` (`crowd` in its step.json: medians over three rounds, {crowd['clock']} clock, "
+                 f"one worker; int8 = ranged inputs and fp16 blend shapes); single-step kernels "
+                 f"{crowd['isa']}, crowd batches {crowd['batch_isa']}, int8 through AVX-512 VNNI; load "
+                 f"{crowd.get('loadavg_start')}–{crowd.get('loadavg_end')}. {machine}.")
     return "\n".join(lines) + "\n"
 
 
@@ -668,6 +696,8 @@ def main(argv=None):
                    help="with --int8-from: pleat-eval-suite reports scoring the float asset and the int8 ones")
     p.add_argument("--int8", default=str(INT8_JSON), help="int8 accuracy JSON (default: %(default)s)")
     p.add_argument("--performance-page", default=str(PERFORMANCE_PAGE))
+    p.add_argument("--int8-bench", default=str(INT8_BENCH_JSON),
+                   help="a scripts/bench.sh step.json with int8 crowd keys (default: %(default)s)")
     p.add_argument("--teachers", default=str(TEACHERS_JSON), help="teachers accuracy JSON (default: %(default)s)")
     p.add_argument("--wardrobe-command", default=None, help="with --wardrobe-from: the commands that made them")
     p.add_argument("--surface", default=str(SURFACE_JSON), help="reference surface JSON (default: %(default)s)")
@@ -706,6 +736,10 @@ def main(argv=None):
         teachers_block = render_teachers(json.loads(Path(a.teachers).read_text())) if Path(a.teachers).is_file() \
             else None
         int8_block = render_int8(json.loads(Path(a.int8).read_text())) if Path(a.int8).is_file() else None
+        int8_speed_block = None
+        if Path(a.int8_bench).is_file():
+            int8_bench = json.loads(Path(a.int8_bench).read_text())
+            int8_speed_block = render_int8_speed(int8_bench, int8_bench.get("machine", "machine not recorded"))
     except (OSError, ValueError, KeyError) as e:
         print(f"docs-numbers: error: {e}", file=sys.stderr)
         return 2
@@ -721,6 +755,8 @@ def main(argv=None):
         pages.append((Path(a.accuracy_page), teachers_block, TEACHERS_BEGIN, TEACHERS_END))
     if int8_block is not None:
         pages.append((Path(a.performance_page), int8_block, INT8_BEGIN, INT8_END))
+    if int8_speed_block is not None:
+        pages.append((Path(a.performance_page), int8_speed_block, INT8_SPEED_BEGIN, INT8_SPEED_END))
     updates = {}        # path → (text on disk, text with its blocks spliced; a page may hold several blocks)
     for path, text_block, begin, end in pages:
         text, new = updates.get(path) or (path.read_text(),) * 2

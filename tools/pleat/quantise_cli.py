@@ -6,7 +6,8 @@
                                                               # (needs PyTorch; docs/performance.md "int8 networks")
 
 finetune's defaults are the best measured (docs/performance.md): random-row calibration, then the input scales
-learnt with the weights, the mean vertex distance over windows of 16 frames, 1,000 iterations at 5·10⁻⁶.
+learnt with the weights, the mean vertex distance over windows of 16 frames plus 3 × its second difference over
+frames, 1,000 iterations at 5·10⁻⁶.
 """
 import argparse
 import sys
@@ -47,7 +48,7 @@ def build_parser():
     f.add_argument("--symmetric-inputs", action="store_true",
                    help="every layer's input quantised to -127..127, as the first int8 assets (default: ranged "
                         "inputs where the networks are ReLU)")
-    f.add_argument("--smoothness", type=float, default=0.0,
+    f.add_argument("--smoothness", type=float, default=3.0,
                    help="with --objective distance: this weight on the error's second difference over frames, the "
                         "noise that adds jitter (default %(default)s)")
     f.add_argument("--seed", type=int, default=0, help="seed of the motion plan and the batches (default 0)")
