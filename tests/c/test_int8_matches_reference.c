@@ -171,16 +171,17 @@ static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 }
 
 // The batched int8 kernels (the crowd's: weights shared between instances) give each instance the single scalar
-// kernel's bits, for every input kind, on shapes past each vector step (16, 32, 64 columns; 4 rows; 4 instances).
+// kernel's bits, for every input kind, on shapes past each step (4, 16, 32, 64 columns; 8 rows; 16 instances), over a
+// whole row and over a block's window.
 static void test_batched_int8_kernels_give_the_single_bits( void** state )
 {
 	(void)state;
 	plKernels sets[3];
 	plKernelSet wanted[3] = { PLEAT_KERNEL_SET_SCALAR, PLEAT_KERNEL_SET_AVX2, PLEAT_KERNEL_SET_AVX512 };
-	static const uint32_t columns[] = { 1, 15, 17, 33, 63, 64, 65, 129, 681 };
-	static const uint32_t rows[] = { 1, 3, 5, 9, 64 };
+	static const uint32_t columns[] = { 1, 3, 15, 17, 33, 63, 64, 65, 129, 681 };
+	static const uint32_t rows[] = { 1, 3, 9, 17, 64 };
 	static const uint32_t inputs[] = { PLEAT_INT8_INPUT_SYMMETRIC, PLEAT_INT8_INPUT_FIRST, PLEAT_INT8_INPUT_HIDDEN };
-	enum { B = 6 };
+	enum { B = 19 };
 	for ( size_t ki = 0; ki < 3; ++ki )
 	{
 		for ( size_t ci = 0; ci < sizeof( columns ) / sizeof( columns[0] ); ++ci )
@@ -192,9 +193,9 @@ static void test_batched_int8_kernels_give_the_single_bits( void** state )
 				float* x = (float*)malloc( (size_t)B * in * sizeof( float ) );
 				float *scale = (float*)malloc( out * sizeof( float ) ), *bias = (float*)malloc( out * sizeof( float ) );
 				int32_t* offsets = (int32_t*)malloc( out * sizeof( int32_t ) );
+				int32_t* sums = (int32_t*)malloc( out * sizeof( int32_t ) );
 				float* expect = (float*)malloc( (size_t)B * out * sizeof( float ) );
 				float* got = (float*)malloc( (size_t)B * out * sizeof( float ) );
-				int16_t* held = (int16_t*)malloc( (size_t)B * in * sizeof( int16_t ) );
 				for ( size_t i = 0; i < (size_t)in * out; ++i )
 				{
 					uint32_t r = plRandU32() % 8;
@@ -211,12 +212,6 @@ static void test_batched_int8_kernels_give_the_single_bits( void** state )
 				{
 					scale[r] = 1e-3f * (float)( 1 + plRandU32() % 1000 );
 					bias[r] = (float)( plRandU32() % 1000 ) / 500.0f - 1.0f;
-					int32_t sum = 0;
-					for ( uint32_t c = 0; c < in; ++c )
-					{
-						sum += w[(size_t)r * in + c];
-					}
-					offsets[r] = 128 * sum;
 				}
 				float input_scale = 2.0f;
 				plLayer layer;
@@ -230,45 +225,63 @@ static void test_batched_int8_kernels_give_the_single_bits( void** state )
 				layer.in_count = in;
 				layer.out_count = out;
 				layer.int8_input = inputs[ki];
-				layer.input_offsets = inputs[ki] == PLEAT_INT8_INPUT_HIDDEN ? offsets : NULL;
+				layer.weight_sums = sums;
 				float* outs[B];
-				const void* helds[B];
+				const float* xs[B];
 				for ( uint32_t b = 0; b < B; ++b )
 				{
-					plMatVecInt8_Scalar( expect + (size_t)b * out, x + (size_t)b * in, &layer, w, in, 0, in, 0, out );
+					outs[b] = got + (size_t)b * out;
+					xs[b] = x + (size_t)b * in;
 				}
-				for ( int s = 0; s < 3; ++s )
+				void* held = aligned_alloc( 64, plInt8HeldBlockBytes( &layer, B ) );
+				static const uint32_t begins[2] = { 0, 16 }; // the whole row, then a window [16, in) where there is one
+				for ( uint32_t wi = 0; wi < 2 && begins[wi] < in; ++wi )
 				{
-					if ( plChooseKernels( &sets[s], wanted[s] ) != wanted[s] || sets[s].mat_mat_int8 == NULL )
+					uint32_t cb = begins[wi];
+					for ( uint32_t r = 0; r < out; ++r ) // the window's sums, as the load derives them for a block
 					{
-						continue;
+						int32_t sum = 0;
+						for ( uint32_t c = cb; c < in; ++c )
+						{
+							sum += w[(size_t)r * in + c];
+						}
+						sums[r] = sum;
+						offsets[r] = 128 * sum;
 					}
+					layer.input_offsets = inputs[ki] == PLEAT_INT8_INPUT_HIDDEN ? offsets : NULL;
 					for ( uint32_t b = 0; b < B; ++b )
 					{
-						void* h = (uint8_t*)held + (size_t)b * in * plInt8HeldBytes( &layer );
-						sets[s].quantise_int8( h, x + (size_t)b * in, in, &layer );
-						helds[b] = h;
-						outs[b] = got + (size_t)b * out;
+						plMatVecInt8_Scalar( expect + (size_t)b * out, xs[b], &layer, w, in, cb, in, 0, out );
 					}
-					for ( uint32_t n = 1; n <= B; n += B - 1 ) // one instance, then all (a short group of 4)
+					for ( int s = 0; s < 3; ++s )
 					{
-						memset( got, 0, (size_t)B * out * sizeof( float ) );
-						sets[s].mat_mat_int8( outs, helds, n, &layer, w, in, in, 0, out );
-						if ( memcmp( got, expect, (size_t)n * out * sizeof( float ) ) != 0 )
+						if ( plChooseKernels( &sets[s], wanted[s] ) != wanted[s] || sets[s].mat_mat_int8 == NULL )
 						{
-							fail_msg( "set %d's batched int8 kernel differs: input %u, %u columns, %u rows, %u instances",
-									  (int)wanted[s], inputs[ki], in, out, n );
+							continue;
+						}
+						for ( uint32_t n = 1; n <= B; n += B - 1 ) // one instance, then more than a group of 16
+						{
+							sets[s].quantise_int8( held, xs, n, &layer );
+							memset( got, 0, (size_t)B * out * sizeof( float ) );
+							sets[s].mat_mat_int8( outs, held, n, &layer, w + cb, in, cb, in - cb, 0, out );
+							if ( memcmp( got, expect, (size_t)n * out * sizeof( float ) ) != 0 )
+							{
+								fail_msg( "set %d's batched int8 kernel differs: input %u, columns [%u, %u), %u rows, "
+										  "%u instances",
+										  (int)wanted[s], inputs[ki], cb, in, out, n );
+							}
 						}
 					}
 				}
+				free( held );
 				free( w );
 				free( x );
 				free( scale );
 				free( bias );
 				free( offsets );
+				free( sums );
 				free( expect );
 				free( got );
-				free( held );
 			}
 		}
 	}

@@ -34,8 +34,8 @@ typedef struct plMatMatTask
 	uint32_t group_count;
 	uint32_t activation; // lanes form: applied to the task's rows (0: none, the last layer)
 	plMatVecInt8Fn* mat_vec_int8; // an int8 layer: the single job's kernel, per instance,
-	plMatMatInt8Fn* mat_mat_int8; // or the batched one on the instances' held inputs
-	const void* const* held;      // [batch_count] each [in_count] held values (plInt8HeldBytes each)
+	plMatMatInt8Fn* mat_mat_int8; // or the batched one on the batch's held inputs
+	const void* held;             // the block plQuantiseInt8Fn wrote
 } plMatMatTask;
 
 // Rows [begin, end) block by block (plLayerBlocks), each over its own column window, as the single job runs them.
@@ -55,15 +55,10 @@ static void plMatMatTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void
 		}
 		if ( l->weight_int8 && t->mat_mat_int8 != NULL )
 		{
-			// the batch at once on the held inputs, the window's columns of each (packed or in place alike)
-			const void* held[PLEAT_BATCH_MAX];
-			for ( uint32_t b = 0; b < t->batch_count; ++b )
-			{
-				held[b] = (const uint8_t*)t->held[b] + (size_t)cb * plInt8HeldBytes( l );
-			}
+			// the batch at once on the held inputs, over the block's window (packed or in place alike)
 			const int8_t* w = l->packed != NULL ? (const int8_t*)l->packed : (const int8_t*)l->weight + cb;
 			uint32_t stride = l->packed != NULL ? l->packed_width : l->in_count;
-			t->mat_mat_int8( t->out, held, t->batch_count, l, w, stride, ce - cb, rb, re );
+			t->mat_mat_int8( t->out, t->held, t->batch_count, l, w, stride, cb, ce - cb, rb, re );
 		}
 		else if ( l->weight_int8 )
 		{
@@ -239,18 +234,12 @@ static void plRunLanes( const plMlpBatchJob* job )
 	}
 }
 
-// Bytes of one instance's held inputs for an int8 layer, each instance's on its own cache lines.
-static size_t plHeldStride( const plLayer* l )
-{
-	return ( (size_t)l->in_count * plInt8HeldBytes( l ) + 63 ) & ~(size_t)63;
-}
-
 size_t plMlpBatchHeldFloats( const plLayer* layers, uint32_t layer_count, uint32_t batch_count )
 {
 	size_t bytes = 0;
 	for ( uint32_t i = 0; i < layer_count; ++i )
 	{
-		size_t need = layers[i].weight_int8 ? plHeldStride( &layers[i] ) * batch_count : 0;
+		size_t need = layers[i].weight_int8 ? plInt8HeldBlockBytes( &layers[i], batch_count ) : 0;
 		bytes = need > bytes ? need : bytes;
 	}
 	return ( bytes + sizeof( float ) - 1 ) / sizeof( float );
@@ -260,30 +249,13 @@ size_t plMlpBatchHeldFloats( const plLayer* layers, uint32_t layer_count, uint32
 // or NULL where the job has no batched int8 kernel or too little scratch: then each instance runs mat_vec_int8.
 static uint8_t* plHeldInputs( const plMlpBatchJob* job, const plLayer* l )
 {
-	if ( !l->weight_int8 || job->mat_mat_int8 == NULL || job->lanes == NULL || ( (uintptr_t)job->lanes & 63u ) != 0 ||
-		 plHeldStride( l ) * job->batch_count > job->lanes_floats * sizeof( float ) )
+	if ( !l->weight_int8 || job->mat_mat_int8 == NULL || l->weight_sums == NULL || job->lanes == NULL ||
+		 ( (uintptr_t)job->lanes & 63u ) != 0 ||
+		 plInt8HeldBlockBytes( l, job->batch_count ) > job->lanes_floats * sizeof( float ) )
 	{
 		return NULL;
 	}
 	return (uint8_t*)job->lanes;
-}
-
-typedef struct plQuantiseTask
-{
-	const plMlpBatchJob* job;
-	const plLayer* layer;
-	const float* const* x;
-	uint8_t* held;
-} plQuantiseTask;
-
-static void plQuantiseTaskRun( uint32_t begin, uint32_t end, uint32_t worker, void* context )
-{
-	(void)worker;
-	const plQuantiseTask* t = (const plQuantiseTask*)context;
-	for ( uint32_t b = begin; b < end; ++b )
-	{
-		t->job->quantise_int8( t->held + b * plHeldStride( t->layer ), t->x[b], t->layer->in_count, t->layer );
-	}
 }
 
 plResult plMlpBatchJob_Run( const plMlpBatchJob* job )
@@ -317,18 +289,12 @@ plResult plMlpBatchJob_Run( const plMlpBatchJob* job )
 		plMatMatTask task = {
 			.kernels = job->kernels, .layer = layer, .out = y, .x = x, .batch_count = n, .mat_vec_int8 = job->mat_vec_int8 };
 		uint8_t* held = plHeldInputs( job, layer );
-		const void* held_of[PLEAT_BATCH_MAX];
 		if ( held != NULL )
 		{
-			// each instance's input quantised once for the layer, not once per row task
-			plQuantiseTask quantise = { job, layer, x, held };
-			plRunTask( job->runner, plQuantiseTaskRun, n, 8, &quantise );
-			for ( uint32_t b = 0; b < n; ++b )
-			{
-				held_of[b] = held + b * plHeldStride( layer );
-			}
+			// the batch's inputs quantised once for the layer, not once per row task
+			job->quantise_int8( held, x, n, layer );
 			task.mat_mat_int8 = job->mat_mat_int8;
-			task.held = held_of;
+			task.held = held;
 		}
 		plRunTask( job->runner, plMatMatTaskRun, layer->out_count, 64, &task );
 		for ( uint32_t b = 0; b < n; ++b )

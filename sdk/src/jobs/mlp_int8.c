@@ -26,27 +26,37 @@ void plMatVecInt8_Scalar( float* out, const float* x, const plLayer* layer, cons
 	}
 }
 
-// An int8 layer's input in its held form: plQuantiseInput's values, int16 for a FIRST input, else int8.
-void plQuantiseInt8_Scalar( void* held, const float* x, uint32_t count, const plLayer* layer )
+// The scalar set's layout of a batch's held inputs: instance b's values (plQuantiseInput's, int16 for a FIRST input,
+// else int8) from b · plScalarHeldStride bytes on.
+static size_t plScalarHeldStride( const plLayer* layer )
 {
-	for ( uint32_t c = 0; c < count; ++c )
+	return ( (size_t)layer->in_count * plInt8HeldBytes( layer ) + 63u ) & ~(size_t)63u;
+}
+
+void plQuantiseInt8_Scalar( void* held, const float* const* x, uint32_t batch_count, const plLayer* layer )
+{
+	for ( uint32_t b = 0; b < batch_count; ++b )
 	{
-		int32_t q = plQuantiseInput( x[c], layer->input_inv_scale, layer->int8_input );
-		if ( layer->int8_input == PLEAT_INT8_INPUT_FIRST )
+		uint8_t* mine = (uint8_t*)held + b * plScalarHeldStride( layer );
+		for ( uint32_t c = 0; c < layer->in_count; ++c )
 		{
-			( (int16_t*)held )[c] = (int16_t)q;
-		}
-		else
-		{
-			( (int8_t*)held )[c] = (int8_t)q;
+			int32_t q = plQuantiseInput( x[b][c], layer->input_inv_scale, layer->int8_input );
+			if ( layer->int8_input == PLEAT_INT8_INPUT_FIRST )
+			{
+				( (int16_t*)mine )[c] = (int16_t)q;
+			}
+			else
+			{
+				( (int8_t*)mine )[c] = (int8_t)q;
+			}
 		}
 	}
 }
 
 // The batched form's specification: plMatVecInt8_Scalar's sums per instance from the held inputs.
-void plMatMatInt8_Scalar( float* const* out, const void* const* held, uint32_t batch_count, const plLayer* layer,
-						  const int8_t* weight, uint32_t stride, uint32_t columns, uint32_t row_begin,
-						  uint32_t row_end )
+void plMatMatInt8_Scalar( float* const* out, const void* held, uint32_t batch_count, const plLayer* layer,
+						  const int8_t* weight, uint32_t stride, uint32_t col_begin, uint32_t columns,
+						  uint32_t row_begin, uint32_t row_end )
 {
 	int wide = layer->int8_input == PLEAT_INT8_INPUT_FIRST;
 	for ( uint32_t r = row_begin; r < row_end; ++r )
@@ -54,10 +64,11 @@ void plMatMatInt8_Scalar( float* const* out, const void* const* held, uint32_t b
 		const int8_t* w = weight + (size_t)r * stride;
 		for ( uint32_t b = 0; b < batch_count; ++b )
 		{
+			const uint8_t* mine = (const uint8_t*)held + b * plScalarHeldStride( layer );
 			int32_t acc = layer->input_offsets != NULL ? layer->input_offsets[r] : 0;
 			for ( uint32_t c = 0; c < columns; ++c )
 			{
-				int32_t q = wide ? ( (const int16_t*)held[b] )[c] : ( (const int8_t*)held[b] )[c];
+				int32_t q = wide ? ( (const int16_t*)mine )[col_begin + c] : ( (const int8_t*)mine )[col_begin + c];
 				acc += (int32_t)w[c] * q;
 			}
 			out[b][r] = plDequantise( acc, layer->weight_scale[r], layer->input_scale[0], layer->bias[r] );

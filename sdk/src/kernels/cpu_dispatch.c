@@ -57,7 +57,7 @@ plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa )
 				{
 					kernels->mat_vec_int8 = plMatVecInt8_Avx512Vnni;
 					kernels->mat_mat_int8 = plMatMatInt8_Avx512Vnni;
-					kernels->quantise_int8 = plQuantiseInt8_Avx2;
+					kernels->quantise_int8 = plQuantiseInt8_Avx512Vnni;
 				}
 #endif
 			}

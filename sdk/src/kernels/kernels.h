@@ -37,6 +37,7 @@ typedef struct plLayer
 	float input_inv_scale;
 	uint32_t int8_input;
 	const int32_t* input_offsets;
+	const int32_t* weight_sums; // int8 layers: each row's Σ w over its window (asset_derive.c), for the crowd's kernels
 	uint32_t in_count;
 	uint32_t out_count;
 	// 0: dense. Else the rows cut into blocks, each multiplied over its own column window only (layer_blocks.c finds
@@ -109,19 +110,26 @@ typedef enum plInt8Input
 // col_end − col_begin ≤ PLEAT_MAX_INT8_COLUMNS. No sum comes near 2³¹: 4096 · 127 · 2047 < 2³⁰.
 typedef void plMatVecInt8Fn( float* out, const float* x, const plLayer* layer, const int8_t* weight, uint32_t stride,
 							 uint32_t col_begin, uint32_t col_end, uint32_t row_begin, uint32_t row_end );
-// The int8 layer for many instances of one asset (the crowd's MLP job, mlp_batch.c): each instance's input quantised
-// once per layer into its held form (plQuantiseInt8Fn: int16 for a FIRST input, else int8; held[b] points at the
-// window's first column), then rows [row_begin, row_end) over `columns` with each weight row read once for several
-// instances; weight points at the window's first column of row 0, rows `stride` apart. Per instance exactly
-// plMatVecInt8Fn's bits (integer sums; the same float ends).
-typedef void plMatMatInt8Fn( float* const* out, const void* const* held, uint32_t batch_count, const plLayer* layer,
-							 const int8_t* weight, uint32_t stride, uint32_t columns, uint32_t row_begin,
-							 uint32_t row_end );
-typedef void plQuantiseInt8Fn( void* held, const float* x, uint32_t count, const plLayer* layer );
-// Bytes of one held input value of an int8 layer.
+// The int8 layer for many instances of one asset (the crowd's MLP job, mlp_batch.c): the batch's inputs quantised
+// once per layer into a block in the kernel set's own layout (plQuantiseInt8Fn; at most plInt8HeldBlockBytes), then
+// rows [row_begin, row_end) over the window [col_begin, col_begin + columns) (col_begin a multiple of 4, as every
+// block window's is) with each weight row read once for many instances; weight points at the window's first column
+// of row 0, rows `stride` apart. Per instance exactly plMatVecInt8Fn's bits (integer sums; the same float ends).
+typedef void plMatMatInt8Fn( float* const* out, const void* held, uint32_t batch_count, const plLayer* layer,
+							 const int8_t* weight, uint32_t stride, uint32_t col_begin, uint32_t columns,
+							 uint32_t row_begin, uint32_t row_end );
+typedef void plQuantiseInt8Fn( void* held, const float* const* x, uint32_t batch_count, const plLayer* layer );
+// Bytes of one held input value of an int8 layer in the single kernels (int16 for a FIRST input, else int8).
 static inline uint32_t plInt8HeldBytes( const plLayer* layer )
 {
 	return layer->int8_input == PLEAT_INT8_INPUT_FIRST ? 2u : 1u;
+}
+// Bytes a batch's held inputs of an int8 layer take in any set's layout: sixteen-instance groups of 64-byte lines,
+// two bytes a value.
+static inline size_t plInt8HeldBlockBytes( const plLayer* layer, uint32_t batch_count )
+{
+	size_t groups = ( batch_count + 15u ) / 16u;
+	return groups * 16u * ( ( (size_t)layer->in_count * 2u + 63u ) & ~(size_t)63u );
 }
 // An int8 layer's input is quantised into a buffer on the kernel's stack, so that the kernel needs no scratch and any
 // split of the rows over workers quantises alike; the loader refuses wider int8 layers.
@@ -397,7 +405,7 @@ plNormalsScatterFn plNormalsScatter_Scalar;
 #if defined( PLEAT_HAVE_AVX2 )
 plMatVecFn plMatVec_Avx2;
 plMatVecInt8Fn plMatVecInt8_Avx2;
-plQuantiseInt8Fn plQuantiseInt8_Avx2;
+void plQuantiseHeld_Avx2( void* held, const float* x, uint32_t count, const plLayer* layer );
 // The int8 mat-vec with the dot-product instructions: AVX-VNNI (256-bit vpdpbusd, mlp_int8_avx2.c) and AVX-512 VNNI
 // (mlp_int8_avx512.c), each compiled through a target attribute and only called where the CPU has it (plCpuHas*).
 // Their shared frame (mlp_int8_avx2.c): the window quantised on the stack, then the rows four at a time through
@@ -414,6 +422,7 @@ int plCpuHasAvxVnni( void );
 #if defined( PLEAT_HAVE_AVX512VNNI )
 plMatVecInt8Fn plMatVecInt8_Avx512Vnni;
 plMatMatInt8Fn plMatMatInt8_Avx512Vnni;
+plQuantiseInt8Fn plQuantiseInt8_Avx512Vnni;
 int plCpuHasAvx512Vnni( void );
 #endif
 plBlendShapesFn plBlendShapes_Avx2;

@@ -265,8 +265,9 @@ int plCpuHasAvxVnni( void )
 }
 #endif
 
-// The crowd's held inputs (plQuantiseInt8Fn): the single kernel's quantisers, so the same values.
-void plQuantiseInt8_Avx2( void* held, const float* x, uint32_t count, const plLayer* layer )
+// One instance's input quantised as the single kernel does (plQuantiseInput's values; int16 for a FIRST input, else
+// int8), for the crowd's layouts (mlp_int8_avx512.c).
+void plQuantiseHeld_Avx2( void* held, const float* x, uint32_t count, const plLayer* layer )
 {
 	if ( layer->int8_input == PLEAT_INT8_INPUT_FIRST )
 	{

@@ -8,6 +8,7 @@
 #include "kernels/kernels.h"
 
 #include <immintrin.h>
+#include <string.h>
 
 #if defined( PLEAT_HAVE_AVX512VNNI )
 __attribute__( ( target( "avx512f,avx512bw,avx512vl,avx512vnni" ) ) ) static void
@@ -42,153 +43,137 @@ void plMatVecInt8_Avx512Vnni( float* out, const float* x, const plLayer* layer, 
 						   plDotQuad_Avx512Vnni );
 }
 
-// ---- the crowd's form (plMatMatInt8Fn): four rows × four instances per step, each weight vector loaded once ----
-// Without the sign trick where it can be left out: a HIDDEN input's true q (0..255) is its held q − 128 with the top
-// bit flipped, and vpdpbusd takes it unsigned as it is (its four products go straight into 32 bits, nothing
-// saturates), so the sum is Σ w · q with no offset to add; a FIRST input's int16 meets the weights widened to int16 in
-// vpdpwssd. Only a SYMMETRIC input still moves its sign onto the weight, per row and instance.
+// ---- the crowd's form (plMatMatInt8Fn, plQuantiseInt8Fn): sixteen instances in the lanes of a vector ----
+// The held block is sixteen-instance groups; in a group, four columns of sixteen instances fill a 64-byte line
+// (instance i's four bytes at 4i), so one vpdpbusd against a weight dword broadcast to every lane adds four products
+// to each of sixteen instances' sums: each weight is read once per group, and no sum needs a horizontal reduction.
+// vpdpbusd takes its input unsigned, so each value is held biased, v = q + bias ≥ 0, and bias · Σ w comes off the sum
+// (the row's weight_sums): a HIDDEN q as it is (bias 0), a SYMMETRIC one + 128, a FIRST one + 2048 split into two
+// planes of bytes, v = 256 · hi + lo, summed apart and joined as 256 · Σ w · hi + Σ w · lo. The int32 arithmetic
+// wraps on the way but the true sum fits (plMatVecInt8Fn), so it is exact. Lanes past the batch hold zeros.
 
-#define PLEAT_VNNI_ROWS 4
-#define PLEAT_VNNI_INSTANCES 4
+#define PLEAT_VNNI_ROWS 8
 
-// The sums of the 4 × 4 accumulators, acc[k][i] for row k and instance i.
-__attribute__( ( target( "avx512f,avx512bw,avx512vl,avx512vnni" ) ) ) static void
-plReduce4x4( __m512i a[PLEAT_VNNI_ROWS][PLEAT_VNNI_INSTANCES], int32_t acc[PLEAT_VNNI_ROWS][PLEAT_VNNI_INSTANCES] )
+static int32_t plHeldBias( uint32_t input )
 {
-	for ( int k = 0; k < PLEAT_VNNI_ROWS; ++k )
+	return input == PLEAT_INT8_INPUT_FIRST ? 2048 : input == PLEAT_INT8_INPUT_SYMMETRIC ? 128 : 0;
+}
+
+static uint32_t plHeldPlanes( const plLayer* layer )
+{
+	return layer->int8_input == PLEAT_INT8_INPUT_FIRST ? 2u : 1u;
+}
+
+// Bytes of one group's block: its planes of ⌈in / 4⌉ lines.
+static size_t plGroupBytes( const plLayer* layer )
+{
+	return (size_t)plHeldPlanes( layer ) * ( ( layer->in_count + 3u ) / 4u ) * 64u;
+}
+
+void plQuantiseInt8_Avx512Vnni( void* held, const float* const* x, uint32_t batch_count, const plLayer* layer )
+{
+	_Alignas( 64 ) int16_t q16[PLEAT_MAX_INT8_COLUMNS];
+	int8_t* q8 = (int8_t*)q16;
+	uint32_t in = layer->in_count, lines = ( in + 3u ) / 4u, groups = ( batch_count + 15u ) / 16u;
+	int first = layer->int8_input == PLEAT_INT8_INPUT_FIRST;
+	int32_t bias = plHeldBias( layer->int8_input ) + plInt8InputHeldOffset( layer->int8_input );
+	memset( held, 0, groups * plGroupBytes( layer ) );
+	for ( uint32_t b = 0; b < batch_count; ++b )
 	{
-		__m256i h[PLEAT_VNNI_INSTANCES];
-		for ( int i = 0; i < PLEAT_VNNI_INSTANCES; ++i )
+		uint8_t* group = (uint8_t*)held + ( b / 16u ) * plGroupBytes( layer );
+		uint32_t lane = b % 16u;
+		plQuantiseHeld_Avx2( q16, x[b], in, layer );
+		for ( uint32_t c = 0; c < in; ++c )
 		{
-			h[i] = _mm256_add_epi32( _mm512_castsi512_si256( a[k][i] ), _mm512_extracti64x4_epi64( a[k][i], 1 ) );
+			int32_t v = ( first ? q16[c] : q8[c] ) + bias; // q + bias, from the single kernel's held value
+			size_t at = (size_t)( c / 4u ) * 64u + lane * 4u + c % 4u;
+			group[at] = (uint8_t)( v & 0xFF );
+			if ( first )
+			{
+				group[(size_t)lines * 64u + at] = (uint8_t)( v >> 8 );
+			}
 		}
-		__m256i t = _mm256_hadd_epi32( _mm256_hadd_epi32( h[0], h[1] ), _mm256_hadd_epi32( h[2], h[3] ) );
-		_mm_storeu_si128( (__m128i*)acc[k],
-						  _mm_add_epi32( _mm256_castsi256_si128( t ), _mm256_extracti128_si256( t, 1 ) ) );
 	}
 }
 
-// Rows rows[0..3] against instances q[0..3] (repeats of the last where fewer), held bytes; `hidden`: unsigned q.
-__attribute__( ( target( "avx512f,avx512bw,avx512vl,avx512vnni" ) ) ) static void
-plDotBlockBytes( const int8_t* const rows[PLEAT_VNNI_ROWS], const int8_t* const q[PLEAT_VNNI_INSTANCES], uint32_t columns,
-				 int hidden, int32_t acc[PLEAT_VNNI_ROWS][PLEAT_VNNI_INSTANCES] )
+// Row r's weight dword of line k: its columns 4k..4k+3 of the window, the ones past `columns` zero (never read).
+static inline int32_t plWeightDword( const int8_t* row, uint32_t k, uint32_t columns )
 {
-	__m512i a[PLEAT_VNNI_ROWS][PLEAT_VNNI_INSTANCES];
-	for ( int k = 0; k < PLEAT_VNNI_ROWS; ++k )
+	int32_t word = 0;
+	uint32_t c = 4u * k, n = columns - c < 4u ? columns - c : 4u;
+	memcpy( &word, row + c, n );
+	return word;
+}
+
+__attribute__( ( target( "avx512f,avx512bw,avx512vl,avx512vnni" ) ) ) void
+plMatMatInt8_Avx512Vnni( float* const* out, const void* held, uint32_t batch_count, const plLayer* layer,
+						 const int8_t* weight, uint32_t stride, uint32_t col_begin, uint32_t columns, uint32_t row_begin,
+						 uint32_t row_end )
+{
+	uint32_t lines = ( columns + 3u ) / 4u, full = columns / 4u, groups = ( batch_count + 15u ) / 16u;
+	uint32_t all_lines = ( layer->in_count + 3u ) / 4u;
+	int first = layer->int8_input == PLEAT_INT8_INPUT_FIRST;
+	int32_t bias = plHeldBias( layer->int8_input );
+	float scale_in = layer->input_scale[0];
+	for ( uint32_t g = 0; g < groups; ++g )
 	{
-		for ( int i = 0; i < PLEAT_VNNI_INSTANCES; ++i )
+		const uint8_t* lo = (const uint8_t*)held + g * plGroupBytes( layer ) + (size_t)( col_begin / 4u ) * 64u;
+		const uint8_t* hi = lo + (size_t)all_lines * 64u;
+		uint32_t lanes = batch_count - 16u * g < 16u ? batch_count - 16u * g : 16u;
+		for ( uint32_t r0 = row_begin; r0 < row_end; r0 += PLEAT_VNNI_ROWS )
 		{
-			a[k][i] = _mm512_setzero_si512();
-		}
-	}
-	const __m512i flip = _mm512_set1_epi8( (char)0x80 ), zero = _mm512_setzero_si512();
-	for ( uint32_t c = 0; c < columns; c += 64 )
-	{
-		__mmask64 in = columns - c >= 64 ? ~(__mmask64)0 : ( (__mmask64)1 << ( columns - c ) ) - 1;
-		__m512i w[PLEAT_VNNI_ROWS];
-		for ( int k = 0; k < PLEAT_VNNI_ROWS; ++k )
-		{
-			w[k] = _mm512_maskz_loadu_epi8( in, rows[k] + c );
-		}
-		for ( int i = 0; i < PLEAT_VNNI_INSTANCES; ++i )
-		{
-			__m512i qc = _mm512_maskz_loadu_epi8( in, q[i] + c );
-			if ( hidden )
+			const int8_t* rows[PLEAT_VNNI_ROWS];
+			for ( uint32_t j = 0; j < PLEAT_VNNI_ROWS; ++j )
 			{
-				// q − 128 back to q, unsigned (a masked-off column becomes 128 against a weight of 0)
-				__m512i u = _mm512_xor_si512( qc, flip );
-				for ( int k = 0; k < PLEAT_VNNI_ROWS; ++k )
+				uint32_t r = r0 + j < row_end ? r0 + j : row_end - 1; // past the end: the last row again
+				rows[j] = weight + (size_t)r * stride;
+			}
+			__m512i a[PLEAT_VNNI_ROWS], h[PLEAT_VNNI_ROWS];
+			for ( uint32_t j = 0; j < PLEAT_VNNI_ROWS; ++j )
+			{
+				a[j] = _mm512_setzero_si512();
+				h[j] = _mm512_setzero_si512();
+			}
+			for ( uint32_t k = 0; k < lines; ++k )
+			{
+				__m512i v = _mm512_loadu_si512( (const void*)( lo + (size_t)k * 64u ) );
+				__m512i w[PLEAT_VNNI_ROWS];
+				for ( uint32_t j = 0; j < PLEAT_VNNI_ROWS; ++j )
 				{
-					a[k][i] = _mm512_dpbusd_epi32( a[k][i], u, w[k] );
+					int32_t word;
+					if ( k < full )
+					{
+						memcpy( &word, rows[j] + 4u * k, 4 );
+					}
+					else
+					{
+						word = plWeightDword( rows[j], k, columns );
+					}
+					w[j] = _mm512_set1_epi32( word );
+					a[j] = _mm512_dpbusd_epi32( a[j], v, w[j] );
+				}
+				if ( first )
+				{
+					__m512i vh = _mm512_loadu_si512( (const void*)( hi + (size_t)k * 64u ) );
+					for ( uint32_t j = 0; j < PLEAT_VNNI_ROWS; ++j )
+					{
+						h[j] = _mm512_dpbusd_epi32( h[j], vh, w[j] );
+					}
 				}
 			}
-			else
+			for ( uint32_t j = 0; j < PLEAT_VNNI_ROWS && r0 + j < row_end; ++j )
 			{
-				__mmask64 negative = _mm512_movepi8_mask( qc );
-				__m512i magnitude = _mm512_abs_epi8( qc );
-				for ( int k = 0; k < PLEAT_VNNI_ROWS; ++k )
+				uint32_t r = r0 + j;
+				__m512i sum = first ? _mm512_add_epi32( _mm512_slli_epi32( h[j], 8 ), a[j] ) : a[j];
+				sum = _mm512_sub_epi32( sum, _mm512_set1_epi32( (int32_t)( (uint32_t)bias * (uint32_t)layer->weight_sums[r] ) ) );
+				// plDequantise in lanes: a product, then a sum, each rounded (never fused)
+				float scale = layer->weight_scale[r] * scale_in;
+				__m512 product = _mm512_mul_ps( _mm512_cvtepi32_ps( sum ), _mm512_set1_ps( scale ) );
+				_Alignas( 64 ) float y[16];
+				_mm512_store_ps( y, _mm512_add_ps( product, _mm512_set1_ps( layer->bias[r] ) ) );
+				for ( uint32_t i = 0; i < lanes; ++i )
 				{
-					a[k][i] = _mm512_dpbusd_epi32( a[k][i], magnitude, _mm512_mask_sub_epi8( w[k], negative, zero, w[k] ) );
-				}
-			}
-		}
-	}
-	plReduce4x4( a, acc );
-}
-
-// The same for int16 (FIRST) inputs: 32 columns a step, the weights widened once per step.
-__attribute__( ( target( "avx512f,avx512bw,avx512vl,avx512vnni" ) ) ) static void
-plDotBlockWords( const int8_t* const rows[PLEAT_VNNI_ROWS], const int16_t* const q[PLEAT_VNNI_INSTANCES], uint32_t columns,
-				 int32_t acc[PLEAT_VNNI_ROWS][PLEAT_VNNI_INSTANCES] )
-{
-	__m512i a[PLEAT_VNNI_ROWS][PLEAT_VNNI_INSTANCES];
-	for ( int k = 0; k < PLEAT_VNNI_ROWS; ++k )
-	{
-		for ( int i = 0; i < PLEAT_VNNI_INSTANCES; ++i )
-		{
-			a[k][i] = _mm512_setzero_si512();
-		}
-	}
-	for ( uint32_t c = 0; c < columns; c += 32 )
-	{
-		__mmask32 in = columns - c >= 32 ? ~(__mmask32)0 : ( (__mmask32)1 << ( columns - c ) ) - 1;
-		__m512i w[PLEAT_VNNI_ROWS];
-		for ( int k = 0; k < PLEAT_VNNI_ROWS; ++k )
-		{
-			w[k] = _mm512_cvtepi8_epi16( _mm256_maskz_loadu_epi8( in, rows[k] + c ) );
-		}
-		for ( int i = 0; i < PLEAT_VNNI_INSTANCES; ++i )
-		{
-			__m512i qc = _mm512_maskz_loadu_epi16( in, q[i] + c );
-			for ( int k = 0; k < PLEAT_VNNI_ROWS; ++k )
-			{
-				a[k][i] = _mm512_dpwssd_epi32( a[k][i], qc, w[k] );
-			}
-		}
-	}
-	plReduce4x4( a, acc );
-}
-
-void plMatMatInt8_Avx512Vnni( float* const* out, const void* const* held, uint32_t batch_count, const plLayer* layer,
-							  const int8_t* weight, uint32_t stride, uint32_t columns, uint32_t row_begin,
-							  uint32_t row_end )
-{
-	int wide = layer->int8_input == PLEAT_INT8_INPUT_FIRST, hidden = layer->int8_input == PLEAT_INT8_INPUT_HIDDEN;
-	for ( uint32_t r0 = row_begin; r0 < row_end; r0 += PLEAT_VNNI_ROWS )
-	{
-		uint32_t rows[PLEAT_VNNI_ROWS];
-		const int8_t* w[PLEAT_VNNI_ROWS];
-		for ( uint32_t k = 0; k < PLEAT_VNNI_ROWS; ++k )
-		{
-			rows[k] = r0 + k < row_end ? r0 + k : row_end - 1; // past the end: the last row again
-			w[k] = weight + (size_t)rows[k] * stride;
-		}
-		for ( uint32_t b0 = 0; b0 < batch_count; b0 += PLEAT_VNNI_INSTANCES )
-		{
-			uint32_t inst[PLEAT_VNNI_INSTANCES];
-			const void* q[PLEAT_VNNI_INSTANCES];
-			for ( uint32_t i = 0; i < PLEAT_VNNI_INSTANCES; ++i )
-			{
-				inst[i] = b0 + i < batch_count ? b0 + i : batch_count - 1;
-				q[i] = held[inst[i]];
-			}
-			int32_t acc[PLEAT_VNNI_ROWS][PLEAT_VNNI_INSTANCES];
-			if ( wide )
-			{
-				plDotBlockWords( w, (const int16_t* const*)q, columns, acc );
-			}
-			else
-			{
-				plDotBlockBytes( w, (const int8_t* const*)q, columns, hidden, acc );
-			}
-			for ( uint32_t k = 0; k < PLEAT_VNNI_ROWS && r0 + k < row_end; ++k )
-			{
-				// a SYMMETRIC or FIRST sum is complete; a HIDDEN one was taken unsigned, so its offset is in it
-				for ( uint32_t i = 0; i < PLEAT_VNNI_INSTANCES && b0 + i < batch_count; ++i )
-				{
-					uint32_t r = rows[k];
-					out[inst[i]][r] = plDequantise( acc[k][i], layer->weight_scale[r], layer->input_scale[0],
-													layer->bias[r] );
+					out[16u * g + i][r] = y[i];
 				}
 			}
 		}
