@@ -34,6 +34,74 @@ static uint32_t plRandU32( void )
 	return s_rng >> 8;
 }
 
+// A random int8 layer for the kernel tests: weights mostly at the extremes ±127, where a saturating scheme would
+// fail, and zeros (block layers); row scales and biases; input scale 2 (so with inv 0.5, x = 2k + 1 lands on a tie).
+typedef struct plRandomInt8Layer
+{
+	plLayer layer;
+	int8_t* w;
+	float *scale, *bias;
+	int32_t *offsets, *sums;
+	float input_scale;
+} plRandomInt8Layer;
+
+static void plMakeRandomInt8Layer( plRandomInt8Layer* t, uint32_t in, uint32_t out, uint32_t input )
+{
+	t->w = (int8_t*)malloc( (size_t)in * out );
+	t->scale = (float*)malloc( out * sizeof( float ) );
+	t->bias = (float*)malloc( out * sizeof( float ) );
+	t->offsets = (int32_t*)malloc( out * sizeof( int32_t ) );
+	t->sums = (int32_t*)malloc( out * sizeof( int32_t ) );
+	for ( size_t i = 0; i < (size_t)in * out; ++i )
+	{
+		uint32_t r = plRandU32() % 8;
+		t->w[i] = (int8_t)( r == 0 ? 127 : r == 1 ? -127 : r == 2 ? 0 : (int)( plRandU32() % 255 ) - 127 );
+	}
+	for ( uint32_t r = 0; r < out; ++r )
+	{
+		t->scale[r] = 1e-3f * (float)( 1 + plRandU32() % 1000 );
+		t->bias[r] = (float)( plRandU32() % 1000 ) / 500.0f - 1.0f;
+	}
+	t->input_scale = 2.0f;
+	memset( &t->layer, 0, sizeof( t->layer ) );
+	t->layer.weight = t->w;
+	t->layer.weight_int8 = 1;
+	t->layer.weight_scale = t->scale;
+	t->layer.input_scale = &t->input_scale;
+	t->layer.input_inv_scale = 0.5f;
+	t->layer.bias = t->bias;
+	t->layer.in_count = in;
+	t->layer.out_count = out;
+	t->layer.int8_input = input;
+	t->layer.weight_sums = t->sums;
+}
+
+// The row sums over a window [cb, ce), as the load derives them for a block layer's: weight_sums, and a HIDDEN
+// layer's input offsets (128 · Σ w).
+static void plSetWindowSums( plRandomInt8Layer* t, uint32_t cb, uint32_t ce )
+{
+	for ( uint32_t r = 0; r < t->layer.out_count; ++r )
+	{
+		int32_t sum = 0;
+		for ( uint32_t c = cb; c < ce; ++c )
+		{
+			sum += t->w[(size_t)r * t->layer.in_count + c];
+		}
+		t->sums[r] = sum;
+		t->offsets[r] = 128 * sum;
+	}
+	t->layer.input_offsets = t->layer.int8_input == PLEAT_INT8_INPUT_HIDDEN ? t->offsets : NULL;
+}
+
+static void plFreeRandomInt8Layer( plRandomInt8Layer* t )
+{
+	free( t->w );
+	free( t->scale );
+	free( t->bias );
+	free( t->offsets );
+	free( t->sums );
+}
+
 // The specification written out once more, with the input's true quantised value (q, not the held q − 128) and a
 // 64-bit sum: what every kernel must give, offsets and all.
 static float plExpectedRow( const float* x, const plLayer* l, const int8_t* w, uint32_t cb, uint32_t ce, uint32_t r )
@@ -74,19 +142,12 @@ static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 			for ( size_t ri = 0; ri < sizeof( rows ) / sizeof( rows[0] ); ++ri )
 			{
 				uint32_t in = columns[ci], out = rows[ri];
-				int8_t* w = (int8_t*)malloc( (size_t)in * out );
+				plRandomInt8Layer t;
+				plMakeRandomInt8Layer( &t, in, out, inputs[ki] );
+				const int8_t* w = t.w;
 				float* x = (float*)malloc( in * sizeof( float ) );
-				float* scale = (float*)malloc( out * sizeof( float ) );
-				float* bias = (float*)malloc( out * sizeof( float ) );
-				int32_t* offsets = (int32_t*)malloc( out * sizeof( int32_t ) );
 				float* expect = (float*)malloc( out * sizeof( float ) );
 				float* got = (float*)malloc( out * sizeof( float ) );
-				for ( size_t i = 0; i < (size_t)in * out; ++i )
-				{
-					// mostly the extremes ±127, where a saturating scheme would fail, and zeros (block layers)
-					uint32_t r = plRandU32() % 8;
-					w[i] = (int8_t)( r == 0 ? 127 : r == 1 ? -127 : r == 2 ? 0 : (int)( plRandU32() % 255 ) - 127 );
-				}
 				// inv_scale 0.5: x = 2k + 1 lands on k + 0.5 exactly (the ties to even); past every bound the
 				// clamp (±254, 0..510, ±4094); and the values that are not numbers (a NaN quantises to the low bound)
 				for ( uint32_t c = 0; c < in; ++c )
@@ -98,23 +159,7 @@ static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 						   : r == 3 ? (float)( 2 * (int)( plRandU32() % 255 ) + 1 )
 									: ( (float)( plRandU32() % 100000 ) / 50000.0f - 1.0f ) * 300.0f;
 				}
-				for ( uint32_t r = 0; r < out; ++r )
-				{
-					scale[r] = 1e-3f * (float)( 1 + plRandU32() % 1000 );
-					bias[r] = (float)( plRandU32() % 1000 ) / 500.0f - 1.0f;
-				}
-				float input_scale = 2.0f;
-				plLayer layer;
-				memset( &layer, 0, sizeof( layer ) );
-				layer.weight = w;
-				layer.weight_int8 = 1;
-				layer.weight_scale = scale;
-				layer.input_scale = &input_scale;
-				layer.input_inv_scale = 0.5f;
-				layer.bias = bias;
-				layer.in_count = in;
-				layer.out_count = out;
-				layer.int8_input = inputs[ki];
+				const plLayer* layer = &t.layer;
 				// whole rows, then a window [16, in) where it exists (a block layer's), then a row range inside
 				uint32_t windows[3][4] = { { 0, in, 0, out },
 										   { in > 16 ? 16u : 0u, in, 0, out },
@@ -126,21 +171,12 @@ static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 					{
 						continue;
 					}
-					for ( uint32_t r = 0; r < out; ++r ) // the window's 128 · Σ w, as the load derives for a block
-					{
-						int32_t sum = 0;
-						for ( uint32_t c = cb; c < ce; ++c )
-						{
-							sum += w[(size_t)r * in + c];
-						}
-						offsets[r] = 128 * sum;
-					}
-					layer.input_offsets = inputs[ki] == PLEAT_INT8_INPUT_HIDDEN ? offsets : NULL;
+					plSetWindowSums( &t, cb, ce );
 					memset( expect, 0, out * sizeof( float ) );
-					kernels[0]( expect, x, &layer, w, in, cb, ce, rb, re );
+					kernels[0]( expect, x, layer, w, in, cb, ce, rb, re );
 					for ( uint32_t r = rb; r < re; ++r )
 					{
-						float spec = plExpectedRow( x, &layer, w, cb, ce, r );
+						float spec = plExpectedRow( x, layer, w, cb, ce, r );
 						if ( memcmp( &spec, &expect[r], sizeof( float ) ) != 0 )
 						{
 							fail_msg( "scalar differs from the specification: input %u, %u columns, row %u",
@@ -150,7 +186,7 @@ static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 					for ( uint32_t v = 1; v < count; ++v )
 					{
 						memset( got, 0, out * sizeof( float ) );
-						kernels[v]( got, x, &layer, w, in, cb, ce, rb, re );
+						kernels[v]( got, x, layer, w, in, cb, ce, rb, re );
 						if ( memcmp( got, expect, out * sizeof( float ) ) != 0 )
 						{
 							fail_msg( "%s differs from scalar: input %u, %u columns [%u, %u), rows [%u, %u)", names[v],
@@ -158,11 +194,8 @@ static void test_every_int8_kernel_gives_the_scalar_bits( void** state )
 						}
 					}
 				}
-				free( w );
+				plFreeRandomInt8Layer( &t );
 				free( x );
-				free( scale );
-				free( bias );
-				free( offsets );
 				free( expect );
 				free( got );
 			}
@@ -189,18 +222,13 @@ static void test_batched_int8_kernels_give_the_single_bits( void** state )
 			for ( size_t ri = 0; ri < sizeof( rows ) / sizeof( rows[0] ); ++ri )
 			{
 				uint32_t in = columns[ci], out = rows[ri];
-				int8_t* w = (int8_t*)malloc( (size_t)in * out );
+				plRandomInt8Layer t;
+				plMakeRandomInt8Layer( &t, in, out, inputs[ki] );
+				const int8_t* w = t.w;
+				const plLayer* layer = &t.layer;
 				float* x = (float*)malloc( (size_t)B * in * sizeof( float ) );
-				float *scale = (float*)malloc( out * sizeof( float ) ), *bias = (float*)malloc( out * sizeof( float ) );
-				int32_t* offsets = (int32_t*)malloc( out * sizeof( int32_t ) );
-				int32_t* sums = (int32_t*)malloc( out * sizeof( int32_t ) );
 				float* expect = (float*)malloc( (size_t)B * out * sizeof( float ) );
 				float* got = (float*)malloc( (size_t)B * out * sizeof( float ) );
-				for ( size_t i = 0; i < (size_t)in * out; ++i )
-				{
-					uint32_t r = plRandU32() % 8;
-					w[i] = (int8_t)( r == 0 ? 127 : r == 1 ? -127 : r == 2 ? 0 : (int)( plRandU32() % 255 ) - 127 );
-				}
 				for ( size_t c = 0; c < (size_t)B * in; ++c )
 				{
 					uint32_t r = plRandU32() % 16;
@@ -208,24 +236,6 @@ static void test_batched_int8_kernels_give_the_single_bits( void** state )
 						   : r == 1 ? NAN
 									: ( (float)( plRandU32() % 100000 ) / 50000.0f - 1.0f ) * 600.0f;
 				}
-				for ( uint32_t r = 0; r < out; ++r )
-				{
-					scale[r] = 1e-3f * (float)( 1 + plRandU32() % 1000 );
-					bias[r] = (float)( plRandU32() % 1000 ) / 500.0f - 1.0f;
-				}
-				float input_scale = 2.0f;
-				plLayer layer;
-				memset( &layer, 0, sizeof( layer ) );
-				layer.weight = w;
-				layer.weight_int8 = 1;
-				layer.weight_scale = scale;
-				layer.input_scale = &input_scale;
-				layer.input_inv_scale = 0.5f;
-				layer.bias = bias;
-				layer.in_count = in;
-				layer.out_count = out;
-				layer.int8_input = inputs[ki];
-				layer.weight_sums = sums;
 				float* outs[B];
 				const float* xs[B];
 				for ( uint32_t b = 0; b < B; ++b )
@@ -233,25 +243,15 @@ static void test_batched_int8_kernels_give_the_single_bits( void** state )
 					outs[b] = got + (size_t)b * out;
 					xs[b] = x + (size_t)b * in;
 				}
-				void* held = aligned_alloc( 64, plInt8HeldBlockBytes( &layer, B ) );
+				void* held = aligned_alloc( 64, plInt8HeldBlockBytes( layer, B ) );
 				static const uint32_t begins[2] = { 0, 16 }; // the whole row, then a window [16, in) where there is one
 				for ( uint32_t wi = 0; wi < 2 && begins[wi] < in; ++wi )
 				{
 					uint32_t cb = begins[wi];
-					for ( uint32_t r = 0; r < out; ++r ) // the window's sums, as the load derives them for a block
-					{
-						int32_t sum = 0;
-						for ( uint32_t c = cb; c < in; ++c )
-						{
-							sum += w[(size_t)r * in + c];
-						}
-						sums[r] = sum;
-						offsets[r] = 128 * sum;
-					}
-					layer.input_offsets = inputs[ki] == PLEAT_INT8_INPUT_HIDDEN ? offsets : NULL;
+					plSetWindowSums( &t, cb, in );
 					for ( uint32_t b = 0; b < B; ++b )
 					{
-						plMatVecInt8_Scalar( expect + (size_t)b * out, xs[b], &layer, w, in, cb, in, 0, out );
+						plMatVecInt8_Scalar( expect + (size_t)b * out, xs[b], layer, w, in, cb, in, 0, out );
 					}
 					for ( int s = 0; s < 3; ++s )
 					{
@@ -261,9 +261,9 @@ static void test_batched_int8_kernels_give_the_single_bits( void** state )
 						}
 						for ( uint32_t n = 1; n <= B; n += B - 1 ) // one instance, then more than a group of 16
 						{
-							sets[s].quantise_int8( held, xs, n, &layer );
+							sets[s].quantise_int8( held, xs, n, layer );
 							memset( got, 0, (size_t)B * out * sizeof( float ) );
-							sets[s].mat_mat_int8( outs, held, n, &layer, w + cb, in, cb, in - cb, 0, out );
+							sets[s].mat_mat_int8( outs, held, n, layer, w + cb, in, cb, in - cb, 0, out );
 							if ( memcmp( got, expect, (size_t)n * out * sizeof( float ) ) != 0 )
 							{
 								fail_msg( "set %d's batched int8 kernel differs: input %u, columns [%u, %u), %u rows, "
@@ -274,12 +274,8 @@ static void test_batched_int8_kernels_give_the_single_bits( void** state )
 					}
 				}
 				free( held );
-				free( w );
+				plFreeRandomInt8Layer( &t );
 				free( x );
-				free( scale );
-				free( bias );
-				free( offsets );
-				free( sums );
 				free( expect );
 				free( got );
 			}
