@@ -41,7 +41,7 @@ typedef struct plRandomInt8Layer
 	plLayer layer;
 	int8_t* w;
 	float *scale, *bias;
-	int32_t *offsets, *sums;
+	int32_t* sums;
 	float input_scale;
 } plRandomInt8Layer;
 
@@ -50,7 +50,6 @@ static void plMakeRandomInt8Layer( plRandomInt8Layer* t, uint32_t in, uint32_t o
 	t->w = (int8_t*)malloc( (size_t)in * out );
 	t->scale = (float*)malloc( out * sizeof( float ) );
 	t->bias = (float*)malloc( out * sizeof( float ) );
-	t->offsets = (int32_t*)malloc( out * sizeof( int32_t ) );
 	t->sums = (int32_t*)malloc( out * sizeof( int32_t ) );
 	for ( size_t i = 0; i < (size_t)in * out; ++i )
 	{
@@ -76,8 +75,7 @@ static void plMakeRandomInt8Layer( plRandomInt8Layer* t, uint32_t in, uint32_t o
 	t->layer.weight_sums = t->sums;
 }
 
-// The row sums over a window [cb, ce), as the load derives them for a block layer's: weight_sums, and a HIDDEN
-// layer's input offsets (128 · Σ w).
+// The row sums over a window [cb, ce), as the load derives them for a block layer's (weight_sums).
 static void plSetWindowSums( plRandomInt8Layer* t, uint32_t cb, uint32_t ce )
 {
 	for ( uint32_t r = 0; r < t->layer.out_count; ++r )
@@ -88,9 +86,7 @@ static void plSetWindowSums( plRandomInt8Layer* t, uint32_t cb, uint32_t ce )
 			sum += t->w[(size_t)r * t->layer.in_count + c];
 		}
 		t->sums[r] = sum;
-		t->offsets[r] = 128 * sum;
 	}
-	t->layer.input_offsets = t->layer.int8_input == PLEAT_INT8_INPUT_HIDDEN ? t->offsets : NULL;
 }
 
 static void plFreeRandomInt8Layer( plRandomInt8Layer* t )
@@ -98,7 +94,6 @@ static void plFreeRandomInt8Layer( plRandomInt8Layer* t )
 	free( t->w );
 	free( t->scale );
 	free( t->bias );
-	free( t->offsets );
 	free( t->sums );
 }
 
@@ -457,7 +452,7 @@ static void plCheckInt8Case( const char* suffix, uint32_t first_input, uint32_t 
 	{
 		assert_true( a->lp[i].weight_int8 );
 		assert_int_equal( a->lp[i].int8_input, i == 0 ? first_input : hidden_input );
-		assert_true( ( a->lp[i].input_offsets != NULL ) == ( a->lp[i].int8_input == PLEAT_INT8_INPUT_HIDDEN ) );
+		assert_non_null( a->lp[i].weight_sums );
 	}
 	assert_int_equal( a->dec[0].int8_input, first_input );
 	plKernelSet sets[3] = { PLEAT_KERNEL_SET_SCALAR, PLEAT_KERNEL_SET_AVX2, PLEAT_KERNEL_SET_AVX512 };

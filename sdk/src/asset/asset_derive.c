@@ -18,10 +18,9 @@ static void* plTakeDerived( uint8_t** cursor, size_t bytes )
 	return part;
 }
 
-// An int8 layer's row sums, row r's Σ w over its block's column window, times `factor`: a HIDDEN layer's offsets
-// (kernels.h plInt8Input; factor 128, the sum its input's held q − 128 leaves out) and every int8 layer's weight_sums
-// (factor 1, for the crowd's kernels). Exact in int32 (at most 128 · 4096 · 127 < 2²⁷).
-static void plInt8RowSums( const plLayer* l, int32_t factor, int32_t* offsets )
+// An int8 layer's weight_sums: row r's Σ w over its block's column window (kernels.h plLayer), what a HIDDEN
+// input's held q − 128 and the crowd's biased inputs leave out of the sum.
+static void plInt8RowSums( const plLayer* l, int32_t* sums )
 {
 	plLayerBlock blocks[PLEAT_MAX_LAYER_BLOCKS];
 	uint32_t block_count = plLayerBlocks( l, blocks );
@@ -35,14 +34,9 @@ static void plInt8RowSums( const plLayer* l, int32_t factor, int32_t* offsets )
 			{
 				sum += weight[(size_t)r * l->in_count + c];
 			}
-			offsets[r] = factor * sum;
+			sums[r] = sum;
 		}
 	}
-}
-
-static size_t plInt8InputOffsetBytes( const plLayer* l )
-{
-	return l->weight_int8 && l->int8_input == PLEAT_INT8_INPUT_HIDDEN ? l->out_count * sizeof( int32_t ) : 0;
 }
 
 static size_t plInt8WeightSumBytes( const plLayer* l )
@@ -51,7 +45,7 @@ static size_t plInt8WeightSumBytes( const plLayer* l )
 }
 
 // What the load derives for the kernels, in one block: the single step's packed copies of the networks' block layers
-// (kernels.h plLayer.packed), the int8 layers' row sums and the HIDDEN ones' input offsets, the body's rings in lanes for the AVX2 ring normals (plRingLanes), the contact
+// (kernels.h plLayer.packed), the int8 layers' row sums, the body's rings in lanes for the AVX2 ring normals (plRingLanes), the contact
 // candidates as posed rows' offsets for the AVX2 push (plContactRowOffsets) and the garment's and body points' skin
 // indices as column-block offsets for the AVX2 skinning and posing (plSkinColumnOffsets).
 plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
@@ -69,8 +63,7 @@ plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 	for ( uint32_t i = 0; i < layer_count; ++i )
 	{
 		const plLayer* l = i < asset->lp_layer_count ? &asset->lp[i] : &asset->dec[i - asset->lp_layer_count];
-		total += plAlign64( plPackedLayerBytes( l ) ) + plAlign64( plInt8InputOffsetBytes( l ) ) +
-				 plAlign64( plInt8WeightSumBytes( l ) );
+		total += plAlign64( plPackedLayerBytes( l ) ) + plAlign64( plInt8WeightSumBytes( l ) );
 	}
 	if ( total == 0 )
 	{
@@ -91,16 +84,10 @@ plResult plDeriveKernelData( plContextData* ctx, plAssetData* asset )
 		{
 			plPackLayer( l, copy );
 		}
-		int32_t* offsets = (int32_t*)plTakeDerived( &cursor, plInt8InputOffsetBytes( l ) );
-		if ( offsets != NULL )
-		{
-			plInt8RowSums( l, 128, offsets );
-			l->input_offsets = offsets;
-		}
 		int32_t* sums = (int32_t*)plTakeDerived( &cursor, plInt8WeightSumBytes( l ) );
 		if ( sums != NULL )
 		{
-			plInt8RowSums( l, 1, sums );
+			plInt8RowSums( l, sums );
 			l->weight_sums = sums;
 		}
 	}

@@ -17,7 +17,7 @@ void plMatVecInt8_Scalar( float* out, const float* x, const plLayer* layer, cons
 	for ( uint32_t r = row_begin; r < row_end; ++r )
 	{
 		const int8_t* w = weight + (size_t)r * stride + col_begin;
-		int32_t acc = layer->input_offsets != NULL ? layer->input_offsets[r] : 0;
+		int32_t acc = plInt8RowOffset( layer, r );
 		for ( uint32_t c = 0; c < columns; ++c )
 		{
 			acc += (int32_t)w[c] * (int32_t)q[c];
@@ -65,7 +65,7 @@ void plMatMatInt8_Scalar( float* const* out, const void* held, uint32_t batch_co
 		for ( uint32_t b = 0; b < batch_count; ++b )
 		{
 			const uint8_t* mine = (const uint8_t*)held + b * plScalarHeldStride( layer );
-			int32_t acc = layer->input_offsets != NULL ? layer->input_offsets[r] : 0;
+			int32_t acc = plInt8RowOffset( layer, r );
 			for ( uint32_t c = 0; c < columns; ++c )
 			{
 				int32_t q = wide ? ( (const int16_t*)mine )[col_begin + c] : ( (const int8_t*)mine )[col_begin + c];

@@ -29,15 +29,14 @@ typedef struct plLayer
 	// int8 layers (asset flag PLEAT_FLAG_INT8, docs/asset-format.md "int8 networks"): weight is int8 in [−127, 127],
 	// weight_scale [out] each output channel's scale, input_scale [1] the scale the layer's input is quantised with
 	// (calibrated offline) and input_inv_scale = 1 / input_scale, worked out once at load (plMatVecInt8Fn);
-	// int8_input where that input is quantised to (plInt8Input) and, for PLEAT_INT8_INPUT_HIDDEN, input_offsets [out]
-	// each row's 128 · Σ w over its window (asset_derive.c).
+	// int8_input where that input is quantised to (plInt8Input) and weight_sums [out] each row's Σ w over its window
+	// (asset_derive.c), which a HIDDEN input's held q − 128 and the crowd's biased inputs leave out of the sum.
 	int weight_int8;
 	const float* weight_scale;
 	const float* input_scale;
 	float input_inv_scale;
 	uint32_t int8_input;
-	const int32_t* input_offsets;
-	const int32_t* weight_sums; // int8 layers: each row's Σ w over its window (asset_derive.c), for the crowd's kernels
+	const int32_t* weight_sums;
 	uint32_t in_count;
 	uint32_t out_count;
 	// 0: dense. Else the rows cut into blocks, each multiplied over its own column window only (layer_blocks.c finds
@@ -93,7 +92,7 @@ typedef void plMatVecFn( float* out, const float* x, const void* weight, int wei
 // int8_input_bounds). Without the asset's ranged-inputs flag every layer is SYMMETRIC. With it a network's first layer
 // (the normalised inputs, the latent: either sign) takes 12 bits, FIRST, held as int16; and each hidden layer (a ReLU
 // output, never negative) takes 0..255, HIDDEN, held as q − 128 so that the SIMD kernels' sign trick keeps working
-// (|q − 128| ≤ 128, two products ≤ 2 · 128 · 127 < 2¹⁵), the row's 128 · Σ w (input_offsets) added to the sum.
+// (|q − 128| ≤ 128, two products ≤ 2 · 128 · 127 < 2¹⁵), the row's 128 · Σ w (weight_sums) added to the sum.
 typedef enum plInt8Input
 {
 	PLEAT_INT8_INPUT_SYMMETRIC = 0, // −127..127
@@ -160,6 +159,11 @@ static inline int32_t plInt8InputHeldOffset( uint32_t input )
 {
 	return input == PLEAT_INT8_INPUT_HIDDEN ? 128 : 0;
 }
+// What the held values leave out of row r's sum: held offset · Σ w (0 unless the input is HIDDEN).
+static inline int32_t plInt8RowOffset( const plLayer* layer, uint32_t r )
+{
+	return layer->int8_input == PLEAT_INT8_INPUT_HIDDEN ? 128 * layer->weight_sums[r] : 0;
+}
 // The value the kernels hold for x in a layer with input kind `input`: q − held offset (−2047..2047 or −128..127).
 static inline int32_t plQuantiseInput( float x, float inv_scale, uint32_t input )
 {
@@ -172,7 +176,7 @@ static inline int plInt8LayerIsValid( const plLayer* l )
 	return !l->weight_int8 ||
 		   ( !l->weight_fp16 && l->weight_scale != NULL && l->input_scale != NULL &&
 			 l->in_count <= PLEAT_MAX_INT8_COLUMNS && l->int8_input <= PLEAT_INT8_INPUT_HIDDEN &&
-			 ( l->int8_input != PLEAT_INT8_INPUT_HIDDEN || l->input_offsets != NULL ) );
+			 ( l->int8_input != PLEAT_INT8_INPUT_HIDDEN || l->weight_sums != NULL ) );
 }
 // The float end of an int8 row: two roundings (a product, then a sum), never fused, as numpy computes it.
 static inline float plDequantise( int32_t acc, float weight_scale, float input_scale, float bias )

@@ -195,8 +195,7 @@ void plMatVecInt8Rows_Avx2( float* out, const float* x, const plLayer* layer, co
 		}
 		for ( uint32_t k = 0; k < 4; ++k )
 		{
-			int32_t offset = layer->input_offsets != NULL ? layer->input_offsets[rows[k]] : 0;
-			out[rows[k]] = plDequantise( acc[k] + offset, layer->weight_scale[rows[k]], layer->input_scale[0],
+			out[rows[k]] = plDequantise( acc[k] + plInt8RowOffset( layer, rows[k] ), layer->weight_scale[rows[k]], layer->input_scale[0],
 										 layer->bias[rows[k]] );
 		}
 	}
