@@ -165,14 +165,7 @@ void plMatVecInt8Rows_Avx2( float* out, const float* x, const plLayer* layer, co
 	int8_t* q = (int8_t*)held;                          // (a char type: may alias the int16 buffer)
 	uint32_t columns = col_end - col_begin, n = row_end - row_begin, blocks = ( n + 3 ) / 4;
 	int wide = layer->int8_input == PLEAT_INT8_INPUT_FIRST;
-	if ( wide )
-	{
-		plQuantiseWindowWide( held, x + col_begin, columns, layer->input_inv_scale );
-	}
-	else
-	{
-		plQuantiseWindow( q, x + col_begin, columns, layer->input_inv_scale, layer->int8_input );
-	}
+	plQuantiseHeld_Avx2( held, x + col_begin, columns, layer );
 	// Four contiguous row blocks of `blocks` rows; the fourth may be short, and its missing rows repeat its last.
 	for ( uint32_t i = 0; i < blocks; ++i )
 	{
@@ -195,8 +188,8 @@ void plMatVecInt8Rows_Avx2( float* out, const float* x, const plLayer* layer, co
 		}
 		for ( uint32_t k = 0; k < 4; ++k )
 		{
-			out[rows[k]] = plDequantise( acc[k] + plInt8RowOffset( layer, rows[k] ), layer->weight_scale[rows[k]], layer->input_scale[0],
-										 layer->bias[rows[k]] );
+			out[rows[k]] = plDequantise( acc[k] + plInt8RowOffset( layer, rows[k] ), layer->weight_scale[rows[k]],
+										 layer->input_scale[0], layer->bias[rows[k]] );
 		}
 	}
 }

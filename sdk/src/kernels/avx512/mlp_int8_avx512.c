@@ -47,9 +47,9 @@ void plMatVecInt8_Avx512Vnni( float* out, const float* x, const plLayer* layer, 
 // The held block is sixteen-instance groups; in a group, four columns of sixteen instances fill a 64-byte line
 // (instance i's four bytes at 4i), so one vpdpbusd against a weight dword broadcast to every lane adds four products
 // to each of sixteen instances' sums: each weight is read once per group, and no sum needs a horizontal reduction.
-// vpdpbusd takes its input unsigned, so each value is held biased, v = q + bias ≥ 0, and bias · Σ w comes off the sum
-// (the row's weight_sums): a HIDDEN q as it is (bias 0), a SYMMETRIC one + 128, a FIRST one + 2048 split into two
-// planes of bytes, v = 256 · hi + lo, summed apart and joined as 256 · Σ w · hi + Σ w · lo. The int32 arithmetic
+// vpdpbusd takes its input unsigned, so each value is held biased, v = q + bias ≥ 0, and bias · Σ w (the row's
+// weight_sums) comes off the sum: a HIDDEN q as it is (bias 0), a SYMMETRIC one + 128, a FIRST one + 2048 split into
+// two planes of bytes, v = 256 · hi + lo, summed apart and joined as 256 · Σ w · hi + Σ w · lo. The int32 arithmetic
 // wraps on the way but the true sum fits (plMatVecInt8Fn), so it is exact. Lanes past the batch hold zeros.
 
 #define PLEAT_VNNI_ROWS 8
