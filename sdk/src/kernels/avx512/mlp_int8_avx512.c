@@ -72,25 +72,40 @@ static size_t plGroupBytes( const plLayer* layer )
 
 void plQuantiseInt8_Avx512Vnni( void* held, const float* const* x, uint32_t batch_count, const plLayer* layer )
 {
-	_Alignas( 64 ) int16_t q16[PLEAT_MAX_INT8_COLUMNS];
-	int8_t* q8 = (int8_t*)q16;
+	_Alignas( 64 ) int16_t q16[PLEAT_MAX_INT8_COLUMNS + 4];
+	_Alignas( 64 ) uint8_t planes[2][PLEAT_MAX_INT8_COLUMNS + 4];
 	uint32_t in = layer->in_count, lines = ( in + 3u ) / 4u, groups = ( batch_count + 15u ) / 16u;
 	int first = layer->int8_input == PLEAT_INT8_INPUT_FIRST;
-	int32_t bias = plHeldBias( layer->int8_input ) + plInt8InputHeldOffset( layer->int8_input );
 	memset( held, 0, groups * plGroupBytes( layer ) );
+	memset( planes, 0, sizeof( planes ) ); // the columns past `in` up to a whole line: 0 (their weights are 0 too)
 	for ( uint32_t b = 0; b < batch_count; ++b )
 	{
-		uint8_t* group = (uint8_t*)held + ( b / 16u ) * plGroupBytes( layer );
-		uint32_t lane = b % 16u;
-		plQuantiseHeld_Avx2( q16, x[b], in, layer );
-		for ( uint32_t c = 0; c < in; ++c )
+		uint8_t* group = (uint8_t*)held + ( b / 16u ) * plGroupBytes( layer ) + ( b % 16u ) * 4u;
+		if ( first )
 		{
-			int32_t v = ( first ? q16[c] : q8[c] ) + bias; // q + bias, from the single kernel's held value
-			size_t at = (size_t)( c / 4u ) * 64u + lane * 4u + c % 4u;
-			group[at] = (uint8_t)( v & 0xFF );
-			if ( first )
+			// q + 2048 in 1..4095, as two bytes
+			plQuantiseHeld_Avx2( q16, x[b], in, layer );
+			for ( uint32_t c = 0; c < in; ++c )
 			{
-				group[(size_t)lines * 64u + at] = (uint8_t)( v >> 8 );
+				uint32_t v = (uint32_t)( q16[c] + plHeldBias( PLEAT_INT8_INPUT_FIRST ) );
+				planes[0][c] = (uint8_t)( v & 0xFFu );
+				planes[1][c] = (uint8_t)( v >> 8 );
+			}
+		}
+		else
+		{
+			// the held byte (q − 128 for a HIDDEN input, q for a SYMMETRIC one) plus 128 is its top bit flipped
+			plQuantiseHeld_Avx2( planes[0], x[b], in, layer );
+			for ( uint32_t c = 0; c < in; ++c )
+			{
+				planes[0][c] ^= 0x80u;
+			}
+		}
+		for ( uint32_t p = 0; p < plHeldPlanes( layer ); ++p )
+		{
+			for ( uint32_t k = 0; k < lines; ++k ) // four columns of this instance into its lane of line k
+			{
+				memcpy( group + ( (size_t)p * lines + k ) * 64u, planes[p] + 4u * k, 4 );
 			}
 		}
 	}
