@@ -704,8 +704,13 @@ static void plRunBodyContactBatch( plTestFixture* fixture, int with_rings )
 		{
 			plTestMotion_Frame( mesh, frame + 5u * (uint32_t)k, weights[k], matrices[k] );
 			memset( positions[k], 0xff, sizeof( float ) * values );
-			members[k] = ( plGlBatchMember ){ deformers[k], mesh->shaped_template, bodies[k]->points, weights[k],
-											  matrices[k], positions[k], normals[k] };
+			members[k] = ( plGlBatchMember ){ .deformer = deformers[k],
+											  .shaped_template = mesh->shaped_template,
+											  .body_anchors = bodies[k]->points,
+											  .blend_weights = weights[k],
+											  .skin_matrices = matrices[k],
+											  .positions = positions[k],
+											  .normals = normals[k] };
 		}
 		uint64_t before = atomic_load( &g_plGlDispatches );
 		assert_int_equal( plGlDeformer_RunBatch( deformers[0], members, members_count ), PLEAT_RESULT_OK );

@@ -613,6 +613,8 @@ typedef enum plMlpBackend
 {
 	PLEAT_MLP_BACKEND_PLEAT = 0,       ///< the SDK's own CPU kernels (default)
 	PLEAT_MLP_BACKEND_ONNXRUNTIME = 1, ///< ONNX Runtime (loaded at run time), needs the asset's OXLP/OXDC sections
+	PLEAT_MLP_BACKEND_GPU = 2,         ///< GLSL compute beside the deformation: needs a GPU mode (else INVALID_DEF) and
+	                                   ///< fp32 or fp16 networks (int8: BACKEND_UNAVAILABLE); see GPU NETWORKS
 } plMlpBackend;
 
 /// Where blend shapes, skinning and normals run.

@@ -1,11 +1,13 @@
 // Internal contract between the instance (sdk/src/instance/instance.c) and the GL compute path (sdk/src/backends/gl/).
 // The instance runs the MLPs on the CPU (or ONNX Runtime) and hands the GL deformer the D blend weights and the J
-// skinning matrices; the deformer runs blend_shapes.comp, skinning.comp, face_normals.comp and normals_gather.comp
+// skinning matrices, or, on the GPU backend (PLEAT_MLP_BACKEND_GPU), hands a batch the normalised X_c and the deformer
+// runs f_LP, the latent guard and f_dec too (mlp_layer.comp, latent_guard.comp; gl_networks.c); the deformer runs blend_shapes.comp, skinning.comp, face_normals.comp and normals_gather.comp
 // (shaders/), the same jobs as blend_shapes.c, skinning.c and normals.c (plFaceNormalsJob, plNormalsGatherJob). Built only with PLEAT_GL; otherwise gl_deformer_stub.c returns
 // PLEAT_RESULT_GL_UNAVAILABLE from Create.
 #ifndef PLEAT_GL_DEFORMER_H
 #define PLEAT_GL_DEFORMER_H
 #include "core/allocator.h"
+#include "kernels/kernels.h"
 #include "pleat/pleat.h"
 #include <stdint.h>
 
@@ -20,6 +22,22 @@ typedef enum plGlDeformerMode
 	// OSMesa) and makes it current only inside its own calls, restoring the previously current EGL context afterwards.
 	PLEAT_GL_DEFORMER_HEADLESS = 2,
 } plGlDeformerMode;
+
+// The two networks, for a deformer that runs them (PLEAT_MLP_BACKEND_GPU). fp32 or fp16 layers (int8 layers are the
+// CPU's: Create refuses them); the asset's layers, read once at Create.
+typedef struct plGlNetworksDesc
+{
+	const plLayer* lp;          // [lp_layer_count] f_LP: X_c (normalised) → y
+	uint32_t lp_layer_count;
+	uint32_t lp_activation;     // PLEAT_ACTIVATION_RELU or _SILU, on every layer but the last
+	const plLayer* dec;         // [dec_layer_count] f_dec: Z → w ([D])
+	uint32_t dec_layer_count;
+	uint32_t dec_activation;
+	const float* z_mean;        // [L] the latent guard (latent_guard.c)
+	const float* z_std;
+	const float* z_min;
+	const float* z_max;
+} plGlNetworksDesc;
 
 typedef struct plGlDeformerDesc
 {
@@ -53,6 +71,8 @@ typedef struct plGlDeformerDesc
 	// from; the deformer writes one vec4 per vertex (xyz, w = 1 for positions, 0 for normals).
 	uint32_t host_position_buffer;
 	uint32_t host_normal_buffer;
+	// Optional (NULL = the networks run on the CPU): the networks, which batches then run on the GPU.
+	const plGlNetworksDesc* networks;
 	// Headless mode only, optional (NULL = no report): Create writes here, NUL-terminated, which platform, device and
 	// renderer the headless context got (or why every route failed), for the instance to log.
 	char* report;
@@ -87,9 +107,19 @@ typedef struct plGlBatchMember
 	const float* skin_matrices;   // [J][3][4]
 	float* positions;             // optional [N][3] read-back (NULL = none), as plGlDeformer_Run
 	float* normals;               // optional [N][3] read-back
+	// Deformers made with networks only: the member's normalised X_c ([input count]) when its networks run this step
+	// (NULL: they do not, and blend_weights are its held weights). The batch then runs f_LP → guard → f_dec on the
+	// GPU, blends with the w it got, and reads back Z_t+1, w and whether y was all finite (the CPU's checks and commit
+	// need them; one small read-back per batch).
+	const float* network_input;
+	float* latent_out;            // [L] Z_t+1 (network members; required with network_input)
+	float* weights_out;           // [D] w (network members; required with network_input; may be blend_weights)
+	int* latent_finite_out;       // f_LP's y was all finite (else the member takes the numeric reset)
 } plGlBatchMember;
 
-// Non-zero if member's instance can run in a batch that lead runs: the same mode and mesh sizes. (Host-context
+// Non-zero if the deformer was made with networks (they run in batches: plGlDeformer_RunBatch).
+int plGlDeformer_HasNetworks( const plGlDeformer* deformer );
+// Non-zero if member's instance can run in a batch that lead runs: the same mode, mesh and network sizes. (Host-context
 // deformers must also live in the context current for the call, as for Run.)
 int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member );
 // Runs count members (1..PLEAT_GL_BATCH_MAX) as plGlDeformer_Run runs each of them, with one dispatch per shader for

@@ -46,6 +46,12 @@ void plGlDeformer_Destroy( plGlDeformer* deformer )
 
 _Atomic uint64_t g_plGlDispatches;
 
+int plGlDeformer_HasNetworks( const plGlDeformer* deformer )
+{
+	(void)deformer;
+	return 0;
+}
+
 int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member )
 {
 	(void)lead;

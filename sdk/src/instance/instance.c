@@ -242,6 +242,9 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 			desc.body_anchor_ring = a->body_anchor_ring;
 			desc.body_anchor_ring_count = a->body_anchor_ring_count;
 		}
+		plGlNetworksDesc networks = { a->lp,     a->lp_layer_count, a->lp_activation, a->dec,  a->dec_layer_count,
+									  a->dec_activation, a->z_mean,  a->z_std,  a->z_min, a->z_max };
+		desc.networks = def->mlp_backend == PLEAT_MLP_BACKEND_GPU ? &networks : NULL;
 		desc.host_position_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_position_buffer : 0;
 		desc.host_normal_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_normal_buffer : 0;
 		// Headless: the SDK picks the platform and device itself, so it says which it got (a GPU machine silently
@@ -251,6 +254,13 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 		desc.report = report;
 		desc.report_size = sizeof( report );
 		plResult r = plGlDeformer_Create( &desc, &ctx->allocator, &inst->gl );
+		if ( r == PLEAT_RESULT_BACKEND_UNAVAILABLE )
+		{
+			inst->gl = NULL;
+			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_BACKEND_UNAVAILABLE,
+				   "the GPU backend runs fp32 and fp16 networks; this asset's are int8 (the CPU backend runs them)" );
+			return r;
+		}
 		if ( r != PLEAT_RESULT_OK )
 		{
 			inst->gl = NULL;
@@ -319,10 +329,18 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 			   "asset: null, destroyed or from another context" );
 		return PLEAT_RESULT_INVALID_HANDLE;
 	}
-	if ( def->mlp_backend != PLEAT_MLP_BACKEND_PLEAT && def->mlp_backend != PLEAT_MLP_BACKEND_ONNXRUNTIME )
+	if ( def->mlp_backend != PLEAT_MLP_BACKEND_PLEAT && def->mlp_backend != PLEAT_MLP_BACKEND_ONNXRUNTIME &&
+		 def->mlp_backend != PLEAT_MLP_BACKEND_GPU )
 	{
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "mlp_backend %d is not a plMlpBackend",
 			   (int)def->mlp_backend );
+		return PLEAT_RESULT_INVALID_DEF;
+	}
+	if ( def->mlp_backend == PLEAT_MLP_BACKEND_GPU && def->gpu_mode == PLEAT_GPU_MODE_NONE )
+	{
+		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+			   "mlp_backend PLEAT_MLP_BACKEND_GPU needs gpu_mode _HOST_CONTEXT or _HEADLESS (the networks run beside "
+			   "the deformation)" );
 		return PLEAT_RESULT_INVALID_DEF;
 	}
 	if ( def->gpu_mode != PLEAT_GPU_MODE_NONE && def->gpu_mode != PLEAT_GPU_MODE_HOST_CONTEXT &&

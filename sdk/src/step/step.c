@@ -189,9 +189,16 @@ static void plNetworksWide( plStepGroup* g )
 	}
 }
 
+// The GPU backend's groups: their networks run in the geometry stage's batch of dispatches (plGeometryGpu). A group is
+// all one backend (plGlDeformer_CanBatch compares the networks).
+static int plGpuNetworks( const plStepGroup* g )
+{
+	return g->count > 0 && plGlDeformer_HasNetworks( g->entries[0].inst->gl );
+}
+
 static void plStageNetworks( plStepGroup* g )
 {
-	if ( !g->networks )
+	if ( !g->networks || plGpuNetworks( g ) )
 	{
 		return;
 	}
@@ -329,10 +336,13 @@ static void plGeometryLanesTask( uint32_t begin, uint32_t end, uint32_t worker, 
 
 // The GPU modes: the held weights between network updates (plStageBlend), then the deformation of the group with read-
 // backs into scratch (one batch of dispatches for a wide group), then each commit. A GL error leaves the instance as
-// it was.
+// it was. On the GPU backend the batch runs the networks of the members whose networks run this step (X_c from ①),
+// then reads back Z_t+1, w and y's finite flag: the same checks as plRunNetworks's decide each member's numeric reset,
+// after which ⑤ deforms it again from the reset.
 static void plGeometryGpu( plStepGroup* g )
 {
-	if ( g->lanes == NULL )
+	int gpu_networks = g->networks && plGpuNetworks( g );
+	if ( g->lanes == NULL && !gpu_networks )
 	{
 		for ( uint32_t m = 0; m < g->member_count; ++m )
 		{
@@ -345,6 +355,7 @@ static void plGeometryGpu( plStepGroup* g )
 		return;
 	}
 	plGlBatchMember members[PLEAT_BATCH_MAX];
+	int latent_finite[PLEAT_BATCH_MAX];
 	for ( uint32_t m = 0; m < g->member_count; ++m )
 	{
 		const plStepEntry* e = &g->entries[g->members[m]];
@@ -357,13 +368,26 @@ static void plGeometryGpu( plStepGroup* g )
 		b->skin_matrices = inst->next_skin_matrices;
 		b->positions = e->read_back ? inst->deformed : NULL;
 		b->normals = e->read_back ? inst->gl_normals : NULL;
+		int runs = gpu_networks && e->update.run;
+		b->network_input = runs ? inst->x : NULL;
+		b->latent_out = runs ? inst->next_latent : NULL;
+		b->weights_out = runs ? inst->next_weights : NULL;
+		b->latent_finite_out = runs ? &latent_finite[m] : NULL;
+		latent_finite[m] = 1;
 	}
 	plResult r = plGlDeformer_RunBatch( members[0].deformer, members, g->member_count );
+	const plAssetData* a = g->asset;
 	for ( uint32_t m = 0; m < g->member_count; ++m )
 	{
 		plStepEntry* e = &g->entries[g->members[m]];
 		e->result = plLogIfNoGlContext( e->inst, r, g->function );
-		plFinishEntry( g, e, 1 );
+		int finite = 1;
+		if ( e->result == PLEAT_RESULT_OK && members[m].network_input != NULL )
+		{
+			finite = latent_finite[m] && plAllFiniteFloats( e->inst->next_weights, a->blend_count ) &&
+					 plAllFiniteFloats( e->inst->next_skin_matrices, (size_t)a->joint_count * 12 );
+		}
+		plFinishEntry( g, e, finite );
 	}
 }
 

@@ -14,7 +14,11 @@ int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member 
 		   lead->influence_count == member->influence_count && lead->joint_count == member->joint_count &&
 		   lead->anchor_influence_count == member->anchor_influence_count &&
 		   lead->point_count == member->point_count && lead->candidate_count == member->candidate_count &&
-		   lead->point_ring_count == member->point_ring_count;
+		   lead->point_ring_count == member->point_ring_count &&
+		   lead->networks.lp_count == member->networks.lp_count &&
+		   lead->networks.dec_count == member->networks.dec_count &&
+		   lead->networks.input_count == member->networks.input_count &&
+		   lead->networks.latent_count == member->networks.latent_count;
 }
 
 static GLuint plCreateBatchBuffer( const plGlApi* api, size_t bytes )
@@ -208,6 +212,9 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 		if ( !plGlDeformer_CanBatch( lead, m->deformer ) || m->shaped_template == NULL || m->blend_weights == NULL ||
 			 m->skin_matrices == NULL || ( lead->anchor_influence_count > 0 && m->body_anchors == NULL ) )
 			return PLEAT_RESULT_INVALID_ARGUMENT;
+		if ( m->network_input != NULL && ( lead->networks.lp_count == 0 || m->latent_out == NULL ||
+										   m->weights_out == NULL || m->latent_finite_out == NULL ) )
+			return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
 	plResult result = plGlBegin( lead );
 	if ( result != PLEAT_RESULT_OK )
@@ -224,10 +231,19 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 	plUploadBatchInputs( lead, members, count );
 
 	api->BindBufferBase( GL_UNIFORM_BUFFER, PLEAT_GL_PARAMS_BINDING, lead->params_buffer );
-	for ( GLuint b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
+	for ( GLuint b = 0; b < PLEAT_GL_BINDING_NETWORK_WEIGHTS; ++b )
 	{
 		GLuint buffer = lead->batch.buffers[b] != 0 ? lead->batch.buffers[b] : lead->bindings[b];
 		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, buffer );
+	}
+	// The networks of the members that run them, writing their weights into the buffer the blend reads.
+	uint32_t networks_ran = 0;
+	result = plGlNetworks_Run( lead, members, count, &networks_ran );
+	if ( result != PLEAT_RESULT_OK )
+	{
+		plGlCheckErrors( api );
+		plGlEnd( lead );
+		return result;
 	}
 	int contact = 0;
 	for ( uint32_t k = 0; k < count; ++k )
@@ -241,6 +257,8 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 		plGlRunShaders( lead, 0, 0, 0, count );
 
 	plDeliverBatchOutputs( lead, members, count );
+	if ( networks_ran > 0 )
+		plGlNetworks_ReadBack( lead, members, count );
 	result = plGlCheckErrors( api );
 	if ( result != PLEAT_RESULT_OK )
 	{

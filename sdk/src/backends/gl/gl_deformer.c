@@ -38,7 +38,7 @@ plResult plGlBegin( plGlDeformer* deformer )
 		return plGlContext_Enter( deformer->context );
 	if ( !plHostContextIsCurrent( &deformer->api ) )
 		return PLEAT_RESULT_GL_UNAVAILABLE;
-	plGlSaveState( &deformer->api, &deformer->saved );
+	plGlSaveState( &deformer->api, deformer->binding_count, &deformer->saved );
 	return PLEAT_RESULT_OK;
 }
 
@@ -47,7 +47,7 @@ void plGlEnd( plGlDeformer* deformer )
 	if ( deformer->mode == PLEAT_GL_DEFORMER_HEADLESS )
 		plGlContext_Leave( deformer->context );
 	else
-		plGlRestoreState( &deformer->api, &deformer->saved );
+		plGlRestoreState( &deformer->api, deformer->binding_count, &deformer->saved );
 }
 
 // Drains the GL error flags; GL_ERROR if any was set. (In host-context mode this also consumes an error the engine
@@ -110,6 +110,12 @@ static plResult plValidateDesc( const plGlDeformerDesc* desc )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	if ( desc->mode == PLEAT_GL_DEFORMER_HEADLESS && ( desc->host_position_buffer != 0 || desc->host_normal_buffer != 0 ) )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
+	if ( desc->networks != NULL )
+	{
+		plResult networks = plGlNetworks_Validate( desc->networks, desc->blend_count );
+		if ( networks != PLEAT_RESULT_OK )
+			return networks;
+	}
 	if ( desc->body_anchors != NULL )
 	{
 		// As plBodyContactJob_Validate: without a candidate table vertex v's point is v, so there are at least N.
@@ -381,7 +387,10 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_POINT_RINGS, 16, NULL, GL_STATIC_DRAW ); // read by nothing
 	// Read by batches only (plGlDeformer_RunBatch binds its own); a single Run binds this placeholder.
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BATCH_CONTACT, 16, NULL, GL_STATIC_DRAW );
-	return plGlCheckErrors( api );
+	result = plGlCheckErrors( api );
+	if ( result == PLEAT_RESULT_OK && desc->networks != NULL )
+		result = plGlNetworks_Create( deformer, desc->networks );
+	return result;
 }
 
 static void plDeleteGlObjects( plGlDeformer* deformer )
@@ -412,6 +421,7 @@ static void plDeleteGlObjects( plGlDeformer* deformer )
 	deformer->batch.normals_program = 0;
 	deformer->batch.contact_program = 0;
 	deformer->batch.capacity = 0;
+	plGlNetworks_Delete( deformer );
 }
 
 static void plFreeDeformer( plGlDeformer* deformer )
@@ -422,6 +432,7 @@ static void plFreeDeformer( plGlDeformer* deformer )
 	plFree( &allocator, deformer->staging, deformer->staging_bytes );
 	plFree( &allocator, deformer->batch.template_keys, deformer->batch.template_keys_bytes );
 	plFree( &allocator, deformer->batch.staging, deformer->batch.staging_bytes );
+	plGlNetworks_FreeHost( deformer );
 	plFree( &allocator, deformer, sizeof( *deformer ) );
 }
 
@@ -449,6 +460,8 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	deformer->influence_count = desc->influence_count;
 	deformer->joint_count = desc->joint_count;
 	deformer->serial = atomic_fetch_add_explicit( &s_plGlDeformerSerial, 1, memory_order_relaxed ) + 1;
+	// Without networks the deformer touches (and saves) bindings 0..19 only, as before the networks came.
+	deformer->binding_count = desc->networks != NULL ? PLEAT_GL_BINDING_COUNT : PLEAT_GL_BINDING_NETWORK_WEIGHTS;
 	int points = desc->body_anchors != NULL;
 	deformer->anchor_influence_count = points ? desc->body_anchor_influence_count : 0;
 	deformer->point_count = points ? desc->body_point_count : 0;
@@ -513,6 +526,11 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	}
 	*out = deformer;
 	return PLEAT_RESULT_OK;
+}
+
+int plGlDeformer_HasNetworks( const plGlDeformer* deformer )
+{
+	return deformer != NULL && deformer->networks.lp_count > 0;
 }
 
 plResult plGlDeformer_Create( const plGlDeformerDesc* desc, const plAllocator* allocator, plGlDeformer** out )
@@ -655,7 +673,7 @@ plResult plGlDeformer_Run( plGlDeformer* deformer, const float* blend_weights, c
 	api->BufferSubData( GL_SHADER_STORAGE_BUFFER, 0, (GLsizeiptr)deformer->joint_count * 48, skin_matrices );
 
 	api->BindBufferBase( GL_UNIFORM_BUFFER, PLEAT_GL_PARAMS_BINDING, deformer->params_buffer );
-	for ( GLuint b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
+	for ( GLuint b = 0; b < PLEAT_GL_BINDING_NETWORK_WEIGHTS; ++b )
 		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, deformer->bindings[b] );
 
 	if ( deformer->body_contact )

@@ -48,6 +48,30 @@ typedef struct plGlBatchBuffers
 	size_t staging_bytes;
 } plGlBatchBuffers;
 
+// One layer of a network on the GPU: its transposed weights, bias and NetworkLayer block.
+typedef struct plGlNetworkLayerBuffers
+{
+	GLuint weights, bias, params;
+	uint32_t in_count, out_count;
+} plGlNetworkLayerBuffers;
+
+// A deformer's networks (made with plGlDeformerDesc.networks; layer_count 0: none) and, once it has led a batch with
+// them, the batch's network buffers.
+typedef struct plGlNetworks
+{
+	uint32_t lp_count, dec_count;                               // layers of f_LP, then f_dec, in layers
+	plGlNetworkLayerBuffers layers[2 * PLEAT_MAX_LAYERS];
+	GLuint guard_params;                                        // NetworkLayer with in_count = L
+	GLuint latent_range;                                        // vec4 [L]
+	GLuint layer_program, guard_program;                        // mlp_layer.comp, latent_guard.comp
+	uint32_t input_count, latent_count, widest;                 // X_c's width, L, the widest hidden layer
+	// The batch's (lead only): X_c rows, hidden activations, y, Z, the members block and the finite flags.
+	uint32_t capacity;
+	GLuint input, ping, pong, y, z, members, finite;
+	void* staging; // [capacity] X_c rows, then slots and flags on their way
+	size_t staging_bytes;
+} plGlNetworks;
+
 struct plGlDeformer
 {
 	plAllocator allocator;
@@ -79,9 +103,26 @@ struct plGlDeformer
 	uint64_t serial;              // unique per deformer
 	uint64_t template_generation; // grows with every shaped-template upload
 	plGlBatchBuffers batch;
+	plGlNetworks networks;
+	uint32_t binding_count; // bindings the deformer uses and saves: PLEAT_GL_BINDING_NETWORK_WEIGHTS without networks
 
 	plGlSavedState saved; // host-context mode: the engine's state during one of our calls
 };
+
+// ---- gl_networks.c: f_LP → guard → f_dec for a batch (deformers made with networks) ----
+
+// Checks the networks' description against the deformer's sizes (Create, before any GL).
+plResult plGlNetworks_Validate( const plGlNetworksDesc* desc, uint32_t blend_count );
+// Compiles the two programs and uploads every layer, the guard's ranges (between plGlBegin and plGlEnd).
+plResult plGlNetworks_Create( plGlDeformer* deformer, const plGlNetworksDesc* desc );
+void plGlNetworks_Delete( plGlDeformer* deformer );
+void plGlNetworks_FreeHost( plGlDeformer* deformer );
+// Uploads the network members' X_c and runs f_LP, the guard and f_dec for them, the decoder writing each one's
+// weights into its slot of the batch's weights buffer; the barrier after it lets the blend read them. Returns the
+// number of network members (0: nothing ran). Between plGlBegin and plGlEnd, after the batch's inputs are uploaded.
+plResult plGlNetworks_Run( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count, uint32_t* out_ran );
+// Reads Z_t+1, the finite flags and w back into the network members' outputs.
+void plGlNetworks_ReadBack( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count );
 
 // One dispatch, counted in g_plGlDispatches (tests check that a batch runs one per shader).
 void plGlDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y );

@@ -19,7 +19,7 @@ typedef struct plGlSavedState
 {
 	GLint program;                                      // GL_CURRENT_PROGRAM
 	GLint storage_buffer;                               // GL_SHADER_STORAGE_BUFFER_BINDING (generic)
-	GLint storage_buffers[PLEAT_GL_BINDING_COUNT];      // indexed GL_SHADER_STORAGE_BUFFER_BINDING 0..19
+	GLint storage_buffers[PLEAT_GL_BINDING_COUNT];      // indexed GL_SHADER_STORAGE_BUFFER_BINDING 0..27
 	GLint64 storage_starts[PLEAT_GL_BINDING_COUNT];     // GL_SHADER_STORAGE_BUFFER_START
 	GLint64 storage_sizes[PLEAT_GL_BINDING_COUNT];      // GL_SHADER_STORAGE_BUFFER_SIZE
 	GLint uniform_buffer;                               // GL_UNIFORM_BUFFER_BINDING (generic)
@@ -30,7 +30,8 @@ typedef struct plGlSavedState
 	GLint copy_write_buffer;                            // GL_COPY_WRITE_BUFFER_BINDING
 } plGlSavedState;
 
-void plGlSaveState( const plGlApi* api, plGlSavedState* state );
-void plGlRestoreState( const plGlApi* api, const plGlSavedState* state );
+// The indexed storage bindings 0 .. binding_count − 1 (the deformer's: 20 without networks, 28 with), and the rest.
+void plGlSaveState( const plGlApi* api, uint32_t binding_count, plGlSavedState* state );
+void plGlRestoreState( const plGlApi* api, uint32_t binding_count, const plGlSavedState* state );
 
 #endif

@@ -7,5 +7,7 @@ extern const char plGlShaderSource_skinning[];
 extern const char plGlShaderSource_face_normals[];
 extern const char plGlShaderSource_normals_gather[];
 extern const char plGlShaderSource_body_contact[];
+extern const char plGlShaderSource_mlp_layer[];
+extern const char plGlShaderSource_latent_guard[];
 
 #endif

@@ -2,11 +2,11 @@
 // (docs/gpu.md lists it).
 #include "gl_internal.h"
 
-void plGlSaveState( const plGlApi* api, plGlSavedState* state )
+void plGlSaveState( const plGlApi* api, uint32_t binding_count, plGlSavedState* state )
 {
 	api->GetIntegerv( GL_CURRENT_PROGRAM, &state->program );
 	api->GetIntegerv( GL_SHADER_STORAGE_BUFFER_BINDING, &state->storage_buffer );
-	for ( GLuint i = 0; i < PLEAT_GL_BINDING_COUNT; ++i )
+	for ( GLuint i = 0; i < binding_count; ++i )
 	{
 		api->GetIntegeri_v( GL_SHADER_STORAGE_BUFFER_BINDING, i, &state->storage_buffers[i] );
 		api->GetInteger64i_v( GL_SHADER_STORAGE_BUFFER_START, i, &state->storage_starts[i] );
@@ -30,9 +30,9 @@ static void plRestoreIndexed( const plGlApi* api, GLenum target, GLuint index, G
 		api->BindBufferBase( target, index, (GLuint)buffer );
 }
 
-void plGlRestoreState( const plGlApi* api, const plGlSavedState* state )
+void plGlRestoreState( const plGlApi* api, uint32_t binding_count, const plGlSavedState* state )
 {
-	for ( GLuint i = 0; i < PLEAT_GL_BINDING_COUNT; ++i )
+	for ( GLuint i = 0; i < binding_count; ++i )
 		plRestoreIndexed( api, GL_SHADER_STORAGE_BUFFER, i, state->storage_buffers[i], state->storage_starts[i],
 						  state->storage_sizes[i] );
 	plRestoreIndexed( api, GL_UNIFORM_BUFFER, PLEAT_GL_PARAMS_BINDING, state->uniform_binding, state->uniform_start,

@@ -64,8 +64,40 @@ typedef enum plGlBinding
 	PLEAT_GL_BINDING_POSED_POINTS = 17,     // vec4 [P][2] (a, anchorable), (n, usable) body_contact.comp posing → push
 	PLEAT_GL_BINDING_CONTACT_CANDIDATES = 18, // uint [N][C] body point indices, >= P = empty slot (push)
 	PLEAT_GL_BINDING_POINT_RINGS = 19,      // uint [P][R] each point's ring, then indices >= P (posed normals)
-	PLEAT_GL_BINDING_COUNT = 20,
+	// The networks on the GPU (gl_networks.c; deformers made with networks only): mlp_layer.comp, latent_guard.comp.
+	PLEAT_GL_BINDING_NETWORK_WEIGHTS = 20,  // uint: one layer's W transposed, [in][out] fp32 or [in][(out+1)/2] fp16
+	PLEAT_GL_BINDING_NETWORK_BIAS = 21,     // float [out]
+	PLEAT_GL_BINDING_NETWORK_LAYER = 22,    // plGlNetworkLayer
+	PLEAT_GL_BINDING_NETWORK_INPUT = 23,    // float [members][in]: X_c, a hidden layer's input, y or Z
+	PLEAT_GL_BINDING_NETWORK_OUTPUT = 24,   // float [members][out], or the blend weights by slot
+	PLEAT_GL_BINDING_NETWORK_MEMBERS = 25,  // plGlNetworkMembers, then uint [members] slots
+	PLEAT_GL_BINDING_LATENT_RANGE = 26,     // vec4 [L] (z_mean, z_std, z_min, z_max)
+	PLEAT_GL_BINDING_NETWORK_FINITE = 27,   // uint [members]: y all finite (latent_guard.comp → read back)
+	PLEAT_GL_BINDING_COUNT = 28,
 } plGlBinding;
+
+// std430 NetworkLayer of mlp_layer.comp and latent_guard.comp: one per layer of f_LP and f_dec (and one for the guard,
+// in_count = out_count = L), written once when the deformer is made.
+typedef struct plGlNetworkLayer
+{
+	uint32_t in_count, out_count;
+	uint32_t activation;     // 0 none (a network's last layer), PLEAT_ACTIVATION_RELU or _SILU
+	uint32_t weight_fp16;
+	uint32_t output_by_slot; // 1: the decoder's last layer, which writes each member's blend weights at its slot
+	uint32_t block_count;
+	uint32_t pad0, pad1;
+	uint32_t blocks[8][4];   // plLayerBlock rows (row_begin, row_end, col_begin, col_end), PLEAT_MAX_LAYER_BLOCKS
+} plGlNetworkLayer;
+_Static_assert( sizeof( plGlNetworkLayer ) == 160, "std430 NetworkLayer is 160 bytes" );
+
+// std430 NetworkMembers head: the batch's members that run their networks this step; uint slots[member_count] follow
+// (each one's index in the batch, where its blend weights go).
+typedef struct plGlNetworkMembers
+{
+	uint32_t member_count;
+	uint32_t pad[3];
+} plGlNetworkMembers;
+_Static_assert( sizeof( plGlNetworkMembers ) == 16, "the slots start at byte 16" );
 
 // Batches (plGlDeformer_RunBatch): the buffers above marked per instance hold [instances] blocks of the size given
 // (shaped template [instances][shaped_rows], weights [instances][D], T_def, positions and normals [instances][N], skin

@@ -1,0 +1,375 @@
+// The networks on the GPU (PLEAT_MLP_BACKEND_GPU, docs/gpu.md "Networks on the GPU"): f_LP, the latent guard and
+// f_dec as GLSL compute (mlp_layer.comp, latent_guard.comp) beside the deformation. Against the CPU backend on the same
+// asset and motion, on Mesa llvmpipe:
+// - one instance, stepped alone, headless and in the engine's context (whose GL state comes back as it was, the
+//   networks' bindings 20..27 included): positions, normals and the latent within the tolerances below over 40 frames;
+//   fp32 ReLU networks with a block-diagonal hidden layer (the windows layer_blocks.c finds) and fp16 SiLU networks;
+// - a crowd through plStepInstances (different β, a network rate that holds the weights between updates): each within
+//   the same tolerances of its CPU twin, and one dispatch per layer, one for the guard and one per deformation pass for
+//   the whole crowd;
+// - an f_LP that overflows whenever the root moves along x: the GPU instance takes the numeric reset on exactly the
+//   frames the CPU instance does, and its outputs stay finite;
+// - the def: the GPU backend without a GPU mode is INVALID_DEF.
+// The sums run in another order than the CPU kernels' (column by column) and the latent feeds the next frame's input,
+// yet the deformation's tolerances hold (test_gl_instance: 2e-5 m, 1e-3 per normal component), with 1e-5 in latent
+// units (llvmpipe measures about 2e-6 m and 3e-8). Skips (exit 77) without a GL 4.3 context.
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include "asset/asset.h"
+#include "backends/gl_deformer.h"
+#include "pleat/pleat.h"
+#include "test_asset_builder.h"
+#include "test_common.h"
+#include "test_gl_support.h"
+#include <epoxy/egl.h>
+#include <epoxy/gl.h>
+#include <math.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PLEAT_TEST_FRAMES 40
+#define PLEAT_TEST_CROWD 6
+#define PLEAT_TEST_POSITION_TOLERANCE_M 2e-5
+#define PLEAT_TEST_NORMAL_TOLERANCE 1e-3
+#define PLEAT_TEST_LATENT_TOLERANCE 1e-5
+
+enum
+{
+	PLEAT_TEST_FP32_BLOCKS, // fp32, ReLU, a block-diagonal hidden layer in f_LP, body contact
+	PLEAT_TEST_FP16_SILU,   // fp16 weights and blend shapes, SiLU
+	PLEAT_TEST_OVERFLOW,    // f_LP overflows whenever the root moves along x
+	PLEAT_TEST_ASSETS
+};
+
+typedef struct plNetworksFixture
+{
+	plTestRig rigs[PLEAT_TEST_ASSETS];
+	plTestEglContext engine;
+} plNetworksFixture;
+
+static plTestAsset* plMakeModel( int which )
+{
+	plTestAssetParams p = plTestAsset_DefaultParams();
+	p.grid_x = 21;
+	p.grid_y = 17;
+	p.joint_count = 12;
+	p.input_joint_count = 9;
+	p.beta_count = 4;
+	p.latent_count = 24;
+	p.blend_count = 20;
+	p.lp_hidden[0] = 64;
+	p.lp_hidden[1] = 64;
+	p.lp_hidden[2] = 0;
+	p.dec_hidden[0] = 48;
+	p.dec_hidden[1] = 0;
+	p.weight_scale = 0.8f;
+	p.blend_scale = 0.03f;
+	p.seed = 31u + (uint32_t)which;
+	p.activation = which == PLEAT_TEST_FP32_BLOCKS ? 1u : 2u;
+	p.fp16 = which == PLEAT_TEST_FP16_SILU;
+	plTestAsset* model = plTestAsset_Create( &p );
+	assert_non_null( model );
+	if ( which == PLEAT_TEST_FP32_BLOCKS )
+	{
+		// f_LP's second layer block-diagonal (two 32 × 32 blocks): the loader finds the windows, the GPU skips the rest.
+		plTestLayer* l = &model->lp[1];
+		for ( uint32_t r = 0; r < l->out_count; ++r )
+		{
+			for ( uint32_t c = 0; c < l->in_count; ++c )
+			{
+				if ( ( r < 32 ) != ( c < 32 ) )
+					l->weight[(size_t)r * l->in_count + c] = 0.0f;
+			}
+		}
+		assert_true( plTestAsset_AddBodyAnchors( model, 0.002f ) );
+	}
+	if ( which == PLEAT_TEST_OVERFLOW )
+	{
+		// As test_guards: X_c's root velocity x has x_std 1e-38 and f_LP weighs it with ±6e4, so any root motion along
+		// x overflows f_LP (SiLU passes ±inf and NaN on); standing still is fine.
+		model->x_mean[model->L] = 0.0f;
+		model->x_std[model->L] = 1e-38f;
+		for ( uint32_t r = 0; r < model->lp[0].out_count; ++r )
+			model->lp[0].weight[(size_t)r * model->lp[0].in_count + model->L] = ( r & 1u ) ? 6e4f : -6e4f;
+	}
+	return model;
+}
+
+static int plSetup( void** state )
+{
+	plNetworksFixture* fixture = calloc( 1, sizeof( *fixture ) );
+	for ( int k = 0; k < PLEAT_TEST_ASSETS; ++k )
+	{
+		plTestAsset* model = plMakeModel( k );
+		assert_int_equal( plTestRig_Init( &fixture->rigs[k], model, NULL ), PLEAT_RESULT_OK );
+		plTestAsset_Destroy( model );
+	}
+	plTestEgl_Create( &fixture->engine ); // none on this machine: the tests skip (plTestEgl_Require)
+	*state = fixture;
+	return 0;
+}
+
+static int plTeardown( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plTestEgl_Destroy( &fixture->engine );
+	for ( int k = 0; k < PLEAT_TEST_ASSETS; ++k )
+	{
+		plDestroyAsset( fixture->rigs[k].asset );
+		plTestRig_Free( &fixture->rigs[k] );
+	}
+	free( fixture );
+	return 0;
+}
+
+// Frame f of a swinging pose with a walking, turning root; `still` keeps the root where it is (no overflow).
+static void plPose( uint32_t frame, uint32_t phase, uint32_t joint_count, float* rotations, plFrameInput* input )
+{
+	double t = ( frame + 3.0 * phase ) / 30.0;
+	for ( uint32_t k = 0; k < joint_count; ++k )
+	{
+		double angle = 0.6 * sin( 2.0 * t + 0.5 * k ), ax = cos( 0.7 * k ), az = sin( 0.7 * k );
+		rotations[4 * k] = (float)( sin( 0.5 * angle ) * ax );
+		rotations[4 * k + 1] = 0.0f;
+		rotations[4 * k + 2] = (float)( sin( 0.5 * angle ) * az );
+		rotations[4 * k + 3] = (float)cos( 0.5 * angle );
+	}
+	memset( input, 0, sizeof( *input ) );
+	input->joint_rotations = rotations;
+	input->joint_count = joint_count;
+	input->root_translation = ( plVec3 ){ (float)( 0.3 * sin( t ) ), 0.0f, (float)( 1.2 * t ) };
+	double yaw = 0.4 * sin( 0.7 * t );
+	input->root_rotation = ( plQuat ){ 0.0f, (float)sin( 0.5 * yaw ), 0.0f, (float)cos( 0.5 * yaw ) };
+	input->dt_s = 1.0f / 30.0f;
+}
+
+static plInstance plMake( const plTestRig* rig, plGpuMode mode, plMlpBackend backend, uint32_t k )
+{
+	plInstanceDef def = plDefaultInstanceDef();
+	def.asset = rig->asset;
+	def.gpu_mode = mode;
+	def.mlp_backend = backend;
+	def.network_rate_hz = k == 3 ? 12.0f : 0.0f; // one holds its weights between network updates
+	float beta[2] = { -1.0f + 0.4f * (float)k, 0.3f * (float)( k % 3 ) };
+	def.beta = beta;
+	def.beta_count = 2;
+	plInstance instance;
+	assert_int_equal( plCreateInstance( rig->context, &def, &instance ), PLEAT_RESULT_OK );
+	return instance;
+}
+
+typedef struct plWorst
+{
+	double position, normal, latent;
+} plWorst;
+
+// positions and normals [N][3] each of the CPU twin (a) and the GPU one (b), and their latents.
+static void plCompare( const plTestRig* rig, const float* a, const float* b, plInstance cpu, plInstance gpu,
+					   plWorst* worst )
+{
+	uint32_t n = rig->info.vertex_count;
+	for ( size_t e = 0; e < 3u * n; ++e )
+	{
+		assert_true( isfinite( b[e] ) && isfinite( b[3u * n + e] ) );
+		worst->position = fmax( worst->position, fabs( (double)a[e] - b[e] ) );
+		worst->normal = fmax( worst->normal, fabs( (double)a[3u * n + e] - b[3u * n + e] ) );
+	}
+	float za[64], zb[64];
+	uint32_t L = rig->info.latent_count;
+	assert_int_equal( plInstance_GetLatent( cpu, za, L ), PLEAT_RESULT_OK );
+	assert_int_equal( plInstance_GetLatent( gpu, zb, L ), PLEAT_RESULT_OK );
+	for ( uint32_t i = 0; i < L; ++i )
+		worst->latent = fmax( worst->latent, fabs( (double)za[i] - zb[i] ) );
+}
+
+static void plAssertWithin( const char* what, const plWorst* worst )
+{
+	print_message( "%s: max |cpu - gpu| position %.3g m, normal %.3g, latent %.3g\n", what, worst->position,
+				   worst->normal, worst->latent );
+	assert_true( worst->position <= PLEAT_TEST_POSITION_TOLERANCE_M );
+	assert_true( worst->normal <= PLEAT_TEST_NORMAL_TOLERANCE );
+	assert_true( worst->latent <= PLEAT_TEST_LATENT_TOLERANCE );
+}
+
+// One CPU-backend and one GPU-backend instance stepped side by side; returns the resets the two took (equal).
+static uint32_t plCompareSingle( const plTestRig* rig, plGpuMode mode, const char* what )
+{
+	uint32_t n = rig->info.vertex_count, j = rig->info.joint_count;
+	plInstance cpu = plMake( rig, PLEAT_GPU_MODE_NONE, PLEAT_MLP_BACKEND_PLEAT, 0 );
+	plInstance gpu = plMake( rig, mode, PLEAT_MLP_BACKEND_GPU, 0 );
+	float* rotations = malloc( sizeof( float ) * 4 * j );
+	float* out = malloc( sizeof( float ) * 12 * n ); // [cpu, gpu][positions, normals][N][3]
+	plWorst worst = { 0.0, 0.0, 0.0 };
+	uint32_t resets = 0;
+	for ( uint32_t frame = 0; frame < PLEAT_TEST_FRAMES; ++frame )
+	{
+		plFrameInput input;
+		plPose( frame, 0, j, rotations, &input );
+		plResult results[2];
+		for ( int i = 0; i < 2; ++i )
+		{
+			float* o = out + 6 * (size_t)n * i;
+			memset( o, 0xff, sizeof( float ) * 6 * n );
+			plStepOutput output = { o, 0, o + 3 * (size_t)n, 0, n };
+			results[i] = plInstance_Step( i == 0 ? cpu : gpu, &input, &output );
+			assert_true( results[i] >= 0 );
+		}
+		assert_int_equal( results[0], results[1] );
+		resets += results[0] == PLEAT_RESULT_NUMERIC_RESET;
+		plCompare( rig, out, out + 6 * (size_t)n, cpu, gpu, &worst );
+	}
+	plAssertWithin( what, &worst );
+	free( rotations );
+	free( out );
+	assert_int_equal( plDestroyInstance( cpu ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyInstance( gpu ), PLEAT_RESULT_OK );
+	return resets;
+}
+
+static void test_headless_networks_match_cpu( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	// The block layer is there for the GPU to skip: the loader found its two windows.
+	assert_int_equal( plGetAssetData( fixture->rigs[PLEAT_TEST_FP32_BLOCKS].asset )->lp[1].block_count, 2 );
+	plCompareSingle( &fixture->rigs[PLEAT_TEST_FP32_BLOCKS], PLEAT_GPU_MODE_HEADLESS, "fp32 ReLU, blocks" );
+	plCompareSingle( &fixture->rigs[PLEAT_TEST_FP16_SILU], PLEAT_GPU_MODE_HEADLESS, "fp16 SiLU" );
+	assert_ptr_equal( eglGetCurrentContext(), EGL_NO_CONTEXT );
+}
+
+static void test_host_context_networks_match_cpu_and_restore_state( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	assert_true( plTestEgl_MakeCurrent( &fixture->engine ) );
+	// The engine's own buffer at a binding the networks use, and a program of its own: both must come back.
+	GLuint engine_buffer = 0;
+	glGenBuffers( 1, &engine_buffer );
+	glBindBuffer( GL_SHADER_STORAGE_BUFFER, engine_buffer );
+	glBufferData( GL_SHADER_STORAGE_BUFFER, 64, NULL, GL_STATIC_DRAW );
+	glBindBufferBase( GL_SHADER_STORAGE_BUFFER, 25, engine_buffer );
+	glBindBufferRange( GL_SHADER_STORAGE_BUFFER, 20, engine_buffer, 0, 32 );
+	plCompareSingle( &fixture->rigs[PLEAT_TEST_FP32_BLOCKS], PLEAT_GPU_MODE_HOST_CONTEXT, "host context" );
+	GLint bound = 0;
+	GLint64 size = 0;
+	glGetIntegeri_v( GL_SHADER_STORAGE_BUFFER_BINDING, 25, &bound );
+	assert_int_equal( bound, (GLint)engine_buffer );
+	glGetIntegeri_v( GL_SHADER_STORAGE_BUFFER_BINDING, 20, &bound );
+	glGetInteger64i_v( GL_SHADER_STORAGE_BUFFER_SIZE, 20, &size );
+	assert_int_equal( bound, (GLint)engine_buffer );
+	assert_int_equal( size, 32 );
+	for ( GLuint b = 21; b < 28; ++b )
+	{
+		if ( b == 25 )
+			continue;
+		glGetIntegeri_v( GL_SHADER_STORAGE_BUFFER_BINDING, b, &bound );
+		assert_int_equal( bound, 0 );
+	}
+	assert_ptr_equal( eglGetCurrentContext(), fixture->engine.context );
+	assert_int_equal( glGetError(), GL_NO_ERROR );
+	glDeleteBuffers( 1, &engine_buffer );
+	plTestEgl_Release( &fixture->engine );
+}
+
+static void test_crowd_networks_run_in_one_set_of_dispatches( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	const plTestRig* rig = &fixture->rigs[PLEAT_TEST_FP32_BLOCKS];
+	uint32_t n = rig->info.vertex_count, j = rig->info.joint_count;
+	plInstance cpu[PLEAT_TEST_CROWD], gpu[PLEAT_TEST_CROWD];
+	for ( uint32_t k = 0; k < PLEAT_TEST_CROWD; ++k )
+	{
+		cpu[k] = plMake( rig, PLEAT_GPU_MODE_NONE, PLEAT_MLP_BACKEND_PLEAT, k );
+		gpu[k] = plMake( rig, PLEAT_GPU_MODE_HEADLESS, PLEAT_MLP_BACKEND_GPU, k );
+	}
+	float* rotations = malloc( sizeof( float ) * 4 * j * PLEAT_TEST_CROWD );
+	float* out = malloc( sizeof( float ) * 12 * n * PLEAT_TEST_CROWD ); // [k][cpu, gpu][positions, normals][N][3]
+	const plAssetData* a = plGetAssetData( rig->asset );
+	// f_LP's and f_dec's layers, the guard, then blend, skinning, the three contact passes and the two normals passes.
+	uint64_t expected = a->lp_layer_count + a->dec_layer_count + 1u + 7u;
+	plWorst worst = { 0.0, 0.0, 0.0 };
+	uint32_t held = 0, L = rig->info.latent_count;
+	float latent_before[64], latent_after[64];
+	for ( uint32_t frame = 0; frame < 20; ++frame )
+	{
+		plFrameInput inputs[PLEAT_TEST_CROWD];
+		plStepOutput outputs[PLEAT_TEST_CROWD];
+		plResult results[PLEAT_TEST_CROWD];
+		for ( uint32_t k = 0; k < PLEAT_TEST_CROWD; ++k )
+		{
+			plPose( frame, k, j, rotations + 4 * (size_t)j * k, &inputs[k] );
+			float* o = out + 12 * (size_t)n * k;
+			memset( o, 0xff, sizeof( float ) * 12 * n );
+			plStepOutput single = { o, 0, o + 3 * (size_t)n, 0, n };
+			assert_true( plInstance_Step( cpu[k], &inputs[k], &single ) >= 0 );
+			outputs[k] = ( plStepOutput ){ o + 6 * (size_t)n, 0, o + 9 * (size_t)n, 0, n };
+		}
+		assert_int_equal( plInstance_GetLatent( gpu[3], latent_before, L ), PLEAT_RESULT_OK );
+		uint64_t before = atomic_load( &g_plGlDispatches );
+		assert_true( plStepInstances( rig->context, gpu, inputs, outputs, results, PLEAT_TEST_CROWD ) >= 0 );
+		uint64_t dispatches = atomic_load( &g_plGlDispatches ) - before;
+		// Frames where the held instance skips its update still run the others' networks: the same count.
+		assert_int_equal( dispatches, expected );
+		for ( uint32_t k = 0; k < PLEAT_TEST_CROWD; ++k )
+		{
+			assert_true( results[k] >= 0 );
+			const float* o = out + 12 * (size_t)n * k;
+			plCompare( rig, o, o + 6 * (size_t)n, cpu[k], gpu[k], &worst );
+		}
+		// The rate instance between its network updates: its latent stays, its held weights are blended.
+		assert_int_equal( plInstance_GetLatent( gpu[3], latent_after, L ), PLEAT_RESULT_OK );
+		held += frame > 0 && memcmp( latent_before, latent_after, sizeof( float ) * L ) == 0;
+	}
+	assert_true( held > 0 );
+	plAssertWithin( "crowd", &worst );
+	for ( uint32_t k = 0; k < PLEAT_TEST_CROWD; ++k )
+	{
+		assert_int_equal( plDestroyInstance( cpu[k] ), PLEAT_RESULT_OK );
+		assert_int_equal( plDestroyInstance( gpu[k] ), PLEAT_RESULT_OK );
+	}
+	free( rotations );
+	free( out );
+}
+
+static void test_overflow_takes_the_numeric_reset_on_the_same_frames( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	uint32_t resets = plCompareSingle( &fixture->rigs[PLEAT_TEST_OVERFLOW], PLEAT_GPU_MODE_HEADLESS, "overflow" );
+	assert_true( resets > 0 );
+}
+
+static void test_gpu_backend_needs_a_gpu_mode( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plInstanceDef def = plDefaultInstanceDef();
+	def.asset = fixture->rigs[0].asset;
+	def.mlp_backend = PLEAT_MLP_BACKEND_GPU;
+	plInstance instance;
+	memset( &instance, 0, sizeof( instance ) );
+	assert_int_equal( plCreateInstance( fixture->rigs[0].context, &def, &instance ), PLEAT_RESULT_INVALID_DEF );
+	assert_false( plInstance_IsValid( instance ) );
+	def.mlp_backend = (plMlpBackend)3;
+	def.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
+	assert_int_equal( plCreateInstance( fixture->rigs[0].context, &def, &instance ), PLEAT_RESULT_INVALID_DEF );
+}
+
+int main( void )
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test( test_gpu_backend_needs_a_gpu_mode ),
+		cmocka_unit_test( test_headless_networks_match_cpu ),
+		cmocka_unit_test( test_host_context_networks_match_cpu_and_restore_state ),
+		cmocka_unit_test( test_crowd_networks_run_in_one_set_of_dispatches ),
+		cmocka_unit_test( test_overflow_takes_the_numeric_reset_on_the_same_frames ),
+	};
+	return cmocka_run_group_tests( tests, plSetup, plTeardown );
+}
