@@ -133,5 +133,10 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 
 // Compute dispatches issued by every deformer since the process started (for tests: a batch issues one per shader).
 extern _Atomic uint64_t g_plGlDispatches;
+// Benchmarks only (bench/gl_crowd_timing.c): while g_plGlTimeBatches is non-zero, every batch wraps its network
+// dispatches and its deformation dispatches in GL_TIME_ELAPSED queries and adds their GPU nanoseconds here. Reading a
+// query waits for the GPU, and an engine's own GL_TIME_ELAPSED query must not be active meanwhile: never in a game.
+extern _Atomic int g_plGlTimeBatches;
+extern _Atomic uint64_t g_plGlNetworkNs, g_plGlDeformNs;
 
 #endif

@@ -39,7 +39,12 @@
 	X( PFNGLUSEPROGRAMPROC, UseProgram )                                                                               \
 	X( PFNGLDISPATCHCOMPUTEPROC, DispatchCompute )                                                                     \
 	X( PFNGLMEMORYBARRIERPROC, MemoryBarrier )                                                                         \
-	X( PFNGLFINISHPROC, Finish )
+	X( PFNGLFINISHPROC, Finish )                                                                                       \
+	X( PFNGLGENQUERIESPROC, GenQueries )                                                                               \
+	X( PFNGLDELETEQUERIESPROC, DeleteQueries )                                                                         \
+	X( PFNGLBEGINQUERYPROC, BeginQuery )                                                                               \
+	X( PFNGLENDQUERYPROC, EndQuery )                                                                                   \
+	X( PFNGLGETQUERYOBJECTUI64VPROC, GetQueryObjectui64v )
 
 typedef struct plGlApi
 {

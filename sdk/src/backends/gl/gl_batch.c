@@ -2,6 +2,7 @@
 // block per member at each per-instance binding and copies the members' outputs to their own buffers (docs/gpu.md).
 #include "gl_deformer_data.h"
 #include "gl_shaders.h"
+#include <stdatomic.h>
 #include <stddef.h>
 #include <string.h>
 
@@ -237,8 +238,15 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 		api->BindBufferBase( GL_SHADER_STORAGE_BUFFER, b, buffer );
 	}
 	// The networks of the members that run them, writing their weights into the buffer the blend reads.
+	int timed = atomic_load_explicit( &g_plGlTimeBatches, memory_order_relaxed ) != 0;
+	if ( timed && lead->batch.timer_queries[0] == 0 )
+		api->GenQueries( 2, lead->batch.timer_queries );
+	if ( timed )
+		api->BeginQuery( GL_TIME_ELAPSED, lead->batch.timer_queries[0] );
 	uint32_t networks_ran = 0;
 	result = plGlNetworks_Run( lead, members, count, &networks_ran );
+	if ( timed )
+		api->EndQuery( GL_TIME_ELAPSED );
 	if ( result != PLEAT_RESULT_OK )
 	{
 		plGlCheckErrors( api );
@@ -250,11 +258,22 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 		contact |= members[k].deformer->body_contact;
 
 	// The single Run's dispatches with the members in y: one per pass for the whole batch.
+	if ( timed )
+		api->BeginQuery( GL_TIME_ELAPSED, lead->batch.timer_queries[1] );
 	if ( contact )
 		plGlRunShaders( lead, lead->batch.points_program, lead->batch.normals_program, lead->batch.contact_program,
 					  count );
 	else
 		plGlRunShaders( lead, 0, 0, 0, count );
+	if ( timed )
+	{
+		api->EndQuery( GL_TIME_ELAPSED );
+		GLuint64 network_ns = 0, deform_ns = 0;
+		api->GetQueryObjectui64v( lead->batch.timer_queries[0], GL_QUERY_RESULT, &network_ns );
+		api->GetQueryObjectui64v( lead->batch.timer_queries[1], GL_QUERY_RESULT, &deform_ns );
+		atomic_fetch_add_explicit( &g_plGlNetworkNs, network_ns, memory_order_relaxed );
+		atomic_fetch_add_explicit( &g_plGlDeformNs, deform_ns, memory_order_relaxed );
+	}
 
 	plDeliverBatchOutputs( lead, members, count );
 	if ( networks_ran > 0 )

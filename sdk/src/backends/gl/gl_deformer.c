@@ -10,6 +10,8 @@
 #include <string.h>
 
 _Atomic uint64_t g_plGlDispatches;
+_Atomic int g_plGlTimeBatches;
+_Atomic uint64_t g_plGlNetworkNs, g_plGlDeformNs;
 
 // A deformer's identity for a batch's template cache (pointers are reused after a free; serials are not).
 static _Atomic uint64_t s_plGlDeformerSerial;
@@ -417,6 +419,9 @@ static void plDeleteGlObjects( plGlDeformer* deformer )
 		api->DeleteProgram( deformer->batch.normals_program );
 	if ( deformer->batch.contact_program != 0 )
 		api->DeleteProgram( deformer->batch.contact_program );
+	if ( deformer->batch.timer_queries[0] != 0 )
+		api->DeleteQueries( 2, deformer->batch.timer_queries );
+	deformer->batch.timer_queries[0] = deformer->batch.timer_queries[1] = 0;
 	deformer->batch.points_program = 0;
 	deformer->batch.normals_program = 0;
 	deformer->batch.contact_program = 0;

@@ -42,6 +42,7 @@ typedef struct plGlBatchBuffers
 	GLuint points_program;                   // body_contact.comp with PLEAT_BATCH 1, posing (body points only)
 	GLuint normals_program;                  // body_contact.comp with PLEAT_BATCH 1, ring normals (points with rings)
 	GLuint contact_program;                  // body_contact.comp with PLEAT_BATCH 1, the push (body points only)
+	GLuint timer_queries[2];                 // networks, deformation (g_plGlTimeBatches; made at first use)
 	uint64_t* template_keys;                 // [capacity][2]: the (serial, template generation) each slot holds
 	size_t template_keys_bytes;              // as allocated: a reservation that failed in GL keeps capacity 0
 	void* staging;                           // [capacity] weights, matrices or contact rows on their way up
