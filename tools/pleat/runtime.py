@@ -104,7 +104,7 @@ class _Version(C.Structure):
     _fields_ = [("major", C.c_uint32), ("minor", C.c_uint32), ("patch", C.c_uint32), ("asset_major", C.c_uint32)]
 
 
-BACKENDS = {"pleat": 0, "onnxruntime": 1}          # plMlpBackend
+BACKENDS = {"pleat": 0, "onnxruntime": 1, "gpu": 2}  # plMlpBackend
 GPU_MODES = {"none": 0, "host_context": 1, "headless": 2}   # plGpuMode
 KERNEL_SETS = ["scalar", "avx2", "avx512"]        # plKernelSet, by value
 RESULT_CLAMPED, RESULT_NUMERIC_RESET = 1, 2

@@ -108,6 +108,17 @@
 // it starts or stops touching or changes anchor.
 //
 // ==================================================================================================================
+// GPU NETWORKS (docs/gpu.md, "Networks on the GPU")
+// ==================================================================================================================
+// With plInstanceDef.mlp_backend = PLEAT_MLP_BACKEND_GPU and a GPU mode, f_LP, the latent guard and f_dec run as GLSL
+// compute beside the deformation, so a crowd (plStepInstances) is one upload of X_c per instance and one set of
+// dispatches per group of up to 64, with no network on the CPU. The CPU still validates, runs the forward kinematics
+// and assembles X_c, and reads back Z, w and a finite flag per instance after the dispatches (a few hundred bytes): the
+// checks, the numeric reset (recomputed on the CPU's kernels) and the commit are the CPU path's. fp32 and fp16
+// networks; an int8 asset gives BACKEND_UNAVAILABLE. The GPU sums in another order than the CPU kernels, so the two
+// agree within the GL tolerance, not bit for bit.
+//
+// ==================================================================================================================
 // CROWDS: MANY INSTANCES IN ONE CALL (docs/scene-budget.md)
 // ==================================================================================================================
 // plStepInstances( context, instances, inputs, outputs, results, count ) steps a whole crowd: instance i gets inputs[i]
