@@ -15,7 +15,8 @@
 //   pleat_gl_crowd_timing [--frames N] [--counts 1,64,640,4096] [--out FILE.json] ASSET.pleat
 //
 // It makes its own headless context (the SDK's route: EGL device platform on a GPU, then surfaceless, then OSMesa) and
-// steps the instances in host-context mode there, so that every instance shares one context. docs/gpu.md
+// steps the instances in host-context mode there; every instance shares the first one's GPU data (gpu_share), so the
+// crowd holds one copy of the asset on the GPU and compiles its programs once. docs/gpu.md
 // ("Timings") has its numbers; scripts/gpu-bench.sh runs it and writes bench/results/gpu-crowd-*.json.
 #define _POSIX_C_SOURCE 200809L
 #include "bench_support.h"
@@ -82,6 +83,8 @@ static plCrowdTiming plTimeCrowd( plContext context, plAsset asset, const plAsse
 		def.asset = asset;
 		def.gpu_mode = PLEAT_GPU_MODE_HOST_CONTEXT;
 		def.mlp_backend = backend;
+		if ( made > 0 )
+			def.gpu_share = crowd[0]; // one copy of the asset on the GPU for the whole crowd
 		plResult r = plCreateInstance( context, &def, &crowd[made] );
 		if ( r != PLEAT_RESULT_OK )
 		{

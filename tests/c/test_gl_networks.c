@@ -9,7 +9,10 @@
 //   the whole crowd;
 // - an f_LP that overflows whenever the root moves along x: the GPU instance takes the numeric reset on exactly the
 //   frames the CPU instance does, and its outputs stay finite;
-// - the def: the GPU backend without a GPU mode is INVALID_DEF.
+// - instances that share one copy of the asset's GPU data (plInstanceDef.gpu_share; headless: one context): a sharer
+//   compiles no program, steps like its CPU twin, and keeps working after the instance it shared with is gone;
+// - the defs: the GPU backend without a GPU mode, and a gpu_share of another asset, mode or a stale handle, are
+//   INVALID_DEF.
 // The sums run in another order than the CPU kernels' (column by column) and the latent feeds the next frame's input,
 // yet the deformation's tolerances hold (test_gl_instance: 2e-5 m, 1e-3 per normal component), with 1e-5 in latent
 // units (llvmpipe measures about 2e-6 m and 3e-8). Skips (exit 77) without a GL 4.3 context.
@@ -347,6 +350,112 @@ static void test_overflow_takes_the_numeric_reset_on_the_same_frames( void** sta
 	assert_true( resets > 0 );
 }
 
+static void test_shared_instances_match_and_outlive_each_other( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	const plTestRig* rig = &fixture->rigs[PLEAT_TEST_FP32_BLOCKS];
+	uint32_t n = rig->info.vertex_count, j = rig->info.joint_count;
+	enum { SHARERS = 3 };
+	plInstance cpu[SHARERS], gpu[SHARERS];
+	for ( uint32_t k = 0; k < SHARERS; ++k )
+	{
+		cpu[k] = plMake( rig, PLEAT_GPU_MODE_NONE, PLEAT_MLP_BACKEND_PLEAT, k );
+		uint64_t compiled = atomic_load( &g_plGlProgramsCompiled );
+		plInstanceDef def = plDefaultInstanceDef();
+		def.asset = rig->asset;
+		def.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
+		def.mlp_backend = PLEAT_MLP_BACKEND_GPU;
+		float beta[2] = { -1.0f + 0.4f * (float)k, 0.3f * (float)( k % 3 ) };
+		def.beta = beta;
+		def.beta_count = 2;
+		if ( k > 0 )
+			def.gpu_share = gpu[k - 1]; // a chain: each shares with the one before
+		assert_int_equal( plCreateInstance( rig->context, &def, &gpu[k] ), PLEAT_RESULT_OK );
+		uint64_t programs = atomic_load( &g_plGlProgramsCompiled ) - compiled;
+		if ( k == 0 )
+			assert_true( programs >= 6 ); // the deformation's and the networks' programs
+		else
+			assert_int_equal( programs, 0 );
+	}
+	float* rotations = malloc( sizeof( float ) * 4 * j * SHARERS );
+	float* out = malloc( sizeof( float ) * 12 * n * SHARERS );
+	plWorst worst = { 0.0, 0.0, 0.0 };
+	for ( uint32_t frame = 0; frame < 16; ++frame )
+	{
+		if ( frame == 8 )
+		{
+			// The first instance goes: the others keep the shared data (and the context) alive.
+			assert_int_equal( plDestroyInstance( gpu[0] ), PLEAT_RESULT_OK );
+			assert_int_equal( plDestroyInstance( cpu[0] ), PLEAT_RESULT_OK );
+		}
+		uint32_t first = frame >= 8 ? 1u : 0u;
+		plFrameInput inputs[SHARERS];
+		plStepOutput outputs[SHARERS];
+		plResult results[SHARERS];
+		for ( uint32_t k = first; k < SHARERS; ++k )
+		{
+			plPose( frame, k, j, rotations + 4 * (size_t)j * k, &inputs[k] );
+			float* o = out + 12 * (size_t)n * k;
+			plStepOutput single = { o, 0, o + 3 * (size_t)n, 0, n };
+			assert_true( plInstance_Step( cpu[k], &inputs[k], &single ) >= 0 );
+			outputs[k] = ( plStepOutput ){ o + 6 * (size_t)n, 0, o + 9 * (size_t)n, 0, n };
+		}
+		// In a crowd on even frames, one by one on odd ones.
+		if ( frame % 2 == 0 )
+			assert_true( plStepInstances( rig->context, gpu + first, inputs + first, outputs + first, results + first,
+										  SHARERS - first ) >= 0 );
+		else
+		{
+			for ( uint32_t k = first; k < SHARERS; ++k )
+				assert_true( plInstance_Step( gpu[k], &inputs[k], &outputs[k] ) >= 0 );
+		}
+		for ( uint32_t k = first; k < SHARERS; ++k )
+		{
+			const float* o = out + 12 * (size_t)n * k;
+			plCompare( rig, o, o + 6 * (size_t)n, cpu[k], gpu[k], &worst );
+		}
+	}
+	plAssertWithin( "shared", &worst );
+	for ( uint32_t k = 1; k < SHARERS; ++k )
+	{
+		assert_int_equal( plDestroyInstance( cpu[k] ), PLEAT_RESULT_OK );
+		assert_int_equal( plDestroyInstance( gpu[k] ), PLEAT_RESULT_OK );
+	}
+	free( rotations );
+	free( out );
+	assert_ptr_equal( eglGetCurrentContext(), EGL_NO_CONTEXT );
+}
+
+static void test_gpu_share_must_match( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	const plTestRig* rig = &fixture->rigs[PLEAT_TEST_FP32_BLOCKS];
+	plInstance cpu = plMake( rig, PLEAT_GPU_MODE_NONE, PLEAT_MLP_BACKEND_PLEAT, 0 );
+	plInstance gpu = plMake( rig, PLEAT_GPU_MODE_HEADLESS, PLEAT_MLP_BACKEND_GPU, 0 );
+	plInstance deform_only = plMake( rig, PLEAT_GPU_MODE_HEADLESS, PLEAT_MLP_BACKEND_PLEAT, 0 );
+	plInstance stale = plMake( rig, PLEAT_GPU_MODE_HEADLESS, PLEAT_MLP_BACKEND_GPU, 0 );
+	assert_int_equal( plDestroyInstance( stale ), PLEAT_RESULT_OK );
+	const plInstance shares[4] = { cpu, deform_only, stale, gpu };
+	for ( int k = 0; k < 4; ++k )
+	{
+		plInstanceDef def = plDefaultInstanceDef();
+		def.asset = k == 3 ? fixture->rigs[PLEAT_TEST_FP16_SILU].asset : rig->asset; // another asset (and context)
+		def.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
+		def.mlp_backend = PLEAT_MLP_BACKEND_GPU;
+		def.gpu_share = shares[k];
+		plInstance instance;
+		memset( &instance, 0, sizeof( instance ) );
+		plContext context = k == 3 ? fixture->rigs[PLEAT_TEST_FP16_SILU].context : rig->context;
+		assert_int_equal( plCreateInstance( context, &def, &instance ), PLEAT_RESULT_INVALID_DEF );
+		assert_false( plInstance_IsValid( instance ) );
+	}
+	assert_int_equal( plDestroyInstance( cpu ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyInstance( gpu ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyInstance( deform_only ), PLEAT_RESULT_OK );
+}
+
 static void test_gpu_backend_needs_a_gpu_mode( void** state )
 {
 	plNetworksFixture* fixture = *state;
@@ -370,6 +479,8 @@ int main( void )
 		cmocka_unit_test( test_host_context_networks_match_cpu_and_restore_state ),
 		cmocka_unit_test( test_crowd_networks_run_in_one_set_of_dispatches ),
 		cmocka_unit_test( test_overflow_takes_the_numeric_reset_on_the_same_frames ),
+		cmocka_unit_test( test_shared_instances_match_and_outlive_each_other ),
+		cmocka_unit_test( test_gpu_share_must_match ),
 	};
 	return cmocka_run_group_tests( tests, plSetup, plTeardown );
 }

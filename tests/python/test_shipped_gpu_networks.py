@@ -57,6 +57,27 @@ def test_shipped_garment_on_gpu_networks_matches_the_cpu_backend(c_runtime, garm
     assert np.abs(out["gpu"][-1] - out["gpu"][0]).max() > 1e-2
 
 
+def test_shared_instances_step_like_their_own(c_runtime):
+    """gpu_share: a second t-shirt on the first one's GPU data (and headless context) gives the same outputs as one
+    with its own copy."""
+    runtime = c_runtime
+    data = (ROOT / "assets" / "tshirt.pleat").read_bytes()
+    J = len(pa.read_asset(data)["joint_names"])
+    q = np.tile([0.0, 0.0, 0.0, 1.0], (J, 1))
+    with runtime.Context() as ctx:
+        asset = ctx.load_asset(data)
+        first = _instance_or_skip(runtime, ctx, asset, backend="gpu", gpu="headless")
+        alone = ctx.create_instance(asset, backend="gpu", gpu="headless")
+        shared = ctx.create_instance(asset, backend="gpu", gpu="headless", gpu_share=first)
+        for t in range(4):
+            root = np.array([0.0, 0.9, 0.05 * t])
+            a, _ = alone.step(q, root, np.array([0.0, 0.0, 0.0, 1.0]), 1 / 30)
+            b, _ = shared.step(q, root, np.array([0.0, 0.0, 0.0, 1.0]), 1 / 30)
+            assert np.array_equal(a, b)
+        for inst in (first, alone, shared):
+            inst.close()
+
+
 def test_gpu_backend_refuses_int8_networks(c_runtime):
     runtime = c_runtime
     w = random_weights(vertices=100, latent=8, blend=6, lp_hidden=(40, 33), dec_hidden=(12,), seed=5)

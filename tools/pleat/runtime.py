@@ -75,7 +75,7 @@ class _InstanceDef(C.Structure):
                 ("material", C.c_void_p), ("mlp_backend", C.c_int), ("onnxruntime_library", C.c_char_p),
                 ("gpu_mode", C.c_int), ("host_position_buffer", C.c_uint32), ("host_normal_buffer", C.c_uint32),
                 ("network_rate_hz", C.c_float), ("body_contact", C.c_int), ("body_contact_offset_m", C.c_float),
-                ("user_data", C.c_void_p), ("internal_cookie", C.c_int32)]
+                ("gpu_share", _Handle), ("user_data", C.c_void_p), ("internal_cookie", C.c_int32)]
 
 
 class _Vec3(C.Structure):
@@ -301,8 +301,9 @@ class Instance:
     """A C instance. step(...) returns float32 numpy copies of positions and normals [N, 3]."""
 
     def __init__(self, context, asset, beta=None, material=None, backend="pleat", onnxruntime_library=None,
-                 gpu="none", network_rate_hz=0.0, body_contact=True, body_contact_offset_m=None):
-        """body_contact / body_contact_offset_m: plInstanceDef's (None = the SDK's default clearance)."""
+                 gpu="none", network_rate_hz=0.0, body_contact=True, body_contact_offset_m=None, gpu_share=None):
+        """body_contact / body_contact_offset_m: plInstanceDef's (None = the SDK's default clearance); gpu_share: an
+        Instance of the same asset, GPU mode and backend whose GPU data this one shares (plInstanceDef.gpu_share)."""
         self.context, self.asset, lib = context, asset, context.lib
         self.lib = lib
         d = lib.plDefaultInstanceDef()
@@ -320,6 +321,8 @@ class Instance:
         if onnxruntime_library:
             d.onnxruntime_library = os.fsencode(str(onnxruntime_library))
         d.gpu_mode = GPU_MODES[gpu]
+        if gpu_share is not None:
+            d.gpu_share = gpu_share.handle
         d.network_rate_hz = float(network_rate_hz)
         d.body_contact = contact_mode(body_contact)
         if body_contact_offset_m is not None:

@@ -667,6 +667,12 @@ typedef struct plInstanceDef
 	float body_contact_offset_m;       ///< clearance kept from the body (metres, 0 .. PLEAT_BODY_CONTACT_MAX_OFFSET_M;
 	                                   ///< default PLEAT_BODY_CONTACT_DEFAULT_OFFSET_M = 1 mm); outside or not
 	                                   ///< finite: PLEAT_RESULT_INVALID_DEF
+	plInstance gpu_share;              ///< GPU modes: a live instance of the same asset, GPU mode and MLP backend whose
+	                                   ///< GPU data this one shares (programs, blend shapes, skinning, network weights;
+	                                   ///< headless: its context) instead of a copy of its own, so that a crowd costs
+	                                   ///< one copy of the asset on the GPU; the two are then stepped from one thread
+	                                   ///< at a time (host-context mode: in one context or share group). Zero handle
+	                                   ///< (default) = none; otherwise anything else is INVALID_DEF
 	void* user_data;                   ///< yours, returned by plInstance_GetUserData
 	int32_t internal_cookie;           ///< set by plDefaultInstanceDef; do not touch
 } plInstanceDef;

@@ -73,6 +73,11 @@ typedef struct plGlDeformerDesc
 	uint32_t host_normal_buffer;
 	// Optional (NULL = the networks run on the CPU): the networks, which batches then run on the GPU.
 	const plGlNetworksDesc* networks;
+	// Optional (NULL = none): a live deformer of the same mesh, mode and networks whose programs, static buffers (blend
+	// shapes, skinning, faces, adjacency, body points, network weights) and, headless, context this one shares
+	// (INVALID_ARGUMENT if the sizes differ). Sharers are called from one thread at a time; in host-context mode they
+	// must live in one context or share group. Only the template of β, the weights, matrices and outputs are its own.
+	const struct plGlDeformer* share;
 	// Headless mode only, optional (NULL = no report): Create writes here, NUL-terminated, which platform, device and
 	// renderer the headless context got (or why every route failed), for the instance to log.
 	char* report;
@@ -133,6 +138,8 @@ plResult plGlDeformer_RunBatch( plGlDeformer* lead, const plGlBatchMember* membe
 
 // Compute dispatches issued by every deformer since the process started (for tests: a batch issues one per shader).
 extern _Atomic uint64_t g_plGlDispatches;
+// Programs compiled by every deformer since the process started (for tests: a deformer that shares compiles none).
+extern _Atomic uint64_t g_plGlProgramsCompiled;
 // Benchmarks only (bench/gl_crowd_timing.c): while g_plGlTimeBatches is non-zero, every batch wraps its network
 // dispatches and its deformation dispatches in GL_TIME_ELAPSED queries and adds their GPU nanoseconds here. Reading a
 // query waits for the GPU, and an engine's own GL_TIME_ELAPSED query must not be active meanwhile: never in a game.

@@ -245,6 +245,9 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 		plGlNetworksDesc networks = { a->lp,     a->lp_layer_count, a->lp_activation, a->dec,  a->dec_layer_count,
 									  a->dec_activation, a->z_mean,  a->z_std,  a->z_min, a->z_max };
 		desc.networks = def->mlp_backend == PLEAT_MLP_BACKEND_GPU ? &networks : NULL;
+		// plCreateInstance checked that a gpu_share is a live GPU instance of this asset, mode and backend.
+		plInstanceData* share = def->gpu_share.index1 != 0 ? plGetInstanceData( def->gpu_share ) : NULL;
+		desc.share = share != NULL ? share->gl : NULL;
 		desc.host_position_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_position_buffer : 0;
 		desc.host_normal_buffer = def->gpu_mode == PLEAT_GPU_MODE_HOST_CONTEXT ? def->host_normal_buffer : 0;
 		// Headless: the SDK picks the platform and device itself, so it says which it got (a GPU machine silently
@@ -335,6 +338,17 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF, "mlp_backend %d is not a plMlpBackend",
 			   (int)def->mlp_backend );
 		return PLEAT_RESULT_INVALID_DEF;
+	}
+	if ( def->gpu_share.index1 != 0 || def->gpu_share.generation != 0 )
+	{
+		const plInstanceData* share = plGetInstanceData( def->gpu_share );
+		if ( share == NULL || share->ctx != ctx || share->asset != a || share->gl == NULL ||
+			 share->gpu_mode != def->gpu_mode || share->mlp_backend != def->mlp_backend )
+		{
+			plLog( ctx, PLEAT_LOG_LEVEL_ERROR, PLEAT_LOG_INSTANCE_BAD_DEF,
+				   "gpu_share: not a live instance of this context and asset with the same gpu_mode and mlp_backend" );
+			return PLEAT_RESULT_INVALID_DEF;
+		}
 	}
 	if ( def->mlp_backend == PLEAT_MLP_BACKEND_GPU && def->gpu_mode == PLEAT_GPU_MODE_NONE )
 	{
@@ -454,6 +468,8 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	}
 	inst->ctx = ctx;
 	inst->asset = a;
+	inst->gpu_mode = def->gpu_mode;
+	inst->mlp_backend = def->mlp_backend;
 	inst->asset_handle = def->asset;
 	inst->user_data = def->user_data;
 	inst->network_interval_s = def->network_rate_hz > 0.0f ? 1.0 / def->network_rate_hz : 0.0;

@@ -71,6 +71,8 @@ typedef struct plInstanceData
 	float* gl_normals;      // [N][3] GPU modes only: normals read back here (positions into deformed, unused on the
 	                        // GPU path) and copied to normals/positions only when the whole step succeeded
 
+	plGpuMode gpu_mode;  // the def's (gpu_share must match it)
+	plMlpBackend mlp_backend;
 	plOrtMlp* ort_lp;
 	plOrtMlp* ort_dec;
 	plGlDeformer* gl;

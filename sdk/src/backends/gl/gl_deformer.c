@@ -7,9 +7,11 @@
 #include "gl_deformer_data.h"
 #include "gl_shaders.h"
 #include <stddef.h>
+#include <stdio.h>
 #include <string.h>
 
 _Atomic uint64_t g_plGlDispatches;
+_Atomic uint64_t g_plGlProgramsCompiled;
 _Atomic int g_plGlTimeBatches;
 _Atomic uint64_t g_plGlNetworkNs, g_plGlDeformNs;
 
@@ -76,6 +78,7 @@ GLuint plGlCompileProgram( const plGlApi* api, const char* source, const char* d
 		return 0;
 	api->ShaderSource( shader, 3, strings, lengths );
 	api->CompileShader( shader );
+	atomic_fetch_add_explicit( &g_plGlProgramsCompiled, 1, memory_order_relaxed );
 	GLint compiled = GL_FALSE;
 	api->GetShaderiv( shader, GL_COMPILE_STATUS, &compiled );
 	GLuint program = 0;
@@ -168,6 +171,29 @@ static plResult plValidateDesc( const plGlDeformerDesc* desc )
 	return PLEAT_RESULT_OK;
 }
 
+int plGlBindingIsStatic( plGlBinding binding )
+{
+	switch ( binding )
+	{
+	case PLEAT_GL_BINDING_BLEND_SHAPES:
+	case PLEAT_GL_BINDING_SKIN_INDICES:
+	case PLEAT_GL_BINDING_SKIN_WEIGHTS:
+	case PLEAT_GL_BINDING_FACES:
+	case PLEAT_GL_BINDING_ADJACENCY_OFFSETS:
+	case PLEAT_GL_BINDING_ADJACENCY_FACES:
+	case PLEAT_GL_BINDING_ANCHOR_NORMALS:
+	case PLEAT_GL_BINDING_ANCHOR_SKIN_INDICES:
+	case PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS:
+	case PLEAT_GL_BINDING_BATCH_CONTACT: // a single Run's 16-byte placeholder
+	case PLEAT_GL_BINDING_CONTACT_CANDIDATES:
+	case PLEAT_GL_BINDING_POINT_RINGS:
+		return 1;
+	default:
+		return 0;
+	}
+}
+
+// A buffer at a binding: the deformer's own, or for a static binding the shared block's.
 static GLuint plCreateBuffer( plGlDeformer* deformer, plGlBinding binding, size_t bytes, const void* data, GLenum usage )
 {
 	const plGlApi* api = &deformer->api;
@@ -175,7 +201,10 @@ static GLuint plCreateBuffer( plGlDeformer* deformer, plGlBinding binding, size_
 	api->GenBuffers( 1, &buffer );
 	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
 	api->BufferData( GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)bytes, data, usage );
-	deformer->owned[binding] = buffer;
+	if ( plGlBindingIsStatic( binding ) )
+		deformer->shared->buffers[binding] = buffer;
+	else
+		deformer->owned[binding] = buffer;
 	deformer->bindings[binding] = buffer;
 	return buffer;
 }
@@ -273,34 +302,39 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	if ( result != PLEAT_RESULT_OK )
 		return result;
 
-	deformer->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] = plGlCompileProgram(
-		api, plGlShaderSource_blend_shapes,
-		desc->blend_shapes_fp16 ? "#define PLEAT_BLEND_FP16 1\n" : "#define PLEAT_BLEND_FP16 0\n" );
-	deformer->programs[PLEAT_GL_PROGRAM_SKINNING] = plGlCompileProgram( api, plGlShaderSource_skinning, "" );
-	deformer->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] = plGlCompileProgram( api, plGlShaderSource_face_normals, "" );
-	deformer->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] = plGlCompileProgram( api, plGlShaderSource_normals_gather, "" );
-	uint32_t Ka = deformer->anchor_influence_count;
-	if ( Ka > 0 )
+	plGlShared* shared = deformer->shared;
+	int sharing = desc->share != NULL;
+	uint32_t Ka = deformer->anchor_influence_count, R = deformer->point_ring_count;
+	if ( !sharing )
 	{
-		deformer->programs[PLEAT_GL_PROGRAM_BODY_POINTS] =
-			plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POSE_POINTS_DEFINES );
-		deformer->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] =
-			plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_CONTACT_DEFINES );
+		shared->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] = plGlCompileProgram(
+			api, plGlShaderSource_blend_shapes,
+			desc->blend_shapes_fp16 ? "#define PLEAT_BLEND_FP16 1\n" : "#define PLEAT_BLEND_FP16 0\n" );
+		shared->programs[PLEAT_GL_PROGRAM_SKINNING] = plGlCompileProgram( api, plGlShaderSource_skinning, "" );
+		shared->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] = plGlCompileProgram( api, plGlShaderSource_face_normals, "" );
+		shared->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] = plGlCompileProgram( api, plGlShaderSource_normals_gather, "" );
+		if ( Ka > 0 )
+		{
+			shared->programs[PLEAT_GL_PROGRAM_BODY_POINTS] =
+				plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POSE_POINTS_DEFINES );
+			shared->programs[PLEAT_GL_PROGRAM_BODY_CONTACT] =
+				plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_CONTACT_DEFINES );
+		}
+		if ( R > 0 )
+			shared->programs[PLEAT_GL_PROGRAM_BODY_POINT_NORMALS] =
+				plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POINT_NORMALS_DEFINES );
+		for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
+		{
+			int needed = 1;
+			if ( p == PLEAT_GL_PROGRAM_BODY_POINTS || p == PLEAT_GL_PROGRAM_BODY_CONTACT )
+				needed = Ka > 0;
+			if ( p == PLEAT_GL_PROGRAM_BODY_POINT_NORMALS )
+				needed = R > 0;
+			if ( shared->programs[p] == 0 && needed )
+				return PLEAT_RESULT_GL_ERROR;
+		}
 	}
-	uint32_t R = deformer->point_ring_count;
-	if ( R > 0 )
-		deformer->programs[PLEAT_GL_PROGRAM_BODY_POINT_NORMALS] =
-			plGlCompileProgram( api, plGlShaderSource_body_contact, PLEAT_GL_POINT_NORMALS_DEFINES );
-	for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
-	{
-		int needed = 1;
-		if ( p == PLEAT_GL_PROGRAM_BODY_POINTS || p == PLEAT_GL_PROGRAM_BODY_CONTACT )
-			needed = Ka > 0;
-		if ( p == PLEAT_GL_PROGRAM_BODY_POINT_NORMALS )
-			needed = R > 0;
-		if ( deformer->programs[p] == 0 && needed )
-			return PLEAT_RESULT_GL_ERROR;
-	}
+	memcpy( deformer->programs, shared->programs, sizeof( deformer->programs ) );
 
 	size_t n = desc->vertex_count, P = deformer->point_count, C = deformer->candidate_count;
 	plGlDeformParams params = { desc->vertex_count,
@@ -319,12 +353,38 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	api->BindBuffer( GL_UNIFORM_BUFFER, deformer->params_buffer );
 	api->BufferData( GL_UNIFORM_BUFFER, sizeof( params ), &params, GL_STATIC_DRAW );
 
+	// The deformer's own buffers: the template of its β, its weights, T_def, matrices, outputs and posed body points.
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_SHAPED_TEMPLATE, plGlShapedRows( deformer ) * 16, NULL, GL_DYNAMIC_DRAW );
 	plUploadShapedTemplate( deformer, desc->shaped_template, desc->body_anchors );
-	plUploadBlendShapes( deformer, desc->blend_shapes, desc->blend_shapes_fp16 );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BLEND_WEIGHTS, (size_t)desc->blend_count * 4, NULL, GL_STREAM_DRAW );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_DEFORMED, n * 16, NULL, GL_DYNAMIC_COPY );
+	// [J][3][4] row-major floats are already three vec4 rows per joint.
+	plCreateBuffer( deformer, PLEAT_GL_BINDING_SKIN_MATRICES, (size_t)desc->joint_count * 48, NULL, GL_STREAM_DRAW );
+	if ( desc->host_position_buffer != 0 )
+		deformer->bindings[PLEAT_GL_BINDING_POSITIONS] = desc->host_position_buffer;
+	else
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_POSITIONS, n * 16, NULL, GL_DYNAMIC_COPY );
+	if ( desc->host_normal_buffer != 0 )
+		deformer->bindings[PLEAT_GL_BINDING_NORMALS] = desc->host_normal_buffer;
+	else
+		plCreateBuffer( deformer, PLEAT_GL_BINDING_NORMALS, n * 16, NULL, GL_DYNAMIC_COPY );
+	plCreateBuffer( deformer, PLEAT_GL_BINDING_FACE_NORMALS, (size_t)desc->face_count * 16, NULL, GL_DYNAMIC_COPY );
+	// (Without body points nothing reads it, but every binding point gets a buffer, as the shaders' others do.)
+	plCreateBuffer( deformer, PLEAT_GL_BINDING_POSED_POINTS, Ka > 0 ? P * 32 : 16, NULL, GL_DYNAMIC_COPY );
+	if ( sharing )
+	{
+		for ( int b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
+		{
+			if ( plGlBindingIsStatic( (plGlBinding)b ) )
+				deformer->bindings[b] = shared->buffers[b];
+		}
+		if ( desc->networks != NULL )
+			deformer->networks = shared->networks;
+		return plGlCheckErrors( api );
+	}
 
+	// The static buffers, made once for the deformers that share them: the mesh, its skinning and body points.
+	plUploadBlendShapes( deformer, desc->blend_shapes, desc->blend_shapes_fp16 );
 	uint32_t* skin_indices = deformer->staging; // u16 → the shader's uint
 	for ( size_t e = 0; e < n * desc->influence_count; ++e )
 		skin_indices[e] = desc->skin_indices[e];
@@ -332,13 +392,6 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 					GL_STATIC_DRAW );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_SKIN_WEIGHTS, n * desc->influence_count * 4, desc->skin_weights,
 					GL_STATIC_DRAW );
-	// [J][3][4] row-major floats are already three vec4 rows per joint.
-	plCreateBuffer( deformer, PLEAT_GL_BINDING_SKIN_MATRICES, (size_t)desc->joint_count * 48, NULL, GL_STREAM_DRAW );
-
-	if ( desc->host_position_buffer != 0 )
-		deformer->bindings[PLEAT_GL_BINDING_POSITIONS] = desc->host_position_buffer;
-	else
-		plCreateBuffer( deformer, PLEAT_GL_BINDING_POSITIONS, n * 16, NULL, GL_DYNAMIC_COPY );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_FACES, (size_t)desc->face_count * 12, desc->faces, GL_STATIC_DRAW );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_ADJACENCY_OFFSETS, ( n + 1 ) * 4, desc->adjacency_offsets,
 					GL_STATIC_DRAW );
@@ -346,11 +399,6 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	size_t adjacency_count = desc->adjacency_offsets[n] > 0 ? desc->adjacency_offsets[n] : 1;
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_ADJACENCY_FACES, adjacency_count * 4, desc->adjacency_faces,
 					GL_STATIC_DRAW );
-	if ( desc->host_normal_buffer != 0 )
-		deformer->bindings[PLEAT_GL_BINDING_NORMALS] = desc->host_normal_buffer;
-	else
-		plCreateBuffer( deformer, PLEAT_GL_BINDING_NORMALS, n * 16, NULL, GL_DYNAMIC_COPY );
-	plCreateBuffer( deformer, PLEAT_GL_BINDING_FACE_NORMALS, (size_t)desc->face_count * 16, NULL, GL_DYNAMIC_COPY );
 	if ( Ka > 0 )
 	{
 		plGlVec4* rows = deformer->staging;
@@ -368,7 +416,6 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		for ( size_t e = 0; e < n * C; ++e )
 			candidates[e] = desc->body_anchor_candidates != NULL ? desc->body_anchor_candidates[e] : (uint32_t)e;
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_CONTACT_CANDIDATES, n * C * 4, candidates, GL_STATIC_DRAW );
-		plCreateBuffer( deformer, PLEAT_GL_BINDING_POSED_POINTS, P * 32, NULL, GL_DYNAMIC_COPY );
 	}
 	else
 	{
@@ -376,7 +423,6 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 		for ( int b = PLEAT_GL_BINDING_ANCHOR_NORMALS; b <= PLEAT_GL_BINDING_ANCHOR_SKIN_WEIGHTS; ++b )
 			plCreateBuffer( deformer, (plGlBinding)b, 16, NULL, GL_STATIC_DRAW );
 		plCreateBuffer( deformer, PLEAT_GL_BINDING_CONTACT_CANDIDATES, 16, NULL, GL_STATIC_DRAW );
-		plCreateBuffer( deformer, PLEAT_GL_BINDING_POSED_POINTS, 16, NULL, GL_STATIC_DRAW );
 	}
 	if ( R > 0 )
 	{
@@ -391,18 +437,17 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BATCH_CONTACT, 16, NULL, GL_STATIC_DRAW );
 	result = plGlCheckErrors( api );
 	if ( result == PLEAT_RESULT_OK && desc->networks != NULL )
-		result = plGlNetworks_Create( deformer, desc->networks );
+	{
+		result = plGlNetworks_Create( deformer, &shared->networks, desc->networks );
+		deformer->networks = shared->networks;
+	}
 	return result;
 }
 
+// The deformer's own GL objects (the shared ones go with the last deformer: plReleaseShared).
 static void plDeleteGlObjects( plGlDeformer* deformer )
 {
 	const plGlApi* api = &deformer->api;
-	for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
-	{
-		if ( deformer->programs[p] != 0 )
-			api->DeleteProgram( deformer->programs[p] );
-	}
 	if ( deformer->params_buffer != 0 )
 		api->DeleteBuffers( 1, &deformer->params_buffer );
 	for ( int b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
@@ -426,14 +471,44 @@ static void plDeleteGlObjects( plGlDeformer* deformer )
 	deformer->batch.normals_program = 0;
 	deformer->batch.contact_program = 0;
 	deformer->batch.capacity = 0;
-	plGlNetworks_Delete( deformer );
+	plGlNetworks_DeleteBatch( deformer );
 }
 
-static void plFreeDeformer( plGlDeformer* deformer )
+// One deformer fewer on the shared block; the last one deletes its GL objects (its context must be usable: between
+// plGlBegin and plGlEnd) and returns non-zero: the caller then frees the block and destroys its headless context.
+static int plReleaseShared( plGlDeformer* deformer, int gl_usable )
+{
+	plGlShared* shared = deformer->shared;
+	if ( atomic_fetch_sub_explicit( &shared->refcount, 1, memory_order_acq_rel ) != 1 )
+		return 0;
+	if ( gl_usable )
+	{
+		const plGlApi* api = &deformer->api;
+		for ( int p = 0; p < PLEAT_GL_PROGRAM_COUNT; ++p )
+		{
+			if ( shared->programs[p] != 0 )
+				api->DeleteProgram( shared->programs[p] );
+		}
+		for ( int b = 0; b < PLEAT_GL_BINDING_COUNT; ++b )
+		{
+			if ( shared->buffers[b] != 0 )
+				api->DeleteBuffers( 1, &shared->buffers[b] );
+		}
+		plGlNetworks_DeleteStatic( api, &shared->networks );
+	}
+	return 1;
+}
+
+// Frees the deformer's memory and, when it held the last reference (last), the shared block and its context.
+static void plFreeDeformer( plGlDeformer* deformer, int last )
 {
 	plAllocator allocator = deformer->allocator;
-	if ( deformer->context != NULL )
-		plGlContext_Destroy( deformer->context );
+	if ( last && deformer->shared != NULL )
+	{
+		if ( deformer->shared->context != NULL )
+			plGlContext_Destroy( deformer->shared->context );
+		plFree( &allocator, deformer->shared, sizeof( plGlShared ) );
+	}
 	plFree( &allocator, deformer->staging, deformer->staging_bytes );
 	plFree( &allocator, deformer->batch.template_keys, deformer->batch.template_keys_bytes );
 	plFree( &allocator, deformer->batch.staging, deformer->batch.staging_bytes );
@@ -453,11 +528,34 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	plResult result = plValidateDesc( desc );
 	if ( result != PLEAT_RESULT_OK )
 		return result;
+	const plGlDeformer* share = desc->share;
+	if ( share != NULL && ( !plGlDeformer_CanBatch( share, share ) || share->mode != desc->mode ||
+							share->vertex_count != desc->vertex_count || share->face_count != desc->face_count ||
+							share->blend_count != desc->blend_count || share->joint_count != desc->joint_count ||
+							share->influence_count != desc->influence_count ||
+							( share->networks.lp_count > 0 ) != ( desc->networks != NULL ) ||
+							share->point_count != ( desc->body_anchors != NULL ? desc->body_point_count : 0u ) ) )
+		return PLEAT_RESULT_INVALID_ARGUMENT;
 
 	plGlDeformer* deformer = plAllocZeroed( allocator, sizeof( *deformer ), 16 );
 	if ( deformer == NULL )
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	deformer->allocator = *allocator;
+	if ( share != NULL )
+	{
+		deformer->shared = share->shared;
+		atomic_fetch_add_explicit( &deformer->shared->refcount, 1, memory_order_relaxed );
+	}
+	else
+	{
+		deformer->shared = plAllocZeroed( allocator, sizeof( plGlShared ), 16 );
+		if ( deformer->shared == NULL )
+		{
+			plFree( allocator, deformer, sizeof( *deformer ) );
+			return PLEAT_RESULT_OUT_OF_MEMORY;
+		}
+		atomic_store_explicit( &deformer->shared->refcount, 1, memory_order_relaxed );
+	}
 	deformer->mode = desc->mode;
 	deformer->vertex_count = desc->vertex_count;
 	deformer->face_count = desc->face_count;
@@ -488,18 +586,27 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	deformer->staging = plAlloc( allocator, deformer->staging_bytes, 64 );
 	if ( deformer->staging == NULL )
 	{
-		plFreeDeformer( deformer );
+		plFreeDeformer( deformer, plReleaseShared( deformer, 0 ) );
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
 
-	if ( desc->mode == PLEAT_GL_DEFORMER_HEADLESS )
+	if ( desc->mode == PLEAT_GL_DEFORMER_HEADLESS && share != NULL )
 	{
-		result = plGlContext_Create( backend, allocator, &deformer->context, desc->report, desc->report_size );
+		// The sharer's context: made current by whichever of them is called.
+		deformer->context = share->context;
+		deformer->api = share->api;
+		if ( desc->report != NULL && desc->report_size > 0 )
+			snprintf( desc->report, desc->report_size, "sharing another instance's headless context" );
+	}
+	else if ( desc->mode == PLEAT_GL_DEFORMER_HEADLESS )
+	{
+		result = plGlContext_Create( backend, allocator, &deformer->shared->context, desc->report, desc->report_size );
 		if ( result != PLEAT_RESULT_OK )
 		{
-			plFreeDeformer( deformer );
+			plFreeDeformer( deformer, plReleaseShared( deformer, 0 ) );
 			return result;
 		}
+		deformer->context = deformer->shared->context;
 		deformer->api = *plGlContext_Api( deformer->context );
 	}
 	else
@@ -508,11 +615,12 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 		// Without a current context epoxy cannot resolve anything beyond GL 1.x; glGetString answers NULL then.
 		if ( !plHostContextIsCurrent( &deformer->api ) )
 		{
-			plFreeDeformer( deformer );
+			plFreeDeformer( deformer, plReleaseShared( deformer, 0 ) );
 			return PLEAT_RESULT_GL_UNAVAILABLE;
 		}
 	}
 
+	int last = 0;
 	result = plGlBegin( deformer );
 	if ( result == PLEAT_RESULT_OK )
 	{
@@ -520,13 +628,16 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 		if ( result != PLEAT_RESULT_OK )
 		{
 			plDeleteGlObjects( deformer );
+			last = plReleaseShared( deformer, 1 );
 			plGlCheckErrors( &deformer->api );
 		}
 		plGlEnd( deformer );
 	}
+	else
+		last = plReleaseShared( deformer, 0 );
 	if ( result != PLEAT_RESULT_OK )
 	{
-		plFreeDeformer( deformer );
+		plFreeDeformer( deformer, last );
 		return result;
 	}
 	*out = deformer;
@@ -701,10 +812,14 @@ void plGlDeformer_Destroy( plGlDeformer* deformer )
 {
 	if ( deformer == NULL )
 		return;
+	int last;
 	if ( plGlBegin( deformer ) == PLEAT_RESULT_OK )
 	{
 		plDeleteGlObjects( deformer );
+		last = plReleaseShared( deformer, 1 );
 		plGlEnd( deformer );
 	}
-	plFreeDeformer( deformer );
+	else
+		last = plReleaseShared( deformer, 0 ); // no context: GL objects cannot be deleted (as before sharing)
+	plFreeDeformer( deformer, last );
 }

@@ -73,11 +73,27 @@ typedef struct plGlNetworks
 	size_t staging_bytes;
 } plGlNetworks;
 
+// What the deformers of one asset in one context share (plGlDeformerDesc.share): the programs, the mesh's static
+// buffers (blend shapes, skinning, faces, adjacency, body points, candidates, rings), the networks' weights and, in
+// headless mode, the context itself. Made by the first deformer; the last one to go deletes it.
+typedef struct plGlShared
+{
+	_Atomic uint32_t refcount;
+	plGlContext* context; // headless mode: the context every sharing deformer enters; NULL in host-context mode
+	GLuint programs[PLEAT_GL_PROGRAM_COUNT];
+	GLuint buffers[PLEAT_GL_BINDING_COUNT]; // the static bindings' buffers (plGlBindingIsStatic), 0 elsewhere
+	plGlNetworks networks;                  // the static part: layers, guard, programs (no batch buffers)
+} plGlShared;
+
+// Non-zero for the bindings whose buffers never change after Create (shared by the deformers that share).
+int plGlBindingIsStatic( plGlBinding binding );
+
 struct plGlDeformer
 {
 	plAllocator allocator;
 	plGlDeformerMode mode;
-	plGlContext* context; // headless mode only
+	plGlContext* context; // headless mode only (the shared block's)
+	plGlShared* shared;   // never NULL once made
 	plGlApi api;
 
 	uint32_t vertex_count;    // N
@@ -94,7 +110,7 @@ struct plGlDeformer
 
 	GLuint programs[PLEAT_GL_PROGRAM_COUNT];
 	GLuint params_buffer;                    // plGlDeformParams
-	GLuint owned[PLEAT_GL_BINDING_COUNT];    // buffers the deformer created (0 where the host supplied one)
+	GLuint owned[PLEAT_GL_BINDING_COUNT];    // per-deformer buffers it created (0 for static ones and host buffers)
 	GLuint bindings[PLEAT_GL_BINDING_COUNT]; // what Run binds at each binding point
 
 	// Conversions on upload and read-backs; staging_bytes = max(16 (N + P), 4 N K, 4 P Ka, 4 N C, 4 P R).
@@ -114,9 +130,13 @@ struct plGlDeformer
 
 // Checks the networks' description against the deformer's sizes (Create, before any GL).
 plResult plGlNetworks_Validate( const plGlNetworksDesc* desc, uint32_t blend_count );
-// Compiles the two programs and uploads every layer, the guard's ranges (between plGlBegin and plGlEnd).
-plResult plGlNetworks_Create( plGlDeformer* deformer, const plGlNetworksDesc* desc );
-void plGlNetworks_Delete( plGlDeformer* deformer );
+// Compiles the two programs and uploads every layer and the guard's ranges into `into` (a shared block's networks),
+// between plGlBegin and plGlEnd.
+plResult plGlNetworks_Create( plGlDeformer* deformer, plGlNetworks* into, const plGlNetworksDesc* desc );
+// The static part (layers, guard, programs) of a shared block's networks.
+void plGlNetworks_DeleteStatic( const plGlApi* api, plGlNetworks* networks );
+// A deformer's batch buffers.
+void plGlNetworks_DeleteBatch( plGlDeformer* deformer );
 void plGlNetworks_FreeHost( plGlDeformer* deformer );
 // Uploads the network members' X_c and runs f_LP, the guard and f_dec for them, the decoder writing each one's
 // weights into its slot of the batch's weights buffer; the barrier after it lets the blend read them. Returns the

@@ -104,10 +104,9 @@ static plGlNetworkLayer plLayerParams( const plLayer* l, uint32_t activation, in
 	return block;
 }
 
-plResult plGlNetworks_Create( plGlDeformer* deformer, const plGlNetworksDesc* d )
+plResult plGlNetworks_Create( plGlDeformer* deformer, plGlNetworks* nets, const plGlNetworksDesc* d )
 {
 	const plGlApi* api = &deformer->api;
-	plGlNetworks* nets = &deformer->networks;
 	GLint bindings = 0;
 	api->GetIntegerv( GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS, &bindings );
 	if ( bindings < PLEAT_GL_BINDING_COUNT )
@@ -186,10 +185,8 @@ static void plDeleteBatchBuffers( plGlDeformer* deformer )
 	nets->capacity = 0;
 }
 
-void plGlNetworks_Delete( plGlDeformer* deformer )
+void plGlNetworks_DeleteStatic( const plGlApi* api, plGlNetworks* nets )
 {
-	const plGlApi* api = &deformer->api;
-	plGlNetworks* nets = &deformer->networks;
 	for ( uint32_t i = 0; i < nets->lp_count + nets->dec_count; ++i )
 	{
 		plDeleteBuffer( api, &nets->layers[i].weights );
@@ -204,6 +201,10 @@ void plGlNetworks_Delete( plGlDeformer* deformer )
 		api->DeleteProgram( nets->guard_program );
 	nets->layer_program = 0;
 	nets->guard_program = 0;
+}
+
+void plGlNetworks_DeleteBatch( plGlDeformer* deformer )
+{
 	plDeleteBatchBuffers( deformer );
 }
 
