@@ -23,6 +23,11 @@
 // vertex (the same fit). Measure and pass tier_cost_us for a real budget, or report frame costs
 // (plScene_ReportFrameCost).
 #define PLEAT_COST_US_PER_MAC 0.027e-3
+// A network layer's multiply-adds by precision, against fp32's (the crowd's networks phase per MAC in
+// bench/results/cpu-int8.json, 64 instances on one worker of an AVX-512 VNNI Xeon: fp16 0.88 on the t-shirt and 1.05 at
+// the reference sizes, int8 0.86 and 0.91; the means). The blend stays fp32 arithmetic whatever its storage.
+#define PLEAT_COST_FP16_MAC_SHARE 0.96
+#define PLEAT_COST_INT8_MAC_SHARE 0.89
 #define PLEAT_COST_US_PER_VERTEX 0.012
 #define PLEAT_COST_US_PER_DISPLAY_VERTEX 0.012
 #define PLEAT_COST_US_LBS_PER_VERTEX 0.0076
@@ -66,16 +71,23 @@ static uint32_t plLevelOf( const plSceneData* s, int32_t tier, float rate_hz )
 	return UINT32_MAX;
 }
 
+// A layer's multiply-adds in fp32 equivalents (a block-structured layer multiplies its windows only).
+static double plLayerCostMacs( const plLayer* l )
+{
+	double share = l->weight_int8 ? PLEAT_COST_INT8_MAC_SHARE : ( l->weight_fp16 ? PLEAT_COST_FP16_MAC_SHARE : 1.0 );
+	return share * (double)plLayerMacs( l );
+}
+
 static double plNetworkMacs( const plAssetData* a )
 {
 	double macs = (double)a->blend_count * a->vertex_count * 3.0;
 	for ( uint32_t i = 0; i < a->lp_layer_count; ++i )
 	{
-		macs += (double)plLayerMacs( &a->lp[i] ); // a block-structured layer multiplies its windows only
+		macs += plLayerCostMacs( &a->lp[i] );
 	}
 	for ( uint32_t i = 0; i < a->dec_layer_count; ++i )
 	{
-		macs += (double)plLayerMacs( &a->dec[i] );
+		macs += plLayerCostMacs( &a->dec[i] );
 	}
 	return macs;
 }
