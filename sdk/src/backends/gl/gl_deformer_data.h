@@ -1,5 +1,6 @@
-// A GL deformer's data and the helpers its files share (gl_deformer.c: one instance; gl_batch.c: many instances of
-// one mesh). Internal to sdk/src/backends/gl/.
+// A GL deformer's data and the helpers its files share (gl_deformer.c: one instance and the shared block; gl_batch.c:
+// many instances of one mesh; gl_networks.c: f_LP, the guard and f_dec for a batch; gl_program.c: dispatch, compile,
+// errors, below the others). Internal to sdk/src/backends/gl/.
 #ifndef PLEAT_GL_DEFORMER_DATA_H
 #define PLEAT_GL_DEFORMER_DATA_H
 #include "kernels/kernels.h"
