@@ -541,11 +541,11 @@ static int RunScene( int argc, char** argv )
 	for ( uint32_t t = 0; t < tier_count; ++t )
 	{
 		double full = MeasureDetail( tier_paths, tier_count, &motion, characters, calibration_frames,
-									 ( plDetail ){ (int32_t)t, 0.0f }, rates, 2 );
+									 ( plDetail ){ (int32_t)t, 0.0f, 0 }, rates, 2 );
 		double slow = MeasureDetail( tier_paths, tier_count, &motion, characters, calibration_frames,
-									 ( plDetail ){ (int32_t)t, 15.0f }, rates, 2 );
+									 ( plDetail ){ (int32_t)t, 15.0f, 0 }, rates, 2 );
 		double lone = MeasureDetail( tier_paths, tier_count, &motion, 1, calibration_frames * 4,
-									 ( plDetail ){ (int32_t)t, 0.0f }, rates, 2 );
+									 ( plDetail ){ (int32_t)t, 0.0f, 0 }, rates, 2 );
 		if ( full <= 0.0 || slow <= 0.0 || lone <= 0.0 )
 			return 1;
 		cost[t] = (float)full;
@@ -554,7 +554,7 @@ static int RunScene( int argc, char** argv )
 		stream[t] = (float)( lone > full ? lone - full : 0.0 );
 	}
 	double lbs = MeasureDetail( tier_paths, tier_count, &motion, characters, calibration_frames,
-								( plDetail ){ -1, 0.0f }, rates, 2 );
+								( plDetail ){ -1, 0.0f, 0 }, rates, 2 );
 	FILE* out = BenchOpenOutput( "pleat_bench_crowd", out_path );
 	if ( out == NULL || lbs <= 0.0 )
 		return 1;

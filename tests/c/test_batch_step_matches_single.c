@@ -358,7 +358,7 @@ static void plRunLbsLevel( int force_scalar )
 	plScene scene;
 	assert_int_equal( plCreateScene( context, &sdef, &scene ), PLEAT_RESULT_OK );
 	plInstance lone[CHARACTERS];
-	const plDetail lbs = { -1, 0.0f };
+	const plDetail lbs = { -1, 0.0f, 0 };
 	for ( uint32_t i = 0; i < CHARACTERS; ++i )
 	{
 		float beta[2] = { 0.3f * (float)( i % 5 ) - 0.6f, 0.1f * (float)( i % 3 ) };

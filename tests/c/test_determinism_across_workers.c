@@ -121,7 +121,7 @@ static uint64_t plRunScene( uint32_t workers, uint32_t* parallel_tasks )
 		{
 			if ( ( t + i ) % 6 == 0 ) // each character every 6 frames, staggered: LBS-only, 0, 1, 2 in turn
 			{
-				plDetail detail = { (int32_t)( ( t / 6 + i ) % 4 ) - 1, 0.0f };
+				plDetail detail = { (int32_t)( ( t / 6 + i ) % 4 ) - 1, 0.0f, 0 };
 				assert_int_equal( plScene_SetOverride( scene, i, &detail ), PLEAT_RESULT_OK );
 			}
 			inputs[i] = plTestMotion( t + 3 * i, J, q[i] );

@@ -28,9 +28,9 @@ static float plRand01( void )
 static uint32_t plLadder( plBudgetLevel* levels )
 {
 	const plBudgetLevel l[] = {
-		{ 10.0f, 30.0f, -1, 0.0f },  { 150.0f, 10.0f, 0, 0.0f },  { 90.0f, 10.5f, 0, 30.0f },
-		{ 60.0f, 14.0f, 1, 0.0f },   { 40.0f, 14.5f, 1, 30.0f },  { 30.0f, 24.0f, 2, 0.0f },
-		{ 200.0f, 12.0f, 0, 15.0f }, // dominated: dearer than tier 0's full rate and less accurate
+		{ 10.0f, 30.0f, -1, 0.0f, 0.0f, 0 },  { 150.0f, 10.0f, 0, 0.0f, 0.0f, 0 },  { 90.0f, 10.5f, 0, 30.0f, 0.0f, 0 },
+		{ 60.0f, 14.0f, 1, 0.0f, 0.0f, 0 },   { 40.0f, 14.5f, 1, 30.0f, 0.0f, 0 },  { 30.0f, 24.0f, 2, 0.0f, 0.0f, 0 },
+		{ 200.0f, 12.0f, 0, 15.0f, 0.0f, 0 }, // dominated: dearer than tier 0's full rate and less accurate
 	};
 	memcpy( levels, l, sizeof( l ) );
 	return (uint32_t)( sizeof( l ) / sizeof( l[0] ) );
@@ -86,7 +86,8 @@ static float plPlan( plPlanner* p, uint32_t n, float budget, float hysteresis )
 	float cost = -1.0f;
 	plSceneBudgetJob job = { p->levels,   p->level_count, p->frontier, p->frontier_count, p->stream, 3,
 							 n,           p->importance,  p->current,  p->pinned,         p->held,   NULL,
-							 budget,      hysteresis,     p->scratch,  sizeof( p->scratch ), p->out,  &cost };
+							 budget,      hysteresis,     p->scratch,  sizeof( p->scratch ), p->out,  &cost,
+							 NULL,        0,              0.0f,        0.0f,              NULL,      NULL }; // the CPU alone
 	assert_int_equal( plSceneBudgetJob_Run( &job ), PLEAT_RESULT_OK );
 	// The reported cost is the plan's own.
 	double sum = 0.0;
@@ -268,7 +269,8 @@ static void test_pins_and_holds( void** state )
 	assert_int_equal( p.out[1], 0 );
 	// Invalid jobs are refused.
 	plSceneBudgetJob job = { p.levels, p.level_count, p.frontier, p.frontier_count, p.stream, 3, n, p.importance,
-							 p.current, p.pinned, p.held, NULL, 100.0f, 0.0f, p.scratch, 16, p.out, NULL };
+							 p.current, p.pinned, p.held, NULL, 100.0f, 0.0f, p.scratch, 16, p.out, NULL,
+							 NULL, 0, 0.0f, 0.0f, NULL, NULL };
 	assert_false( plSceneBudgetJob_Validate( &job ) ); // scratch too small
 	job.scratch_bytes = sizeof( p.scratch );
 	assert_true( plSceneBudgetJob_Validate( &job ) );
@@ -355,7 +357,7 @@ static void test_scene_follows_budget_overrides_and_switch_limits( void** state 
 	uint32_t extra;
 	assert_int_equal( plScene_AddCharacter( scene, &cdef, &extra ), PLEAT_RESULT_CAPACITY_EXCEEDED );
 
-	plDetail lbs = { -1, 0.0f }, best = { 0, 0.0f }, bogus = { 0, 45.0f };
+	plDetail lbs = { -1, 0.0f, 0 }, best = { 0, 0.0f, 0 }, bogus = { 0, 45.0f, 0 };
 	assert_int_equal( plScene_SetOverride( scene, 0, &best ), PLEAT_RESULT_OK ); // the least important, at the best
 	assert_int_equal( plScene_SetOverride( scene, 1, &bogus ), PLEAT_RESULT_INVALID_ARGUMENT );
 	assert_int_equal( plScene_SetOverride( scene, 99, &lbs ), PLEAT_RESULT_INVALID_ARGUMENT );
@@ -504,7 +506,8 @@ static void test_fades_block_steps_up_but_push_nobody_down( void** state )
 	float cost = -1.0f;
 	plSceneBudgetJob job = { p.levels, p.level_count, p.frontier, p.frontier_count, p.stream, 3,
 							 n,        p.importance,  p.current,  p.pinned,         p.held,   extra,
-							 budget,   0.25f,         p.scratch,  sizeof( p.scratch ), p.out, &cost };
+							 budget,   0.25f,         p.scratch,  sizeof( p.scratch ), p.out, &cost,
+							 NULL,     0,             0.0f,       0.0f,               NULL,  NULL };
 	assert_int_equal( plSceneBudgetJob_Run( &job ), PLEAT_RESULT_OK );
 	for ( uint32_t c = 0; c < n; ++c )
 	{
@@ -544,7 +547,7 @@ static void test_reduced_rates_stagger_the_network_updates( void** state )
 	sdef.character_capacity = 8;
 	plScene scene;
 	assert_int_equal( plCreateScene( rig.context, &sdef, &scene ), PLEAT_RESULT_OK );
-	plDetail slow = { 0, 15.0f };
+	plDetail slow = { 0, 15.0f, 0 };
 	for ( uint32_t i = 0; i < 8; ++i )
 	{
 		plCharacterDef cdef = plDefaultCharacterDef();

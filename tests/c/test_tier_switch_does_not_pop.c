@@ -39,8 +39,8 @@ typedef struct plSwitchRun
 } plSwitchRun;
 
 // top → medium → xsmall (another mesh) → LBS-only → small → small at 30 Hz → top
-static const plDetail k_plan[] = { { 0, 0.0f }, { 1, 0.0f }, { 3, 0.0f }, { -1, 0.0f },
-								   { 2, 0.0f }, { 2, 30.0f }, { 0, 0.0f } };
+static const plDetail k_plan[] = { { 0, 0.0f, 0 }, { 1, 0.0f, 0 }, { 3, 0.0f, 0 }, { -1, 0.0f, 0 },
+								   { 2, 0.0f, 0 }, { 2, 30.0f, 0 }, { 0, 0.0f, 0 } };
 #define PLEAT_TEST_PLAN_COUNT ( sizeof( k_plan ) / sizeof( k_plan[0] ) )
 
 // One character through the switches (or, with keep >= 0, kept on plan entry `keep` all along) with the scene's
@@ -124,7 +124,7 @@ static plSwitchRun plRunSwitches( int keep )
 			if ( s == 1 && f == 0 && keep < 0 )
 			{
 				float fade = 1.0f;
-				assert_int_equal( plScene_GetDetail( scene, id, &( plDetail ){ 0, 0.0f }, NULL, &fade ),
+				assert_int_equal( plScene_GetDetail( scene, id, &( plDetail ){ 0, 0.0f, 0 }, NULL, &fade ),
 								  PLEAT_RESULT_OK );
 				assert_true( fade < 1.0f ); // the switch is fading, not done
 			}

@@ -830,6 +830,7 @@ typedef struct plDetail
 {
 	int32_t tier;          ///< index into plSceneDef.tiers, or -1: LBS-only (skinning only, on the display mesh)
 	float network_rate_hz; ///< the tier's network rate (Hz; 0 = every step, else one of plSceneDef.network_rates_hz)
+	int32_t gpu;           ///< 1: the tier runs on the GPU (a scene with plSceneDef.gpu_mode), 0: on the CPU
 } plDetail;
 
 /// Scene definition: get one from plDefaultSceneDef(), change fields, pass to plCreateScene.
@@ -862,6 +863,17 @@ typedef struct plSceneDef
 	uint32_t crossfade_frames;         ///< frames a switch blends from the old detail to the new (0 = default 8)
 	uint32_t character_capacity;       ///< the most characters at once (0 = default 64); everything is allocated at
 	                                   ///< creation and plScene_AddCharacter (one instance per tier per character)
+	plGpuMode gpu_mode;                ///< PLEAT_GPU_MODE_NONE (default): every detail on the CPU. A GPU mode: every
+	                                   ///< tier also as a GPU detail (its networks and deformation on the GPU,
+	                                   ///< PLEAT_MLP_BACKEND_GPU; a second instance per tier per character, sharing the
+	                                   ///< tier's GPU data), and the policy places each character on either device
+	                                   ///< within both budgets (docs/scene-budget.md, "Two devices")
+	const float* tier_gpu_cost_us;     ///< [tier_count] GPU µs per character for a step with the networks (required
+	                                   ///< with a GPU mode: measure it, scripts/gpu-bench.sh)
+	const float* tier_gpu_skin_cost_us; ///< [tier_count] GPU µs between network updates; NULL = tier_gpu_cost_us
+	const float* tier_gpu_cpu_cost_us; ///< [tier_count] CPU µs of a GPU detail (validation, forward kinematics, X_c,
+	                                   ///< upload, read-back, carry-over); NULL = estimated
+	float gpu_budget_us;               ///< per-frame GPU budget for the scene (µs); 0 = unlimited
 	int32_t internal_cookie;           ///< set by plDefaultSceneDef; do not touch
 } plSceneDef;
 
@@ -889,6 +901,9 @@ typedef struct plScenePlan
 	float weighted_error_mm; ///< Σ importance · error / Σ importance of the planned details (mm, from the def)
 	uint32_t switches;      ///< characters whose detail changed on that step
 	uint32_t fading;        ///< characters cross-fading after that step
+	float gpu_cost_us;      ///< the planned GPU time per frame (µs, from the def's GPU costs; 0 without a GPU mode)
+	float gpu_budget_us;    ///< the GPU budget it was planned for (µs; 0 = unlimited)
+	uint32_t on_gpu;        ///< characters planned on a GPU detail
 } plScenePlan;
 
 /// A scene def with defaults and the validity cookie.
@@ -911,8 +926,10 @@ PLEAT_API plResult plScene_RemoveCharacter( plScene scene, uint32_t character );
 PLEAT_API plResult plScene_SetImportance( plScene scene, uint32_t character, float importance );
 /// Change the budget (µs per frame, >= 0; 0 = unlimited).
 PLEAT_API plResult plScene_SetBudget( plScene scene, float budget_us );
+/// Change the GPU budget (µs per frame, >= 0; 0 = unlimited) of a scene with a GPU mode (else INVALID_ARGUMENT).
+PLEAT_API plResult plScene_SetGpuBudget( plScene scene, float gpu_budget_us );
 /// Fix a character's detail (the policy plans the others around it), or detail = NULL to hand it back to the policy.
-/// INVALID_ARGUMENT if the tier or rate is not one of the scene's.
+/// INVALID_ARGUMENT if the tier or rate is not one of the scene's, or gpu is set in a scene without a GPU mode.
 PLEAT_API plResult plScene_SetOverride( plScene scene, uint32_t character, const plDetail* detail );
 /// A character's current detail; during a cross-fade also the detail it fades from and how far (0..1; 1 = done).
 /// out_from and out_fade may be NULL.

@@ -72,6 +72,7 @@ typedef struct plInstanceData
 	                        // GPU path) and copied to normals/positions only when the whole step succeeded
 
 	plGpuMode gpu_mode;  // the def's (gpu_share must match it)
+	int read_back_always; // a scene's GPU instance: its outputs come back to the CPU at every step (plWantsReadBack)
 	plMlpBackend mlp_backend;
 	plOrtMlp* ort_lp;
 	plOrtMlp* ort_dec;

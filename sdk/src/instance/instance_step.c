@@ -173,7 +173,8 @@ plResult plValidateStep( const plInstanceData* inst, const plFrameInput* input, 
 
 int plWantsReadBack( const plInstanceData* inst, const plStepOutput* output )
 {
-	return inst->gl == NULL || ( output != NULL && ( output->positions != NULL || output->normals != NULL ) );
+	return inst->gl == NULL || inst->read_back_always ||
+		   ( output != NULL && ( output->positions != NULL || output->normals != NULL ) );
 }
 
 // ---- forward kinematics: frame t+1 into the scratch frame and the scratch skinning matrices ----

@@ -33,6 +33,9 @@
 #define PLEAT_COST_US_LBS_PER_VERTEX 0.0076
 #define PLEAT_COST_US_FIXED 2.0
 #define PLEAT_COST_US_PER_STREAMED_BYTE 0.0067e-3
+// A GPU detail's CPU side beyond the fixed work: its positions and normals read back and copied (24 bytes a vertex,
+// ~2 ns at the ~12 GB/s of a mapped read-back; not measured on a GPU yet: pass tier_gpu_cpu_cost_us).
+#define PLEAT_COST_US_GPU_READ_BACK_PER_VERTEX 0.002
 
 plSceneDef plDefaultSceneDef( void )
 {
@@ -59,16 +62,77 @@ int plScene_IsValid( plScene handle )
 
 // ---- levels ----
 
-static uint32_t plLevelOf( const plSceneData* s, int32_t tier, float rate_hz )
+static uint32_t plLevelOf( const plSceneData* s, int32_t tier, float rate_hz, int32_t gpu )
 {
 	for ( uint32_t l = 0; l < s->level_count; ++l )
 	{
-		if ( s->levels[l].tier == tier && ( tier < 0 || s->levels[l].rate_hz == rate_hz ) )
+		if ( s->levels[l].tier == tier &&
+			 ( tier < 0 ? gpu == 0 : s->levels[l].rate_hz == rate_hz && s->levels[l].gpu == ( gpu != 0 ) ) )
 		{
 			return l;
 		}
 	}
 	return UINT32_MAX;
+}
+
+float plSceneGpuWeight( const plSceneData* s )
+{
+	if ( s->budget_us > 0.0f && s->gpu_budget_us > 0.0f )
+	{
+		return s->budget_us / s->gpu_budget_us;
+	}
+	if ( s->budget_us > 0.0f )
+	{
+		return 1e-3f;
+	}
+	return s->gpu_budget_us > 0.0f ? 1e3f : 1.0f;
+}
+
+// The frontier of the levels `take` keeps (by index), mapped back to the scene's indices.
+static uint32_t plSubsetFrontier( const plSceneData* s, const uint8_t* take, float weight, uint32_t* out )
+{
+	plBudgetLevel subset[PLEAT_SCENE_MAX_LEVELS];
+	uint32_t index[PLEAT_SCENE_MAX_LEVELS], count = 0, local[PLEAT_SCENE_MAX_LEVELS];
+	for ( uint32_t l = 0; l < s->level_count; ++l )
+	{
+		if ( take[l] )
+		{
+			subset[count] = s->levels[l];
+			index[count++] = l;
+		}
+	}
+	uint32_t k = plBudgetFrontierWeighted( subset, count, weight, local );
+	for ( uint32_t i = 0; i < k; ++i )
+	{
+		out[i] = index[local[i]];
+	}
+	return k;
+}
+
+void plBuildFrontiers( plSceneData* s )
+{
+	float weight = plSceneGpuWeight( s );
+	uint8_t take[PLEAT_SCENE_MAX_LEVELS];
+	for ( uint32_t l = 0; l < s->level_count; ++l )
+	{
+		take[l] = !s->levels[l].gpu;
+	}
+	s->frontier_count = plSubsetFrontier( s, take, weight, s->frontier );
+	s->gpu_frontier_count = 0;
+	if ( s->gpu_mode == PLEAT_GPU_MODE_NONE )
+	{
+		return;
+	}
+	// From the CPU frontier's cheapest level up the GPU levels dearer and more accurate than it, so that both frontiers
+	// start where every free character starts.
+	const plBudgetLevel* base = &s->levels[s->frontier[0]];
+	for ( uint32_t l = 0; l < s->level_count; ++l )
+	{
+		take[l] = l == s->frontier[0] ||
+				  ( s->levels[l].gpu && s->levels[l].error_mm < base->error_mm &&
+					plBudgetPlanCost( &s->levels[l], weight ) > plBudgetPlanCost( base, weight ) );
+	}
+	s->gpu_frontier_count = plSubsetFrontier( s, take, weight, s->gpu_frontier );
 }
 
 // A layer's multiply-adds in fp32 equivalents (a block-structured layer multiplies its windows only).
@@ -146,20 +210,46 @@ static void plBuildLevels( plSceneData* s, const plSceneDef* def )
 														   : 0.02f * error * log2f( frame_rate / l->rate_hz );
 			}
 			l->error_mm = error + extra;
+			l->gpu_cost_us = 0.0f;
+			l->gpu = 0;
 		}
 	}
-	s->frontier_count = plBudgetFrontier( s->levels, s->level_count, s->frontier );
+	// The same details on the GPU: their GPU time from the def (measured: scripts/gpu-bench.sh), the CPU's share of
+	// them (validation, forward kinematics, X_c, the upload and read-back, the carry-over) from the def or estimated.
+	uint32_t cpu_levels = s->level_count;
+	for ( uint32_t i = 1; s->gpu_mode != PLEAT_GPU_MODE_NONE && i < cpu_levels; ++i )
+	{
+		const plBudgetLevel* on_cpu = &s->levels[i];
+		uint32_t t = (uint32_t)on_cpu->tier;
+		const plAssetData* a = s->tiers[t].asset;
+		double carry = s->tiers[t].same_mesh ? 0.0 : PLEAT_COST_US_PER_DISPLAY_VERTEX * n0;
+		double cpu_share = def->tier_gpu_cpu_cost_us != NULL
+							   ? def->tier_gpu_cpu_cost_us[t]
+							   : PLEAT_COST_US_FIXED + PLEAT_COST_US_GPU_READ_BACK_PER_VERTEX * a->vertex_count + carry;
+		double gpu_full = def->tier_gpu_cost_us[t];
+		double gpu_skin = def->tier_gpu_skin_cost_us != NULL ? def->tier_gpu_skin_cost_us[t] : gpu_full;
+		double share = on_cpu->rate_hz > 0.0f ? on_cpu->rate_hz / frame_rate : 1.0;
+		plBudgetLevel* l = &s->levels[s->level_count++];
+		*l = *on_cpu;
+		l->cost_us = (float)cpu_share;
+		l->gpu_cost_us = (float)( share * gpu_full + ( 1.0 - share ) * gpu_skin );
+		l->gpu = 1;
+	}
+	plBuildFrontiers( s );
 }
 
 // ---- create / destroy ----
 
 static void plDestroyCharacter( plSceneData* s, plSceneCharacter* c )
 {
-	for ( uint32_t t = 0; t < s->tier_count; ++t )
+	(void)s;
+	// The GPU instances first (the CPU ones share nothing with them; among the GPU ones the shared block goes with
+	// its last user, whichever character that is).
+	for ( int32_t slot = 2 * PLEAT_MAX_TIERS - 1; slot >= 0; --slot )
 	{
-		if ( c->instances[t].index1 != 0 )
+		if ( c->instances[slot].index1 != 0 )
 		{
-			plDestroyInstance( c->instances[t] );
+			plDestroyInstance( c->instances[slot] );
 		}
 	}
 	float *positions = c->positions, *normals = c->normals;
@@ -233,6 +323,31 @@ static plResult plCheckSceneDef( plContextData* ctx, const plSceneDef* def )
 									   "positive and finite" );
 		}
 	}
+	if ( def->gpu_mode != PLEAT_GPU_MODE_NONE && def->gpu_mode != PLEAT_GPU_MODE_HOST_CONTEXT &&
+		 def->gpu_mode != PLEAT_GPU_MODE_HEADLESS )
+	{
+		return plBadSceneDef( ctx, "gpu_mode: a plGpuMode" );
+	}
+	if ( def->gpu_mode != PLEAT_GPU_MODE_NONE && def->tier_gpu_cost_us == NULL )
+	{
+		return plBadSceneDef( ctx, "tier_gpu_cost_us: required with a gpu_mode (measure it: scripts/gpu-bench.sh)" );
+	}
+	for ( uint32_t t = 0; def->gpu_mode != PLEAT_GPU_MODE_NONE && t < def->tier_count; ++t )
+	{
+		if ( !( def->tier_gpu_cost_us[t] > 0.0f && isfinite( def->tier_gpu_cost_us[t] ) ) ||
+			 ( def->tier_gpu_skin_cost_us != NULL &&
+			   !( def->tier_gpu_skin_cost_us[t] > 0.0f && isfinite( def->tier_gpu_skin_cost_us[t] ) ) ) ||
+			 ( def->tier_gpu_cpu_cost_us != NULL &&
+			   !( def->tier_gpu_cpu_cost_us[t] > 0.0f && isfinite( def->tier_gpu_cpu_cost_us[t] ) ) ) )
+		{
+			return plBadSceneDef( ctx, "tier_gpu_cost_us / tier_gpu_skin_cost_us / tier_gpu_cpu_cost_us: positive "
+									   "and finite" );
+		}
+	}
+	if ( !( def->gpu_budget_us >= 0.0f && isfinite( def->gpu_budget_us ) ) )
+	{
+		return plBadSceneDef( ctx, "gpu_budget_us: finite, >= 0" );
+	}
 	if ( !( def->budget_us >= 0.0f && isfinite( def->budget_us ) ) || !isfinite( def->hysteresis ) ||
 		 !( def->lbs_cost_us >= 0.0f && isfinite( def->lbs_cost_us ) ) ||
 		 !( def->lbs_error_mm >= 0.0f && isfinite( def->lbs_error_mm ) ) )
@@ -279,14 +394,15 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 {
 	uint32_t cap = s->capacity, n0 = s->display_vertex_count;
 	size_t display = (size_t)n0 * 3 * sizeof( float );
-	s->budget_scratch_bytes = (size_t)cap * PLEAT_SCENE_MAX_LEVELS * 12 + (size_t)cap * 4;
+	s->budget_scratch_bytes =
+		( plSceneBudgetScratchBytes( cap, PLEAT_SCENE_MAX_LEVELS, PLEAT_SCENE_MAX_LEVELS ) + 3u ) & ~(size_t)3u;
 	size_t live_ids = (size_t)cap * sizeof( uint32_t );
 	// Each task worker finishes its characters in its own fade scratch (plFinishCharacters).
 	uint32_t workers = s->worker_count;
 	size_t sizes[16] = {
 		(size_t)cap * sizeof( plSceneCharacter ), (size_t)cap * 4 * display, (size_t)cap * sizeof( float ),
 		(size_t)cap * sizeof( uint32_t ),         (size_t)cap * sizeof( int32_t ), (size_t)cap * sizeof( int32_t ),
-		(size_t)cap * sizeof( float ),            (size_t)cap * sizeof( uint32_t ), s->budget_scratch_bytes + live_ids,
+		(size_t)cap * 2 * sizeof( float ),        (size_t)cap * sizeof( uint32_t ), s->budget_scratch_bytes + live_ids,
 		(size_t)cap * 2 * sizeof( plInstance ),   (size_t)cap * 2 * sizeof( plFrameInput ),
 		(size_t)cap * 2 * sizeof( plResult ),     workers * 2 * display,
 		0,                                        (size_t)cap * 2 * sizeof( plResult ), (size_t)cap * 2 * sizeof( uint32_t ) };
@@ -327,6 +443,7 @@ static plResult plAllocateScene( plContextData* ctx, plSceneData* s )
 	s->pinned = (int32_t*)parts[4];
 	s->held = (int32_t*)parts[5];
 	s->extra_cost_us = (float*)parts[6];
+	s->extra_gpu_cost_us = s->extra_cost_us + cap;
 	s->planned = (uint32_t*)parts[7];
 	s->budget_scratch = parts[8];
 	s->live_ids = (uint32_t*)( (uint8_t*)parts[8] + s->budget_scratch_bytes );
@@ -377,6 +494,8 @@ plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_s
 	s->min_frames_between_switches = def->min_frames_between_switches != 0 ? def->min_frames_between_switches : 30;
 	s->crossfade_frames = def->crossfade_frames != 0 ? def->crossfade_frames : 8;
 	s->cost_scale = 1.0f;
+	s->gpu_mode = def->gpu_mode;
+	s->gpu_budget_us = def->gpu_budget_us;
 	s->worker_count = ctx->runner.worker_count;
 	r = plGatherTiers( ctx, s, def );
 	if ( r == PLEAT_RESULT_OK )
@@ -409,8 +528,9 @@ plResult plCreateScene( plContext context, const plSceneDef* def, plScene* out_s
 	}
 	s->uses_tiers = 1;
 	out_scene->context = ctx->handle;
-	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_SCENE_CREATED, "%u tiers, %u levels (%u on the frontier), %u characters",
-		   s->tier_count, s->level_count, s->frontier_count, s->capacity );
+	plLog( ctx, PLEAT_LOG_LEVEL_INFO, PLEAT_LOG_SCENE_CREATED,
+		   "%u tiers, %u levels (%u on the frontier, %u on the GPU's), %u characters", s->tier_count, s->level_count,
+		   s->frontier_count, s->gpu_frontier_count, s->capacity );
 	return PLEAT_RESULT_OK;
 }
 
@@ -467,6 +587,26 @@ plResult plScene_AddCharacter( plScene handle, const plCharacterDef* def, uint32
 		idef.material = def->material;
 		r = plCreateInstance( handle.context, &idef, &c->instances[t] );
 		clamped |= r == PLEAT_RESULT_CLAMPED;
+		if ( r >= 0 && s->gpu_mode != PLEAT_GPU_MODE_NONE )
+		{
+			// The tier on the GPU, sharing the tier's GPU data with any other character's GPU instance of it.
+			idef.gpu_mode = s->gpu_mode;
+			idef.mlp_backend = PLEAT_MLP_BACKEND_GPU;
+			for ( uint32_t other = 0; other < s->capacity; ++other )
+			{
+				if ( s->characters[other].live && other != id )
+				{
+					idef.gpu_share = s->characters[other].instances[PLEAT_MAX_TIERS + t];
+					break;
+				}
+			}
+			r = plCreateInstance( handle.context, &idef, &c->instances[PLEAT_MAX_TIERS + t] );
+			if ( r >= 0 )
+			{
+				// The scene reads its outputs on the CPU (cross-fades, the display mesh, the caller's spans).
+				plGetInstanceData( c->instances[PLEAT_MAX_TIERS + t] )->read_back_always = 1;
+			}
+		}
 	}
 	if ( r < 0 )
 	{
@@ -519,6 +659,20 @@ plResult plScene_SetBudget( plScene handle, float budget_us )
 	if ( r == PLEAT_RESULT_OK )
 	{
 		s->budget_us = budget_us;
+		plBuildFrontiers( s ); // a GPU scene weighs GPU µs by the budgets' ratio
+	}
+	return r;
+}
+
+plResult plScene_SetGpuBudget( plScene handle, float gpu_budget_us )
+{
+	plSceneData* s = plGetSceneData( handle );
+	plResult r = plCheckHandleThenArguments( s, s != NULL && s->gpu_mode != PLEAT_GPU_MODE_NONE &&
+													gpu_budget_us >= 0.0f && isfinite( gpu_budget_us ) );
+	if ( r == PLEAT_RESULT_OK )
+	{
+		s->gpu_budget_us = gpu_budget_us;
+		plBuildFrontiers( s );
 	}
 	return r;
 }
@@ -536,8 +690,9 @@ plResult plScene_SetOverride( plScene handle, uint32_t character, const plDetail
 		c->override_level = -1;
 		return PLEAT_RESULT_OK;
 	}
-	uint32_t level = detail->tier < (int32_t)s->tier_count ? plLevelOf( s, detail->tier, detail->network_rate_hz )
-														   : UINT32_MAX;
+	uint32_t level = detail->tier < (int32_t)s->tier_count
+						 ? plLevelOf( s, detail->tier, detail->network_rate_hz, detail->gpu )
+						 : UINT32_MAX;
 	if ( level == UINT32_MAX )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
@@ -548,7 +703,7 @@ plResult plScene_SetOverride( plScene handle, uint32_t character, const plDetail
 
 static plDetail plDetailOf( const plSceneData* s, uint32_t level )
 {
-	plDetail d = { s->levels[level].tier, s->levels[level].rate_hz };
+	plDetail d = { s->levels[level].tier, s->levels[level].rate_hz, s->levels[level].gpu };
 	return d;
 }
 

@@ -24,7 +24,8 @@ typedef struct plSceneTier
 typedef struct plSceneCharacter
 {
 	int live;
-	plInstance instances[PLEAT_MAX_TIERS]; // one per tier, created with the character
+	plInstance instances[2 * PLEAT_MAX_TIERS]; // one per tier, created with the character; a scene with a GPU mode
+	                                           // also one per tier on the GPU, at PLEAT_MAX_TIERS + tier (plLevelSlot)
 	uint32_t level;              // the current detail (index into the scene's levels)
 	uint32_t fade_from;          // the detail being faded out while fade_alpha < 1
 	float fade_alpha;            // the new detail's weight in the outputs (1: no fade)
@@ -47,10 +48,15 @@ typedef struct plSceneData
 	plSceneTier tiers[PLEAT_MAX_TIERS];
 	uint32_t tier_count;
 	uint32_t display_vertex_count;  // N0
-	plBudgetLevel levels[PLEAT_SCENE_MAX_LEVELS]; // [0] = LBS-only, then per tier: full rate, then each reduced rate
+	plBudgetLevel levels[PLEAT_SCENE_MAX_LEVELS]; // [0] = LBS-only, then per tier: full rate, then each reduced rate;
+	                                              // then, with a GPU mode, the same on the GPU
 	uint32_t level_count;
-	uint32_t frontier[PLEAT_SCENE_MAX_LEVELS];
+	uint32_t frontier[PLEAT_SCENE_MAX_LEVELS];     // LBS-only and the CPU levels (plBuildFrontiers)
 	uint32_t frontier_count;
+	uint32_t gpu_frontier[PLEAT_SCENE_MAX_LEVELS]; // from frontier[0] up the GPU levels (0 entries without a GPU mode)
+	uint32_t gpu_frontier_count;
+	plGpuMode gpu_mode;     // PLEAT_GPU_MODE_NONE: the CPU alone
+	float gpu_budget_us;    // 0 = unlimited
 	float tier_stream_cost_us[PLEAT_MAX_TIERS];
 	float budget_us, hysteresis;
 	uint32_t min_frames_between_switches, crossfade_frames;
@@ -65,7 +71,8 @@ typedef struct plSceneData
 	float* importance;
 	uint32_t* current;
 	int32_t *pinned, *held;
-	float* extra_cost_us;
+	float* extra_cost_us;         // [capacity], then [capacity] the GPU's (extra_gpu_cost_us)
+	float* extra_gpu_cost_us;
 	uint32_t* planned;
 	void* budget_scratch;
 	size_t budget_scratch_bytes;
@@ -86,5 +93,18 @@ typedef struct plSceneData
 
 // The live scene a handle names, or NULL.
 plSceneData* plGetSceneData( plScene handle );
+// The frontiers for the scene's budgets (scene.c; again whenever a budget changes: they weigh GPU µs by its ratio).
+void plBuildFrontiers( plSceneData* s );
+// The weight of a GPU µs against a CPU µs in the plan cost (plBudgetPlanCost): the CPU budget over the GPU's, or, with
+// one of them unlimited, 1e-3 (the GPU's free) or 1e3 (the CPU's free); 1 with both unlimited.
+float plSceneGpuWeight( const plSceneData* s );
+
+// The instance a level shows in a character's instances: its tier's CPU one, or its GPU one (PLEAT_MAX_TIERS + tier);
+// −1: LBS-only (tiers[0]'s CPU instance, networks off).
+static inline int32_t plLevelSlot( const plSceneData* s, uint32_t level )
+{
+	const plBudgetLevel* l = &s->levels[level];
+	return l->tier < 0 ? -1 : l->tier + ( l->gpu ? PLEAT_MAX_TIERS : 0 );
+}
 
 #endif

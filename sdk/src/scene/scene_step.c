@@ -17,11 +17,6 @@
 // rate makes one frame in k heavier) and for the lag of the cost correction (plScene_ReportFrameCost).
 #define PLEAT_SCENE_BUDGET_SHARE 0.9f
 
-static int32_t plLevelTier( const plSceneData* s, uint32_t level )
-{
-	return s->levels[level].tier;
-}
-
 // ---- the step ----
 
 // The policy's plan for every live character (compacted: the job sees only live ones).
@@ -37,8 +32,9 @@ static plResult plPlan( plSceneData* s, uint32_t* live, uint32_t live_count )
 		s->pinned[m] = c->override_level >= 0 ? c->override_level : ( fading ? (int32_t)c->level : -1 );
 		s->held[m] = c->stepped && c->frames_since_switch < s->min_frames_between_switches ? (int32_t)c->level : -1;
 		s->extra_cost_us[m] = fading ? s->levels[c->fade_from].cost_us : 0.0f;
+		s->extra_gpu_cost_us[m] = fading ? s->levels[c->fade_from].gpu_cost_us : 0.0f;
 	}
-	float cost = 0.0f;
+	float cost = 0.0f, gpu_cost = 0.0f;
 	plSceneBudgetJob job = { s->levels,
 							 s->level_count,
 							 s->frontier,
@@ -56,12 +52,25 @@ static plResult plPlan( plSceneData* s, uint32_t* live, uint32_t live_count )
 							 s->budget_scratch,
 							 s->budget_scratch_bytes,
 							 s->planned,
-							 &cost };
+							 &cost,
+							 s->gpu_frontier,
+							 s->gpu_frontier_count,
+							 s->gpu_budget_us > 0.0f ? PLEAT_SCENE_BUDGET_SHARE * s->gpu_budget_us : INFINITY,
+							 s->gpu_mode != PLEAT_GPU_MODE_NONE ? plSceneGpuWeight( s ) : 0.0f,
+							 s->extra_gpu_cost_us,
+							 &gpu_cost };
 	plResult r = plSceneBudgetJob_Run( &job );
 	s->model_cost_us = cost;
 	s->plan.cost_us = cost * s->cost_scale;
 	s->plan.cost_scale = s->cost_scale;
 	s->plan.budget_us = s->budget_us;
+	s->plan.gpu_cost_us = gpu_cost;
+	s->plan.gpu_budget_us = s->gpu_budget_us;
+	s->plan.on_gpu = 0;
+	for ( uint32_t m = 0; m < live_count; ++m )
+	{
+		s->plan.on_gpu += s->levels[s->planned[m]].gpu != 0;
+	}
 	return r == PLEAT_RESULT_OK ? PLEAT_RESULT_OK : PLEAT_RESULT_INTERNAL_ERROR;
 }
 
@@ -70,35 +79,36 @@ static plResult plPlan( plSceneData* s, uint32_t* live, uint32_t live_count )
 // interval (the golden-ratio sequence over character slots): characters that switch together — all of them on the
 // first frame — then run their networks on different frames instead of all on one, so the frames cost alike and
 // the engine sees no spike every 1 / rate. The networks see the true time since their last update.
-static void plStaggerNetworkUpdates( const plSceneData* s, const plSceneCharacter* c, int32_t tier, float rate_hz )
+static void plStaggerNetworkUpdates( const plSceneData* s, const plSceneCharacter* c, int32_t slot, float rate_hz )
 {
 	if ( rate_hz <= 0.0f )
 	{
 		return;
 	}
 	double share = fmod( (double)( c - s->characters ) * 0.6180339887498949, 1.0 );
-	plInstanceData* inst = plGetInstanceData( c->instances[tier] );
+	plInstanceData* inst = plGetInstanceData( c->instances[slot] );
 	inst->network_lead_s = share * inst->network_interval_s;
 }
 
 static void plSwitch( plSceneData* s, plSceneCharacter* c, uint32_t target )
 {
-	int32_t from_tier = plLevelTier( s, c->level ), to_tier = plLevelTier( s, target );
+	int32_t from_slot = plLevelSlot( s, c->level ), to_slot = plLevelSlot( s, target );
 	float rate = s->levels[target].rate_hz;
 	s->plan.switches += 1;
 	c->frames_since_switch = 0;
-	if ( to_tier >= 0 && from_tier == to_tier && c->stepped )
+	if ( to_slot >= 0 && from_slot == to_slot && c->stepped )
 	{
-		plInstance_SetNetworkRate( c->instances[to_tier], rate );
-		plStaggerNetworkUpdates( s, c, to_tier, rate );
+		plInstance_SetNetworkRate( c->instances[to_slot], rate );
+		plStaggerNetworkUpdates( s, c, to_slot, rate );
 		c->level = target;
 		return;
 	}
-	if ( to_tier >= 0 )
+	if ( to_slot >= 0 )
 	{
-		plInstance_Reset( c->instances[to_tier] );
-		plInstance_SetNetworkRate( c->instances[to_tier], rate );
-		plStaggerNetworkUpdates( s, c, to_tier, rate );
+		// Another tier, or the same tier on the other device: a new detail, restarted and faded in.
+		plInstance_Reset( c->instances[to_slot] );
+		plInstance_SetNetworkRate( c->instances[to_slot], rate );
+		plStaggerNetworkUpdates( s, c, to_slot, rate );
 	}
 	c->fade_from = c->level;
 	c->fade_alpha = c->stepped ? 0.0f : 1.0f;
@@ -169,13 +179,13 @@ static void plStepLbsLevel( plSceneData* s, const uint32_t* live, uint32_t live_
 	}
 }
 
-// A network detail's last outputs (its tier's instance, just stepped) on the display mesh.
-static void plShowTier( const plSceneData* s, const plSceneCharacter* c, int32_t tier, float* positions, float* normals )
+// A network detail's last outputs (its tier's instance on its device, slot, just stepped) on the display mesh.
+static void plShowTier( const plSceneData* s, const plSceneCharacter* c, int32_t slot, float* positions, float* normals )
 {
 	const float *p, *n;
-	plInstance_GetPositions( c->instances[tier], &p, NULL );
-	plInstance_GetNormals( c->instances[tier], &n, NULL );
-	const plSceneTier* t = &s->tiers[tier];
+	plInstance_GetPositions( c->instances[slot], &p, NULL );
+	plInstance_GetNormals( c->instances[slot], &n, NULL );
+	const plSceneTier* t = &s->tiers[slot % PLEAT_MAX_TIERS];
 	if ( t->same_mesh )
 	{
 		memcpy( positions, p, (size_t)s->display_vertex_count * 12 );
@@ -305,9 +315,9 @@ static plResult plFinishCharacter( const plSceneData* s, plSceneCharacter* c, co
 								   float* fade_positions, float* fade_normals )
 {
 	uint32_t n0 = s->display_vertex_count;
-	int32_t tier = plLevelTier( s, c->level );
+	int32_t tier = plLevelSlot( s, c->level ); // the instance shown (−1: LBS-only)
 	int fade = c->fade_alpha < 1.0f;
-	int32_t from = fade ? plLevelTier( s, c->fade_from ) : -1;
+	int32_t from = fade ? plLevelSlot( s, c->fade_from ) : -1;
 	// An LBS-only character's outputs are already in its back buffers (plStepLbsLevel); a network's are its tier's.
 	plResult result = tier >= 0 ? s->step_results[result_index] : lbs_result;
 	uint32_t joints = s->tiers[0].asset->joint_count;
@@ -426,8 +436,8 @@ plResult plScene_Step( plScene handle, const plFrameInput* inputs, const plStepO
 		{
 			plSwitch( s, c, s->planned[m] );
 		}
-		int32_t tier = plLevelTier( s, c->level );
-		int32_t from = c->fade_alpha < 1.0f ? plLevelTier( s, c->fade_from ) : -1;
+		int32_t tier = plLevelSlot( s, c->level ); // the instances shown and fading out
+		int32_t from = c->fade_alpha < 1.0f ? plLevelSlot( s, c->fade_from ) : -1;
 		if ( tier >= 0 )
 		{
 			s->step_instances[steps] = c->instances[tier];
@@ -452,8 +462,8 @@ plResult plScene_Step( plScene handle, const plFrameInput* inputs, const plStepO
 		{
 			continue;
 		}
-		int32_t tier = plLevelTier( s, c->level );
-		int32_t from = c->fade_alpha < 1.0f ? plLevelTier( s, c->fade_from ) : -1;
+		int32_t tier = plLevelSlot( s, c->level );
+		int32_t from = c->fade_alpha < 1.0f ? plLevelSlot( s, c->fade_from ) : -1;
 		s->result_index[m] = tier >= 0 ? k : PLEAT_SCENE_NO_NETWORK;
 		// and the fading-out detail's result right after it (the same input, so the same verdict)
 		k += ( tier >= 0 ) + ( from >= 0 && from != tier );
