@@ -123,16 +123,16 @@ void plBuildFrontiers( plSceneData* s )
 	{
 		return;
 	}
-	// From the CPU frontier's cheapest level up the GPU levels dearer and more accurate than it, so that both frontiers
-	// start where every free character starts.
+	// From the CPU frontier's cheapest level (where every free character starts) up the hull of the GPU levels more
+	// accurate than it. The first of them may cost less than that start (a GPU detail's CPU share against LBS-only's
+	// skinning): the policy takes such a step first, as a free improvement (plSceneBudgetJob_Run).
 	const plBudgetLevel* base = &s->levels[s->frontier[0]];
 	for ( uint32_t l = 0; l < s->level_count; ++l )
 	{
-		take[l] = l == s->frontier[0] ||
-				  ( s->levels[l].gpu && s->levels[l].error_mm < base->error_mm &&
-					plBudgetPlanCost( &s->levels[l], weight ) > plBudgetPlanCost( base, weight ) );
+		take[l] = s->levels[l].gpu && s->levels[l].error_mm < base->error_mm;
 	}
-	s->gpu_frontier_count = plSubsetFrontier( s, take, weight, s->gpu_frontier );
+	s->gpu_frontier[0] = s->frontier[0];
+	s->gpu_frontier_count = 1 + plSubsetFrontier( s, take, weight, s->gpu_frontier + 1 );
 }
 
 // A layer's multiply-adds in fp32 equivalents (a block-structured layer multiplies its windows only).

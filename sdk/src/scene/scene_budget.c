@@ -62,11 +62,12 @@ int plSceneBudgetJob_Validate( const plSceneBudgetJob* job )
 	{
 		return 0;
 	}
+	// The GPU frontier's first step may cost less than the shared start (a free improvement); the rest climb.
 	for ( uint32_t k = 1; k < job->gpu_frontier_count; ++k )
 	{
 		if ( job->gpu_frontier[k] >= job->level_count ||
-			 !( plBudgetPlanCost( &job->levels[job->gpu_frontier[k]], job->gpu_weight ) >
-				plBudgetPlanCost( &job->levels[job->gpu_frontier[k - 1]], job->gpu_weight ) ) )
+			 ( k > 1 && !( plBudgetPlanCost( &job->levels[job->gpu_frontier[k]], job->gpu_weight ) >
+						   plBudgetPlanCost( &job->levels[job->gpu_frontier[k - 1]], job->gpu_weight ) ) ) )
 		{
 			return 0;
 		}
@@ -198,7 +199,8 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 	}
 	uint32_t n = job->character_count, k_count = job->frontier_count;
 	plBudgetStep* steps = (plBudgetStep*)job->scratch;
-	uint32_t* position = (uint32_t*)( (uint8_t*)job->scratch + (size_t)n * k_count * sizeof( plBudgetStep ) );
+	uint32_t* position =
+		(uint32_t*)( (uint8_t*)job->scratch + (size_t)n * ( k_count + job->gpu_frontier_count ) * sizeof( plBudgetStep ) );
 	uint32_t tier_users[PLEAT_MAX_TIERS];
 	memset( tier_users, 0, sizeof( tier_users ) );
 	// The fading-out details' costs end with their fades. They close the budget to steps above where a character
@@ -289,8 +291,9 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 			{
 				const plBudgetLevel* lo = &job->levels[frontiers[d][k - 1]];
 				const plBudgetLevel* hi = &job->levels[frontiers[d][k]];
-				float value = job->importance[c] * ( lo->error_mm - hi->error_mm ) /
-							  ( plBudgetPlanCost( hi, job->gpu_weight ) - plBudgetPlanCost( lo, job->gpu_weight ) );
+				float added = plBudgetPlanCost( hi, job->gpu_weight ) - plBudgetPlanCost( lo, job->gpu_weight );
+				// A step that costs nothing more (the GPU's first, below the start) is worth any other.
+				float value = added > 0.0f ? job->importance[c] * ( lo->error_mm - hi->error_mm ) / added : INFINITY;
 				steps[step_count].value = k <= held ? value * ( 1.0f + job->hysteresis ) : value;
 				steps[step_count].character = c;
 				steps[step_count].position = k;
@@ -300,6 +303,15 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 		}
 	}
 	qsort( steps, step_count, sizeof( plBudgetStep ), plCompareSteps );
+	// Two rounds: the steps in order of worth, then the characters that ran out of room on their device moved to the
+	// other; what those moves freed is taken up by a second round of the same steps.
+	uint32_t rounds = job->gpu_frontier_count > 1 ? 2u : 1u;
+	for ( uint32_t round = 0; round < rounds; ++round )
+	{
+	for ( uint32_t c = 0; round > 0 && c < n; ++c )
+	{
+		device[c] = (uint8_t)PL_DEVICE( device[c] ); // open again: the budget may have room now
+	}
 	for ( uint32_t s = 0; s < step_count; ++s )
 	{
 		uint32_t c = steps[s].character, k = steps[s].position, d = steps[s].device;
@@ -323,10 +335,6 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 		{
 			// Closed on this device; one not yet on either may still take its first step on the other.
 			device[c] = (uint8_t)( device[c] | PL_CLOSED( d ) );
-			if ( on == d )
-			{
-				position[c] = UINT32_MAX - 2u;
-			}
 			continue;
 		}
 		spent += extra;
@@ -357,6 +365,10 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 		uint32_t other = PL_DEVICE( device[best] ) == PL_ON_CPU ? PL_ON_GPU : PL_ON_CPU;
 		device[best] = (uint8_t)( device[best] | PL_TRIED );
 		uint32_t from = job->out_level[best];
+		if ( position[best] >= counts[PL_DEVICE( device[best] )] )
+		{
+			continue; // held or pinned: not a free character's
+		}
 		for ( uint32_t k = counts[other] - 1; k >= 1; --k )
 		{
 			uint32_t to = frontiers[other][k];
@@ -376,8 +388,11 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 			spent_gpu += extra_gpu;
 			plMove( job, tier_users, from, to );
 			job->out_level[best] = to;
+			position[best] = k;
+			device[best] = (uint8_t)( other | PL_TRIED );
 			break;
 		}
+	}
 	}
 	if ( job->out_cost_us != NULL )
 	{

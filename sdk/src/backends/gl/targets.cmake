@@ -20,7 +20,7 @@ foreach(_test_source IN LISTS _pleat_gl_tests)
                              "${_pleat_root}/tests/c")
   target_link_libraries(${_test_name} PRIVATE pleat_static ${PLEAT_GL_LIBRARIES} PkgConfig::PLEAT_GL_CMOCKA m)
   # These build their assets with the core's C test asset builder.
-  if(_test_name MATCHES "^test_gl_(instance|headless_reports_platform|batch_matches_single|networks)$")
+  if(_test_name MATCHES "^test_gl_(instance|headless_reports_platform|batch_matches_single|networks|scene_two_devices)$")
     if(NOT TARGET pleat_test_support)
       message(STATUS "Pleat GL: tests/c has no pleat_test_support (asset builder); ${_test_name} not built")
       set_target_properties(${_test_name} PROPERTIES EXCLUDE_FROM_ALL ON)
