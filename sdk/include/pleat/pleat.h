@@ -160,7 +160,9 @@
 // tiers[0]'s vertices and faces; a tier on another mesh is carried over by a barycentric map built at creation.
 // plScene_Step steps every character through plStepInstances (tiers batched), then finishes the characters (LBS-only
 // details, the carry-over to the display mesh, cross-fades, the copies out) over the context's task hooks too, and
-// writes each character's outputs: the same bits for any worker count.
+// writes each character's outputs: the same bits for any worker count. With plSceneDef.gpu_mode every tier is also a
+// GPU detail (GPU NETWORKS), and the policy places each character on the CPU or the GPU within budget_us and
+// gpu_budget_us (docs/scene-budget.md, "Two devices"; the GPU costs come from the def, measured on the GPU).
 //     plSceneDef sdef = plDefaultSceneDef();
 //     sdef.tiers = tiers; sdef.tier_count = 4; sdef.budget_us = 2000.0f; sdef.character_capacity = 100;
 //     plScene scene; plCreateScene( context, &sdef, &scene );
