@@ -806,13 +806,15 @@ static void test_full_body_contact_batch_equals_per_instance( void** state )
 		{
 			continue;
 		}
-		for ( uint32_t n = 1; n <= 8; n += 3 )
+		// every count up to the set's lane group (8 for AVX2, 16 for AVX-512), ragged ones included
+		for ( uint32_t n = 1; n <= k->batch[s].geometry_lanes; n += 3 )
 		{
-			static float ps[8][NV * 3], before[8][NV * 3], points[8][P * 3], mats[8][J * 12], single[NV * 3];
-			static float posed[( P + 1 ) * PLEAT_POSED_POINT_FLOATS], scratch[P * 64]; // (row P zero: row offsets)
-			float offsets[8];
-			float* pp[8];
-			const float *rr[8], *mm[8];
+			static float ps[16][NV * 3], before[16][NV * 3], points[16][P * 3], mats[16][J * 12], single[NV * 3];
+			static float posed[( P + 1 ) * PLEAT_POSED_POINT_FLOATS]; // (row P zero: row offsets)
+			static _Alignas( 64 ) float scratch[P * 8 * 16];
+			float offsets[16];
+			float* pp[16];
+			const float *rr[16], *mm[16];
 			for ( uint32_t b = 0; b < n; ++b )
 			{
 				for ( uint32_t e = 0; e < J * 12; ++e )

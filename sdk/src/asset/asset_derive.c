@@ -133,7 +133,7 @@ size_t plBatchScratchFloats( const plContextData* ctx, const plAssetData* a )
 	if ( kernels->geometry_lanes > 1 )
 	{
 		floats = plNormalsBatchScratchFloats( a->vertex_count, kernels->geometry_lanes );
-		size_t contact = kernels->body_contact_batch != NULL ? plBodyContactBatchScratchFloats( a->body_point_count )
+		size_t contact = kernels->body_contact_batch != NULL ? plBodyContactBatchScratchFloats( a->body_point_count, kernels->geometry_lanes )
 															 : 0;
 		floats = contact > floats ? contact : floats;
 	}

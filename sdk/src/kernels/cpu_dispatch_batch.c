@@ -53,16 +53,17 @@ static const plBatchKernels s_plBatchAvx2 = { plMatMat_Avx2,
 											  "avx2+fma+f16c" };
 #endif
 #if defined( PLEAT_HAVE_AVX512 )
-// The AVX2 set's wider twins for the networks and the blend; skinning, body contact and normals stay 8 lanes.
+// The AVX2 set's wider twins for the networks, the blend and the full body contact (16 instances per lane group);
+// skinning, the fast contact and normals run the AVX2 kernels over the group, 8 instances at a time.
 static const plBatchKernels s_plBatchAvx512 = { plMatMat_Avx512,
 												plMatMatLanes_Avx512,
 												plBlendShapesBatch_Avx512,
 												plSkinningBatch_Avx2,
 												plBodyContactFastBatch_Avx2,
-												plBodyContactBatch_Avx2,
+												plBodyContactBatch_Avx512,
 												plNormalsBatch_Avx2,
-												8,
-												"avx512f+vl+bw+dq (mlp, blend) + avx2+fma (skinning, body contact, "
+												16,
+												"avx512f+vl+bw+dq (mlp, blend, body contact) + avx2+fma (skinning, "
 												"normals)" };
 #endif
 

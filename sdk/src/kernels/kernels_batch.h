@@ -78,14 +78,15 @@ typedef void plBodyContactFastBatchFn( float* const* positions, const float* con
 // The full body contact of batch_count (<= 8) instances of one mesh: what plPoseBodyPointsFn, plBodyPointNormalsFn
 // (rings may be NULL) and plBodyContactFn do to each instance (positions[b] packed [N][3], moved in place;
 // shaped_points[b] its points [P][3]; offsets_m[b] its clearance; skin_matrices[b] [J][3][4]); the asset's points,
-// candidates and rings are shared. scratch: [P][8][8] floats (plBodyContactBatchScratchFloats), 32-byte aligned.
+// candidates and rings are shared. scratch: [P][8][lanes] floats (plBodyContactBatchScratchFloats with the set's
+// geometry_lanes), 64-byte aligned.
 typedef void plBodyContactBatchFn( float* const* positions, const float* const* shaped_points, const float* offsets_m,
 								   uint32_t batch_count, const float* point_normals, const uint16_t* skin_indices,
 								   const float* skin_weights, uint32_t influence_count,
 								   const float* const* skin_matrices, uint32_t joint_count, uint32_t point_count,
 								   const uint16_t* candidates, uint32_t candidate_count, const uint16_t* rings,
 								   uint32_t ring_count, uint32_t vertex_count, float* scratch );
-#define plBodyContactBatchScratchFloats( point_count ) ( (size_t)( point_count ) * 64 )
+#define plBodyContactBatchScratchFloats( point_count, lanes ) ( (size_t)( point_count ) * 8 * ( lanes ) )
 // Vertex normals of batch_count instances of one mesh, all vertices: what plNormalsScatterFn gives each instance
 // (positions[b] and normals[b] packed [N][3]). scratch: [plNormalsBatchScratchFloats(N, batch lanes)] floats, 64-byte
 // aligned, shared by the call (the SIMD twins keep the positions and the sums there with the instances as lanes).
@@ -101,7 +102,8 @@ typedef struct plBatchKernels
 	plBodyContactFastBatchFn* body_contact_fast_batch;
 	plBodyContactBatchFn* body_contact_batch; // NULL where the set has none (each instance then runs it alone)
 	plNormalsBatchFn* normals_batch;
-	uint32_t geometry_lanes; // instances per skinning_batch / normals_batch call that fill its registers (1 = scalar)
+	uint32_t geometry_lanes; // instances per geometry call (a lane group): what body_contact_batch fills its registers
+	                         // with, and skinning_batch / normals_batch take in one call (1 = scalar)
 	const char* isa;         // the instruction sets of these kernels, for benchmark reports
 } plBatchKernels;
 
@@ -126,6 +128,7 @@ plNormalsBatchFn plNormalsBatch_Avx2;
 plMatMatFn plMatMat_Avx512;
 plMatMatLanesFn plMatMatLanes_Avx512;
 plBlendShapesBatchFn plBlendShapesBatch_Avx512;
+plBodyContactBatchFn plBodyContactBatch_Avx512; // 16 instances per call
 #endif
 // The AVX-512 kernels write their register tiles for constant sizes and instantiate them per instance count through a
 // switch: CASE( size, n ) expands to `case n:` and the call for that count, n = 1..6 or 1..8.

@@ -147,7 +147,7 @@ plResult plGeometryLanes( plContextData* ctx, const plBatchKernels* kernels, con
 	// The full contact: in lanes where the set has the kernel and a scratch block is free, else instance by instance.
 	plResult r = PLEAT_RESULT_OK;
 	int contact_slot = contact_count[FULL] > 1 && kernels->body_contact_batch != NULL
-						   ? plClaimBatchScratch( ctx, plBodyContactBatchScratchFloats( a->body_point_count ) )
+						   ? plClaimBatchScratch( ctx, plBodyContactBatchScratchFloats( a->body_point_count, kernels->geometry_lanes ) )
 						   : -1;
 	if ( contact_slot >= 0 )
 	{
