@@ -131,8 +131,8 @@
 // results identical. The work goes through the task hooks: workers take whole instances for the per-instance stages
 // (validation, forward kinematics, X_c, commit), rows or vertex ranges of the batched stages, and lane groups of 8
 // instances for skinning, body contact and normals (one vector operation does one scalar operation for 8 of them). On
-// CPUs with AVX-512 the batched networks and blend shapes use it (PLEAT_KERNEL_SET_AVX512; the same bits: they repeat
-// the AVX2 single-instance arithmetic per instance). The batch's scratch belongs to the context, sized when instances
+// CPUs with AVX-512 the batched networks, blend shapes and full body contact use it (PLEAT_KERNEL_SET_AVX512, lane
+// groups of 16; the same bits: they repeat the AVX2 single-instance arithmetic per instance). The batch's scratch belongs to the context, sized when instances
 // are created (one block per worker, up to 8; context bookkeeping, outside plContext_GetLiveBytes); a call that finds
 // it taken by another thread's call uses slower kernels with the same results. Instances in a GPU mode form groups
 // per asset and mode: their networks run batched on the CPU, and the deformation of the whole group is one dispatch
