@@ -7,11 +7,7 @@
 #
 # Environment: COUNTS (default 1,64,640,4096), FRAMES (60), ASSET (assets/tshirt.pleat), BUILD_DIR (build/gpu-bench),
 # BIN (a prebuilt pleat_gl_crowd_timing: skips the build). A lent GPU machine has no network and no toolchain of ours:
-# build here, then carry the binary and libepoxy beside it:
-#   BUILD_DIR=build/gpu-bench scripts/gpu-bench.sh   # builds (and runs on llvmpipe)
-#   mkdir -p out/gpu-bin && cp build/gpu-bench/bench/pleat_gl_crowd_timing /usr/lib/x86_64-linux-gnu/libepoxy.so.0 out/gpu-bin/
-#   (device run, carry ["out/gpu-bin"]) LD_LIBRARY_PATH=out/gpu-bin BIN=out/gpu-bin/pleat_gl_crowd_timing \
-#       OUT_JSON=$OUT/gpu-crowd.json scripts/gpu-bench.sh
+# bench/gpu_crowd.sh prepares the binaries and libraries here and runs this script there with BIN set.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 COUNTS=${COUNTS:-1,64,640,4096}
