@@ -295,6 +295,15 @@ static void test_two_device_refusals( void** state )
 	def.gpu_budget_us = 0.0f;
 	def.gpu_mode = (plGpuMode)7;
 	assert_int_equal( plCreateScene( f->context, &def, &scene ), PLEAT_RESULT_INVALID_DEF );
+	// A GPU scene (no characters yet: no GL needed) takes a GPU budget >= 0 and finite, and only while it lives.
+	def.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
+	assert_int_equal( plCreateScene( f->context, &def, &scene ), PLEAT_RESULT_OK );
+	assert_int_equal( plScene_SetGpuBudget( scene, NAN ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plScene_SetGpuBudget( scene, -1.0f ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plScene_SetGpuBudget( scene, INFINITY ), PLEAT_RESULT_INVALID_ARGUMENT );
+	assert_int_equal( plScene_SetGpuBudget( scene, 50.0f ), PLEAT_RESULT_OK );
+	assert_int_equal( plDestroyScene( scene ), PLEAT_RESULT_OK );
+	assert_int_equal( plScene_SetGpuBudget( scene, 50.0f ), PLEAT_RESULT_INVALID_HANDLE );
 	def.gpu_mode = PLEAT_GPU_MODE_NONE;
 	assert_int_equal( plCreateScene( f->context, &def, &scene ), PLEAT_RESULT_OK );
 	assert_int_equal( plScene_SetGpuBudget( scene, 100.0f ), PLEAT_RESULT_INVALID_ARGUMENT );
