@@ -475,13 +475,16 @@ static plResult plCreate( const plGlDeformerDesc* desc, const plAllocator* alloc
 	if ( result != PLEAT_RESULT_OK )
 		return result;
 	const plGlDeformer* share = desc->share;
-	if ( share != NULL && ( !plGlDeformer_CanBatch( share, share ) || share->mode != desc->mode ||
+	if ( share != NULL && ( share->mode != desc->mode ||
 							share->vertex_count != desc->vertex_count || share->face_count != desc->face_count ||
 							share->blend_count != desc->blend_count || share->joint_count != desc->joint_count ||
 							share->influence_count != desc->influence_count ||
 							( share->networks.lp_count > 0 ) != ( desc->networks != NULL ) ||
-							share->point_count != ( desc->body_anchors != NULL ? desc->body_point_count : 0u ) ) )
-		return PLEAT_RESULT_INVALID_ARGUMENT;
+							share->point_count != ( desc->body_anchors != NULL ? desc->body_point_count : 0u ) ||
+							share->candidate_count !=
+								( desc->body_anchors != NULL ? desc->body_anchor_candidate_count : 0u ) ||
+							share->point_ring_count != ( desc->body_anchors != NULL ? desc->body_anchor_ring_count : 0u ) ) )
+		return PLEAT_RESULT_INVALID_ARGUMENT; // (the instance checks it is the same asset; this keeps the shapes honest)
 
 	plGlDeformer* deformer = plAllocZeroed( allocator, sizeof( *deformer ), 16 );
 	if ( deformer == NULL )
