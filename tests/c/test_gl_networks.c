@@ -9,6 +9,9 @@
 //   the whole crowd;
 // - an f_LP that overflows whenever the root moves along x: the GPU instance takes the numeric reset on exactly the
 //   frames the CPU instance does, and its outputs stay finite;
+// - a crowd larger than the CPU's groups (150 instances, gpu_share): one set of dispatches for all of them, each within
+//   the tolerances of its CPU twin; with the context's scratch blocks taken, groups of 64 (three sets) and the same
+//   results;
 // - instances that share one copy of the asset's GPU data (plInstanceDef.gpu_share; headless: one context): a sharer
 //   compiles no program, steps like its CPU twin, and keeps working after the instance it shared with is gone;
 // - the defs: the GPU backend without a GPU mode, and a gpu_share of another asset, mode or a stale handle, are
@@ -25,6 +28,7 @@
 
 #include "asset/asset.h"
 #include "backends/gl_deformer.h"
+#include "core/core.h"
 #include "pleat/pleat.h"
 #include "test_asset_builder.h"
 #include "test_common.h"
@@ -427,6 +431,82 @@ static void test_shared_instances_match_and_outlive_each_other( void** state )
 	assert_ptr_equal( eglGetCurrentContext(), EGL_NO_CONTEXT );
 }
 
+static void test_large_crowd_is_one_set_of_dispatches( void** state )
+{
+	plNetworksFixture* fixture = *state;
+	plTestEgl_Require( &fixture->engine );
+	const plTestRig* rig = &fixture->rigs[PLEAT_TEST_FP16_SILU]; // no body contact: 7 - 3 deformation passes
+	enum { CROWD = 150 };
+	uint32_t n = rig->info.vertex_count, j = rig->info.joint_count;
+	plInstance* cpu = calloc( CROWD, sizeof( plInstance ) );
+	plInstance* gpu = calloc( CROWD, sizeof( plInstance ) );
+	for ( uint32_t k = 0; k < CROWD; ++k )
+	{
+		cpu[k] = plMake( rig, PLEAT_GPU_MODE_NONE, PLEAT_MLP_BACKEND_PLEAT, k % 3 );
+		plInstanceDef def = plDefaultInstanceDef();
+		def.asset = rig->asset;
+		def.gpu_mode = PLEAT_GPU_MODE_HEADLESS;
+		def.mlp_backend = PLEAT_MLP_BACKEND_GPU;
+		float beta[2] = { -1.0f + 0.4f * (float)( k % 3 ), 0.3f * (float)( k % 3 ) }; // plMake( ..., k % 3 )'s
+		def.beta = beta;
+		def.beta_count = 2;
+		if ( k > 0 )
+			def.gpu_share = gpu[0]; // one context for the crowd: a batch spans one context
+		assert_int_equal( plCreateInstance( rig->context, &def, &gpu[k] ), PLEAT_RESULT_OK );
+	}
+	float* rotations = malloc( sizeof( float ) * 4 * j * CROWD );
+	float* out = malloc( sizeof( float ) * 12 * n * CROWD );
+	plFrameInput* inputs = calloc( CROWD, sizeof( plFrameInput ) );
+	plStepOutput* outputs = calloc( CROWD, sizeof( plStepOutput ) );
+	plResult* results = calloc( CROWD, sizeof( plResult ) );
+	const plAssetData* a = plGetAssetData( rig->asset );
+	uint64_t one_set = a->lp_layer_count + a->dec_layer_count + 1u + 4u; // networks, guard, blend, skin, 2 normals
+	plContextData* ctx = plGetContext( rig->context );
+	plWorst worst = { 0.0, 0.0, 0.0 };
+	for ( uint32_t frame = 0; frame < 4; ++frame )
+	{
+		for ( uint32_t k = 0; k < CROWD; ++k )
+		{
+			plPose( frame, k, j, rotations + 4 * (size_t)j * k, &inputs[k] );
+			float* o = out + 12 * (size_t)n * k;
+			plStepOutput single = { o, 0, o + 3 * (size_t)n, 0, n };
+			assert_true( plInstance_Step( cpu[k], &inputs[k], &single ) >= 0 );
+			outputs[k] = ( plStepOutput ){ o + 6 * (size_t)n, 0, o + 9 * (size_t)n, 0, n };
+		}
+		// Odd frames: every scratch block taken (as by other threads' calls), so the crowd steps in groups of 64.
+		int taken[PLEAT_BATCH_SCRATCH_SLOTS];
+		uint32_t taken_count = 0;
+		while ( ( frame & 1u ) && taken_count < PLEAT_BATCH_SCRATCH_SLOTS &&
+				( taken[taken_count] = plClaimBatchScratch( ctx, 1 ) ) >= 0 )
+			taken_count++;
+		uint64_t before = atomic_load( &g_plGlDispatches );
+		assert_true( plStepInstances( rig->context, gpu, inputs, outputs, results, CROWD ) >= 0 );
+		uint64_t dispatches = atomic_load( &g_plGlDispatches ) - before;
+		for ( uint32_t t = 0; t < taken_count; ++t )
+			plReleaseBatchScratch( ctx, taken[t] );
+		assert_int_equal( dispatches, ( frame & 1u ) ? 3 * one_set : one_set ); // 64 + 64 + 22, or all 150
+		for ( uint32_t k = 0; k < CROWD; ++k )
+		{
+			assert_true( results[k] >= 0 );
+			const float* o = out + 12 * (size_t)n * k;
+			plCompare( rig, o, o + 6 * (size_t)n, cpu[k], gpu[k], &worst );
+		}
+	}
+	plAssertWithin( "150 in one set", &worst );
+	for ( uint32_t k = 0; k < CROWD; ++k )
+	{
+		assert_int_equal( plDestroyInstance( cpu[k] ), PLEAT_RESULT_OK );
+		assert_int_equal( plDestroyInstance( gpu[k] ), PLEAT_RESULT_OK );
+	}
+	free( cpu );
+	free( gpu );
+	free( rotations );
+	free( out );
+	free( inputs );
+	free( outputs );
+	free( results );
+}
+
 static void test_gpu_share_must_match( void** state )
 {
 	plNetworksFixture* fixture = *state;
@@ -480,6 +560,7 @@ int main( void )
 		cmocka_unit_test( test_crowd_networks_run_in_one_set_of_dispatches ),
 		cmocka_unit_test( test_overflow_takes_the_numeric_reset_on_the_same_frames ),
 		cmocka_unit_test( test_shared_instances_match_and_outlive_each_other ),
+		cmocka_unit_test( test_large_crowd_is_one_set_of_dispatches ),
 		cmocka_unit_test( test_gpu_share_must_match ),
 	};
 	return cmocka_run_group_tests( tests, plSetup, plTeardown );

@@ -112,9 +112,10 @@
 // ==================================================================================================================
 // With plInstanceDef.mlp_backend = PLEAT_MLP_BACKEND_GPU and a GPU mode, f_LP, the latent guard and f_dec run as GLSL
 // compute beside the deformation, so a crowd (plStepInstances) is one upload of X_c per instance and one set of
-// dispatches per group of up to 64, with no network on the CPU. The CPU still validates, runs the forward kinematics
+// dispatches, with no network on the CPU. The CPU still validates, runs the forward kinematics
 // and assembles X_c, and reads back Z, w and a finite flag per instance after the dispatches (a few hundred bytes): the
-// checks, the numeric reset (recomputed on the CPU's kernels) and the commit are the CPU path's. fp32 and fp16
+// checks, the numeric reset (recomputed on the CPU's kernels) and the commit are the CPU path's. plStepInstances
+// groups such instances of one asset by up to 1,024 (one set of dispatches for a crowd that size). fp32 and fp16
 // networks; an int8 asset gives BACKEND_UNAVAILABLE. The GPU sums in another order than the CPU kernels, so the two
 // agree within the GL tolerance, not bit for bit.
 //

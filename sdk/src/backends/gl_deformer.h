@@ -98,8 +98,8 @@ void plGlDeformer_Destroy( plGlDeformer* deformer );
 
 // ---- batches (plStepInstances): one dispatch per shader for many instances of one mesh ----
 
-// The most members one plGlDeformer_RunBatch takes (plStepInstances's group size, PLEAT_BATCH_MAX).
-#define PLEAT_GL_BATCH_MAX 64
+// The most members one plGlDeformer_RunBatch takes (plStepInstances's largest group, PLEAT_GPU_GROUP_MAX).
+#define PLEAT_GL_BATCH_MAX 1024
 
 // One instance of a batch: its own deformer (its mode, host buffers, body-contact setting and shaped-template
 // generation) and what plGlDeformer_Run would get for it.

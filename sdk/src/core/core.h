@@ -88,6 +88,12 @@ extern plContextTable g_plContextTable;
 // back. Any thread may claim (concurrent plStepInstances calls on different instances).
 void plReserveBatchScratch( plContextData* ctx, size_t floats );
 int plClaimBatchScratch( plContextData* ctx, size_t floats );
+// A crowd of GPU-backend instances (PLEAT_MLP_BACKEND_GPU) steps as groups of up to PLEAT_GPU_GROUP_MAX instances of one
+// asset, one set of dispatches each (step/batch.c): their entries and GL batch members live in one scratch block of
+// PLEAT_GPU_GROUP_FLOATS floats (256 bytes an instance; batch.c checks the carve fits), reserved when such an
+// instance is created. A call that finds no block free forms groups of PLEAT_BATCH_MAX.
+#define PLEAT_GPU_GROUP_MAX 1024u
+#define PLEAT_GPU_GROUP_FLOATS ( (size_t)PLEAT_GPU_GROUP_MAX * 64u )
 void plReleaseBatchScratch( plContextData* ctx, int slot );
 
 // The live context a handle names (index and generation both match), or NULL. Asset and instance lookups go through

@@ -556,6 +556,10 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	{
 		plReserveBatchScratch( ctx, a->batch_scratch_floats ); // optional: plStepInstances's lanes forms
 	}
+	if ( r == PLEAT_RESULT_OK && plGlDeformer_HasNetworks( inst->gl ) )
+	{
+		plReserveBatchScratch( ctx, PLEAT_GPU_GROUP_FLOATS ); // optional: a GPU crowd's large groups (step/batch.c)
+	}
 	if ( r == PLEAT_RESULT_OK )
 	{
 		r = plSlotTable_Insert( ctx, &ctx->instances, inst, plInstanceData_Destroy, &out_instance->index1,

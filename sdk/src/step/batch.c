@@ -1,5 +1,6 @@
 // plStepInstances: many instances stepped in one call. Instances of the same asset (and, in a GPU mode, one batch of
-// dispatches) are gathered into groups of up to PLEAT_BATCH_MAX, and each group runs the step's one list of stages
+// dispatches) are gathered into groups of up to PLEAT_BATCH_MAX (PLEAT_GPU_GROUP_MAX for the GPU backend's), and each
+// group runs the step's one list of stages
 // (step.c) with the wide forms: f_LP and f_dec as matrix-matrix products, the blend as a small GEMM, skinning, body
 // contact and normals with 8 or 16 instances per vector — each weight and blend shape read once per group instead of
 // once per instance. The wide forms do per instance exactly the single-stream forms' arithmetic, so every instance
@@ -113,10 +114,25 @@ plResult plStepInstances( plContext context, const plInstance* instances, const 
 				continue;
 			}
 			// A group: this instance and the next unprocessed ones of the same asset, each at most once (a second
-			// listing of an instance waits for a later group, so it is stepped after the first, in list order).
-			plStepGroup_Init( &group, ctx, first->asset, entries, 1, &ctx->runner, __func__ );
-			uint32_t indices[PLEAT_BATCH_MAX];
+			// listing of an instance waits for a later group, so it is stepped after the first, in list order). The
+			// GPU backend's groups take up to PLEAT_GPU_GROUP_MAX instances in a scratch block (one set of dispatches
+			// for a whole crowd window); without a free block, PLEAT_BATCH_MAX, as every other group.
+			uint32_t stack_indices[PLEAT_BATCH_MAX];
+			uint32_t* indices = stack_indices;
 			uint32_t room = batched_kernels && plBatchable( first ) ? PLEAT_BATCH_MAX : 1;
+			int block = room > 1 && plGlDeformer_HasNetworks( first->gl )
+							? plClaimBatchScratch( ctx, PLEAT_GPU_GROUP_FLOATS )
+							: -1;
+			if ( block >= 0 )
+			{
+				plStepGroup_InitGpu( &group, ctx, first->asset, ctx->batch_scratch[block], &ctx->runner, __func__,
+									 &indices );
+				room = PLEAT_GPU_GROUP_MAX;
+			}
+			else
+			{
+				plStepGroup_Init( &group, ctx, first->asset, entries, 1, &ctx->runner, __func__ );
+			}
 			for ( uint32_t t = s; t < w1 && group.count < room; ++t )
 			{
 				plInstanceData* inst = t == s ? first : ( PLEAT_DONE_( t ) ? NULL : plLookup( context, instances[t] ) );
@@ -127,7 +143,7 @@ plResult plStepInstances( plContext context, const plInstance* instances, const 
 				int duplicate = 0;
 				for ( uint32_t k = 0; k < group.count && !duplicate; ++k )
 				{
-					duplicate = entries[k].inst == inst;
+					duplicate = group.entries[k].inst == inst;
 				}
 				if ( duplicate )
 				{
@@ -142,7 +158,11 @@ plResult plStepInstances( plContext context, const plInstance* instances, const 
 			plRunStepGroup( &group );
 			for ( uint32_t k = 0; k < group.count; ++k )
 			{
-				plRecord( &outcome, out_results, indices[k], entries[k].result );
+				plRecord( &outcome, out_results, indices[k], group.entries[k].result );
+			}
+			if ( block >= 0 )
+			{
+				plReleaseBatchScratch( ctx, block );
 			}
 		}
 #undef PLEAT_DONE_

@@ -42,8 +42,40 @@ void plStepGroup_Init( plStepGroup* g, plContextData* ctx, const plAssetData* as
 	g->function = function;
 	g->entries = entries;
 	g->count = 0;
+	g->capacity = PLEAT_BATCH_MAX;
 	g->lanes = NULL;
 	g->member_count = 0;
+	g->members = g->inline_members;
+	g->member_insts = g->inline_member_insts;
+	g->gl_members = NULL;
+	g->gl_flags = NULL;
+}
+
+void plStepGroup_InitGpu( plStepGroup* g, plContextData* ctx, const plAssetData* asset, void* block,
+						  const plTaskRunner* runner, const char* function, uint32_t** out_indices )
+{
+	// The block, carved: entries, GL members, member instances (8-byte items first), then the 4-byte arrays.
+	enum
+	{
+		N = PLEAT_GPU_GROUP_MAX
+	};
+	_Static_assert( N * ( sizeof( plStepEntry ) + sizeof( plGlBatchMember ) + sizeof( plInstanceData* ) +
+						  3 * sizeof( uint32_t ) ) <= PLEAT_GPU_GROUP_FLOATS * sizeof( float ),
+					"a GPU group fits its scratch block" );
+	uint8_t* p = (uint8_t*)block;
+	plStepEntry* entries = (plStepEntry*)p;
+	p += N * sizeof( plStepEntry );
+	plStepGroup_Init( g, ctx, asset, entries, 1, runner, function );
+	g->capacity = N;
+	g->gl_members = (plGlBatchMember*)p;
+	p += N * sizeof( plGlBatchMember );
+	g->member_insts = (plInstanceData**)p;
+	p += N * sizeof( plInstanceData* );
+	g->members = (uint32_t*)p;
+	p += N * sizeof( uint32_t );
+	g->gl_flags = (int*)p;
+	p += N * sizeof( int );
+	*out_indices = (uint32_t*)p;
 }
 
 plStepEntry* plStepGroup_Add( plStepGroup* g, plInstanceData* inst, const plFrameInput* input,
@@ -354,8 +386,10 @@ static void plGeometryGpu( plStepGroup* g )
 		}
 		return;
 	}
-	plGlBatchMember members[PLEAT_BATCH_MAX];
-	int latent_finite[PLEAT_BATCH_MAX];
+	plGlBatchMember stack_members[PLEAT_BATCH_MAX];
+	int stack_flags[PLEAT_BATCH_MAX];
+	plGlBatchMember* members = g->gl_members != NULL ? g->gl_members : stack_members;
+	int* latent_finite = g->gl_flags != NULL ? g->gl_flags : stack_flags;
 	for ( uint32_t m = 0; m < g->member_count; ++m )
 	{
 		const plStepEntry* e = &g->entries[g->members[m]];

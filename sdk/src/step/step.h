@@ -31,19 +31,29 @@ typedef struct plStepGroup
 	int networks;               // 0: pose and geometry only (the LBS-only level): the shaped template skinned with the
 	                            // frame's matrices, the fast contact where the asset has it, nothing committed
 	const char* function;       // the public entry point, named in log lines
-	plStepEntry* entries;       // [count], at most PLEAT_BATCH_MAX
+	plStepEntry* entries;       // [count], at most capacity
 	uint32_t count;
+	uint32_t capacity;          // PLEAT_BATCH_MAX (1 for a lone step), or a GPU group's PLEAT_GPU_GROUP_MAX
 	// Filled by plRunStepGroup: the wide forms' kernels (a group of more than one, where the context has them), else
 	// NULL and every stage takes its single-stream form; and the members of the stage that runs.
 	const plBatchKernels* lanes;
 	uint32_t member_count;
-	uint32_t members[PLEAT_BATCH_MAX];              // indices into entries
-	plInstanceData* member_insts[PLEAT_BATCH_MAX];  // their instances
+	uint32_t* members;              // [capacity] indices into entries
+	plInstanceData** member_insts;  // [capacity] their instances
+	// A GPU group's GL batch members and flags ([capacity], plGeometryGpu), NULL: the stack's (PLEAT_BATCH_MAX).
+	plGlBatchMember* gl_members;
+	int* gl_flags;
+	uint32_t inline_members[PLEAT_BATCH_MAX];             // members and member_insts of an ordinary group
+	plInstanceData* inline_member_insts[PLEAT_BATCH_MAX];
 } plStepGroup;
 
 // An empty group over the caller's entries (room for PLEAT_BATCH_MAX unless it steps one instance).
 void plStepGroup_Init( plStepGroup* g, plContextData* ctx, const plAssetData* asset, plStepEntry* entries,
 					   int networks, const plTaskRunner* runner, const char* function );
+// An empty group of up to PLEAT_GPU_GROUP_MAX instances with everything in a scratch block of PLEAT_GPU_GROUP_FLOATS
+// floats (64-byte aligned); *out_indices: [PLEAT_GPU_GROUP_MAX] of the caller's, from the same block.
+void plStepGroup_InitGpu( plStepGroup* g, plContextData* ctx, const plAssetData* asset, void* block,
+						  const plTaskRunner* runner, const char* function, uint32_t** out_indices );
 // Appends an instance of the group's asset with its input and output (output NULL: none; networks off: always NULL).
 plStepEntry* plStepGroup_Add( plStepGroup* g, plInstanceData* inst, const plFrameInput* input,
 							  const plStepOutput* output );
