@@ -199,8 +199,8 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 	}
 	uint32_t n = job->character_count, k_count = job->frontier_count;
 	plBudgetStep* steps = (plBudgetStep*)job->scratch;
-	uint32_t* position =
-		(uint32_t*)( (uint8_t*)job->scratch + (size_t)n * ( k_count + job->gpu_frontier_count ) * sizeof( plBudgetStep ) );
+	size_t step_bytes = (size_t)n * ( k_count + job->gpu_frontier_count ) * sizeof( plBudgetStep );
+	uint32_t* position = (uint32_t*)( (uint8_t*)job->scratch + step_bytes );
 	uint32_t tier_users[PLEAT_MAX_TIERS];
 	memset( tier_users, 0, sizeof( tier_users ) );
 	// The fading-out details' costs end with their fades. They close the budget to steps above where a character
@@ -308,91 +308,91 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 	uint32_t rounds = job->gpu_frontier_count > 1 ? 2u : 1u;
 	for ( uint32_t round = 0; round < rounds; ++round )
 	{
-	for ( uint32_t c = 0; round > 0 && c < n; ++c )
-	{
-		device[c] = (uint8_t)PL_DEVICE( device[c] ); // open again: the budget may have room now
-	}
-	for ( uint32_t s = 0; s < step_count; ++s )
-	{
-		uint32_t c = steps[s].character, k = steps[s].position, d = steps[s].device;
-		uint32_t on = PL_DEVICE( device[c] );
-		if ( ( on != PL_ON_NONE && on != d ) || ( device[c] & PL_CLOSED( d ) ) || position[c] != k - 1 ||
-			 !( steps[s].value > 0.0f ) )
+		for ( uint32_t c = 0; round > 0 && c < n; ++c )
 		{
-			continue; // on the other device, or an earlier step of this character did not fit: it stays there
+			device[c] = (uint8_t)PL_DEVICE( device[c] ); // open again: the budget may have room now
 		}
-		const uint32_t* f = frontiers[d];
-		float extra = plMoveCost( job, tier_users, f[k - 1], f[k] );
-		float extra_gpu = plMoveGpuCost( job, f[k - 1], f[k] );
-		int keeps = k <= plHeldPosition( job, f, counts[d], d, job->current[c] ); // back to where it already is
-		// A step above where the character is must also leave a margin: a correction that wobbles by a few percent
-		// then moves nobody up and down (a dead band), only a real change of the budget or the costs does.
-		float margin = keeps ? 1.0f : 1.0f - PLEAT_SCENE_STEP_UP_MARGIN;
-		int cpu_over = spent + ( keeps ? 0.0f : fading ) + extra > job->budget_us * margin;
-		int gpu_over =
-			extra_gpu > 0.0f && spent_gpu + ( keeps ? 0.0f : fading_gpu ) + extra_gpu > job->gpu_budget_us * margin;
-		if ( cpu_over || gpu_over )
+		for ( uint32_t s = 0; s < step_count; ++s )
 		{
-			// Closed on this device; one not yet on either may still take its first step on the other.
-			device[c] = (uint8_t)( device[c] | PL_CLOSED( d ) );
-			continue;
-		}
-		spent += extra;
-		spent_gpu += extra_gpu;
-		plMove( job, tier_users, f[k - 1], f[k] );
-		position[c] = k;
-		device[c] = (uint8_t)( ( device[c] & ~3u ) | d );
-		job->out_level[c] = f[k];
-	}
-	// Characters that ran out of room on their device try the other: the most important first, each to the most
-	// accurate level there that improves on where it is and fits both budgets once its own costs are freed.
-	for ( uint32_t pass = 0; job->gpu_frontier_count > 1 && pass < n; ++pass )
-	{
-		uint32_t best = UINT32_MAX;
-		for ( uint32_t c = 0; c < n; ++c )
-		{
+			uint32_t c = steps[s].character, k = steps[s].position, d = steps[s].device;
 			uint32_t on = PL_DEVICE( device[c] );
-			if ( on != PL_ON_NONE && ( device[c] & PL_CLOSED( on ) ) && !( device[c] & PL_TRIED ) &&
-				 ( best == UINT32_MAX || job->importance[c] > job->importance[best] ) )
+			if ( ( on != PL_ON_NONE && on != d ) || ( device[c] & PL_CLOSED( d ) ) || position[c] != k - 1 ||
+				 !( steps[s].value > 0.0f ) )
 			{
-				best = c;
+				continue; // on the other device, or an earlier step of this character did not fit: it stays there
 			}
-		}
-		if ( best == UINT32_MAX )
-		{
-			break;
-		}
-		uint32_t other = PL_DEVICE( device[best] ) == PL_ON_CPU ? PL_ON_GPU : PL_ON_CPU;
-		device[best] = (uint8_t)( device[best] | PL_TRIED );
-		uint32_t from = job->out_level[best];
-		if ( position[best] >= counts[PL_DEVICE( device[best] )] )
-		{
-			continue; // held or pinned: not a free character's
-		}
-		for ( uint32_t k = counts[other] - 1; k >= 1; --k )
-		{
-			uint32_t to = frontiers[other][k];
-			if ( !( job->levels[to].error_mm < job->levels[from].error_mm ) )
+			const uint32_t* f = frontiers[d];
+			float extra = plMoveCost( job, tier_users, f[k - 1], f[k] );
+			float extra_gpu = plMoveGpuCost( job, f[k - 1], f[k] );
+			int keeps = k <= plHeldPosition( job, f, counts[d], d, job->current[c] ); // back to where it already is
+			// A step above where the character is must also leave a margin: a correction that wobbles by a few percent
+			// then moves nobody up and down (a dead band), only a real change of the budget or the costs does.
+			float margin = keeps ? 1.0f : 1.0f - PLEAT_SCENE_STEP_UP_MARGIN;
+			int cpu_over = spent + ( keeps ? 0.0f : fading ) + extra > job->budget_us * margin;
+			int gpu_over =
+				extra_gpu > 0.0f && spent_gpu + ( keeps ? 0.0f : fading_gpu ) + extra_gpu > job->gpu_budget_us * margin;
+			if ( cpu_over || gpu_over )
 			{
-				break; // lower on that frontier is no better than where it is
-			}
-			float extra = plMoveCost( job, tier_users, from, to );
-			float extra_gpu = plMoveGpuCost( job, from, to );
-			float margin = 1.0f - PLEAT_SCENE_STEP_UP_MARGIN;
-			if ( ( extra > 0.0f && spent + fading + extra > job->budget_us * margin ) ||
-				 ( extra_gpu > 0.0f && spent_gpu + fading_gpu + extra_gpu > job->gpu_budget_us * margin ) )
-			{
+				// Closed on this device; one not yet on either may still take its first step on the other.
+				device[c] = (uint8_t)( device[c] | PL_CLOSED( d ) );
 				continue;
 			}
 			spent += extra;
 			spent_gpu += extra_gpu;
-			plMove( job, tier_users, from, to );
-			job->out_level[best] = to;
-			position[best] = k;
-			device[best] = (uint8_t)( other | PL_TRIED );
-			break;
+			plMove( job, tier_users, f[k - 1], f[k] );
+			position[c] = k;
+			device[c] = (uint8_t)( ( device[c] & ~3u ) | d );
+			job->out_level[c] = f[k];
 		}
-	}
+		// Characters that ran out of room on their device try the other: the most important first, each to the most
+		// accurate level there that improves on where it is and fits both budgets once its own costs are freed.
+		for ( uint32_t pass = 0; job->gpu_frontier_count > 1 && pass < n; ++pass )
+		{
+			uint32_t best = UINT32_MAX;
+			for ( uint32_t c = 0; c < n; ++c )
+			{
+				uint32_t on = PL_DEVICE( device[c] );
+				if ( on != PL_ON_NONE && ( device[c] & PL_CLOSED( on ) ) && !( device[c] & PL_TRIED ) &&
+					 ( best == UINT32_MAX || job->importance[c] > job->importance[best] ) )
+				{
+					best = c;
+				}
+			}
+			if ( best == UINT32_MAX )
+			{
+				break;
+			}
+			uint32_t other = PL_DEVICE( device[best] ) == PL_ON_CPU ? PL_ON_GPU : PL_ON_CPU;
+			device[best] = (uint8_t)( device[best] | PL_TRIED );
+			uint32_t from = job->out_level[best];
+			if ( position[best] >= counts[PL_DEVICE( device[best] )] )
+			{
+				continue; // held or pinned: not a free character's
+			}
+			for ( uint32_t k = counts[other] - 1; k >= 1; --k )
+			{
+				uint32_t to = frontiers[other][k];
+				if ( !( job->levels[to].error_mm < job->levels[from].error_mm ) )
+				{
+					break; // lower on that frontier is no better than where it is
+				}
+				float extra = plMoveCost( job, tier_users, from, to );
+				float extra_gpu = plMoveGpuCost( job, from, to );
+				float margin = 1.0f - PLEAT_SCENE_STEP_UP_MARGIN;
+				if ( ( extra > 0.0f && spent + fading + extra > job->budget_us * margin ) ||
+					 ( extra_gpu > 0.0f && spent_gpu + fading_gpu + extra_gpu > job->gpu_budget_us * margin ) )
+				{
+					continue;
+				}
+				spent += extra;
+				spent_gpu += extra_gpu;
+				plMove( job, tier_users, from, to );
+				job->out_level[best] = to;
+				position[best] = k;
+				device[best] = (uint8_t)( other | PL_TRIED );
+				break;
+			}
+		}
 	}
 	if ( job->out_cost_us != NULL )
 	{
@@ -403,6 +403,13 @@ plResult plSceneBudgetJob_Run( const plSceneBudgetJob* job )
 		*job->out_gpu_cost_us = spent_gpu + fading_gpu;
 	}
 	return PLEAT_RESULT_OK;
+}
+
+// Whether level a sorts after level b on the frontier: dearer, or as dear and less accurate.
+static int plSortsAfter( const plBudgetLevel* a, const plBudgetLevel* b, float gpu_weight )
+{
+	float ca = plBudgetPlanCost( a, gpu_weight ), cb = plBudgetPlanCost( b, gpu_weight );
+	return ca > cb || ( ca == cb && a->error_mm > b->error_mm );
 }
 
 uint32_t plBudgetFrontier( const plBudgetLevel* levels, uint32_t level_count, uint32_t* out_frontier )
@@ -419,9 +426,7 @@ uint32_t plBudgetFrontierWeighted( const plBudgetLevel* levels, uint32_t level_c
 	for ( uint32_t i = 0; i < count; ++i )
 	{
 		uint32_t j = i;
-		while ( j > 0 && ( plBudgetPlanCost( &levels[order[j - 1]], gpu_weight ) > plBudgetPlanCost( &levels[i], gpu_weight ) ||
-						   ( plBudgetPlanCost( &levels[order[j - 1]], gpu_weight ) == plBudgetPlanCost( &levels[i], gpu_weight ) &&
-							 levels[order[j - 1]].error_mm > levels[i].error_mm ) ) )
+		while ( j > 0 && plSortsAfter( &levels[order[j - 1]], &levels[i], gpu_weight ) )
 		{
 			order[j] = order[j - 1];
 			j--;
@@ -434,7 +439,8 @@ uint32_t plBudgetFrontierWeighted( const plBudgetLevel* levels, uint32_t level_c
 	{
 		const plBudgetLevel* p = &levels[order[i]];
 		if ( k > 0 && !( p->error_mm < levels[out_frontier[k - 1]].error_mm &&
-						 plBudgetPlanCost( p, gpu_weight ) > plBudgetPlanCost( &levels[out_frontier[k - 1]], gpu_weight ) ) )
+						 plBudgetPlanCost( p, gpu_weight ) >
+							 plBudgetPlanCost( &levels[out_frontier[k - 1]], gpu_weight ) ) )
 		{
 			continue;
 		}

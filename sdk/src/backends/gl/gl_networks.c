@@ -2,7 +2,7 @@
 // them, before the blend (gl_batch.c). One dispatch of mlp_layer.comp per layer for the whole batch and one of
 // latent_guard.comp; the decoder's last layer writes each member's blend weights into its slot of the batch's weights
 // buffer, where blend_shapes.comp reads them, so a crowd's step is one upload of X_c and one set of dispatches with no
-// network on the CPU. What the CPU still needs — Z_t+1 for the next X_c, w for the held weights and the finite checks —
+// network on the CPU. What the CPU still needs (Z_t+1 for the next X_c, w for the held weights, the finite checks)
 // comes back in one small read-back after the deformation (docs/gpu.md "Networks on the GPU").
 #include "gl_deformer_data.h"
 #include "gl_shaders.h"
@@ -38,7 +38,9 @@ plResult plGlNetworks_Validate( const plGlNetworksDesc* d, uint32_t blend_count 
 		if ( !plLayerOnGpu( l ) )
 			return PLEAT_RESULT_INVALID_ARGUMENT;
 		// Each layer reads its predecessor's width; the decoder reads f_LP's output, L.
-		const plLayer* before = i == 0 ? NULL : ( i - 1 < d->lp_layer_count ? &d->lp[i - 1] : &d->dec[i - 1 - d->lp_layer_count] );
+		const plLayer* before = NULL;
+		if ( i > 0 )
+			before = i - 1 < d->lp_layer_count ? &d->lp[i - 1] : &d->dec[i - 1 - d->lp_layer_count];
 		if ( before != NULL && before->out_count != l->in_count )
 			return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
@@ -329,7 +331,8 @@ plResult plGlNetworks_Run( plGlDeformer* lead, const plGlBatchMember* members, u
 	for ( uint32_t i = 0; i < nets->dec_count; ++i )
 	{
 		int last = i + 1 == nets->dec_count;
-		GLuint y = last ? lead->batch.buffers[PLEAT_GL_BINDING_BLEND_WEIGHTS] : ( ( i & 1u ) ? nets->pong : nets->ping );
+		GLuint hidden = ( i & 1u ) ? nets->pong : nets->ping;
+		GLuint y = last ? lead->batch.buffers[PLEAT_GL_BINDING_BLEND_WEIGHTS] : hidden;
 		plRunLayer( api, &nets->layers[nets->lp_count + i], x, y, ran );
 		x = y;
 	}

@@ -260,8 +260,8 @@ void plBodyContactBatch_Avx512( float* const* positions, const float* const* sha
 			ny = _mm512_add_ps( ny, _mm512_sub_ps( _mm512_mul_ps( dz[i], dx[j] ), _mm512_mul_ps( dx[i], dz[j] ) ) );
 			nz = _mm512_add_ps( nz, _mm512_sub_ps( _mm512_mul_ps( dx[i], dy[j] ), _mm512_mul_ps( dy[i], dx[j] ) ) );
 		}
-		plVec16 length = _mm512_sqrt_ps(
-			_mm512_add_ps( _mm512_add_ps( _mm512_mul_ps( nx, nx ), _mm512_mul_ps( ny, ny ) ), _mm512_mul_ps( nz, nz ) ) );
+		plVec16 squares = _mm512_add_ps( _mm512_mul_ps( nx, nx ), _mm512_mul_ps( ny, ny ) );
+		plVec16 length = _mm512_sqrt_ps( _mm512_add_ps( squares, _mm512_mul_ps( nz, nz ) ) );
 		__mmask16 usable = _mm512_cmp_ps_mask( length, tiny, _CMP_GT_OQ );
 		_mm512_store_ps( PL_ROW( p, 3 ), _mm512_mask_blend_ps( usable, infinity, zero ) );
 		_mm512_store_ps( PL_ROW( p, 4 ), _mm512_maskz_div_ps( usable, nx, length ) );
@@ -290,7 +290,8 @@ void plBodyContactBatch_Avx512( float* const* positions, const float* const* sha
 		{
 			uint32_t v = v0 + i;
 			float* px = block + (size_t)i * 3 * PL_LANES;
-			plVec16 x = _mm512_load_ps( px ), y = _mm512_load_ps( px + PL_LANES ), z = _mm512_load_ps( px + 2 * PL_LANES );
+			plVec16 x = _mm512_load_ps( px ), y = _mm512_load_ps( px + PL_LANES );
+			plVec16 z = _mm512_load_ps( px + 2 * PL_LANES );
 			plVec16 d2[PLEAT_MAX_CONTACT_CANDIDATES];
 			uint32_t slot[PLEAT_MAX_CONTACT_CANDIDATES];
 			uint32_t used = 0;
