@@ -22,6 +22,7 @@
 #include "bench_support.h"
 #include "gl/gl_context.h"
 #include "gl/gl_internal.h"
+#include "test_gl_support.h"
 #include <stdatomic.h>
 #include <math.h>
 #include <stdio.h>
@@ -29,27 +30,6 @@
 #include <string.h>
 
 #define PLEAT_BENCH_MAX_COUNTS 8
-
-// Frame f of instance k: swinging joints and a walking, turning root, each instance at its own phase.
-static void plCrowdPose( uint32_t frame, uint32_t k, uint32_t joint_count, float* rotations, plFrameInput* input )
-{
-	double t = ( frame + 7.3 * k ) / 30.0;
-	for ( uint32_t j = 0; j < joint_count; ++j )
-	{
-		double angle = 0.4 * sin( 2.0 * t + 0.5 * j ), ax = cos( 0.7 * j ), az = sin( 0.7 * j );
-		rotations[4 * j] = (float)( sin( 0.5 * angle ) * ax );
-		rotations[4 * j + 1] = 0.0f;
-		rotations[4 * j + 2] = (float)( sin( 0.5 * angle ) * az );
-		rotations[4 * j + 3] = (float)cos( 0.5 * angle );
-	}
-	memset( input, 0, sizeof( *input ) );
-	input->joint_rotations = rotations;
-	input->joint_count = joint_count;
-	input->root_translation = ( plVec3 ){ (float)( 0.3 * sin( t ) ), 0.0f, (float)( 1.2 * t ) };
-	double yaw = 0.4 * sin( 0.7 * t );
-	input->root_rotation = ( plQuat ){ 0.0f, (float)sin( 0.5 * yaw ), 0.0f, (float)cos( 0.5 * yaw ) };
-	input->dt_s = 1.0f / 30.0f;
-}
 
 typedef struct plCrowdTiming
 {
@@ -104,7 +84,7 @@ static plCrowdTiming plTimeCrowd( plContext context, plAsset asset, const plAsse
 		{
 			int readback = f >= 3 + frames; // the second half reads everything back
 			for ( uint32_t k = 0; k < count; ++k )
-				plCrowdPose( f, k, j, rotations + 4 * (size_t)j * k, &inputs[k] );
+				plTestMotion_WalkPose( f, 7.3f * (float)k, 0.4f, j, rotations + 4 * (size_t)j * k, &inputs[k] );
 			// The wall-clock frames run without the SDK's per-batch timer queries (reading them waits for the GPU).
 			int timed = f >= 3 && f < 3 + frames && ( f & 1u );
 			atomic_store( &g_plGlTimeBatches, timed );

@@ -229,6 +229,16 @@ plTestAsset* plTestAsset_Create( const plTestAssetParams* p )
 	return a;
 }
 
+void plTestAsset_OverflowOnRootMotion( plTestAsset* a )
+{
+	a->x_mean[a->L] = 0.0f;
+	a->x_std[a->L] = 1e-38f;
+	for ( uint32_t r = 0; r < a->lp[0].out_count; ++r )
+	{
+		a->lp[0].weight[(size_t)r * a->lp[0].in_count + a->L] = ( r & 1u ) ? 6e4f : -6e4f;
+	}
+}
+
 int plTestAsset_AddBodyAnchors( plTestAsset* a, float depth_m )
 {
 	uint32_t extra = ( a->N + 3 ) / 4;

@@ -83,6 +83,10 @@ void plTestAsset_Destroy( plTestAsset* asset );
 // v < N at an interior grid vertex has the grid vertices around v, counter-clockwise seen from +Z (so its posed normal
 // is the stand-in's, +Z at rest); edge vertices and the extra points have none (the blended rest normal). 0 on failure.
 int plTestAsset_AddBodyAnchors( plTestAsset* asset, float depth_m );
+// Makes f_LP overflow whenever the root moves along x (a numeric reset), as test_guards does: X_c's root velocity x gets
+// x_std 1e-38 and f_LP's first layer weighs it with ±6e4 (within fp16's range); standing still stays finite. Use with
+// SiLU networks, which pass ±inf and NaN on (a ReLU would turn an overflow's NaN into 0).
+void plTestAsset_OverflowOnRootMotion( plTestAsset* asset );
 // Back to one point per vertex (asset 1.1, no candidate or face table): point v for vertex v, the extra points dropped.
 void plTestAsset_DropBodyCandidates( plTestAsset* asset );
 // Serialises into a 64-byte aligned block (free with plTestAsset_FreeBytes). Returns NULL on failure.

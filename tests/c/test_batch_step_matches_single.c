@@ -77,14 +77,7 @@ static plTestAsset* plMakeModel( int which, int fp16 )
 	}
 	if ( which == 2 )
 	{
-		// As test_guards: X_c's root velocity x has x_std 1e-38 and f_LP weighs it with ±6e4 (within fp16's range),
-		// so any root motion along x overflows f_LP (a numeric reset); standing still is fine.
-		model->x_mean[model->L] = 0.0f;
-		model->x_std[model->L] = 1e-38f;
-		for ( uint32_t r = 0; r < model->lp[0].out_count; ++r )
-		{
-			model->lp[0].weight[(size_t)r * model->lp[0].in_count + model->L] = ( r & 1u ) ? 6e4f : -6e4f;
-		}
+		plTestAsset_OverflowOnRootMotion( model ); // any root motion along x: a numeric reset
 	}
 	return model;
 }

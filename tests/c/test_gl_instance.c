@@ -79,27 +79,6 @@ static int plTeardown( void** state )
 	return live == 0 && !mismatch ? 0 : -1; // everything the instances and deformers allocated was given back
 }
 
-// Frame f of a swinging pose with a walking, turning root.
-static void plPose( uint32_t frame, uint32_t joint_count, float* rotations, plFrameInput* input )
-{
-	double t = frame / 30.0;
-	for ( uint32_t k = 0; k < joint_count; ++k )
-	{
-		double angle = 0.5 * sin( 2.0 * t + 0.5 * k ), ax = cos( 0.7 * k ), az = sin( 0.7 * k );
-		rotations[4 * k] = (float)( sin( 0.5 * angle ) * ax );
-		rotations[4 * k + 1] = 0.0f;
-		rotations[4 * k + 2] = (float)( sin( 0.5 * angle ) * az );
-		rotations[4 * k + 3] = (float)cos( 0.5 * angle );
-	}
-	memset( input, 0, sizeof( *input ) );
-	input->joint_rotations = rotations;
-	input->joint_count = joint_count;
-	input->root_translation = ( plVec3 ){ (float)( 0.3 * sin( t ) ), 0.0f, (float)( 1.2 * t ) };
-	double yaw = 0.4 * sin( 0.7 * t );
-	input->root_rotation = ( plQuat ){ 0.0f, (float)sin( 0.5 * yaw ), 0.0f, (float)cos( 0.5 * yaw ) };
-	input->dt_s = 1.0f / 30.0f;
-}
-
 // Steps a CPU instance and a GPU instance side by side and compares every frame.
 static void plCompareWithCpu( plInstanceFixture* fixture, plGpuMode mode, uint32_t host_position_buffer,
 							  uint32_t host_normal_buffer )
@@ -121,7 +100,7 @@ static void plCompareWithCpu( plInstanceFixture* fixture, plGpuMode mode, uint32
 	for ( uint32_t frame = 0; frame < PLEAT_TEST_FRAMES; ++frame )
 	{
 		plFrameInput input;
-		plPose( frame, j, rotations, &input );
+		plTestMotion_WalkPose( frame, 0.0f, 0.5f, j, rotations, &input );
 		for ( int i = 0; i < 2; ++i )
 		{
 			memset( outputs + 6 * (size_t)n * i, 0xff, sizeof( float ) * 6 * n );

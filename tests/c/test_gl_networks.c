@@ -99,12 +99,7 @@ static plTestAsset* plMakeModel( int which )
 	}
 	if ( which == PLEAT_TEST_OVERFLOW )
 	{
-		// As test_guards: X_c's root velocity x has x_std 1e-38 and f_LP weighs it with ±6e4, so any root motion along
-		// x overflows f_LP (SiLU passes ±inf and NaN on); standing still is fine.
-		model->x_mean[model->L] = 0.0f;
-		model->x_std[model->L] = 1e-38f;
-		for ( uint32_t r = 0; r < model->lp[0].out_count; ++r )
-			model->lp[0].weight[(size_t)r * model->lp[0].in_count + model->L] = ( r & 1u ) ? 6e4f : -6e4f;
+		plTestAsset_OverflowOnRootMotion( model ); // any root motion along x: a numeric reset
 	}
 	return model;
 }
@@ -134,27 +129,6 @@ static int plTeardown( void** state )
 	}
 	free( fixture );
 	return 0;
-}
-
-// Frame f of a swinging pose with a walking, turning root; `still` keeps the root where it is (no overflow).
-static void plPose( uint32_t frame, uint32_t phase, uint32_t joint_count, float* rotations, plFrameInput* input )
-{
-	double t = ( frame + 3.0 * phase ) / 30.0;
-	for ( uint32_t k = 0; k < joint_count; ++k )
-	{
-		double angle = 0.6 * sin( 2.0 * t + 0.5 * k ), ax = cos( 0.7 * k ), az = sin( 0.7 * k );
-		rotations[4 * k] = (float)( sin( 0.5 * angle ) * ax );
-		rotations[4 * k + 1] = 0.0f;
-		rotations[4 * k + 2] = (float)( sin( 0.5 * angle ) * az );
-		rotations[4 * k + 3] = (float)cos( 0.5 * angle );
-	}
-	memset( input, 0, sizeof( *input ) );
-	input->joint_rotations = rotations;
-	input->joint_count = joint_count;
-	input->root_translation = ( plVec3 ){ (float)( 0.3 * sin( t ) ), 0.0f, (float)( 1.2 * t ) };
-	double yaw = 0.4 * sin( 0.7 * t );
-	input->root_rotation = ( plQuat ){ 0.0f, (float)sin( 0.5 * yaw ), 0.0f, (float)cos( 0.5 * yaw ) };
-	input->dt_s = 1.0f / 30.0f;
 }
 
 static plInstance plMake( const plTestRig* rig, plGpuMode mode, plMlpBackend backend, uint32_t k )
@@ -218,7 +192,7 @@ static uint32_t plCompareSingle( const plTestRig* rig, plGpuMode mode, const cha
 	for ( uint32_t frame = 0; frame < PLEAT_TEST_FRAMES; ++frame )
 	{
 		plFrameInput input;
-		plPose( frame, 0, j, rotations, &input );
+		plTestMotion_WalkPose( frame, 0.0f, 0.6f, j, rotations, &input );
 		plResult results[2];
 		for ( int i = 0; i < 2; ++i )
 		{
@@ -312,7 +286,7 @@ static void test_crowd_networks_run_in_one_set_of_dispatches( void** state )
 		plResult results[PLEAT_TEST_CROWD];
 		for ( uint32_t k = 0; k < PLEAT_TEST_CROWD; ++k )
 		{
-			plPose( frame, k, j, rotations + 4 * (size_t)j * k, &inputs[k] );
+			plTestMotion_WalkPose( frame, 3.0f * (float)k, 0.6f, j, rotations + 4 * (size_t)j * k, &inputs[k] );
 			float* o = out + 12 * (size_t)n * k;
 			memset( o, 0xff, sizeof( float ) * 12 * n );
 			plStepOutput single = { o, 0, o + 3 * (size_t)n, 0, n };
@@ -399,7 +373,7 @@ static void test_shared_instances_match_and_outlive_each_other( void** state )
 		plResult results[SHARERS];
 		for ( uint32_t k = first; k < SHARERS; ++k )
 		{
-			plPose( frame, k, j, rotations + 4 * (size_t)j * k, &inputs[k] );
+			plTestMotion_WalkPose( frame, 3.0f * (float)k, 0.6f, j, rotations + 4 * (size_t)j * k, &inputs[k] );
 			float* o = out + 12 * (size_t)n * k;
 			plStepOutput single = { o, 0, o + 3 * (size_t)n, 0, n };
 			assert_true( plInstance_Step( cpu[k], &inputs[k], &single ) >= 0 );
@@ -467,7 +441,7 @@ static void test_large_crowd_is_one_set_of_dispatches( void** state )
 	{
 		for ( uint32_t k = 0; k < CROWD; ++k )
 		{
-			plPose( frame, k, j, rotations + 4 * (size_t)j * k, &inputs[k] );
+			plTestMotion_WalkPose( frame, 3.0f * (float)k, 0.6f, j, rotations + 4 * (size_t)j * k, &inputs[k] );
 			float* o = out + 12 * (size_t)n * k;
 			plStepOutput single = { o, 0, o + 3 * (size_t)n, 0, n };
 			assert_true( plInstance_Step( cpu[k], &inputs[k], &single ) >= 0 );

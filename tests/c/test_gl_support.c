@@ -268,6 +268,27 @@ double plTestMaxAbsDiff( const float* a, const double* b, size_t count )
 	return worst;
 }
 
+void plTestMotion_WalkPose( uint32_t frame, float phase_frames, float amplitude, uint32_t joint_count, float* rotations,
+							plFrameInput* input )
+{
+	double t = ( frame + (double)phase_frames ) / 30.0;
+	for ( uint32_t k = 0; k < joint_count; ++k )
+	{
+		double angle = amplitude * sin( 2.0 * t + 0.5 * k ), ax = cos( 0.7 * k ), az = sin( 0.7 * k );
+		rotations[4 * k] = (float)( sin( 0.5 * angle ) * ax );
+		rotations[4 * k + 1] = 0.0f;
+		rotations[4 * k + 2] = (float)( sin( 0.5 * angle ) * az );
+		rotations[4 * k + 3] = (float)cos( 0.5 * angle );
+	}
+	memset( input, 0, sizeof( *input ) );
+	input->joint_rotations = rotations;
+	input->joint_count = joint_count;
+	input->root_translation = ( plVec3 ){ (float)( 0.3 * sin( t ) ), 0.0f, (float)( 1.2 * t ) };
+	double yaw = 0.4 * sin( 0.7 * t );
+	input->root_rotation = ( plQuat ){ 0.0f, (float)sin( 0.5 * yaw ), 0.0f, (float)cos( 0.5 * yaw ) };
+	input->dt_s = 1.0f / 30.0f;
+}
+
 int plTestEgl_Create( plTestEglContext* egl )
 {
 	memset( egl, 0, sizeof( *egl ) );

@@ -5,6 +5,7 @@
 #ifndef PLEAT_TEST_GL_SUPPORT_H
 #define PLEAT_TEST_GL_SUPPORT_H
 #include "allocator.h"
+#include "pleat/pleat.h"
 #include <stddef.h>
 #include <stdint.h>
 
@@ -46,6 +47,12 @@ typedef struct plTestEglContext
 	void* display;
 	void* context;
 } plTestEglContext;
+// Frame `frame` of a swinging pose with a walking, turning root, phase_frames frames ahead (a crowd's instances each at
+// their own phase): joint k swings by amplitude · sin(2t + 0.5k) rad about a horizontal axis turned 0.7k, the root walks
+// 1.2 m/s along z, sways 0.3 m in x and turns by 0.4 sin(0.7t); t = (frame + phase_frames) / 30 s, dt 1/30 s.
+// rotations: [joint_count][4], what input->joint_rotations points to.
+void plTestMotion_WalkPose( uint32_t frame, float phase_frames, float amplitude, uint32_t joint_count, float* rotations,
+							plFrameInput* input );
 int plTestEgl_Create( plTestEglContext* egl );
 int plTestEgl_MakeCurrent( const plTestEglContext* egl );
 void plTestEgl_Release( const plTestEglContext* egl );

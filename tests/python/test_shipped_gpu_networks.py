@@ -22,9 +22,9 @@ def _instance_or_skip(runtime, ctx, asset, **kw):
         raise
 
 
-@pytest.mark.parametrize("garment", ["tshirt", "dress"])
-def test_shipped_garment_on_gpu_networks_matches_the_cpu_backend(c_runtime, garment):
-    runtime = c_runtime
+def _shipped(garment):
+    """The shipped garment's bytes and a swing of its joints: swing(t, amplitude, speed) gives frame t's rotations,
+    every joint about its own random axis."""
     path = ROOT / "assets" / f"{garment}.pleat"
     if not path.exists():
         pytest.skip(f"{path.name} absent")
@@ -32,6 +32,17 @@ def test_shipped_garment_on_gpu_networks_matches_the_cpu_backend(c_runtime, garm
     J = len(pa.read_asset(data)["joint_names"])
     axes = np.random.default_rng(3).normal(size=(J, 3))
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+
+    def swing(t, amplitude, speed):
+        angle = amplitude * np.sin(speed * t + np.arange(J))[:, None]
+        return np.concatenate([axes * np.sin(angle / 2), np.cos(angle / 2)], 1)
+    return data, swing
+
+
+@pytest.mark.parametrize("garment", ["tshirt", "dress"])
+def test_shipped_garment_on_gpu_networks_matches_the_cpu_backend(c_runtime, garment):
+    runtime = c_runtime
+    data, swing = _shipped(garment)
     frames = 12
     out, latents = {}, {}
     with runtime.Context() as ctx:
@@ -40,8 +51,7 @@ def test_shipped_garment_on_gpu_networks_matches_the_cpu_backend(c_runtime, garm
             inst = _instance_or_skip(runtime, ctx, asset, backend=backend, gpu=gpu)
             pos = []
             for t in range(frames):
-                angle = 0.4 * np.sin(0.3 * t + np.arange(J))[:, None]
-                q = np.concatenate([axes * np.sin(angle / 2), np.cos(angle / 2)], 1)
+                q = swing(t, 0.4, 0.3)
                 p, _ = inst.step(q, np.array([0.0, 0.9, 0.05 * t]), np.array([0.0, 0.0, 0.0, 1.0]), 1 / 30)
                 assert inst.last_result in (0, 1), f"{backend} frame {t}: result {inst.last_result}"
                 pos.append(p.copy())
@@ -64,21 +74,14 @@ def test_long_run_on_gpu_networks_stays_with_the_cpu_backend(c_runtime, garment)
     latent every frame, stays within 0.1 mm (llvmpipe: at most 3.2e-5 m over the five garments, reached anywhere in the
     run, not growing with it)."""
     runtime = c_runtime
-    path = ROOT / "assets" / f"{garment}.pleat"
-    if not path.exists():
-        pytest.skip(f"{path.name} absent")
-    data = path.read_bytes()
-    J = len(pa.read_asset(data)["joint_names"])
-    axes = np.random.default_rng(3).normal(size=(J, 3))
-    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    data, swing = _shipped(garment)
     with runtime.Context() as ctx:
         asset = ctx.load_asset(data)
         cpu = ctx.create_instance(asset, backend="pleat")
         gpu = _instance_or_skip(runtime, ctx, asset, backend="gpu", gpu="headless")
         worst = []
         for t in range(300):
-            angle = 0.6 * np.sin(0.15 * t + np.arange(J))[:, None]
-            q = np.concatenate([axes * np.sin(angle / 2), np.cos(angle / 2)], 1)
+            q = swing(t, 0.6, 0.15)
             root = np.array([0.3 * np.sin(0.05 * t), 0.9, 0.04 * t])
             turn = np.array([0.0, np.sin(0.01 * t), 0.0, np.cos(0.01 * t)])
             a, _ = cpu.step(q, root, turn, 1 / 30)
