@@ -22,15 +22,6 @@ int plGlDeformer_CanBatch( const plGlDeformer* lead, const plGlDeformer* member 
 		   lead->networks.latent_count == member->networks.latent_count;
 }
 
-static GLuint plCreateBatchBuffer( const plGlApi* api, size_t bytes )
-{
-	GLuint buffer = 0;
-	api->GenBuffers( 1, &buffer );
-	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
-	api->BufferData( GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)bytes, NULL, GL_DYNAMIC_COPY );
-	return buffer;
-}
-
 // The batch's host memory (the template keys and the staging block), freed and forgotten.
 static void plFreeBatchHostMemory( plGlDeformer* lead, plGlBatchBuffers* batch )
 {
@@ -72,16 +63,16 @@ static plResult plReserveBatch( plGlDeformer* lead, uint32_t capacity )
 		plFreeBatchHostMemory( lead, batch );
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
-	batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] = plCreateBatchBuffer( api, c * rows * 16 );
-	batch->buffers[PLEAT_GL_BINDING_BLEND_WEIGHTS] = plCreateBatchBuffer( api, weights );
-	batch->buffers[PLEAT_GL_BINDING_DEFORMED] = plCreateBatchBuffer( api, c * n * 16 );
-	batch->buffers[PLEAT_GL_BINDING_SKIN_MATRICES] = plCreateBatchBuffer( api, matrices );
-	batch->buffers[PLEAT_GL_BINDING_POSITIONS] = plCreateBatchBuffer( api, c * n * 16 );
-	batch->buffers[PLEAT_GL_BINDING_NORMALS] = plCreateBatchBuffer( api, c * n * 16 );
-	batch->buffers[PLEAT_GL_BINDING_FACE_NORMALS] = plCreateBatchBuffer( api, c * f * 16 );
-	batch->buffers[PLEAT_GL_BINDING_BATCH_CONTACT] = plCreateBatchBuffer( api, contact );
+	batch->buffers[PLEAT_GL_BINDING_SHAPED_TEMPLATE] = plGlNewStorageBuffer( api, c * rows * 16, NULL, GL_DYNAMIC_COPY );
+	batch->buffers[PLEAT_GL_BINDING_BLEND_WEIGHTS] = plGlNewStorageBuffer( api, weights, NULL, GL_DYNAMIC_COPY );
+	batch->buffers[PLEAT_GL_BINDING_DEFORMED] = plGlNewStorageBuffer( api, c * n * 16, NULL, GL_DYNAMIC_COPY );
+	batch->buffers[PLEAT_GL_BINDING_SKIN_MATRICES] = plGlNewStorageBuffer( api, matrices, NULL, GL_DYNAMIC_COPY );
+	batch->buffers[PLEAT_GL_BINDING_POSITIONS] = plGlNewStorageBuffer( api, c * n * 16, NULL, GL_DYNAMIC_COPY );
+	batch->buffers[PLEAT_GL_BINDING_NORMALS] = plGlNewStorageBuffer( api, c * n * 16, NULL, GL_DYNAMIC_COPY );
+	batch->buffers[PLEAT_GL_BINDING_FACE_NORMALS] = plGlNewStorageBuffer( api, c * f * 16, NULL, GL_DYNAMIC_COPY );
+	batch->buffers[PLEAT_GL_BINDING_BATCH_CONTACT] = plGlNewStorageBuffer( api, contact, NULL, GL_DYNAMIC_COPY );
 	if ( p > 0 )
-		batch->buffers[PLEAT_GL_BINDING_POSED_POINTS] = plCreateBatchBuffer( api, c * p * 32 );
+		batch->buffers[PLEAT_GL_BINDING_POSED_POINTS] = plGlNewStorageBuffer( api, c * p * 32, NULL, GL_DYNAMIC_COPY );
 	if ( p > 0 && batch->points_program == 0 )
 	{
 		batch->points_program = plGlCompileProgram( api, plGlShaderSource_body_contact,

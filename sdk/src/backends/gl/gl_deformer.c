@@ -142,11 +142,7 @@ int plGlBindingIsStatic( plGlBinding binding )
 // A buffer at a binding: the deformer's own, or for a static binding the shared block's.
 static GLuint plCreateBuffer( plGlDeformer* deformer, plGlBinding binding, size_t bytes, const void* data, GLenum usage )
 {
-	const plGlApi* api = &deformer->api;
-	GLuint buffer = 0;
-	api->GenBuffers( 1, &buffer );
-	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
-	api->BufferData( GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)bytes, data, usage );
+	GLuint buffer = plGlNewStorageBuffer( &deformer->api, bytes, data, usage );
 	if ( plGlBindingIsStatic( binding ) )
 		deformer->shared->buffers[binding] = buffer;
 	else

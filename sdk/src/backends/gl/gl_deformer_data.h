@@ -146,6 +146,8 @@ plResult plGlNetworks_Run( plGlDeformer* lead, const plGlBatchMember* members, u
 // Reads Z_t+1, the finite flags and w back into the network members' outputs.
 void plGlNetworks_ReadBack( plGlDeformer* lead, const plGlBatchMember* members, uint32_t count );
 
+// A new shader storage buffer of `bytes` (data NULL: uninitialised), left bound to the generic binding.
+GLuint plGlNewStorageBuffer( const plGlApi* api, size_t bytes, const void* data, GLenum usage );
 // One dispatch, counted in g_plGlDispatches (tests check that a batch runs one per shader).
 void plGlDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y );
 // Makes the deformer's GL usable for one call (headless: our context current; host: checks a context is current and

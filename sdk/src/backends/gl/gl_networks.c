@@ -47,13 +47,10 @@ plResult plGlNetworks_Validate( const plGlNetworksDesc* d, uint32_t blend_count 
 	return d->dec[d->dec_layer_count - 1].out_count == blend_count ? PLEAT_RESULT_OK : PLEAT_RESULT_INVALID_ARGUMENT;
 }
 
+// A network buffer: at least 16 bytes (a zero-sized buffer cannot be bound).
 static GLuint plNetworkBuffer( const plGlApi* api, size_t bytes, const void* data, GLenum usage )
 {
-	GLuint buffer = 0;
-	api->GenBuffers( 1, &buffer );
-	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
-	api->BufferData( GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)( bytes > 0 ? bytes : 16 ), data, usage );
-	return buffer;
+	return plGlNewStorageBuffer( api, bytes > 0 ? bytes : 16, data, usage );
 }
 
 // W [out][in] (fp32 or fp16) → [in][out] float bits, or [in][(out + 1) / 2] half pairs (row r in the low half of

@@ -1,5 +1,5 @@
-// The helpers every file of the GL path uses, below all of them: one counted dispatch, a compute program from a shader
-// source, draining the error flags.
+// The helpers every file of the GL path uses, below all of them: one counted dispatch, a storage buffer, a compute
+// program from a shader source, draining the error flags.
 #include "gl_deformer_data.h"
 #include <string.h>
 
@@ -11,6 +11,15 @@ void plGlDispatch( const plGlApi* api, GLuint groups_x, GLuint groups_y )
 {
 	api->DispatchCompute( groups_x, groups_y, 1 );
 	atomic_fetch_add_explicit( &g_plGlDispatches, 1, memory_order_relaxed );
+}
+
+GLuint plGlNewStorageBuffer( const plGlApi* api, size_t bytes, const void* data, GLenum usage )
+{
+	GLuint buffer = 0;
+	api->GenBuffers( 1, &buffer );
+	api->BindBuffer( GL_SHADER_STORAGE_BUFFER, buffer );
+	api->BufferData( GL_SHADER_STORAGE_BUFFER, (GLsizeiptr)bytes, data, usage );
+	return buffer;
 }
 
 // Drains the GL error flags; GL_ERROR if any was set. (In host-context mode this also consumes an error the engine
