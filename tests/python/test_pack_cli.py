@@ -163,6 +163,46 @@ def test_pack_takes_candidates_chosen_elsewhere(tmp_path):
                       "--contact-candidates-from", str(tmp_path / "cand.npz")]) != 0
 
 
+def test_vertices_that_meet_the_body_in_motion_get_candidates_however_far_they_hang(tmp_path):
+    """A candidates file with near_in_motion (pleat-train contact-candidates keeps which vertices came within reach of
+    the body in its frames): a vertex 9 cm from the rest body that met it still gets the file's candidates — its first
+    slot its own row, with no normal (the fast contact, which pushes without the full contact's reach, reads row v
+    and leaves it alone; the full contact skips a point without a normal) — while one that never met it, and every
+    pinned vertex, gets none; META names the file's source."""
+    from scipy.spatial import cKDTree
+    body, w, pick, src = _garment_on_the_body(tmp_path)
+    N, C = len(w["template"]), 4
+    rng = np.random.default_rng(5)
+    given = rng.integers(0, body.num_vertices, (N, C))
+    near = np.arange(N) % 10 == 0                                      # every other far vertex (far: i % 5 == 0)
+    np.savez(tmp_path / "cand.npz", candidate_vertices=given, near_in_motion=near,
+             source=np.array("an asset's own garment"))
+    out = tmp_path / "out.pleat"
+    assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates-from",
+                      str(tmp_path / "cand.npz")]) == 0
+    back = pa.read_asset(out.read_bytes())
+    meta = _unchanged_but_contact(back, pa.read_asset(src.read_bytes()))
+    assert meta["candidates_from"] == "an asset's own garment" and "an asset's own garment" in meta["anchors"]
+    table = back["body_anchor_candidates"].astype(int)
+    normals = back["body_anchor_normal"]
+    P = len(back["body_anchor"])
+    _, vertex = cKDTree(body.v_template).query(back["body_anchor"].astype(np.float64))
+    rest_far = cKDTree(body.v_template).query(w["template"])[0] > 0.05
+    pinned = np.zeros(N, bool)
+    pinned[np.asarray(w["pinned"])] = True
+    reached = rest_far & near & ~pinned
+    assert reached.sum() >= 2 and (rest_far & ~near & ~pinned).sum() >= 2
+    for i in np.flatnonzero(reached):
+        assert table[i, 0] == i and not normals[i].any(), i             # its own row: no plane
+        ids = [int(vertex[t]) for t in table[i, 1:] if t < P]
+        assert ids == [int(g) for g in dict.fromkeys(given[i, 1:]) if g != vertex[i]][:len(ids)] and ids, i
+        assert all(normals[t].any() for t in table[i, 1:] if t < P), i  # the file's candidates are planes
+    assert np.all(table[rest_far & ~near] == pa.NO_CANDIDATE)
+    assert np.all(table[pinned] == pa.NO_CANDIDATE)
+    for i in np.flatnonzero(~rest_far & ~pinned):
+        assert normals[table[i, 0]].any(), i                           # a near vertex's own row stays a plane
+
+
 def test_pack_name_and_metadata_override(tmp_path, weights_file):
     out = tmp_path / "a.pleat"
     assert pack.main([str(weights_file), "-o", str(out), "--name", "shirt", "--metadata", '{"loss": 0.5}']) == 0

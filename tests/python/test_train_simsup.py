@@ -1,5 +1,6 @@
 """The simulator-supervised recipe (pleat.train.simdata / simsup / contact): targets, end to end, contact term."""
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -322,7 +323,8 @@ def test_contact_candidates_are_the_body_vertices_nearest_in_the_frames(tiny_set
     s = simdata.sequence(setup, clip, beta, np.array(simdata.ga.MATERIAL_DEFAULT))
     s["disp"] = np.zeros((clip.num_frames, setup.N, 3))
     s["disp"][:, :, 1] = -0.004                                   # the garment 4 mm lower than its skin
-    table = contact.candidate_vertices(setup, [s], 6, stride=1, radius_m=0.02)
+    found = contact.candidate_vertices(setup, [s], 6, stride=1, radius_m=0.02)
+    table = found.table
     body_v, _ = S.posed_body(setup.body, clip, beta)
     A = simdata.blend_matrices(setup, s["M"])
     x = np.einsum("tnab,tnb->tna", A[..., :3], setup.shaped(beta)[None] + s["disp"]) + A[..., 3]
@@ -342,8 +344,42 @@ def test_contact_candidates_are_the_body_vertices_nearest_in_the_frames(tiny_set
             checked += 1
         assert len(set(table[i])) == 6 and (table[i] >= 0).all()
     assert checked > setup.N // 10
+    assert np.array_equal(found.near, np.array([len(c) > 0 for c in counts]))     # met the body in some frame
+    assert 0 < found.near.sum() < setup.N and found.source == "simulated frames"
     written = simsup.write_contact_candidates(tmp_path / simsup.CANDIDATES_FILE, setup, [s], 6)
-    assert np.array_equal(simsup.run_contact_candidates(tmp_path), written)
+    back = simsup.run_contact_candidates(tmp_path)
+    assert np.array_equal(back.table, written.table) and np.array_equal(back.near, written.near)
+    assert back.source == written.source
+
+
+def test_contact_candidates_from_an_asset_are_where_its_own_garment_meets_the_body(tiny_setup):
+    """contact.candidates_from_asset (pleat-train contact-candidates --from-asset): the frames are the asset's own
+    garment as the C runtime makes it with body contact off, so a vertex is near_in_motion exactly where that garment
+    comes within the radius of the posed body; first candidates are the rest-nearest body vertices; META's source
+    names the asset."""
+    from scipy.spatial import cKDTree
+
+    from pleat import runtime
+    from pleat.eval import scene as S
+    body = tiny_setup.body
+    clips = simsup._clips("validation", 30.0, body)
+    clip = simdata.cut(clips[sorted(clips)[0]], 0, 8)
+    beta = np.zeros(body.shapedirs.shape[-1])
+    found = contact.candidates_from_asset("assets/tshirt.pleat", body, [clip], [beta], 4, stride=2, radius_m=0.01)
+    _, w = S.read_weights("assets/tshirt.pleat")
+    body_v, _ = S.posed_body(body, clip, beta)
+    rotations = S.clip_rotations_for(clip, w["joint_names"])
+    near = np.zeros(len(w["template"]), bool)
+    with runtime.Context() as ctx:
+        inst = ctx.create_instance(ctx.load_asset(Path("assets/tshirt.pleat").read_bytes()), body_contact=False)
+        for t in range(clip.num_frames):
+            x, _ = inst.step(rotations[t], clip.root_translation[t], clip.root_rotation[t], 1.0 / clip.fps)
+            if t % 2 == 0:
+                near |= cKDTree(body_v[t]).query(x)[0] < 0.01
+        inst.close()
+    assert np.array_equal(found.near, near) and 0 < near.sum() < len(near)
+    assert np.array_equal(found.table[:, 0], cKDTree(body.v_template).query(w["template"])[1])
+    assert "tshirt.pleat" in found.source
 
 
 def test_a_blender_plan_keeps_the_bodies_and_windows_at_the_one_material_blender_has():

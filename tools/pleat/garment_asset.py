@@ -14,6 +14,7 @@ shaped template skinned by LBS — the demo placeholder and the LBS-only baselin
 import argparse
 import json
 import sys
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -90,8 +91,9 @@ def input_count_without_latent(input_joint_count, beta_count):
 # Body anchors (docs/asset-format.md "Body contact"): the body's own skinning at each anchor, truncated to this many
 # joints (the body has up to 7 per vertex; the dropped weights are < 2 % there) and renormalised.
 BODY_ANCHOR_INFLUENCES = 4
-# Garment vertices farther than this from the rest body get no candidates: a tangent plane 5 cm away says nothing
-# about where the body is when the cloth hangs loose.
+# Garment vertices farther than this from the rest body get no candidates, unless frames showed them meeting the body
+# (body_anchors' near_in_motion: a skirt against the legs): a tangent plane 5 cm away says nothing about where the
+# body is when the cloth hangs loose, and the full contact's reach ignores planes that far.
 BODY_ANCHOR_MAX_DISTANCE_M = 0.05
 # Candidate body points per garment vertex (asset 1.2): the rest body vertices nearest to it. The runtime anchors each
 # vertex to the blend of its candidates nearest to it in the pose, with the posed body's normal there, so the cloth may
@@ -145,7 +147,7 @@ def _vertex_rings(faces, vertex_count, vertices):
 
 def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance_m=BODY_ANCHOR_MAX_DISTANCE_M,
                  candidates=BODY_CONTACT_CANDIDATES, posed_normals=True, candidate_vertices=None, collide=None,
-                 pinned=None):
+                 pinned=None, near_in_motion=None):
     """The body-contact keys of the weights file for a garment template [N, 3] on the mean body: the body points
     (rest body vertices: position, shape directions [B, P, 3], unit normal, and their top `influences` skin joints and
     weights, renormalised; in the order the garment reaches them), per garment vertex its `candidates` nearest points,
@@ -156,7 +158,10 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     (bool [V], optional): the body vertices the garment collides with (Garment.body_collision_mask); the rest are
     never a candidate. pinned (garment vertex ids, optional): vertices that follow the body by skinning (the pants'
     waistband); the simulator never moves them, so they get no candidates and the runtime's contact leaves them where
-    skinning puts them (with candidates, the contact pushed the shipped pants' waistband up to 20 mm off the body)."""
+    skinning puts them (with candidates, the contact pushed the shipped pants' waistband up to 20 mm off the body).
+    near_in_motion (bool [N], with candidate_vertices): the vertices that met the body in the frames the candidates
+    came from; they get their candidates however far from the rest body they hang (the dress's skirt: without them
+    half its vertices had no contact, and 85 % of what it left inside the legs was theirs)."""
     from scipy.spatial import cKDTree
 
     from pleat.asset import NO_CANDIDATE
@@ -171,17 +176,24 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     distance, nearest = cKDTree(v_template[ids]).query(np.asarray(template, np.float64), k=C)
     distance, nearest = distance.reshape(len(template), C), ids[nearest.reshape(len(template), C)]
     far = distance[:, 0] > max_distance_m                                   # no candidates at all
-    if pinned is not None and len(pinned) > 0:
-        far[np.asarray(pinned, np.int64)] = True                            # pinned: skinned, never pushed
+    rest_far = far.copy()                                   # far from the rest body: no own point (below)
     if candidate_vertices is not None:      # chosen from simulated frames (pleat.train.contact.candidate_vertices)
         given = np.asarray(candidate_vertices, np.int64)
         if given.shape != (len(template), C) or given.min() < -1 or given.max() >= len(v_template):
             raise ValueError(f"candidate_vertices: expected body vertex ids in [0, {len(v_template)}) or -1, "
                              f"shape [{len(template)}, {C}]; got shape {given.shape}")
+        if near_in_motion is not None:
+            near = np.asarray(near_in_motion)
+            if near.shape != (len(template),) or near.dtype != bool:
+                raise ValueError(f"near_in_motion: expected bool [{len(template)}], got {near.dtype} {near.shape}")
+            far &= ~near
         # each vertex's own row stays its rest-nearest body vertex (the fast contact reads it); a repeat of a
         # candidate would weigh its point twice
         rows = [list(dict.fromkeys(r[r >= 0])) for r in np.concatenate([nearest[:, :1], given[:, 1:]], axis=1)]
         nearest = np.array([r + [-1] * (C - len(r)) for r in rows], np.int64)
+    if pinned is not None and len(pinned) > 0:
+        far[np.asarray(pinned, np.int64)] = True                            # pinned: skinned, never pushed
+    own_usable = ~far & ~rest_far      # a vertex's own point (its row, the fast contact's anchor) is a plane it can use
     valid = nearest >= 0                                                    # -1: an empty slot
     ring_table = None
     if C == 1 and not posed_normals:
@@ -203,11 +215,11 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
         rings = _vertex_rings(faces, len(v_template), anchors) if posed_normals else {}
         own = nearest[:, 0]
         rest = first_seen(np.concatenate([anchors] + [rings[v] for v in anchors if v in rings]))
-        rest = rest[~np.isin(rest, own[~far])]
+        rest = rest[~np.isin(rest, own[own_usable])]
         points = np.concatenate([own, rest])
         slot = np.full(len(v_template), -1, np.int64)
         slot[rest] = len(own) + np.arange(len(rest))
-        slot[own[~far][::-1]] = np.flatnonzero(~far)[::-1]                   # a vertex's own row; shared: the first
+        slot[own[own_usable][::-1]] = np.flatnonzero(own_usable)[::-1]       # a vertex's own row; shared: the first
         table = np.full((len(template), C), NO_CANDIDATE, np.int64)
         table[~far] = np.where(valid[~far], slot[np.maximum(nearest[~far], 0)], NO_CANDIDATE)
         table[~far, 0] = np.flatnonzero(~far)                               # each vertex's first candidate: its own row
@@ -215,6 +227,10 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
         anchorable[np.unique(table[table != NO_CANDIDATE])] = True
         point_normals = normals[points]
         point_normals[~anchorable] = 0.0                                    # far vertices' rows, ring corners
+        # a vertex far from the rest body that meets it in motion keeps its own row (the fast contact reads row v)
+        # but with no normal: its rest-nearest point is no plane for it, and the fast contact, which pushes in full
+        # without the full contact's reach, leaves it alone
+        point_normals[np.flatnonzero(~far & rest_far)] = 0.0
         if posed_normals:
             ring_table = np.full((len(points), BODY_POINT_RING), NO_CANDIDATE, np.int64)
             for p in np.flatnonzero(anchorable):
@@ -238,9 +254,30 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
     return out
 
 
+class ContactCandidates(NamedTuple):
+    """Body-contact candidates chosen from frames (pleat.train.contact): `table` [N, C] body vertex ids (-1: none),
+    each vertex's rest-nearest body vertex first; `near` bool [N], the vertices that came within reach of the body
+    in some frame (body_anchors' near_in_motion; None: not known); `source`, where the frames came from (META)."""
+    table: np.ndarray
+    near: Optional[np.ndarray] = None
+    source: str = "simulated frames"
+
+
+def read_candidates(path):
+    """A candidates file (pleat-train contact-candidates; pleat-pack --contact-candidates-from) as ContactCandidates
+    (a file written before `near_in_motion` and `source` were kept reads None and "simulated frames")."""
+    with np.load(path, allow_pickle=False) as z:
+        table = np.asarray(z["candidate_vertices"], np.int64)
+        near = np.asarray(z["near_in_motion"], bool) if "near_in_motion" in z.files else None
+        source = str(z["source"]) if "source" in z.files else "simulated frames"
+    return ContactCandidates(table, near, source)
+
+
 def body_contact_meta(anchors, from_frames=False):
     """The META entry that says how an asset's body anchors were made (from_frames: the candidates were chosen from
-    simulated frames, body_anchors(candidate_vertices=…))."""
+    frames, body_anchors(candidate_vertices=…): True for simulated frames, or a string naming where they came
+    from)."""
+    frames = from_frames if isinstance(from_frames, str) else "simulated frames"
     table = anchors.get("body_anchor_candidates")
     if table is None:
         anchored = int(np.count_nonzero(np.linalg.norm(anchors["body_anchor_normal"], axis=1)))
@@ -251,14 +288,14 @@ def body_contact_meta(anchors, from_frames=False):
     from pleat.asset import NO_CANDIDATE
     rings = anchors.get("body_anchor_ring")
     chosen = (f"the nearest rest body vertex and the {table.shape[1] - 1} body vertices most often nearest in "
-              "simulated frames" if from_frames else f"the {table.shape[1]} nearest rest body vertices")
+              f"{frames}" if from_frames else f"the {table.shape[1]} nearest rest body vertices")
     return {"anchors": f"{chosen} per garment vertex (candidates; the runtime blends those nearest in the pose), "
                        "each with its own top-"
                        f"{anchors['body_anchor_skin_indices'].shape[1]} skin weights and "
                        + ("its ring of body vertices (the posed body's normal)" if rings is not None
                           else "its rest normal (turned by the blended matrix)"),
             "points": int(len(anchors["body_anchor"])), "candidates": int(table.shape[1]),
-            "posed_normals": rings is not None, "candidates_from": "simulated frames" if from_frames else "rest",
+            "posed_normals": rings is not None, "candidates_from": frames if from_frames else "rest",
             "anchored_vertices": int(np.count_nonzero(table[:, 0] != NO_CANDIDATE)), "vertices": int(len(table)),
             "max_distance_m": BODY_ANCHOR_MAX_DISTANCE_M}
 
@@ -307,15 +344,17 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None, 
     pinned = _field(garment, "pinned", None)
     if pinned is not None and len(pinned) > 0:
         weights["pinned"] = np.asarray(pinned, dtype=np.int64)
-    given = None
+    given = near = None
     if _field(body, "faces") is not None and _field(body, "weights") is not None:   # a body with a surface
         candidates, posed_normals = contact or (BODY_CONTACT_CANDIDATES, True)
         if contact_candidates is not None and (candidates > 1 or posed_normals):
-            given = np.asarray(contact_candidates, np.int64)
+            found = contact_candidates if isinstance(contact_candidates, ContactCandidates) \
+                else ContactCandidates(contact_candidates)
+            given, near = np.asarray(found.table, np.int64), found.near
             candidates = given.shape[1]
         from pleat.garment.garment import body_collision_mask
         weights.update(body_anchors(template, body, candidates=candidates, posed_normals=posed_normals,
-                                    candidate_vertices=given,
+                                    candidate_vertices=given, near_in_motion=near,
                                     collide=body_collision_mask(_field(garment, "collision_exclude", None), body),
                                     pinned=weights.get("pinned")))
 
@@ -324,7 +363,7 @@ def weights_from_garment(garment, body, network=None, metadata=None, name=None, 
     if body_source is not None:
         meta["body"] = str(np.asarray(body_source))
     if "body_anchor" in weights:
-        meta["body_contact"] = body_contact_meta(weights, from_frames=given is not None)
+        meta["body_contact"] = body_contact_meta(weights, from_frames=found.source if given is not None else False)
     excluded = _field(garment, "collision_exclude", None)
     if excluded is not None and len(excluded):
         # by name, so that the evaluation's reference simulation of this asset leaves out the same body parts

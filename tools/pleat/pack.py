@@ -184,15 +184,16 @@ def main(argv=None):
         from pleat.garment_asset import BODY_CONTACT_CANDIDATES, body_anchors, body_contact_meta
         if a.contact_candidates is not None and not 1 <= a.contact_candidates <= pa.MAX_CONTACT_CANDIDATES:
             raise InputError("--contact-candidates", f"{a.contact_candidates}: must be 1..{pa.MAX_CONTACT_CANDIDATES}")
-        given = None
+        found = None
         if a.contact_candidates_from:
+            from pleat.garment_asset import read_candidates
             try:
-                with np.load(a.contact_candidates_from, allow_pickle=False) as z:
-                    given = np.asarray(z["candidate_vertices"], np.int64)
+                found = read_candidates(a.contact_candidates_from)
             except Exception as e:   # noqa: BLE001 - numpy raises many kinds on a bad file
                 if isinstance(e, OSError) and e.filename is not None:
                     raise
                 raise not_npz(a.contact_candidates_from, e, "a candidates file ('candidate_vertices')") from None
+            given = found.table
             if given.ndim != 2 or not 1 <= given.shape[1] <= pa.MAX_CONTACT_CANDIDATES:
                 raise InputError(a.contact_candidates_from,
                                  f"candidate_vertices: expected [N, C] with C in 1..{pa.MAX_CONTACT_CANDIDATES}, "
@@ -207,13 +208,15 @@ def main(argv=None):
             body = BodyModel.load(a.body_contact or None)
             weights.update(body_anchors(weights["template"], body,
                                         candidates=a.contact_candidates or BODY_CONTACT_CANDIDATES,
-                                        posed_normals=not a.contact_rest_normals, candidate_vertices=given,
+                                        posed_normals=not a.contact_rest_normals,
+                                        candidate_vertices=found.table if found else None,
+                                        near_in_motion=found.near if found else None,
                                         collide=_collide(weights, body), pinned=weights.get("pinned")))
         except ValueError as e:
             raise InputError(a.contact_candidates_from or "--body-contact", str(e)) from None
         if weights.get("metadata_json") is not None:
             meta = json.loads(str(weights["metadata_json"]))
-            meta["body_contact"] = body_contact_meta(weights, from_frames=given is not None)
+            meta["body_contact"] = body_contact_meta(weights, from_frames=found.source if found else False)
             weights["metadata_json"] = json.dumps(meta, sort_keys=True)
     if a.name is not None:
         weights["garment_name"] = a.name

@@ -183,13 +183,18 @@ def build_parser():
     _common(c)
 
     c = command_parser("contact-candidates", "each garment vertex's body-contact candidates from the simulated "
-                                             "frames of --data (simsup.contact_candidates of them, 16 where that is "
-                                             "0)", _contact_candidates)
+                                             "frames of --data, or from --from-asset's own garment on the training "
+                                             "clips (simsup.contact_candidates of them, 16 where that is 0)",
+                       _contact_candidates)
     _config_options(c)
     _garment(c)
     _out(c, "output folder: the run folder whose later assets use them, or output file: an npz for pleat-pack "
             "--contact-candidates-from")
-    _data(c, "simulated datasets (simsup --export)")
+    source = c.add_mutually_exclusive_group(required=True)
+    source.add_argument("--data", default=None, help="simulated datasets (simsup --export)")
+    source.add_argument("--from-asset", default=None, metavar="ASSET",
+                        help="a trained asset: its garment as the C runtime makes it (body contact off) on the "
+                             "training clips at β = 0 and two drawn bodies, no simulation (seconds)")
     _common(c)
 
     c = command_parser("config", "print the config a preset and --set resolve to, each key with its meaning",
@@ -359,9 +364,23 @@ def _contact_candidates(args):
     count = cfg["simsup"]["contact_candidates"] or CANDIDATES_WHEN_UNSET
     if not 2 <= count <= 16:
         args.parser.error(f"simsup.contact_candidates={count}: must be 2..16")
+    out = args.out if str(args.out).endswith(".npz") else f"{args.out}/{simsup.CANDIDATES_FILE}"
+    if args.from_asset:
+        import numpy as np
+
+        from pleat.body import BodyModel
+        from pleat.train import contact
+        body = BodyModel.load(None)
+        train, _ = simsup.split_clips(cfg, body)
+        rng = np.random.default_rng(cfg["seed"])
+        B = body.shapedirs.shape[-1]
+        betas = [np.zeros(B)] + [np.clip(rng.normal(size=B), -3.0, 3.0) for _ in range(2)]
+        found = contact.candidates_from_asset(args.from_asset, body, list(train.values()), betas, count)
+        simsup.save_contact_candidates(out, found)
+        print(f"{int(found.near.sum())} of {len(found.near)} vertices met the body; wrote {out}")
+        return 0
     setup = core.Setup(cfg, args.garment, "cpu")
     _, seqs, _, _, _ = simsup.run_data(setup, args.data)
-    out = args.out if str(args.out).endswith(".npz") else f"{args.out}/{simsup.CANDIDATES_FILE}"
     simsup.write_contact_candidates(out, setup, seqs, count, progress=True)
     print(f"wrote {out}")
 

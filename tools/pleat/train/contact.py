@@ -21,12 +21,14 @@ ones as plain skinning leaves them. Matching the simulated edge lengths frame by
 garment the simulator could have made.
 """
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 from scipy.spatial import cKDTree
 
 from pleat import reference
+from pleat.garment_asset import ContactCandidates
 from pleat.train import sources
 
 
@@ -189,45 +191,93 @@ CANDIDATE_RADIUS_M = 0.03
 
 
 def candidate_vertices(setup, seqs, count, stride=3, radius_m=CANDIDATE_RADIUS_M):
-    """Per garment vertex, `count` body vertex ids [N, count] (-1: none): its rest-nearest body vertex first, then
-    the body vertices nearest to it in the simulated frames of `seqs` (each with "M" [T, J, 3, 4], "beta" and the
-    rest-frame "disp" [T, N, 3], as simsup's training sequences; every `stride`-th frame, and only where the garment
-    is within `radius_m` of the body), most often nearest first, then its further rest neighbours. The posed body of
+    """Per garment vertex, `count` body vertex ids (pleat.garment_asset.ContactCandidates): its rest-nearest body vertex first, then the body
+    vertices nearest to it in the simulated frames of `seqs` (each with "M" [T, J, 3, 4], "beta" and the rest-frame
+    "disp" [T, N, 3], as simsup's training sequences; every `stride`-th frame, and only where the garment is within
+    `radius_m` of the body), most often nearest first, then its further rest neighbours. The posed body of
     `setup.body` is searched where the garment collides with it (all of it unless the garment's collision_exclude
     leaves parts out, as the simulator did). For `pleat.garment_asset.body_anchors(candidate_vertices=…)`."""
     import scipy.sparse
 
-    from pleat.garment.garment import body_collision_mask
     body = setup.body
-    collide = body_collision_mask(sources.field(setup.garment, "collision_exclude"), body)
-    ids = np.arange(len(body.v_template)) if collide is None else np.flatnonzero(collide)
     W = scipy.sparse.csr_matrix(np.asarray(body.weights, np.float64))                  # [V, J]: a few joints each
-    counts = [dict() for _ in range(setup.N)]
-    frames = 0
-    for s in seqs:
-        beta = np.asarray(s["beta"], np.float64)
-        M = np.asarray(s["M"], np.float64)[::stride]                                     # [T, J, 3, 4]
-        T, J = M.shape[:2]
-        v = np.asarray(body.shaped_vertices(beta), np.float64)
-        Ab = (W @ np.moveaxis(M.reshape(T, J, 12), 1, 0).reshape(J, -1)).reshape(len(v), T, 3, 4)
-        posed_body = np.einsum("vtab,vb->tva", Ab[..., :3], v) + np.moveaxis(Ab[..., 3], 0, 1)
-        A = np.einsum("nk,tnkab->tnab", setup.skin_weights, M[:, setup.skin_indices])
-        rest = setup.shaped(beta)[None] + np.asarray(s["disp"], np.float64)[::stride]
-        x = np.einsum("tnab,tnb->tna", A[..., :3], rest) + A[..., 3]
-        for t in range(T):
-            d, j = cKDTree(posed_body[t][ids]).query(x[t])
-            j = ids[j]
-            for i in np.flatnonzero(d < radius_m):
-                counts[i][int(j[i])] = counts[i].get(int(j[i]), 0) + 1
-        frames += T
-    if frames == 0:
-        raise ValueError("candidate_vertices: no simulated frames")
+
+    def frames():
+        for s in seqs:
+            beta = np.asarray(s["beta"], np.float64)
+            M = np.asarray(s["M"], np.float64)[::stride]                                 # [T, J, 3, 4]
+            T, J = M.shape[:2]
+            v = np.asarray(body.shaped_vertices(beta), np.float64)
+            Ab = (W @ np.moveaxis(M.reshape(T, J, 12), 1, 0).reshape(J, -1)).reshape(len(v), T, 3, 4)
+            posed_body = np.einsum("vtab,vb->tva", Ab[..., :3], v) + np.moveaxis(Ab[..., 3], 0, 1)
+            A = np.einsum("nk,tnkab->tnab", setup.skin_weights, M[:, setup.skin_indices])
+            rest = setup.shaped(beta)[None] + np.asarray(s["disp"], np.float64)[::stride]
+            x = np.einsum("tnab,tnb->tna", A[..., :3], rest) + A[..., 3]
+            yield from zip(x, posed_body)
+    return candidates_from_frames(body, sources.field(setup.garment, "collision_exclude"), setup.template,
+                                  frames(), count, radius_m)
+
+
+def candidates_from_frames(body, collision_exclude, template, frames, count, radius_m=CANDIDATE_RADIUS_M,
+                           source="simulated frames"):
+    """ContactCandidates (see candidate_vertices) from posed frames: `frames` yields (garment positions [N, 3], posed
+    body vertices [V, 3]) pairs; the body is searched where the garment collides with it (collision_exclude, as
+    Garment.body_collision_mask reads it); `source` says where the frames came from."""
+    from pleat.garment.garment import body_collision_mask
+    collide = body_collision_mask(collision_exclude, body)
+    ids = np.arange(len(body.v_template)) if collide is None else np.flatnonzero(collide)
+    N = len(template)
+    counts = [dict() for _ in range(N)]
+    seen = 0
+    for x, posed_body in frames:
+        d, j = cKDTree(np.asarray(posed_body)[ids]).query(np.asarray(x, np.float64))
+        j = ids[j]
+        for i in np.flatnonzero(d < radius_m):
+            counts[i][int(j[i])] = counts[i].get(int(j[i]), 0) + 1
+        seen += 1
+    if seen == 0:
+        raise ValueError("contact candidates: no frames")
     _, rest_nearest = cKDTree(np.asarray(body.v_template, np.float64)[ids]).query(
-        np.asarray(setup.template, np.float64), k=count)
-    rest_nearest = ids[np.asarray(rest_nearest).reshape(setup.N, count)]
-    table = np.full((setup.N, count), -1, np.int64)
+        np.asarray(template, np.float64), k=count)
+    rest_nearest = ids[np.asarray(rest_nearest).reshape(N, count)]
+    table = np.full((N, count), -1, np.int64)
     for i, c in enumerate(counts):
         ranked = [int(rest_nearest[i, 0])] + sorted(c, key=lambda b: (-c[b], b)) + [int(b) for b in rest_nearest[i]]
         chosen = list(dict.fromkeys(ranked))[:count]
         table[i, :len(chosen)] = chosen
-    return table
+    return ContactCandidates(table, np.array([len(c) > 0 for c in counts], bool), source)
+
+
+def candidates_from_asset(asset_path, body, clips, betas, count, stride=3, radius_m=CANDIDATE_RADIUS_M):
+    """ContactCandidates (see candidate_vertices) from a trained asset's own garment instead of simulated frames: the C
+    runtime runs it, body contact off, on `clips` (pleat.motion Clips) at each β of `betas`, and every `stride`-th
+    frame counts. The runtime's contact corrects what the networks put inside the body, so the networks' own garment
+    is where it needs candidates; and it costs seconds where a simulation costs hours. The asset's META names the
+    body parts its garment does not collide with (collision_exclude)."""
+    import json
+
+    from pleat import runtime
+    from pleat.eval import scene as S
+    data = Path(asset_path).read_bytes()
+    _, weights = S.read_weights(asset_path)
+    meta = json.loads(str(weights["metadata_json"])) if weights.get("metadata_json") is not None else {}
+
+    def frames():
+        with runtime.Context() as ctx:
+            asset = ctx.load_asset(data)
+            for clip in clips:
+                rotations = S.clip_rotations_for(clip, weights["joint_names"])
+                for beta in betas:
+                    body_v, _ = S.posed_body(body, clip, beta)
+                    inst = ctx.create_instance(asset, beta=beta, body_contact=False)
+                    try:
+                        for t in range(clip.num_frames):
+                            x, _ = inst.step(rotations[t], clip.root_translation[t], clip.root_rotation[t],
+                                             1.0 / clip.fps)
+                            if t % stride == 0:
+                                yield x, body_v[t]
+                    finally:
+                        inst.close()
+    return candidates_from_frames(body, meta.get("collision_exclude"), weights["template"], frames(), count,
+                                  radius_m, source=f"{Path(asset_path).name}'s own garment on the training clips "
+                                                   "(the C runtime, body contact off)")

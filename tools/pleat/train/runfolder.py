@@ -19,7 +19,8 @@ from pleat.train.shim import model_shim
 def pack_tier(path, lp, block, norms, shim, garment, setup, report, fps, fp16=True, teacher=None, model=None,
               training=None, onnx=False, contact_candidates=None):
     """Write the tier with the training pack code (network_weights → weights_from_garment → write_asset);
-    contact_candidates: the body contact's candidates from simulated frames (weights_from_garment)."""
+    contact_candidates: the body contact's candidates from simulated frames, (table, near) as read_candidates gives
+    them (weights_from_garment)."""
     from pleat.asset import write_asset
     net = core.network_weights(shim, lp.lp, block, norms, fps)
     meta = {"model": model or f"pleat tier {report['tier']}: inference block distilled from the stage-1 teacher",
@@ -52,12 +53,10 @@ CANDIDATES_FILE = "contact_candidates.npz"
 
 
 def run_contact_candidates(out):
-    """The run folder's body-contact candidates from simulated frames (write_contact_candidates), or None."""
+    """The run folder's body-contact candidates from simulated frames (write_contact_candidates) as
+    pleat.garment_asset.read_candidates gives them, or None."""
     path = Path(out) / CANDIDATES_FILE
-    if not path.is_file():
-        return None
-    with np.load(path, allow_pickle=False) as z:
-        return np.asarray(z["candidate_vertices"], np.int64)
+    return ga.read_candidates(path) if path.is_file() else None
 
 
 def model_name(report, contact=False):

@@ -335,17 +335,24 @@ def train(cfg, garment, out, workers=2, max_minutes=None, device="auto", progres
 def write_contact_candidates(path, setup, seqs, count, stride=3, progress=False):
     """Each garment vertex's body-contact candidates, chosen from the simulated frames of `seqs`
     (pleat.train.contact.candidate_vertices), to `path` (a run folder's CANDIDATES_FILE: every asset the run packs
-    afterwards uses them; or any npz for pleat-pack --contact-candidates-from). Returns the table."""
+    afterwards uses them; or any npz for pleat-pack --contact-candidates-from). Returns the ContactCandidates."""
     from pleat.train import contact
     t0 = time.time()
-    table = contact.candidate_vertices(setup, seqs, int(count), stride=int(stride))
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fileio.save_npz(path, candidate_vertices=table)
+    found = contact.candidate_vertices(setup, seqs, int(count), stride=int(stride))
+    save_contact_candidates(path, found)
     if progress:
         print(f"simsup: {count} contact candidates per vertex from {len(seqs)} simulated sequences "
               f"({time.time() - t0:.0f} s) -> {path}", file=sys.stderr)
-    return table
+    return found
+
+
+def save_contact_candidates(path, found):
+    """A candidates file (pleat-pack --contact-candidates-from, a run folder's CANDIDATES_FILE): the table under
+    'candidate_vertices', the vertices that met the body in the frames under 'near_in_motion' and where the frames
+    came from under 'source' (pleat.garment_asset.read_candidates reads it)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fileio.save_npz(path, candidate_vertices=found.table, near_in_motion=found.near, source=np.array(found.source))
 
 
 def user_simulations(setup, specs, fps, log=None, progress=True):
