@@ -144,6 +144,7 @@ int main( int argc, char** argv )
 	for ( int fp16 = 0; fp16 <= 1; ++fp16 )
 	{
 		const void* shapes = fp16 ? (const void*)shapes16 : (const void*)shapes32;
+		plBlendShapes view = { shapes, fp16 ? PLEAT_SHAPES_F16 : PLEAT_SHAPES_F32, NULL };
 		size_t shape_bytes = shape_count * ( fp16 ? 2 : 4 );
 		for ( int c = 0; c < BLEND_CASES; ++c )
 		{
@@ -179,8 +180,8 @@ int main( int argc, char** argv )
 					FlushBytes( shapes, shape_bytes );
 				}
 				double t0 = BenchNowUs();
-				batch.blend_shapes_batch( out, (const float* const*)base, (const float* const*)weights, B, shapes, fp16,
-										  D, N, 0, N );
+				batch.blend_shapes_batch( out, (const float* const*)base, (const float* const*)weights, B, &view, D, N,
+										  0, N );
 				double us = BenchNowUs() - t0;
 				if ( it > 0 )
 				{

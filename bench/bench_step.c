@@ -250,8 +250,8 @@ static double TimeBlendOnly( const plAssetData* asset, uint32_t warmup, uint32_t
 	for ( uint32_t it = 0; it < warmup + iterations; ++it )
 	{
 		double t0 = BenchNowUs();
-		kernels.blend_shapes( out, asset->template_positions, asset->blend_shapes, asset->blend_shapes_fp16, weights,
-							  asset->blend_count, asset->vertex_count, 0, asset->vertex_count );
+		kernels.blend_shapes( out, asset->template_positions, &asset->blend_shapes, weights, asset->blend_count,
+							  asset->vertex_count, 0, asset->vertex_count );
 		if ( it >= warmup )
 			us[it - warmup] = BenchNowUs() - t0;
 	}
@@ -329,8 +329,8 @@ static uint64_t StreamStepBytes( const plAssetData* a, size_t* out_bytes )
 			total += wb + (size_t)layers[i].out_count * 4u;
 		}
 	}
-	size_t bb = (size_t)a->blend_count * a->vertex_count * 3u * ( a->blend_shapes_fp16 ? 2u : 4u );
-	acc = ReadStream( a->blend_shapes, bb, acc );
+	size_t bb = (size_t)a->blend_count * a->vertex_count * 3u * plShapeBytes( a->blend_shapes.type );
+	acc = ReadStream( a->blend_shapes.data, bb, acc );
 	*out_bytes = total + bb;
 	return acc;
 }

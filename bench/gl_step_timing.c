@@ -43,7 +43,7 @@ static void plCpuDeform( const plTestMesh* mesh, const plKernels* kernels, const
 {
 	uint32_t n = mesh->vertex_count;
 	plBlendShapesJob blend = {
-		plMakeConstSpan( mesh->shaped_template, n, 12 ), mesh->blend_shapes, 0,
+		plMakeConstSpan( mesh->shaped_template, n, 12 ), { mesh->blend_shapes, PLEAT_SHAPES_F32, NULL },
 		plMakeConstSpan( weights, mesh->blend_count, 4 ), plMakeSpan( deformed, n, 12 ), 0, n, kernels,
 	};
 	plSkinningJob skin = {
@@ -89,7 +89,7 @@ static int plTimeDeformation( uint32_t frames )
 	desc.influence_count = mesh.influence_count;
 	desc.joint_count = mesh.joint_count;
 	desc.shaped_template = mesh.shaped_template;
-	desc.blend_shapes = mesh.blend_shapes;
+	desc.blend_shapes = ( plBlendShapes ){ mesh.blend_shapes, PLEAT_SHAPES_F32, NULL };
 	desc.skin_indices = mesh.skin_indices;
 	desc.skin_weights = mesh.skin_weights;
 	desc.faces = mesh.faces;

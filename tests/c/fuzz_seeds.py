@@ -5,7 +5,7 @@
 The C test asset builder (fuzz_asset_seed) cannot write what only pleat-pack writes, so these cover the sections and
 branches it misses: PINS, the ONNX models (OXLP/OXDC of `pleat-pack --onnx`), the 24-joint SMPL skeleton with 19
 input joints, no shape components (β-less: zero-row JSHP/SHPB), fp16 with ONNX, SiLU and ReLU, several layers,
-int8 networks with ranged and with symmetric inputs (pleat.quantise). Every
+int8 networks with ranged and with symmetric inputs (pleat.quantise), int8 blend shapes (BLND i8 + BLSC). Every
 asset is small (tens of KB) so a fuzzer runs thousands of them a second. Each goes through
 pleat.asset.write_asset, the same writer as pleat-pack, and is read back by pleat.asset.read_asset as a check.
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from pleat.asset import read_asset, write_asset
-from pleat.quantise import quantise
+from pleat.quantise import quantise, quantise_blend_shapes
 from pleat.reference.golden import random_weights
 
 
@@ -35,6 +35,8 @@ def seeds():
                                                          **dict(common, lp_hidden=(9, 7)))))
     yield "smpl_int8_ranged_fp16.pleat", quantise(stored)[0], True, False
     yield "smpl_int8_symmetric.pleat", quantise(stored, ranged=False)[0], False, False
+    yield "smpl_int8_blend_shapes_fp16.pleat", quantise_blend_shapes(stored)[0], True, False
+    yield "smpl_int8_everything.pleat", quantise_blend_shapes(quantise(stored)[0])[0], False, False
 
 
 def main(argv=None):

@@ -226,7 +226,35 @@ plTestAsset* plTestAsset_Create( const plTestAssetParams* p )
 	{
 		a->blend_shapes[i] = plTestUniform( &rng, p->blend_scale );
 	}
+	if ( p->int8_blend_shapes )
+	{
+		plTestAsset_QuantiseBlendShapes( a );
+	}
 	return a;
+}
+
+void plTestAsset_QuantiseBlendShapes( plTestAsset* a )
+{
+	size_t plane = (size_t)a->N * 3;
+	a->blend_shapes_int8 = (int8_t*)malloc( plane * a->D );
+	a->blend_scales = plTestFloats( a->D );
+	for ( uint32_t j = 0; j < a->D; ++j )
+	{
+		float* shape = a->blend_shapes + j * plane;
+		float peak = 0.0f;
+		for ( size_t i = 0; i < plane; ++i )
+		{
+			peak = fabsf( shape[i] ) > peak ? fabsf( shape[i] ) : peak;
+		}
+		a->blend_scales[j] = peak > 0.0f ? peak / 127.0f : 1.0f;
+		for ( size_t i = 0; i < plane; ++i )
+		{
+			float q = rintf( shape[i] / a->blend_scales[j] );
+			a->blend_shapes_int8[j * plane + i] = (int8_t)( q < -127.0f ? -127.0f : q > 127.0f ? 127.0f : q );
+			shape[i] = (float)a->blend_shapes_int8[j * plane + i] * a->blend_scales[j]; // what the file holds
+		}
+	}
+	a->version_minor = a->version_minor > 4 ? a->version_minor : 4;
 }
 
 void plTestAsset_OverflowOnRootMotion( plTestAsset* a )
@@ -366,6 +394,8 @@ void plTestAsset_Destroy( plTestAsset* a )
 	free( a->z_min );
 	free( a->z_max );
 	free( a->blend_shapes );
+	free( a->blend_shapes_int8 );
+	free( a->blend_scales );
 	free( a );
 }
 
@@ -424,7 +454,7 @@ static plTestSection* plAddSection( plTestSection* list, uint32_t* count, const 
 	s->dims[3] = 1;
 	s->data = data;
 	uint64_t elements = (uint64_t)s->dims[0] * s->dims[1] * s->dims[2];
-	uint32_t es = ( dtype == 2 || dtype == 4 ) ? 2 : ( dtype == 6 ? 1 : 4 );
+	uint32_t es = ( dtype == 2 || dtype == 4 ) ? 2 : ( dtype == 6 || dtype == 7 ? 1 : 4 );
 	s->size = elements * es;
 	return s;
 }
@@ -517,8 +547,16 @@ uint8_t* plTestAsset_Write( const plTestAsset* a, size_t* out_size )
 	plAddSection( sections, &count, "ZMAX", 1, a->z_max, 1, a->L, 1, 1 );
 	plAddNetworkSections( sections, &count, "LP", a->lp, a->lp_count, a->fp16 );
 	plAddNetworkSections( sections, &count, "DC", a->dec, a->dec_count, a->fp16 );
-	plAddSection( sections, &count, "BLND", a->fp16 ? 2 : 1, a->blend_shapes, 3, a->D, a->N, 3 )->widen_to_half =
-		a->fp16;
+	if ( a->blend_shapes_int8 != NULL )
+	{
+		plAddSection( sections, &count, "BLND", 7, a->blend_shapes_int8, 3, a->D, a->N, 3 );
+		plAddSection( sections, &count, "BLSC", 1, a->blend_scales, 1, a->D, 1, 1 );
+	}
+	else
+	{
+		plAddSection( sections, &count, "BLND", a->fp16 ? 2 : 1, a->blend_shapes, 3, a->D, a->N, 3 )->widen_to_half =
+			a->fp16;
+	}
 	if ( a->body_anchors != NULL )
 	{
 		plAddSection( sections, &count, "BANC", 1, a->body_anchors, 2, a->P, 3, 1 );
@@ -567,7 +605,7 @@ uint8_t* plTestAsset_Write( const plTestAsset* a, size_t* out_size )
 	plPutU32( bytes + 12, 128 );
 	plPutU64( bytes + 16, size );
 	plPutU32( bytes + 24, count );
-	plPutU32( bytes + 28, a->fp16 ? 1u : 0u );
+	plPutU32( bytes + 28, ( a->fp16 ? 1u : 0u ) | ( a->blend_shapes_int8 != NULL ? 8u : 0u ) );
 	plPutU64( bytes + 32, 128 );
 	for ( uint32_t i = 0; i < count; ++i )
 	{

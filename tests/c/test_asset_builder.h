@@ -29,6 +29,7 @@ typedef struct plTestAssetParams
 	float blend_scale;           // blend shapes uniform in ±blend_scale metres
 	uint32_t seed;
 	int fp16;                    // store LPW/DCW/BLND as fp16
+	int int8_blend_shapes;       // store BLND as int8 with a scale per shape (asset 1.4; BLSC), whatever fp16 says
 } plTestAssetParams;
 
 typedef struct plTestAsset
@@ -50,7 +51,9 @@ typedef struct plTestAsset
 	float* skin_weights;       // [N][K]
 	float *x_mean, *x_std;     // [I]
 	float *z_mean, *z_std, *z_min, *z_max; // [L]
-	float* blend_shapes;       // [D][N][3]
+	float* blend_shapes;       // [D][N][3] (with int8 shapes, their values q · scale)
+	int8_t* blend_shapes_int8; // [D][N][3] or NULL: BLND as int8, with blend_scales [D] (BLSC)
+	float* blend_scales;
 	int fp16;
 	const char* meta;
 	uint16_t version_major, version_minor;
@@ -87,6 +90,10 @@ int plTestAsset_AddBodyAnchors( plTestAsset* asset, float depth_m );
 // x_std 1e-38 and f_LP's first layer weighs it with ±6e4 (within fp16's range); standing still stays finite. Use with
 // SiLU networks, which pass ±inf and NaN on (a ReLU would turn an overflow's NaN into 0).
 void plTestAsset_OverflowOnRootMotion( plTestAsset* asset );
+// int8 blend shapes (asset 1.4): per shape the scale max |D_j| / 127 and q = round(D_j / scale), and blend_shapes
+// replaced by what the file then holds, q · scale (so references computed from them match). Done by plTestAsset_Create
+// when params.int8_blend_shapes is set.
+void plTestAsset_QuantiseBlendShapes( plTestAsset* asset );
 // Back to one point per vertex (asset 1.1, no candidate or face table): point v for vertex v, the extra points dropped.
 void plTestAsset_DropBodyCandidates( plTestAsset* asset );
 // Serialises into a 64-byte aligned block (free with plTestAsset_FreeBytes). Returns NULL on failure.

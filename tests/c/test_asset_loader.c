@@ -272,7 +272,7 @@ static void test_broken_structure_is_malformed( void** state )
 		{ NULL, 12, 64, 4 },                 // header_size < 128
 		{ NULL, 24, 0, 4 },                  // no sections
 		{ NULL, 24, 300, 4 },                // too many sections
-		{ NULL, 28, 8, 4 },                  // unknown flag bit (bits 1 and 2 are the int8 networks' since 1.3)
+		{ NULL, 28, 16, 4 },                 // unknown flag bit (1, 2: int8 networks since 1.3; 3: int8 shapes, 1.4)
 		{ NULL, 32, 1ull << 40, 8 },         // table offset past the end
 		{ "TMPL", 16, tmpl + 4, 8 },         // offset not 64-byte aligned
 		{ "TMPL", 16, 1ull << 62, 8 },       // offset far outside the file
@@ -294,6 +294,9 @@ static void test_broken_structure_is_malformed( void** state )
 			fail_msg( "edit %zu: %s", i, plResultString( r ) );
 		}
 	}
+	// The int8 blend shapes flag on an asset whose BLND is fp32: its content, not its structure.
+	plFieldEdit int8_shapes = { NULL, 28, 8, 4 };
+	assert_int_equal( plLoadEdited( f, f->size, plEditField, &int8_shapes, 1, 0 ), PLEAT_RESULT_INVALID_ASSET_DATA );
 	// Duplicate fourcc: rename SHPB to TMPL.
 	plFieldEdit dup = { "SHPB", 0, 0, 4 };
 	memcpy( &dup.value, "TMPL", 4 );

@@ -1,8 +1,9 @@
 // plStepInstances steps every instance of a crowd exactly as plInstance_Step steps it alone: the same results and,
 // bit for bit, the same positions, normals, latent, blend weights, skinning matrices and copies to the caller's
 // strided outputs — on the scalar and the AVX2 kernels (with the AVX2 and, where the CPU has them, the AVX-512 batched
-// kernels; with and without the batched normals' scratch), fp32 and fp16 weights, one and three workers, over several
-// frames of a crowd that has more instances of one asset than one group holds (64), three assets (ReLU and SiLU),
+// kernels; with and without the batched normals' scratch), fp32 and fp16 weights and int8 blend shapes, one and three
+// workers, over several frames of a crowd that has more instances of one asset than one group holds (64), three
+// assets (ReLU and SiLU),
 // different β, network rates and dt, instances listed twice, a stale handle, an instance whose input is rejected on
 // one frame (it must stay unchanged while the others step), body contact on most instances of the big asset (off or
 // at another clearance on some) and an asset whose f_LP overflows whenever the root moves along x (the numeric reset
@@ -40,10 +41,12 @@ typedef struct plTestWorld
 	plInstance stale;
 } plTestWorld;
 
-static plTestAsset* plMakeModel( int which, int fp16 )
+// precision: 0 fp32, 1 fp16, 2 fp16 networks and int8 blend shapes.
+static plTestAsset* plMakeModel( int which, int precision )
 {
 	plTestAssetParams p = plTestAsset_DefaultParams();
-	p.fp16 = fp16;
+	p.fp16 = precision != 0;
+	p.int8_blend_shapes = precision == 2;
 	if ( which == 0 )
 	{
 		p.grid_x = 20;
@@ -172,9 +175,9 @@ static void plExpectSameInstance( plInstance a, plInstance b, const plTestAsset*
 
 // scratch_taken: every block of the batch context's scratch is marked in use (as if other threads were stepping their
 // own batches), so the batched normals fall back to each instance's own.
-static void plRunCrowdWith( int force_scalar, uint32_t workers, int fp16, int scratch_taken )
+static void plRunCrowdWith( int force_scalar, uint32_t workers, int precision, int scratch_taken )
 {
-	plTestAsset* models[3] = { plMakeModel( 0, fp16 ), plMakeModel( 1, fp16 ), plMakeModel( 2, fp16 ) };
+	plTestAsset* models[3] = { plMakeModel( 0, precision ), plMakeModel( 1, precision ), plMakeModel( 2, precision ) };
 	plTestWorld batch, single;
 	plWorld_Init( &batch, models, force_scalar, workers );
 	plWorld_Init( &single, models, force_scalar, workers );
@@ -277,9 +280,9 @@ static void plRunCrowdWith( int force_scalar, uint32_t workers, int fp16, int sc
 	}
 }
 
-static void plRunCrowd( int force_scalar, uint32_t workers, int fp16 )
+static void plRunCrowd( int force_scalar, uint32_t workers, int precision )
 {
-	plRunCrowdWith( force_scalar, workers, fp16, 0 );
+	plRunCrowdWith( force_scalar, workers, precision, 0 );
 }
 
 static void test_crowd_equals_one_by_one_scalar( void** state )
@@ -287,6 +290,7 @@ static void test_crowd_equals_one_by_one_scalar( void** state )
 	(void)state;
 	plRunCrowd( 1, 1, 0 );
 	plRunCrowd( 1, 3, 1 );
+	plRunCrowd( 1, 1, 2 );
 }
 
 static void test_crowd_equals_one_by_one_simd( void** state )
@@ -296,6 +300,7 @@ static void test_crowd_equals_one_by_one_simd( void** state )
 	plRunCrowd( 0, 1, 1 );
 	plRunCrowd( 0, 3, 0 );
 	plRunCrowd( 0, 3, 1 );
+	plRunCrowd( 0, 3, 2 );
 }
 
 // The AVX2 batched kernels where the CPU would take the AVX-512 ones (the same crowd: the AVX2 set is what an AVX2-only
@@ -311,6 +316,7 @@ static void test_crowd_equals_one_by_one_avx2_batch_and_no_scratch( void** state
 	s_plTestMaxIsa = PLEAT_KERNEL_SET_AVX2;
 	plRunCrowd( 0, 1, 0 );
 	plRunCrowd( 0, 3, 1 );
+	plRunCrowd( 0, 1, 2 );
 	s_plTestMaxIsa = PLEAT_KERNEL_SET_AVX512;
 	plRunCrowdWith( 0, 1, 0, 1 );
 	plRunCrowdWith( 0, 3, 1, 1 );

@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "jobs_batch.h"
+#include "test_blend_shapes.h"
 #include "test_common.h"
 
 static uint32_t s_rng = 4242;
@@ -290,7 +291,7 @@ static void test_blend_batch_equals_blend_per_instance( void** state )
 	const uint32_t batches[] = { 1, 3, 4, 5, 8, 9, 17, PLEAT_BATCH_MAX };
 	for ( uint32_t s = 0; s < k->count; ++s )
 	{
-		for ( int fp16 = 0; fp16 < 2; ++fp16 )
+		for ( int type = PLEAT_SHAPES_F32; type <= PLEAT_SHAPES_I8; ++type )
 		{
 			for ( size_t vi = 0; vi < sizeof( vertex_counts ) / sizeof( vertex_counts[0] ); ++vi )
 			{
@@ -298,14 +299,8 @@ static void test_blend_batch_equals_blend_per_instance( void** state )
 				{
 					uint32_t nv = vertex_counts[vi], d = blend_counts[di];
 					size_t plane = (size_t)nv * 3;
-					float* shapes = (float*)malloc( d * plane * sizeof( float ) );
-					uint16_t* shapes16 = (uint16_t*)malloc( d * plane * sizeof( uint16_t ) );
-					for ( size_t i = 0; i < d * plane; ++i )
-					{
-						shapes[i] = 0.01f * plRand();
-						shapes16[i] = plFloatToHalf( shapes[i] );
-					}
-					const void* sh = fp16 ? (const void*)shapes16 : (const void*)shapes;
+					plTestShapes shapes = plTestShapes_Make( type, d, plane, 0.01f, plRand );
+					const plBlendShapes* sh = &shapes.shapes;
 					for ( size_t bi = 0; bi < sizeof( batches ) / sizeof( batches[0] ); ++bi )
 					{
 						uint32_t n = batches[bi];
@@ -332,10 +327,10 @@ static void test_blend_batch_equals_blend_per_instance( void** state )
 						}
 						// A vertex range not starting at 0, as a worker would get (when there is more than one).
 						uint32_t begin = nv > 2 ? 1 : 0, end = nv;
-						k->batch[s].blend_shapes_batch( out, base, weights, n, sh, fp16, d, nv, begin, end );
+						k->batch[s].blend_shapes_batch( out, base, weights, n, sh, d, nv, begin, end );
 						for ( uint32_t b = 0; b < n; ++b )
 						{
-							k->single[s].blend_shapes( single, base[b], sh, fp16, weights[b], d, nv, begin, end );
+							k->single[s].blend_shapes( single, base[b], sh, weights[b], d, nv, begin, end );
 							assert_memory_equal( single + begin * 3, out[b] + begin * 3,
 												 ( end - begin ) * 3 * sizeof( float ) );
 							for ( size_t i = 0; i < (size_t)begin * 3; ++i )
@@ -348,8 +343,7 @@ static void test_blend_batch_equals_blend_per_instance( void** state )
 						free( ws );
 						free( single );
 					}
-					free( shapes );
-					free( shapes16 );
+					plTestShapes_Free( &shapes );
 				}
 			}
 		}
@@ -487,7 +481,7 @@ static void test_blend_batch_job_rejects_bad_spans( void** state )
 	plConstSpan bases[2] = { plMakeConstSpan( base[0], 10, 12 ), plMakeConstSpan( base[1], 10, 12 ) };
 	plConstSpan weights[2] = { plMakeConstSpan( w[0], 4, 4 ), plMakeConstSpan( w[1], 4, 4 ) };
 	plSpan outs[2] = { plMakeSpan( out[0], 10, 12 ), plMakeSpan( out[1], 10, 12 ) };
-	plBlendShapesBatchJob job = { 2, bases, weights, outs, shapes, 0, 10, 0, 10, &bk };
+	plBlendShapesBatchJob job = { 2, bases, weights, outs, { shapes, PLEAT_SHAPES_F32, NULL }, 10, 0, 10, &bk };
 	assert_int_equal( plBlendShapesBatchJob_Run( &job ), PLEAT_RESULT_OK );
 	plBlendShapesBatchJob bad = job;
 	bad.vertex_end = 11;
@@ -501,7 +495,8 @@ static void test_blend_batch_job_rejects_bad_spans( void** state )
 	plSpan aliased[2] = { plMakeSpan( base[0], 10, 12 ), plMakeSpan( out[1], 10, 12 ) };
 	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, outputs, aliased );
 	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, batch_count, 0 );
-	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, blend_shapes, NULL );
+	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, blend_shapes.data, NULL );
+	PLEAT_EXPECT_INVALID( plBlendShapesBatchJob, job, blend_shapes.type, 3 ); // no such storage
 }
 
 // Skinning: each instance of a batch gets what the single-instance kernel of the same set gives it, bit for bit — lane

@@ -86,8 +86,8 @@ static plGlDeformerDesc plDescFor( const plTestMesh* mesh, plGlDeformerMode mode
 	desc.influence_count = mesh->influence_count;
 	desc.joint_count = mesh->joint_count;
 	desc.shaped_template = mesh->shaped_template;
-	desc.blend_shapes = fp16 ? (const void*)mesh->blend_shapes_fp16 : (const void*)mesh->blend_shapes;
-	desc.blend_shapes_fp16 = fp16;
+	desc.blend_shapes = fp16 ? ( plBlendShapes ){ mesh->blend_shapes_fp16, PLEAT_SHAPES_F16, NULL }
+							 : ( plBlendShapes ){ mesh->blend_shapes, PLEAT_SHAPES_F32, NULL };
 	desc.skin_indices = mesh->skin_indices;
 	desc.skin_weights = mesh->skin_weights;
 	desc.faces = mesh->faces;
@@ -983,7 +983,7 @@ static void test_invalid_descriptions_are_rejected( void** state )
 		case 5: desc.joint_count = 0; break;
 		case 6: desc.face_count = 0; break;
 		case 7: desc.shaped_template = NULL; break;
-		case 8: desc.blend_shapes = NULL; break;
+		case 8: desc.blend_shapes.data = NULL; break;
 		case 9: desc.skin_indices = NULL; break;
 		case 10: desc.skin_weights = NULL; break;
 		case 11: desc.faces = NULL; break;

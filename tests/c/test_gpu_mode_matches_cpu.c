@@ -35,11 +35,12 @@ typedef enum plTestBody
 	PLEAT_TEST_BODY_CANDIDATES_NO_RINGS,  // asset 1.2 without BARG
 } plTestBody;
 
-static void plCompareGpuWithCpu( float network_rate_hz, plTestBody body )
+static void plCompareGpuWithCpu( float network_rate_hz, plTestBody body, int int8_blend_shapes )
 {
 	plTestAssetParams p = plTestAsset_DefaultParams();
 	p.grid_x = 17;
 	p.grid_y = 19;
+	p.int8_blend_shapes = int8_blend_shapes;
 	plTestRig rig;
 	int body_anchors = body != PLEAT_TEST_NO_BODY;
 	plTestAsset* built = plTestAsset_Create( &p );
@@ -153,31 +154,39 @@ static void plCompareGpuWithCpu( float network_rate_hz, plTestBody body )
 static void test_headless_gpu_instance_matches_cpu_instance( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_NO_BODY );
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_NO_BODY, 0 );
 }
 
 static void test_headless_gpu_instance_matches_cpu_instance_with_body_contact( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_CANDIDATES );
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_CANDIDATES, 0 );
 }
 
 static void test_headless_gpu_instance_matches_cpu_instance_with_one_body_point_per_vertex( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_ONE_POINT_PER_VERTEX );
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_ONE_POINT_PER_VERTEX, 0 );
 }
 
 static void test_headless_gpu_instance_matches_cpu_instance_with_body_contact_without_rings( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_CANDIDATES_NO_RINGS );
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_CANDIDATES_NO_RINGS, 0 );
 }
 
 static void test_headless_gpu_instance_matches_cpu_instance_between_network_updates( void** state )
 {
 	(void)state;
-	plCompareGpuWithCpu( 12.0f, PLEAT_TEST_BODY_CANDIDATES ); // steps of 1/30 s: the networks run on every third step
+	plCompareGpuWithCpu( 12.0f, PLEAT_TEST_BODY_CANDIDATES, 0 ); // steps of 1/30 s: the networks run on every third step
+}
+
+// int8 blend shapes (asset 1.4): the GPU reads them as the fp32 values q · scale and the CPU folds the scale into the
+// weight, (w · s) · q against w · (q · s), a rounding apart.
+static void test_headless_gpu_instance_matches_cpu_instance_with_int8_blend_shapes( void** state )
+{
+	(void)state;
+	plCompareGpuWithCpu( 0.0f, PLEAT_TEST_BODY_CANDIDATES, 1 );
 }
 
 int main( void )
@@ -188,6 +197,7 @@ int main( void )
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_one_body_point_per_vertex ),
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_body_contact_without_rings ),
 		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_between_network_updates ),
+		cmocka_unit_test( test_headless_gpu_instance_matches_cpu_instance_with_int8_blend_shapes ),
 	};
 	return cmocka_run_group_tests( tests, NULL, NULL );
 }

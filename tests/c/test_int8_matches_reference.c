@@ -562,7 +562,7 @@ static void test_loader_refuses_what_the_int8_kernels_cannot_run( void** state )
 	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_INVALID_ASSET_DATA );
 
 	memcpy( bytes, original, size );
-	flags = 8; // a flag no reader knows
+	flags = 16; // a flag no reader knows
 	memcpy( bytes + 28, &flags, 4 );
 	assert_int_equal( plLoadEdited( ctx, bytes, size ), PLEAT_RESULT_MALFORMED_ASSET );
 

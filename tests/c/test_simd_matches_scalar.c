@@ -12,6 +12,7 @@
 #include <cmocka.h>
 
 #include "jobs.h"
+#include "test_blend_shapes.h"
 #include "test_common.h"
 
 static uint32_t s_rng = 777;
@@ -175,7 +176,7 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 	const plKernelPair* pair = plRequireAvx2Kernels( state );
 	const uint32_t ns[] = { 1, 3, 5, 256, 257, 1000 };
 	const uint32_t ds[] = { 1, 2, 3, 128 };
-	for ( int fp16 = 0; fp16 < 2; ++fp16 )
+	for ( int type = PLEAT_SHAPES_F32; type <= PLEAT_SHAPES_I8; ++type )
 	{
 		for ( size_t a = 0; a < sizeof( ns ) / sizeof( ns[0] ); ++a )
 		{
@@ -183,10 +184,9 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 			{
 				uint32_t n = ns[a], d = ds[b];
 				size_t plane = (size_t)n * 3;
-				float* shapes = (float*)calloc( plane * d + 3 * plane + d, sizeof( float ) ); // outputs zeroed
-				float *base = shapes + plane * d, *os = base + plane, *ov = os + plane, *w = ov + plane;
-				uint16_t* shapes16 = (uint16_t*)malloc( plane * d * sizeof( uint16_t ) );
-				plRandomWeights( shapes, shapes16, plane * d, 0.01f, fp16 );
+				plTestShapes shapes = plTestShapes_Make( type, d, plane, 0.01f, plRand );
+				float* base = (float*)calloc( 3 * plane + d, sizeof( float ) ); // outputs zeroed
+				float *os = base + plane, *ov = os + plane, *w = ov + plane;
 				for ( size_t i = 0; i < plane; ++i )
 				{
 					base[i] = plRand();
@@ -195,10 +195,9 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 				{
 					w[j] = 2.0f * plRand();
 				}
-				const void* data = fp16 ? (const void*)shapes16 : (const void*)shapes;
 				uint32_t begin = n > 2 ? 1 : 0, end = n > 2 ? n - 1 : n;
-				pair->scalar.blend_shapes( os, base, data, fp16, w, d, n, begin, end );
-				pair->simd.blend_shapes( ov, base, data, fp16, w, d, n, begin, end );
+				pair->scalar.blend_shapes( os, base, &shapes.shapes, w, d, n, begin, end );
+				pair->simd.blend_shapes( ov, base, &shapes.shapes, w, d, n, begin, end );
 				for ( size_t i = 0; i < plane; ++i )
 				{
 					if ( i < (size_t)begin * 3 || i >= (size_t)end * 3 )
@@ -209,13 +208,13 @@ static void test_blend_shapes_avx2_matches_scalar( void** state )
 					double magnitude = fabs( base[i] );
 					for ( uint32_t j = 0; j < d; ++j )
 					{
-						magnitude += fabs( (double)w[j] * shapes[j * plane + i] );
+						magnitude += fabs( (double)w[j] * shapes.elements[j * plane + i] );
 					}
-					plExpectWithinSumBound( os[i], ov[i], d + 1, magnitude, "fp16=%d n=%u d=%u float %zu", fp16, n, d,
+					plExpectWithinSumBound( os[i], ov[i], d + 1, magnitude, "type=%d n=%u d=%u float %zu", type, n, d,
 											i );
 				}
-				free( shapes );
-				free( shapes16 );
+				plTestShapes_Free( &shapes );
+				free( base );
 			}
 		}
 	}

@@ -21,7 +21,8 @@ import numpy as np
 
 MAGIC = b"PLEATAST"
 VERSION_MAJOR = 1
-VERSION_MINOR = 3   # 1.1 adds the optional body-contact sections (BANC …), 1.2 their candidates (BACA), 1.3 int8 networks
+VERSION_MINOR = 4   # 1.1 adds the optional body-contact sections (BANC …), 1.2 their candidates (BACA), 1.3 int8
+                    # networks, 1.4 int8 blend shapes
 HEADER_SIZE = 128
 SECTION_ENTRY_SIZE = 48
 CONF_SIZE = 256
@@ -31,6 +32,9 @@ FLAG_FP16 = 1
 FLAG_INT8 = 2       # 1.3: every LP and decoder layer is int8 (LPWi i8, LPSi, LPAi; docs/asset-format.md)
 FLAG_INT8_RANGED_INPUTS = 4   # 1.3, with FLAG_INT8 and ReLU networks: each layer's input quantised to the range its
                               # values have (pleat.reference.mlp.int8_input_bounds): 'int8_ranged_inputs' in a dict
+FLAG_INT8_BLEND_SHAPES = 8    # 1.4: BLND is int8 in [-127, 127] with a scale per shape (BLSC): 'blend_shapes_int8' and
+                              # 'blend_shape_scales' in a dict (pleat.quantise.quantise_blend_shapes)
+KNOWN_FLAGS = FLAG_FP16 | FLAG_INT8 | FLAG_INT8_RANGED_INPUTS | FLAG_INT8_BLEND_SHAPES
 MAX_INT8_COLUMNS = 4096   # PLEAT_MAX_INT8_COLUMNS: an int8 layer's inputs (the kernels quantise them on their stack)
 
 DTYPE_F32, DTYPE_F16, DTYPE_U32, DTYPE_U16, DTYPE_I32, DTYPE_U8, DTYPE_I8 = 1, 2, 3, 4, 5, 6, 7
@@ -166,6 +170,17 @@ def is_int8(weights):
     return np.asarray(weights.get("lp.0.weight", np.zeros(0, np.float32))).dtype == np.int8
 
 
+def has_int8_blend_shapes(weights):
+    """True if the weights dict holds int8 blend shapes (pleat.quantise.quantise_blend_shapes)."""
+    return "blend_shape_scales" in weights
+
+
+def blend_shape_values(q, scales):
+    """int8 blend shapes [D, N, 3] and their scales [D] as the runtime's kernels read them: float32((float)q · scale),
+    one rounding (plShapeElement)."""
+    return (np.asarray(q, np.float32) * np.asarray(scales, np.float32)[:, None, None]).astype(np.float32)
+
+
 def _int8_layer(weights, w, key, m):
     """An int8 layer (1.3): KEY.weight int8 [out, in] in -127..127, KEY.weight_scale [out] and KEY.input_scale [1]
     positive, finite, the input scale's float32 reciprocal finite too (pleat.reference.mlp.mlp_int8)."""
@@ -284,7 +299,18 @@ def validate_weights(weights, fp16=False):
         raise AssetError(f"blend_shapes: expected [D, N={N}, 3], got {blend.shape}")
     D = blend.shape[0]
     w["blend_shapes"] = _floats(weights, "blend_shapes", blend.shape, keep_fp16=True)
-    if fp16:
+    if has_int8_blend_shapes(weights):
+        q = np.asarray(weights.get("blend_shapes_int8", np.zeros(0)))
+        scales = np.asarray(weights["blend_shape_scales"])
+        if q.dtype != np.int8 or q.shape != blend.shape or int(q.min(initial=0)) < -127:
+            raise AssetError(f"blend_shapes_int8: expected int8 [D, N={N}, 3] in -127..127 beside blend_shapes "
+                             f"{blend.shape}, got {q.dtype} {q.shape}")
+        if scales.shape != (D,) or not np.all(np.isfinite(scales)) or np.any(scales <= 0):
+            raise AssetError(f"blend_shape_scales: expected [{D}] finite and positive, got {scales.shape}")
+        w["blend_shapes_int8"] = q
+        w["blend_shape_scales"] = scales.astype(np.float32)
+        w["blend_shapes"] = blend_shape_values(q, scales)     # what the runtime reads: the file has no other copy
+    elif fp16:
         w["blend_shapes"] = _to_fp16(w["blend_shapes"], "blend_shapes")
 
     for prefix, first_in, last_out in (("lp", I, L), ("dec", L, D)):
@@ -477,7 +503,10 @@ def _sections(w, onnx_models=None):
             else:
                 out.append((f"{tag}W{i}", *f16_or_f32(w[f"{prefix}.{i}.weight"])))
             out.append((f"{tag}B{i}", DTYPE_F32, w[f"{prefix}.{i}.bias"]))
-    out.append(("BLND", *f16_or_f32(w["blend_shapes"])))
+    if has_int8_blend_shapes(w):
+        out += [("BLND", DTYPE_I8, w["blend_shapes_int8"]), ("BLSC", DTYPE_F32, w["blend_shape_scales"])]
+    else:
+        out.append(("BLND", *f16_or_f32(w["blend_shapes"])))
     if "pinned" in w:
         out.append(("PINS", DTYPE_U32, w["pinned"]))
     if "body_anchor" in w:
@@ -534,9 +563,10 @@ def write_asset(path_or_file, weights, fp16=False, onnx=False, onnx_weights=None
     file_size = payloads[-1][0] + len(payloads[-1][1])
     buf = bytearray(file_size)
     flags = (FLAG_FP16 if any(a.dtype == np.float16 for _, _, a in sections) else 0) | (
-        FLAG_INT8 if is_int8(w) else 0) | (FLAG_INT8_RANGED_INPUTS if w.get("int8_ranged_inputs") else 0)
+        FLAG_INT8 if is_int8(w) else 0) | (FLAG_INT8_RANGED_INPUTS if w.get("int8_ranged_inputs") else 0) | (
+        FLAG_INT8_BLEND_SHAPES if has_int8_blend_shapes(w) else 0)
     # the lowest version that describes the file: float assets stay 1.2, byte for byte what earlier writers made
-    minor = VERSION_MINOR if flags & FLAG_INT8 else 2
+    minor = 4 if flags & FLAG_INT8_BLEND_SHAPES else 3 if flags & FLAG_INT8 else 2
     struct.pack_into("<8sHHIQIIQI", buf, 0, MAGIC, VERSION_MAJOR, minor, HEADER_SIZE, file_size,
                      len(sections), flags, HEADER_SIZE, 0)
     buf[HEADER_SIZE:table_end] = table
@@ -585,7 +615,7 @@ def inspect_asset(data, verify_checksum=True):
         raise AssetError("header_size beyond the file", "TRUNCATED")
     if verify_checksum and checksum(data) != stored_crc:
         raise AssetError(f"CRC-32 {checksum(data):08x} != stored {stored_crc:08x}", "CHECKSUM_MISMATCH")
-    if major == VERSION_MAJOR and minor <= VERSION_MINOR and flags & ~(FLAG_FP16 | FLAG_INT8 | FLAG_INT8_RANGED_INPUTS):
+    if major == VERSION_MAJOR and minor <= VERSION_MINOR and flags & ~KNOWN_FLAGS:
         raise AssetError(f"unknown flags 0x{flags:x}", "MALFORMED_ASSET")
     if flags & FLAG_INT8_RANGED_INPUTS and not flags & FLAG_INT8:
         raise AssetError("flag 0x4 (int8 ranged inputs) without 0x2 (int8 networks)", "MALFORMED_ASSET")
@@ -640,8 +670,9 @@ def read_conf(block):
 
 def read_asset(data, verify_checksum=True):
     """Parses and validates an asset; returns the weights dict (same keys as the weights file). Weight matrices and
-    blend_shapes stored as fp16 come back as float16. The ONNX sections, if present, come back as bytes under
-    'onnx_latent_predictor' / 'onnx_decoder'."""
+    blend_shapes stored as fp16 come back as float16; int8 blend shapes (1.4) as 'blend_shapes_int8' and
+    'blend_shape_scales', with 'blend_shapes' their float32 values as the runtime reads them. The ONNX sections, if
+    present, come back as bytes under 'onnx_latent_predictor' / 'onnx_decoder'."""
     data = bytes(data)
     header, sections = inspect_asset(data, verify_checksum)
     by = {s["fourcc"]: s for s in sections}
@@ -704,7 +735,16 @@ def read_asset(data, verify_checksum=True):
         if (w["lp_activation"], w["dec_activation"]) != ("relu", "relu"):
             raise AssetError("flag 0x4 (int8 ranged inputs) needs ReLU networks", "INVALID_ASSET_DATA")
         w["int8_ranged_inputs"] = True
-    w["blend_shapes"] = get("BLND", (DTYPE_F32, DTYPE_F16), (D, N, 3))
+    if header["flags"] & FLAG_INT8_BLEND_SHAPES:
+        w["blend_shapes_int8"] = get("BLND", (DTYPE_I8,), (D, N, 3))
+        w["blend_shape_scales"] = get("BLSC", (DTYPE_F32,), (D,))
+        scales = w["blend_shape_scales"]
+        if int(w["blend_shapes_int8"].min(initial=0)) < -127 or not np.all(np.isfinite(scales) & (scales > 0)):
+            raise AssetError("BLND/BLSC: int8 blend shapes outside -127..127 or a scale not positive",
+                             "INVALID_ASSET_DATA")
+        w["blend_shapes"] = blend_shape_values(w["blend_shapes_int8"], w["blend_shape_scales"])
+    else:
+        w["blend_shapes"] = get("BLND", (DTYPE_F32, DTYPE_F16), (D, N, 3))
     if "PINS" in by:
         w["pinned"] = get("PINS", (DTYPE_U32,))
     contact = [t for t in BODY_CONTACT_SECTIONS if t in by]

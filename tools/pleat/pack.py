@@ -1,6 +1,7 @@
 """pleat-pack: weights file (.npz / .safetensors) → Pleat asset (.pleat), and asset inspection. No PyTorch.
 
-    pleat-pack WEIGHTS.npz --out OUT.pleat [--fp16] [--int8 [--calibration X_C.npz]] [--onnx] [--name NAME] [--metadata JSON] [--export-onnx DIR]
+    pleat-pack WEIGHTS.npz --out OUT.pleat [--fp16] [--int8 [--calibration X_C.npz]] [--int8-blend-shapes] [--onnx]
+               [--name NAME] [--metadata JSON] [--export-onnx DIR]
                [--body-contact [BODY.npz]] [--contact-candidates C] [--contact-rest-normals]
     pleat-pack IN.pleat --out OUT.pleat --body-contact      # repack an asset, adding (or redoing) its body contact
     pleat-pack --info FILE.pleat
@@ -30,7 +31,8 @@ def info(path, out=None):
       f"{header['section_count']} sections, flags 0x{header['flags']:x}"
       f"{' (fp16 weights)' if header['flags'] & pa.FLAG_FP16 else ''}"
       f"{' (int8 networks)' if header['flags'] & pa.FLAG_INT8 else ''}"
-      f"{' (ranged int8 inputs)' if header['flags'] & pa.FLAG_INT8_RANGED_INPUTS else ''}, "
+      f"{' (ranged int8 inputs)' if header['flags'] & pa.FLAG_INT8_RANGED_INPUTS else ''}"
+      f"{' (int8 blend shapes)' if header['flags'] & pa.FLAG_INT8_BLEND_SHAPES else ''}, "
       f"CRC-32 {header['checksum']:08x} "
       f"({'ok' if crc_ok else 'MISMATCH'})")
     p(f"  {'fourcc':6} {'dtype':5} {'offset':>10} {'size':>10}  dims")
@@ -73,6 +75,9 @@ def build_parser():
                    help="int8 networks (asset 1.3): weights per output channel, each layer's input scale calibrated "
                         "on --calibration's rows (default: random normalised inputs), inputs ranged where the "
                         "networks are ReLU (docs/asset-format.md); with --fp16, BLND is fp16")
+    p.add_argument("--int8-blend-shapes", action="store_true",
+                   help="int8 blend shapes (asset 1.4): one scale per shape, a quarter of fp32's bytes and half of "
+                        "fp16's, which is what a large garment's step streams (docs/asset-format.md)")
     p.add_argument("--precision", choices=("fp32", "fp16", "int8"),
                    help="the networks' precision: fp16 = --fp16, int8 = --int8")
     p.add_argument("--calibration", metavar="NPZ",
@@ -232,6 +237,16 @@ def main(argv=None):
     float_weights = weights
     if a.int8:
         weights = _quantised(a, weights)
+    if a.int8_blend_shapes and not pa.has_int8_blend_shapes(weights):
+        from pleat import quantise as pq
+        try:
+            weights, record = pq.quantise_blend_shapes(weights)
+        except (KeyError, ValueError) as e:
+            raise InputError(a.weights, f"blend shapes cannot be quantised ({e})") from None
+        if weights.get("metadata_json") is not None:
+            meta = json.loads(str(weights["metadata_json"]))
+            meta["int8_blend_shapes"] = record
+            weights["metadata_json"] = json.dumps(meta, sort_keys=True)
     try:
         # everything is built and validated before the first file is written (each write is atomic)
         w = pa.validate_weights(weights, fp16=a.fp16)

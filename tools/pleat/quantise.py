@@ -117,6 +117,24 @@ def quantise(weights, x=None, percentile=100.0, ranged=None):
     return out, record
 
 
+def quantise_blend_shapes(weights):
+    """The weights dict with int8 blend shapes (asset 1.4, docs/asset-format.md "int8 blend shapes"): per shape j a
+    scale s_j = max |D_j| / 127 (1 for an all-zero shape) and D_j as round(D_j / s_j) in -127..127, under
+    'blend_shapes_int8' and 'blend_shape_scales'; 'blend_shapes' becomes the values the runtime reads
+    (pleat.asset.blend_shape_values). Returns it and a record for META: the shapes' largest and mean element error
+    (m)."""
+    from pleat.asset import blend_shape_values
+    d = np.asarray(weights["blend_shapes"], np.float32)
+    peak = np.abs(d).reshape(len(d), -1).max(axis=1)
+    scales = np.where(peak > 0.0, peak / np.float32(127.0), np.float32(1.0)).astype(np.float32)
+    q = np.clip(np.rint(d / scales[:, None, None]), -127, 127).astype(np.int8)
+    out = dict(weights, blend_shapes_int8=q, blend_shape_scales=scales)
+    out["blend_shapes"] = blend_shape_values(q, scales)
+    error = np.abs(out["blend_shapes"].astype(np.float64) - d)
+    return out, {"scales": "one per shape, max |D_j| / 127", "max_element_error_m": float(error.max()),
+                 "mean_element_error_m": float(error.mean())}
+
+
 def collect_inputs(weights, clips, max_frames=None, body=None):
     """Raw X_c rows [M, I] of the float networks stepping through clips (the numpy reference runtime at 30 fps, β = 0):
     the inputs the networks see in use, for calibration."""

@@ -52,8 +52,7 @@ typedef struct plAssetData
 	const float* z_max;   // [L]
 	plLayer lp[PLEAT_MAX_LAYERS];
 	plLayer dec[PLEAT_MAX_LAYERS];
-	const void* blend_shapes; // [D][N][3] fp32 or fp16
-	int blend_shapes_fp16;
+	plBlendShapes blend_shapes; // [D][N][3] fp32, fp16 or (asset 1.4) int8 with a scale per shape
 	const uint32_t* pinned; // [P] or NULL
 	// Body contact (asset 1.1, optional, all or none): P body points, each a rest position, its shape directions, its
 	// unit normal (zero = never an anchor) and the body's skinning there; asset 1.2 adds each vertex's candidate points

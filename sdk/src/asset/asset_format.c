@@ -144,7 +144,7 @@ plResult plReadSectionTable( const uint8_t* data, size_t size, int skip_checksum
 	}
 	if ( file_size != (uint64_t)size || header_size < PLEAT_HEADER_SIZE || header_size > size ||
 		 section_count < 1 || section_count > PLEAT_MAX_SECTIONS ||
-		 ( flags & ~( PLEAT_FLAG_FP16 | PLEAT_FLAG_INT8 | PLEAT_FLAG_INT8_RANGED_INPUTS ) ) != 0 ||
+		 ( flags & ~PLEAT_KNOWN_FLAGS ) != 0 ||
 		 table_offset < header_size ||
 		 table_offset > size || (uint64_t)section_count * PLEAT_SECTION_ENTRY_SIZE > size - table_offset )
 	{

@@ -15,10 +15,14 @@
 #define PLEAT_MAX_SECTIONS 256u
 #define PLEAT_CONF_SIZE 256u
 // Header flags (offset 28): bit 0 some weights are fp16; bit 1 (1.3) the networks are int8; bit 2 (1.3, with bit 1
-// and ReLU networks) the int8 layers' inputs are ranged (plInt8Input; docs/asset-format.md "int8 networks").
+// and ReLU networks) the int8 layers' inputs are ranged (plInt8Input; docs/asset-format.md "int8 networks"); bit 3
+// (1.4) the blend shapes are int8 with a scale per shape (BLND i8, BLSC; "int8 blend shapes").
 #define PLEAT_FLAG_FP16 1u
 #define PLEAT_FLAG_INT8 2u
 #define PLEAT_FLAG_INT8_RANGED_INPUTS 4u
+#define PLEAT_FLAG_INT8_BLEND_SHAPES 8u
+#define PLEAT_KNOWN_FLAGS                                                                                              \
+	( PLEAT_FLAG_FP16 | PLEAT_FLAG_INT8 | PLEAT_FLAG_INT8_RANGED_INPUTS | PLEAT_FLAG_INT8_BLEND_SHAPES )
 
 enum
 {

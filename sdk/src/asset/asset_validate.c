@@ -46,9 +46,19 @@ static const plSectionSpec s_sections[] = {
 	PLEAT_SPEC( "ZSTD", F32, 1, L, 3, 3, POSITIVE, z_std, "latent standard deviation" ),
 	PLEAT_SPEC( "ZMIN", F32, 1, L, 3, 3, FINITE, z_min, "latent lower bound" ),
 	PLEAT_SPEC( "ZMAX", F32, 1, L, 3, 3, FINITE, z_max, "latent upper bound" ),
+};
+
+// The blend shapes: fp32 or fp16 (the header's fp16 flag), or with the int8 blend shapes flag (asset 1.4) int8 with a
+// scale per shape.
+static const plSectionSpec s_blend_sections[] = {
 	{ "BLND", PLEAT_DTYPE_WEIGHTS, 3, { PLEAT_DIM_D, PLEAT_DIM_N, PLEAT_DIM_3 }, FINITE,
-	  (uint16_t)offsetof( plAssetData, blend_shapes ), (uint16_t)offsetof( plAssetData, blend_shapes_fp16 ),
+	  (uint16_t)offsetof( plAssetData, blend_shapes.data ), (uint16_t)offsetof( plAssetData, blend_shapes.type ),
 	  "blend shapes" },
+};
+static const plSectionSpec s_int8_blend_sections[] = {
+	{ "BLND", PLEAT_DTYPE_I8, 3, { PLEAT_DIM_D, PLEAT_DIM_N, PLEAT_DIM_3 }, PLEAT_SECTION_SYMMETRIC_I8,
+	  (uint16_t)offsetof( plAssetData, blend_shapes.data ), 0, "int8 blend shapes" },
+	PLEAT_SPEC( "BLSC", F32, 1, D, 3, 3, POSITIVE, blend_shapes.scales, "blend shape scales" ),
 };
 
 // The body contact (asset 1.1 and later, all five or none), once P and Ka are known; BACA and BARG (1.2) apart.
@@ -603,6 +613,16 @@ static plResult plReadContent( const uint8_t* data, const plSectionTable* table,
 	r = r == PLEAT_RESULT_OK
 			? plReadSections( data, table, flags, s_sections, PLEAT_SPEC_COUNT( s_sections ), sizes, a, a )
 			: r;
+	if ( r == PLEAT_RESULT_OK && ( flags & PLEAT_FLAG_INT8_BLEND_SHAPES ) != 0 )
+	{
+		r = plReadSections( data, table, flags, s_int8_blend_sections, PLEAT_SPEC_COUNT( s_int8_blend_sections ),
+							sizes, a, a );
+		a->blend_shapes.type = PLEAT_SHAPES_I8;
+	}
+	else if ( r == PLEAT_RESULT_OK )
+	{
+		r = plReadSections( data, table, flags, s_blend_sections, PLEAT_SPEC_COUNT( s_blend_sections ), sizes, a, a );
+	}
 	r = r == PLEAT_RESULT_OK ? plCheckAcrossSections( a ) : r;
 	r = r == PLEAT_RESULT_OK ? plReadLayers( data, table, flags, "LP", a->lp_layer_count, a->input_count,
 											 a->latent_count, a->lp, a )

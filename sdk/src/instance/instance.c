@@ -223,7 +223,6 @@ static plResult plCreateBackends( plInstanceData* inst, const plInstanceDef* def
 		desc.joint_count = a->joint_count;
 		desc.shaped_template = inst->shaped_template;
 		desc.blend_shapes = a->blend_shapes;
-		desc.blend_shapes_fp16 = a->blend_shapes_fp16;
 		desc.skin_indices = a->skin_indices;
 		desc.skin_weights = a->skin_weights;
 		desc.faces = a->faces;
@@ -492,7 +491,7 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 	inst->mlp_scratch_count = 2 * ( widest > 0 ? widest : 1 );
 	size_t n3 = (size_t)a->vertex_count * 3 * sizeof( float );
 	size_t p3 = (size_t)a->body_point_count * 3 * sizeof( float );
-	size_t sizes[15] = { n3,
+	size_t sizes[16] = { n3,
 						 a->latent_count * sizeof( float ),
 						 a->latent_count * sizeof( float ),
 						 a->input_count * sizeof( float ),
@@ -509,9 +508,10 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 						 // posed points, and a zero row P after them: the empty slots' (plContactRowOffsets)
 						 a->body_anchors != NULL
 							 ? (size_t)( a->body_point_count + 1 ) * PLEAT_POSED_POINT_FLOATS * sizeof( float )
-							 : 0 };
+							 : 0,
+						 a->blend_shapes.type == PLEAT_SHAPES_I8 ? a->blend_count * sizeof( float ) : 0 };
 	size_t total = 0;
-	for ( int i = 0; i < 15; ++i )
+	for ( int i = 0; i < 16; ++i )
 	{
 		total += plAlign64( sizes[i] );
 	}
@@ -522,12 +522,12 @@ plResult plCreateInstance( plContext context, const plInstanceDef* def, plInstan
 		return PLEAT_RESULT_OUT_OF_MEMORY;
 	}
 	inst->block_size = total;
-	float** targets[15] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
+	float** targets[16] = { &inst->shaped_template, &inst->latent,        &inst->next_latent, &inst->x,
 							&inst->y,               &inst->blend_weights, &inst->next_weights, &inst->mlp_scratch,
 							&inst->deformed,        &inst->positions,     &inst->normals,     &inst->face_normals,
-							&inst->gl_normals,      &inst->shaped_anchors, &inst->posed_points };
+							&inst->gl_normals,      &inst->shaped_anchors, &inst->posed_points, &inst->shape_weights };
 	uint8_t* cursor = (uint8_t*)inst->block;
-	for ( int i = 0; i < 15; ++i )
+	for ( int i = 0; i < 16; ++i )
 	{
 		*targets[i] = sizes[i] != 0 ? (float*)cursor : NULL;
 		cursor += plAlign64( sizes[i] );

@@ -68,6 +68,8 @@ typedef struct plInstanceData
 	                        // β, then scratch where plInstance_SetShape builds the next ones
 	float* posed_points;    // [P][PLEAT_POSED_POINT_FLOATS] assets with body contact only: the body points in the pose
 	                        // of the step (plPoseBodyPointsFn), read by the push
+	float* shape_weights;   // [D] assets with int8 blend shapes only: the weights the blend kernels take
+	                        // (plBlendKernelWeights)
 	float* gl_normals;      // [N][3] GPU modes only: normals read back here (positions into deformed, unused on the
 	                        // GPU path) and copied to normals/positions only when the whole step succeeded
 
@@ -107,6 +109,9 @@ typedef struct plDeformSpans
 // CPU path: the blend (if spans->blend), skinning, body contact and normals, split over runner's workers (the
 // context's for a lone instance; NULL = all on this thread, as when workers take whole instances). The results do not
 // depend on the split. PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
+// The weights the blend kernels take for w ([D]): w itself, or for int8 blend shapes w with the shapes' scales folded
+// in (plFoldShapeScales) into inst->shape_weights.
+const float* plBlendKernelWeights( plInstanceData* inst, const float* weights );
 plResult plDeformCpu( plInstanceData* inst, const plDeformSpans* spans, const plTaskRunner* runner );
 // Vertex normals of positions into normals ([N][3] each; inst->face_normals is the scratch), the one rule for which
 // jobs run: on one thread a single scatter pass over the faces where the scratch holds N sums (F ≥ N), else face

@@ -34,7 +34,7 @@ static void plBlendAndSkinTask( uint32_t begin, uint32_t end, uint32_t worker, v
 	if ( d->blend )
 	{
 		plBlendShapesJob blend = { plMakeConstSpan( inst->shaped_template, n, 12 ), a->blend_shapes,
-								   a->blend_shapes_fp16, plMakeConstSpan( d->blend_weights, a->blend_count, 4 ),
+								   plMakeConstSpan( d->blend_weights, a->blend_count, 4 ),
 								   plMakeSpan( inst->deformed, n, 12 ), begin, end, &inst->ctx->kernels };
 		plRecordJobResult( &t->result, plBlendShapesJob_Run( &blend ) );
 		PLEAT_STEP_PHASE( PLEAT_PHASE_BLEND );
@@ -248,9 +248,26 @@ plResult plRunNormals( plInstanceData* inst, const float* positions, float* norm
 			   : PLEAT_RESULT_INTERNAL_ERROR;
 }
 
+const float* plBlendKernelWeights( plInstanceData* inst, const float* weights )
+{
+	const plAssetData* a = inst->asset;
+	if ( a->blend_shapes.type != PLEAT_SHAPES_I8 )
+	{
+		return weights;
+	}
+	plFoldShapeScales( inst->shape_weights, weights, &a->blend_shapes, a->blend_count );
+	return inst->shape_weights;
+}
+
 plResult plDeformCpu( plInstanceData* inst, const plDeformSpans* spans, const plTaskRunner* runner )
 {
 	const plAssetData* a = inst->asset;
+	plDeformSpans folded = *spans; // the blend's weights as the kernels take them, once for every vertex range
+	if ( spans->blend )
+	{
+		folded.blend_weights = plBlendKernelWeights( inst, spans->blend_weights );
+		spans = &folded;
+	}
 	plDeformTask task;
 	plDeformTask_Init( &task, inst, spans );
 	if ( inst->body_contact && !task.fast_contact )

@@ -2,7 +2,7 @@
 // range so the host's workers can split it. plBlendShapes_Scalar is the specification.
 #include "jobs.h"
 
-void plBlendShapes_Scalar( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
+void plBlendShapes_Scalar( float* out, const float* base, const plBlendShapes* shapes, const float* weights,
 						   uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end )
 {
 	size_t plane = (size_t)vertex_count * 3;
@@ -11,9 +11,7 @@ void plBlendShapes_Scalar( float* out, const float* base, const void* shapes, in
 		float sum = base[i];
 		for ( uint32_t j = 0; j < blend_count; ++j )
 		{
-			float d = shapes_fp16 ? plHalfToFloat( ( (const uint16_t*)shapes )[j * plane + i] )
-								  : ( (const float*)shapes )[j * plane + i];
-			sum += weights[j] * d;
+			sum += weights[j] * plShapeElement( shapes, j * plane + i );
 		}
 		out[i] = sum;
 	}
@@ -21,7 +19,8 @@ void plBlendShapes_Scalar( float* out, const float* base, const void* shapes, in
 
 int plBlendShapesJob_Validate( const plBlendShapesJob* job )
 {
-	if ( job == NULL || job->blend_shapes == NULL || job->kernels == NULL || job->kernels->blend_shapes == NULL )
+	if ( job == NULL || job->blend_shapes.data == NULL || job->kernels == NULL || job->kernels->blend_shapes == NULL ||
+		 job->blend_shapes.type < PLEAT_SHAPES_F32 || job->blend_shapes.type > PLEAT_SHAPES_I8 )
 	{
 		return 0;
 	}
@@ -38,8 +37,8 @@ plResult plBlendShapesJob_Run( const plBlendShapesJob* job )
 	{
 		return PLEAT_RESULT_INVALID_ARGUMENT;
 	}
-	job->kernels->blend_shapes( (float*)job->output.ptr, (const float*)job->shaped_template.ptr, job->blend_shapes,
-								job->blend_shapes_fp16, (const float*)job->weights.ptr, job->weights.count,
+	job->kernels->blend_shapes( (float*)job->output.ptr, (const float*)job->shaped_template.ptr, &job->blend_shapes,
+								(const float*)job->weights.ptr, job->weights.count,
 								job->shaped_template.count, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }

@@ -8,7 +8,7 @@
 #define PLEAT_BLEND_BATCH_TILE 256
 
 void plBlendShapesBatch_Scalar( float* const* out, const float* const* base, const float* const* weights,
-								uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
+								uint32_t batch_count, const plBlendShapes* shapes, uint32_t blend_count,
 								uint32_t vertex_count, uint32_t v_begin, uint32_t v_end )
 {
 	size_t plane = (size_t)vertex_count * 3;
@@ -29,9 +29,7 @@ void plBlendShapesBatch_Scalar( float* const* out, const float* const* base, con
 			{
 				for ( size_t i = t0; i < t1; ++i )
 				{
-					float d = shapes_fp16 ? plHalfToFloat( ( (const uint16_t*)shapes )[j * plane + i] )
-										  : ( (const float*)shapes )[j * plane + i];
-					o[i] += w[j] * d;
+					o[i] += w[j] * plShapeElement( shapes, j * plane + i );
 				}
 			}
 		}
@@ -40,7 +38,9 @@ void plBlendShapesBatch_Scalar( float* const* out, const float* const* base, con
 
 int plBlendShapesBatchJob_Validate( const plBlendShapesBatchJob* job )
 {
-	if ( job == NULL || job->blend_shapes == NULL || job->kernels == NULL || job->kernels->blend_shapes_batch == NULL ||
+	if ( job == NULL || job->blend_shapes.data == NULL || job->kernels == NULL ||
+		 job->kernels->blend_shapes_batch == NULL ||
+		 job->blend_shapes.type < PLEAT_SHAPES_F32 || job->blend_shapes.type > PLEAT_SHAPES_I8 ||
 		 job->batch_count == 0 || job->batch_count > PLEAT_BATCH_MAX || job->shaped_templates == NULL ||
 		 job->weights == NULL || job->outputs == NULL )
 	{
@@ -79,7 +79,7 @@ plResult plBlendShapesBatchJob_Run( const plBlendShapesBatchJob* job )
 		base[b] = (const float*)job->shaped_templates[b].ptr;
 		weights[b] = (const float*)job->weights[b].ptr;
 	}
-	job->kernels->blend_shapes_batch( out, base, weights, job->batch_count, job->blend_shapes, job->blend_shapes_fp16,
-									  job->weights[0].count, job->vertex_count, job->vertex_begin, job->vertex_end );
+	job->kernels->blend_shapes_batch( out, base, weights, job->batch_count, &job->blend_shapes, job->weights[0].count,
+									  job->vertex_count, job->vertex_begin, job->vertex_end );
 	return PLEAT_RESULT_OK;
 }

@@ -187,9 +187,8 @@ plResult plLatentGuardJob_Run( const plLatentGuardJob* job );
 typedef struct plBlendShapesJob
 {
 	plConstSpan shaped_template; // [N] xyz, packed (stride 12), metres
-	const void* blend_shapes;    // [D][N][3] fp32 or fp16
-	int blend_shapes_fp16;
-	plConstSpan weights;         // [D] floats, packed
+	plBlendShapes blend_shapes;  // [D][N][3] fp32, fp16 or int8
+	plConstSpan weights;         // [D] floats, packed; for int8 shapes with their scales folded in (plFoldShapeScales)
 	plSpan output;               // [N] xyz, packed (stride 12)
 	uint32_t vertex_begin, vertex_end;
 	const plKernels* kernels;

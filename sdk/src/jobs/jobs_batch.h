@@ -51,8 +51,8 @@ typedef struct plBlendShapesBatchJob
 	const plConstSpan* shaped_templates; // [batch_count] each [N] xyz, packed (stride 12), metres
 	const plConstSpan* weights;          // [batch_count] each [D] floats, packed
 	const plSpan* outputs;               // [batch_count] each [N] xyz, packed (stride 12)
-	const void* blend_shapes;            // [D][N][3] fp32 or fp16, shared by the batch
-	int blend_shapes_fp16;
+	plBlendShapes blend_shapes;          // [D][N][3] fp32, fp16 or int8, shared by the batch (int8: the weights
+	                                     // carry the scales, plFoldShapeScales)
 	uint32_t vertex_count;               // N
 	uint32_t vertex_begin, vertex_end;
 	const plBatchKernels* kernels;

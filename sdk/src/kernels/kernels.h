@@ -186,8 +186,66 @@ static inline float plDequantise( int32_t acc, float weight_scale, float input_s
 	return product + bias;
 }
 
-// out[v] = base[v] + Σ_j w[j] · shapes[j][v] for vertices [v_begin, v_end); shapes is [D][N][3], fp32 or fp16.
-typedef void plBlendShapesFn( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
+// IEEE half → float (exact, handles subnormals, inf, NaN).
+float plHalfToFloat( uint16_t h );
+
+// How an asset stores its blend shapes: fp32, fp16, or (asset 1.4, docs/asset-format.md "int8 blend shapes") int8 in
+// [−127, 127] with one scale per shape.
+enum
+{
+	PLEAT_SHAPES_F32 = 0,
+	PLEAT_SHAPES_F16 = 1, // the value the asset reader's fp16 field sets
+	PLEAT_SHAPES_I8 = 2
+};
+
+// A garment's blend shapes: [D][N][3] elements of `type`, and for int8 each shape's scale. The blend kernels read
+// `data` and `type` only: an int8 element enters as (float)q, and its shape's scale enters through the weight the
+// kernel is given (plFoldShapeScales), so an int8 shape costs the kernels no more arithmetic than an fp16 one.
+typedef struct plBlendShapes
+{
+	const void* data;
+	int type;            // PLEAT_SHAPES_*
+	const float* scales; // [D] for PLEAT_SHAPES_I8, else NULL
+} plBlendShapes;
+
+// Element `index` of the shapes as every blend kernel reads it: fp32 as it is, fp16 widened (exact), int8 (float)q.
+static inline float plShapeElement( const plBlendShapes* shapes, size_t index )
+{
+	if ( shapes->type == PLEAT_SHAPES_I8 )
+	{
+		return (float)( (const int8_t*)shapes->data )[index];
+	}
+	return shapes->type == PLEAT_SHAPES_F16 ? plHalfToFloat( ( (const uint16_t*)shapes->data )[index] )
+											: ( (const float*)shapes->data )[index];
+}
+
+// Element `index` of shape j in metres: plShapeElement times the shape's scale for int8 (what the GL path uploads).
+static inline float plShapeValue( const plBlendShapes* shapes, uint32_t j, size_t index )
+{
+	float e = plShapeElement( shapes, index );
+	return shapes->type == PLEAT_SHAPES_I8 ? e * shapes->scales[j] : e;
+}
+
+// The weights the blend kernels take for these shapes: out[j] = weights[j] · scale_j for int8 shapes (one rounding,
+// the same for a single step, a crowd and the tests), a copy otherwise. out may be weights.
+static inline void plFoldShapeScales( float* out, const float* weights, const plBlendShapes* shapes,
+									  uint32_t blend_count )
+{
+	for ( uint32_t j = 0; j < blend_count; ++j )
+	{
+		out[j] = shapes->type == PLEAT_SHAPES_I8 ? weights[j] * shapes->scales[j] : weights[j];
+	}
+}
+
+// Bytes of one blend shape element.
+static inline uint32_t plShapeBytes( int type )
+{
+	return type == PLEAT_SHAPES_I8 ? 1u : ( type == PLEAT_SHAPES_F16 ? 2u : 4u );
+}
+
+// out[v] = base[v] + Σ_j w[j] · shapes[j][v] for vertices [v_begin, v_end) (plShapeElement's values; for int8 shapes
+// w carries the scales, plFoldShapeScales); out may be base.
+typedef void plBlendShapesFn( float* out, const float* base, const plBlendShapes* shapes, const float* weights,
 							  uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 
 // Linear blend skinning for vertices [v_begin, v_end): out[v] = (Σ_k w_vk M_{j_vk}) · (in[v], 1), M = [J][3][4]
@@ -450,8 +508,6 @@ plKernelSet plChooseKernels( plKernels* kernels, plKernelSet max_isa );
 // plChooseKernels takes the last: AVX-512 VNNI only in the AVX-512 set, as max_isa allows.
 uint32_t plInt8MatVecVariants( plMatVecInt8Fn** kernels, const char** names, uint32_t capacity );
 
-// IEEE half → float (exact, handles subnormals, inf, NaN).
-float plHalfToFloat( uint16_t h );
 // float → IEEE half, round to nearest even (used by tests and tools).
 uint16_t plFloatToHalf( float f );
 

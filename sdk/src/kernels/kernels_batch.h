@@ -41,9 +41,9 @@ typedef void plMatMatFn( float* const* out, const float* const* x, uint32_t batc
 						 int weight_fp16, const float* bias, uint32_t in_count, uint32_t col_begin, uint32_t col_end,
 						 uint32_t row_begin, uint32_t row_end );
 // out[b][v] = base[b][v] + Σ_j weights[b][j] · shapes[j][v] for vertices [v_begin, v_end) and b < batch_count;
-// shapes is [D][N][3], fp32 or fp16; out[b] may not alias base[b].
+// shapes is [D][N][3] (plShapeElement's values); out[b] may not alias base[b].
 typedef void plBlendShapesBatchFn( float* const* out, const float* const* base, const float* const* weights,
-								   uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
+								   uint32_t batch_count, const plBlendShapes* shapes, uint32_t blend_count,
 								   uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 
 // The lanes form of a mat-mat (sixteen instances per vector): yt[g][r][l] = bias[r] + Σ_c W[r][c] · xt[g][c][l] over
@@ -113,7 +113,7 @@ size_t plNormalsBatchScratchFloats( uint32_t vertex_count, uint32_t lanes );
 
 plMatMatFn plMatMat_Scalar;
 void plBlendShapesBatch_Scalar( float* const* out, const float* const* base, const float* const* weights,
-								uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
+								uint32_t batch_count, const plBlendShapes* shapes, uint32_t blend_count,
 								uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 plSkinningBatchFn plSkinningBatch_Scalar;
 plBodyContactFastBatchFn plBodyContactFastBatch_Scalar;
@@ -138,7 +138,7 @@ plBodyContactBatchFn plBodyContactBatch_Avx512; // 16 instances per call
 #if defined( PLEAT_HAVE_AVX2 )
 plMatMatFn plMatMat_Avx2;
 void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const float* const* weights,
-							  uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
+							  uint32_t batch_count, const plBlendShapes* shapes, uint32_t blend_count,
 							  uint32_t vertex_count, uint32_t v_begin, uint32_t v_end );
 #endif
 

@@ -158,7 +158,7 @@ static double plNetworkMacs( const plAssetData* a )
 
 static double plStreamedBytes( const plAssetData* a )
 {
-	double bytes = (double)a->blend_count * a->vertex_count * 3.0 * ( a->blend_shapes_fp16 ? 2.0 : 4.0 );
+	double bytes = (double)a->blend_count * a->vertex_count * 3.0 * plShapeBytes( a->blend_shapes.type );
 	for ( uint32_t i = 0; i < a->lp_layer_count; ++i )
 	{
 		bytes += (double)plLayerMacs( &a->lp[i] ) * plWeightBytes( &a->lp[i] ); // the weights read

@@ -63,6 +63,7 @@ typedef struct plBlendLanesTask
 	const plBatchKernels* kernels;
 	const plAssetData* asset;
 	plInstanceData* const* insts;
+	const float* weights[PLEAT_BATCH_MAX]; // each instance's, as the kernels take them (plBlendKernelWeights)
 	uint32_t count;
 	atomic_int result; // a worker's job error, PLEAT_RESULT_OK otherwise
 } plBlendLanesTask;
@@ -78,10 +79,10 @@ static void plBlendLanesRange( uint32_t begin, uint32_t end, uint32_t worker, vo
 	{
 		plInstanceData* inst = t->insts[m];
 		templates[m] = plMakeConstSpan( inst->shaped_template, a->vertex_count, 12 );
-		weights[m] = plMakeConstSpan( inst->next_weights, a->blend_count, 4 );
+		weights[m] = plMakeConstSpan( t->weights[m], a->blend_count, 4 );
 		outputs[m] = plMakeSpan( inst->deformed, a->vertex_count, 12 );
 	}
-	plBlendShapesBatchJob job = { t->count,       templates, weights, outputs, a->blend_shapes, a->blend_shapes_fp16,
+	plBlendShapesBatchJob job = { t->count,       templates, weights, outputs, a->blend_shapes,
 								  a->vertex_count, begin,     end,     t->kernels };
 	if ( plBlendShapesBatchJob_Run( &job ) != PLEAT_RESULT_OK )
 	{
@@ -97,6 +98,14 @@ plResult plBlendLanes( const plBatchKernels* kernels, const plAssetData* a, plIn
 	task.asset = a;
 	task.insts = insts;
 	task.count = count;
+	if ( count > PLEAT_BATCH_MAX )
+	{
+		return PLEAT_RESULT_INVALID_ARGUMENT; // (the groups are at most that; the batch job refuses more too)
+	}
+	for ( uint32_t m = 0; m < count; ++m )
+	{
+		task.weights[m] = plBlendKernelWeights( insts[m], insts[m]->next_weights ); // once, before the ranges
+	}
 	atomic_init( &task.result, (int)PLEAT_RESULT_OK );
 	plRunTask( runner, plBlendLanesRange, a->vertex_count, 256, &task );
 	return (plResult)atomic_load_explicit( &task.result, memory_order_relaxed );

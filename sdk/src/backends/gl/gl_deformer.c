@@ -50,7 +50,7 @@ static plResult plValidateDesc( const plGlDeformerDesc* desc )
 	if ( desc->vertex_count == 0 || desc->face_count == 0 || desc->blend_count == 0 || desc->joint_count == 0 ||
 		 desc->influence_count == 0 || desc->influence_count > 8 )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
-	if ( desc->shaped_template == NULL || desc->blend_shapes == NULL || desc->skin_indices == NULL ||
+	if ( desc->shaped_template == NULL || desc->blend_shapes.data == NULL || desc->skin_indices == NULL ||
 		 desc->skin_weights == NULL || desc->faces == NULL || desc->adjacency_offsets == NULL ||
 		 desc->adjacency_faces == NULL )
 		return PLEAT_RESULT_INVALID_ARGUMENT;
@@ -188,11 +188,14 @@ static void plUploadContactParams( plGlDeformer* deformer )
 	api->BufferSubData( GL_UNIFORM_BUFFER, (GLintptr)offsetof( plGlDeformParams, body_contact_offset_m ), 4, &offset );
 }
 
-// [D][N][3] → [D][N] vec4 (fp32) or plGlHalf4 (fp16), one blend shape at a time through the staging block.
-static void plUploadBlendShapes( plGlDeformer* deformer, const void* blend_shapes, int fp16 )
+// [D][N][3] → [D][N] vec4 (fp32) or plGlHalf4 (fp16), one blend shape at a time through the staging block. int8
+// shapes go up as fp32, each element (float)q · scale (plShapeValue), and the shader reads fp32 or fp16: the GPU's
+// w · (q · s) against the CPU's (w · s) · q, a rounding apart.
+static void plUploadBlendShapes( plGlDeformer* deformer, const plBlendShapes* blend_shapes )
 {
 	const plGlApi* api = &deformer->api;
 	size_t n = deformer->vertex_count;
+	int fp16 = blend_shapes->type == PLEAT_SHAPES_F16;
 	size_t row_bytes = fp16 ? sizeof( plGlHalf4 ) : sizeof( plGlVec4 );
 	plCreateBuffer( deformer, PLEAT_GL_BINDING_BLEND_SHAPES, row_bytes * n * deformer->blend_count, NULL,
 					GL_STATIC_DRAW );
@@ -200,17 +203,19 @@ static void plUploadBlendShapes( plGlDeformer* deformer, const void* blend_shape
 	{
 		if ( fp16 )
 		{
-			const uint16_t* shape = (const uint16_t*)blend_shapes + (size_t)j * n * 3;
+			const uint16_t* shape = (const uint16_t*)blend_shapes->data + (size_t)j * n * 3;
 			plGlHalf4* rows = deformer->staging;
 			for ( size_t i = 0; i < n; ++i )
 				rows[i] = ( plGlHalf4 ){ shape[3 * i], shape[3 * i + 1], shape[3 * i + 2], 0 };
 		}
 		else
 		{
-			const float* shape = (const float*)blend_shapes + (size_t)j * n * 3;
+			size_t first = (size_t)j * n * 3;
 			plGlVec4* rows = deformer->staging;
 			for ( size_t i = 0; i < n; ++i )
-				rows[i] = ( plGlVec4 ){ shape[3 * i], shape[3 * i + 1], shape[3 * i + 2], 0.0f };
+				rows[i] = ( plGlVec4 ){ plShapeValue( blend_shapes, j, first + 3 * i ),
+										plShapeValue( blend_shapes, j, first + 3 * i + 1 ),
+										plShapeValue( blend_shapes, j, first + 3 * i + 2 ), 0.0f };
 		}
 		api->BufferSubData( GL_SHADER_STORAGE_BUFFER, (GLintptr)( row_bytes * n * j ), (GLsizeiptr)( row_bytes * n ),
 							deformer->staging );
@@ -251,7 +256,8 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	{
 		shared->programs[PLEAT_GL_PROGRAM_BLEND_SHAPES] = plGlCompileProgram(
 			api, plGlShaderSource_blend_shapes,
-			desc->blend_shapes_fp16 ? "#define PLEAT_BLEND_FP16 1\n" : "#define PLEAT_BLEND_FP16 0\n" );
+			desc->blend_shapes.type == PLEAT_SHAPES_F16 ? "#define PLEAT_BLEND_FP16 1\n"
+														: "#define PLEAT_BLEND_FP16 0\n" );
 		shared->programs[PLEAT_GL_PROGRAM_SKINNING] = plGlCompileProgram( api, plGlShaderSource_skinning, "" );
 		shared->programs[PLEAT_GL_PROGRAM_FACE_NORMALS] = plGlCompileProgram( api, plGlShaderSource_face_normals, "" );
 		shared->programs[PLEAT_GL_PROGRAM_NORMALS_GATHER] = plGlCompileProgram( api, plGlShaderSource_normals_gather, "" );
@@ -326,7 +332,7 @@ static plResult plCreateGlObjects( plGlDeformer* deformer, const plGlDeformerDes
 	}
 
 	// The static buffers, made once for the deformers that share them: the mesh, its skinning and body points.
-	plUploadBlendShapes( deformer, desc->blend_shapes, desc->blend_shapes_fp16 );
+	plUploadBlendShapes( deformer, &desc->blend_shapes );
 	uint32_t* skin_indices = deformer->staging; // u16 → the shader's uint
 	for ( size_t e = 0; e < n * desc->influence_count; ++e )
 		skin_indices[e] = desc->skin_indices[e];

@@ -5,9 +5,10 @@
 #include "kernels/kernels.h"
 #include "simd_avx2.h"
 
-void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int shapes_fp16, const float* weights,
+void plBlendShapes_Avx2( float* out, const float* base, const plBlendShapes* shapes, const float* weights,
 						 uint32_t blend_count, uint32_t vertex_count, uint32_t v_begin, uint32_t v_end )
 {
+	const plBlendShapes sh = *shapes; // a local copy: stores to out cannot alias it, so its type stays in a register
 	size_t plane = (size_t)vertex_count * 3;
 	size_t start = (size_t)v_begin * 3, end = (size_t)v_end * 3;
 	size_t vec_end = start + ( ( end - start ) & ~(size_t)7 );
@@ -28,20 +29,20 @@ void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int 
 		for ( size_t i = start; i < vec_end; i += 8 )
 		{
 			__m256 a = _mm256_loadu_ps( acc + i );
-			a = _mm256_fmadd_ps( w0, plLoad8( shapes, shapes_fp16, o0 + i ), a );
-			a = _mm256_fmadd_ps( w1, plLoad8( shapes, shapes_fp16, o1 + i ), a );
-			a = _mm256_fmadd_ps( w2, plLoad8( shapes, shapes_fp16, o2 + i ), a );
-			a = _mm256_fmadd_ps( w3, plLoad8( shapes, shapes_fp16, o3 + i ), a );
+			a = _mm256_fmadd_ps( w0, plLoadShape8( &sh, o0 + i ), a );
+			a = _mm256_fmadd_ps( w1, plLoadShape8( &sh, o1 + i ), a );
+			a = _mm256_fmadd_ps( w2, plLoadShape8( &sh, o2 + i ), a );
+			a = _mm256_fmadd_ps( w3, plLoadShape8( &sh, o3 + i ), a );
 			_mm256_storeu_ps( out + i, a );
 		}
 		for ( size_t i = vec_end; i < end; ++i )
 		{
 			// fmaf: the same single rounding as the vector lanes, so a vertex's result does not depend on where the
 			// range split put it.
-			out[i] = fmaf( weights[j], plLoad1( shapes, shapes_fp16, o0 + i ), acc[i] );
-			out[i] = fmaf( weights[j + 1], plLoad1( shapes, shapes_fp16, o1 + i ), out[i] );
-			out[i] = fmaf( weights[j + 2], plLoad1( shapes, shapes_fp16, o2 + i ), out[i] );
-			out[i] = fmaf( weights[j + 3], plLoad1( shapes, shapes_fp16, o3 + i ), out[i] );
+			out[i] = fmaf( weights[j], plLoadShape1( &sh, o0 + i ), acc[i] );
+			out[i] = fmaf( weights[j + 1], plLoadShape1( &sh, o1 + i ), out[i] );
+			out[i] = fmaf( weights[j + 2], plLoadShape1( &sh, o2 + i ), out[i] );
+			out[i] = fmaf( weights[j + 3], plLoadShape1( &sh, o3 + i ), out[i] );
 		}
 	}
 	for ( ; j < blend_count; ++j )
@@ -51,11 +52,11 @@ void plBlendShapes_Avx2( float* out, const float* base, const void* shapes, int 
 		for ( size_t i = start; i < vec_end; i += 8 )
 		{
 			_mm256_storeu_ps( out + i,
-							  _mm256_fmadd_ps( w0, plLoad8( shapes, shapes_fp16, o0 + i ), _mm256_loadu_ps( out + i ) ) );
+							  _mm256_fmadd_ps( w0, plLoadShape8( &sh, o0 + i ), _mm256_loadu_ps( out + i ) ) );
 		}
 		for ( size_t i = vec_end; i < end; ++i )
 		{
-			out[i] = fmaf( weights[j], plLoad1( shapes, shapes_fp16, o0 + i ), out[i] );
+			out[i] = fmaf( weights[j], plLoadShape1( &sh, o0 + i ), out[i] );
 		}
 	}
 }

@@ -41,12 +41,12 @@ static inline void plPrefetchTile( const plBlendAhead* ahead, const float* const
 	}
 }
 
-// fp16 shapes of up to this many blend shapes are widened per tile into a 16 KB stack buffer.
+// fp16 and int8 shapes of up to this many blend shapes are widened per tile into a 16 KB stack buffer.
 #define PLEAT_BLEND_WIDEN_SHAPES 256
 
 // Elements [i, i + 16) of four instances; the shapes' elements start at shape_i, plane apart.
 static inline void plBlendTile16x4( float* const* out, const float* const* base, const float* const* weights,
-									const void* shapes, int fp16, uint32_t blend_count, size_t plane, size_t shape_i,
+									const plBlendShapes* shapes, uint32_t blend_count, size_t plane, size_t shape_i,
 									size_t i, const plBlendAhead* ahead )
 {
 	const float *w0 = weights[0], *w1 = weights[1], *w2 = weights[2], *w3 = weights[3];
@@ -58,7 +58,7 @@ static inline void plBlendTile16x4( float* const* out, const float* const* base,
 	size_t o = shape_i;
 	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
 	{
-		__m256 s0 = plLoad8( shapes, fp16, o ), s1 = plLoad8( shapes, fp16, o + 8 );
+		__m256 s0 = plLoadShape8( shapes, o ), s1 = plLoadShape8( shapes, o + 8 );
 		__m256 w = _mm256_broadcast_ss( w0 + j );
 		a0 = _mm256_fmadd_ps( w, s0, a0 );
 		a1 = _mm256_fmadd_ps( w, s1, a1 );
@@ -83,7 +83,7 @@ static inline void plBlendTile16x4( float* const* out, const float* const* base,
 }
 
 // Elements [i, i + 16) of one instance.
-static inline void plBlendTile16x1( float* out, const float* base, const float* w, const void* shapes, int fp16,
+static inline void plBlendTile16x1( float* out, const float* base, const float* w, const plBlendShapes* shapes,
 									uint32_t blend_count, size_t plane, size_t shape_i, size_t i,
 									const plBlendAhead* ahead )
 {
@@ -93,15 +93,15 @@ static inline void plBlendTile16x1( float* out, const float* base, const float* 
 	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
 	{
 		__m256 wj = _mm256_broadcast_ss( w + j );
-		a0 = _mm256_fmadd_ps( wj, plLoad8( shapes, fp16, o ), a0 );
-		a1 = _mm256_fmadd_ps( wj, plLoad8( shapes, fp16, o + 8 ), a1 );
+		a0 = _mm256_fmadd_ps( wj, plLoadShape8( shapes, o ), a0 );
+		a1 = _mm256_fmadd_ps( wj, plLoadShape8( shapes, o + 8 ), a1 );
 	}
 	_mm256_storeu_ps( out + i, a0 );
 	_mm256_storeu_ps( out + i + 8, a1 );
 }
 
 // Elements [i, end) of one instance, fewer than 16: 8 at a time, then one at a time.
-static inline void plBlendRest( float* out, const float* base, const float* w, const void* shapes, int fp16,
+static inline void plBlendRest( float* out, const float* base, const float* w, const plBlendShapes* shapes,
 								uint32_t blend_count, size_t plane, size_t i, size_t end )
 {
 	for ( ; i + 8 <= end; i += 8 )
@@ -110,7 +110,7 @@ static inline void plBlendRest( float* out, const float* base, const float* w, c
 		size_t o = i;
 		for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
 		{
-			a = _mm256_fmadd_ps( _mm256_broadcast_ss( w + j ), plLoad8( shapes, fp16, o ), a );
+			a = _mm256_fmadd_ps( _mm256_broadcast_ss( w + j ), plLoadShape8( shapes, o ), a );
 		}
 		_mm256_storeu_ps( out + i, a );
 	}
@@ -120,57 +120,58 @@ static inline void plBlendRest( float* out, const float* base, const float* w, c
 		size_t o = i;
 		for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
 		{
-			a = fmaf( w[j], plLoad1( shapes, fp16, o ), a );
+			a = fmaf( w[j], plLoadShape1( shapes, o ), a );
 		}
 		out[i] = a;
 	}
 }
 
 void plBlendShapesBatch_Avx2( float* const* out, const float* const* base, const float* const* weights,
-							  uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
+							  uint32_t batch_count, const plBlendShapes* shapes, uint32_t blend_count,
 							  uint32_t vertex_count, uint32_t v_begin, uint32_t v_end )
 {
+	const plBlendShapes sh = *shapes;
 	size_t plane = (size_t)vertex_count * 3;
 	size_t start = (size_t)v_begin * 3, end = (size_t)v_end * 3;
-	// fp16 shapes: the tile's column of every shape widened to fp32 once (exact) instead of once per instance group.
+	// fp16 and int8 shapes: the tile's column of every shape widened to fp32 once (plShapeElement's values) instead
+	// of once per instance group.
 	float widened[PLEAT_BLEND_WIDEN_SHAPES * 16];
-	int widen = shapes_fp16 && blend_count <= PLEAT_BLEND_WIDEN_SHAPES && batch_count > 4;
+	int widen = sh.type != PLEAT_SHAPES_F32 && blend_count <= PLEAT_BLEND_WIDEN_SHAPES && batch_count > 4;
 	size_t i = start;
-	size_t element_bytes = shapes_fp16 ? 2 : 4;
+	size_t element_bytes = plShapeBytes( sh.type );
 	uint32_t groups = batch_count / 4 + batch_count % 4; // the tile calls below: fours, then ones
 	for ( ; i + 16 <= end; i += 16 )
 	{
 		// the column four tiles ahead, its shapes shared out over the tile's instance groups
-		plBlendAhead ahead = { i + 80 <= end ? (const char*)shapes + ( i + 64 ) * element_bytes : NULL,
+		plBlendAhead ahead = { i + 80 <= end ? (const char*)sh.data + ( i + 64 ) * element_bytes : NULL,
 							   plane * element_bytes, 0, groups };
-		const void* tile_shapes = shapes;
-		int tile_fp16 = shapes_fp16;
+		plBlendShapes tile_shapes = sh;
 		size_t tile_plane = plane, tile_i = i;
 		if ( widen )
 		{
-			const uint16_t* s16 = (const uint16_t*)shapes;
 			for ( uint32_t j = 0; j < blend_count; ++j )
 			{
-				const __m128i* src = (const __m128i*)( s16 + (size_t)j * plane + i );
-				_mm256_storeu_ps( widened + j * 16, _mm256_cvtph_ps( _mm_loadu_si128( src ) ) );
-				_mm256_storeu_ps( widened + j * 16 + 8, _mm256_cvtph_ps( _mm_loadu_si128( src + 1 ) ) );
+				size_t o = (size_t)j * plane + i;
+				_mm256_storeu_ps( widened + j * 16, plLoadShape8( &sh, o ) );
+				_mm256_storeu_ps( widened + j * 16 + 8, plLoadShape8( &sh, o + 8 ) );
 			}
-			tile_shapes = widened, tile_fp16 = 0, tile_plane = 16, tile_i = 0;
+			tile_shapes = ( plBlendShapes ){ widened, PLEAT_SHAPES_F32, NULL };
+			tile_plane = 16, tile_i = 0;
 		}
 		uint32_t b = 0;
 		for ( ; b + 4 <= batch_count; b += 4, ++ahead.first )
 		{
-			plBlendTile16x4( out + b, base + b, weights + b, tile_shapes, tile_fp16, blend_count, tile_plane, tile_i,
-							 i, &ahead );
+			plBlendTile16x4( out + b, base + b, weights + b, &tile_shapes, blend_count, tile_plane, tile_i, i,
+							 &ahead );
 		}
 		for ( ; b < batch_count; ++b, ++ahead.first )
 		{
-			plBlendTile16x1( out[b], base[b], weights[b], tile_shapes, tile_fp16, blend_count, tile_plane, tile_i,
-							 i, &ahead );
+			plBlendTile16x1( out[b], base[b], weights[b], &tile_shapes, blend_count, tile_plane, tile_i, i,
+							 &ahead );
 		}
 	}
 	for ( uint32_t b = 0; b < batch_count && i < end; ++b )
 	{
-		plBlendRest( out[b], base[b], weights[b], shapes, shapes_fp16, blend_count, plane, i, end );
+		plBlendRest( out[b], base[b], weights[b], &sh, blend_count, plane, i, end );
 	}
 }

@@ -30,6 +30,28 @@ static inline float plLoad1( const void* p, int fp16, size_t index )
 	return fp16 ? _cvtsh_ss( ( (const uint16_t*)p )[index] ) : ( (const float*)p )[index];
 }
 
+// Eight consecutive elements of blend shapes from index, as plShapeElement reads them (int8: widened and converted,
+// exact; the shape's scale is in the weight).
+static inline __m256 plLoadShape8( const plBlendShapes* shapes, size_t index )
+{
+	if ( shapes->type == PLEAT_SHAPES_I8 )
+	{
+		__m128i q = _mm_loadl_epi64( (const __m128i*)( (const int8_t*)shapes->data + index ) );
+		return _mm256_cvtepi32_ps( _mm256_cvtepi8_epi32( q ) );
+	}
+	return plLoad8( shapes->data, shapes->type == PLEAT_SHAPES_F16, index );
+}
+
+// One element (the scalar tails).
+static inline float plLoadShape1( const plBlendShapes* shapes, size_t index )
+{
+	if ( shapes->type == PLEAT_SHAPES_I8 )
+	{
+		return (float)( (const int8_t*)shapes->data )[index];
+	}
+	return plLoad1( shapes->data, shapes->type == PLEAT_SHAPES_F16, index );
+}
+
 // The sum of the eight lanes: halves added, then pairs, then the last two (one fixed order).
 static inline float plHorizontalSum( __m256 v )
 {

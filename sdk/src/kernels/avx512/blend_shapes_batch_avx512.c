@@ -4,10 +4,10 @@
 //
 // A tile of 48 elements (three 16-wide vectors) × 8 instances keeps 24 accumulators in registers while j runs over all
 // D shapes: per shape 3 shape loads and 8 weight broadcasts feed 24 FMAs. The tile's column of every shape (D · 192
-// bytes) is read from memory once and then from L1 for the other instance groups; fp16 shapes are widened once per
-// tile into a stack buffer. The shapes' lines four tiles ahead and each instance's base and output lines are
-// prefetched in software (D strided streams plus two per instance are more than the hardware prefetchers follow), a
-// line or a few per shape step rather than in bursts.
+// bytes) is read from memory once and then from L1 for the other instance groups; fp16 and int8 shapes are widened
+// once per tile into a stack buffer (plShapeElement's values). The shapes' lines four tiles ahead and each instance's
+// base and output lines are prefetched in software (D strided streams plus two per instance are more than the hardware
+// prefetchers follow), a line or a few per shape step rather than in bursts.
 #include "kernels/kernels_batch.h"
 #include "kernels/avx2/simd_avx2.h"
 
@@ -17,8 +17,8 @@
 #define PLEAT_BLEND512_INSTANCES 8
 // How far ahead (elements) each instance's base and output lines are prefetched: four tiles.
 #define PLEAT_BLEND512_AHEAD 192
-// fp16 shapes of up to this many blend shapes are widened per tile (128 · 48 floats, 24 KB on the stack); more take
-// the AVX2 kernel (the same arithmetic).
+// fp16 and int8 shapes of up to this many blend shapes are widened per tile (128 · 48 floats, 24 KB on the stack);
+// more take the AVX2 kernel (the same arithmetic).
 #define PLEAT_BLEND512_WIDEN_SHAPES 128
 
 #if defined( __GNUC__ ) || defined( __clang__ )
@@ -120,7 +120,7 @@ static void plBlendTile( int V, int NB, float* const* out, const float* const* b
 }
 
 // Elements [i, end), fewer than 16, of one instance: masked 16-wide (lanes past end are neither read nor written).
-static void plBlendTail( float* out, const float* base, const float* w, const void* shapes, int fp16,
+static void plBlendTail( float* out, const float* base, const float* w, const plBlendShapes* shapes,
 						 uint32_t blend_count, size_t plane, size_t i, size_t end )
 {
 	__mmask16 mask = (__mmask16)( ( 1u << ( end - i ) ) - 1u );
@@ -128,21 +128,31 @@ static void plBlendTail( float* out, const float* base, const float* w, const vo
 	size_t o = i;
 	for ( uint32_t j = 0; j < blend_count; ++j, o += plane )
 	{
-		__m512 d = fp16 ? _mm512_cvtph_ps( _mm256_maskz_loadu_epi16( mask, (const uint16_t*)shapes + o ) )
-						: _mm512_maskz_loadu_ps( mask, (const float*)shapes + o );
+		__m512 d;
+		if ( shapes->type == PLEAT_SHAPES_I8 )
+		{
+			__m128i q = _mm_maskz_loadu_epi8( mask, (const int8_t*)shapes->data + o );
+			d = _mm512_cvtepi32_ps( _mm512_cvtepi8_epi32( q ) );
+		}
+		else
+		{
+			d = shapes->type == PLEAT_SHAPES_F16
+					? _mm512_cvtph_ps( _mm256_maskz_loadu_epi16( mask, (const uint16_t*)shapes->data + o ) )
+					: _mm512_maskz_loadu_ps( mask, (const float*)shapes->data + o );
+		}
 		a = _mm512_fmadd_ps( _mm512_set1_ps( w[j] ), d, a );
 	}
 	_mm512_mask_storeu_ps( out + i, mask, a );
 }
 
 void plBlendShapesBatch_Avx512( float* const* out, const float* const* base, const float* const* weights,
-								uint32_t batch_count, const void* shapes, int shapes_fp16, uint32_t blend_count,
+								uint32_t batch_count, const plBlendShapes* shapes, uint32_t blend_count,
 								uint32_t vertex_count, uint32_t v_begin, uint32_t v_end )
 {
-	if ( shapes_fp16 && blend_count > PLEAT_BLEND512_WIDEN_SHAPES )
+	const plBlendShapes sh = *shapes;
+	if ( sh.type != PLEAT_SHAPES_F32 && blend_count > PLEAT_BLEND512_WIDEN_SHAPES )
 	{
-		plBlendShapesBatch_Avx2( out, base, weights, batch_count, shapes, shapes_fp16, blend_count, vertex_count,
-								 v_begin, v_end );
+		plBlendShapesBatch_Avx2( out, base, weights, batch_count, &sh, blend_count, vertex_count, v_begin, v_end );
 		return;
 	}
 	const size_t tile = 16 * PLEAT_BLEND512_VECTORS;
@@ -154,20 +164,29 @@ void plBlendShapesBatch_Avx512( float* const* out, const float* const* base, con
 	{
 		int vectors = i + tile <= end ? PLEAT_BLEND512_VECTORS : 1;
 		size_t width = (size_t)vectors * 16;
-		// the column of the tile four ahead (fp16: its bytes are half as many, in the same lines or fewer)
-		size_t element_bytes = shapes_fp16 ? 2 : 4;
-		const char* ahead = i + 5 * tile <= end ? (const char*)shapes + ( i + 4 * tile ) * element_bytes : NULL;
-		const float* tile_shapes = (const float*)shapes;
+		// the column of the tile four ahead (fp16, int8: its bytes are fewer, in the same lines or fewer)
+		size_t element_bytes = plShapeBytes( sh.type );
+		const char* ahead = i + 5 * tile <= end ? (const char*)sh.data + ( i + 4 * tile ) * element_bytes : NULL;
+		const float* tile_shapes = (const float*)sh.data;
 		size_t tile_plane = plane, tile_i = i;
-		if ( shapes_fp16 )
+		if ( sh.type != PLEAT_SHAPES_F32 )
 		{
-			const uint16_t* s16 = (const uint16_t*)shapes;
 			for ( uint32_t j = 0; j < blend_count; ++j )
 			{
-				for ( int v = 0; v < vectors; ++v )
+				size_t o = (size_t)j * plane + i;
+				for ( int v = 0; v < vectors; ++v, o += 16 )
 				{
-					const __m256i* src = (const __m256i*)( s16 + (size_t)j * plane + i + 16 * v );
-					_mm512_store_ps( widened + j * width + 16 * v, _mm512_cvtph_ps( _mm256_loadu_si256( src ) ) );
+					__m512 d;
+					if ( sh.type == PLEAT_SHAPES_I8 )
+					{
+						const __m128i* src = (const __m128i*)( (const int8_t*)sh.data + o );
+						d = _mm512_cvtepi32_ps( _mm512_cvtepi8_epi32( _mm_loadu_si128( src ) ) );
+					}
+					else
+					{
+						d = _mm512_cvtph_ps( _mm256_loadu_si256( (const __m256i*)( (const uint16_t*)sh.data + o ) ) );
+					}
+					_mm512_store_ps( widened + j * width + 16 * v, d );
 				}
 			}
 			tile_shapes = widened, tile_plane = width, tile_i = 0;
@@ -183,6 +202,6 @@ void plBlendShapesBatch_Avx512( float* const* out, const float* const* base, con
 	}
 	for ( uint32_t b = 0; b < batch_count && i < end; ++b )
 	{
-		plBlendTail( out[b], base[b], weights[b], shapes, shapes_fp16, blend_count, plane, i, end );
+		plBlendTail( out[b], base[b], weights[b], &sh, blend_count, plane, i, end );
 	}
 }
