@@ -29,11 +29,15 @@ if [ ! -f "$OUT/tshirt_fp32.pleat" ] || [ ! -f "$OUT/tshirt_fp16.pleat" ] || [ a
   "$PY" bench/make_crowd_assets.py assets/tshirt.pleat "$OUT"
 fi
 
-# int8 networks (ranged inputs, fp16 blend shapes) of both: the crowd sweep's int8 keys
-for pair in "asset_fp32:asset_int8" "tshirt_fp32:tshirt_int8"; do
+# int8 networks (ranged inputs) of both, with fp16 blend shapes (the crowd sweep's int8 keys) and with int8 blend
+# shapes (int8s: everything int8)
+for pair in "asset_fp32:asset_int8" "tshirt_fp32:tshirt_int8" "asset_fp32:asset_int8s" "tshirt_fp32:tshirt_int8s"; do
   src="$OUT/${pair%%:*}.pleat" dst="$OUT/${pair##*:}.pleat"
-  if [ ! -f "$dst" ] || [ "$src" -nt "$dst" ] || [ tools/pleat/quantise.py -nt "$dst" ]; then
-    "$PWD/.venv/bin/pleat-pack" "$src" --int8 --fp16 -o "$dst" --quiet
+  if [ ! -f "$dst" ] || [ "$src" -nt "$dst" ] || [ tools/pleat/quantise.py -nt "$dst" ] \
+     || [ tools/pleat/asset.py -nt "$dst" ]; then
+    shapes=()
+    [ "${dst%s.pleat}" != "$dst" ] && shapes=(--int8-blend-shapes)
+    "$PWD/.venv/bin/pleat-pack" "$src" --int8 --fp16 "${shapes[@]}" -o "$dst" --quiet
   fi
 done
 
@@ -59,13 +63,14 @@ ort_args=()
   --case "$OUT/case.bin" --iterations "${ITERATIONS:-2000}" --warmup "${WARMUP:-200}" --clock "${CLOCK:-wall}" \
   --out "$OUT/tshirt_phases.json"
 # Crowds (docs/scene-budget.md): plStepInstances against one-by-one plInstance_Step, per instance, for 1, 8,
-# 64 and 256 instances of the shipped t-shirt and of the reference-size assets (fp32, fp16, int8), 1 and 2 workers,
+# 64 and 256 instances of the shipped t-shirt and of the reference-size assets (fp32, fp16, int8, int8s), 1 and 2 workers,
 # the whole sweep three times (medians over the rounds: a neighbour busy for a few seconds spoils one round, not the number); merged in as
 # "crowd".
 "$BUILD_DIR/bench/pleat_bench_crowd" --case "$OUT/case.bin" \
   --asset tshirt_fp32="$OUT/tshirt_fp32.pleat" --asset tshirt_fp16="$OUT/tshirt_fp16.pleat" \
   --asset reference_fp32="$OUT/asset_fp32.pleat" --asset reference_fp16="$OUT/asset_fp16.pleat" \
   --asset tshirt_int8="$OUT/tshirt_int8.pleat" --asset reference_int8="$OUT/asset_int8.pleat" \
+  --asset tshirt_int8s="$OUT/tshirt_int8s.pleat" --asset reference_int8s="$OUT/asset_int8s.pleat" \
   --counts "${CROWD_COUNTS:-1,8,64,256}" --workers 1,2 --seconds "${CROWD_SECONDS:-0.5}" --rounds "${CROWD_ROUNDS:-3}" \
   --clock "${CROWD_CLOCK:-wall}" \
   --out "$OUT/crowd.json"
@@ -75,6 +80,7 @@ ort_args=()
   --asset tshirt_fp32="$OUT/tshirt_fp32.pleat" --asset tshirt_fp16="$OUT/tshirt_fp16.pleat" \
   --asset reference_fp32="$OUT/asset_fp32.pleat" --asset reference_fp16="$OUT/asset_fp16.pleat" \
   --asset tshirt_int8="$OUT/tshirt_int8.pleat" --asset reference_int8="$OUT/asset_int8.pleat" \
+  --asset tshirt_int8s="$OUT/tshirt_int8s.pleat" --asset reference_int8s="$OUT/asset_int8s.pleat" \
   --counts 64 --workers 1,2 --seconds "${CROWD_SECONDS:-0.5}" --rounds 1 --only batch --clock "${CROWD_CLOCK:-wall}" \
   --out "$OUT/crowd_phases.json"
 "$PY" - "${OUT_JSON:-$OUT/step.json}" "$OUT/phases.json" "$OUT/crowd.json" "$OUT/crowd_phases.json" \

@@ -637,15 +637,20 @@ def render_int8_speed(bench, machine):
     for asset, label in (("tshirt", "shipped t-shirt (1,004 vertices)"), ("reference", "reference sizes (4,424)")):
         fp32 = rows[(f"{asset}_fp32", 1)]["one_by_one_us_per_instance"]
         fp16 = rows[(f"{asset}_fp16", 1)]["one_by_one_us_per_instance"]
-        for precision in ("fp32", "fp16", "int8"):
+        for precision, name in (("fp32", "fp32"), ("fp16", "fp16"), ("int8", "int8"),
+                                ("int8s", "int8, int8 blend shapes")):
+            if (f"{asset}_{precision}", 1) not in rows:
+                continue                                  # (a step.json from before the int8s keys)
             step = rows[(f"{asset}_{precision}", 1)]["one_by_one_us_per_instance"]
             many = rows.get((f"{asset}_{precision}", 64))
             crowd_cells = (f"{_cell(many['batch_us_per_instance'])} | {many['batch_us_per_instance'] / fp32:.2f}"
                            if many else "— | —")
-            lines.append(f"| {label} | {precision} | {_cell(step)} | {step / fp16:.2f} | {crowd_cells} |")
+            lines.append(f"| {label} | {name} | {_cell(step)} | {step / fp16:.2f} | {crowd_cells} |")
     lines.append("")
     lines.append(f"`scripts/bench.sh` (`crowd` in its step.json: medians over three rounds, {crowd['clock']} clock, "
-                 f"one worker; int8 = ranged inputs and fp16 blend shapes); single-step kernels "
+                 f"one worker; int8 = ranged inputs and fp16 blend shapes"
+                 + (", the next row int8 blend shapes too (`pleat-pack --int8 --fp16 --int8-blend-shapes`)"
+                    if any(a.endswith("_int8s") for a, _ in rows) else "") + "); single-step kernels "
                  f"{crowd['isa']}, crowd batches {crowd['batch_isa']}, int8 through AVX-512 VNNI; load "
                  f"{crowd.get('loadavg_start')}–{crowd.get('loadavg_end')}. {machine}.")
     return "\n".join(lines) + "\n"

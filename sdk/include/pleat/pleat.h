@@ -232,7 +232,8 @@
 // (pleat-pack --int8: int8 weights with a scale per output channel, each layer's input quantised with a calibrated
 // scale, int32 sums, dequantised in float; plAssetInfo.weights_int8). An int8 asset is a quarter of the fp32
 // networks' bytes and runs the same on every CPU kernel set (see plKernelSet); a reader older than 1.3 refuses it
-// (an unknown header flag) instead of misreading it.
+// (an unknown header flag) instead of misreading it. From 1.4 the blend shapes may be int8 with a scale per shape
+// (pleat-pack --int8-blend-shapes): half of fp16's bytes, which is most of what a large garment's step streams.
 #ifndef PLEAT_H
 #define PLEAT_H
 
