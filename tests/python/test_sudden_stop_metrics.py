@@ -178,3 +178,22 @@ def test_probe_run_on_the_shipped_tshirt(tmp_path, c_runtime):
         assert set(r["pleat_vs_reference"]) == {"follow_through_ratio", "follow_through_within", "settle_ratio",
                                                 "settle_within"}
     assert 0 <= rep["follow_through_within"] <= 4 and isinstance(rep["all_within"], bool)
+
+
+def test_reference_spread_scores_a_second_reference_started_1_um_apart(tmp_path, c_runtime):
+    """--reference-spread: a second reference from a start moved by 1 µm (pleat-eval's spread), measured like a
+    method and compared with the first: how far two valid simulations' follow-through and settle time are apart."""
+    import json
+
+    from pleat import REPO_ROOT
+    asset = REPO_ROOT / "assets" / "tshirt.pleat"
+    out = tmp_path / "stop.json"
+    assert SS.main(["--asset", str(asset), "--move", "4", "--hold", "6", "--reference-spread", "--out", str(out),
+                    "--no-progress"]) == 0
+    rep = json.loads(out.read_text())
+    first, second = rep["reference"], rep["reference_spread"]
+    assert len(second["speed_m_s"]) == len(first["speed_m_s"]) == 9
+    assert second["speed_m_s"] != first["speed_m_s"]                      # another valid simulation, not a copy
+    assert np.allclose(second["speed_m_s"], first["speed_m_s"], atol=0.05)  # ... of the same cloth
+    assert set(rep["spread_vs_reference"]) == set(rep["pleat_vs_reference"])
+    assert np.isfinite(rep["spread_vs_reference"]["follow_through_ratio"])

@@ -23,7 +23,9 @@ and pleat's and LBS-only's ratios to the reference's. --probes runs four stop cl
 cut where the body moves fastest after its first 0.5 s (joint speed, median of 3 frames; not just after a one-frame
 jump in the clip's pose) and held for --hold frames
 (at least 1.3 s), and says for each whether pleat's follow-through and settle time are within ±30 % (--tolerance)
-of the reference's.
+of the reference's. --reference-spread adds a second reference started 1 µm apart (as pleat-eval's) and scores it
+against the first like a method (`reference_spread`, `spread_vs_reference`): how far two equally valid simulations'
+follow-through and settle time are apart, the floor under which no method's ratio means anything.
 """
 import json
 import sys
@@ -199,17 +201,23 @@ class _Scene:
         from pleat.eval import scene as S
         return S.load_motion(motion, self.body, S.EVAL_FPS, None)
 
-    def stop(self, ctx, clip, move, hold, threshold_m_s, progress=False):
-        """The report of one stop: per method the speed series and its numbers, and the ratios to the reference."""
+    def stop(self, ctx, clip, move, hold, threshold_m_s, progress=False, spread=False):
+        """The report of one stop: per method the speed series and its numbers, and the ratios to the reference
+        (with `spread`, a second reference from a start moved by SPREAD_PERTURBATION_M is a method too)."""
         from pleat.eval import scene as S
+        from pleat.eval.cli import SPREAD_PERTURBATION_M
         from pleat.eval.reference import cached_simulate
         clip = stop_clip(clip, move, hold)
         runs = {"pleat": S.clip_rollout(ctx, self.data, self.w, clip, self.beta, self.material).positions,
                 "lbs": S.clip_rollout(ctx, self.lbs_data, self.w, clip, self.beta, self.material).positions}
         runs["reference"], _ = cached_simulate(self.garment, self.body, clip, self.beta, self.material,
                                                clip.num_frames, progress=progress)
+        if spread:
+            runs["reference_spread"], _ = cached_simulate(self.garment, self.body, clip, self.beta, self.material,
+                                                          clip.num_frames, progress=progress,
+                                                          start_perturbation_m=SPREAD_PERTURBATION_M)
         out = {"move_frames": move, "hold_frames": hold, "fps": clip.fps}
-        for name in ("pleat", "lbs", "reference"):
+        for name in runs:
             p = runs[name] if self.mask is None else np.asarray(runs[name])[:, self.mask]
             v = speeds(p, clip.fps)
             first, t_settle = settle(v, move, clip.fps)
@@ -228,16 +236,18 @@ class _Scene:
 def _with_ratios(rep, tolerance):
     rep["pleat_vs_reference"] = compare(rep["pleat"], rep["reference"], tolerance)
     rep["lbs_vs_reference"] = compare(rep["lbs"], rep["reference"], tolerance)
+    if "reference_spread" in rep:
+        rep["spread_vs_reference"] = compare(rep["reference_spread"], rep["reference"], tolerance)
     return rep
 
 
 def run(asset, motion, move, hold, progress=False, region=None, threshold_m_s=SETTLE_THRESHOLD_M_S,
-        tolerance=PROBE_TOLERANCE):
+        tolerance=PROBE_TOLERANCE, spread=False):
     from pleat import runtime
     scene = _Scene(asset, region)
     clip = scene.load(motion)
     with runtime.Context() as ctx:
-        rep = scene.stop(ctx, clip, move, hold, threshold_m_s, progress)
+        rep = scene.stop(ctx, clip, move, hold, threshold_m_s, progress, spread)
     return _with_ratios({**scene.header(threshold_m_s), "motion": motion, **rep}, tolerance)
 
 
@@ -248,7 +258,7 @@ def probe_set(clips):
 
 
 def run_probes(asset, hold, progress=False, region=None, threshold_m_s=SETTLE_THRESHOLD_M_S,
-               tolerance=PROBE_TOLERANCE, probes=PROBES):
+               tolerance=PROBE_TOLERANCE, probes=PROBES, spread=False):
     """The probe set's report: one row per probe (its clip, cut and stop report) and how many are within."""
     from pleat import runtime
     scene = _Scene(asset, region)
@@ -257,22 +267,26 @@ def run_probes(asset, hold, progress=False, region=None, threshold_m_s=SETTLE_TH
         for name, motion in probes:
             clip = scene.load(motion)
             move, body_speed, jumps = fast_cut(clip, scene.body)
-            rep = scene.stop(ctx, clip, move, hold, threshold_m_s, progress)
+            rep = scene.stop(ctx, clip, move, hold, threshold_m_s, progress, spread)
             rows.append(_with_ratios({"probe": name, "motion": motion, "cut_s": (move - 1) / clip.fps,
                                       "body_joint_speed_m_s": body_speed, "pose_jump_intervals": jumps, **rep},
                                      tolerance))
             if progress:
                 print(f"{name}: stop after {move} frames", file=sys.stderr)
     within = {k: sum(r["pleat_vs_reference"][f"{k}_within"] for r in rows) for k in ("follow_through", "settle")}
-    return {**scene.header(threshold_m_s), "tolerance": tolerance, "probes": rows,
-            "follow_through_within": within["follow_through"], "settle_within": within["settle"],
-            "all_within": all(within[k] == len(rows) for k in within)}
+    out = {**scene.header(threshold_m_s), "tolerance": tolerance, "probes": rows,
+           "follow_through_within": within["follow_through"], "settle_within": within["settle"],
+           "all_within": all(within[k] == len(rows) for k in within)}
+    if spread:
+        out["spread_within"] = {k: sum(r["spread_vs_reference"][f"{k}_within"] for r in rows)
+                                for k in ("follow_through", "settle")}
+    return out
 
 
 def _plot_axes(ax, report, title):
     fps = report["fps"]
     start = max(0, report["move_frames"] - 6)        # the end of the motion and what follows, on a log scale
-    for name in ("reference", "pleat", "lbs"):
+    for name in [n for n in ("reference", "reference_spread", "pleat", "lbs") if n in report]:
         v = np.maximum(np.asarray(report[name]["speed_m_s"]), 1e-5)
         ax.plot(np.arange(start + 1, len(v) + 1) / fps, v[start:], label=name, marker=".")
     ax.axvline((report["move_frames"] - 1) / fps, color="k", ls=":", lw=1)
@@ -312,6 +326,9 @@ def build_parser():
                     help="speed above the floor below which the garment counts as settled, m/s (default 0.01)")
     ap.add_argument("--tolerance", type=float, default=PROBE_TOLERANCE,
                     help="relative band around the reference's follow-through and settle time (default 0.3)")
+    ap.add_argument("--reference-spread", action="store_true",
+                    help="also a second reference started 1 µm apart, scored against the first like a method: how "
+                         "far two valid simulations' follow-through and settle time are apart")
     ap.add_argument("--out", required=True, help="output file: the JSON report")
     ap.add_argument("--plot", default=None, help="output file: the speed plot (PNG)")
     return add_quiet(ap)
@@ -329,9 +346,16 @@ def _print_probes(rep):
               f"(×{_show(c['follow_through_ratio'])}{'' if c['follow_through_within'] else ', outside'}), "
               f"settle {p['settle_s']:.2f} s / {ref['settle_s']:.2f} s "
               f"(×{_show(c['settle_ratio'])}{'' if c['settle_within'] else ', outside'})")
+        if "spread_vs_reference" in r:
+            s = r["spread_vs_reference"]
+            print(f"  a second reference 1 µm apart: follow-through ×{_show(s['follow_through_ratio'])}, "
+                  f"settle ×{_show(s['settle_ratio'])}")
     n = len(rep["probes"])
     print(f"within ±{100 * rep['tolerance']:.0f} % of the reference: follow-through "
           f"{rep['follow_through_within']}/{n}, settle time {rep['settle_within']}/{n}")
+    if "spread_within" in rep:
+        print(f"the second reference within ±{100 * rep['tolerance']:.0f} % of the first: follow-through "
+              f"{rep['spread_within']['follow_through']}/{n}, settle time {rep['spread_within']['settle']}/{n}")
 
 
 @command("pleat-sudden-stop", build_parser)
@@ -353,13 +377,15 @@ def main(args):
                              f"({int(np.ceil(PROBE_MIN_HOLD_S * EVAL_FPS))} frames)")
         probes = probe_set(args.probe_clips) if args.probe_clips else PROBES
         rep = run_probes(args.asset, args.hold, progress=not args.quiet, region=args.region,
-                         threshold_m_s=args.settle_threshold, tolerance=args.tolerance, probes=probes)
+                         threshold_m_s=args.settle_threshold, tolerance=args.tolerance, probes=probes,
+                         spread=args.reference_spread)
     else:
         move = DEFAULT_MOVE if args.move is None else args.move
         if move < 1:
             raise UsageError("--move must be at least 1 frame")
         rep = run(args.asset, args.motion or DEFAULT_MOTION, move, args.hold, progress=not args.quiet,
-                  region=args.region, threshold_m_s=args.settle_threshold, tolerance=args.tolerance)
+                  region=args.region, threshold_m_s=args.settle_threshold, tolerance=args.tolerance,
+                  spread=args.reference_spread)
     write_text(args.out, json.dumps(rep, indent=1))
     if args.plot:
         plot(rep, args.plot)
@@ -375,6 +401,10 @@ def main(args):
     c = rep["pleat_vs_reference"]
     print(f"pleat / reference: follow-through ×{_show(c['follow_through_ratio'])}, "
           f"settle time ×{_show(c['settle_ratio'])}")
+    if "spread_vs_reference" in rep:
+        s = rep["spread_vs_reference"]
+        print(f"second reference / reference: follow-through ×{_show(s['follow_through_ratio'])}, "
+              f"settle time ×{_show(s['settle_ratio'])}")
     return 0
 
 
