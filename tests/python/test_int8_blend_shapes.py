@@ -63,6 +63,8 @@ def test_int8_blend_shapes_round_trip_as_version_1_4_and_refuse_what_the_runtime
         pa.read_asset(bytes(bad), verify_checksum=False)
     with pytest.raises(pa.AssetError, match="blend_shape_scales"):
         pa.write_asset(None, dict(q, blend_shape_scales=q["blend_shape_scales"][:3]))
+    with pytest.raises(pa.AssetError, match="quantise them again"):        # floats changed, int8 keys stale
+        pa.write_asset(None, dict(q, blend_shapes=q["blend_shapes"] * 1.5))
 
 
 def test_the_c_runtime_reads_int8_blend_shapes_as_the_float_asset_of_the_same_values(weights, tmp_path):
@@ -110,3 +112,12 @@ def test_pack_int8_blend_shapes_records_them_in_meta(weights, tmp_path, capsys):
     again = tmp_path / "again.pleat"                                           # a repack keeps them as they are
     assert pack.main([str(out), "-o", str(again), "--fp16", "--int8-blend-shapes", "--quiet"]) == 0
     assert np.array_equal(pa.read_asset(again.read_bytes())["blend_shapes_int8"], back["blend_shapes_int8"])
+
+
+def test_lbs_only_twin_of_an_int8_shapes_asset_has_no_blend_shapes(weights):
+    """pleat-eval's LBS-only baseline drops the network and the blend shapes, int8 ones included."""
+    from pleat.eval import scene as S
+    q, _ = pq.quantise_blend_shapes(weights)
+    twin = pa.read_asset(S.lbs_only_bytes(pa.read_asset(pa.write_asset(None, q))))
+    assert twin["blend_shapes"].shape[0] == 1 and not twin["blend_shapes"].any()
+    assert "blend_shapes_int8" not in twin

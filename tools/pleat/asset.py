@@ -307,9 +307,14 @@ def validate_weights(weights, fp16=False):
                              f"{blend.shape}, got {q.dtype} {q.shape}")
         if scales.shape != (D,) or not np.all(np.isfinite(scales)) or np.any(scales <= 0):
             raise AssetError(f"blend_shape_scales: expected [{D}] finite and positive, got {scales.shape}")
+        values = blend_shape_values(q, scales)                 # what the runtime reads: the file has no other copy
+        if not np.array_equal(np.asarray(blend, np.float32), values):
+            raise AssetError("blend_shapes: not the values of blend_shapes_int8 and blend_shape_scales (changed "
+                             "after quantising?): quantise them again (pleat.quantise.quantise_blend_shapes) or "
+                             "drop the two int8 keys")
         w["blend_shapes_int8"] = q
         w["blend_shape_scales"] = scales.astype(np.float32)
-        w["blend_shapes"] = blend_shape_values(q, scales)     # what the runtime reads: the file has no other copy
+        w["blend_shapes"] = values
     elif fp16:
         w["blend_shapes"] = _to_fp16(w["blend_shapes"], "blend_shapes")
 

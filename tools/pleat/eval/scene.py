@@ -15,8 +15,8 @@ from pleat.asset import read_asset, write_asset
 from pleat.garment_asset import input_count_without_latent, lbs_only_network
 
 EVAL_FPS = 30.0
-NETWORK_KEYS = ("x_mean", "x_std", "z_mean", "z_std", "z_min", "z_max", "blend_shapes", "lp_activation",
-                "dec_activation", "int8_ranged_inputs")
+NETWORK_KEYS = ("x_mean", "x_std", "z_mean", "z_std", "z_min", "z_max", "blend_shapes", "blend_shapes_int8",
+                "blend_shape_scales", "lp_activation", "dec_activation", "int8_ranged_inputs")
 
 
 def read_weights(source):
