@@ -587,12 +587,19 @@ def int8_from_reports(paths, suite_paths, machine=None, metas=None):
         floats.add(r["float_asset"])
         meta = (metas or {}).get(r["int8_asset"])
         meta = _meta_of(r["int8_asset"]) if meta is None else meta
-        record, tune = meta.get("int8") or {}, meta.get("int8_finetune")
-        made = ("pleat-quantise finetune" + f" --smoothness {tune.get('smoothness', 0.0):g}"
-                + ("" if tune.get("ranged", True) else " --symmetric-inputs")) if tune else (
-            "pleat-pack --int8" + ("" if record.get("inputs") == "ranged" else " --symmetric-inputs"))
+        record, tune = meta.get("int8"), meta.get("int8_finetune")
+        if tune:
+            made = (f"pleat-quantise finetune --smoothness {tune.get('smoothness', 0.0):g}"
+                    + ("" if tune.get("ranged", True) else " --symmetric-inputs"))
+        elif record:
+            made = "pleat-pack --int8" + ("" if record.get("inputs") == "ranged" else " --symmetric-inputs")
+        else:
+            made = "pleat-pack --fp16"                    # float networks: only the blend shapes are int8
+        if meta.get("int8_blend_shapes"):
+            made += " --int8-blend-shapes"
+        inputs = (record or {}).get("inputs", "symmetric") if record or tune else "—"
         s = suites.get(r["int8_asset"], {})
-        rows.append(dict(asset=r["int8_asset"], made=made, inputs=record.get("inputs", "symmetric"),
+        rows.append(dict(asset=r["int8_asset"], made=made, inputs=inputs,
                          mean_mm=r["mean_mm"], p99_mm=r["p99_mm"], max_mm=r["max_mm"],
                          error_mm=s.get("mean_mm"), jitter=s.get("jitter")))
     if len(floats) != 1:
@@ -608,6 +615,16 @@ def int8_from_reports(paths, suite_paths, machine=None, metas=None):
             "float_asset": float_asset, "float_error_mm": f["mean_mm"], "float_jitter": f["jitter"],
             "suite_commands": sorted({s["command"] for s in suites.values()}), "machine": machine or this_machine(),
             "rows": rows}
+
+
+def merged_int8(old, new):
+    """new's rows, plus old's rows of assets new has none of (the same float asset): a report of a few int8 assets
+    adds or refreshes their rows and keeps the others as they were measured."""
+    if old["float_asset"] != new["float_asset"]:
+        return new
+    have = {r["asset"] for r in new["rows"]}
+    return dict(new, suite_commands=sorted(set(old["suite_commands"]) | set(new["suite_commands"])),
+                rows=[r for r in old["rows"] if r["asset"] not in have] + new["rows"])
 
 
 def render_int8(int8):
@@ -726,8 +743,10 @@ def main(argv=None):
             Path(a.teachers).write_text(json.dumps(teachers_from_suites(a.teachers_from, a.machine), indent=1,
                                                    ensure_ascii=False) + "\n")
         if a.int8_from:
-            Path(a.int8).write_text(json.dumps(int8_from_reports(a.int8_from, a.int8_suites, a.machine), indent=1,
-                                               ensure_ascii=False) + "\n")
+            int8 = int8_from_reports(a.int8_from, a.int8_suites, a.machine)
+            if Path(a.int8).is_file():      # the rows of int8 assets these reports did not measure stay
+                int8 = merged_int8(json.loads(Path(a.int8).read_text()), int8)
+            Path(a.int8).write_text(json.dumps(int8, indent=1, ensure_ascii=False) + "\n")
         if a.wardrobe_from:
             Path(a.wardrobe).write_text(json.dumps(wardrobe_from_reports(
                 a.wardrobe_from, a.wardrobe_command, a.machine or this_machine()), indent=1) + "\n")

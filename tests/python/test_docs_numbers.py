@@ -328,3 +328,19 @@ def test_int8_from_reports_writes_a_row_per_int8_asset_and_the_float_baseline(do
                                      p99_mm=1.0, max_mm=2.0)))
     with pytest.raises(ValueError, match="different float assets"):
         docs_numbers.int8_from_reports(paths + [other], [tmp_path / "suite.json"], metas=metas)
+    # int8 blend shapes: on int8 networks and on fp16 ones; a later report adds its rows and refreshes its own
+    shapes = tmp_path / "acc_shapes.json"
+    shapes.write_text(json.dumps(dict(float_asset="assets/tshirt.pleat", int8_asset="out/shapes.pleat", mean_mm=0.16,
+                                      p99_mm=0.4, max_mm=11.0)))
+    again = tmp_path / "acc_ptq_again.json"
+    again.write_text(json.dumps(dict(float_asset="assets/tshirt.pleat", int8_asset="out/ptq.pleat", mean_mm=0.38,
+                                     p99_mm=1.7, max_mm=30.0)))
+    metas2 = {"out/shapes.pleat": {"int8_blend_shapes": {"scales": "one per shape"}},
+              "out/ptq.pleat": {"int8": {"inputs": "ranged"}, "int8_blend_shapes": {"scales": "one per shape"}}}
+    later = docs_numbers.int8_from_reports([shapes, again], [tmp_path / "suite.json"], machine="Test CPU",
+                                           metas=metas2)
+    rows = docs_numbers.merged_int8(int8, later)["rows"]
+    assert [(r["asset"], r["made"], r["inputs"], r["mean_mm"]) for r in rows] == [
+        ("out/qat.pleat", "pleat-quantise finetune --smoothness 3", "ranged", 0.22),
+        ("out/shapes.pleat", "pleat-pack --fp16 --int8-blend-shapes", "—", 0.16),
+        ("out/ptq.pleat", "pleat-pack --int8 --int8-blend-shapes", "ranged", 0.38)]
