@@ -121,3 +121,28 @@ def test_lbs_only_twin_of_an_int8_shapes_asset_has_no_blend_shapes(weights):
     twin = pa.read_asset(S.lbs_only_bytes(pa.read_asset(pa.write_asset(None, q))))
     assert twin["blend_shapes"].shape[0] == 1 and not twin["blend_shapes"].any()
     assert "blend_shapes_int8" not in twin
+
+
+def test_the_numpy_reference_folds_the_scales_as_the_runtime_does(weights):
+    """pleat.reference.Instance on an int8-shapes asset: the int8 q with (w · s) folded in float32, as
+    plFoldShapeScales; it tracks the C runtime to rounding."""
+    runtime = pytest.importorskip("pleat.runtime")
+    from pleat.reference import Instance
+    from pleat.reference.blend_shapes import fold_shape_scales
+    q, _ = pq.quantise_blend_shapes(weights)
+    data = pa.write_asset(None, q)
+    stored = pa.read_asset(data)
+    w = np.array([0.5, -1.25, 3.0], np.float32)
+    assert np.array_equal(fold_shape_scales(w, stored["blend_shape_scales"][:3]),
+                          (w * stored["blend_shape_scales"][:3]).astype(np.float32))
+    ref = Instance(stored)
+    rng = np.random.default_rng(1)
+    with runtime.Context() as ctx:
+        inst = ctx.create_instance(ctx.load_asset(data))
+        for t in range(6):
+            rot = np.tile([0.0, 0.0, 0.0, 1.0], (inst.joint_count, 1)) + 0.05 * rng.normal(size=(inst.joint_count, 4))
+            rot /= np.linalg.norm(rot, axis=1, keepdims=True)
+            c_pos = inst.step(rot, [0.01 * t, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 1 / 30)[0]
+            r_pos = ref.step(rot, [0.01 * t, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 1 / 30)[0]
+            assert np.abs(c_pos - r_pos).max() < 2e-5, t
+        inst.close()

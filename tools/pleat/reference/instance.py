@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 from pleat.asset import normal_adjacency
-from pleat.reference.blend_shapes import blend_shapes
+from pleat.reference.blend_shapes import blend_shapes, fold_shape_scales
 from pleat.reference.body_contact import BODY_CONTACT_OFFSET_M, body_contact
 from pleat.reference.input_assembly import (clamp_beta, clamp_material, input_assembly, normalize_quaternions,
                                             pose_features)
@@ -92,7 +92,10 @@ class Instance:
         self.faces = np.asarray(asset["faces"], np.int64)
         self.skin_indices = np.asarray(asset["skin_indices"], np.int64)
         self.skin_weights = np.asarray(asset["skin_weights"], np.float64)
-        self.blend = np.asarray(asset["blend_shapes"], np.float64)
+        # int8 blend shapes: q, with each shape's scale folded into its weight per step (fold_shape_scales)
+        self.shape_scales = asset.get("blend_shape_scales")
+        self.blend = np.asarray(asset["blend_shapes_int8"] if self.shape_scales is not None else asset["blend_shapes"],
+                                np.float64)
         self.adjacency_offsets, self.adjacency_faces = normal_adjacency(self.faces, self.blend.shape[1])
         # int8 networks (asset 1.3) run the runtime's integer arithmetic (mlp_int8); float ones in float64
         self.lp_int8, self.dec_int8 = int8_layers(asset, "lp"), int8_layers(asset, "dec")
@@ -214,7 +217,9 @@ class Instance:
     def _deform(self, blend_weights, skin_matrices):
         """T_def → x' → n (plDeform). Returns (positions, normals, finite)."""
         with np.errstate(all="ignore"):
-            deformed = blend_shapes(self.shaped_template, self.blend, blend_weights)
+            weights = blend_weights if self.shape_scales is None else fold_shape_scales(blend_weights,
+                                                                                         self.shape_scales)
+            deformed = blend_shapes(self.shaped_template, self.blend, weights)
             positions = skinning(deformed, self.skin_indices, self.skin_weights, skin_matrices)
             if self.body_contact and self.body_contact_fast:               # rows 0..N-1: one point per vertex
                 N = len(positions)
