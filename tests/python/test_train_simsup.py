@@ -511,3 +511,27 @@ def test_teacher_only_sequences_are_new_unsimulated_frames_of_the_training_motio
     simulated = simdata.plan_segments(list(clips.values()), setup.cfg["simsup"], setup.B, setup.cfg["seed"])
     first_sim = {tuple(np.round(s.beta, 6)) for s in simulated[:len(seqs)] if any(s.beta)}
     assert not first_sim & {tuple(b) for b in betas.round(6) if b.any()}
+
+
+def test_a_runs_validation_simulations_are_the_ones_pleat_eval_reads_for_its_asset(tiny_setup):
+    """The recipe simulates its validation clips at the default material as an asset stores it (float32), so the
+    cache entry is the one pleat-eval's reference of the packed asset looks up (β = 0, the first 60 frames): a suite
+    after training simulates nothing twice."""
+    from pleat import garment_asset as ga
+    from pleat.asset import read_asset, write_asset
+    from pleat.eval import scene as S
+    from pleat.eval.reference import cache_entry
+    from pleat.garment import Garment
+    setup = tiny_setup
+    stored = read_asset(write_asset(None, ga.weights_from_garment(setup.garment, setup.body)))
+    val = simsup._clips("validation", 30.0, setup.body)
+    name = sorted(val)[0]
+    seg = simdata.Segment(name, "original", 0, min(60, val[name].num_frames), tuple(np.zeros(setup.B)),
+                          simsup.validation_material())
+    train_key = cache_entry(Garment.build(**simdata.garment_arrays(setup)), setup.body,
+                            simdata.segment_clip({name: val[name]}, seg), np.array(seg.beta), np.array(seg.material),
+                            seg.frames)[1]
+    eval_key = cache_entry(S.garment_from_asset(stored), setup.body, S.load_motion(name, setup.body, S.EVAL_FPS, 60),
+                           np.zeros(len(stored["shape_blend"])), np.asarray(stored["material_default"], np.float64),
+                           60)[1]
+    assert train_key == eval_key

@@ -127,12 +127,19 @@ def posed_errors(lp, block, seqs, setup_latent):
     return out
 
 
+def validation_material():
+    """The default material as a packed asset stores it (float32, CONF): what pleat-eval simulates the asset's
+    validation clips at, so the run's validation simulations are the very ones (the same cache entries) that
+    pleat-eval and pleat-eval-suite read for the asset it packs."""
+    return tuple(float(np.float32(v)) for v in simdata.ga.MATERIAL_DEFAULT)
+
+
 def validation_sequences(setup, clips, frames, workers, cache_dir, log, runner=None):
-    """pleat-eval's validation setting (β = 0, default material, the first `frames` frames) on every validation
-    clip, simulated through the same cache (misses as tasks of `runner`, default `workers` local processes), as
-    sequences with what posed_errors needs."""
+    """pleat-eval's validation setting (β = 0, the default material as the asset stores it, the first `frames`
+    frames) on every validation clip, simulated through the same cache (misses as tasks of `runner`, default
+    `workers` local processes), as sequences with what posed_errors needs."""
     beta = np.zeros(setup.B)
-    mat = tuple(float(v) for v in simdata.ga.MATERIAL_DEFAULT)
+    mat = validation_material()
     segs = [simdata.Segment(n, "original", 0, min(frames, c.num_frames), tuple(beta), mat) for n, c in clips.items()]
     done, cpu_s = simdata.simulate_segments(setup, segs, workers, cache_dir, log=log, runner=runner)
     seqs = []
@@ -196,7 +203,7 @@ def _val_path(path):
 
 
 def _validation_sequence(setup, clip, pos):
-    beta, mat = np.zeros(setup.B), np.array(simdata.ga.MATERIAL_DEFAULT)
+    beta, mat = np.zeros(setup.B), np.array(validation_material())
     clip = simdata.cut(clip, 0, len(pos))
     s = simdata.sequence(setup, clip, beta, mat, pos)
     s.update(A=simdata.blend_matrices(setup, s["M"]), shaped=setup.shaped(beta), positions=pos, name=clip.name)
