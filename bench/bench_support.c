@@ -132,14 +132,28 @@ void BenchCloseOutput( FILE* f )
 
 #define BENCH_CHUNKS 4u
 
+// The claim word: the generation, its chunk count and the next chunk. The count travels in the word the claim is made
+// on: read from the pool instead, a helper still looking at a finished generation could see the next one's count
+// (the caller writes it before publishing that generation), claim a chunk past the old end and run it as the new
+// task's, one chunk more than the caller then waits for (a crowd benchmark hung so).
+static inline uint64_t BenchClaimWord( uint32_t generation, uint32_t chunk_count, uint32_t chunk )
+{
+	return ( (uint64_t)( generation & 0xFFFFFFu ) << 40 ) | ( (uint64_t)( chunk_count & 0xFFu ) << 32 ) | chunk;
+}
+
+static inline uint32_t BenchClaimGeneration( uint64_t word )
+{
+	return (uint32_t)( word >> 40 );
+}
+
 // Claims and runs chunks of `generation` until none is left.
 static void BenchRunChunks( BenchTwoWorkers* pool, uint32_t generation, uint32_t worker )
 {
 	uint64_t word = atomic_load_explicit( &pool->claim, memory_order_acquire );
 	for ( ;; )
 	{
-		uint32_t chunk = (uint32_t)word;
-		if ( (uint32_t)( word >> 32 ) != generation || chunk >= pool->chunk_count )
+		uint32_t chunk = (uint32_t)word, chunk_count = (uint32_t)( word >> 32 ) & 0xFFu;
+		if ( BenchClaimGeneration( word ) != ( generation & 0xFFFFFFu ) || chunk >= chunk_count )
 		{
 			return;
 		}
@@ -164,7 +178,7 @@ static void* BenchHelperMain( void* arg )
 	{
 		unsigned spins = 0;
 		uint64_t word;
-		while ( (uint32_t)( ( word = atomic_load_explicit( &pool->claim, memory_order_acquire ) ) >> 32 ) == seen )
+		while ( BenchClaimGeneration( word = atomic_load_explicit( &pool->claim, memory_order_acquire ) ) == seen )
 		{
 			if ( atomic_load_explicit( &pool->quit, memory_order_relaxed ) )
 			{
@@ -175,7 +189,7 @@ static void* BenchHelperMain( void* arg )
 				sched_yield();
 			}
 		}
-		seen = (uint32_t)( word >> 32 );
+		seen = BenchClaimGeneration( word );
 		BenchRunChunks( pool, seen, 1 );
 	}
 }
@@ -198,7 +212,8 @@ static void* BenchEnqueue( plTaskFn* task, uint32_t item_count, uint32_t min_ran
 	pool->chunk_count = ( item_count + chunk_size - 1 ) / chunk_size;
 	atomic_store_explicit( &pool->done, 0u, memory_order_relaxed );
 	pool->generation += 1;
-	atomic_store_explicit( &pool->claim, (uint64_t)pool->generation << 32, memory_order_release );
+	atomic_store_explicit( &pool->claim, BenchClaimWord( pool->generation, pool->chunk_count, 0 ),
+						   memory_order_release );
 	BenchRunChunks( pool, pool->generation, 0 );
 	return pool;
 }

@@ -49,7 +49,7 @@ typedef struct BenchTwoWorkers
 {
 	pthread_t thread;
 	int started;
-	_Atomic uint64_t claim; // generation << 32 | next chunk
+	_Atomic uint64_t claim; // generation << 40 | chunk count << 32 | next chunk (BenchClaimWord)
 	atomic_uint done;       // chunks of the current generation completed
 	atomic_int quit;
 	uint32_t generation;    // written by the calling thread only
