@@ -188,8 +188,8 @@ def test_reference_spread_scores_a_second_reference_started_1_um_apart(tmp_path,
     from pleat import REPO_ROOT
     asset = REPO_ROOT / "assets" / "tshirt.pleat"
     out = tmp_path / "stop.json"
-    assert SS.main(["--asset", str(asset), "--move", "4", "--hold", "6", "--reference-spread", "--out", str(out),
-                    "--no-progress"]) == 0
+    assert SS.main(["--asset", str(asset), "--motion", "deepmimic_pybullet/humanoid3d_walk", "--move", "4", "--hold",
+                    "6", "--reference-spread", "--out", str(out), "--no-progress"]) == 0
     rep = json.loads(out.read_text())
     first, second = rep["reference"], rep["reference_spread"]
     assert len(second["speed_m_s"]) == len(first["speed_m_s"]) == 9
