@@ -48,7 +48,7 @@ typedef struct plGlDeformerDesc
 	uint32_t influence_count; // K
 	uint32_t joint_count;     // J
 	const float* shaped_template;       // [N][3] T + G_S(β), metres
-	plBlendShapes blend_shapes;         // [D][N][3], fp32, fp16 or int8 (uploaded as plShapeElement's fp32 values)
+	plBlendShapes blend_shapes;         // [D][N][3], fp32, fp16 or int8 (uploaded as plShapeValue's fp32 values)
 	const uint16_t* skin_indices;       // [N][K]
 	const float* skin_weights;          // [N][K]
 	const uint32_t* faces;              // [F][3]

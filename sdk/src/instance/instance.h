@@ -106,12 +106,12 @@ typedef struct plDeformSpans
 	int force_fast_contact;     // the fast contact where the asset allows it (plRunsFastContact; the LBS-only level)
 } plDeformSpans;
 
-// CPU path: the blend (if spans->blend), skinning, body contact and normals, split over runner's workers (the
-// context's for a lone instance; NULL = all on this thread, as when workers take whole instances). The results do not
-// depend on the split. PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
 // The weights the blend kernels take for w ([D]): w itself, or for int8 blend shapes w with the shapes' scales folded
 // in (plFoldShapeScales) into inst->shape_weights.
 const float* plBlendKernelWeights( plInstanceData* inst, const float* weights );
+// CPU path: the blend (if spans->blend), skinning, body contact and normals, split over runner's workers (the
+// context's for a lone instance; NULL = all on this thread, as when workers take whole instances). The results do not
+// depend on the split. PLEAT_RESULT_INTERNAL_ERROR if a job rejected the spans it was given (a defect of the SDK).
 plResult plDeformCpu( plInstanceData* inst, const plDeformSpans* spans, const plTaskRunner* runner );
 // Vertex normals of positions into normals ([N][3] each; inst->face_normals is the scratch), the one rule for which
 // jobs run: on one thread a single scatter pass over the faces where the scratch holds N sums (F ≥ N), else face
