@@ -266,3 +266,27 @@ def test_export_onnx_writes_standalone_models(tmp_path, weights, weights_file):
     dims = lambda v: [d.dim_value for d in v.type.tensor_type.shape.dim]
     assert dims(lp.graph.input[0]) == [1, len(weights["x_mean"])] and dims(dec.graph.output[0]) == [1, 6]
     assert {n.op_type for n in lp.graph.node} == {"Gemm", "Relu"}
+
+
+def test_candidates_on_body_parts_the_garment_passes_through_are_dropped(tmp_path):
+    """A candidates file that names body vertices of a part META's collision_exclude leaves out (the dress and the
+    forearms): those are no candidate of any vertex, as the simulator never collides the garment with them."""
+    body, w, pick, src = _garment_on_the_body(tmp_path)
+    names = [str(n) for n in w["joint_names"]]
+    owner = np.argmax(np.asarray(body.weights), axis=1)                    # each body vertex's joint
+    excluded_joint = int(owner[pick[1]])
+    w["metadata_json"] = json.dumps({"collision_exclude": [names[excluded_joint]]})
+    pa.write_asset(src, w)
+    N, C = len(w["template"]), 4
+    given = np.tile(np.flatnonzero(owner == excluded_joint)[:C], (N, 1))   # only excluded body vertices
+    given[:, 2] = np.flatnonzero(owner != excluded_joint)[0]               # and one allowed
+    np.savez(tmp_path / "cand.npz", candidate_vertices=given)
+    out = tmp_path / "out.pleat"
+    assert pack.main([str(src), "-o", str(out), "--body-contact", "--contact-candidates-from",
+                      str(tmp_path / "cand.npz")]) == 0
+    back = pa.read_asset(out.read_bytes())
+    from scipy.spatial import cKDTree
+    _, vertex = cKDTree(body.v_template).query(back["body_anchor"].astype(np.float64))
+    table = back["body_anchor_candidates"].astype(int)
+    used = vertex[table[table < len(vertex)]]
+    assert len(used) > 0 and not np.any(owner[used] == excluded_joint)

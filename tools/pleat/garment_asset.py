@@ -182,6 +182,8 @@ def body_anchors(template, body, influences=BODY_ANCHOR_INFLUENCES, max_distance
         if given.shape != (len(template), C) or given.min() < -1 or given.max() >= len(v_template):
             raise ValueError(f"candidate_vertices: expected body vertex ids in [0, {len(v_template)}) or -1, "
                              f"shape [{len(template)}, {C}]; got shape {given.shape}")
+        if collide is not None:      # a body part the garment passes through is nobody's candidate
+            given = np.where((given >= 0) & ~np.asarray(collide, bool)[np.maximum(given, 0)], -1, given)
         if near_in_motion is not None:
             near = np.asarray(near_in_motion)
             if near.shape != (len(template),) or near.dtype != bool:

@@ -191,8 +191,9 @@ CANDIDATE_RADIUS_M = 0.03
 
 
 def candidate_vertices(setup, seqs, count, stride=3, radius_m=CANDIDATE_RADIUS_M):
-    """Per garment vertex, `count` body vertex ids (pleat.garment_asset.ContactCandidates): its rest-nearest body vertex first, then the body
-    vertices nearest to it in the simulated frames of `seqs` (each with "M" [T, J, 3, 4], "beta" and the rest-frame
+    """Per garment vertex, `count` body vertex ids (pleat.garment_asset.ContactCandidates): its rest-nearest body
+    vertex first, then the body vertices nearest to it in the simulated frames of `seqs` (each with "M" [T, J, 3, 4],
+    "beta" and the rest-frame
     "disp" [T, N, 3], as simsup's training sequences; every `stride`-th frame, and only where the garment is within
     `radius_m` of the body), most often nearest first, then its further rest neighbours. The posed body of
     `setup.body` is searched where the garment collides with it (all of it unless the garment's collision_exclude
@@ -253,14 +254,11 @@ def candidates_from_asset(asset_path, body, clips, betas, count, stride=3, radiu
     runtime runs it, body contact off, on `clips` (pleat.motion Clips) at each β of `betas`, and every `stride`-th
     frame counts. The runtime's contact corrects what the networks put inside the body, so the networks' own garment
     is where it needs candidates; and it costs seconds where a simulation costs hours. The asset's META names the
-    body parts its garment does not collide with (collision_exclude)."""
-    import json
-
+    body parts its garment does not collide with (collision_exclude, by joint name)."""
     from pleat import runtime
     from pleat.eval import scene as S
     data = Path(asset_path).read_bytes()
     _, weights = S.read_weights(asset_path)
-    meta = json.loads(str(weights["metadata_json"])) if weights.get("metadata_json") is not None else {}
 
     def frames():
         with runtime.Context() as ctx:
@@ -278,6 +276,6 @@ def candidates_from_asset(asset_path, body, clips, betas, count, stride=3, radiu
                                 yield x, body_v[t]
                     finally:
                         inst.close()
-    return candidates_from_frames(body, meta.get("collision_exclude"), weights["template"], frames(), count,
+    return candidates_from_frames(body, S.collision_exclude(weights), weights["template"], frames(), count,
                                   radius_m, source=f"{Path(asset_path).name}'s own garment on the training clips "
                                                    "(the C runtime, body contact off)")
