@@ -277,5 +277,5 @@ def candidates_from_asset(asset_path, body, clips, betas, count, stride=3, radiu
                     finally:
                         inst.close()
     return candidates_from_frames(body, S.collision_exclude(weights), weights["template"], frames(), count,
-                                  radius_m, source=f"{Path(asset_path).name}'s own garment on the training clips "
-                                                   "(the C runtime, body contact off)")
+                                  radius_m, source="the asset's own garment on the training clips (the C runtime, "
+                                                   "body contact off)")
